@@ -1,0 +1,84 @@
+// The objective of a step (METHOD.md): elastic energy integrated over the ellipsoids, the inertia of
+// variational implicit Euler (or the potential of gravity for a static pose) and the constraints.
+#include "math3.h"
+#include "sim.h"
+
+void od_Predict(od_Sim* sim)
+{
+	const od_State* s = &sim->state;
+	double h = sim->def.dt, keep = (1.0 - sim->def.damping) * h;
+	od_Vec3 g = od_V3Load(sim->def.gravity);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Vec3 y = od_MulAdd(od_MulAdd(od_V3Load(s->x + 3 * i), keep, od_V3Load(s->v + 3 * i)), h * h, g);
+		od_V3Store(sim->y + 3 * i, y);
+		od_Mat3 r = od_M3Load(s->R + 9 * i);
+		od_Mat3 w = od_M3Skew(od_V3Load(s->omega + 3 * i));
+		od_Mat3 wr = od_M3Mul(&w, &r);
+		od_M3AddScaled(&r, keep, &wr);
+		od_M3Store(sim->Rtilde + 9 * i, &r);
+	}
+	sim->predictionValid = true;
+}
+
+// tr(D Ā Dᵀ) = ‖D Ē √A‖F² for D = a - b.
+static double od_MomentNorm(const od_Mat3* a, const od_Mat3* b, const od_Mat3* moment)
+{
+	od_Mat3 d = *a;
+	od_M3AddScaled(&d, -1.0, b);
+	od_Mat3 da = od_M3Mul(&d, moment);
+	return od_M3Inner(&da, &d);
+}
+
+static double od_ElasticEnergy(const od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	const od_State* s = &sim->state;
+	double e = 0.0;
+	for (int i = 0; i < g->n; ++i)
+	{
+		od_Mat3 ri = od_M3Load(s->R + 9 * i);
+		od_Vec3 xi = od_V3Load(s->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
+		for (int k = g->adjStart[i]; k < g->adjStart[i + 1]; ++k)
+		{
+			int j = g->adj[k];
+			od_Mat3 rj = od_M3Load(s->R + 9 * j), aj = od_M3Load(g->moments + 9 * j);
+			od_Vec3 dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
+			od_Vec3 r = od_Sub(od_M3MulV(&ri, dbar), od_Sub(od_V3Load(s->x + 3 * j), xi));
+			e += od_MomentNorm(&ri, &rj, &aj) + g->volumes[j] * od_Dot(r, r);
+		}
+	}
+	return 0.5 * sim->def.stiffness * e;
+}
+
+static double od_InertiaEnergy(const od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	const od_State* s = &sim->state;
+	double rho = sim->def.density, e = 0.0;
+	for (int i = 0; i < g->n; ++i)
+	{
+		od_Mat3 ri = od_M3Load(s->R + 9 * i), rt = od_M3Load(sim->Rtilde + 9 * i), ai = od_M3Load(g->moments + 9 * i);
+		od_Vec3 d = od_Sub(od_V3Load(s->x + 3 * i), od_V3Load(sim->y + 3 * i));
+		e += rho * od_MomentNorm(&ri, &rt, &ai) + rho * g->volumes[i] * od_Dot(d, d);
+	}
+	return e / (2.0 * sim->def.dt * sim->def.dt);
+}
+
+static double od_GravityEnergy(const od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	od_Vec3 grav = od_V3Load(sim->def.gravity);
+	double e = 0.0;
+	for (int i = 0; i < g->n; ++i)
+	{
+		e -= sim->def.density * g->volumes[i] * od_Dot(grav, od_V3Load(sim->state.x + 3 * i));
+	}
+	return e;
+}
+
+double od_Energy(const od_Sim* sim)
+{
+	double e = od_ElasticEnergy(sim) + od_Constraints_Energy(sim);
+	return e + (sim->mode == OD_DYNAMIC ? od_InertiaEnergy(sim) : od_GravityEnergy(sim));
+}

@@ -1,0 +1,258 @@
+// The global step: best centres with the rotations held fixed (eqs. 6, 7 and 14, METHOD.md).
+//
+// ∂E/∂x = 0 is one n x n sparse SPD system with three right-hand sides (x, y, z share the matrix):
+//   Σ_j k (v_i + v_j)(x_i - x_j) + (m_i/h²) x_i + Σ_c w_c w_a (Σ_b w_b x_b)
+//     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)).
+// Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
+// rest graph, k, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
+// of those (counted in od_SimCounters) and every iteration only assembles the right side and back-substitutes.
+#include "core.h"
+#include "math3.h"
+#include "sim.h"
+
+#include <cholmod.h>
+#include <string.h>
+
+struct od_GlobalSolver
+{
+	cholmod_common common;
+	cholmod_factor* factor;
+	cholmod_dense* rhs; // n x 3, column major
+	cholmod_dense* x;   // solve2 workspace, reused so that solves do not allocate
+	cholmod_dense* y;
+	cholmod_dense* e;
+	bool valid;
+};
+
+od_Status od_GlobalSolver_Create(od_GlobalSolver** out)
+{
+	od_GlobalSolver* s = od_AllocZero(1, sizeof *s);
+	if (!s)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory creating the global solver");
+	}
+	cholmod_start(&s->common);
+	s->common.print = 0;
+	s->common.nmethods = 1;
+	s->common.method[0].ordering = CHOLMOD_AMD;
+	s->common.supernodal = CHOLMOD_AUTO;
+	*out = s;
+	return OD_OK;
+}
+
+static void od_FreeFactor(od_GlobalSolver* s)
+{
+	cholmod_free_factor(&s->factor, &s->common);
+	cholmod_free_dense(&s->rhs, &s->common);
+	cholmod_free_dense(&s->x, &s->common);
+	cholmod_free_dense(&s->y, &s->common);
+	cholmod_free_dense(&s->e, &s->common);
+	s->valid = false;
+}
+
+void od_GlobalSolver_Destroy(od_GlobalSolver* s)
+{
+	if (!s)
+	{
+		return;
+	}
+	od_FreeFactor(s);
+	cholmod_finish(&s->common);
+	od_Free(s);
+}
+
+void od_GlobalSolver_Invalidate(od_GlobalSolver* s)
+{
+	if (s)
+	{
+		s->valid = false;
+	}
+}
+
+static size_t od_EntryCount(const od_Sim* sim)
+{
+	size_t entries = (size_t)sim->graph->n + 3 * (size_t)sim->graph->edgeCount;
+	for (int s = 0; s < sim->constraints.count; ++s)
+	{
+		const od_Constraint* c = sim->constraints.items + s;
+		if (c->kind == OD_POSITION)
+		{
+			entries += (size_t)c->count * (size_t)(c->count + 1) / 2;
+		}
+	}
+	return entries;
+}
+
+static void od_PushEntry(cholmod_triplet* t, int row, int col, double value)
+{
+	int* ti = t->i;
+	int* tj = t->j;
+	double* tx = t->x;
+	size_t k = t->nnz++;
+	ti[k] = row < col ? row : col; // upper triangle (stype > 0)
+	tj[k] = row < col ? col : row;
+	tx[k] = value;
+}
+
+static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
+{
+	const od_Graph* g = sim->graph;
+	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
+	for (int i = 0; i < g->n; ++i)
+	{
+		double diag = sim->mode == OD_DYNAMIC ? rho * g->volumes[i] / (h * h) : 0.0;
+		od_PushEntry(t, i, i, diag);
+	}
+	for (int e = 0; e < g->edgeCount; ++e)
+	{
+		int a = g->edges[2 * e], b = g->edges[2 * e + 1];
+		double kab = k * (g->volumes[a] + g->volumes[b]);
+		od_PushEntry(t, a, a, kab);
+		od_PushEntry(t, b, b, kab);
+		od_PushEntry(t, a, b, -kab);
+	}
+	for (int s = 0; s < sim->constraints.count; ++s)
+	{
+		const od_Constraint* c = sim->constraints.items + s;
+		if (c->kind != OD_POSITION)
+		{
+			continue;
+		}
+		for (int a = 0; a < c->count; ++a)
+		{
+			for (int b = a; b < c->count; ++b)
+			{
+				od_PushEntry(t, c->idx[a], c->idx[b], c->weight * c->w[a] * c->w[b]);
+			}
+		}
+	}
+}
+
+static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
+{
+	int n = sim->graph->n;
+	cholmod_common* cc = &s->common;
+	od_FreeFactor(s);
+	size_t entries = od_EntryCount(sim);
+	cholmod_triplet* t = cholmod_allocate_triplet((size_t)n, (size_t)n, entries, 1, CHOLMOD_REAL, cc);
+	if (!t)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory assembling the global matrix (%zu entries)", entries);
+	}
+	od_FillMatrix(sim, t);
+	cholmod_sparse* a = cholmod_triplet_to_sparse(t, entries, cc);
+	cholmod_free_triplet(&t, cc);
+	if (!a)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory assembling the global matrix");
+	}
+	s->factor = cholmod_analyze(a, cc);
+	sim->counters.analyses++;
+	if (s->factor)
+	{
+		cholmod_factorize(a, s->factor, cc);
+		sim->counters.factorizations++;
+	}
+	cholmod_free_sparse(&a, cc);
+	s->rhs = cholmod_zeros((size_t)n, 3, CHOLMOD_REAL, cc);
+	if (!s->factor || !s->rhs || cc->status < CHOLMOD_OK)
+	{
+		int status = cc->status;
+		od_FreeFactor(s);
+		return status == CHOLMOD_OUT_OF_MEMORY ? od_Fail(OD_ERROR_MEMORY, "out of memory factoring the global matrix")
+											   : od_Fail(OD_ERROR_INTERNAL, "CHOLMOD failed (status %d)", status);
+	}
+	if (cc->status == CHOLMOD_NOT_POSDEF)
+	{
+		int minor = (int)s->factor->minor;
+		od_FreeFactor(s);
+		return od_Fail(OD_ERROR_SINGULAR,
+					   "the global matrix is not positive definite (pivot %d): a piece of the graph is unconstrained "
+					   "or the parameters are degenerate",
+					   minor);
+	}
+	s->valid = true;
+	return OD_OK;
+}
+
+static void od_FillRhs(const od_Sim* sim, double* b)
+{
+	const od_Graph* g = sim->graph;
+	const od_State* st = &sim->state;
+	int n = g->n;
+	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
+	for (int i = 0; i < n; ++i)
+	{
+		double m = rho * g->volumes[i];
+		od_Vec3 f = sim->mode == OD_DYNAMIC ? od_Scale(m / (h * h), od_V3Load(sim->y + 3 * i))
+											: od_Scale(m, od_V3Load(sim->def.gravity));
+		b[i] = f.x;
+		b[i + n] = f.y;
+		b[i + 2 * n] = f.z;
+	}
+	for (int e = 0; e < g->edgeCount; ++e)
+	{
+		int i = g->edges[2 * e], j = g->edges[2 * e + 1];
+		od_Mat3 ri = od_M3Load(st->R + 9 * i), rj = od_M3Load(st->R + 9 * j);
+		od_Vec3 d = od_Sub(od_V3Load(g->centers + 3 * i), od_V3Load(g->centers + 3 * j));
+		od_Vec3 f = od_Add(od_Scale(k * g->volumes[j], od_M3MulV(&ri, d)), od_Scale(k * g->volumes[i], od_M3MulV(&rj, d)));
+		b[i] += f.x;
+		b[i + n] += f.y;
+		b[i + 2 * n] += f.z;
+		b[j] -= f.x;
+		b[j + n] -= f.y;
+		b[j + 2 * n] -= f.z;
+	}
+	for (int s = 0; s < sim->constraints.count; ++s)
+	{
+		const od_Constraint* c = sim->constraints.items + s;
+		if (c->kind != OD_POSITION)
+		{
+			continue;
+		}
+		od_Vec3 r = od_V3Load(c->target), p = od_V3Load(c->point);
+		for (int a = 0; a < c->count; ++a)
+		{
+			int j = c->idx[a];
+			od_Mat3 rj = od_M3Load(st->R + 9 * j);
+			r = od_MulAdd(r, -c->w[a], od_M3MulV(&rj, od_Sub(p, od_V3Load(g->centers + 3 * j))));
+		}
+		for (int a = 0; a < c->count; ++a)
+		{
+			double f = c->weight * c->w[a];
+			int i = c->idx[a];
+			b[i] += f * r.x;
+			b[i + n] += f * r.y;
+			b[i + 2 * n] += f * r.z;
+		}
+	}
+}
+
+od_Status od_GlobalStep(od_Sim* sim)
+{
+	od_GlobalSolver* s = sim->solver[sim->mode];
+	if (!s->valid)
+	{
+		od_Status status = od_Factor(sim, s);
+		if (status != OD_OK)
+		{
+			return status;
+		}
+	}
+	int n = sim->graph->n;
+	od_FillRhs(sim, s->rhs->x);
+	if (!cholmod_solve2(CHOLMOD_A, s->factor, s->rhs, NULL, &s->x, NULL, &s->y, &s->e, &s->common))
+	{
+		return od_Fail(OD_ERROR_INTERNAL, "CHOLMOD solve failed (status %d)", s->common.status);
+	}
+	sim->counters.solves++;
+	const double* x = s->x->x;
+	double* pos = sim->state.x;
+	for (int i = 0; i < n; ++i)
+	{
+		pos[3 * i] = x[i];
+		pos[3 * i + 1] = x[i + n];
+		pos[3 * i + 2] = x[i + 2 * n];
+	}
+	return OD_OK;
+}

@@ -1,0 +1,108 @@
+// opdeform: ARAP dynamic deformation with oriented particles (Choi 2016), the public C API.
+//
+// The rest graph (od_Graph) is immutable once made and may be shared by many simulations.
+// A simulation (od_Sim) holds the model that depends on its parameters and constraints (weights,
+// the prefactored global matrix) and the state (centres, rotations, velocities). Arrays are row
+// major doubles: positions are n*3, rotations n*9 (R[3*r + c]), the layout of numpy (n,3) and (n,3,3).
+// A simulation borrows its graph: keep the graph alive until the simulation is destroyed.
+#pragma once
+
+#include "opdeform/base.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct od_Graph od_Graph;
+typedef struct od_Sim od_Sim;
+
+typedef struct od_GraphDef
+{
+	int particleCount;
+	const double* centers; // particleCount*3
+	const double* radii;   // particleCount*3, all > 0
+	const double* axes;    // particleCount*9 rest frames (columns are the ellipsoid axes), NULL = identity
+	int edgeCount;
+	const int* edges;      // edgeCount*2 undirected; no self-loops, no duplicates
+} od_GraphDef;
+
+od_GraphDef od_DefaultGraphDef(void);
+od_Status od_Graph_Create(const od_GraphDef* def, od_Graph** graph);
+void od_Graph_Destroy(od_Graph* graph);
+int od_Graph_GetParticleCount(const od_Graph* graph);
+int od_Graph_GetEdgeCount(const od_Graph* graph);
+const double* od_Graph_GetCenters(const od_Graph* graph);
+const double* od_Graph_GetAxes(const od_Graph* graph);
+const double* od_Graph_GetRadii(const od_Graph* graph);
+const int* od_Graph_GetEdges(const od_Graph* graph);
+// The number of connected pieces, and for each particle the index of its piece (may be NULL).
+int od_Graph_GetPieces(const od_Graph* graph, int* pieceOfParticle);
+
+typedef struct od_SimDef
+{
+	double stiffness;   // k
+	double density;     // rho
+	double dt;          // h
+	int iterations;     // local/global pairs after the first global solve of a step
+	double gravity[3];
+	double damping;     // c, per-step velocity damping in [0, 1]
+	int skinNeighbors;  // m of the Sumner weights that place the constraints
+} od_SimDef;
+
+od_SimDef od_DefaultSimDef(void);
+od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** sim);
+void od_Sim_Destroy(od_Sim* sim);
+od_SimDef od_Sim_GetDef(const od_Sim* sim);
+// Changes parameters; the state is kept. The factorization is redone lazily if needed.
+od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def);
+
+// Constraints on rest-space points. target == NULL means the point's current position (direction).
+od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
+									   int* id);
+od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], const double direction[3],
+										const double* target, double weight, int* id);
+od_Status od_Sim_SetConstraintTarget(od_Sim* sim, int id, const double target[3]);
+od_Status od_Sim_SetConstraintWeight(od_Sim* sim, int id, double weight);
+od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id);
+int od_Sim_GetConstraintCount(const od_Sim* sim);
+
+od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction);
+void od_Sim_ClearFloor(od_Sim* sim);
+
+od_Status od_Sim_Step(od_Sim* sim, int steps);
+od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations);
+
+// velocities and angularVelocities may be NULL (zero).
+od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+						  const double* angularVelocities);
+const double* od_Sim_GetPositions(const od_Sim* sim);
+const double* od_Sim_GetRotations(const od_Sim* sim);
+const double* od_Sim_GetVelocities(const od_Sim* sim);
+const double* od_Sim_GetAngularVelocities(const od_Sim* sim);
+
+// The objective of the current (or last) step at the current iterate; static poses use the static objective.
+double od_Sim_GetEnergy(od_Sim* sim);
+
+// When enabled, the objective is recorded after the first global solve and after every local and every
+// global step of each step or static solve; the record of the last one is kept.
+void od_Sim_SetEnergyTrace(od_Sim* sim, int enabled);
+const double* od_Sim_GetEnergyTrace(const od_Sim* sim, int* count);
+
+typedef struct od_SimCounters
+{
+	long long factorizations; // numeric factorizations of the global matrix
+	long long analyses;       // symbolic analyses
+	long long solves;         // back-substitutions (3 right sides each)
+	long long steps;
+	long long polarFallbacks; // local updates that needed the full SVD
+} od_SimCounters;
+
+od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
+
+// Sumner et al. 2007 weights of a rest-space point over its m nearest particles. idx and w have room for m;
+// returns the count written (min(m, n)).
+int od_Graph_SkinWeights(const od_Graph* graph, const double point[3], int m, int* idx, double* w);
+
+#ifdef __cplusplus
+}
+#endif

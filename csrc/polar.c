@@ -1,0 +1,223 @@
+// Polar decomposition of 3x3 matrices.
+//
+// Design: two paths to the same answer, the rotation R maximizing tr(Rᵀ A).
+// - od_Svd3 is the robust path: Jacobi eigenvectors V of AᵀA, then a Givens QR of A V, which yields a
+//   proper rotation U even when A is rank deficient, with the sign of det(A) landing on the last singular
+//   value (so U Vᵀ is the "flip the smallest singular vector" rotation for inverted A).
+// - od_PolarRotationWarm is the fast path of the local step: Newton's method on SO(3) started from the
+//   particle's previous rotation. The objective f(R exp[w]) = tr(M) + 2 w·a - 1/2 wᵀ H w + O(|w|^3), with
+//   M = Rᵀ A, a the axial vector of skew(M) and H = tr(S) I - S for S = sym(M). H positive definite at the
+//   limit is the second-order condition of the (unique) maximum, so a converged Newton run that kept H
+//   positive definite has found the global maximizer; anything else falls back to the SVD.
+#include "polar.h"
+
+static void od_Jacobi3(double a[3][3], double v[3][3])
+{
+	for (int i = 0; i < 3; ++i)
+	{
+		for (int j = 0; j < 3; ++j)
+		{
+			v[i][j] = i == j ? 1.0 : 0.0;
+		}
+	}
+	static const int pairs[3][2] = { { 0, 1 }, { 0, 2 }, { 1, 2 } };
+	for (int sweep = 0; sweep < 32; ++sweep)
+	{
+		double off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+		double diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+		if (off <= 1e-36 * diag || off == 0.0)
+		{
+			break;
+		}
+		for (int k = 0; k < 3; ++k)
+		{
+			int p = pairs[k][0], q = pairs[k][1];
+			double apq = a[p][q];
+			if (apq == 0.0)
+			{
+				continue;
+			}
+			double theta = (a[q][q] - a[p][p]) / (2.0 * apq);
+			double t = (theta >= 0.0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+			double c = 1.0 / sqrt(t * t + 1.0), s = t * c;
+			// a <- Jᵀ a J with J the rotation in the (p, q) plane; v <- v J.
+			for (int r = 0; r < 3; ++r)
+			{
+				double arp = a[r][p], arq = a[r][q];
+				a[r][p] = c * arp - s * arq;
+				a[r][q] = s * arp + c * arq;
+			}
+			for (int r = 0; r < 3; ++r)
+			{
+				double apr = a[p][r], aqr = a[q][r];
+				a[p][r] = c * apr - s * aqr;
+				a[q][r] = s * apr + c * aqr;
+			}
+			for (int r = 0; r < 3; ++r)
+			{
+				double vrp = v[r][p], vrq = v[r][q];
+				v[r][p] = c * vrp - s * vrq;
+				v[r][q] = s * vrp + c * vrq;
+			}
+		}
+	}
+}
+
+// Rows p, q of b get the Givens rotation that zeroes b[q][col]; u accumulates its transpose.
+static void od_Givens(od_Mat3* b, od_Mat3* u, int p, int q, int col)
+{
+	double x = b->m[3 * p + col], y = b->m[3 * q + col];
+	double r = hypot(x, y);
+	if (r == 0.0)
+	{
+		return;
+	}
+	double c = x / r, s = y / r;
+	for (int k = 0; k < 3; ++k)
+	{
+		double bp = b->m[3 * p + k], bq = b->m[3 * q + k];
+		b->m[3 * p + k] = c * bp + s * bq;
+		b->m[3 * q + k] = -s * bp + c * bq;
+		double up = u->m[3 * k + p], uq = u->m[3 * k + q];
+		u->m[3 * k + p] = c * up + s * uq;
+		u->m[3 * k + q] = -s * up + c * uq;
+	}
+}
+
+void od_Svd3(const od_Mat3* a, od_Mat3* u, od_Vec3* s, od_Mat3* v)
+{
+	od_Mat3 ata = od_M3MulTN(a, a);
+	double e[3][3], vv[3][3];
+	for (int i = 0; i < 3; ++i)
+	{
+		for (int j = 0; j < 3; ++j)
+		{
+			e[i][j] = ata.m[3 * i + j];
+		}
+	}
+	od_Jacobi3(e, vv);
+
+	// Sort eigenpairs by decreasing eigenvalue.
+	int order[3] = { 0, 1, 2 };
+	for (int i = 0; i < 2; ++i)
+	{
+		for (int j = i + 1; j < 3; ++j)
+		{
+			if (e[order[j]][order[j]] > e[order[i]][order[i]])
+			{
+				int t = order[i];
+				order[i] = order[j];
+				order[j] = t;
+			}
+		}
+	}
+	for (int r = 0; r < 3; ++r)
+	{
+		for (int c = 0; c < 3; ++c)
+		{
+			v->m[3 * r + c] = vv[r][order[c]];
+		}
+	}
+	if (od_M3Det(v) < 0.0)
+	{
+		v->m[2] = -v->m[2];
+		v->m[5] = -v->m[5];
+		v->m[8] = -v->m[8];
+	}
+
+	od_Mat3 b = od_M3Mul(a, v);
+	*u = od_M3Identity();
+	od_Givens(&b, u, 0, 1, 0);
+	od_Givens(&b, u, 0, 2, 0);
+	od_Givens(&b, u, 1, 2, 1);
+	*s = od_V3(b.m[0], b.m[4], b.m[8]);
+}
+
+od_Mat3 od_PolarRotation(const od_Mat3* a)
+{
+	od_Mat3 u, v;
+	od_Vec3 s;
+	od_Svd3(a, &u, &s, &v);
+	return od_M3MulNT(&u, &v);
+}
+
+// Solves h x = b for symmetric h by Cholesky; returns 0 unless h is clearly positive definite.
+static int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
+{
+	const double* m = h->m;
+	double l00 = m[0];
+	if (!(l00 > tiny))
+	{
+		return 0;
+	}
+	l00 = sqrt(l00);
+	double l10 = m[3] / l00, l20 = m[6] / l00;
+	double l11 = m[4] - l10 * l10;
+	if (!(l11 > tiny))
+	{
+		return 0;
+	}
+	l11 = sqrt(l11);
+	double l21 = (m[7] - l20 * l10) / l11;
+	double l22 = m[8] - l20 * l20 - l21 * l21;
+	if (!(l22 > tiny))
+	{
+		return 0;
+	}
+	l22 = sqrt(l22);
+	double y0 = b.x / l00;
+	double y1 = (b.y - l10 * y0) / l11;
+	double y2 = (b.z - l20 * y0 - l21 * y1) / l22;
+	double x2 = y2 / l22;
+	double x1 = (y1 - l21 * x2) / l11;
+	double x0 = (y0 - l10 * x1 - l20 * x2) / l00;
+	*x = od_V3(x0, x1, x2);
+	return 1;
+}
+
+int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
+{
+	double norm2 = od_M3Inner(a, a);
+	if (norm2 == 0.0)
+	{
+		return 0; // every rotation is optimal: keep the warm start
+	}
+	double tiny = 1e-10 * sqrt(norm2);
+	od_Mat3 rr = *r;
+	for (int it = 0; it < 8; ++it)
+	{
+		od_Mat3 m = od_M3MulTN(&rr, a);
+		od_Vec3 ax = od_V3(m.m[7] - m.m[5], m.m[2] - m.m[6], m.m[3] - m.m[1]); // 2 * axial(skew(M))
+		double tr = od_M3Trace(&m);
+		od_Mat3 h = { { tr - m.m[0], -0.5 * (m.m[1] + m.m[3]), -0.5 * (m.m[2] + m.m[6]), -0.5 * (m.m[1] + m.m[3]),
+						tr - m.m[4], -0.5 * (m.m[5] + m.m[7]), -0.5 * (m.m[2] + m.m[6]), -0.5 * (m.m[5] + m.m[7]),
+						tr - m.m[8] } };
+		od_Vec3 w;
+		if (!od_SolveSpd3(&h, ax, tiny, &w))
+		{
+			break;
+		}
+		od_Mat3 e = od_M3ExpSkew(w);
+		rr = od_M3Mul(&rr, &e);
+		if (od_Dot(w, w) < 1e-20)
+		{
+			od_Orthonormalize(&rr);
+			*r = rr;
+			return 0;
+		}
+	}
+	*r = od_PolarRotation(a);
+	return 1;
+}
+
+void od_Orthonormalize(od_Mat3* r)
+{
+	od_Mat3 rtr = od_M3MulTN(r, r);
+	od_Mat3 k = { { 3 - rtr.m[0], -rtr.m[1], -rtr.m[2], -rtr.m[3], 3 - rtr.m[4], -rtr.m[5], -rtr.m[6], -rtr.m[7],
+					3 - rtr.m[8] } };
+	od_Mat3 out = od_M3Mul(r, &k);
+	for (int i = 0; i < 9; ++i)
+	{
+		r->m[i] = 0.5 * out.m[i];
+	}
+}

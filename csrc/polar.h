@@ -1,0 +1,18 @@
+// Polar decomposition and SVD of 3x3 matrices, shared by the local step and the MPM solver.
+#pragma once
+
+#include "math3.h"
+
+// a = u diag(s) vᵀ with u, v proper rotations and s1 >= s2 >= |s3|; s3 < 0 when det(a) < 0.
+void od_Svd3(const od_Mat3* a, od_Mat3* u, od_Vec3* s, od_Mat3* v);
+
+// The rotation maximizing tr(rᵀ a): u vᵀ of od_Svd3 (the smallest singular vector flipped when det(a) < 0).
+od_Mat3 od_PolarRotation(const od_Mat3* a);
+
+// Same maximizer, found by Newton steps on SO(3) from the rotation *r (a warm start), which is updated
+// in place. Falls back to od_PolarRotation when the Newton iteration is not clearly converging to the
+// maximum. Returns 1 when the fallback was used, 0 otherwise.
+int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r);
+
+// Re-orthonormalizes a nearly orthonormal matrix (one Newton step of the polar iteration).
+void od_Orthonormalize(od_Mat3* r);

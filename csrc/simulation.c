@@ -1,0 +1,507 @@
+// The simulation driver: creation, parameters, state, and the order of the stages of a step.
+//
+// A dynamic step (METHOD.md):
+//   predict y, R̃ from (x, v, R, ω) -> global solve with the previous rotations -> `iterations` pairs of
+//   (local Gauss-Seidel rotations, global solve) -> floor -> v = (x - x⁽¹⁾)/h, ω = log(R R⁽¹⁾ᵀ)/h.
+// Starting with the global solve matters: starting with a local step makes pinned particles rotate to
+// absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
+// which is what makes the stiffness depend on h and the iteration count.
+// A call that produces a non-finite state restores the state it started from and fails.
+#include "core.h"
+#include "math3.h"
+#include "polar.h"
+#include "sim.h"
+
+#include <math.h>
+#include <stdatomic.h>
+#include <string.h>
+
+od_SimDef od_DefaultSimDef(void)
+{
+	od_SimDef def;
+	memset(&def, 0, sizeof def);
+	def.stiffness = 1e6;
+	def.density = 1000.0;
+	def.dt = 1.0 / 60.0;
+	def.iterations = 10;
+	def.gravity[2] = -9.81;
+	def.damping = 0.0;
+	def.skinNeighbors = 4;
+	return def;
+}
+
+static od_Status od_CheckDef(const od_SimDef* def)
+{
+	if (!(def->stiffness > 0.0) || !isfinite(def->stiffness))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "stiffness = %g must be finite and > 0", def->stiffness);
+	}
+	if (!(def->density > 0.0) || !isfinite(def->density))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "density = %g must be finite and > 0", def->density);
+	}
+	if (!(def->dt > 0.0) || !isfinite(def->dt))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "dt = %g must be finite and > 0", def->dt);
+	}
+	if (def->iterations < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "iterations = %d must be >= 1", def->iterations);
+	}
+	if (!od_IsFinite3(def->gravity))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "gravity must be three finite numbers");
+	}
+	if (!(def->damping >= 0.0 && def->damping <= 1.0))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "damping = %g must be in [0, 1]", def->damping);
+	}
+	if (def->skinNeighbors < 1 || def->skinNeighbors > OD_MAX_SKIN)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "skin_neighbors = %d must be in [1, %d]", def->skinNeighbors, OD_MAX_SKIN);
+	}
+	return OD_OK;
+}
+
+static od_Status od_AllocState(od_State* s, int n)
+{
+	s->x = od_Alloc(sizeof(double) * 3 * n);
+	s->R = od_Alloc(sizeof(double) * 9 * n);
+	s->v = od_AllocZero((size_t)3 * n, sizeof(double));
+	s->omega = od_AllocZero((size_t)3 * n, sizeof(double));
+	if (!s->x || !s->R || !s->v || !s->omega)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the state of %d particles", n);
+	}
+	return OD_OK;
+}
+
+static void od_FreeState(od_State* s)
+{
+	od_Free(s->x);
+	od_Free(s->R);
+	od_Free(s->v);
+	od_Free(s->omega);
+}
+
+static void od_CopyState(od_State* dst, const od_State* src, int n)
+{
+	memcpy(dst->x, src->x, sizeof(double) * 3 * n);
+	memcpy(dst->R, src->R, sizeof(double) * 9 * n);
+	memcpy(dst->v, src->v, sizeof(double) * 3 * n);
+	memcpy(dst->omega, src->omega, sizeof(double) * 3 * n);
+}
+
+od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** out)
+{
+	*out = NULL;
+	if (!graph)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "graph is required");
+	}
+	od_Status status = od_CheckDef(def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	int n = graph->n;
+	od_Sim* sim = od_AllocZero(1, sizeof *sim);
+	if (!sim)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory creating a simulation");
+	}
+	sim->graph = graph;
+	sim->def = *def;
+	sim->constraints.touchDirty = true;
+	status = od_AllocState(&sim->state, n);
+	if (status == OD_OK)
+	{
+		status = od_AllocState(&sim->saved, n);
+	}
+	if (status == OD_OK)
+	{
+		status = od_AllocState(&sim->previous, n);
+	}
+	if (status == OD_OK)
+	{
+		sim->y = od_Alloc(sizeof(double) * 3 * n);
+		sim->Rtilde = od_Alloc(sizeof(double) * 9 * n);
+		sim->angularScale = od_Alloc(sizeof(double) * n);
+		status = sim->y && sim->Rtilde && sim->angularScale ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory");
+	}
+	for (int m = 0; m < 2 && status == OD_OK; ++m)
+	{
+		status = od_GlobalSolver_Create(&sim->solver[m]);
+	}
+	if (status != OD_OK)
+	{
+		od_Sim_Destroy(sim);
+		return status;
+	}
+	memcpy(sim->state.x, graph->centers, sizeof(double) * 3 * n);
+	for (int i = 0; i < n; ++i)
+	{
+		od_Mat3 eye = od_M3Identity();
+		od_M3Store(sim->state.R + 9 * i, &eye);
+	}
+	*out = sim;
+	return OD_OK;
+}
+
+void od_Sim_Destroy(od_Sim* sim)
+{
+	if (!sim)
+	{
+		return;
+	}
+	od_FreeState(&sim->state);
+	od_FreeState(&sim->saved);
+	od_FreeState(&sim->previous);
+	od_Free(sim->y);
+	od_Free(sim->Rtilde);
+	od_Free(sim->angularScale);
+	od_Free(sim->trace);
+	od_Constraints_Destroy(&sim->constraints);
+	od_GlobalSolver_Destroy(sim->solver[0]);
+	od_GlobalSolver_Destroy(sim->solver[1]);
+	od_Free(sim);
+}
+
+od_SimDef od_Sim_GetDef(const od_Sim* sim)
+{
+	return sim->def;
+}
+
+od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
+{
+	od_Status status = od_CheckDef(def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	bool reskin = def->skinNeighbors != sim->def.skinNeighbors;
+	bool refactor = reskin || def->stiffness != sim->def.stiffness || def->density != sim->def.density ||
+					def->dt != sim->def.dt;
+	sim->def = *def;
+	if (reskin)
+	{
+		for (int s = 0; s < sim->constraints.count; ++s)
+		{
+			od_Constraint* c = sim->constraints.items + s;
+			c->count = od_Graph_SkinWeights(sim->graph, c->point, def->skinNeighbors, c->idx, c->w);
+		}
+		sim->constraints.touchDirty = true;
+	}
+	if (refactor)
+	{
+		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
+		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
+	}
+	sim->predictionValid = false;
+	return OD_OK;
+}
+
+od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)
+{
+	if (!isfinite(height))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "height = %g must be finite", height);
+	}
+	if (!(friction >= 0.0) || !isfinite(friction))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "friction = %g must be finite and >= 0", friction);
+	}
+	sim->hasFloor = true;
+	sim->floorHeight = height;
+	sim->floorFriction = friction;
+	return OD_OK;
+}
+
+void od_Sim_ClearFloor(od_Sim* sim)
+{
+	sim->hasFloor = false;
+}
+
+static od_Status od_CheckRotations(const double* rotations, int n)
+{
+	for (int i = 0; i < n; ++i)
+	{
+		od_Mat3 r = od_M3Load(rotations + 9 * i);
+		od_Mat3 rtr = od_M3MulTN(&r, &r);
+		double err = 0.0;
+		for (int k = 0; k < 9; ++k)
+		{
+			double d = rtr.m[k] - (k % 4 == 0 ? 1.0 : 0.0);
+			err += d * d;
+		}
+		if (!(err < 1e-12) || !(od_M3Det(&r) > 0.0))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "rotations[%d] is not a proper rotation (|RᵀR - I|² = %.3g, det = %.6g)",
+						   i, err, od_M3Det(&r));
+		}
+	}
+	return OD_OK;
+}
+
+static od_Status od_CheckFinite(const char* name, const double* values, int count)
+{
+	for (int k = 0; k < count; ++k)
+	{
+		if (!isfinite(values[k]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "%s[%d][%d] is not finite", name, k / 3, k % 3);
+		}
+	}
+	return OD_OK;
+}
+
+od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+						  const double* angularVelocities)
+{
+	int n = sim->graph->n;
+	if (!positions || !rotations)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "positions and rotations are required");
+	}
+	od_Status status = od_CheckFinite("positions", positions, 3 * n);
+	if (status == OD_OK)
+	{
+		status = od_CheckRotations(rotations, n);
+	}
+	if (status == OD_OK && velocities)
+	{
+		status = od_CheckFinite("velocities", velocities, 3 * n);
+	}
+	if (status == OD_OK && angularVelocities)
+	{
+		status = od_CheckFinite("angular_velocities", angularVelocities, 3 * n);
+	}
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_State* s = &sim->state;
+	memcpy(s->x, positions, sizeof(double) * 3 * n);
+	for (int i = 0; i < n; ++i)
+	{
+		od_Mat3 r = od_M3Load(rotations + 9 * i);
+		od_Orthonormalize(&r);
+		od_M3Store(s->R + 9 * i, &r);
+	}
+	if (velocities)
+	{
+		memcpy(s->v, velocities, sizeof(double) * 3 * n);
+	}
+	else
+	{
+		memset(s->v, 0, sizeof(double) * 3 * n);
+	}
+	if (angularVelocities)
+	{
+		memcpy(s->omega, angularVelocities, sizeof(double) * 3 * n);
+	}
+	else
+	{
+		memset(s->omega, 0, sizeof(double) * 3 * n);
+	}
+	sim->predictionValid = false;
+	return OD_OK;
+}
+
+const double* od_Sim_GetPositions(const od_Sim* sim)
+{
+	return sim->state.x;
+}
+
+const double* od_Sim_GetRotations(const od_Sim* sim)
+{
+	return sim->state.R;
+}
+
+const double* od_Sim_GetVelocities(const od_Sim* sim)
+{
+	return sim->state.v;
+}
+
+const double* od_Sim_GetAngularVelocities(const od_Sim* sim)
+{
+	return sim->state.omega;
+}
+
+od_SimCounters od_Sim_GetCounters(const od_Sim* sim)
+{
+	return sim->counters;
+}
+
+void od_Sim_SetEnergyTrace(od_Sim* sim, int enabled)
+{
+	sim->traceEnabled = enabled != 0;
+	sim->traceCount = 0;
+}
+
+const double* od_Sim_GetEnergyTrace(const od_Sim* sim, int* count)
+{
+	*count = sim->traceCount;
+	return sim->trace;
+}
+
+static void od_Trace(od_Sim* sim)
+{
+	if (!sim->traceEnabled)
+	{
+		return;
+	}
+	if (sim->traceCount == sim->traceCapacity)
+	{
+		int cap = sim->traceCapacity ? 2 * sim->traceCapacity : 64;
+		double* t = od_Realloc(sim->trace, sizeof(double) * cap);
+		if (!t)
+		{
+			return; // tracing is diagnostic: drop the sample rather than fail the step
+		}
+		sim->trace = t;
+		sim->traceCapacity = cap;
+	}
+	sim->trace[sim->traceCount++] = od_Energy(sim);
+}
+
+static bool od_StateIsFinite(const od_State* s, int n)
+{
+	double sum = 0.0;
+	for (int k = 0; k < 3 * n; ++k)
+	{
+		sum += s->x[k] * 0.0 + s->v[k] * 0.0 + s->omega[k] * 0.0;
+	}
+	for (int k = 0; k < 9 * n; ++k)
+	{
+		sum += s->R[k] * 0.0;
+	}
+	return sum == 0.0; // any NaN or infinity makes the sum NaN
+}
+
+// The shared iteration: a global solve with the current rotations, then local/global pairs.
+static od_Status od_Iterate(od_Sim* sim, int iterations)
+{
+	sim->traceCount = 0;
+	od_Status status = od_GlobalStep(sim);
+	od_Trace(sim);
+	for (int it = 0; it < iterations && status == OD_OK; ++it)
+	{
+		od_LocalStep(sim);
+		od_Trace(sim);
+		status = od_GlobalStep(sim);
+		od_Trace(sim);
+	}
+	return status;
+}
+
+static void od_UpdateVelocities(od_Sim* sim, const od_State* before)
+{
+	od_State* s = &sim->state;
+	double invH = 1.0 / sim->def.dt;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_V3Store(s->v + 3 * i, od_Scale(invH, od_Sub(od_V3Load(s->x + 3 * i), od_V3Load(before->x + 3 * i))));
+		od_Mat3 r = od_M3Load(s->R + 9 * i), r0 = od_M3Load(before->R + 9 * i);
+		od_Mat3 dr = od_M3MulNT(&r, &r0);
+		od_Vec3 w = od_Scale(invH, od_M3LogRotation(&dr));
+		if (sim->hasFloor)
+		{
+			w = od_Scale(sim->angularScale[i], w);
+		}
+		od_V3Store(s->omega + 3 * i, w);
+	}
+}
+
+static od_Status od_Begin(od_Sim* sim, od_Mode mode)
+{
+	if (atomic_exchange(&sim->busy, 1))
+	{
+		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
+	}
+	sim->mode = mode;
+	od_Status status = od_Constraints_UpdateIncidence(&sim->constraints, sim->graph->n);
+	if (status == OD_OK && mode == OD_STATIC)
+	{
+		status = od_Constraints_CheckPinned(sim);
+	}
+	if (status != OD_OK)
+	{
+		atomic_store(&sim->busy, 0);
+		return status;
+	}
+	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
+	return OD_OK;
+}
+
+static od_Status od_End(od_Sim* sim, od_Status status)
+{
+	if (status == OD_OK && !od_StateIsFinite(&sim->state, sim->graph->n))
+	{
+		status = od_Fail(OD_ERROR_NOT_FINITE, "the solve produced a non-finite state; the previous state was kept");
+	}
+	if (status != OD_OK)
+	{
+		od_CopyState(&sim->state, &sim->saved, sim->graph->n);
+		sim->predictionValid = false;
+	}
+	atomic_store(&sim->busy, 0);
+	return status;
+}
+
+od_Status od_Sim_Step(od_Sim* sim, int steps)
+{
+	if (steps < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "steps = %d must be >= 1", steps);
+	}
+	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	int n = sim->graph->n;
+	for (int k = 0; k < steps && status == OD_OK; ++k)
+	{
+		memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
+		memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
+		od_Predict(sim);
+		status = od_Iterate(sim, sim->def.iterations);
+		if (sim->hasFloor)
+		{
+			od_FloorStep(sim, &sim->previous, sim->angularScale);
+		}
+		od_UpdateVelocities(sim, &sim->previous);
+		sim->counters.steps++;
+	}
+	return od_End(sim, status);
+}
+
+od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations)
+{
+	if (iterations < 0)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "iterations = %d must be >= 0", iterations);
+	}
+	od_Status status = od_Begin(sim, OD_STATIC);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	status = od_Iterate(sim, iterations);
+	if (status == OD_OK)
+	{
+		memset(sim->state.v, 0, sizeof(double) * 3 * sim->graph->n);
+		memset(sim->state.omega, 0, sizeof(double) * 3 * sim->graph->n);
+	}
+	return od_End(sim, status);
+}
+
+double od_Sim_GetEnergy(od_Sim* sim)
+{
+	if (sim->mode == OD_DYNAMIC && !sim->predictionValid)
+	{
+		od_Predict(sim);
+	}
+	return od_Energy(sim);
+}

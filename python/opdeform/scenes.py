@@ -1,0 +1,109 @@
+"""The paper's scenes, built in code: the bar of Figs. 1-2 and a 100-particle, 261-edge body for Fig. 4.
+
+Shared by scripts/demo, scripts/bench and the tests so that all three measure the same thing.
+"""
+
+import math
+
+import numpy as np
+
+from . import Graph, Simulation
+
+BAR_LENGTH = 2.0
+BAR_WIDTH = 0.2
+BAR_PARTICLES = 20
+BAR_STIFFNESS = 1e8  # k in Pa/m² for the bar: ~1 % sag, a small deflection
+
+
+def bar_graph(particles=BAR_PARTICLES, length=BAR_LENGTH, width=BAR_WIDTH):
+    """A chain of disc-like ellipsoids filling a length x width x width box along +x (Fig. 2, right)."""
+    dx = length / particles
+    centers = np.zeros((particles, 3))
+    centers[:, 0] = (np.arange(particles) + 0.5) * dx
+    radii = np.tile([dx / 2, width / 2, width / 2], (particles, 1))
+    edges = np.stack([np.arange(particles - 1), np.arange(1, particles)], axis=1)
+    return Graph(centers, radii, edges)
+
+
+def end_face_points(x, width=BAR_WIDTH, count=5):
+    """The count x count grid of vertices of the bar's end face at x (25 points, as the paper pins)."""
+    s = np.linspace(-width / 2, width / 2, count)
+    yy, zz = np.meshgrid(s, s, indexing="ij")
+    return np.stack([np.full(yy.size, x), yy.ravel(), zz.ravel()], axis=1)
+
+
+def fig1_bar(stiffness=BAR_STIFFNESS, **sim_args):
+    """Fig. 1: the bar fixed at its x = 0 end face by 25 position constraints, sagging under gravity.
+    Returns the simulation; the tip is the rest point (BAR_LENGTH, 0, 0)."""
+    sim = Simulation(bar_graph(), stiffness, **sim_args)
+    for p in end_face_points(0.0):
+        sim.add_position_constraint(p)
+    return sim
+
+
+BAR_TIP = (BAR_LENGTH, 0.0, 0.0)
+
+
+def tip_sag(sim):
+    """How far the bar's tip has dropped below its rest height."""
+    return -float(sim.skin_points([BAR_TIP])[0, 2])
+
+
+class TwistedBar:
+    """Fig. 2: the fixed bar whose free end is twisted about the bar's axis and moved by one position
+    constraint and three direction constraints (the end frame's axes)."""
+
+    def __init__(self, stiffness=BAR_STIFFNESS, **sim_args):
+        self.sim = fig1_bar(stiffness, **sim_args)
+        self.tip = np.array(BAR_TIP)
+        self.position_id = self.sim.add_position_constraint(self.tip)
+        self.direction_ids = [self.sim.add_direction_constraint(self.tip, axis) for axis in np.eye(3)]
+
+    def pose(self, angle, offset):
+        """Twist the end by ``angle`` radians about +x and move it by ``offset``."""
+        c, s = math.cos(angle), math.sin(angle)
+        rot = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+        self.sim.set_constraint_target(self.position_id, self.tip + np.asarray(offset, float))
+        for cid, axis in zip(self.direction_ids, np.eye(3)):
+            self.sim.set_constraint_target(cid, rot @ axis)
+
+    def animate(self, t, duration=2.0):
+        """The pose at time t of a clip that twists the end by 180 degrees and lifts it by 0.5."""
+        u = min(max(t / duration, 0.0), 1.0)
+        self.pose(math.pi * u, (-0.3 * u, 0.0, 0.5 * u))
+
+
+def body_graph(rows=10, cols=10, spacing=0.1, height=1.0):
+    """A 100-particle, 261-edge body (the paper's Fig. 4 graph size): a triangulated 10 x 10 slab of
+    flattened ellipsoids, 180 lattice edges and 81 diagonals, tilted and lifted above the floor."""
+    ij = np.array([(i, j) for i in range(rows) for j in range(cols)], float)
+    centers = np.zeros((rows * cols, 3))
+    centers[:, :2] = ij * spacing
+    tilt = math.radians(20.0)
+    rot = np.array([[1, 0, 0], [0, math.cos(tilt), -math.sin(tilt)], [0, math.sin(tilt), math.cos(tilt)]])
+    centers = centers @ rot.T + [0.0, 0.0, height]
+    radii = np.tile([spacing * 0.55, spacing * 0.55, spacing * 0.3], (rows * cols, 1))
+    axes = np.tile(rot, (rows * cols, 1, 1))
+
+    def node(i, j):
+        return i * cols + j
+
+    edges = [(node(i, j), node(i, j + 1)) for i in range(rows) for j in range(cols - 1)]
+    edges += [(node(i, j), node(i + 1, j)) for i in range(rows - 1) for j in range(cols)]
+    edges += [(node(i, j), node(i + 1, j + 1)) for i in range(rows - 1) for j in range(cols - 1)]
+    return Graph(centers, radii, np.array(edges), axes)
+
+
+def falling_body(stiffness=2e5, friction=0.5, **sim_args):
+    """Fig. 4's set-up: the 100-particle body dropped on a floor at z = 0 with friction."""
+    sim = Simulation(body_graph(), stiffness, **sim_args)
+    sim.set_floor(0.0, friction)
+    return sim
+
+
+def lowest_point(sim):
+    """The lowest point of any ellipsoid (support distance along -z)."""
+    g = sim.graph
+    frames = sim.rotations @ g.axes
+    s = np.sqrt(((g.radii * frames[:, 2, :]) ** 2).sum(axis=1))
+    return float((sim.positions[:, 2] - s).min())

@@ -1,0 +1,16 @@
+// Runs every C unit test; exits non-zero when one fails. Prints "N passed, N failed".
+#include "test_macros.h"
+
+int test_polar(void);
+int test_graph(void);
+int test_sim(void);
+
+int main(void)
+{
+	int failures = 0, total = 0;
+	RUN_TEST(test_polar);
+	RUN_TEST(test_graph);
+	RUN_TEST(test_sim);
+	printf("%d passed, %d failed\n", total - failures, failures);
+	return failures ? 1 : 0;
+}
