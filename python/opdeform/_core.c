@@ -5,41 +5,36 @@
 // or int32 buffers of the right size, and getters fill caller-provided writable buffers. The Python layer
 // (opdeform/__init__.py) does shape conversion; this layer checks sizes, maps status codes to exceptions
 // and releases the GIL around the heavy calls. Types are heap types kept in module state.
-#ifndef Py_LIMITED_API
-#define Py_LIMITED_API 0x030B0000
-#endif
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
-
-#include "opdeform/opdeform.h"
+#include "binding.h"
 
 #include <string.h>
-
-typedef struct
-{
-	PyTypeObject* graphType;
-	PyTypeObject* simType;
-	PyObject* solverError;
-} ModuleState;
-
-typedef struct
-{
-	PyObject_HEAD od_Graph* graph;
-} GraphObject;
-
-typedef struct
-{
-	PyObject_HEAD od_Sim* sim;
-	PyObject* graph; // keeps the od_Graph alive
-	int busy;        // set while the GIL is released inside a call on this object
-} SimObject;
 
 static ModuleState* GetState(PyObject* module)
 {
 	return (ModuleState*)PyModule_GetState(module);
 }
 
-static PyObject* RaiseStatus(PyObject* module, od_Status status)
+const od_Graph* Binding_Graph(PyObject* module, PyObject* obj)
+{
+	if (!PyObject_TypeCheck(obj, GetState(module)->graphType))
+	{
+		PyErr_SetString(PyExc_TypeError, "expected an opdeform._core.Graph");
+		return NULL;
+	}
+	return ((GraphObject*)obj)->graph;
+}
+
+SimObject* Binding_Sim(PyObject* module, PyObject* obj)
+{
+	if (!PyObject_TypeCheck(obj, GetState(module)->simType))
+	{
+		PyErr_SetString(PyExc_TypeError, "expected an opdeform._core.Simulation");
+		return NULL;
+	}
+	return (SimObject*)obj;
+}
+
+PyObject* RaiseStatus(PyObject* module, od_Status status)
 {
 	PyObject* type;
 	switch (status)
@@ -68,15 +63,20 @@ static PyObject* RaiseStatus(PyObject* module, od_Status status)
 // ---------------------------------------------------------------------------------------------------------
 // Buffers
 
+static const char* FormatName(char fmt)
+{
+	return fmt == 'd' ? "float64" : fmt == 'f' ? "float32" : "int32";
+}
+
 // Gets a C-contiguous buffer of `count` items of the format `fmt` ("d" or "i"); NULL/None when allowed.
-static int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, int writable, Py_buffer* view)
+int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, int writable, Py_buffer* view)
 {
 	memset(view, 0, sizeof *view);
 	int flags = PyBUF_C_CONTIGUOUS | PyBUF_FORMAT | (writable ? PyBUF_WRITABLE : 0);
 	if (PyObject_GetBuffer(obj, view, flags) < 0)
 	{
 		PyErr_Clear();
-		PyErr_Format(PyExc_ValueError, "%s must be a C-contiguous %s buffer", name, fmt == 'd' ? "float64" : "int32");
+		PyErr_Format(PyExc_ValueError, "%s must be a C-contiguous %s buffer", name, FormatName(fmt));
 		return -1;
 	}
 	const char* f = view->format ? view->format : "B";
@@ -84,11 +84,11 @@ static int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count,
 	{
 		++f;
 	}
-	Py_ssize_t itemsize = fmt == 'd' ? 8 : 4;
+	Py_ssize_t itemsize = fmt == 'd' ? 8 : 4; // 'i' int32, 'f' float32
 	if (f[0] != fmt || f[1] != '\0' || view->itemsize != itemsize || view->len != count * itemsize)
 	{
 		PyErr_Format(PyExc_ValueError, "%s must hold %zd %s values (got %zd bytes of format '%s')", name, count,
-					 fmt == 'd' ? "float64" : "int32", view->len, view->format ? view->format : "B");
+					 FormatName(fmt), view->len, view->format ? view->format : "B");
 		PyBuffer_Release(view);
 		return -1;
 	}
@@ -96,7 +96,7 @@ static int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count,
 }
 
 // The number of items of `itemsize` bytes in a buffer (for sizing n from centers and m from edges).
-static Py_ssize_t ItemCount(PyObject* obj, const char* name, Py_ssize_t itemsize)
+Py_ssize_t ItemCount(PyObject* obj, const char* name, Py_ssize_t itemsize)
 {
 	Py_buffer view;
 	if (PyObject_GetBuffer(obj, &view, PyBUF_C_CONTIGUOUS) < 0)
@@ -110,13 +110,13 @@ static Py_ssize_t ItemCount(PyObject* obj, const char* name, Py_ssize_t itemsize
 	return count;
 }
 
-static int GetOptionalArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, Py_buffer* view)
+int GetOptionalArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, Py_buffer* view)
 {
 	memset(view, 0, sizeof *view);
 	return obj == Py_None ? 0 : GetArray(obj, name, fmt, count, 0, view);
 }
 
-static void ReleaseArray(Py_buffer* view)
+void ReleaseArray(Py_buffer* view)
 {
 	if (view->obj)
 	{
@@ -124,7 +124,7 @@ static void ReleaseArray(Py_buffer* view)
 	}
 }
 
-static int CopyOut(PyObject* out, const char* name, const void* data, Py_ssize_t count, char fmt)
+int CopyOut(PyObject* out, const char* name, const void* data, Py_ssize_t count, char fmt)
 {
 	Py_buffer view;
 	if (GetArray(out, name, fmt, count, 1, &view) < 0)
@@ -340,7 +340,7 @@ static PyObject* SimModule(PyObject* obj)
 }
 
 // Guards against use from another thread while this object's GIL-free call runs.
-static int SimEnter(SimObject* self)
+int SimEnter(SimObject* self)
 {
 	if (self->busy)
 	{

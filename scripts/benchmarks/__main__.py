@@ -1,0 +1,37 @@
+"""Dispatch: python -m benchmarks [suite|all] [options]. The default suite is `core`."""
+
+import importlib
+import pkgutil
+import sys
+
+import benchmarks
+
+
+def suites():
+    return sorted(m.name for m in pkgutil.iter_modules(benchmarks.__path__) if not m.name.startswith("_"))
+
+
+def main(argv):
+    names = suites()
+    if argv and argv[0] in ("-h", "--help"):
+        print("usage: scripts/bench [SUITE|all] [options]\nsuites:")
+        for name in names:
+            print(f"  {name:10s} {importlib.import_module('benchmarks.' + name).__doc__.strip().splitlines()[0]}")
+        return 0
+    if argv and argv[0].startswith("--"):
+        # options of the core suite (e.g. --error) may be given without naming it
+        flag_suite = {"--error": "error"}.get(argv[0])
+        if flag_suite in names:
+            argv = [flag_suite] + argv[1:]
+    target = argv[0] if argv and not argv[0].startswith("-") else "core"
+    rest = argv[1:] if argv and not argv[0].startswith("-") else argv
+    for name in names if target == "all" else [target]:
+        if name not in names:
+            print(f"unknown suite {name!r}; suites: {', '.join(names)}", file=sys.stderr)
+            return 2
+        print(f"== {name}")
+        importlib.import_module("benchmarks." + name).run(rest)
+    return 0
+
+
+sys.exit(main(sys.argv[1:]))
