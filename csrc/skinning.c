@@ -2,6 +2,8 @@
 //
 // w_j = (1 - |p - X̄_j| / dmax)² for the m nearest particles, dmax the distance to the (m+1)-th, then
 // normalised. Ties in distance are broken by particle index so that results are deterministic.
+// Only particles of the connected piece of the nearest particle take part: a point never follows a
+// piece of the body it is not attached to.
 #include "graph.h"
 #include "math3.h"
 
@@ -40,10 +42,21 @@ int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* i
 	int near[OD_MAX_SKIN + 1];
 	int count = 0;
 	od_Vec3 p = od_V3Load(point);
+	int nearest = 0;
+	count = 0;
 	for (int i = 0; i < g->n; ++i)
 	{
 		double d = od_Length(od_Sub(p, od_V3Load(g->centers + 3 * i)));
-		count = od_InsertNearest(dist, near, count, m + 1, d, i);
+		count = od_InsertNearest(dist, &nearest, count, 1, d, i);
+	}
+	count = 0;
+	for (int i = 0; i < g->n; ++i)
+	{
+		if (g->piece[i] == g->piece[nearest])
+		{
+			double d = od_Length(od_Sub(p, od_V3Load(g->centers + 3 * i)));
+			count = od_InsertNearest(dist, near, count, m + 1, d, i);
+		}
 	}
 	int used = count < m + 1 ? count : m;
 	double dmax = count == m + 1 ? dist[m] : dist[count - 1] * (1.0 + 1e-6) + DBL_MIN * 1e10;
