@@ -28,7 +28,8 @@ def test_module_imports_inside_blender(tmp_path):
         sim.step(30)
         print("OPDEFORM", bpy.app.version_string, sys.version_info[:2], opdeform._core.__file__, scenes.tip_sag(sim))
     """))
-    result = subprocess.run([BLENDER, "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(script)],
+    wrapper = Path(__file__).resolve().parent.parent / "scripts" / "blender"
+    result = subprocess.run([str(wrapper), "-b", "--factory-startup", "--python-exit-code", "1", "-P", str(script)],
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     line = next(l for l in result.stdout.splitlines() if l.startswith("OPDEFORM"))
