@@ -38,7 +38,12 @@ void od_Constraints_Destroy(od_ConstraintSet* set)
 	od_Free(set->slotOfId);
 	od_Free(set->touchStart);
 	od_Free(set->touchSlot);
-	od_Free(set->touchLocal);
+	od_Free(set->touchArm);
+	od_Free(set->current);
+	od_Free(set->pairStart);
+	od_Free(set->pairCol);
+	od_Free(set->pairData);
+	od_Free(set->targetMoment);
 	memset(set, 0, sizeof *set);
 }
 
@@ -47,6 +52,7 @@ static void od_Invalidate(od_Sim* sim)
 	od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
 	od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
 	sim->constraints.touchDirty = true;
+	sim->constraints.targetsDirty = true;
 }
 
 void od_Constraints_CurrentPoint(const od_Constraint* c, const od_Graph* g, const od_State* s, double out[3])
@@ -231,6 +237,7 @@ od_Status od_Sim_SetConstraintTarget(od_Sim* sim, int id, const double target[3]
 		t = od_Scale(1.0 / od_Length(t), t);
 	}
 	od_V3Store(c->target, t);
+	sim->constraints.targetsDirty = c->kind == OD_POSITION || sim->constraints.targetsDirty;
 	return OD_OK;
 }
 
@@ -278,97 +285,6 @@ od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id)
 int od_Sim_GetConstraintCount(const od_Sim* sim)
 {
 	return sim->constraints.count;
-}
-
-od_Status od_Constraints_UpdateIncidence(od_ConstraintSet* set, int n)
-{
-	if (!set->touchDirty)
-	{
-		return OD_OK;
-	}
-	int entries = 0;
-	for (int s = 0; s < set->count; ++s)
-	{
-		entries += set->items[s].count;
-	}
-	if (entries > set->touchCapacity)
-	{
-		int* slot = od_Realloc(set->touchSlot, sizeof(int) * (size_t)entries);
-		set->touchSlot = slot ? slot : set->touchSlot;
-		int* local = od_Realloc(set->touchLocal, sizeof(int) * (size_t)entries);
-		set->touchLocal = local ? local : set->touchLocal;
-		if (!slot || !local)
-		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for the constraint incidence");
-		}
-		set->touchCapacity = entries;
-	}
-	if (!set->touchStart && !(set->touchStart = od_Alloc(sizeof(int) * ((size_t)n + 1))))
-	{
-		return od_Fail(OD_ERROR_MEMORY, "out of memory for the constraint incidence");
-	}
-	int* start = set->touchStart;
-	memset(start, 0, sizeof(int) * ((size_t)n + 1));
-	for (int s = 0; s < set->count; ++s)
-	{
-		for (int k = 0; k < set->items[s].count; ++k)
-		{
-			start[set->items[s].idx[k] + 1]++;
-		}
-	}
-	for (int i = 0; i < n; ++i)
-	{
-		start[i + 1] += start[i];
-	}
-	for (int s = 0; s < set->count; ++s)
-	{
-		for (int k = 0; k < set->items[s].count; ++k)
-		{
-			int e = start[set->items[s].idx[k]]++;
-			set->touchSlot[e] = s;
-			set->touchLocal[e] = k;
-		}
-	}
-	for (int i = n; i > 0; --i) // each start[i] now holds the end of block i; shift to block starts
-	{
-		start[i] = start[i - 1];
-	}
-	start[0] = 0;
-	set->touchDirty = false;
-	return OD_OK;
-}
-
-// Adds the rotation terms of the constraints touching particle i to C (eqs. 8 and 10 rewritten).
-void od_Constraints_AddLocal(const od_Sim* sim, int i, od_Mat3* cmat)
-{
-	const od_ConstraintSet* set = &sim->constraints;
-	const od_Graph* g = sim->graph;
-	od_Mat3 ri = od_M3Load(sim->state.R + 9 * i);
-	for (int e = set->touchStart[i]; e < set->touchStart[i + 1]; ++e)
-	{
-		const od_Constraint* c = set->items + set->touchSlot[e];
-		double wi = c->w[set->touchLocal[e]];
-		if (c->kind == OD_POSITION)
-		{
-			double s[3];
-			od_Constraints_CurrentPoint(c, g, &sim->state, s);
-			od_Vec3 ubar = od_Scale(wi, od_Sub(od_V3Load(c->point), od_V3Load(g->centers + 3 * i)));
-			od_Vec3 u = od_Add(od_Sub(od_V3Load(c->target), od_V3Load(s)), od_M3MulV(&ri, ubar));
-			od_M3AddOuter(cmat, c->weight, u, ubar);
-		}
-		else
-		{
-			double q[3], l;
-			od_Constraints_CurrentDirection(c, &sim->state, q, &l);
-			if (l < 1e-12)
-			{
-				continue;
-			}
-			od_Vec3 rbar = od_Scale(wi / l, od_V3Load(c->direction));
-			od_Vec3 r = od_Add(od_Sub(od_V3Load(c->target), od_Scale(1.0 / l, od_V3Load(q))), od_M3MulV(&ri, rbar));
-			od_M3AddOuter(cmat, c->weight, r, rbar);
-		}
-	}
 }
 
 double od_Constraints_Energy(const od_Sim* sim)

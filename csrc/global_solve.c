@@ -203,29 +203,7 @@ static void od_FillRhs(const od_Sim* sim, double* b)
 		b[j + n] -= f.y;
 		b[j + 2 * n] -= f.z;
 	}
-	for (int s = 0; s < sim->constraints.count; ++s)
-	{
-		const od_Constraint* c = sim->constraints.items + s;
-		if (c->kind != OD_POSITION)
-		{
-			continue;
-		}
-		od_Vec3 r = od_V3Load(c->target), p = od_V3Load(c->point);
-		for (int a = 0; a < c->count; ++a)
-		{
-			int j = c->idx[a];
-			od_Mat3 rj = od_M3Load(st->R + 9 * j);
-			r = od_MulAdd(r, -c->w[a], od_M3MulV(&rj, od_Sub(p, od_V3Load(g->centers + 3 * j))));
-		}
-		for (int a = 0; a < c->count; ++a)
-		{
-			double f = c->weight * c->w[a];
-			int i = c->idx[a];
-			b[i] += f * r.x;
-			b[i + n] += f * r.y;
-			b[i + 2 * n] += f * r.z;
-		}
-	}
+	od_Constraints_AddRhs(sim, b);
 }
 
 od_Status od_GlobalStep(od_Sim* sim)

@@ -9,36 +9,58 @@
 #include "polar.h"
 #include "sim.h"
 
-static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i)
+void od_LocalStep_PrepareEdges(od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	double k = sim->def.stiffness;
+	if (sim->edgeStiffness == k)
+	{
+		return;
+	}
+	for (int i = 0; i < g->n; ++i)
+	{
+		od_Mat3 ai = od_M3Load(g->moments + 9 * i);
+		od_Vec3 ci = od_V3Load(g->centers + 3 * i);
+		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+		{
+			int j = g->adj[e];
+			od_Mat3 sum = od_M3Load(g->moments + 9 * j);
+			od_M3AddScaled(&sum, 1.0, &ai);
+			for (int c = 0; c < 9; ++c)
+			{
+				sim->edgeMoment[9 * e + c] = k * sum.m[c];
+			}
+			od_V3Store(sim->edgeArm + 3 * e, od_Scale(k * g->volumes[j], od_Sub(od_V3Load(g->centers + 3 * j), ci)));
+		}
+	}
+	sim->edgeStiffness = k;
+}
+
+static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 {
 	const od_Graph* g = sim->graph;
 	const od_State* s = &sim->state;
-	double k = sim->def.stiffness;
-	od_Vec3 xi = od_V3Load(s->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
-	od_Mat3 ai = od_M3Load(g->moments + 9 * i);
+	od_Vec3 xi = od_V3Load(s->x + 3 * i);
 	od_Mat3 c = od_M3Zero();
 	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 	{
 		int j = g->adj[e];
 		od_Mat3 rj = od_M3Load(s->R + 9 * j);
-		od_Mat3 sum = od_M3Load(g->moments + 9 * j);
-		od_M3AddScaled(&sum, 1.0, &ai);
+		od_Mat3 sum = od_M3Load(sim->edgeMoment + 9 * e);
 		od_Mat3 t = od_M3Mul(&rj, &sum);
-		od_M3AddScaled(&c, k, &t);
-		od_Vec3 d = od_Sub(od_V3Load(s->x + 3 * j), xi);
-		od_Vec3 dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
-		od_M3AddOuter(&c, k * g->volumes[j], d, dbar);
+		od_M3AddScaled(&c, 1.0, &t);
+		od_M3AddOuter(&c, 1.0, od_Sub(od_V3Load(s->x + 3 * j), xi), od_V3Load(sim->edgeArm + 3 * e));
 	}
 	if (sim->mode == OD_DYNAMIC)
 	{
 		double h = sim->def.dt;
-		od_Mat3 rt = od_M3Load(sim->Rtilde + 9 * i);
+		od_Mat3 rt = od_M3Load(sim->Rtilde + 9 * i), ai = od_M3Load(g->moments + 9 * i);
 		od_Mat3 t = od_M3Mul(&rt, &ai);
 		od_M3AddScaled(&c, sim->def.density / (h * h), &t);
 	}
-	if (sim->constraints.touchStart[i] != sim->constraints.touchStart[i + 1])
+	if (od_Constraints_Touches(sim, i))
 	{
-		od_Constraints_AddLocal(sim, i, &c);
+		od_Constraints_AddLocal(sim, i, ri, &c);
 	}
 	return c;
 }
@@ -46,11 +68,21 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i)
 void od_LocalStep(od_Sim* sim)
 {
 	double* rot = sim->state.R;
+	bool directions = sim->constraints.directionCount > 0;
+	if (directions)
+	{
+		od_Constraints_BeginLocal(sim);
+	}
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		od_Mat3 c = od_LocalMatrix(sim, i);
-		od_Mat3 r = od_M3Load(rot + 9 * i);
+		od_Mat3 before = od_M3Load(rot + 9 * i);
+		od_Mat3 c = od_LocalMatrix(sim, i, &before);
+		od_Mat3 r = before;
 		sim->counters.polarFallbacks += od_PolarRotationWarm(&c, &r);
 		od_M3Store(rot + 9 * i, &r);
+		if (directions)
+		{
+			od_Constraints_RotationChanged(sim, i, &before, &r);
+		}
 	}
 }

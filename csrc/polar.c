@@ -175,6 +175,20 @@ static int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
 	return 1;
 }
 
+// The Cayley rotation (I - [a]x)⁻¹ (I + [a]x) with a = w/2: exactly orthogonal, equal to exp([w]x) to second
+// order, and free of transcendental functions. Newton's fixed point does not depend on the retraction.
+static od_Mat3 od_Cayley(od_Vec3 w)
+{
+	od_Vec3 a = od_Scale(0.5, w);
+	double f = 2.0 / (1.0 + od_Dot(a, a));
+	od_Mat3 k = od_M3Skew(a);
+	od_Mat3 k2 = od_M3Mul(&k, &k);
+	od_Mat3 r = od_M3Identity();
+	od_M3AddScaled(&r, f, &k);
+	od_M3AddScaled(&r, f, &k2);
+	return r;
+}
+
 int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
 {
 	double norm2 = od_M3Inner(a, a);
@@ -197,11 +211,12 @@ int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
 		{
 			break;
 		}
-		od_Mat3 e = od_M3ExpSkew(w);
+		od_Mat3 e = od_Cayley(w);
 		rr = od_M3Mul(&rr, &e);
-		if (od_Dot(w, w) < 1e-20)
+		// Quadratic convergence: after a step of 1e-5 rad the remaining error is ~1e-10 rad, which changes
+		// tr(RᵀC) by ~1e-20 of its size (it is stationary there).
+		if (od_Dot(w, w) < 1e-6)
 		{
-			od_Orthonormalize(&rr);
 			*r = rr;
 			return 0;
 		}

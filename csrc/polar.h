@@ -11,7 +11,8 @@ od_Mat3 od_PolarRotation(const od_Mat3* a);
 
 // Same maximizer, found by Newton steps on SO(3) from the rotation *r (a warm start), which is updated
 // in place. Falls back to od_PolarRotation when the Newton iteration is not clearly converging to the
-// maximum. Returns 1 when the fallback was used, 0 otherwise.
+// maximum. Returns 1 when the fallback was used, 0 otherwise. Each call multiplies *r by exact-to-rounding
+// rotations, so callers re-orthonormalize once in a while (once per step) against drift.
 int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r);
 
 // Re-orthonormalizes a nearly orthonormal matrix (one Newton step of the polar iteration).

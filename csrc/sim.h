@@ -33,13 +33,25 @@ typedef struct od_ConstraintSet
 	int* slotOfId; // id -> slot, -1 when removed
 	int idCapacity, nextId;
 	int positionCount, directionCount;
-	// Incidence, rebuilt when the set changes: for particle i, entries touchStart[i]..touchStart[i+1]-1
-	// of touchSlot (constraint slot) and touchLocal (index of i in that constraint's skinning list).
+	bool touchDirty;   // the set changed: rebuild the terms below (constraint_terms.c)
+	bool targetsDirty; // a position target changed: rebuild targetMoment
+
+	// Direction constraints, per particle i: entries touchStart[i]..touchStart[i+1]-1 of touchSlot
+	// (constraint slot) and touchArm (w_i n̄, how R_i turns the skinned direction).
 	int* touchStart;
 	int* touchSlot;
-	int* touchLocal;
+	double* touchArm;
 	int touchCapacity;
-	bool touchDirty;
+	double* current; // per slot: the unnormalised skinned direction Σ w_j R_j n̄, kept current in the local step
+
+	// Position constraints folded into ordered particle pairs (i, j) that share one: row i holds, for each
+	// pair, P_ij = Σ_c w w_i w_j a_cj a_ciᵀ (9), Σ_c w w_i w_j a_ci (3) and Σ_c w w_i w_j a_cj (3), with
+	// a_cj = p̄_c - X̄_j. Per particle, Σ_c w w_i t_c a_ciᵀ (9) and Σ_c w w_i t_c (3) depend on the targets.
+	int* pairStart;
+	int* pairCol;
+	double* pairData;     // 15 per pair
+	double* targetMoment; // 12 per particle
+	int pairCapacity;
 } od_ConstraintSet;
 
 typedef struct od_State
@@ -82,20 +94,33 @@ struct od_Sim
 	double* trace;
 	int traceCount, traceCapacity;
 
+	// Per directed edge (CSR order of graph->adj), scaled by k; rebuilt when k changes:
+	// k (Ā_j + Ā_i) and k v_j (X̄_j - X̄_i) of the local step, k v_j (X̄_i - X̄_j) of the right side.
+	double* edgeMoment; // 9 per directed edge
+	double* edgeArm;    // 3 per directed edge
+	double edgeStiffness;
+
 	od_SimCounters counters;
 	_Atomic int busy;
 };
 
 // constraints.c
 void od_Constraints_Destroy(od_ConstraintSet* set);
-od_Status od_Constraints_UpdateIncidence(od_ConstraintSet* set, int particleCount);
 void od_Constraints_CurrentPoint(const od_Constraint* c, const od_Graph* g, const od_State* s, double out[3]);
 void od_Constraints_CurrentDirection(const od_Constraint* c, const od_State* s, double out[3], double* length);
-void od_Constraints_AddLocal(const od_Sim* sim, int i, od_Mat3* c);
+
+// constraint_terms.c
+od_Status od_Constraints_Prepare(od_Sim* sim);
+void od_Constraints_BeginLocal(od_Sim* sim);
+void od_Constraints_AddLocal(const od_Sim* sim, int i, const od_Mat3* ri, od_Mat3* c);
+void od_Constraints_RotationChanged(od_Sim* sim, int i, const od_Mat3* before, const od_Mat3* after);
+void od_Constraints_AddRhs(const od_Sim* sim, double* b);
+bool od_Constraints_Touches(const od_Sim* sim, int i);
 double od_Constraints_Energy(const od_Sim* sim);
 od_Status od_Constraints_CheckPinned(const od_Sim* sim);
 
 // local_step.c
+void od_LocalStep_PrepareEdges(od_Sim* sim);
 void od_LocalStep(od_Sim* sim);
 
 // global_solve.c

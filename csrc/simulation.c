@@ -113,6 +113,7 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 	sim->graph = graph;
 	sim->def = *def;
 	sim->constraints.touchDirty = true;
+	sim->constraints.targetsDirty = true;
 	status = od_AllocState(&sim->state, n);
 	if (status == OD_OK)
 	{
@@ -127,7 +128,11 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 		sim->y = od_Alloc(sizeof(double) * 3 * n);
 		sim->Rtilde = od_Alloc(sizeof(double) * 9 * n);
 		sim->angularScale = od_Alloc(sizeof(double) * n);
-		status = sim->y && sim->Rtilde && sim->angularScale ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory");
+		sim->edgeMoment = od_Alloc(sizeof(double) * 18 * graph->edgeCount);
+		sim->edgeArm = od_Alloc(sizeof(double) * 6 * graph->edgeCount);
+		status = sim->y && sim->Rtilde && sim->angularScale && sim->edgeMoment && sim->edgeArm
+					 ? OD_OK
+					 : od_Fail(OD_ERROR_MEMORY, "out of memory for a simulation of %d particles", n);
 	}
 	for (int m = 0; m < 2 && status == OD_OK; ++m)
 	{
@@ -160,6 +165,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->y);
 	od_Free(sim->Rtilde);
 	od_Free(sim->angularScale);
+	od_Free(sim->edgeMoment);
+	od_Free(sim->edgeArm);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_GlobalSolver_Destroy(sim->solver[0]);
@@ -191,6 +198,7 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 			c->count = od_Graph_SkinWeights(sim->graph, c->point, def->skinNeighbors, c->idx, c->w);
 		}
 		sim->constraints.touchDirty = true;
+	sim->constraints.targetsDirty = true;
 	}
 	if (refactor)
 	{
@@ -403,6 +411,8 @@ static void od_UpdateVelocities(od_Sim* sim, const od_State* before)
 	{
 		od_V3Store(s->v + 3 * i, od_Scale(invH, od_Sub(od_V3Load(s->x + 3 * i), od_V3Load(before->x + 3 * i))));
 		od_Mat3 r = od_M3Load(s->R + 9 * i), r0 = od_M3Load(before->R + 9 * i);
+		od_Orthonormalize(&r);
+		od_M3Store(s->R + 9 * i, &r);
 		od_Mat3 dr = od_M3MulNT(&r, &r0);
 		od_Vec3 w = od_Scale(invH, od_M3LogRotation(&dr));
 		if (sim->hasFloor)
@@ -420,7 +430,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
 	}
 	sim->mode = mode;
-	od_Status status = od_Constraints_UpdateIncidence(&sim->constraints, sim->graph->n);
+	od_Status status = od_Constraints_Prepare(sim);
 	if (status == OD_OK && mode == OD_STATIC)
 	{
 		status = od_Constraints_CheckPinned(sim);
@@ -430,6 +440,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		atomic_store(&sim->busy, 0);
 		return status;
 	}
+	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
 	return OD_OK;
 }
@@ -491,6 +502,12 @@ od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations)
 	status = od_Iterate(sim, iterations);
 	if (status == OD_OK)
 	{
+		for (int i = 0; i < sim->graph->n; ++i)
+		{
+			od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
+			od_Orthonormalize(&r);
+			od_M3Store(sim->state.R + 9 * i, &r);
+		}
 		memset(sim->state.v, 0, sizeof(double) * 3 * sim->graph->n);
 		memset(sim->state.omega, 0, sizeof(double) * 3 * sim->graph->n);
 	}

@@ -36,6 +36,14 @@ def as_array(name, value, shape, dtype=np.float64):
 
 
 def _vec3(name, value):
+    """Three floats for the core (which checks finiteness); fast for tuples, lists and 1-D arrays."""
+    if isinstance(value, np.ndarray) and value.shape == (3,) and np.issubdtype(value.dtype, np.number):
+        value = value.tolist()
+    if isinstance(value, (tuple, list)) and len(value) == 3:
+        try:
+            return (float(value[0]), float(value[1]), float(value[2]))
+        except (TypeError, ValueError):
+            pass
     return tuple(float(x) for x in as_array(name, value, (3,)))
 
 

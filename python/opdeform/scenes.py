@@ -62,10 +62,10 @@ class TwistedBar:
     def pose(self, angle, offset):
         """Twist the end by ``angle`` radians about +x and move it by ``offset``."""
         c, s = math.cos(angle), math.sin(angle)
-        rot = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
-        self.sim.set_constraint_target(self.position_id, self.tip + np.asarray(offset, float))
-        for cid, axis in zip(self.direction_ids, np.eye(3)):
-            self.sim.set_constraint_target(cid, rot @ axis)
+        tip = (BAR_LENGTH + offset[0], offset[1], offset[2])
+        self.sim.set_constraint_target(self.position_id, tip)
+        for cid, axis in zip(self.direction_ids, ((1.0, 0.0, 0.0), (0.0, c, s), (0.0, -s, c))):
+            self.sim.set_constraint_target(cid, axis)
 
     def animate(self, t, duration=2.0):
         """The pose at time t of a clip that twists the end by 180 degrees and lifts it by 0.5."""
