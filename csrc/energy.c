@@ -6,7 +6,7 @@
 void od_Predict(od_Sim* sim)
 {
 	const od_State* s = &sim->state;
-	double h = sim->def.dt, keep = (1.0 - sim->def.damping) * h;
+	double h = sim->def.dt, keep = (1.0 - sim->def.damping) * h, inertia = sim->def.density / (h * h);
 	od_Vec3 g = od_V3Load(sim->def.gravity);
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
@@ -17,6 +17,12 @@ void od_Predict(od_Sim* sim)
 		od_Mat3 wr = od_M3Mul(&w, &r);
 		od_M3AddScaled(&r, keep, &wr);
 		od_M3Store(sim->Rtilde + 9 * i, &r);
+		od_Mat3 a = od_M3Load(sim->graph->moments + 9 * i);
+		od_Mat3 ra = od_M3Mul(&r, &a);
+		for (int k = 0; k < 9; ++k)
+		{
+			sim->inertiaTerm[9 * i + k] = inertia * ra.m[k];
+		}
 	}
 	sim->predictionValid = true;
 }

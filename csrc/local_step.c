@@ -39,30 +39,39 @@ void od_LocalStep_PrepareEdges(od_Sim* sim)
 static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 {
 	const od_Graph* g = sim->graph;
-	const od_State* s = &sim->state;
-	od_Vec3 xi = od_V3Load(s->x + 3 * i);
-	od_Mat3 c = od_M3Zero();
+	const double* x = sim->state.x;
+	const double* rot = sim->state.R;
+	double c[9] = { 0 };
+	double xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
 	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 	{
 		int j = g->adj[e];
-		od_Mat3 rj = od_M3Load(s->R + 9 * j);
-		od_Mat3 sum = od_M3Load(sim->edgeMoment + 9 * e);
-		od_Mat3 t = od_M3Mul(&rj, &sum);
-		od_M3AddScaled(&c, 1.0, &t);
-		od_M3AddOuter(&c, 1.0, od_Sub(od_V3Load(s->x + 3 * j), xi), od_V3Load(sim->edgeArm + 3 * e));
+		const double* rj = rot + 9 * j;
+		const double* m = sim->edgeMoment + 9 * e;
+		const double* a = sim->edgeArm + 3 * e;
+		double d[3] = { x[3 * j] - xi0, x[3 * j + 1] - xi1, x[3 * j + 2] - xi2 };
+		for (int r = 0; r < 3; ++r)
+		{
+			for (int k = 0; k < 3; ++k)
+			{
+				c[3 * r + k] += rj[3 * r] * m[k] + rj[3 * r + 1] * m[3 + k] + rj[3 * r + 2] * m[6 + k] + d[r] * a[k];
+			}
+		}
 	}
 	if (sim->mode == OD_DYNAMIC)
 	{
-		double h = sim->def.dt;
-		od_Mat3 rt = od_M3Load(sim->Rtilde + 9 * i), ai = od_M3Load(g->moments + 9 * i);
-		od_Mat3 t = od_M3Mul(&rt, &ai);
-		od_M3AddScaled(&c, sim->def.density / (h * h), &t);
+		const double* t = sim->inertiaTerm + 9 * i;
+		for (int k = 0; k < 9; ++k)
+		{
+			c[k] += t[k];
+		}
 	}
+	od_Mat3 out = od_M3Load(c);
 	if (od_Constraints_Touches(sim, i))
 	{
-		od_Constraints_AddLocal(sim, i, ri, &c);
+		od_Constraints_AddLocal(sim, i, ri, &out);
 	}
-	return c;
+	return out;
 }
 
 void od_LocalStep(od_Sim* sim)

@@ -141,37 +141,22 @@ od_Mat3 od_PolarRotation(const od_Mat3* a)
 	return od_M3MulNT(&u, &v);
 }
 
-// Solves h x = b for symmetric h by Cholesky; returns 0 unless h is clearly positive definite.
+// Solves h x = b for symmetric h by its adjugate; returns 0 unless h is clearly positive definite
+// (Sylvester's criterion with the Cholesky pivots h00, minor2 / h00, det / minor2 all above tiny).
 static int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
 {
 	const double* m = h->m;
-	double l00 = m[0];
-	if (!(l00 > tiny))
+	double c00 = m[4] * m[8] - m[5] * m[7], c01 = m[2] * m[7] - m[1] * m[8], c02 = m[1] * m[5] - m[2] * m[4];
+	double minor2 = m[0] * m[4] - m[1] * m[3];
+	double det = m[0] * c00 + m[3] * c01 + m[6] * c02;
+	if (!(m[0] > tiny) || !(minor2 > tiny * m[0]) || !(det > tiny * minor2))
 	{
 		return 0;
 	}
-	l00 = sqrt(l00);
-	double l10 = m[3] / l00, l20 = m[6] / l00;
-	double l11 = m[4] - l10 * l10;
-	if (!(l11 > tiny))
-	{
-		return 0;
-	}
-	l11 = sqrt(l11);
-	double l21 = (m[7] - l20 * l10) / l11;
-	double l22 = m[8] - l20 * l20 - l21 * l21;
-	if (!(l22 > tiny))
-	{
-		return 0;
-	}
-	l22 = sqrt(l22);
-	double y0 = b.x / l00;
-	double y1 = (b.y - l10 * y0) / l11;
-	double y2 = (b.z - l20 * y0 - l21 * y1) / l22;
-	double x2 = y2 / l22;
-	double x1 = (y1 - l21 * x2) / l11;
-	double x0 = (y0 - l10 * x1 - l20 * x2) / l00;
-	*x = od_V3(x0, x1, x2);
+	double c11 = m[0] * m[8] - m[2] * m[6], c12 = m[2] * m[3] - m[0] * m[5], c22 = minor2;
+	double inv = 1.0 / det;
+	*x = od_V3(inv * (c00 * b.x + c01 * b.y + c02 * b.z), inv * (c01 * b.x + c11 * b.y + c12 * b.z),
+			   inv * (c02 * b.x + c12 * b.y + c22 * b.z));
 	return 1;
 }
 

@@ -88,6 +88,7 @@ struct od_Sim
 	bool predictionValid; // y and Rtilde belong to the current objective
 	double* y;            // n*3 predicted centres
 	double* Rtilde;       // n*9 predicted rotations
+	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
 	double* angularScale; // n, friction's scaling of the angular velocity of touching particles
 
 	bool traceEnabled;
