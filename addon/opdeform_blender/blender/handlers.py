@@ -1,0 +1,137 @@
+"""App handlers: live playback (frame change), posing and handle edits (depsgraph update), file load and undo.
+
+They never raise: an error becomes ``obj.opdeform.error`` (shown in the panel and printed), and that object's
+simulation pauses until Reset. They only touch enabled objects and never re-evaluate the whole scene.
+"""
+
+import bpy
+from bpy.app.handlers import persistent
+
+_discovery = {"dirty": True, "names": {}}
+_guard = {"busy": False}
+
+
+def mark_discovery():
+    _discovery["dirty"] = True
+
+
+def enabled_objects(scene):
+    """The scene's objects with oriented particles enabled (the list is refreshed only when marked dirty)."""
+    names = _discovery["names"]
+    if _discovery["dirty"]:
+        names.clear()
+        _discovery["dirty"] = False
+    key = scene.name
+    if key not in names:
+        names[key] = [o.name for o in scene.objects if o.type == 'MESH' and o.opdeform.enabled]
+    out = []
+    for name in names[key]:
+        obj = scene.objects.get(name)
+        if obj is None or not obj.opdeform.enabled:
+            mark_discovery()
+            continue
+        out.append(obj)
+    return out
+
+
+def _safely(obj, fn, *args, **kw):
+    from . import runtime
+    try:
+        return fn(obj, *args, **kw)
+    except runtime.AddonError as exc:
+        runtime.set_error(obj, str(exc))
+    except Exception as exc:  # a solver failure or a bug: report it, never raise from a handler
+        runtime.set_error(obj, f"{type(exc).__name__}: {exc}")
+    return None
+
+
+@persistent
+def on_frame_change(scene, depsgraph=None):
+    if _guard["busy"]:
+        return
+    from . import runtime
+    _guard["busy"] = True
+    try:
+        for obj in enabled_objects(scene):
+            if runtime.is_live(obj) and obj.opdeform.mode == 'DYNAMIC':
+                _safely(obj, runtime.frame_update, scene, depsgraph)
+    finally:
+        _guard["busy"] = False
+
+
+@persistent
+def on_depsgraph_update(scene, depsgraph=None):
+    """Posing mode: a moved handle re-solves the pose. Dynamics: a handle moved by hand outdates the cached
+    frames after the current one."""
+    if _guard["busy"]:
+        return
+    from . import runtime
+    if depsgraph is not None and not depsgraph.id_type_updated('OBJECT'):
+        return
+    _guard["busy"] = True
+    try:
+        for obj in enabled_objects(scene):
+            rt = runtime.get(obj)
+            if not runtime.is_live(obj) or rt is None:
+                continue
+            s = obj.opdeform
+            if s.mode == 'POSE':
+                _safely(obj, runtime.pose_update, scene, depsgraph)
+            elif rt.handle_matrices is not None:
+                sig = _safely(obj, lambda o: runtime.handle_signature(o.opdeform, depsgraph))
+                if sig is not None and sig != rt.handle_matrices:
+                    rt.engine.invalidate(keep_until=scene.frame_current)
+                    rt.handle_matrices = sig
+    finally:
+        _guard["busy"] = False
+
+
+@persistent
+def on_load_post(*args):
+    from . import runtime
+    runtime.clear()
+    mark_discovery()
+
+
+@persistent
+def on_undo_post(*args):
+    """Undo and redo replace the data: forget runtimes of objects that are gone or changed shape."""
+    from . import runtime
+    valid = set()
+    for obj in bpy.data.objects:
+        rt = runtime.get(obj)
+        if rt is None:
+            continue
+        s = obj.opdeform
+        if (obj.type == 'MESH' and s.enabled and s.built
+                and len(obj.data.vertices) == rt.engine.n_vertices):
+            valid.add(runtime.key(obj))
+    runtime.prune(valid)
+    mark_discovery()
+
+
+HANDLERS = (
+    ("frame_change_post", on_frame_change),
+    ("depsgraph_update_post", on_depsgraph_update),
+    ("load_post", on_load_post),
+    ("undo_post", on_undo_post),
+    ("redo_post", on_undo_post),
+)
+classes = ()
+
+
+def register():
+    for name, fn in HANDLERS:
+        handlers = getattr(bpy.app.handlers, name)
+        if fn not in handlers:
+            handlers.append(fn)
+    mark_discovery()
+
+
+def unregister():
+    for name, fn in reversed(HANDLERS):
+        handlers = getattr(bpy.app.handlers, name)
+        while fn in handlers:
+            handlers.remove(fn)
+    from . import runtime
+    runtime.clear()

@@ -1,0 +1,213 @@
+"""The Physics tab panel "Oriented Particles", laid out like Blender's Soft Body and Cloth panels."""
+
+import bpy
+
+from ..core import loader
+
+
+class _PhysicsPanel:
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "physics"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.type == 'MESH'
+
+
+class _SubPanel(_PhysicsPanel):
+    bl_parent_id = "PHYSICS_PT_opdeform"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.type == 'MESH' and obj.opdeform.enabled
+
+
+def _wrapped(layout, text, icon='NONE', width=60):
+    col = layout.column(align=True)
+    words, line, first = text.split(), "", True
+    for w in words:
+        if len(line) + len(w) + 1 > width:
+            col.label(text=line, icon=icon if first else 'BLANK1')
+            line, first = w, False
+        else:
+            line = f"{line} {w}".strip()
+    if line:
+        col.label(text=line, icon=icon if first else 'BLANK1')
+
+
+class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
+    bl_label = "Oriented Particles"
+
+    def draw(self, context):
+        from .. import ADDON_PACKAGE
+        layout = self.layout
+        obj = context.object
+        s = obj.opdeform
+        od, error = loader.load(ADDON_PACKAGE)
+        if od is None:
+            box = layout.box()
+            box.alert = True
+            _wrapped(box, error, 'ERROR')
+            box.operator("opdeform.retry_load", icon='FILE_REFRESH')
+            return
+        if not s.enabled:
+            layout.operator("opdeform.enable", icon='PHYSICS')
+            return
+        row = layout.row()
+        row.prop(s, "mode", expand=True)
+        row.operator("opdeform.disable", text="", icon='X')
+        if s.error:
+            box = layout.box()
+            box.alert = True
+            _wrapped(box, s.error, 'ERROR')
+            box.operator("opdeform.reset", icon='LOOP_BACK')
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "stiffness")
+        col.prop(s, "density")
+        if s.mode == 'DYNAMIC':
+            col.prop(s, "damping")
+            col.prop(s, "substeps")
+            col.prop(s, "iterations")
+            g = context.scene.gravity
+            col.label(text=("Gravity: scene (%.2f, %.2f, %.2f)" % tuple(g)) if context.scene.use_gravity
+                      else "Gravity: off in the scene", icon='FORCE_FORCE')
+        else:
+            col.prop(s, "pose_iterations")
+            col.operator("opdeform.solve_pose", icon='ARMATURE_DATA')
+
+
+class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
+    bl_label = "Particles"
+    bl_options = set()
+
+    def draw(self, context):
+        from . import runtime
+        layout = self.layout
+        obj = context.object
+        s = obj.opdeform
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
+        col.prop(s, "particles")
+        col.prop(s, "graph_mode")
+        col.prop(s, "neighbors")
+        rt = runtime.get(obj)
+        row = layout.row()
+        if rt is not None and rt.graph_key != runtime.graph_key(s):
+            row.alert = True
+            row.operator("opdeform.build", text="Build (settings changed)", icon='FILE_REFRESH')
+        else:
+            row.operator("opdeform.build", icon='FILE_REFRESH')
+        if rt is not None:
+            g = rt.engine.graph
+            layout.label(text=f"{g.n_particles} particles, {g.n_edges} edges, {rt.engine.n_vertices} vertices",
+                         icon='INFO')
+        elif s.built:
+            layout.label(text="Built: rebuilt on the next frame", icon='INFO')
+        row = layout.row(heading="Show")
+        row.prop(s, "show_particles", text="Ellipsoids")
+        sub = row.row()
+        sub.active = s.show_particles
+        sub.prop(s, "show_edges")
+
+
+class PHYSICS_PT_opdeform_floor(_SubPanel, bpy.types.Panel):
+    bl_label = "Floor"
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.opdeform, "use_floor", text="")
+
+    def draw(self, context):
+        s = context.object.opdeform
+        layout = self.layout
+        layout.use_property_split = True
+        layout.active = s.use_floor
+        layout.prop(s, "floor_height")
+        layout.prop(s, "floor_friction")
+
+
+class PHYSICS_PT_opdeform_pins(_SubPanel, bpy.types.Panel):
+    bl_label = "Pins"
+
+    def draw(self, context):
+        obj = context.object
+        s = obj.opdeform
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
+        layout.prop(s, "pin_strength", text="Strength")
+
+
+class OPDEFORM_UL_handles(bpy.types.UIList):
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        row = layout.row(align=True)
+        row.prop(item, "target", text="", icon='EMPTY_AXIS')
+        row.prop(item, "use_rotation", text="", icon='ORIENTATION_GIMBAL')
+        row.prop(item, "strength", text="")
+
+
+class PHYSICS_PT_opdeform_handles(_SubPanel, bpy.types.Panel):
+    bl_label = "Handles"
+
+    def draw(self, context):
+        obj = context.object
+        s = obj.opdeform
+        row = self.layout.row()
+        row.template_list("OPDEFORM_UL_handles", "", s, "handles", s, "handle_index", rows=3)
+        col = row.column(align=True)
+        col.operator("opdeform.handle_add", text="", icon='ADD')
+        col.operator("opdeform.handle_remove", text="", icon='REMOVE')
+        if 0 <= s.handle_index < len(s.handles):
+            h = s.handles[s.handle_index]
+            if h.target is not None and h.vertex >= 0:
+                self.layout.label(text=f"Bound to vertex {h.vertex}", icon='VERTEXSEL')
+
+
+class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
+    bl_label = "Cache"
+
+    def draw(self, context):
+        from . import runtime
+        obj = context.object
+        s = obj.opdeform
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column(align=True)
+        col.prop(s, "frame_start", text="Simulation Start")
+        col.prop(s, "frame_end", text="End")
+        layout.prop(s, "cache_directory")
+        rt = runtime.get(obj)
+        if rt is not None:
+            layout.label(text=f"In memory: {len(rt.engine.cache)} frames", icon='MEMORY')
+        row = layout.row(align=True)
+        row.operator("opdeform.bake", icon='REC')
+        row.operator("opdeform.free_bake", icon='TRASH')
+        if s.baked:
+            mod = runtime.cache_modifier(obj)
+            layout.label(text=f"Baked: {s.bake_file}", icon='CHECKMARK' if mod else 'ERROR')
+            if mod is None:
+                layout.label(text="The Mesh Cache modifier was removed", icon='ERROR')
+            if runtime.bake_outdated(obj, context.scene):
+                row = layout.row()
+                row.alert = True
+                row.label(text="Cache outdated: settings changed since the bake", icon='ERROR')
+
+
+classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
+           OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,510 @@
+"""Per-object simulation state that lives only in memory (the Engine), and the glue between Blender data and
+the bpy-free core: reading meshes, vertex groups and handles, writing vertices, baking.
+
+Nothing here keeps a bpy pointer across calls: runtimes are keyed by the object's session_uid, so undo and
+file loads cannot leave dangling references.
+"""
+
+import os
+import time
+
+import bpy
+import numpy as np
+
+from .. import ADDON_PACKAGE
+from ..core import handles as handle_math
+from ..core import loader, pc2
+from ..core.engine import Engine, EngineError
+
+REST_ATTRIBUTE = "opdeform_rest"
+MODIFIER_NAME = "OPDeform Cache"
+
+
+class AddonError(Exception):
+    """A user-facing problem: shown as an error report (operators) or in the panel (handlers)."""
+
+
+_runtimes = {}
+
+
+class Runtime:
+    """What the add-on holds for one object between frames."""
+
+    def __init__(self, engine, graph_key, pins):
+        self.engine = engine
+        self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
+        self.pins = pins  # (indices, weights) read from the pin group at Build
+        self.handle_matrices = None  # bytes of the handle transforms last used
+        self.shown = None  # what the mesh shows: ("rest"|"frame"|"pose", frame)
+        self.timing = {}
+
+    @property
+    def deformed(self):
+        return self.shown is not None and self.shown[0] != "rest"
+
+
+def key(obj):
+    return getattr(obj, "session_uid", None) or obj.name
+
+
+def get(obj):
+    return _runtimes.get(key(obj))
+
+
+def drop(obj):
+    _runtimes.pop(key(obj), None)
+
+
+def clear():
+    _runtimes.clear()
+
+
+def items():
+    return list(_runtimes.items())
+
+
+def prune(valid_keys):
+    """Forgets the runtimes of objects that are gone (after undo or a file load)."""
+    for k in [k for k in _runtimes if k not in valid_keys]:
+        del _runtimes[k]
+
+
+def module():
+    od, error = loader.load(ADDON_PACKAGE)
+    if od is None:
+        raise AddonError(error)
+    return od
+
+
+# -- reading Blender data ------------------------------------------------------------------------------
+def check_object(obj):
+    if obj is None:
+        raise AddonError("no object: select a mesh object or pass object=NAME")
+    if obj.type != 'MESH':
+        raise AddonError(f"{obj.name!r} is a {obj.type.lower()} object, not a mesh: oriented particles "
+                         "simulate meshes")
+    mesh = obj.data
+    if len(mesh.vertices) == 0:
+        raise AddonError(f"mesh {mesh.name!r} has no vertices")
+    if len(mesh.polygons) == 0:
+        raise AddonError(f"mesh {mesh.name!r} has no faces: oriented particles need a surface or a volume")
+    if mesh.shape_keys is not None:
+        raise AddonError(f"mesh {mesh.name!r} has shape keys: apply or remove them first (the simulation "
+                         "writes the base shape)")
+    if obj.mode == 'EDIT':
+        raise AddonError(f"{obj.name!r} is in Edit Mode: leave it first")
+
+
+def vertex_positions(mesh):
+    buf = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    attr = mesh.attributes.get("position")
+    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+        attr.data.foreach_get("vector", buf)
+    else:
+        mesh.vertices.foreach_get("co", buf)
+    return buf.reshape(-1, 3)
+
+
+def write_positions(mesh, verts):
+    """The fast path: one foreach_set of a float32 buffer ("position" attribute on 3.5+, vertex co before)."""
+    flat = verts.reshape(-1)
+    attr = mesh.attributes.get("position")
+    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+        attr.data.foreach_set("vector", flat)
+    else:
+        mesh.vertices.foreach_set("co", flat)
+    mesh.update()
+
+
+def rest_positions(obj, rt=None):
+    """The rest shape: the stored rest attribute (the mesh may show a simulated frame), else the mesh itself.
+    When the add-on knows the mesh shows its rest shape, the mesh wins (edits made at the start frame)."""
+    mesh = obj.data
+    attr = mesh.attributes.get(REST_ATTRIBUTE)
+    n = len(mesh.vertices)
+    if rt is not None and rt.deformed and rt.engine.n_vertices == n:
+        return rt.engine.rest_local.copy()
+    if attr is not None and (rt is None) and len(attr.data) == n:
+        buf = np.empty(n * 3, dtype=np.float32)
+        attr.data.foreach_get("vector", buf)
+        return buf.reshape(-1, 3)
+    return vertex_positions(mesh)
+
+
+def store_rest(mesh, rest):
+    attr = mesh.attributes.get(REST_ATTRIBUTE)
+    if attr is None:
+        attr = mesh.attributes.new(REST_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
+    attr.data.foreach_set("vector", np.ascontiguousarray(rest, dtype=np.float32).reshape(-1))
+
+
+def triangles(mesh):
+    mesh.calc_loop_triangles()
+    tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tri)
+    return tri.reshape(-1, 3)
+
+
+def read_pin_group(obj, settings):
+    """(indices, weights) of the pin group's vertices with a weight above zero; None without a group."""
+    name = settings.pin_group
+    if not name:
+        return None
+    group = obj.vertex_groups.get(name)
+    if group is None:
+        raise AddonError(f"pin group {name!r} is not a vertex group of {obj.name!r}")
+    gi = group.index
+    idx, w = [], []
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == gi and g.weight > 0.0:
+                idx.append(v.index)
+                w.append(g.weight)
+    if not idx:
+        raise AddonError(f"pin group {name!r} has no vertices (or only zero weights)")
+    return np.array(idx, dtype=np.int64), np.array(w, dtype=np.float64)
+
+
+def handle_matrix(item, depsgraph=None):
+    target = item.target
+    if depsgraph is not None:
+        target = target.evaluated_get(depsgraph)
+    return np.array(target.matrix_world, dtype=np.float64)
+
+
+def active_handles(settings):
+    return [h for h in settings.handles if h.target is not None]
+
+
+def bind_handle(item, rest_world, depsgraph=None):
+    m = handle_math.check_matrix(item.target.name, handle_matrix(item, depsgraph))
+    item.vertex = handle_math.nearest_vertex(rest_world, m[:3, 3])
+    item.rest_matrix = m.T.reshape(-1)  # column-major like Blender's matrices
+    item.bound_name = item.target.name
+
+
+def _rest_matrix(item):
+    return np.array(item.rest_matrix, dtype=np.float64).reshape(4, 4).T
+
+
+def handle_targets(rt, settings, depsgraph=None):
+    """(H, 4, 3) targets of the bound handles now, or None without handles; binds handles seen for the first
+    time. Raises AddonError on a NaN or degenerate handle transform."""
+    hs = active_handles(settings)
+    if not hs:
+        rt.handle_matrices = b""
+        return None
+    rest = rt.engine.rest
+    out = np.empty((len(hs), 4, 3))
+    seen = []
+    for i, h in enumerate(hs):
+        try:
+            if h.vertex < 0 or h.bound_name != h.target.name or h.vertex >= len(rest):
+                bind_handle(h, rest, depsgraph)
+            m = handle_math.check_matrix(h.target.name, handle_matrix(h, depsgraph))
+        except handle_math.HandleError as exc:
+            raise AddonError(str(exc)) from None
+        seen.append(m)
+        out[i] = handle_math.targets(rest[h.vertex], _rest_matrix(h), m)
+    rt.handle_matrices = np.array(seen).tobytes()
+    return out
+
+
+def handle_signature(settings, depsgraph=None):
+    hs = active_handles(settings)
+    if not hs:
+        return b""
+    return np.array([handle_matrix(h, depsgraph) for h in hs]).tobytes()
+
+
+# -- settings ------------------------------------------------------------------------------------------
+def graph_key(settings):
+    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group)
+
+
+def frame_rate(scene):
+    return scene.render.fps / scene.render.fps_base
+
+
+def sim_params(settings, scene):
+    gravity = tuple(scene.gravity) if scene.use_gravity else (0.0, 0.0, 0.0)
+    return dict(stiffness=settings.stiffness, density=settings.density,
+                dt=1.0 / (frame_rate(scene) * settings.substeps), iterations=settings.iterations,
+                gravity=gravity, damping=settings.damping)
+
+
+def floor(settings):
+    return (settings.floor_height, settings.floor_friction) if settings.use_floor else None
+
+
+def signature(settings, scene):
+    """Everything a bake depends on, as text: a bake whose signature differs is outdated."""
+    hs = tuple((h.target.name, h.vertex, h.use_rotation, round(h.strength, 9)) for h in active_handles(settings))
+    p = sim_params(settings, scene)
+    parts = (graph_key(settings), sorted(p.items()), settings.substeps, floor(settings), settings.pin_strength,
+             hs, settings.frame_start, settings.frame_end, settings.mode)
+    return repr(parts)
+
+
+def configure(rt, obj, scene):
+    """Applies the current settings to the engine (a change clears the in-memory cache)."""
+    s = obj.opdeform
+    e = rt.engine
+    e.configure(sim_params(s, scene), s.substeps, floor(s), s.frame_start, s.frame_end)
+    pins = rt.pins or (np.zeros(0, np.int64), None)
+    handles = [(h.vertex if h.vertex >= 0 else 0, h.use_rotation, h.strength) for h in active_handles(s)]
+    e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
+
+
+# -- build ---------------------------------------------------------------------------------------------
+def build(obj, scene, depsgraph=None):
+    """Builds (or rebuilds) the graph, the skin and the simulation of obj. Raises AddonError and changes
+    nothing on bad input."""
+    check_object(obj)
+    od = module()
+    s = obj.opdeform
+    old = get(obj)
+    rest = rest_positions(obj, old)
+    pins = read_pin_group(obj, s)
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    for h in active_handles(s):  # validate before changing anything
+        try:
+            handle_math.check_matrix(h.target.name, handle_matrix(h, depsgraph))
+        except handle_math.HandleError as exc:
+            raise AddonError(str(exc)) from None
+    try:
+        engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
+    rt = Runtime(engine, graph_key(s), pins)
+    for h in active_handles(s):
+        bind_handle(h, engine.rest, depsgraph)
+    try:
+        configure(rt, obj, scene)
+    except (EngineError, ValueError, od.SolverError) as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
+    # committed: from here on the object changes
+    store_rest(obj.data, rest)
+    _runtimes[key(obj)] = rt
+    s.built = True
+    if s.error:
+        s.error = ""
+    show_rest(obj, rt)
+    return rt
+
+
+def ensure(obj, scene, depsgraph=None):
+    """The object's runtime; rebuilt from the stored settings after a file load or undo."""
+    rt = get(obj)
+    if rt is None and obj.opdeform.built:
+        rt = build(obj, scene, depsgraph)
+    if rt is not None and rt.engine.n_vertices != len(obj.data.vertices):
+        drop(obj)
+        raise AddonError(f"{obj.name}: the vertex count changed since Build: press Build again")
+    return rt
+
+
+def show_rest(obj, rt):
+    write_positions(obj.data, rt.engine.rest_output())
+    rt.shown = ("rest", None)
+
+
+def restore_rest(obj):
+    """Puts the rest shape back into the mesh (disable, free bake)."""
+    rt = get(obj)
+    if rt is not None:
+        show_rest(obj, rt)
+        return
+    attr = obj.data.attributes.get(REST_ATTRIBUTE) if obj.type == 'MESH' else None
+    if attr is not None and len(attr.data) == len(obj.data.vertices):
+        buf = np.empty(len(attr.data) * 3, dtype=np.float32)
+        attr.data.foreach_get("vector", buf)
+        write_positions(obj.data, buf)
+
+
+def set_error(obj, message):
+    """Pauses the object's simulation with a message (panel, console, scripts: obj.opdeform.error)."""
+    if obj.opdeform.error != message:
+        obj.opdeform.error = message
+    print(f"opdeform: {obj.name}: {message}")
+
+
+def cache_modifier(obj):
+    mod = obj.modifiers.get(MODIFIER_NAME)
+    return mod if mod is not None and mod.type == 'MESH_CACHE' else None
+
+
+def is_live(obj):
+    """Whether playback should simulate obj now (enabled, no error, not baked, not being edited)."""
+    s = obj.opdeform
+    return (s.enabled and s.built and not s.error and obj.type == 'MESH' and obj.mode != 'EDIT'
+            and not (s.baked and cache_modifier(obj) is not None))
+
+
+# -- per frame -----------------------------------------------------------------------------------------
+def frame_update(obj, scene, depsgraph=None):
+    """Live playback: simulate or replay the current frame and write the mesh. Returns the runtime."""
+    t0 = time.perf_counter()
+    rt = ensure(obj, scene, depsgraph)
+    if rt is None:
+        return None
+    s = obj.opdeform
+    if s.mode != 'DYNAMIC':
+        return rt
+    configure(rt, obj, scene)
+    targets = handle_targets(rt, s, depsgraph)
+    frame = scene.frame_current
+    out = rt.engine.goto(frame, targets)
+    t1 = time.perf_counter()
+    write_positions(obj.data, out)
+    rt.shown = ("rest" if frame <= s.frame_start else "frame", frame)
+    t2 = time.perf_counter()
+    rt.timing = dict(rt.engine.timing, total=t2 - t0, write=t2 - t1)
+    return rt
+
+
+def pose_update(obj, scene, depsgraph=None, force=False):
+    """Posing mode: re-solve the static pose when a handle moved (or when forced). Returns True if solved."""
+    rt = ensure(obj, scene, depsgraph)
+    if rt is None:
+        return False
+    s = obj.opdeform
+    configure(rt, obj, scene)
+    before = rt.handle_matrices
+    targets = handle_targets(rt, s, depsgraph)
+    if not force and rt.handle_matrices == before and rt.shown is not None and rt.shown[0] == "pose":
+        return False
+    try:
+        out = rt.engine.pose(targets, s.pose_iterations)
+    except EngineError as exc:
+        raise AddonError(str(exc)) from None
+    write_positions(obj.data, out)
+    rt.shown = ("pose", None)
+    return True
+
+
+# -- bake ----------------------------------------------------------------------------------------------
+def bake_path(obj):
+    s = obj.opdeform
+    folder = s.cache_directory or "//opdeform_cache"
+    if folder.startswith("//") and not bpy.data.filepath:
+        raise AddonError("save the .blend file first, or choose an absolute cache folder")
+    name = bpy.path.clean_name(obj.name) + ".pc2"
+    return os.path.join(bpy.path.abspath(folder), name), os.path.join(folder, name)
+
+
+class BakeJob:
+    """A bake one frame at a time: live playback's own code path (frame_set runs the frame handler) writing
+    every frame to a PC2 file. Stopping early keeps the frames written so far."""
+
+    def __init__(self, obj, scene):
+        s = obj.opdeform
+        if not s.enabled:
+            raise AddonError(f"{obj.name!r}: enable oriented particles first")
+        if s.mode != 'DYNAMIC':
+            raise AddonError(f"{obj.name!r}: bake needs Dynamics mode (posing mode has no frames to bake)")
+        if s.error:
+            raise AddonError(f"{obj.name!r}: {s.error} (press Reset)")
+        if s.frame_end < s.frame_start:
+            raise AddonError("the cache's end frame is before its start frame")
+        self.path, self.stored_path = bake_path(obj)
+        self.rt = ensure(obj, scene) or build(obj, scene)
+        self.obj_name = obj.name
+        self.scene = scene
+        self.start, self.end = s.frame_start, s.frame_end
+        self.frame = self.start
+        self.original_frame = scene.frame_current
+        mod = cache_modifier(obj)
+        if mod is not None:
+            obj.modifiers.remove(mod)
+        s.baked = False
+        self.rt.engine.invalidate()
+        self.writer = pc2.PC2Writer(self.path, self.rt.engine.n_vertices, self.start, 1.0)
+        self.started = time.perf_counter()
+
+    @property
+    def obj(self):
+        return bpy.data.objects.get(self.obj_name)
+
+    @property
+    def total(self):
+        return self.end - self.start + 1
+
+    @property
+    def done(self):
+        return self.frame > self.end
+
+    def step(self):
+        """Bakes one frame. Raises AddonError when the simulation reported an error."""
+        obj = self.obj
+        if obj is None:
+            raise AddonError(f"object {self.obj_name!r} disappeared during the bake")
+        self.scene.frame_set(self.frame)
+        rt = get(obj)
+        if obj.opdeform.error:
+            raise AddonError(obj.opdeform.error)
+        if rt is None or rt.shown is None or rt.shown[1] != self.frame:
+            raise AddonError(f"frame {self.frame} was not simulated")
+        self.writer.write(rt.engine.out)
+        self.frame += 1
+
+    def finish(self):
+        """Closes the file and adds the Mesh Cache modifier (first in the stack). Returns frames baked."""
+        self.writer.close()
+        obj = self.obj
+        count = self.writer.count
+        if obj is None or count == 0:
+            return count
+        s = obj.opdeform
+        mod = obj.modifiers.new(MODIFIER_NAME, 'MESH_CACHE')
+        mod.cache_format = 'PC2'
+        mod.filepath = self.stored_path
+        mod.frame_start = self.start
+        mod.frame_scale = 1.0
+        mod.time_mode = 'FRAME'
+        mod.play_mode = 'SCENE'
+        mod.forward_axis = 'POS_Y'
+        mod.up_axis = 'POS_Z'
+        mod.deform_mode = 'OVERWRITE'
+        mod.interpolation = 'NONE'
+        if len(obj.modifiers) > 1:
+            _move_first(obj, mod)
+        s.baked = True
+        s.bake_file = self.stored_path
+        s.bake_signature = signature(s, self.scene)
+        rt = get(obj)
+        if rt is not None:
+            show_rest(obj, rt)  # the base mesh keeps its rest shape; the modifier shows the frames
+        self.scene.frame_set(self.original_frame)
+        return count
+
+
+def _move_first(obj, mod):
+    index = list(obj.modifiers).index(mod)
+    if hasattr(obj.modifiers, "move"):
+        obj.modifiers.move(index, 0)
+        return
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
+
+
+def free_bake(obj, delete_file=True):
+    s = obj.opdeform
+    mod = cache_modifier(obj)
+    path = bpy.path.abspath(mod.filepath) if mod is not None else (bpy.path.abspath(s.bake_file)
+                                                                  if s.bake_file else "")
+    if mod is not None:
+        obj.modifiers.remove(mod)
+    if delete_file and path and path.endswith(".pc2") and os.path.isfile(path):
+        os.remove(path)
+    s.baked = False
+    s.bake_file = ""
+    s.bake_signature = ""
+    rt = get(obj)
+    if rt is not None:
+        rt.engine.invalidate()
+
+
+def bake_outdated(obj, scene):
+    s = obj.opdeform
+    return s.baked and s.bake_signature != signature(s, scene)

@@ -1,0 +1,35 @@
+"""Which simulation work a frame change needs: pure frame logic, no numpy and no bpy.
+
+The in-memory cache always holds a contiguous run of frames ``start..last``. Going to ``frame``:
+- before the start: show the rest shape; nothing is simulated;
+- the start frame: reset the state to rest (the cache keeps its frames);
+- a cached frame: show it (scrubbing back replays from the cache);
+- past the cache: restore the last cached state (unless the solver already holds it) and step forward frame by
+  frame up to ``frame`` (jumping past the cache simulates forward);
+- past the end: hold the end frame.
+"""
+
+from collections import namedtuple
+
+Plan = namedtuple("Plan", "kind frame restore steps")
+# kind: "rest" (before start), "reset" (the start frame), "show" (cached), "simulate"
+# frame: the frame whose state is shown (clamped to end); restore: cached frame to load into the solver first,
+# or None; steps: frames to simulate in order (empty unless kind == "simulate")
+
+
+def plan(frame, start, end, last, solver_frame):
+    """last: the last cached frame (None: nothing cached); solver_frame: the frame the solver holds (None)."""
+    frame = int(frame)
+    end = max(int(end), int(start))
+    if frame < start:
+        return Plan("rest", frame, None, ())
+    frame = min(frame, end)
+    if frame == start:
+        return Plan("reset", frame, None, ())
+    if last is not None and frame <= last:
+        return Plan("show", frame, None, ())
+    if last is None or last < start:
+        # nothing usable cached: simulate from a fresh start state
+        return Plan("simulate", frame, "reset", tuple(range(start + 1, frame + 1)))
+    restore = None if solver_frame == last else last
+    return Plan("simulate", frame, restore, tuple(range(last + 1, frame + 1)))
