@@ -4,6 +4,7 @@
 int test_polar(void);
 int test_graph(void);
 int test_sim(void);
+int test_mpm(void);
 
 int main(void)
 {
@@ -11,6 +12,7 @@ int main(void)
 	RUN_TEST(test_polar);
 	RUN_TEST(test_graph);
 	RUN_TEST(test_sim);
+	RUN_TEST(test_mpm);
 	printf("%d passed, %d failed\n", total - failures, failures);
 	return failures ? 1 : 0;
 }

@@ -1,0 +1,186 @@
+// Particle-grid transfers of MLS-MPM with APIC (Hu et al. 2018, Jiang et al. 2015), quadratic B-splines.
+//
+// Design: both transfers work block by block on a 6³ region of nodes kept in the thread's scratch: P2G
+// scatters every particle of an occupied block into the region and then adds the region into the grid
+// (colour by colour, see mpm_grid.c); G2P copies the region out of the grid and gathers from it. With
+// D⁻¹ = 4/Δx², P2G adds w (m v + (m C − Δt V D⁻¹ τ)(xᵢ − x)) and w m to each of the 27 nodes; G2P takes
+// v = Σ w vᵢ and C = D⁻¹ Σ w vᵢ (xᵢ − x)ᵀ, moves the particle, updates F ← (I + Δt C) F and runs the
+// material's plasticity and stress (mpm_material.c), whose τ the next P2G scatters.
+#include "mpm_world.h"
+
+#include <string.h>
+
+void od_MpmStencil_Make(const od_MpmWorld* w, const double x[3], od_MpmStencil* s)
+{
+	for (int a = 0; a < 3; ++a)
+	{
+		double g = (x[a] - w->def.lower[a]) * w->invDx;
+		s->base[a] = (int)floor(g - 0.5);
+		double f = g - s->base[a];
+		s->fx[a] = f;
+		s->w[a][0] = 0.5 * (1.5 - f) * (1.5 - f);
+		s->w[a][1] = 0.75 - (f - 1.0) * (f - 1.0);
+		s->w[a][2] = 0.5 * (f - 0.5) * (f - 0.5);
+	}
+}
+
+static double* od_RegionNode(double* region, const int local[3], int i, int j, int k)
+{
+	return region + ((((local[2] + k) * OD_MPM_REGION) + local[1] + j) * OD_MPM_REGION + local[0] + i) * 4;
+}
+
+typedef struct od_TransferJob
+{
+	od_MpmWorld* w;
+	double dt;
+	int colourStart; // P2G: first entry of the colour in byColour
+} od_TransferJob;
+
+static void od_P2GTask(void* ctx, int task, int thread)
+{
+	const od_TransferJob* job = ctx;
+	od_MpmWorld* w = job->w;
+	int ob = w->sort.byColour[job->colourStart + task], origin[3];
+	double* region = w->threadData[thread].region;
+	memset(region, 0, sizeof w->threadData[thread].region);
+	od_MpmGrid_RegionOrigin(w, ob, origin);
+	double dinv = 4.0 * w->invDx * w->invDx, dx = 1.0 / w->invDx;
+	for (int k = w->sort.occupiedStart[ob]; k < w->sort.occupiedStart[ob + 1]; ++k)
+	{
+		const od_MpmParticle* p = &w->particles[w->sort.order[k]];
+		const od_MpmMaterialSlot* mat = &w->materials[p->material];
+		od_MpmStencil s;
+		od_MpmStencil_Make(w, p->x, &s);
+		int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
+		// A = m C − Δt V D⁻¹ τ
+		double m = mat->mass, st = -job->dt * mat->volume * dinv, A[9];
+		const double* t = p->tau;
+		const double tau[9] = { t[0], t[3], t[4], t[3], t[1], t[5], t[4], t[5], t[2] };
+		for (int e = 0; e < 9; ++e)
+		{
+			A[e] = m * p->C[e] + st * tau[e];
+		}
+		double mv[3] = { m * p->v[0], m * p->v[1], m * p->v[2] };
+		for (int kk = 0; kk < 3; ++kk)
+		{
+			double dz = (kk - s.fx[2]) * dx;
+			for (int j = 0; j < 3; ++j)
+			{
+				double dy = (j - s.fx[1]) * dx, wyz = s.w[1][j] * s.w[2][kk];
+				for (int i = 0; i < 3; ++i)
+				{
+					double dxx = (i - s.fx[0]) * dx, wt = s.w[0][i] * wyz;
+					double* node = od_RegionNode(region, local, i, j, kk);
+					node[0] += wt * (mv[0] + A[0] * dxx + A[1] * dy + A[2] * dz);
+					node[1] += wt * (mv[1] + A[3] * dxx + A[4] * dy + A[5] * dz);
+					node[2] += wt * (mv[2] + A[6] * dxx + A[7] * dy + A[8] * dz);
+					node[3] += wt * m;
+				}
+			}
+		}
+	}
+	od_MpmGrid_Flush(w, ob, region);
+}
+
+void od_MpmP2G(od_MpmWorld* w, double dt)
+{
+	for (int c = 0; c < 8; ++c)
+	{
+		od_TransferJob job = { w, dt, w->sort.colourStart[c] };
+		od_Pool_Run(w->pool, w->sort.colourStart[c + 1] - w->sort.colourStart[c], od_P2GTask, &job);
+	}
+}
+
+// Keeps a particle one cell inside the domain; the walls' contact rule applies to its velocity there.
+static void od_KeepInside(const od_MpmWorld* w, od_Vec3* x, od_Vec3* v)
+{
+	double dx = 1.0 / w->invDx;
+	double* xs = &x->x;
+	for (int a = 0; a < 3; ++a)
+	{
+		double lo = w->def.lower[a] + dx, hi = w->def.lower[a] + (w->grid.cells[a] - 1) * dx;
+		if (xs[a] < lo || xs[a] > hi)
+		{
+			double n[3] = { 0, 0, 0 };
+			n[a] = xs[a] < lo ? 1.0 : -1.0;
+			xs[a] = xs[a] < lo ? lo : hi;
+			*v = od_MpmContactResponse(w->def.walls, w->def.wallFriction, *v, od_V3Load(n));
+		}
+	}
+}
+
+static void od_G2PTask(void* ctx, int ob, int thread)
+{
+	const od_TransferJob* job = ctx;
+	od_MpmWorld* w = job->w;
+	od_MpmThreadData* td = &w->threadData[thread];
+	int origin[3];
+	od_MpmGrid_RegionOrigin(w, ob, origin);
+	od_MpmGrid_Load(w, ob, td->region);
+	double dinv = 4.0 * w->invDx * w->invDx, dx = 1.0 / w->invDx, dt = job->dt;
+	for (int k = w->sort.occupiedStart[ob]; k < w->sort.occupiedStart[ob + 1]; ++k)
+	{
+		od_MpmParticle* p = &w->particles[w->sort.order[k]];
+		od_MpmStencil s;
+		od_MpmStencil_Make(w, p->x, &s);
+		int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
+		od_Vec3 v = od_V3(0, 0, 0);
+		od_Mat3 B = od_M3Zero();
+		for (int kk = 0; kk < 3; ++kk)
+		{
+			for (int j = 0; j < 3; ++j)
+			{
+				double wyz = s.w[1][j] * s.w[2][kk];
+				for (int i = 0; i < 3; ++i)
+				{
+					const double* node = od_RegionNode(td->region, local, i, j, kk);
+					od_Vec3 vi = od_V3Load(node);
+					double wt = s.w[0][i] * wyz;
+					v = od_MulAdd(v, wt, vi);
+					od_M3AddOuter(&B, wt, vi, od_V3((i - s.fx[0]) * dx, (j - s.fx[1]) * dx, (kk - s.fx[2]) * dx));
+				}
+			}
+		}
+		od_Vec3 x = od_MulAdd(od_V3Load(p->x), dt, v);
+		for (int c = 0; c < w->colliderCount; ++c)
+		{
+			od_MpmCollider_Particle(&w->colliders[c], &x, &v);
+		}
+		od_KeepInside(w, &x, &v);
+		od_V3Store(p->x, x);
+		od_V3Store(p->v, v);
+		// C = D⁻¹ B; F ← (I + Δt C) F
+		od_Mat3 C = B, F = od_M3Load(p->F), G;
+		for (int e = 0; e < 9; ++e)
+		{
+			C.m[e] *= dinv;
+			G.m[e] = (e % 4 == 0) + dt * C.m[e];
+		}
+		od_M3Store(p->C, &C);
+		F = od_M3Mul(&G, &F);
+		od_M3Store(p->F, &F);
+		double h = od_MpmMaterial_Update(&w->materials[p->material], p);
+		double speed = od_Length(v);
+		td->maxSpeed = fmax(td->maxSpeed, isfinite(speed) ? speed : INFINITY);
+		td->maxHardening = fmax(td->maxHardening, h);
+	}
+}
+
+void od_MpmG2P(od_MpmWorld* w, double dt)
+{
+	int threads = od_Pool_Threads(w->pool);
+	for (int t = 0; t < threads; ++t)
+	{
+		w->threadData[t].maxSpeed = 0.0;
+		w->threadData[t].maxHardening = 0.0;
+	}
+	od_TransferJob job = { w, dt, 0 };
+	od_Pool_Run(w->pool, w->sort.occupiedCount, od_G2PTask, &job);
+	w->maxSpeed = 0.0;
+	w->maxHardening = 0.0;
+	for (int t = 0; t < threads; ++t)
+	{
+		w->maxSpeed = fmax(w->maxSpeed, w->threadData[t].maxSpeed);
+		w->maxHardening = fmax(w->maxHardening, w->threadData[t].maxHardening);
+	}
+}

@@ -1,0 +1,463 @@
+// The MPM world: creation, particles, wind and colliders, and the substep driver with its CFL bound.
+//
+// Design: a Step of a frame's duration runs substeps of Δt = min(maxDt, cfl Δx / (v + c)), where v is
+// the fastest particle or collider point and c the elastic wave speed at the largest hardening that the
+// last substep produced; the last substeps are evened out so that the frame ends exactly. A substep is
+// sort (mpm_grid.c) -> P2G -> grid update -> G2P (mpm_transfer.c). Orientations are updated once per
+// Step (mpm_rotation.c). All buffers are sized when particles are added; the grid's node pool grows
+// during the first substeps only.
+#include "mpm_world.h"
+
+#include "core.h"
+
+#include <string.h>
+
+od_MpmWorldDef od_DefaultMpmWorldDef(void)
+{
+	return (od_MpmWorldDef){ .lower = { 0, 0, 0 },
+							 .upper = { 1, 1, 1 },
+							 .dx = 1.0 / 64,
+							 .gravity = { 0, 0, -9.81 },
+							 .cfl = 0.4,
+							 .maxDt = 1e-3,
+							 .spin = 1.0,
+							 .walls = OD_MPM_SLIP,
+							 .threads = 0 };
+}
+
+od_MpmParticlesDef od_DefaultMpmParticlesDef(void)
+{
+	return (od_MpmParticlesDef){ .particleVolume = 0.0, .material = od_MpmSnowMaterial() };
+}
+
+static od_Status od_CheckDef(const od_MpmWorldDef* d)
+{
+	for (int a = 0; a < 3; ++a)
+	{
+		if (!isfinite(d->lower[a]) || !isfinite(d->upper[a]) || !(d->upper[a] > d->lower[a]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "world: the domain needs finite lower < upper on every axis");
+		}
+	}
+	if (!(d->dx > 0.0) || !isfinite(d->dx))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "world: dx must be > 0, got %g", d->dx);
+	}
+	for (int a = 0; a < 3; ++a)
+	{
+		if ((d->upper[a] - d->lower[a]) / d->dx < 8.0)
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "world: the domain must span at least 8 cells on every axis");
+		}
+	}
+	if (!od_IsFinite3(d->gravity) || !(d->cfl > 0.0 && d->cfl <= 1.0) || !(d->maxDt > 0.0) || !isfinite(d->maxDt) ||
+		!isfinite(d->spin) || !(d->wallFriction >= 0.0) || d->threads < 0 || d->walls < OD_MPM_STICKY ||
+		d->walls > OD_MPM_SEPARATE)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "world: need finite gravity and spin, 0 < cfl <= 1, max_dt > 0, wall "
+										  "friction >= 0, threads >= 0 and a known wall contact");
+	}
+	return OD_OK;
+}
+
+od_Status od_MpmWorld_Create(const od_MpmWorldDef* def, od_MpmWorld** out)
+{
+	*out = NULL;
+	od_Status status = od_CheckDef(def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_MpmWorld* w = od_AllocZero(1, sizeof *w);
+	if (!w)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "world: out of memory");
+	}
+	w->def = *def;
+	w->invDx = 1.0 / def->dx;
+	w->maxHardening = 1.0;
+	od_MpmWindDef wind = od_DefaultMpmWindDef();
+	status = od_MpmWind_Set(&w->wind, &wind);
+	if (status == OD_OK)
+	{
+		status = od_MpmGrid_Init(w);
+	}
+	if (status == OD_OK)
+	{
+		status = od_Pool_Create(def->threads, &w->pool);
+	}
+	if (status == OD_OK)
+	{
+		w->threadData = od_AllocZero((size_t)od_Pool_Threads(w->pool), sizeof *w->threadData);
+		status = w->threadData ? OD_OK : od_Fail(OD_ERROR_MEMORY, "world: out of memory");
+	}
+	if (status != OD_OK)
+	{
+		od_MpmWorld_Destroy(w);
+		return status;
+	}
+	*out = w;
+	return OD_OK;
+}
+
+void od_MpmWorld_Destroy(od_MpmWorld* w)
+{
+	if (!w)
+	{
+		return;
+	}
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		od_MpmCollider_Destroy(&w->colliders[c]);
+	}
+	od_Free(w->colliders);
+	od_Free(w->particles);
+	od_Free(w->spare);
+	od_Free(w->restQuat);
+	od_Free(w->quat);
+	od_Free(w->polarQuat);
+	od_MpmGrid_Destroy(&w->grid);
+	od_MpmSort_Destroy(&w->sort);
+	od_Pool_Destroy(w->pool);
+	od_Free(w->threadData);
+	od_Free(w);
+}
+
+od_MpmWorldDef od_MpmWorld_GetDef(const od_MpmWorld* w)
+{
+	return w->def;
+}
+
+int od_MpmWorld_GetParticleCount(const od_MpmWorld* w)
+{
+	return w->count;
+}
+
+od_MpmStats od_MpmWorld_GetStats(const od_MpmWorld* w)
+{
+	return w->stats;
+}
+
+static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDef* d)
+{
+	if (d->count < 1 || !d->positions)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: need at least one particle (got %d)", d->count);
+	}
+	if (w->materialCount == OD_MPM_MAX_MATERIALS)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: at most %d batches per world", OD_MPM_MAX_MATERIALS);
+	}
+	if (!(d->particleVolume > 0.0) || !isfinite(d->particleVolume))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: particle_volume must be > 0, got %g", d->particleVolume);
+	}
+	od_Status status = od_MpmMaterial_Check(&d->material);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	double margin = 2.0 * w->def.dx;
+	for (int i = 0; i < d->count; ++i)
+	{
+		const double* x = d->positions + 3 * i;
+		if (!od_IsFinite3(x))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "particles: position %d is not finite", i);
+		}
+		for (int a = 0; a < 3; ++a)
+		{
+			if (x[a] < w->def.lower[a] + margin || x[a] > w->def.upper[a] - margin)
+			{
+				return od_Fail(OD_ERROR_ARGUMENT,
+							   "particles: position %d (%g, %g, %g) is outside the domain shrunk by two cells", i, x[0],
+							   x[1], x[2]);
+			}
+		}
+		if ((d->velocities && !od_IsFinite3(d->velocities + 3 * i)) ||
+			(d->affine && !(od_IsFinite3(d->affine + 9 * i) && od_IsFinite3(d->affine + 9 * i + 3) &&
+							od_IsFinite3(d->affine + 9 * i + 6))))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "particles: velocity or affine matrix %d is not finite", i);
+		}
+		if (d->orientations)
+		{
+			const double* q = d->orientations + 4 * i;
+			double n = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3];
+			if (!(fabs(n - 1.0) < 1e-6))
+			{
+				return od_Fail(OD_ERROR_ARGUMENT, "particles: orientation %d is not a unit quaternion", i);
+			}
+		}
+	}
+	return OD_OK;
+}
+
+// Grows every per-particle array to hold `capacity` particles.
+static od_Status od_Reserve(od_MpmWorld* w, int capacity)
+{
+	if (capacity <= w->capacity)
+	{
+		return OD_OK;
+	}
+	void** arrays[5] = { (void**)&w->particles, (void**)&w->spare, (void**)&w->restQuat, (void**)&w->quat,
+						 (void**)&w->polarQuat };
+	size_t sizes[5] = { sizeof(od_MpmParticle), sizeof(od_MpmParticle), 4 * sizeof(double), 4 * sizeof(double),
+						4 * sizeof(double) };
+	for (int k = 0; k < 5; ++k)
+	{
+		void* p = od_Realloc(*arrays[k], sizes[k] * (size_t)capacity);
+		if (!p)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "particles: out of memory for %d particles", capacity);
+		}
+		*arrays[k] = p;
+	}
+	od_Status status = od_MpmSort_Reserve(w, capacity);
+	if (status == OD_OK)
+	{
+		w->capacity = capacity;
+	}
+	return status;
+}
+
+od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
+{
+	od_Status status = od_CheckParticles(w, d);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	if (d->count > 0x7fffffff - w->count)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: too many particles");
+	}
+	status = od_Reserve(w, w->count + d->count);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_MpmMaterialSlot* slot = &w->materials[w->materialCount];
+	*slot = (od_MpmMaterialSlot){ .def = d->material, .volume = d->particleVolume };
+	od_MpmMaterial_Derive(slot);
+	static const double identity[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 }, unit[4] = { 1, 0, 0, 0 };
+	for (int i = 0; i < d->count; ++i)
+	{
+		int id = w->count + i;
+		od_MpmParticle* p = &w->particles[id];
+		*p = (od_MpmParticle){ .Jp = 1.0, .id = id, .material = w->materialCount };
+		memcpy(p->x, d->positions + 3 * i, sizeof p->x);
+		if (d->velocities)
+		{
+			memcpy(p->v, d->velocities + 3 * i, sizeof p->v);
+		}
+		if (d->affine)
+		{
+			memcpy(p->C, d->affine + 9 * i, sizeof p->C);
+		}
+		memcpy(p->F, identity, sizeof p->F);
+		const double* q = d->orientations ? d->orientations + 4 * i : unit;
+		double n = 1.0 / sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+		for (int k = 0; k < 4; ++k)
+		{
+			w->restQuat[4 * id + k] = w->quat[4 * id + k] = n * q[k];
+			w->polarQuat[4 * id + k] = unit[k];
+		}
+		w->maxSpeed = fmax(w->maxSpeed, od_Length(od_V3Load(p->v)));
+	}
+	w->materialCount++;
+	w->count += d->count;
+	w->sinceReorder = OD_MPM_REORDER_EVERY; // sort the newcomers into place at the next substep
+	return OD_OK;
+}
+
+od_Status od_MpmWorld_SetWind(od_MpmWorld* w, const od_MpmWindDef* def)
+{
+	return od_MpmWind_Set(&w->wind, def);
+}
+
+od_Status od_MpmWorld_AddCollider(od_MpmWorld* w, const od_MpmColliderDef* def, int* id)
+{
+	od_MpmCollider c;
+	od_Status status = od_MpmCollider_Init(&c, def, w->def.dx);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_MpmCollider* grown = od_Realloc(w->colliders, (size_t)(w->colliderCount + 1) * sizeof *grown);
+	if (!grown)
+	{
+		od_MpmCollider_Destroy(&c);
+		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
+	}
+	w->colliders = grown;
+	w->colliders[w->colliderCount] = c;
+	*id = w->colliderCount++;
+	return OD_OK;
+}
+
+od_Status od_MpmWorld_MoveCollider(od_MpmWorld* w, int id, const double rotation[9], const double translation[3])
+{
+	if (id < 0 || id >= w->colliderCount)
+	{
+		return od_Fail(OD_ERROR_NOT_FOUND, "collider: no collider %d (there are %d)", id, w->colliderCount);
+	}
+	return od_MpmCollider_SetTarget(&w->colliders[id], rotation, translation);
+}
+
+// The CFL bound of the next substep.
+static double od_CflDt(const od_MpmWorld* w)
+{
+	double speed = w->maxSpeed, wave = 0.0;
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		speed = fmax(speed, od_MpmCollider_MaxSpeed(&w->colliders[c]));
+	}
+	for (int m = 0; m < w->materialCount; ++m)
+	{
+		double h = w->materials[m].def.kind == OD_MPM_SNOW ? w->maxHardening : 1.0;
+		wave = fmax(wave, od_MpmMaterial_WaveSpeed(&w->materials[m], h));
+	}
+	double dt = w->def.cfl * w->def.dx / (speed + wave);
+	return dt < w->def.maxDt ? dt : w->def.maxDt;
+}
+
+static od_Status od_Advance(od_MpmWorld* w, double dt)
+{
+	int reorder = w->sinceReorder >= OD_MPM_REORDER_EVERY;
+	od_Status status = od_MpmGrid_Prepare(w, reorder);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	w->sinceReorder = reorder ? 1 : w->sinceReorder + 1;
+	od_MpmP2G(w, dt);
+	od_MpmGrid_Update(w, dt);
+	od_MpmG2P(w, dt);
+	w->stats.time += dt;
+	w->stats.substeps++;
+	w->stats.lastDt = dt;
+	w->stats.activeBlocks = w->grid.slotCount;
+	w->stats.maxSpeed = w->maxSpeed;
+	if (!isfinite(w->maxSpeed))
+	{
+		return od_Fail(OD_ERROR_NOT_FINITE, "step: a particle velocity became infinite or NaN (time %g s); the "
+											"state is no longer usable",
+					   w->stats.time);
+	}
+	return OD_OK;
+}
+
+static od_Status od_CheckCall(const od_MpmWorld* w, const char* name, double duration)
+{
+	if (!(duration > 0.0) || !isfinite(duration))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "%s must be > 0 and finite, got %g", name, duration);
+	}
+	if (w->count == 0)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "the world has no particles");
+	}
+	return OD_OK;
+}
+
+static void od_BeginCall(od_MpmWorld* w, double duration)
+{
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		od_MpmCollider_BeginCall(&w->colliders[c], duration);
+	}
+}
+
+static void od_EndCall(od_MpmWorld* w)
+{
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		od_MpmCollider_EndCall(&w->colliders[c]);
+	}
+}
+
+od_Status od_MpmWorld_Substep(od_MpmWorld* w, double dt)
+{
+	od_Status status = od_CheckCall(w, "dt", dt);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_BeginCall(w, dt);
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		od_MpmCollider_Place(&w->colliders[c], 1.0);
+	}
+	status = od_Advance(w, dt);
+	od_EndCall(w);
+	return status;
+}
+
+od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
+{
+	od_Status status = od_CheckCall(w, "duration", duration);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_BeginCall(w, duration);
+	double elapsed = 0.0;
+	int substeps = 0;
+	while (status == OD_OK && elapsed < duration)
+	{
+		double remaining = duration - elapsed, dt = od_CflDt(w);
+		// even out the end: never leave a sliver of a substep
+		dt = remaining <= dt ? remaining : (remaining < 2.0 * dt ? 0.5 * remaining : dt);
+		double end = remaining <= dt ? duration : elapsed + dt;
+		for (int c = 0; c < w->colliderCount; ++c)
+		{
+			od_MpmCollider_Place(&w->colliders[c], end / duration);
+		}
+		status = od_Advance(w, dt);
+		elapsed = end;
+		substeps++;
+	}
+	od_EndCall(w);
+	w->stats.lastSubsteps = substeps;
+	if (status == OD_OK)
+	{
+		od_MpmWorld_UpdateOrientations(w);
+	}
+	return status;
+}
+
+int od_MpmFieldWidth(od_MpmField field)
+{
+	static const int widths[7] = { 3, 3, 4, 9, 9, 9, 1 };
+	return field >= OD_MPM_POSITIONS && field <= OD_MPM_PLASTIC_J ? widths[field] : 0;
+}
+
+void od_MpmWorld_Read(const od_MpmWorld* w, od_MpmField field, double* out)
+{
+	int width = od_MpmFieldWidth(field);
+	if (field == OD_MPM_ORIENTATIONS)
+	{
+		memcpy(out, w->quat, sizeof(double) * 4 * (size_t)w->count);
+		return;
+	}
+	if (field == OD_MPM_ROTATIONS)
+	{
+		for (int i = 0; i < w->count; ++i)
+		{
+			od_Mat3 r = od_QuatToMatrix(w->polarQuat + 4 * i);
+			od_M3Store(out + 9 * i, &r);
+		}
+		return;
+	}
+	for (int i = 0; i < w->count; ++i)
+	{
+		const od_MpmParticle* p = &w->particles[i];
+		const double* src = field == OD_MPM_POSITIONS	 ? p->x
+							: field == OD_MPM_VELOCITIES  ? p->v
+							: field == OD_MPM_DEFORMATION ? p->F
+							: field == OD_MPM_AFFINE	  ? p->C
+														  : &p->Jp;
+		memcpy(out + (size_t)width * p->id, src, sizeof(double) * (size_t)width);
+	}
+}

@@ -1,0 +1,169 @@
+// Thread pool. Design: workers sleep on a condition variable until a job's generation number changes,
+// then take task indices from an atomic counter; the caller works too and waits until every task is
+// finished. One job at a time; no allocation after creation.
+#include "pool.h"
+
+#include "core.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <unistd.h>
+
+typedef struct od_PoolWorker
+{
+	struct od_Pool* pool;
+	int thread;
+} od_PoolWorker;
+
+struct od_Pool
+{
+	int threads;
+	pthread_t* workers;
+	od_PoolWorker* args;
+	pthread_mutex_t lock;
+	pthread_cond_t wake, done;
+	long long generation;
+	int quit;
+	// the current job
+	od_PoolFn* fn;
+	void* ctx;
+	int count;
+	atomic_int next;
+	int running; // workers still inside the current job
+};
+
+static void od_Pool_Work(od_Pool* pool, int thread)
+{
+	for (int task; (task = atomic_fetch_add(&pool->next, 1)) < pool->count;)
+	{
+		pool->fn(pool->ctx, task, thread);
+	}
+}
+
+static void* od_Pool_Main(void* arg)
+{
+	od_PoolWorker* w = arg;
+	od_Pool* pool = w->pool;
+	int thread = w->thread;
+	long long seen = 0;
+	pthread_mutex_lock(&pool->lock);
+	for (;;)
+	{
+		while (!pool->quit && pool->generation == seen)
+		{
+			pthread_cond_wait(&pool->wake, &pool->lock);
+		}
+		if (pool->quit)
+		{
+			break;
+		}
+		seen = pool->generation;
+		pthread_mutex_unlock(&pool->lock);
+		od_Pool_Work(pool, thread);
+		pthread_mutex_lock(&pool->lock);
+		if (--pool->running == 0)
+		{
+			pthread_cond_signal(&pool->done);
+		}
+	}
+	pthread_mutex_unlock(&pool->lock);
+	return NULL;
+}
+
+od_Status od_Pool_Create(int threads, od_Pool** out)
+{
+	*out = NULL;
+	if (threads <= 0)
+	{
+		long cores = sysconf(_SC_NPROCESSORS_ONLN);
+		threads = cores > 0 ? (int)cores : 1;
+	}
+	od_Pool* pool = od_AllocZero(1, sizeof *pool);
+	if (pool)
+	{
+		pool->args = od_AllocZero((size_t)threads, sizeof *pool->args);
+		pool->workers = od_AllocZero((size_t)threads, sizeof *pool->workers);
+	}
+	if (!pool || !pool->args || !pool->workers)
+	{
+		od_Pool_Destroy(pool);
+		return od_Fail(OD_ERROR_MEMORY, "thread pool: out of memory");
+	}
+	pool->threads = 1;
+	pthread_mutex_init(&pool->lock, NULL);
+	pthread_cond_init(&pool->wake, NULL);
+	pthread_cond_init(&pool->done, NULL);
+	for (int t = 1; t < threads; ++t)
+	{
+		pool->args[t] = (od_PoolWorker){ pool, t };
+		if (pthread_create(&pool->workers[t], NULL, od_Pool_Main, &pool->args[t]) != 0)
+		{
+			break; // fewer threads than asked: still correct
+		}
+		pool->threads = t + 1;
+	}
+	*out = pool;
+	return OD_OK;
+}
+
+void od_Pool_Destroy(od_Pool* pool)
+{
+	if (!pool)
+	{
+		return;
+	}
+	if (pool->workers && pool->args)
+	{
+		pthread_mutex_lock(&pool->lock);
+		pool->quit = 1;
+		pthread_cond_broadcast(&pool->wake);
+		pthread_mutex_unlock(&pool->lock);
+		for (int t = 1; t < pool->threads; ++t)
+		{
+			pthread_join(pool->workers[t], NULL);
+		}
+		pthread_mutex_destroy(&pool->lock);
+		pthread_cond_destroy(&pool->wake);
+		pthread_cond_destroy(&pool->done);
+	}
+	od_Free(pool->workers);
+	od_Free(pool->args);
+	od_Free(pool);
+}
+
+int od_Pool_Threads(const od_Pool* pool)
+{
+	return pool->threads;
+}
+
+void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx)
+{
+	if (count <= 0)
+	{
+		return;
+	}
+	if (pool->threads == 1 || count == 1)
+	{
+		for (int task = 0; task < count; ++task)
+		{
+			fn(ctx, task, 0);
+		}
+		return;
+	}
+	pthread_mutex_lock(&pool->lock);
+	pool->fn = fn;
+	pool->ctx = ctx;
+	pool->count = count;
+	atomic_store(&pool->next, 0);
+	pool->running = pool->threads - 1;
+	pool->generation++;
+	pthread_cond_broadcast(&pool->wake);
+	pthread_mutex_unlock(&pool->lock);
+	od_Pool_Work(pool, 0);
+	pthread_mutex_lock(&pool->lock);
+	while (pool->running > 0)
+	{
+		pthread_cond_wait(&pool->done, &pool->lock);
+	}
+	pthread_mutex_unlock(&pool->lock);
+}
