@@ -24,11 +24,16 @@ if "_modules" in locals():  # F8 / script reload: reload the submodules too
     for _m in _modules:  # noqa: F821
         importlib.reload(_m)
 
-from .blender import handlers, operators, overlay, panels, properties  # noqa: E402
+try:
+    import bpy  # noqa: F401
+except ImportError:  # outside Blender: only the bpy-free core/ is usable (tests, tools)
+    _modules = ()
+else:
+    from .blender import handlers, operators, overlay, panels, properties
 
-# Registered in this order, unregistered in the reverse order. Other features (e.g. an MPM panel) add their
-# module here; each module has a `classes` tuple and register()/unregister().
-_modules = (properties, operators, panels, handlers, overlay)
+    # Registered in this order, unregistered in the reverse order. Other features (e.g. an MPM panel) add
+    # their module here; each module has a `classes` tuple and register()/unregister().
+    _modules = (properties, operators, panels, handlers, overlay)
 
 
 def register():

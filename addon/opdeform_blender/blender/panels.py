@@ -79,6 +79,7 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
                       else "Gravity: off in the scene", icon='FORCE_FORCE')
         else:
             col.prop(s, "pose_iterations")
+            col.prop(s, "pose_gravity")
             col.operator("opdeform.solve_pose", icon='ARMATURE_DATA')
 
 

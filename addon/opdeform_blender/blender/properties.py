@@ -64,6 +64,9 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                             description="Local/global iterations per time step")
     pose_iterations: IntProperty(name="Pose Iterations", default=30, min=1, max=10000,
                                  description="Iterations per static solve in posing mode")
+    pose_gravity: BoolProperty(name="Gravity", default=False,
+                               description="Posing mode: let the scene's gravity weigh on the pose (off: pure ARAP "
+                                           "posing)")
     # floor
     use_floor: BoolProperty(name="Floor", default=False)
     floor_height: FloatProperty(name="Height", default=0.0, subtype='DISTANCE')

@@ -81,8 +81,10 @@ def check_object(obj):
     if obj is None:
         raise AddonError("no object: select a mesh object or pass object=NAME")
     if obj.type != 'MESH':
-        raise AddonError(f"{obj.name!r} is a {obj.type.lower()} object, not a mesh: oriented particles "
-                         "simulate meshes")
+        kind = obj.type.lower()
+        article = "an" if kind[0] in "aeiou" else "a"
+        raise AddonError(f"{obj.name!r} is {article} {kind} object, not a mesh: oriented particles simulate "
+                         "meshes")
     mesh = obj.data
     if len(mesh.vertices) == 0:
         raise AddonError(f"mesh {mesh.name!r} has no vertices")
@@ -188,8 +190,8 @@ def _rest_matrix(item):
 
 
 def handle_targets(rt, settings, depsgraph=None):
-    """(H, 4, 3) targets of the bound handles now, or None without handles; binds handles seen for the first
-    time. Raises AddonError on a NaN or degenerate handle transform."""
+    """(H, 4, 3) targets of the handles now, or None without handles. Raises AddonError on a NaN or degenerate
+    handle transform."""
     hs = active_handles(settings)
     if not hs:
         rt.handle_matrices = b""
@@ -199,8 +201,6 @@ def handle_targets(rt, settings, depsgraph=None):
     seen = []
     for i, h in enumerate(hs):
         try:
-            if h.vertex < 0 or h.bound_name != h.target.name or h.vertex >= len(rest):
-                bind_handle(h, rest, depsgraph)
             m = handle_math.check_matrix(h.target.name, handle_matrix(h, depsgraph))
         except handle_math.HandleError as exc:
             raise AddonError(str(exc)) from None
@@ -227,7 +227,8 @@ def frame_rate(scene):
 
 
 def sim_params(settings, scene):
-    gravity = tuple(scene.gravity) if scene.use_gravity else (0.0, 0.0, 0.0)
+    use = scene.use_gravity and (settings.mode == 'DYNAMIC' or settings.pose_gravity)
+    gravity = tuple(scene.gravity) if use else (0.0, 0.0, 0.0)
     return dict(stiffness=settings.stiffness, density=settings.density,
                 dt=1.0 / (frame_rate(scene) * settings.substeps), iterations=settings.iterations,
                 gravity=gravity, damping=settings.damping)
@@ -246,13 +247,25 @@ def signature(settings, scene):
     return repr(parts)
 
 
-def configure(rt, obj, scene):
+def bind_new_handles(rt, settings, depsgraph=None):
+    """Binds handles seen for the first time (or given another empty) to their nearest rest vertex."""
+    rest = rt.engine.rest
+    for h in active_handles(settings):
+        if h.vertex < 0 or h.bound_name != h.target.name or h.vertex >= len(rest):
+            try:
+                bind_handle(h, rest, depsgraph)
+            except handle_math.HandleError as exc:
+                raise AddonError(str(exc)) from None
+
+
+def configure(rt, obj, scene, depsgraph=None):
     """Applies the current settings to the engine (a change clears the in-memory cache)."""
     s = obj.opdeform
+    bind_new_handles(rt, s, depsgraph)
     e = rt.engine
     e.configure(sim_params(s, scene), s.substeps, floor(s), s.frame_start, s.frame_end)
     pins = rt.pins or (np.zeros(0, np.int64), None)
-    handles = [(h.vertex if h.vertex >= 0 else 0, h.use_rotation, h.strength) for h in active_handles(s)]
+    handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
 
 
@@ -280,7 +293,7 @@ def build(obj, scene, depsgraph=None):
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:
-        configure(rt, obj, scene)
+        configure(rt, obj, scene, depsgraph)
     except (EngineError, ValueError, od.SolverError) as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     # committed: from here on the object changes
@@ -351,7 +364,7 @@ def frame_update(obj, scene, depsgraph=None):
     s = obj.opdeform
     if s.mode != 'DYNAMIC':
         return rt
-    configure(rt, obj, scene)
+    configure(rt, obj, scene, depsgraph)
     targets = handle_targets(rt, s, depsgraph)
     frame = scene.frame_current
     out = rt.engine.goto(frame, targets)
@@ -369,7 +382,7 @@ def pose_update(obj, scene, depsgraph=None, force=False):
     if rt is None:
         return False
     s = obj.opdeform
-    configure(rt, obj, scene)
+    configure(rt, obj, scene, depsgraph)
     before = rt.handle_matrices
     targets = handle_targets(rt, s, depsgraph)
     if not force and rt.handle_matrices == before and rt.shown is not None and rt.shown[0] == "pose":

@@ -1,0 +1,164 @@
+"""Shared set-up for the add-on tests that run inside Blender (tests/blender/*.py)."""
+
+import os
+import shutil
+import sys
+import tempfile
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+ADDON_DIR = os.path.join(ROOT, "addon")
+ADDON = "opdeform_blender"
+if ADDON_DIR not in sys.path:
+    sys.path.insert(0, ADDON_DIR)
+
+_tmp = {"dir": None}
+
+
+def tmpdir():
+    if _tmp["dir"] is None:
+        _tmp["dir"] = os.environ.get("OPDEFORM_TEST_TMP") or tempfile.mkdtemp(prefix="opdeform_blender_")
+        os.makedirs(_tmp["dir"], exist_ok=True)
+    return _tmp["dir"]
+
+
+def cleanup():
+    if _tmp["dir"] and not os.environ.get("OPDEFORM_TEST_TMP"):
+        shutil.rmtree(_tmp["dir"], ignore_errors=True)
+
+
+def host():
+    kind = "blender" if bpy.app.binary_path else "bpy-module"
+    return f"{kind} {bpy.app.version_string}"
+
+
+def enable_addon():
+    import addon_utils
+    mod = addon_utils.enable(ADDON, default_set=True, handle_error=None)
+    assert mod is not None, "the add-on did not enable"
+    return mod
+
+
+def disable_addon():
+    import addon_utils
+    addon_utils.disable(ADDON, default_set=True)
+
+
+def fresh():
+    """Empty factory scene with the add-on enabled (frames 1..250, 24 fps)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    enable_addon()
+    scene = bpy.context.scene
+    scene.frame_start, scene.frame_end = 1, 250
+    scene.frame_set(1)
+
+
+def runtime():
+    return sys.modules[ADDON + ".blender.runtime"]
+
+
+def mesh_object(name, vertices, triangles=(), edges=(), location=(0, 0, 0)):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(map(float, v)) for v in vertices], [tuple(map(int, e)) for e in edges],
+                     [tuple(map(int, t)) for t in triangles])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def box_mesh(lo, hi, n):
+    """Closed box surface with n = (nx, ny, nz) vertices per side: (vertices, triangles)."""
+    xs = [np.linspace(lo[a], hi[a], n[a]) for a in range(3)]
+    index, verts, tris = {}, [], []
+
+    def vid(ijk):
+        if ijk not in index:
+            index[ijk] = len(verts)
+            verts.append([xs[a][ijk[a]] for a in range(3)])
+        return index[ijk]
+
+    for a in range(3):
+        b, c = [x for x in range(3) if x != a]
+        for side in (0, n[a] - 1):
+            for u in range(n[b] - 1):
+                for w in range(n[c] - 1):
+                    def at(uu, ww):
+                        t = [0, 0, 0]
+                        t[a], t[b], t[c] = side, uu, ww
+                        return vid(tuple(t))
+                    q = [at(u, w), at(u + 1, w), at(u + 1, w + 1), at(u, w + 1)]
+                    if side == 0:
+                        q = q[::-1]
+                    tris += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    return np.array(verts), np.array(tris)
+
+
+def bar_object(name="Bar", pinned=True, particles=20):
+    """The paper's bar (2 x 0.2 x 0.2 along +x) with its x = 0 end face in the vertex group "Pin"."""
+    v, t = box_mesh((0.0, -0.1, -0.1), (2.0, 0.1, 0.1), (21, 5, 5))
+    obj = mesh_object(name, v, t)
+    if pinned:
+        group = obj.vertex_groups.new(name="Pin")
+        group.add([int(i) for i in np.where(v[:, 0] < 1e-9)[0]], 1.0, 'REPLACE')
+        obj.opdeform.pin_group = "Pin"
+    s = obj.opdeform
+    s.particles = particles
+    s.graph_mode = "chain"
+    s.stiffness = 1e6
+    return obj
+
+
+def positions(obj):
+    return runtime().vertex_positions(obj.data).copy()
+
+
+def evaluated_positions(obj):
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = obj.evaluated_get(depsgraph).to_mesh()
+    out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", out)
+    obj.evaluated_get(depsgraph).to_mesh_clear()
+    return out.reshape(-1, 3)
+
+
+def play(frames):
+    """frame_set through the frames; the mesh after each (float32 copies)."""
+    scene = bpy.context.scene
+    out = {}
+    for f in frames:
+        scene.frame_set(f)
+        for obj in scene.objects:
+            if obj.type == 'MESH' and obj.opdeform.enabled:
+                out.setdefault(obj.name, {})[f] = positions(obj)
+    return out
+
+
+def expect_error(fn, *words):
+    """fn() must fail with an error report (bpy.ops raises RuntimeError) mentioning the words."""
+    try:
+        fn()
+    except RuntimeError as exc:
+        text = str(exc)
+        for w in words:
+            assert w.lower() in text.lower(), f"error {text!r} does not mention {w!r}"
+        return text
+    raise AssertionError(f"no error report (wanted one mentioning {words})")
+
+
+def state_of(obj):
+    """What "change nothing" compares: the mesh, the settings, the modifiers, the vertex groups."""
+    s = obj.opdeform if hasattr(obj, "opdeform") else None
+    settings = None if s is None else {k: repr(getattr(s, k)) for k in s.bl_rna.properties.keys()
+                                       if k not in ("rna_type", "handles")}
+    mesh = positions(obj) if obj.type == 'MESH' else None
+    return (settings, None if mesh is None else mesh.tobytes(), [m.name for m in obj.modifiers],
+            [g.name for g in obj.vertex_groups], len(bpy.data.objects),
+            None if obj.type != 'MESH' else sorted(obj.data.attributes.keys()))
