@@ -2,6 +2,7 @@
 
 Search order:
 1. ``$OPDEFORM_PYTHONPATH`` (a folder holding ``opdeform/``, e.g. ``<build>/python``): development and tests;
+   when it is set, nothing else is tried;
 2. the copy vendored inside the add-on (``<add-on>/vendor/opdeform``) by ``scripts/package``;
 3. a plain ``import opdeform`` (installed into Blender's Python).
 
@@ -40,8 +41,9 @@ def _import_from_folder(folder):
 
 def _candidates(addon_package, addon_dir):
     folder = os.environ.get(ENV_VAR)
-    if folder:
+    if folder:  # explicit: the only place tried
         yield f"${ENV_VAR} ({folder})", lambda: _import_from_folder(folder)
+        return
     vendored = os.path.join(addon_dir, "vendor", "opdeform", "__init__.py")
     if addon_package and os.path.isfile(vendored):
         yield "the add-on's vendored copy", lambda: importlib.import_module(addon_package + ".vendor.opdeform")

@@ -1,0 +1,161 @@
+"""The add-on's bpy-free core (addon/opdeform_blender/core): PC2 files, frame logic, handle maths, the module
+loader's messages and the engine's replay guarantees. Plain pytest, no Blender."""
+
+import math
+import os
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import opdeform
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
+
+from opdeform_blender.core import frames, handles, loader, pc2  # noqa: E402
+from opdeform_blender.core.engine import Engine, EngineError  # noqa: E402
+
+HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
+    hasattr(opdeform.Graph, "from_mesh")
+
+
+def test_pc2_round_trip_and_partial_file(tmp_path):
+    path = str(tmp_path / "sub" / "a.pc2")
+    data = np.random.default_rng(1).normal(size=(5, 7, 3)).astype(np.float32)
+    with pc2.PC2Writer(path, 7, start=3, rate=1) as w:
+        for k, frame in enumerate(data):
+            w.write(frame)
+            assert pc2.read_header(path) == (7, 3.0, 1.0, k + 1)  # valid after every frame (ESC keeps frames)
+    start, rate, back = pc2.read(path)
+    assert (start, rate) == (3.0, 1.0)
+    np.testing.assert_array_equal(back, data)
+    assert os.path.getsize(path) == 32 + data.nbytes
+
+
+def test_pc2_rejects_bad_input(tmp_path):
+    with pc2.PC2Writer(str(tmp_path / "b.pc2"), 4) as w:
+        with pytest.raises(ValueError, match="points"):
+            w.write(np.zeros((3, 3)))
+    bad = tmp_path / "c.pc2"
+    bad.write_bytes(b"NOTACACHE" + bytes(40))
+    with pytest.raises(ValueError, match="not a PC2"):
+        pc2.read(str(bad))
+
+
+@pytest.mark.parametrize("frame,last,solver,expected", [
+    (0, None, None, ("rest", None, ())),
+    (1, 10, 10, ("reset", None, ())),
+    (5, 10, 10, ("show", None, ())),
+    (12, 10, 10, ("simulate", None, (11, 12))),
+    (12, 10, 5, ("simulate", 10, (11, 12))),
+    (4, None, None, ("simulate", "reset", (2, 3, 4))),
+    (99, 20, 20, ("show", None, ())),          # past the end: hold the end frame (cached)
+    (99, 18, 18, ("simulate", None, (19, 20))),
+])
+def test_frame_plans(frame, last, solver, expected):
+    p = frames.plan(frame, 1, 20, last, solver)
+    assert (p.kind, p.restore, p.steps) == expected
+
+
+def test_handle_targets_follow_the_empty_rigidly():
+    rest_point = np.array([2.0, 0.1, 0.0])
+    m0 = np.eye(4)
+    m0[:3, 3] = (2.0, 0.0, 0.0)
+    assert np.allclose(handles.targets(rest_point, m0, m0), np.vstack([rest_point, np.eye(3)]))
+    c, s = math.cos(0.5), math.sin(0.5)
+    m = np.eye(4)
+    m[:3, :3] = [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    m[:3, :3] *= 3.0  # scale must not leak into the directions
+    m[:3, 3] = (1.0, 1.0, 1.0)
+    t = handles.targets(rest_point, m0, m)
+    assert np.allclose(t[0], m[:3, :3] @ (rest_point - m0[:3, 3]) + m[:3, 3])
+    assert np.allclose(t[1:], (m[:3, :3] / 3.0).T)
+    assert np.allclose(np.linalg.norm(handles.blend(t[None], t[None] * 0 + t[None], 0.3)[0, 1:], axis=1), 1.0)
+    with pytest.raises(handles.HandleError, match="non-finite"):
+        handles.check_matrix("H", np.full((4, 4), np.nan))
+
+
+def _fake_package(tmp_path, body):
+    pkg = tmp_path / "opdeform"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text(textwrap.dedent(body))
+    return str(tmp_path)
+
+
+def test_loader_messages(tmp_path, monkeypatch):
+    saved = {k: v for k, v in sys.modules.items() if k == "opdeform" or k.startswith("opdeform.")}
+    try:
+        monkeypatch.setenv(loader.ENV_VAR, str(tmp_path / "nowhere"))
+        mod, error = loader.load("nopackage", str(tmp_path), force=True)
+        assert mod is None and "could not be loaded" in error and "nowhere" in error
+        old = tmp_path / "old"
+        old.mkdir()
+        monkeypatch.setenv(loader.ENV_VAR, _fake_package(old, "__version__ = '9.0.0'"))
+        mod, error = loader.load("nopackage", str(tmp_path), force=True)
+        assert mod is None and "does not match" in error
+        lacking = tmp_path / "lacking"
+        lacking.mkdir()
+        monkeypatch.setenv(loader.ENV_VAR, _fake_package(lacking, "__version__ = '0.1.0'\nclass Graph: pass\n"))
+        mod, error = loader.load("nopackage", str(tmp_path), force=True)
+        assert mod is None and "lacks" in error and "Skin" in error
+        broken = tmp_path / "broken"
+        broken.mkdir()
+        monkeypatch.setenv(loader.ENV_VAR, _fake_package(broken, "from . import _core\n"))
+        mod, error = loader.load("nopackage", str(tmp_path), force=True)
+        assert mod is None and "ImportError" in error
+    finally:
+        for k in [k for k in sys.modules if k == "opdeform" or k.startswith("opdeform.")]:
+            del sys.modules[k]
+        sys.modules.update(saved)
+        monkeypatch.delenv(loader.ENV_VAR)
+        loader.load(force=True)
+
+
+def _bar_engine():
+    from opdeform import meshes
+    v, t = meshes.bar()
+    e = Engine(opdeform, v, t, particles=20, mode="chain")
+    e.configure(dict(stiffness=1e6, density=1000.0, dt=1 / 24, iterations=10, gravity=(0, 0, -9.81),
+                     damping=0.0), 1, None, 1, 40)
+    pins = np.where(v[:, 0] < v[:, 0].min() + 1e-6)[0]
+    tip = int(np.argmax(v[:, 0]))
+    e.set_constraints(pins, None, 1.0, [(tip, True, 1.0)])
+    return e, v, tip
+
+
+@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
+def test_engine_replay_is_bit_exact():
+    e, v, tip = _bar_engine()
+    m0 = np.eye(4)
+    m0[:3, 3] = v[tip]
+
+    def targets(f):
+        m = m0.copy()
+        m[2, 3] += 0.02 * f
+        return handles.targets(v[tip], m0, m)[None]
+
+    seq = {f: e.goto(f, targets(f)).copy() for f in range(1, 31)}
+    assert np.array_equal(e.goto(1, targets(1)), v.astype(np.float32))  # the start frame shows the rest mesh
+    for f in (7, 30, 2, 19):  # scrub back: replayed from the cache
+        assert np.array_equal(e.goto(f, targets(f)), seq[f])
+    e2, _, _ = _bar_engine()
+    for f in range(1, 31):
+        e2.goto(f, targets(f))
+    assert np.array_equal(e2.out, seq[30])
+    e.invalidate(keep_until=20)  # a handle moved at frame 20: later frames are re-simulated
+    assert e.cache.last == 20
+    assert np.array_equal(e.goto(25, targets(25)), seq[25])
+
+
+@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
+def test_engine_rejects_bad_meshes():
+    with pytest.raises(EngineError, match="no faces"):
+        Engine(opdeform, np.zeros((3, 3)), np.zeros((0, 3)))
+    with pytest.raises(EngineError, match="non-finite"):
+        Engine(opdeform, np.full((3, 3), np.nan), [[0, 1, 2]])
+    e, v, tip = _bar_engine()
+    e.set_constraints(handles=())
+    with pytest.raises(EngineError, match="posing needs"):
+        e.pose(None, 5)
