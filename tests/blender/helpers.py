@@ -162,3 +162,50 @@ def state_of(obj):
     return (settings, None if mesh is None else mesh.tobytes(), [m.name for m in obj.modifiers],
             [g.name for g in obj.vertex_groups], len(bpy.data.objects),
             None if obj.type != 'MESH' else sorted(obj.data.attributes.keys()))
+
+
+class FakeLayout:
+    """Records what a panel's draw() asks for (labels, operators, properties): panels cannot be drawn in
+    background mode, but their draw code can run and be checked."""
+
+    def __init__(self, log=None):
+        self.log = [] if log is None else log
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+
+        def call(*args, **kw):
+            if name == "label":
+                self.log.append(("label", kw.get("text", "")))
+            elif name == "operator":
+                self.log.append(("operator", args[0], kw.get("text")))
+            elif name in ("prop", "prop_search"):
+                self.log.append(("prop", args[1]))
+            elif name == "template_list":
+                self.log.append(("list", args[0]))
+            return FakeLayout(self.log)
+        return call
+
+    def __setattr__(self, name, value):
+        object.__setattr__(self, name, value)
+
+
+def draw_panels():
+    """Runs poll/draw_header/draw of every add-on panel for the active object; the recorded log."""
+    import types
+    log = []
+    panels = [c for c in bpy.types.Panel.__subclasses__() if c.__module__.startswith(ADDON)]
+    assert panels, "no panels registered"
+    for cls in panels:
+        if not cls.poll(bpy.context):
+            continue
+        fake = types.SimpleNamespace(layout=FakeLayout(log))
+        if hasattr(cls, "draw_header"):
+            cls.draw_header(fake, bpy.context)
+        cls.draw(fake, bpy.context)
+    return log
+
+
+def labels(log):
+    return " | ".join(entry[1] for entry in log if entry[0] == "label")

@@ -296,3 +296,34 @@ def test_save_reload_continues():
     assert H.runtime().get(obj) is None
     again = H.play(range(1, 16))["Bar"]  # rebuilt from the stored rest shape on the first frame
     np.testing.assert_array_equal(again[15], live[15])
+
+
+def test_panels_draw_in_every_state():
+    obj = H.bar_object()
+    log = H.draw_panels()
+    assert ("operator", "opdeform.enable", None) in log
+    bpy.ops.opdeform.enable(object=obj.name)
+    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    log = H.draw_panels()
+    ops = {e[1] for e in log if e[0] == "operator"}
+    assert {"opdeform.build", "opdeform.bake", "opdeform.free_bake", "opdeform.handle_add",
+            "opdeform.handle_remove", "opdeform.disable"} <= ops, ops
+    props = {e[1] for e in log if e[0] == "prop"}
+    assert {"particles", "graph_mode", "stiffness", "density", "damping", "substeps", "iterations",
+            "use_floor", "floor_height", "floor_friction", "pin_group", "frame_start", "frame_end",
+            "cache_directory", "show_particles", "mode"} <= props, props
+    assert "20 particles" in H.labels(log) or "particles," in H.labels(log)
+    obj.opdeform.particles = 30
+    assert any(e[0] == "operator" and e[2] == "Build (settings changed)" for e in H.draw_panels())
+    obj.opdeform.particles = 20
+    obj.opdeform.mode = 'POSE'
+    assert "opdeform.solve_pose" in {e[1] for e in H.draw_panels() if e[0] == "operator"}
+    obj.opdeform.mode = 'DYNAMIC'
+    obj.opdeform.frame_end = 5
+    _save_blend("panels.blend")
+    bpy.ops.opdeform.bake(object=obj.name)
+    obj.opdeform.stiffness *= 3
+    assert "Cache outdated" in H.labels(H.draw_panels())
+    obj.opdeform.error = "something failed"
+    log = H.draw_panels()
+    assert "something failed" in H.labels(log) and ("operator", "opdeform.reset", None) in log
