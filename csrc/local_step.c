@@ -7,7 +7,10 @@
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
 #include "math3.h"
 #include "polar.h"
+#include "core.h"
 #include "sim.h"
+
+#include <string.h>
 
 void od_LocalStep_PrepareEdges(od_Sim* sim)
 {
@@ -74,24 +77,151 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 	return out;
 }
 
+static int od_UpdateRotation(od_Sim* sim, int i, bool directions)
+{
+	double* rot = sim->state.R + 9 * i;
+	od_Mat3 before = od_M3Load(rot);
+	od_Mat3 c = od_LocalMatrix(sim, i, &before);
+	od_Mat3 r = before;
+	int fallback = od_PolarRotationWarm(&c, &r);
+	od_M3Store(rot, &r);
+	if (directions)
+	{
+		od_Constraints_RotationChanged(sim, i, &before, &r);
+	}
+	return fallback;
+}
+
+// Greedy colouring in index order of the conflict graph: graph edges and shared constraints.
+od_Status od_LocalStep_PrepareColors(od_Sim* sim)
+{
+	if (!sim->colorsDirty)
+	{
+		return OD_OK;
+	}
+	const od_Graph* g = sim->graph;
+	const od_ConstraintSet* set = &sim->constraints;
+	int n = g->n;
+	int* color = od_Alloc(sizeof(int) * (size_t)n);
+	int* stamp = od_AllocZero((size_t)n + 1, sizeof(int));
+	int* start = od_Realloc(sim->colorStart, sizeof(int) * ((size_t)n + 2));
+	sim->colorStart = start ? start : sim->colorStart;
+	if (!color || !stamp || !start || (!sim->colorOrder && !(sim->colorOrder = od_Alloc(sizeof(int) * (size_t)n))))
+	{
+		od_Free(color);
+		od_Free(stamp);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory colouring the graph");
+	}
+	int colors = 0;
+	for (int i = 0; i < n; ++i)
+	{
+		// stamp[c] == i + 1 marks colour c as taken by a conflicting particle coloured before i.
+		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+		{
+			int j = g->adj[e];
+			if (j < i)
+			{
+				stamp[color[j]] = i + 1;
+			}
+		}
+		for (int p = set->pairStart[i]; p < set->pairStart[i + 1]; ++p)
+		{
+			int j = set->pairCol[p];
+			if (j < i)
+			{
+				stamp[color[j]] = i + 1;
+			}
+		}
+		for (int e = set->touchStart[i]; e < set->touchStart[i + 1]; ++e)
+		{
+			const od_Constraint* c = set->items + set->touchSlot[e];
+			for (int k = 0; k < c->count; ++k)
+			{
+				if (c->idx[k] < i)
+				{
+					stamp[color[c->idx[k]]] = i + 1;
+				}
+			}
+		}
+		int c = 0;
+		while (stamp[c] == i + 1)
+		{
+			++c;
+		}
+		color[i] = c;
+		colors = c + 1 > colors ? c + 1 : colors;
+	}
+	memset(start, 0, sizeof(int) * ((size_t)colors + 1));
+	for (int i = 0; i < n; ++i)
+	{
+		start[color[i] + 1]++;
+	}
+	for (int c = 0; c < colors; ++c)
+	{
+		start[c + 1] += start[c];
+	}
+	for (int i = 0; i < n; ++i)
+	{
+		sim->colorOrder[start[color[i]]++] = i;
+	}
+	for (int c = colors; c > 0; --c)
+	{
+		start[c] = start[c - 1];
+	}
+	start[0] = 0;
+	sim->colorCount = colors;
+	sim->colorsDirty = false;
+	od_Free(color);
+	od_Free(stamp);
+	return OD_OK;
+}
+
+#define OD_SWEEP_CHUNK 64
+#define OD_MAX_THREADS 64
+
+typedef struct od_SweepJob
+{
+	od_Sim* sim;
+	const int* items;
+	int count;
+	bool directions;
+	long long fallbacks[OD_MAX_THREADS];
+} od_SweepJob;
+
+static void od_SweepTask(void* ctx, int task, int thread)
+{
+	od_SweepJob* job = ctx;
+	int end = (task + 1) * OD_SWEEP_CHUNK < job->count ? (task + 1) * OD_SWEEP_CHUNK : job->count;
+	for (int k = task * OD_SWEEP_CHUNK; k < end; ++k)
+	{
+		job->fallbacks[thread] += od_UpdateRotation(job->sim, job->items[k], job->directions);
+	}
+}
+
 void od_LocalStep(od_Sim* sim)
 {
-	double* rot = sim->state.R;
 	bool directions = sim->constraints.directionCount > 0;
 	if (directions)
 	{
 		od_Constraints_BeginLocal(sim);
 	}
-	for (int i = 0; i < sim->graph->n; ++i)
+	if (!sim->pool)
 	{
-		od_Mat3 before = od_M3Load(rot + 9 * i);
-		od_Mat3 c = od_LocalMatrix(sim, i, &before);
-		od_Mat3 r = before;
-		sim->counters.polarFallbacks += od_PolarRotationWarm(&c, &r);
-		od_M3Store(rot + 9 * i, &r);
-		if (directions)
+		for (int i = 0; i < sim->graph->n; ++i)
 		{
-			od_Constraints_RotationChanged(sim, i, &before, &r);
+			sim->counters.polarFallbacks += od_UpdateRotation(sim, i, directions);
 		}
+		return;
+	}
+	od_SweepJob job = { .sim = sim, .directions = directions };
+	for (int c = 0; c < sim->colorCount; ++c)
+	{
+		job.items = sim->colorOrder + sim->colorStart[c];
+		job.count = sim->colorStart[c + 1] - sim->colorStart[c];
+		od_Pool_Run(sim->pool, (job.count + OD_SWEEP_CHUNK - 1) / OD_SWEEP_CHUNK, od_SweepTask, &job);
+	}
+	for (int t = 0; t < OD_MAX_THREADS; ++t)
+	{
+		sim->counters.polarFallbacks += job.fallbacks[t];
 	}
 }

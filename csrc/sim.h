@@ -3,7 +3,9 @@
 // of (sim) that reads the model and rewrites the state; nothing is allocated per step after warm-up.
 #pragma once
 
+#include "acceleration.h"
 #include "graph.h"
+#include "pool.h"
 
 #include <stdbool.h>
 
@@ -101,6 +103,18 @@ struct od_Sim
 	double* edgeArm;    // 3 per directed edge
 	double edgeStiffness;
 
+	od_SolverDef solverDef;
+	od_Accelerator accelerator;
+	double* RInput; // 9n, the input R_k of an accelerated iteration (then the accelerated matrices)
+	double* RPlain; // 9n, its plain iterate local(global(R_k))
+	od_Pool* pool;  // local-step threads when solverDef.threads > 1
+	// Particles by colour: no two of one colour share an edge or a constraint, so a colour's rotations
+	// can be updated in parallel (Gauss-Seidel across colours). Rebuilt with the constraint terms.
+	int colorCount;
+	int* colorStart; // colorCount + 1
+	int* colorOrder; // n
+	bool colorsDirty;
+
 	od_SimCounters counters;
 	_Atomic int busy;
 };
@@ -122,6 +136,7 @@ od_Status od_Constraints_CheckPinned(const od_Sim* sim);
 
 // local_step.c
 void od_LocalStep_PrepareEdges(od_Sim* sim);
+od_Status od_LocalStep_PrepareColors(od_Sim* sim);
 void od_LocalStep(od_Sim* sim);
 
 // global_solve.c

@@ -30,6 +30,87 @@ od_SimDef od_DefaultSimDef(void)
 	return def;
 }
 
+od_SolverDef od_DefaultSolverDef(void)
+{
+	od_SolverDef def;
+	memset(&def, 0, sizeof def);
+	def.accelerator = OD_ACCELERATE_NONE;
+	def.window = 5;
+	def.rho = 0.999;
+	def.threads = 1;
+	return def;
+}
+
+static od_Status od_CheckSolverDef(const od_SolverDef* def)
+{
+	if (def->accelerator < OD_ACCELERATE_NONE || def->accelerator > OD_ACCELERATE_CHEBYSHEV)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "accelerator = %d is not one of none, anderson, chebyshev",
+					   (int)def->accelerator);
+	}
+	if (def->window < 1 || def->window > 16)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "window = %d must be in [1, 16]", def->window);
+	}
+	if (!(def->rho > 0.0 && def->rho < 1.0))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "rho = %g must be in (0, 1)", def->rho);
+	}
+	if (def->threads < 0 || def->threads > 64)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, 64] (0: one per core)", def->threads);
+	}
+	return OD_OK;
+}
+
+od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
+{
+	od_Status status = od_CheckSolverDef(def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	int n3 = 3 * sim->graph->n;
+	if (def->accelerator != OD_ACCELERATE_NONE && !sim->RInput)
+	{
+		sim->RInput = od_Alloc(sizeof(double) * 3 * n3);
+		sim->RPlain = od_Alloc(sizeof(double) * 3 * n3);
+		if (!sim->RInput || !sim->RPlain)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the accelerator");
+		}
+	}
+	status = od_Accelerator_Reset(&sim->accelerator, def->accelerator, 3 * n3, def->window, def->rho);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_Pool* pool = NULL;
+	if (def->threads != 1)
+	{
+		status = od_Pool_Create(def->threads, &pool);
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		if (od_Pool_Threads(pool) == 1)
+		{
+			od_Pool_Destroy(pool);
+			pool = NULL;
+		}
+	}
+	od_Pool_Destroy(sim->pool);
+	sim->pool = pool;
+	sim->colorsDirty = true;
+	sim->solverDef = *def;
+	return OD_OK;
+}
+
+od_SolverDef od_Sim_GetSolver(const od_Sim* sim)
+{
+	return sim->solverDef;
+}
+
 static od_Status od_CheckDef(const od_SimDef* def)
 {
 	if (!(def->stiffness > 0.0) || !isfinite(def->stiffness))
@@ -114,6 +195,8 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 	sim->def = *def;
 	sim->constraints.touchDirty = true;
 	sim->constraints.targetsDirty = true;
+	sim->solverDef = od_DefaultSolverDef();
+	sim->colorsDirty = true;
 	status = od_AllocState(&sim->state, n);
 	if (status == OD_OK)
 	{
@@ -171,6 +254,12 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->edgeArm);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
+	od_Accelerator_Destroy(&sim->accelerator);
+	od_Pool_Destroy(sim->pool);
+	od_Free(sim->RInput);
+	od_Free(sim->RPlain);
+	od_Free(sim->colorStart);
+	od_Free(sim->colorOrder);
 	od_GlobalSolver_Destroy(sim->solver[0]);
 	od_GlobalSolver_Destroy(sim->solver[1]);
 	od_Free(sim);
@@ -201,6 +290,8 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 		}
 		sim->constraints.touchDirty = true;
 	sim->constraints.targetsDirty = true;
+	sim->solverDef = od_DefaultSolverDef();
+	sim->colorsDirty = true;
 	}
 	if (refactor)
 	{
@@ -389,12 +480,61 @@ static bool od_StateIsFinite(const od_State* s, int n)
 	return sum == 0.0; // any NaN or infinity makes the sum NaN
 }
 
+// With an accelerator the iteration is seen as a fixed-point map on the rotations, R -> local(global(R)),
+// with the objective Ê(R) = E(global(R), R). The slow modes of a long chain (bending) are smooth fields of
+// rotation angles, which extrapolate well; extrapolating the centres alone with stale rotations does not.
+// Each iteration takes the plain iterate g = local(x_k) (x_k = global(R_k)), forms the accelerated R_acc,
+// projects each particle's matrix to the nearest rotation, solves its centres and keeps it when its
+// objective is below the last accepted one (Peng et al. 2018); otherwise it goes back to g and restarts the
+// history. The objective never rises from one accepted iterate to the next; the trace holds those.
+static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
+{
+	int n = sim->graph->n;
+	double* rot = sim->state.R;
+	memcpy(sim->RInput, rot, sizeof(double) * 9 * n);
+	od_LocalStep(sim);
+	memcpy(sim->RPlain, rot, sizeof(double) * 9 * n);
+	od_Accelerator_Apply(&sim->accelerator, sim->RInput, sim->RPlain);
+	for (int i = 0; i < n; ++i)
+	{
+		od_Mat3 a = od_M3Load(sim->RInput + 9 * i), r = od_M3Load(sim->RPlain + 9 * i);
+		sim->counters.polarFallbacks += od_PolarRotationWarm(&a, &r);
+		od_Orthonormalize(&r);
+		od_M3Store(rot + 9 * i, &r);
+	}
+	od_Status status = od_GlobalStep(sim);
+	double energy = status == OD_OK ? od_Energy(sim) : *accepted;
+	if (status == OD_OK && energy < *accepted)
+	{
+		sim->counters.accelerated++;
+		*accepted = energy;
+		return OD_OK;
+	}
+	sim->counters.rejected++;
+	memcpy(rot, sim->RPlain, sizeof(double) * 9 * n);
+	status = od_GlobalStep(sim);
+	*accepted = od_Energy(sim);
+	od_Accelerator_Restart(&sim->accelerator);
+	return status;
+}
+
 // The shared iteration: a global solve with the current rotations, then local/global pairs.
 static od_Status od_Iterate(od_Sim* sim, int iterations)
 {
 	sim->traceCount = 0;
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
+	if (sim->solverDef.accelerator != OD_ACCELERATE_NONE && status == OD_OK)
+	{
+		od_Accelerator_Restart(&sim->accelerator);
+		double accepted = od_Energy(sim);
+		for (int it = 0; it < iterations && status == OD_OK; ++it)
+		{
+			status = od_AcceleratedIteration(sim, &accepted);
+			od_Trace(sim);
+		}
+		return status;
+	}
 	for (int it = 0; it < iterations && status == OD_OK; ++it)
 	{
 		od_LocalStep(sim);
@@ -432,7 +572,12 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
 	}
 	sim->mode = mode;
+	sim->colorsDirty = sim->colorsDirty || sim->constraints.touchDirty;
 	od_Status status = od_Constraints_Prepare(sim);
+	if (status == OD_OK && sim->pool)
+	{
+		status = od_LocalStep_PrepareColors(sim);
+	}
 	if (status == OD_OK && mode == OD_STATIC)
 	{
 		status = od_Constraints_CheckPinned(sim);

@@ -244,9 +244,26 @@ class Simulation:
                               _int("iterations", p["iterations"]), _vec3("gravity", p["gravity"]),
                               float(p["damping"]), _int("skin_neighbors", p["skin_neighbors"]))
 
+    ACCELERATORS = ("none", "anderson", "chebyshev")
+
+    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1):
+        """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
+        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy; local
+        step ``threads`` (0: one per core; more than 1 updates rotations colour by colour)."""
+        if accelerator not in self.ACCELERATORS:
+            raise ValueError(f"accelerator must be one of {self.ACCELERATORS}, got {accelerator!r}")
+        self._core.set_solver(self.ACCELERATORS.index(accelerator), _int("window", window), float(rho),
+                              _int("threads", threads))
+
+    @property
+    def solver(self):
+        s = self._core.solver()
+        s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
+        return s
+
     @property
     def counters(self):
-        """Factorizations, analyses, solves, steps and polar fallbacks done so far."""
+        """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
         return self._core.counters()
 
     @property

@@ -694,8 +694,31 @@ static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
 	od_SimCounters c = od_Sim_GetCounters(((SimObject*)obj)->sim);
-	return Py_BuildValue("{sLsLsLsLsL}", "factorizations", c.factorizations, "analyses", c.analyses, "solves",
-						 c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks);
+	return Py_BuildValue("{sLsLsLsLsLsLsL}", "factorizations", c.factorizations, "analyses", c.analyses, "solves",
+						 c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks, "accelerated",
+						 c.accelerated, "rejected", c.rejected);
+}
+
+// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads)
+static PyObject* Sim_set_solver(PyObject* obj, PyObject* args)
+{
+	SimObject* self = (SimObject*)obj;
+	od_SolverDef d = od_DefaultSolverDef();
+	int kind;
+	if (SimEnter(self) < 0 || !PyArg_ParseTuple(args, "iidi", &kind, &d.window, &d.rho, &d.threads))
+	{
+		return NULL;
+	}
+	d.accelerator = (od_AcceleratorKind)kind;
+	return Done(obj, od_Sim_SetSolver(self->sim, &d));
+}
+
+static PyObject* Sim_solver(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_SolverDef d = od_Sim_GetSolver(((SimObject*)obj)->sim);
+	return Py_BuildValue("{sisisdsi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho, "threads",
+						 d.threads);
 }
 
 static PyMethodDef Sim_methods[] = {
@@ -717,6 +740,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "params", Sim_params, METH_NOARGS, NULL },
 	{ "set_params", Sim_set_params, METH_VARARGS, NULL },
 	{ "counters", Sim_counters, METH_NOARGS, NULL },
+	{ "set_solver", Sim_set_solver, METH_VARARGS, NULL },
+	{ "solver", Sim_solver, METH_NOARGS, NULL },
 	{ NULL, NULL, 0, NULL },
 };
 

@@ -88,6 +88,25 @@ double od_Sim_GetEnergy(od_Sim* sim);
 void od_Sim_SetEnergyTrace(od_Sim* sim, int enabled);
 const double* od_Sim_GetEnergyTrace(const od_Sim* sim, int* count);
 
+typedef enum od_AcceleratorKind
+{
+	OD_ACCELERATE_NONE = 0,     // plain alternation of local and global steps
+	OD_ACCELERATE_ANDERSON = 1, // Anderson acceleration of the centres, energy safeguarded
+	OD_ACCELERATE_CHEBYSHEV = 2 // Chebyshev semi-iterative acceleration, energy safeguarded
+} od_AcceleratorKind;
+
+typedef struct od_SolverDef
+{
+	od_AcceleratorKind accelerator;
+	int window;     // Anderson history (1..16)
+	double rho;     // Chebyshev spectral radius estimate in (0, 1)
+	int threads;    // local-step threads; > 1 updates rotations by graph colour (Gauss-Seidel per colour)
+} od_SolverDef;
+
+od_SolverDef od_DefaultSolverDef(void);
+od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def);
+od_SolverDef od_Sim_GetSolver(const od_Sim* sim);
+
 typedef struct od_SimCounters
 {
 	long long factorizations; // numeric factorizations of the global matrix
@@ -95,6 +114,8 @@ typedef struct od_SimCounters
 	long long solves;         // back-substitutions (3 right sides each)
 	long long steps;
 	long long polarFallbacks; // local updates that needed the full SVD
+	long long accelerated;    // iterations whose accelerated iterate was kept
+	long long rejected;       // iterations whose accelerated iterate raised the energy and was dropped
 } od_SimCounters;
 
 od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
