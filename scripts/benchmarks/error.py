@@ -1,0 +1,239 @@
+"""Error against run time: relative energy, position and rotation error after k iterations, per solver
+variant, against k and milliseconds, with the converged reference computed in the same run (METHOD.md).
+
+Writes out/bench/error/error.csv, clip.csv and one PNG per scene (log error against ms). Options:
+--quick (smaller k range, no 10,000-particle scene), --out DIR.
+"""
+
+import csv
+import math
+import os
+import statistics
+import time
+
+import numpy as np
+
+import opdeform
+from opdeform import scenes
+
+from .common import out_dir, table
+
+VARIANTS = ("none", "anderson", "chebyshev")
+K_FULL = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000)
+
+
+def lattice(nx, ny, nz, spacing=0.1):
+    """A box lattice of spherical particles with face diagonals: a solid beam along x."""
+    idx = np.arange(nx * ny * nz).reshape(nx, ny, nz)
+    grid = np.meshgrid(*(np.arange(k) * spacing for k in (nx, ny, nz)), indexing="ij")
+    centers = np.stack(grid, -1).reshape(-1, 3)
+    edges = []
+    for d in [(1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 0), (0, 1, 1), (1, 0, 1)]:
+        a = idx[: nx - d[0], : ny - d[1], : nz - d[2]]
+        b = idx[d[0]:, d[1]:, d[2]:]
+        edges.append(np.stack([a.ravel(), b.ravel()], 1))
+    return opdeform.Graph(centers, np.full((len(centers), 3), spacing * 0.5), np.concatenate(edges))
+
+
+class Scene:
+    """A start state and one call (a static solve or one step) whose result is compared with a reference."""
+
+    def __init__(self, name, make, kind, prepare=None, k_max=2000, ref_iterations=20000):
+        self.name, self.make, self.kind, self.k_max, self.ref_iterations = name, make, kind, k_max, ref_iterations
+        sim = make()
+        if prepare:
+            prepare(sim)
+        self.start = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities)
+        self.masses = sim.graph.volumes * sim.params["density"]
+
+    def run(self, k, variant, trace=False):
+        sim = self.make()
+        sim.set_state(*self.start)
+        sim.set_solver(variant)
+        sim.trace_energy = trace
+        t = time.perf_counter()
+        if self.kind == "static":
+            sim.solve_static(k)
+        else:
+            sim.set_params(iterations=k)
+            sim.step()
+        return sim, (time.perf_counter() - t) * 1e3
+
+    def reference(self):
+        """Converged on the same call: Chebyshev to the bottom, then plain iterations until E stops moving."""
+        sim, _ = self.run(self.ref_iterations, "chebyshev", trace=True)
+        e_start = sim.energy_trace[0]
+        polish, _ = self.run(self.ref_iterations, "none")
+        best = sim if sim.energy() <= polish.energy() else polish
+        return best.positions, best.rotations, best.energy(), e_start
+
+
+def errors(sim, ref, masses):
+    x_ref, r_ref, e_ref, e_start = ref
+    rel_e = (sim.energy() - e_ref) / (e_start - e_ref)
+    dx = sim.positions - x_ref
+    pos = math.sqrt((masses[:, None] * dx * dx).sum() / masses.sum())
+    rot = float(np.sqrt(((sim.rotations - r_ref) ** 2).sum(axis=(1, 2))).max())
+    return rel_e, pos, rot
+
+
+def twist_prepared(sim_holder):
+    def make():
+        tb = scenes.TwistedBar()
+        sim_holder.append(tb)
+        tb.pose(math.pi / 2, (-0.3, 0.0, 0.5))  # a large handle move from rest: the hard step
+        return tb.sim
+    return make
+
+
+def steady_twist():
+    """The twisted bar 1 s into its animation: the steady state of a running simulation."""
+    tb = scenes.TwistedBar(damping=0.02)
+    for f in range(60):
+        tb.animate(f / 60.0)
+        tb.sim.step()
+    state = (tb.sim.positions, tb.sim.rotations, tb.sim.velocities, tb.sim.angular_velocities)
+
+    def make():
+        t = scenes.TwistedBar(damping=0.02)
+        t.animate(60 / 60.0)
+        return t.sim
+    return make, state
+
+
+def build_scenes(quick):
+    out = []
+    out.append(Scene("bar static pose from rest", scenes.fig1_bar, "static"))
+    out.append(Scene("twisted bar hard step", twist_prepared([]), "step"))
+    make, state = steady_twist()
+    sc = Scene("twisted bar steady state", make, "step", prepare=lambda s: s.set_state(*state))
+    out.append(sc)
+
+    def body():
+        return scenes.falling_body()
+
+    def jiggle(sim):
+        """Landed, then shaken: a random velocity field of about 2 m/s makes the step a real elastic problem."""
+        sim.step(70)
+        v = np.random.default_rng(1).normal(scale=2.0, size=(sim.graph.n_particles, 3))
+        sim.set_state(sim.positions, sim.rotations, v, sim.angular_velocities)
+
+    out.append(Scene("body 100 shaken step", body, "step", prepare=jiggle))
+    if not quick:
+        def large():
+            sim = opdeform.Simulation(lattice(100, 10, 10), 1e9, damping=0.0)
+            for p in np.stack(np.meshgrid([0.0], np.arange(10) * 0.1, np.arange(10) * 0.1, indexing="ij"), -1).reshape(-1, 3):
+                sim.add_position_constraint(p)
+            return sim
+        out.append(Scene("10,000 particles, static pose from rest", large, "static", k_max=500, ref_iterations=3000))
+    return out
+
+
+def clip_error(iteration_counts):
+    """The twisted bar's 2-second clip at each iteration count against a converged clip (positions over time)."""
+    def clip(k, variant="none"):
+        tb = scenes.TwistedBar(damping=0.02, iterations=k)
+        tb.sim.set_solver(variant)
+        frames = []
+        t = time.perf_counter()
+        for f in range(120):
+            tb.animate(f / 60.0)
+            tb.sim.step()
+            frames.append(tb.sim.positions)
+        return np.array(frames), (time.perf_counter() - t) * 1e3 / 120
+    ref, _ = clip(400, "chebyshev")
+    rows = []
+    for variant in VARIANTS:
+        for k in iteration_counts:
+            frames, ms = clip(k, variant)
+            err = float(np.sqrt(((frames - ref) ** 2).sum(-1).mean()) / scenes.BAR_LENGTH)
+            rows.append((variant, k, ms, err))
+    return rows
+
+
+def plot(scene, rows, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
+    for variant in VARIANTS + ("shape matching",):
+        r = [x for x in rows if x["variant"] == variant]
+        if not r:
+            continue
+        for ax, key, label in zip(axes, ("rel_energy", "rel_position", "rotation"),
+                                  ("relative energy error", "relative position error", "max rotation error")):
+            vals = [(x["ms"], x[key]) for x in r if x[key] is not None and x[key] > 0]
+            if vals:
+                ax.loglog(*zip(*vals), marker="o", ms=3, label=variant)
+            ax.set_xlabel("ms")
+            ax.set_title(label, fontsize=9)
+            ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(scene)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def time_to(rows, variant, key, target):
+    r = sorted((x for x in rows if x["variant"] == variant), key=lambda x: x["k"])
+    for x in r:
+        if x[key] is not None and x[key] <= target:
+            return x["ms"], x["k"]
+    return None, None
+
+
+def run(args):
+    quick = "--quick" in args
+    folder = args[args.index("--out") + 1] if "--out" in args else out_dir("error")
+    os.makedirs(folder, exist_ok=True)
+    all_rows, summary = [], []
+    for scene in build_scenes(quick):
+        ref = scene.reference()
+        x_start = scene.start[0]
+        ks = [k for k in (K_FULL if not quick else K_FULL[:8]) if k <= scene.k_max]
+        rows = []
+        for variant in VARIANTS:
+            for k in ks:
+                times = []
+                for _ in range(3 if k <= 200 else 1):
+                    sim, ms = scene.run(k, variant)
+                    times.append(ms)
+                rel_e, pos, rot = errors(sim, ref, scene.masses)
+                d0 = x_start - ref[0]
+                pos0 = math.sqrt((scene.masses[:, None] * d0 * d0).sum() / scene.masses.sum())
+                rows.append(dict(scene=scene.name, variant=variant, k=k, ms=statistics.median(times),
+                                 rel_energy=rel_e, rel_position=pos / pos0 if pos0 > 0 else None, rotation=rot))
+        name = scene.name.replace(" ", "_").replace(",", "")
+        plot(scene.name, rows, os.path.join(folder, name + ".png"))
+        all_rows += rows
+        plain_ms, plain_k = time_to(rows, "none", "rel_energy", 1e-3)
+        for variant in VARIANTS:
+            ms, k = time_to(rows, variant, "rel_energy", 1e-3)
+            factor = f"{plain_ms / ms:.1f}x" if ms and plain_ms else "-"
+            summary.append((scene.name, variant, k if k else f">{ks[-1]}", f"{ms:.2f}" if ms else "-", factor))
+    with open(os.path.join(folder, "error.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(all_rows[0]))
+        w.writeheader()
+        w.writerows(all_rows)
+    print("Iterations and ms to reach relative energy error 1e-3 (speed-up against plain local/global):")
+    table(summary, ["scene", "variant", "k", "ms", "speed-up"])
+    print()
+    print("Relative energy error after k iterations:")
+    by = {}
+    for r in all_rows:
+        by.setdefault((r["scene"], r["variant"]), {})[r["k"]] = r
+    ks = sorted({r["k"] for r in all_rows})
+    table([(s, v) + tuple(f"{by[(s, v)][k]['rel_energy']:.1e}" if k in by[(s, v)] else "" for k in ks)
+           for (s, v) in by], ["scene", "variant"] + [str(k) for k in ks])
+    clip = clip_error((1, 2, 5, 10, 20) if quick else (1, 2, 5, 10, 20, 50))
+    with open(os.path.join(folder, "clip.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["variant", "iterations", "ms_per_step", "rms_position_error_over_bar_length"])
+        w.writerows(clip)
+    print()
+    print("Twisted bar, 2-second clip (120 steps) against a converged clip: RMS position error / bar length")
+    table([(v, k, f"{ms:.3f}", f"{e:.2e}") for v, k, ms, e in clip], ["variant", "iterations", "ms/step", "error"])
+    print(f"\nwrote {folder}/error.csv, clip.csv and one PNG per scene")
