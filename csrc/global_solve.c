@@ -12,6 +12,9 @@
 
 #include <cholmod.h>
 #include <string.h>
+#include <time.h>
+
+static od_Status od_GlobalSolve(od_Sim* sim);
 
 struct od_GlobalSolver
 {
@@ -132,6 +135,8 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 {
 	int n = sim->graph->n;
 	cholmod_common* cc = &s->common;
+	static const int paths[3] = { CHOLMOD_AUTO, CHOLMOD_SIMPLICIAL, CHOLMOD_SUPERNODAL };
+	cc->supernodal = paths[sim->solverDef.factorization];
 	od_FreeFactor(s);
 	size_t entries = od_EntryCount(sim);
 	cholmod_triplet* t = cholmod_allocate_triplet((size_t)n, (size_t)n, entries, 1, CHOLMOD_REAL, cc);
@@ -206,7 +211,27 @@ static void od_FillRhs(const od_Sim* sim, double* b)
 	od_Constraints_AddRhs(sim, b);
 }
 
+static double od_Now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 od_Status od_GlobalStep(od_Sim* sim)
+{
+	double start = od_Now();
+	od_Status status = od_GlobalSolve(sim);
+	sim->counters.globalSeconds += od_Now() - start;
+	return status;
+}
+
+double od_Clock(void)
+{
+	return od_Now();
+}
+
+static od_Status od_GlobalSolve(od_Sim* sim)
 {
 	od_GlobalSolver* s = sim->solver[sim->mode];
 	if (!s->valid)

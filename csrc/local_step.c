@@ -198,7 +198,16 @@ static void od_SweepTask(void* ctx, int task, int thread)
 	}
 }
 
+static void od_Sweep(od_Sim* sim);
+
 void od_LocalStep(od_Sim* sim)
+{
+	double start = od_Clock();
+	od_Sweep(sim);
+	sim->counters.localSeconds += od_Clock() - start;
+}
+
+static void od_Sweep(od_Sim* sim)
 {
 	bool directions = sim->constraints.directionCount > 0;
 	if (directions)

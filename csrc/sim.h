@@ -144,6 +144,7 @@ od_Status od_GlobalSolver_Create(od_GlobalSolver** solver);
 void od_GlobalSolver_Destroy(od_GlobalSolver* solver);
 void od_GlobalSolver_Invalidate(od_GlobalSolver* solver);
 od_Status od_GlobalStep(od_Sim* sim);
+double od_Clock(void); // monotonic seconds
 
 // floor.c
 void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale);

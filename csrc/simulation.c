@@ -56,6 +56,11 @@ static od_Status od_CheckSolverDef(const od_SolverDef* def)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "rho = %g must be in (0, 1)", def->rho);
 	}
+	if (def->factorization < 0 || def->factorization > 2)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "factorization = %d must be 0 (auto), 1 (simplicial) or 2 (supernodal)",
+					   def->factorization);
+	}
 	if (def->threads < 0 || def->threads > 64)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, 64] (0: one per core)", def->threads);
@@ -102,6 +107,11 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 	od_Pool_Destroy(sim->pool);
 	sim->pool = pool;
 	sim->colorsDirty = true;
+	if (def->factorization != sim->solverDef.factorization)
+	{
+		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
+		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
+	}
 	sim->solverDef = *def;
 	return OD_OK;
 }

@@ -246,19 +246,25 @@ class Simulation:
 
     ACCELERATORS = ("none", "anderson", "chebyshev")
 
-    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1):
+    FACTORIZATIONS = ("auto", "simplicial", "supernodal")
+
+    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto"):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
         ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy; local
-        step ``threads`` (0: one per core; more than 1 updates rotations colour by colour)."""
+        step ``threads`` (0: one per core; more than 1 updates rotations colour by colour); CHOLMOD's
+        ``factorization`` path ("auto", "simplicial" or "supernodal")."""
         if accelerator not in self.ACCELERATORS:
             raise ValueError(f"accelerator must be one of {self.ACCELERATORS}, got {accelerator!r}")
+        if factorization not in self.FACTORIZATIONS:
+            raise ValueError(f"factorization must be one of {self.FACTORIZATIONS}, got {factorization!r}")
         self._core.set_solver(self.ACCELERATORS.index(accelerator), _int("window", window), float(rho),
-                              _int("threads", threads))
+                              _int("threads", threads), self.FACTORIZATIONS.index(factorization))
 
     @property
     def solver(self):
         s = self._core.solver()
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
+        s["factorization"] = self.FACTORIZATIONS[s["factorization"]]
         return s
 
     @property
@@ -289,3 +295,4 @@ def _int(name, value):
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     return int(value)
+

@@ -694,18 +694,20 @@ static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
 	od_SimCounters c = od_Sim_GetCounters(((SimObject*)obj)->sim);
-	return Py_BuildValue("{sLsLsLsLsLsLsL}", "factorizations", c.factorizations, "analyses", c.analyses, "solves",
-						 c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks, "accelerated",
-						 c.accelerated, "rejected", c.rejected);
+	return Py_BuildValue("{sLsLsLsLsLsLsLsdsd}", "factorizations", c.factorizations, "analyses", c.analyses,
+						 "solves", c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks, "accelerated",
+						 c.accelerated, "rejected", c.rejected, "local_seconds", c.localSeconds, "global_seconds",
+						 c.globalSeconds);
 }
 
-// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads)
+// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads, factorization)
 static PyObject* Sim_set_solver(PyObject* obj, PyObject* args)
 {
 	SimObject* self = (SimObject*)obj;
 	od_SolverDef d = od_DefaultSolverDef();
 	int kind;
-	if (SimEnter(self) < 0 || !PyArg_ParseTuple(args, "iidi", &kind, &d.window, &d.rho, &d.threads))
+	if (SimEnter(self) < 0 ||
+		!PyArg_ParseTuple(args, "iidii", &kind, &d.window, &d.rho, &d.threads, &d.factorization))
 	{
 		return NULL;
 	}
@@ -717,8 +719,8 @@ static PyObject* Sim_solver(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
 	od_SolverDef d = od_Sim_GetSolver(((SimObject*)obj)->sim);
-	return Py_BuildValue("{sisisdsi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho, "threads",
-						 d.threads);
+	return Py_BuildValue("{sisisdsisi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho,
+						 "threads", d.threads, "factorization", d.factorization);
 }
 
 static PyMethodDef Sim_methods[] = {

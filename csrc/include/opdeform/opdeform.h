@@ -101,6 +101,7 @@ typedef struct od_SolverDef
 	int window;     // Anderson history (1..16)
 	double rho;     // Chebyshev spectral radius estimate in (0, 1)
 	int threads;    // local-step threads; > 1 updates rotations by graph colour (Gauss-Seidel per colour)
+	int factorization; // CHOLMOD's path: 0 its own choice, 1 simplicial, 2 supernodal
 } od_SolverDef;
 
 od_SolverDef od_DefaultSolverDef(void);
@@ -116,6 +117,8 @@ typedef struct od_SimCounters
 	long long polarFallbacks; // local updates that needed the full SVD
 	long long accelerated;    // iterations whose accelerated iterate was kept
 	long long rejected;       // iterations whose accelerated iterate raised the energy and was dropped
+	double localSeconds;      // wall time in local steps
+	double globalSeconds;     // wall time in global steps (right side, back-substitution, factorizations)
 } od_SimCounters;
 
 od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
