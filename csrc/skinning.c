@@ -1,63 +1,35 @@
-// Linear-blend skinning weights (Sumner et al. 2007) over the nearest particles of a rest-space point.
+// Linear-blend skinning (eq. 1) with Sumner et al. 2007 weights over the nearest particles of a rest point.
 //
-// w_j = (1 - |p - X̄_j| / dmax)² for the m nearest particles, dmax the distance to the (m+1)-th, then
-// normalised. Ties in distance are broken by particle index so that results are deterministic.
-// Only particles of the connected piece of the nearest particle take part: a point never follows a
-// piece of the body it is not attached to.
+// Weights: w_j = (1 - |p - X̄_j| / dmax)² for the m nearest particles, dmax the distance to the (m+1)-th,
+// then normalised. Ties in distance are broken by particle index, so results are deterministic. Only
+// particles of the connected piece of the nearest particle take part: a point never follows a piece of
+// the body it is not attached to. The constraints (brute-force search) and the mesh skin (grid search)
+// get the same weights bit for bit.
+//
+// od_Skin binds every vertex once and then deforms per frame: each particle's rigid motion is folded into
+// one 3x4 affine map [Rj | xj - Rj X̄j], every vertex blends its m maps and applies the blend to its rest
+// position (and the linear part to its rest normal). The vertex loop streams the rest positions,
+// indices, weights and outputs once, so it runs near memory bandwidth. A large mesh keeps a thread pool
+// (pool.c) that takes chunks of vertices; each vertex is computed alone, so the result does not depend on
+// the number of threads, bit for bit.
+#include "opdeform/mesh.h"
+
+#include "core.h"
 #include "graph.h"
 #include "math3.h"
+#include "nearest.h"
+#include "pool.h"
 
 #include <float.h>
+#include <string.h>
 
-// Keeps the k best (distance, index) pairs sorted ascending; returns the new count.
-static int od_InsertNearest(double* dist, int* idx, int count, int k, double d, int i)
-{
-	if (count == k && (d > dist[k - 1] || (d == dist[k - 1] && i > idx[k - 1])))
-	{
-		return count;
-	}
-	int pos = count < k ? count++ : k - 1;
-	while (pos > 0 && (dist[pos - 1] > d || (dist[pos - 1] == d && idx[pos - 1] > i)))
-	{
-		dist[pos] = dist[pos - 1];
-		idx[pos] = idx[pos - 1];
-		--pos;
-	}
-	dist[pos] = d;
-	idx[pos] = i;
-	return count;
-}
+// Vertices per task of the pool, when deforming and when binding; meshes below two deform chunks get no pool.
+#define OD_DEFORM_CHUNK 8192
+#define OD_BIND_CHUNK 1024
 
-int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* idx, double* w)
+// Sumner weights from the (up to m+1) nearest distances; returns the count of weights written.
+static int od_SumnerWeights(const double* dist, const int* near, int count, int m, int* idx, double* w)
 {
-	if (m < 1)
-	{
-		return 0;
-	}
-	if (m > OD_MAX_SKIN)
-	{
-		m = OD_MAX_SKIN;
-	}
-	double dist[OD_MAX_SKIN + 1];
-	int near[OD_MAX_SKIN + 1];
-	int count = 0;
-	od_Vec3 p = od_V3Load(point);
-	int nearest = 0;
-	count = 0;
-	for (int i = 0; i < g->n; ++i)
-	{
-		double d = od_Length(od_Sub(p, od_V3Load(g->centers + 3 * i)));
-		count = od_InsertNearest(dist, &nearest, count, 1, d, i);
-	}
-	count = 0;
-	for (int i = 0; i < g->n; ++i)
-	{
-		if (g->piece[i] == g->piece[nearest])
-		{
-			double d = od_Length(od_Sub(p, od_V3Load(g->centers + 3 * i)));
-			count = od_InsertNearest(dist, near, count, m + 1, d, i);
-		}
-	}
 	int used = count < m + 1 ? count : m;
 	double dmax = count == m + 1 ? dist[m] : dist[count - 1] * (1.0 + 1e-6) + DBL_MIN * 1e10;
 	double sum = 0.0;
@@ -74,4 +46,409 @@ int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* i
 		w[k] = sum > 0.0 ? w[k] / sum : 1.0 / used;
 	}
 	return used;
+}
+
+// The k nearest particles of p in the piece of its nearest particle, by the grid (or brute force when
+// grid is NULL); pieceSize (with a grid) caps k at the size of the piece.
+static int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p,
+							 int k, double* dist, int* near)
+{
+	const int* label = NULL;
+	int want = 0;
+	if (g->pieceCount > 1)
+	{
+		int nearest = 0;
+		double d;
+		if (grid)
+		{
+			od_NearestGrid_Query(grid, NULL, 0, p, 1, &d, &nearest);
+		}
+		else
+		{
+			od_NearestBrute(g->centers, g->n, NULL, 0, p, 1, &d, &nearest);
+		}
+		label = g->piece;
+		want = g->piece[nearest];
+		k = pieceSize && pieceSize[want] < k ? pieceSize[want] : k;
+	}
+	return grid ? od_NearestGrid_Query(grid, label, want, p, k, dist, near)
+				: od_NearestBrute(g->centers, g->n, label, want, p, k, dist, near);
+}
+
+int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* idx, double* w)
+{
+	if (m < 1)
+	{
+		return 0;
+	}
+	m = m > OD_MAX_SKIN ? OD_MAX_SKIN : m;
+	double dist[OD_MAX_SKIN + 1];
+	int near[OD_MAX_SKIN + 1];
+	int count = od_NearestInPiece(g, NULL, NULL, point, m + 1, dist, near);
+	return od_SumnerWeights(dist, near, count, m, idx, w);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The mesh skin
+
+struct od_Skin
+{
+	int vertexCount;
+	int particleCount;
+	int m;
+	double* rest;        // vertexCount*3
+	double* restNormals; // vertexCount*3 or NULL
+	int* idx;            // vertexCount*m
+	double* w;           // vertexCount*m
+	double* centers;     // particleCount*3, X̄
+	od_Pool* pool;       // NULL: one thread
+};
+
+// Runs fn over [0, count) in chunks, on the pool when there is one.
+typedef void od_RangeFn(void* context, int begin, int end);
+
+typedef struct od_RangeJob
+{
+	od_RangeFn* fn;
+	void* context;
+	int count, chunk;
+} od_RangeJob;
+
+static void od_RunChunk(void* ctx, int task, int thread)
+{
+	(void)thread;
+	const od_RangeJob* job = ctx;
+	int begin = task * job->chunk;
+	int end = job->count - begin < job->chunk ? job->count : begin + job->chunk;
+	job->fn(job->context, begin, end);
+}
+
+static void od_SkinRun(const od_Skin* s, int chunk, od_RangeFn* fn, void* context)
+{
+	od_RangeJob job = { fn, context, s->vertexCount, chunk };
+	int tasks = (int)(((long long)s->vertexCount + chunk - 1) / chunk);
+	if (s->pool)
+	{
+		od_Pool_Run(s->pool, tasks, od_RunChunk, &job);
+	}
+	else
+	{
+		fn(context, 0, s->vertexCount);
+	}
+}
+
+od_SkinDef od_DefaultSkinDef(void)
+{
+	od_SkinDef def;
+	memset(&def, 0, sizeof def);
+	def.neighbors = 4;
+	return def;
+}
+
+static od_Status od_CheckSkinDef(const od_Graph* graph, const od_SkinDef* def)
+{
+	if (!graph)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "graph is required");
+	}
+	if (def->vertexCount < 0 || (def->vertexCount > 0 && !def->vertices))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "vertices: invalid vertex count %d", def->vertexCount);
+	}
+	if (def->neighbors < 1 || def->neighbors > OD_MAX_SKIN)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "neighbors = %d must be in [1, %d]", def->neighbors, OD_MAX_SKIN);
+	}
+	for (int v = 0; v < def->vertexCount; ++v)
+	{
+		if (!od_IsFinite3(def->vertices + 3 * v))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "vertices[%d] is not finite", v);
+		}
+	}
+	if (def->triangleCount < 0 || (def->triangleCount > 0 && !def->triangles))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "triangles: invalid triangle count %d", def->triangleCount);
+	}
+	for (int t = 0; t < 3 * def->triangleCount; ++t)
+	{
+		if (def->triangles[t] < 0 || def->triangles[t] >= def->vertexCount)
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "triangles[%d] refers to vertex %d, but there are %d vertices", t / 3,
+						   def->triangles[t], def->vertexCount);
+		}
+	}
+	return OD_OK;
+}
+
+// Area-weighted vertex normals (unit length; zero for vertices of no triangle or only degenerate ones).
+static void od_TriangleNormals(const od_SkinDef* def, double* normals)
+{
+	memset(normals, 0, sizeof(double) * 3 * (size_t)def->vertexCount);
+	for (int t = 0; t < def->triangleCount; ++t)
+	{
+		const int* tri = def->triangles + 3 * t;
+		od_Vec3 a = od_V3Load(def->vertices + 3 * tri[0]);
+		od_Vec3 n = od_Cross(od_Sub(od_V3Load(def->vertices + 3 * tri[1]), a),
+							 od_Sub(od_V3Load(def->vertices + 3 * tri[2]), a));
+		for (int k = 0; k < 3; ++k)
+		{
+			od_V3Store(normals + 3 * tri[k], od_Add(od_V3Load(normals + 3 * tri[k]), n));
+		}
+	}
+	for (int v = 0; v < def->vertexCount; ++v)
+	{
+		double len = od_Length(od_V3Load(normals + 3 * v));
+		if (len > 0.0)
+		{
+			od_V3Store(normals + 3 * v, od_Scale(1.0 / len, od_V3Load(normals + 3 * v)));
+		}
+	}
+}
+
+typedef struct od_BindJob
+{
+	od_Skin* skin;
+	const od_Graph* graph;
+	const od_NearestGrid* grid;
+	const int* pieceSize;
+} od_BindJob;
+
+// Rows of vertices on a piece of fewer than m particles are padded with weight 0 (on the nearest one).
+static void od_BindRange(void* context, int begin, int end)
+{
+	od_BindJob* job = context;
+	od_Skin* s = job->skin;
+	double dist[OD_MAX_SKIN + 1];
+	int near[OD_MAX_SKIN + 1];
+	for (int v = begin; v < end; ++v)
+	{
+		int* idx = s->idx + (size_t)s->m * v;
+		double* w = s->w + (size_t)s->m * v;
+		int count = od_NearestInPiece(job->graph, job->grid, job->pieceSize, s->rest + 3 * v, s->m + 1, dist, near);
+		for (int k = od_SumnerWeights(dist, near, count, s->m, idx, w); k < s->m; ++k)
+		{
+			idx[k] = idx[0];
+			w[k] = 0.0;
+		}
+	}
+}
+
+od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin** out)
+{
+	*out = NULL;
+	od_Status status = od_CheckSkinDef(graph, def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	size_t nv = (size_t)def->vertexCount;
+	int m = def->neighbors < graph->n ? def->neighbors : graph->n;
+	bool normals = def->normals || def->triangleCount > 0;
+	od_Skin* s = od_AllocZero(1, sizeof *s);
+	if (!s)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory binding %d vertices", def->vertexCount);
+	}
+	*s = (od_Skin){ def->vertexCount, graph->n, m, NULL, NULL, NULL, NULL, NULL, NULL };
+	s->rest = od_Alloc(sizeof(double) * 3 * nv);
+	s->restNormals = normals ? od_Alloc(sizeof(double) * 3 * nv) : NULL;
+	s->idx = od_Alloc(sizeof(int) * m * nv);
+	s->w = od_Alloc(sizeof(double) * m * nv);
+	s->centers = od_Alloc(sizeof(double) * 3 * (size_t)graph->n);
+	od_NearestGrid grid = { 0 };
+	int* pieceSize = od_AllocZero((size_t)graph->pieceCount, sizeof(int));
+	bool threads = def->threadCount != 1 && def->vertexCount >= 2 * OD_DEFORM_CHUNK;
+	if (!s->rest || (normals && !s->restNormals) || !s->idx || !s->w || !s->centers || !pieceSize ||
+		(threads && od_Pool_Create(def->threadCount, &s->pool) != OD_OK) ||
+		od_NearestGrid_Create(&grid, graph->centers, graph->n) != OD_OK)
+	{
+		od_Free(pieceSize);
+		od_Skin_Destroy(s);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory binding %d vertices", def->vertexCount);
+	}
+	for (int i = 0; i < graph->n; ++i)
+	{
+		pieceSize[graph->piece[i]]++;
+	}
+	memcpy(s->rest, def->vertices, sizeof(double) * 3 * nv);
+	memcpy(s->centers, graph->centers, sizeof(double) * 3 * (size_t)graph->n);
+	if (def->normals)
+	{
+		memcpy(s->restNormals, def->normals, sizeof(double) * 3 * nv);
+	}
+	else if (normals)
+	{
+		od_TriangleNormals(def, s->restNormals);
+	}
+	od_BindJob job = { s, graph, &grid, pieceSize };
+	od_SkinRun(s, OD_BIND_CHUNK, od_BindRange, &job);
+	od_NearestGrid_Destroy(&grid);
+	od_Free(pieceSize);
+	*out = s;
+	return OD_OK;
+}
+
+void od_Skin_Destroy(od_Skin* s)
+{
+	if (!s)
+	{
+		return;
+	}
+	od_Free(s->rest);
+	od_Free(s->restNormals);
+	od_Free(s->idx);
+	od_Free(s->w);
+	od_Free(s->centers);
+	od_Pool_Destroy(s->pool);
+	od_Free(s);
+}
+
+int od_Skin_GetVertexCount(const od_Skin* s)
+{
+	return s->vertexCount;
+}
+
+int od_Skin_GetParticleCount(const od_Skin* s)
+{
+	return s->particleCount;
+}
+
+int od_Skin_GetNeighborCount(const od_Skin* s)
+{
+	return s->m;
+}
+
+const int* od_Skin_GetIndices(const od_Skin* s)
+{
+	return s->idx;
+}
+
+const double* od_Skin_GetWeights(const od_Skin* s)
+{
+	return s->w;
+}
+
+const double* od_Skin_GetRestNormals(const od_Skin* s)
+{
+	return s->restNormals;
+}
+
+typedef struct od_DeformJob
+{
+	const od_Skin* skin;
+	const double* maps; // particleCount*12, rows [R | x - R X̄]
+	const od_SkinTarget* target;
+	const void* restNormals;
+	od_Scalar restNormalType;
+} od_DeformJob;
+
+static inline od_Vec3 od_Load3(const void* base, od_Scalar type, size_t v)
+{
+	if (type == OD_FLOAT32)
+	{
+		const float* f = (const float*)base + 3 * v;
+		return od_V3(f[0], f[1], f[2]);
+	}
+	return od_V3Load((const double*)base + 3 * v);
+}
+
+static inline void od_Store3(void* base, od_Scalar type, size_t v, od_Vec3 a)
+{
+	if (type == OD_FLOAT32)
+	{
+		float* f = (float*)base + 3 * v;
+		f[0] = (float)a.x;
+		f[1] = (float)a.y;
+		f[2] = (float)a.z;
+	}
+	else
+	{
+		od_V3Store((double*)base + 3 * v, a);
+	}
+}
+
+// The vertex loop; m is a compile-time constant where the caller passes one, so the blend unrolls.
+static inline __attribute__((always_inline)) void od_DeformVertices(const od_DeformJob* job, int begin, int end,
+																	 int m)
+{
+	const od_Skin* s = job->skin;
+	const od_SkinTarget* t = job->target;
+	for (int v = begin; v < end; ++v)
+	{
+		const int* idx = s->idx + (size_t)m * v;
+		const double* w = s->w + (size_t)m * v;
+		double a[12] = { 0 };
+		for (int k = 0; k < m; ++k)
+		{
+			const double* map = job->maps + 12 * idx[k];
+			for (int e = 0; e < 12; ++e)
+			{
+				a[e] += w[k] * map[e];
+			}
+		}
+		od_Vec3 p = od_V3Load(s->rest + 3 * v);
+		od_Store3(t->positions, t->positionType, v,
+				  od_V3(a[0] * p.x + a[1] * p.y + a[2] * p.z + a[3], a[4] * p.x + a[5] * p.y + a[6] * p.z + a[7],
+						a[8] * p.x + a[9] * p.y + a[10] * p.z + a[11]));
+		if (t->normals)
+		{
+			od_Vec3 n = od_Load3(job->restNormals, job->restNormalType, v);
+			od_Vec3 q = od_V3(a[0] * n.x + a[1] * n.y + a[2] * n.z, a[4] * n.x + a[5] * n.y + a[6] * n.z,
+							  a[8] * n.x + a[9] * n.y + a[10] * n.z);
+			double len = od_Length(q);
+			od_Store3(t->normals, t->normalType, v, len > 0.0 ? od_Scale(1.0 / len, q) : q);
+		}
+	}
+}
+
+static void od_DeformRange(void* context, int begin, int end)
+{
+	const od_DeformJob* job = context;
+	if (job->skin->m == 4)
+	{
+		od_DeformVertices(job, begin, end, 4);
+	}
+	else
+	{
+		od_DeformVertices(job, begin, end, job->skin->m);
+	}
+}
+
+od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double* rotations,
+						 const od_SkinTarget* target)
+{
+	if (!positions || !rotations || !target || !target->positions)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "positions, rotations and an output buffer are required");
+	}
+	const void* restNormals = target->restNormals ? target->restNormals : s->restNormals;
+	od_Scalar restNormalType = target->restNormals ? target->restNormalType : OD_FLOAT64;
+	if (target->normals && !restNormals)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "normals: give rest normals, or triangles or normals when binding, to get deformed normals");
+	}
+	double* maps = od_Alloc(sizeof(double) * 12 * (size_t)s->particleCount);
+	if (!maps)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory skinning %d particles", s->particleCount);
+	}
+	for (int j = 0; j < s->particleCount; ++j)
+	{
+		od_Mat3 r = od_M3Load(rotations + 9 * j);
+		od_Vec3 x = od_Sub(od_V3Load(positions + 3 * j), od_M3MulV(&r, od_V3Load(s->centers + 3 * j)));
+		double* map = maps + 12 * j;
+		for (int row = 0; row < 3; ++row)
+		{
+			memcpy(map + 4 * row, r.m + 3 * row, sizeof(double) * 3);
+		}
+		map[3] = x.x;
+		map[7] = x.y;
+		map[11] = x.z;
+	}
+	od_DeformJob job = { s, maps, target, restNormals, restNormalType };
+	od_SkinRun(s, OD_DEFORM_CHUNK, od_DeformRange, &job);
+	od_Free(maps);
+	return OD_OK;
 }

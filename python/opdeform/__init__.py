@@ -9,7 +9,8 @@ import numpy as np
 from . import _core
 from ._core import SolverError
 
-__all__ = ["Graph", "Simulation", "SolverError", "as_array"]
+__all__ = ["Graph", "Simulation", "Skin", "SolverError", "add_vertex_direction", "as_array", "io", "meshes",
+           "pin_vertices"]
 __version__ = _core.__version__
 
 
@@ -61,6 +62,17 @@ class Graph:
         edges = as_array("edges", edges, (None, 2), np.int32)
         axes = None if axes is None else as_array("axes", axes, (n, 3, 3))
         self._core = _core.Graph(centers, radii, edges, axes)
+
+    @classmethod
+    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=40):
+        """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
+        through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
+        forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and
+        radii are the principal axes of the part of the body each particle stands for. Each connected piece
+        gets its own connected graph unless ``join_pieces``. Deterministic. See opdeform.mesh."""
+        from .mesh import graph_from_mesh
+
+        return graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle)
 
     @property
     def n_particles(self):
@@ -296,3 +308,6 @@ def _int(name, value):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     return int(value)
 
+# The mesh layer builds on Graph and Simulation above.
+from . import io, meshes  # noqa: E402
+from .mesh import Skin, add_vertex_direction, pin_vertices  # noqa: E402

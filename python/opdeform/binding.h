@@ -52,3 +52,6 @@ void ReleaseArray(Py_buffer* view);
 int CopyOut(PyObject* out, const char* name, const void* data, Py_ssize_t count, char fmt);
 // How many items of `itemsize` bytes a buffer holds, or -1 with ValueError.
 Py_ssize_t ItemCount(PyObject* obj, const char* name, Py_ssize_t itemsize);
+
+// Adds opdeform._core.Skin, graph_from_mesh, parse_mesh and format_mesh (mesh_binding.c).
+int Binding_AddMesh(PyObject* module);

@@ -1,0 +1,127 @@
+// opdeform: triangle meshes and oriented-particle graphs, the public C API.
+//
+// - od_Graph_CreateFromMesh builds a graph whose ellipsoids cover a mesh (METHOD.md, "Building a graph
+//   from a mesh"): through the volume of closed pieces, along the surface (or the length) of open or thin
+//   ones, or as a 1-D chain along the principal axis.
+// - od_Skin binds a rest mesh to a graph once (Sumner weights over the m nearest particles) and then maps
+//   a simulation state to deformed vertex positions and, on request, normals (eq. 1), into float32 or
+//   float64 buffers, on every core.
+// - od_Mesh_Parse* / od_Mesh_Format* read and write OBJ and PLY from and to memory (no file access here).
+// Vertices are row-major doubles (V*3), triangles row-major ints (T*3), as in numpy (V,3) and (T,3).
+#pragma once
+
+#include "opdeform/opdeform.h"
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// ---------------------------------------------------------------------------------------------------------
+// Graph from a mesh
+
+typedef enum od_MeshGraphMode
+{
+	OD_MESH_AUTO,    // per piece: closed pieces as OD_MESH_VOLUME, open ones as OD_MESH_SURFACE
+	OD_MESH_VOLUME,  // particles through what the surface encloses (holes smaller than a voxel are bridged)
+	OD_MESH_SURFACE, // particles along the surface only (a hollow shell)
+	OD_MESH_CHAIN,   // per piece a 1-D chain of particles along its principal axis (the paper's bar)
+} od_MeshGraphMode;
+
+typedef struct od_MeshGraphDef
+{
+	int vertexCount;
+	const double* vertices; // vertexCount*3, finite
+	int triangleCount;
+	const int* triangles;   // triangleCount*3, indices in [0, vertexCount)
+	int particleCount;      // how many particles the graph gets (100)
+	od_MeshGraphMode mode;  // OD_MESH_AUTO
+	bool joinPieces;        // false: each connected piece of the mesh gets its own connected graph
+	int voxelsPerParticle;  // resolution of the voxelization that the particles are fitted to (40)
+} od_MeshGraphDef;
+
+od_MeshGraphDef od_DefaultMeshGraphDef(void);
+od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph);
+
+// ---------------------------------------------------------------------------------------------------------
+// Skinning
+
+typedef struct od_Skin od_Skin;
+
+typedef struct od_SkinDef
+{
+	int vertexCount;
+	const double* vertices; // vertexCount*3 rest positions, finite
+	int triangleCount;      // optional: rest normals are then the area-weighted normals of the triangles
+	const int* triangles;
+	const double* normals;  // optional rest normals (vertexCount*3); used instead of the triangles' ones
+	int neighbors;          // m (4); fewer when the graph has fewer particles
+	int threadCount;        // 0 = every core (meshes of fewer than 16384 vertices use one)
+} od_SkinDef;
+
+od_SkinDef od_DefaultSkinDef(void);
+// Binds once; the skin copies what it needs of the graph and may outlive it.
+od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin** skin);
+void od_Skin_Destroy(od_Skin* skin);
+int od_Skin_GetVertexCount(const od_Skin* skin);
+int od_Skin_GetParticleCount(const od_Skin* skin);
+int od_Skin_GetNeighborCount(const od_Skin* skin); // m actually used by every vertex
+// vertexCount*m, nearest first, from the piece of the nearest particle (as od_Graph_SkinWeights); a row of
+// a vertex whose piece has fewer than m particles ends with weight-0 repeats of its nearest particle.
+const int* od_Skin_GetIndices(const od_Skin* skin);
+const double* od_Skin_GetWeights(const od_Skin* skin); // vertexCount*m, each row sums to 1
+const double* od_Skin_GetRestNormals(const od_Skin* skin); // vertexCount*3, NULL when none were given
+
+typedef enum od_Scalar
+{
+	OD_FLOAT64,
+	OD_FLOAT32,
+} od_Scalar;
+
+// Where od_Skin_Deform writes. Buffers are vertexCount*3 (the flat layout of Blender's foreach_set).
+typedef struct od_SkinTarget
+{
+	void* positions;        // required
+	od_Scalar positionType;
+	void* normals;          // NULL: no normals are computed
+	od_Scalar normalType;
+	const void* restNormals; // NULL: the skin's own rest normals
+	od_Scalar restNormalType;
+} od_SkinTarget;
+
+// p = Σ wj [Rj (p̄ − X̄j) + xj] and n = normalize(Σ wj Rj n̄) for every vertex, from particle positions
+// (n*3) and rotations (n*9). Not from two threads at once on one skin (it runs on the skin's threads).
+od_Status od_Skin_Deform(const od_Skin* skin, const double* positions, const double* rotations,
+						 const od_SkinTarget* target);
+
+// ---------------------------------------------------------------------------------------------------------
+// OBJ and PLY
+
+typedef struct od_Mesh
+{
+	int vertexCount;
+	double* vertices;
+	int triangleCount;
+	int* triangles;
+} od_Mesh;
+
+// Polygons are fan-triangulated; other data (normals, texture coordinates, colours) is skipped. The
+// arrays are allocated by the parser; release them with od_Mesh_Free.
+od_Status od_Mesh_ParseObj(const char* data, size_t size, od_Mesh* mesh);
+// ascii, binary_little_endian and binary_big_endian PLY.
+od_Status od_Mesh_ParsePly(const char* data, size_t size, od_Mesh* mesh);
+void od_Mesh_Free(od_Mesh* mesh);
+
+// Formats a mesh as OBJ text (17 significant digits) or binary little-endian PLY (float64 vertices, int32
+// triangles). *data is allocated here; release it with od_Mesh_FreeData.
+od_Status od_Mesh_FormatObj(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
+							char** data, size_t* size);
+od_Status od_Mesh_FormatPly(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
+							char** data, size_t* size);
+void od_Mesh_FreeData(char* data);
+
+#ifdef __cplusplus
+}
+#endif

@@ -1,0 +1,910 @@
+// Building an oriented-particle graph from a triangle mesh (METHOD.md, "Building a graph from a mesh").
+//
+// 1. Pieces: connected components over welded vertices (mesh_topology.c). Each piece is a group of its
+//    own or, with joinPieces, one group holds them all.
+// 2. Voxels: every group is voxelized (voxelize.c) at one common cell size h, filled (closed pieces in
+//    auto and chain modes, every piece in volume mode) or as a shell (open pieces, surface mode). h is
+//    chosen so that there are about voxelsPerParticle voxels per particle: first from the area and the
+//    enclosed volume, then corrected by counting.
+// 3. Particles are shared among groups in proportion to their voxels (one each first, largest first, while
+//    they last), never more than a group has voxels.
+// 4. Cells: the voxels of a group are split into as many cells as it has particles by geodesic k-means on
+//    the voxel graph (26-neighbours): farthest-point seeds, then Lloyd steps that move every seed to the
+//    voxel nearest its cell's centroid. Geodesic distance keeps a cell from spanning a gap (two legs side
+//    by side). Chain mode instead cuts a group into slabs of equal voxel count along its principal axis.
+// 5. Particles: each cell gives one ellipsoid at its centroid along its principal axes. The covariance
+//    of the union of the cell's voxel cubes is that of their centres plus h²/12 I, and a solid ellipsoid
+//    of radii r has covariance diag(r²)/5, so r = sqrt(5 λ) (always > 0).
+// 6. Edges: cells that share a voxel face; where that leaves a group in several parts, cells touching at
+//    a voxel edge or corner; then (separate solids of a joined group) the nearest particle pairs between
+//    parts (Borůvka), so that each group's graph is connected. Chain mode joins slab i to slab i + 1.
+// Everything runs in one thread with ties broken by index, so the graph is the same bit for bit.
+#include "mesh_graph.h"
+
+#include "core.h"
+#include "graph.h"
+#include "math3.h"
+#include "polar.h"
+#include "union_find.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define OD_LLOYD_STEPS 10
+#define OD_VOXEL_PASSES 8
+
+od_MeshGraphDef od_DefaultMeshGraphDef(void)
+{
+	od_MeshGraphDef def;
+	memset(&def, 0, sizeof def);
+	def.particleCount = 100;
+	def.mode = OD_MESH_AUTO;
+	def.voxelsPerParticle = 40;
+	return def;
+}
+
+static od_Status od_CheckMeshGraphDef(const od_MeshGraphDef* def)
+{
+	if (def->vertexCount < 1 || def->triangleCount < 1 || !def->vertices || !def->triangles)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "the mesh is empty (%d vertices, %d triangles): it needs triangles",
+					   def->vertexCount, def->triangleCount);
+	}
+	if (def->particleCount < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles = %d must be >= 1", def->particleCount);
+	}
+	if (def->mode < OD_MESH_AUTO || def->mode > OD_MESH_CHAIN)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "mode = %d is not a mesh graph mode", (int)def->mode);
+	}
+	if (def->voxelsPerParticle < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "voxels_per_particle = %d must be >= 1", def->voxelsPerParticle);
+	}
+	for (int v = 0; v < def->vertexCount; ++v)
+	{
+		if (!od_IsFinite3(def->vertices + 3 * v))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "vertices[%d] is not finite", v);
+		}
+	}
+	for (int t = 0; t < 3 * def->triangleCount; ++t)
+	{
+		if (def->triangles[t] < 0 || def->triangles[t] >= def->vertexCount)
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "triangles[%d] refers to vertex %d, but there are %d vertices", t / 3,
+						   def->triangles[t], def->vertexCount);
+		}
+	}
+	return OD_OK;
+}
+
+typedef struct od_Group
+{
+	int firstPiece, pieceCount;
+	bool fill;
+	od_Voxels voxels;
+	int particles;
+	int first; // the graph index of its first particle
+} od_Group;
+
+typedef struct od_Builder
+{
+	const od_MeshGraphDef* def;
+	od_MeshPieces pieces;
+	int groupCount;
+	od_Group* groups;
+	double* centers; // particleCount*3
+	double* radii;   // particleCount*3
+	double* axes;    // particleCount*9
+	int* edges;      // edgeCount*2
+	int edgeCount, edgeCapacity;
+} od_Builder;
+
+static const int* od_GroupTriangles(const od_Builder* b, const od_Group* g, int* count)
+{
+	const int* start = b->pieces.triangleStart;
+	*count = start[g->firstPiece + g->pieceCount] - start[g->firstPiece];
+	return b->pieces.triangles + start[g->firstPiece];
+}
+
+static od_Status od_MakeGroups(od_Builder* b)
+{
+	const od_MeshGraphDef* def = b->def;
+	b->groupCount = def->joinPieces ? 1 : b->pieces.count;
+	b->groups = od_AllocZero((size_t)b->groupCount, sizeof(od_Group));
+	if (!b->groups)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d mesh pieces", b->pieces.count);
+	}
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		od_Group* g = &b->groups[i];
+		g->firstPiece = def->joinPieces ? 0 : i;
+		g->pieceCount = def->joinPieces ? b->pieces.count : 1;
+		g->fill = def->mode == OD_MESH_VOLUME;
+		for (int p = g->firstPiece; p < g->firstPiece + g->pieceCount; ++p)
+		{
+			g->fill = g->fill || (def->mode != OD_MESH_SURFACE && b->pieces.closed[p]);
+		}
+	}
+	return OD_OK;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Resolution
+
+// h from vol u³ + 2 area u² = target voxels (u = 1/h; a shell holds about 2 voxels per h² of area).
+static double od_EstimateCellSize(const od_Builder* b, double target, double* exponent)
+{
+	double volume = 0.0, area = 0.0;
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		const od_Group* g = &b->groups[i];
+		for (int p = g->firstPiece; p < g->firstPiece + g->pieceCount; ++p)
+		{
+			area += b->pieces.area[p];
+			volume += g->fill ? b->pieces.volume[p] : 0.0;
+		}
+	}
+	if (!(area > 0.0))
+	{
+		// Only degenerate triangles: a line or a point; the correction by counting does the rest.
+		double lo[3], hi[3], diag = 0.0;
+		for (int a = 0; a < 3; ++a)
+		{
+			lo[a] = hi[a] = b->def->vertices[a];
+		}
+		for (int v = 0; v < b->def->vertexCount; ++v)
+		{
+			for (int a = 0; a < 3; ++a)
+			{
+				lo[a] = fmin(lo[a], b->def->vertices[3 * v + a]);
+				hi[a] = fmax(hi[a], b->def->vertices[3 * v + a]);
+			}
+		}
+		diag = od_Length(od_Sub(od_V3Load(hi), od_V3Load(lo)));
+		*exponent = 1.0;
+		return diag > 0.0 ? 2.0 * diag / target : 1.0;
+	}
+	// Newton from above converges monotonically on this increasing convex function.
+	double u = (volume > 0.0 ? cbrt(target / volume) : 0.0) + sqrt(target / (2.0 * area));
+	for (int it = 0; it < 100; ++it)
+	{
+		double f = volume * u * u * u + 2.0 * area * u * u - target;
+		double step = f / (3.0 * volume * u * u + 4.0 * area * u);
+		u -= step;
+		if (fabs(step) <= 1e-12 * u)
+		{
+			break;
+		}
+	}
+	*exponent = volume * u * u * u >= 2.0 * area * u * u ? 3.0 : 2.0;
+	return 1.0 / u;
+}
+
+// The smallest cell size >= h that keeps every group's grid within OD_VOXEL_CELL_LIMIT.
+static double od_LimitCellSize(const od_Builder* b, double h, bool* limited)
+{
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		int count;
+		const int* list = od_GroupTriangles(b, &b->groups[i], &count);
+		double cells;
+		while ((cells = od_Voxels_CellCount(b->def->vertices, b->def->triangles, list, count, h)) >
+			   OD_VOXEL_CELL_LIMIT)
+		{
+			h *= fmax(cbrt(cells / OD_VOXEL_CELL_LIMIT), 1.01);
+			*limited = true;
+		}
+	}
+	return h;
+}
+
+static od_Status od_VoxelizeGroups(od_Builder* b, double h, double* total)
+{
+	*total = 0.0;
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		od_Group* g = &b->groups[i];
+		int count;
+		const int* list = od_GroupTriangles(b, g, &count);
+		od_Voxels_Destroy(&g->voxels);
+		od_Status status = od_Voxelize(b->def->vertices, b->def->triangles, list, count, h, g->fill, &g->voxels);
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		*total += g->voxels.count;
+	}
+	return OD_OK;
+}
+
+// Voxelizes with the cell size corrected (by the exponent seen so far) until the count is near target.
+static od_Status od_ChooseVoxels(od_Builder* b)
+{
+	double target = (double)b->def->particleCount * b->def->voxelsPerParticle, exponent;
+	double h = od_EstimateCellSize(b, target, &exponent), lastH = 0.0, lastCount = 0.0, count = 0.0;
+	for (int pass = 0; pass < OD_VOXEL_PASSES; ++pass)
+	{
+		bool limited = false;
+		h = od_LimitCellSize(b, h, &limited);
+		od_Status status = od_VoxelizeGroups(b, h, &count);
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		if ((count >= 0.5 * target && count <= 2.0 * target) || (limited && count < target))
+		{
+			break;
+		}
+		if (lastCount > 0.0 && count > 0.0 && count != lastCount && h != lastH)
+		{
+			exponent = fmin(3.0, fmax(1.0, log(count / lastCount) / log(lastH / h)));
+		}
+		lastH = h;
+		lastCount = count;
+		h *= count > 0.0 ? pow(count / target, 1.0 / exponent) : 0.25;
+	}
+	if (count < b->def->particleCount)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "particles = %d: the finest voxel grid allowed holds only %.0f voxels of the mesh (it is "
+					   "very thin and spread out); ask for fewer particles",
+					   b->def->particleCount, count);
+	}
+	return OD_OK;
+}
+
+// One particle per group first (largest groups first), then each to the group furthest below its share.
+static void od_ShareParticles(od_Builder* b)
+{
+	double total = 0.0;
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		total += b->groups[i].voxels.count;
+	}
+	int given = 0;
+	while (given < b->def->particleCount)
+	{
+		int best = -1;
+		double bestKey = -INFINITY;
+		for (int i = 0; i < b->groupCount; ++i)
+		{
+			const od_Group* g = &b->groups[i];
+			if (g->particles >= g->voxels.count)
+			{
+				continue;
+			}
+			// Groups without a particle first, by size; then by deficit against the proportional share.
+			double key = g->particles == 0 ? 1e18 + g->voxels.count
+										   : b->def->particleCount * (g->voxels.count / total) - g->particles;
+			if (key > bestKey)
+			{
+				bestKey = key;
+				best = i;
+			}
+		}
+		b->groups[best].particles++;
+		given++;
+	}
+	for (int i = 0, first = 0; i < b->groupCount; ++i)
+	{
+		b->groups[i].first = first;
+		first += b->groups[i].particles;
+	}
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Cells of one group
+
+typedef struct od_HeapItem
+{
+	double d;
+	int v;
+} od_HeapItem;
+
+typedef struct od_Cells
+{
+	const od_Voxels* voxels;
+	int count;      // voxels
+	int k;          // cells
+	int* map;       // grid cell -> voxel index, or -1
+	double* pos;    // count*3 voxel centres
+	int* label;     // count, the cell of each voxel (-1: none reached)
+	double* dist;   // count, geodesic distance to the cell's seed
+	int* seeds;     // k
+	double* mean;   // k*3
+	double* cov;    // k*9
+	int* size;      // k
+	double* best;   // k, scratch
+	int* nearest;   // k, scratch
+	od_HeapItem* heap;
+	int heapCount, heapCapacity;
+	int offset[26]; // linear offsets of the 26 neighbours; the first 13 point forwards
+	double step[26];
+} od_Cells;
+
+static int od_HeapLess(od_HeapItem a, od_HeapItem b)
+{
+	return a.d < b.d || (a.d == b.d && a.v < b.v);
+}
+
+static od_Status od_HeapPush(od_Cells* c, double d, int v)
+{
+	if (c->heapCount == c->heapCapacity)
+	{
+		int capacity = c->heapCapacity ? 2 * c->heapCapacity : 1024;
+		od_HeapItem* heap = od_Realloc(c->heap, sizeof(od_HeapItem) * (size_t)capacity);
+		if (!heap)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the voxel queue");
+		}
+		c->heap = heap;
+		c->heapCapacity = capacity;
+	}
+	od_HeapItem item = { d, v };
+	int i = c->heapCount++;
+	while (i > 0 && od_HeapLess(item, c->heap[(i - 1) / 2]))
+	{
+		c->heap[i] = c->heap[(i - 1) / 2];
+		i = (i - 1) / 2;
+	}
+	c->heap[i] = item;
+	return OD_OK;
+}
+
+static od_HeapItem od_HeapPop(od_Cells* c)
+{
+	od_HeapItem top = c->heap[0], last = c->heap[--c->heapCount];
+	int i = 0;
+	for (;;)
+	{
+		int child = 2 * i + 1;
+		if (child >= c->heapCount)
+		{
+			break;
+		}
+		if (child + 1 < c->heapCount && od_HeapLess(c->heap[child + 1], c->heap[child]))
+		{
+			++child;
+		}
+		if (!od_HeapLess(c->heap[child], last))
+		{
+			break;
+		}
+		c->heap[i] = c->heap[child];
+		i = child;
+	}
+	c->heap[i] = last;
+	return top;
+}
+
+// Dijkstra from what is queued: a voxel joins the cell of the first seed that reaches it strictly closer.
+static od_Status od_Spread(od_Cells* c)
+{
+	const int* cells = c->voxels->cells;
+	while (c->heapCount > 0)
+	{
+		od_HeapItem top = od_HeapPop(c);
+		if (top.d > c->dist[top.v])
+		{
+			continue;
+		}
+		for (int n = 0; n < 26; ++n)
+		{
+			int u = c->map[cells[top.v] + c->offset[n]];
+			double d = top.d + c->step[n];
+			if (u >= 0 && d < c->dist[u])
+			{
+				c->dist[u] = d;
+				c->label[u] = c->label[top.v];
+				od_Status status = od_HeapPush(c, d, u);
+				if (status != OD_OK)
+				{
+					return status;
+				}
+			}
+		}
+	}
+	return OD_OK;
+}
+
+static od_Status od_Seed(od_Cells* c, int cell, int voxel)
+{
+	c->seeds[cell] = voxel;
+	c->dist[voxel] = 0.0;
+	c->label[voxel] = cell;
+	return od_HeapPush(c, 0.0, voxel);
+}
+
+static void od_ClearCells(od_Cells* c)
+{
+	for (int i = 0; i < c->count; ++i)
+	{
+		c->label[i] = -1;
+		c->dist[i] = INFINITY;
+	}
+}
+
+// The cell of voxel i: its label, or 0 for every voxel when label is NULL (the whole group as one).
+static int od_CellOfVoxel(const int* label, int i)
+{
+	return label ? label[i] : 0;
+}
+
+// Means, covariances (of the voxel centres) and sizes of the cells (c->mean, c->cov, c->size).
+static void od_CellMoments(od_Cells* c, const int* label, int k)
+{
+	memset(c->mean, 0, sizeof(double) * 3 * (size_t)k);
+	memset(c->cov, 0, sizeof(double) * 9 * (size_t)k);
+	memset(c->size, 0, sizeof(int) * (size_t)k);
+	for (int i = 0; i < c->count; ++i)
+	{
+		int l = od_CellOfVoxel(label, i);
+		if (l >= 0)
+		{
+			c->size[l]++;
+			od_V3Store(c->mean + 3 * l, od_Add(od_V3Load(c->mean + 3 * l), od_V3Load(c->pos + 3 * i)));
+		}
+	}
+	for (int l = 0; l < k; ++l)
+	{
+		od_V3Store(c->mean + 3 * l, od_Scale(1.0 / (c->size[l] ? c->size[l] : 1), od_V3Load(c->mean + 3 * l)));
+	}
+	for (int i = 0; i < c->count; ++i)
+	{
+		int l = od_CellOfVoxel(label, i);
+		if (l >= 0)
+		{
+			od_Vec3 d = od_Sub(od_V3Load(c->pos + 3 * i), od_V3Load(c->mean + 3 * l));
+			od_Mat3 cov = od_M3Load(c->cov + 9 * l);
+			od_M3AddOuter(&cov, 1.0 / c->size[l], d, d);
+			od_M3Store(c->cov + 9 * l, &cov);
+		}
+	}
+}
+
+// For each cell, its voxel nearest to its mean, lowest index on ties; returns whether a seed moved.
+static bool od_SeedsNearMeans(od_Cells* c, const int* label, int k)
+{
+	for (int l = 0; l < k; ++l)
+	{
+		c->best[l] = INFINITY;
+	}
+	for (int i = 0; i < c->count; ++i)
+	{
+		int l = od_CellOfVoxel(label, i);
+		if (l < 0)
+		{
+			continue;
+		}
+		od_Vec3 d = od_Sub(od_V3Load(c->pos + 3 * i), od_V3Load(c->mean + 3 * l));
+		double d2 = od_Dot(d, d);
+		if (d2 < c->best[l])
+		{
+			c->best[l] = d2;
+			c->nearest[l] = i;
+		}
+	}
+	bool moved = false;
+	for (int l = 0; l < k; ++l)
+	{
+		moved = moved || c->seeds[l] != c->nearest[l];
+		c->seeds[l] = c->nearest[l];
+	}
+	return moved;
+}
+
+static od_Status od_GeodesicCells(od_Cells* c)
+{
+	// Farthest-point seeds: the first nearest the centroid, each next the farthest (geodesically) from all.
+	od_CellMoments(c, NULL, 1);
+	od_SeedsNearMeans(c, NULL, 1);
+	int next = c->seeds[0];
+	od_ClearCells(c);
+	for (int s = 0; s < c->k; ++s)
+	{
+		od_Status status = od_Seed(c, s, next);
+		status = status == OD_OK ? od_Spread(c) : status;
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		for (int i = 0; i < c->count; ++i)
+		{
+			next = c->dist[i] > c->dist[next] ? i : next;
+		}
+	}
+	// Lloyd steps.
+	for (int step = 0; step < OD_LLOYD_STEPS; ++step)
+	{
+		od_CellMoments(c, c->label, c->k);
+		if (!od_SeedsNearMeans(c, c->label, c->k))
+		{
+			break;
+		}
+		od_ClearCells(c);
+		od_Status status = OD_OK;
+		for (int l = 0; l < c->k && status == OD_OK; ++l)
+		{
+			status = od_Seed(c, l, c->seeds[l]);
+		}
+		status = status == OD_OK ? od_Spread(c) : status;
+		if (status != OD_OK)
+		{
+			return status;
+		}
+	}
+	return OD_OK;
+}
+
+static int od_CompareProjections(const void* pa, const void* pb)
+{
+	const double *a = pa, *b = pb; // (projection, index)
+	if (a[0] != b[0])
+	{
+		return a[0] < b[0] ? -1 : 1;
+	}
+	return (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+// Eigenvalues (descending) and eigenvectors (columns, a proper rotation) of a covariance.
+static void od_PrincipalAxes(const double* cov, od_Vec3* values, od_Mat3* frame)
+{
+	od_Mat3 a = od_M3Load(cov), u;
+	od_Svd3(&a, &u, values, frame);
+}
+
+// Slabs of equal voxel count along the principal axis of the group.
+static od_Status od_ChainCells(od_Cells* c)
+{
+	od_Vec3 values;
+	od_Mat3 frame;
+	od_CellMoments(c, NULL, 1);
+	od_PrincipalAxes(c->cov, &values, &frame);
+	od_Vec3 axis = od_V3(frame.m[0], frame.m[3], frame.m[6]);
+	double* order = od_Alloc(sizeof(double) * 2 * (size_t)c->count);
+	if (!order)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory ordering %d voxels", c->count);
+	}
+	for (int i = 0; i < c->count; ++i)
+	{
+		order[2 * i] = od_Dot(axis, od_V3Load(c->pos + 3 * i));
+		order[2 * i + 1] = i;
+	}
+	qsort(order, (size_t)c->count, sizeof(double) * 2, od_CompareProjections);
+	for (int r = 0; r < c->count; ++r)
+	{
+		c->label[(int)order[2 * r + 1]] = (int)((long long)r * c->k / c->count);
+	}
+	od_Free(order);
+	return OD_OK;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Particles and edges of one group
+
+static void od_FitParticles(od_Builder* b, od_Cells* c, const od_Group* g)
+{
+	od_CellMoments(c, c->label, c->k);
+	double h2 = g->voxels.h * g->voxels.h / 12.0;
+	for (int l = 0; l < c->k; ++l)
+	{
+		od_Vec3 values;
+		od_Mat3 frame;
+		od_PrincipalAxes(c->cov + 9 * l, &values, &frame);
+		int p = g->first + l;
+		memcpy(b->centers + 3 * p, c->mean + 3 * l, sizeof(double) * 3);
+		b->radii[3 * p] = sqrt(5.0 * (fmax(values.x, 0.0) + h2));
+		b->radii[3 * p + 1] = sqrt(5.0 * (fmax(values.y, 0.0) + h2));
+		b->radii[3 * p + 2] = sqrt(5.0 * (fmax(values.z, 0.0) + h2));
+		od_M3Store(b->axes + 9 * p, &frame);
+	}
+}
+
+static od_Status od_AddEdge(od_Builder* b, int i, int j)
+{
+	if (b->edgeCount == b->edgeCapacity)
+	{
+		int capacity = b->edgeCapacity ? 2 * b->edgeCapacity : 256;
+		int* edges = od_Realloc(b->edges, sizeof(int) * 2 * (size_t)capacity);
+		if (!edges)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for %d edges", capacity);
+		}
+		b->edges = edges;
+		b->edgeCapacity = capacity;
+	}
+	b->edges[2 * b->edgeCount] = i < j ? i : j;
+	b->edges[2 * b->edgeCount + 1] = i < j ? j : i;
+	b->edgeCount++;
+	return OD_OK;
+}
+
+static int od_CompareEdges(const void* pa, const void* pb)
+{
+	const int *a = pa, *b = pb;
+	if (a[0] != b[0])
+	{
+		return a[0] < b[0] ? -1 : 1;
+	}
+	return (a[1] > b[1]) - (a[1] < b[1]);
+}
+
+// Edges between cells whose voxels touch: faceOnly, every such pair; otherwise only pairs that join
+// parts not yet connected (by a voxel edge or corner). parent holds the parts (local cell indices).
+static od_Status od_TouchingCells(od_Builder* b, const od_Cells* c, int first, bool faceOnly, int* parent)
+{
+	for (int i = 0; i < c->count; ++i)
+	{
+		int a = c->label[i];
+		for (int n = 0; n < 13 && a >= 0; ++n)
+		{
+			int j = c->map[c->voxels->cells[i] + c->offset[n]];
+			int l = j >= 0 ? c->label[j] : -1;
+			if (l < 0 || l == a || (faceOnly ? c->step[n] != 1.0 : od_Find(parent, a) == od_Find(parent, l)))
+			{
+				continue;
+			}
+			od_Union(parent, a, l);
+			od_Status status = od_AddEdge(b, first + a, first + l);
+			if (status != OD_OK)
+			{
+				return status;
+			}
+		}
+	}
+	return OD_OK;
+}
+
+// Borůvka: while the group's particles form several parts, join every part to its nearest other part
+// (pairs ordered by (distance, i, j), a strict order, so no cycle forms).
+static od_Status od_ConnectParts(od_Builder* b, const od_Group* g, int* parent)
+{
+	int k = g->particles;
+	int* best = od_Alloc(sizeof(int) * 2 * (size_t)k);
+	double* bestD = od_Alloc(sizeof(double) * (size_t)k);
+	if (!best || !bestD)
+	{
+		od_Free(best);
+		od_Free(bestD);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory joining %d particles", k);
+	}
+	od_Status status = OD_OK;
+	for (bool joined = true; joined && status == OD_OK;)
+	{
+		joined = false;
+		for (int i = 0; i < k; ++i)
+		{
+			bestD[i] = INFINITY;
+		}
+		for (int i = 0; i < k; ++i)
+		{
+			for (int j = i + 1; j < k; ++j)
+			{
+				int pi = od_Find(parent, i), pj = od_Find(parent, j);
+				if (pi == pj)
+				{
+					continue;
+				}
+				double d = od_Length(od_Sub(od_V3Load(b->centers + 3 * (g->first + i)),
+											od_V3Load(b->centers + 3 * (g->first + j))));
+				int part[2] = { pi, pj };
+				for (int s = 0; s < 2; ++s)
+				{
+					if (d < bestD[part[s]]) // i, j ascending: the first of equal pairs stays
+					{
+						bestD[part[s]] = d;
+						best[2 * part[s]] = i;
+						best[2 * part[s] + 1] = j;
+					}
+				}
+			}
+		}
+		for (int p = 0; p < k && status == OD_OK; ++p)
+		{
+			if (bestD[p] < INFINITY && od_Union(parent, best[2 * p], best[2 * p + 1]))
+			{
+				status = od_AddEdge(b, g->first + best[2 * p], g->first + best[2 * p + 1]);
+				joined = true;
+			}
+		}
+	}
+	od_Free(best);
+	od_Free(bestD);
+	return status;
+}
+
+static od_Status od_GroupEdges(od_Builder* b, const od_Cells* c, const od_Group* g)
+{
+	int* parent = od_Alloc(sizeof(int) * (size_t)c->k);
+	if (!parent)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the edges of %d particles", c->k);
+	}
+	od_UnionInit(parent, c->k);
+	od_Status status = OD_OK;
+	if (b->def->mode == OD_MESH_CHAIN)
+	{
+		for (int l = 0; l + 1 < c->k && status == OD_OK; ++l)
+		{
+			od_Union(parent, l, l + 1);
+			status = od_AddEdge(b, g->first + l, g->first + l + 1);
+		}
+	}
+	else
+	{
+		int before = b->edgeCount;
+		status = od_TouchingCells(b, c, g->first, true, parent);
+		if (status == OD_OK)
+		{
+			qsort(b->edges + 2 * before, (size_t)(b->edgeCount - before), sizeof(int) * 2, od_CompareEdges);
+			int unique = before;
+			for (int e = before; e < b->edgeCount; ++e)
+			{
+				if (unique == before || od_CompareEdges(b->edges + 2 * e, b->edges + 2 * (unique - 1)) != 0)
+				{
+					memmove(b->edges + 2 * unique++, b->edges + 2 * e, sizeof(int) * 2);
+				}
+			}
+			b->edgeCount = unique;
+			status = od_TouchingCells(b, c, g->first, false, parent);
+		}
+	}
+	status = status == OD_OK ? od_ConnectParts(b, g, parent) : status;
+	od_Free(parent);
+	return status;
+}
+
+static void od_NeighborOffsets(od_Cells* c)
+{
+	const int* dims = c->voxels->dims;
+	int forward = 0, backward = 13;
+	for (int dz = -1; dz <= 1; ++dz)
+	{
+		for (int dy = -1; dy <= 1; ++dy)
+		{
+			for (int dx = -1; dx <= 1; ++dx)
+			{
+				int linear = (dz * dims[1] + dy) * dims[0] + dx;
+				if (linear == 0)
+				{
+					continue;
+				}
+				int n = linear > 0 ? forward++ : backward++;
+				c->offset[n] = linear;
+				c->step[n] = sqrt((double)(dx * dx + dy * dy + dz * dz));
+			}
+		}
+	}
+}
+
+static od_Status od_BuildGroup(od_Builder* b, const od_Group* g)
+{
+	const od_Voxels* vox = &g->voxels;
+	size_t cells = (size_t)vox->dims[0] * vox->dims[1] * vox->dims[2];
+	od_Cells c;
+	memset(&c, 0, sizeof c);
+	c.voxels = vox;
+	c.count = vox->count;
+	c.k = g->particles;
+	c.map = od_Alloc(sizeof(int) * cells);
+	c.pos = od_Alloc(sizeof(double) * 3 * (size_t)c.count);
+	c.label = od_Alloc(sizeof(int) * (size_t)c.count);
+	c.dist = od_Alloc(sizeof(double) * (size_t)c.count);
+	c.seeds = od_Alloc(sizeof(int) * (size_t)c.k);
+	c.mean = od_Alloc(sizeof(double) * 3 * (size_t)c.k);
+	c.cov = od_Alloc(sizeof(double) * 9 * (size_t)c.k);
+	c.size = od_Alloc(sizeof(int) * (size_t)c.k);
+	c.best = od_Alloc(sizeof(double) * (size_t)c.k);
+	c.nearest = od_Alloc(sizeof(int) * (size_t)c.k);
+	od_Status status = OD_OK;
+	if (!c.map || !c.pos || !c.label || !c.dist || !c.seeds || !c.mean || !c.cov || !c.size || !c.best || !c.nearest)
+	{
+		status = od_Fail(OD_ERROR_MEMORY, "out of memory for %d voxels", c.count);
+	}
+	else
+	{
+		memset(c.map, 0xff, sizeof(int) * cells); // -1
+		for (int i = 0; i < c.count; ++i)
+		{
+			c.map[vox->cells[i]] = i;
+			od_Voxels_Center(vox, i, c.pos + 3 * i);
+		}
+		od_NeighborOffsets(&c);
+		status = b->def->mode == OD_MESH_CHAIN ? od_ChainCells(&c) : od_GeodesicCells(&c);
+	}
+	if (status == OD_OK)
+	{
+		od_FitParticles(b, &c, g);
+		status = od_GroupEdges(b, &c, g);
+	}
+	od_Free(c.map);
+	od_Free(c.pos);
+	od_Free(c.label);
+	od_Free(c.dist);
+	od_Free(c.seeds);
+	od_Free(c.mean);
+	od_Free(c.cov);
+	od_Free(c.size);
+	od_Free(c.best);
+	od_Free(c.nearest);
+	od_Free(c.heap);
+	return status;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+
+static od_Status od_Build(od_Builder* b, od_Graph** graph)
+{
+	int n = b->def->particleCount;
+	od_Status status = od_MeshPieces_Find(b->def, &b->pieces);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	if (b->pieces.distinctVertices < n)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles = %d, but the mesh has only %d distinct vertices", n,
+					   b->pieces.distinctVertices);
+	}
+	status = od_MakeGroups(b);
+	status = status == OD_OK ? od_ChooseVoxels(b) : status;
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_ShareParticles(b);
+	b->centers = od_Alloc(sizeof(double) * 3 * (size_t)n);
+	b->radii = od_Alloc(sizeof(double) * 3 * (size_t)n);
+	b->axes = od_Alloc(sizeof(double) * 9 * (size_t)n);
+	if (!b->centers || !b->radii || !b->axes)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d particles", n);
+	}
+	for (int i = 0; i < b->groupCount && status == OD_OK; ++i)
+	{
+		status = b->groups[i].particles > 0 ? od_BuildGroup(b, &b->groups[i]) : OD_OK;
+	}
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_GraphDef def = od_DefaultGraphDef();
+	def.particleCount = n;
+	def.centers = b->centers;
+	def.radii = b->radii;
+	def.axes = b->axes;
+	def.edgeCount = b->edgeCount;
+	def.edges = b->edges;
+	return od_Graph_Create(&def, graph);
+}
+
+od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
+{
+	*graph = NULL;
+	od_Status status = od_CheckMeshGraphDef(def);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_Builder b;
+	memset(&b, 0, sizeof b);
+	b.def = def;
+	status = od_Build(&b, graph);
+	for (int i = 0; i < b.groupCount; ++i)
+	{
+		od_Voxels_Destroy(&b.groups[i].voxels);
+	}
+	od_Free(b.groups);
+	od_MeshPieces_Destroy(&b.pieces);
+	od_Free(b.centers);
+	od_Free(b.radii);
+	od_Free(b.axes);
+	od_Free(b.edges);
+	return status;
+}

@@ -1,0 +1,152 @@
+"""Meshes and graphs: graphs built from meshes (``Graph.from_mesh``), linear-blend skinning of a mesh by a
+graph (``Skin``), and constraints on mesh vertices (``pin_vertices``, ``add_vertex_direction``).
+
+The C core does the work with the GIL released; this layer checks shapes and dtypes. See docs/mesh.md.
+"""
+
+import numpy as np
+
+from . import Graph, Simulation, _core, _int, as_array
+
+__all__ = ["MODES", "Skin", "add_vertex_direction", "graph_from_mesh", "pin_vertices"]
+
+MODES = ("auto", "volume", "surface", "chain")
+
+
+def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=40):
+    """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
+    vertices = as_array("vertices", vertices, (None, 3))
+    triangles = as_array("triangles", triangles, (None, 3), np.int32)
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    core = _core.graph_from_mesh(vertices, triangles, _int("particles", particles), MODES.index(mode),
+                                 bool(join_pieces), _int("voxels_per_particle", voxels_per_particle))
+    graph = Graph.__new__(Graph)
+    graph._core = core
+    return graph
+
+
+def _output(name, out, n_vertices):
+    """Checks a caller's output buffer: float32 or float64, (V,3) or flat (3V,), C-contiguous, writable."""
+    if isinstance(out, np.ndarray):
+        if out.dtype not in (np.float32, np.float64):
+            raise ValueError(f"{name} must be float32 or float64, got {out.dtype}")
+        if out.shape not in ((n_vertices, 3), (3 * n_vertices,)):
+            raise ValueError(f"{name} must have shape ({n_vertices}, 3) or ({3 * n_vertices},), got {out.shape}")
+        if not out.flags.c_contiguous or not out.flags.writeable:
+            raise ValueError(f"{name} must be C-contiguous and writable")
+    return out
+
+
+def _rest_normals(normals, n_vertices):
+    """float32 normals pass as they are (Blender's); anything else becomes float64 (V,3)."""
+    arr = np.asarray(normals)
+    if arr.dtype == np.float32 and arr.flags.c_contiguous and arr.shape in ((n_vertices, 3), (3 * n_vertices,)):
+        return arr
+    return as_array("rest_normals", arr.reshape(-1, 3) if arr.ndim == 1 else arr, (n_vertices, 3))
+
+
+class Skin:
+    """A rest mesh bound to a graph: Sumner weights over the ``neighbors`` nearest particles of every vertex
+    (METHOD.md, eq. 1), computed once with the GIL released.
+
+    ``triangles`` (T,3) or ``rest_normals`` (V,3) give the rest normals that ``deform`` turns when asked for
+    normals (area-weighted vertex normals of the triangles; the normals win when both are given).
+    ``threads``: 0 = every core (meshes under 16384 vertices use one thread).
+    """
+
+    def __init__(self, graph, rest_vertices, neighbors=4, triangles=None, rest_normals=None, threads=0):
+        if not isinstance(graph, Graph):
+            raise TypeError("graph must be an opdeform.Graph")
+        self.graph = graph
+        vertices = as_array("rest_vertices", rest_vertices, (None, 3))
+        triangles = None if triangles is None else as_array("triangles", triangles, (None, 3), np.int32)
+        normals = None if rest_normals is None else as_array("rest_normals", rest_normals, (len(vertices), 3))
+        self._core = _core.Skin(graph._core, vertices, _int("neighbors", neighbors), triangles, normals,
+                                _int("threads", threads))
+
+    @property
+    def n_vertices(self):
+        return self._core.n_vertices
+
+    @property
+    def neighbors(self):
+        """Particles per vertex: the m asked for, or fewer when the graph has fewer particles."""
+        return self._core.neighbors
+
+    def _read(self, name, dtype, width):
+        out = np.empty((self.n_vertices, width), dtype)
+        self._core.read(name, out)
+        return out
+
+    @property
+    def indices(self):
+        """(V,m) int32: the bound particles of each vertex, nearest first."""
+        return self._read("indices", np.int32, self.neighbors)
+
+    @property
+    def weights(self):
+        """(V,m) float64: their weights (each row sums to 1)."""
+        return self._read("weights", np.float64, self.neighbors)
+
+    @property
+    def rest_normals(self):
+        """(V,3) float64 rest normals given or computed at binding, or None."""
+        return self._read("rest_normals", np.float64, 3) if self._core.has_rest_normals else None
+
+    def deform(self, positions, rotations, out=None, normals_out=None, rest_normals=None):
+        """Deformed vertex positions for particle ``positions`` (n,3) and ``rotations`` (n,3,3), written into
+        ``out`` (float32 or float64, (V,3) or flat (3V,), e.g. for Blender's ``foreach_set``; allocated as
+        float64 (V,3) when None) and returned. Normals are computed only when ``normals_out`` is given (same
+        layouts), from ``rest_normals`` (V,3) or the skin's own rest normals."""
+        n, nv = self.graph.n_particles, self.n_vertices
+        positions = as_array("positions", positions, (n, 3))
+        rotations = as_array("rotations", rotations, (n, 3, 3))
+        out = np.empty((nv, 3)) if out is None else _output("out", out, nv)
+        if normals_out is not None:
+            _output("normals_out", normals_out, nv)
+        if rest_normals is not None:
+            rest_normals = _rest_normals(rest_normals, nv)
+        self._core.deform(positions, rotations, out, normals_out, rest_normals)
+        return out
+
+    def deform_sim(self, sim, out=None, normals_out=None):
+        """``deform`` with the simulation's current positions and rotations."""
+        return self.deform(sim.positions, sim.rotations, out, normals_out)
+
+    def __repr__(self):
+        return f"opdeform.Skin(n_vertices={self.n_vertices}, neighbors={self.neighbors})"
+
+
+def _vertex_rows(name, rest_vertices, indices):
+    vertices = as_array("rest_vertices", rest_vertices, (None, 3))
+    idx = as_array(name, indices, (None,), np.int64)
+    bad = np.flatnonzero((idx < 0) | (idx >= len(vertices)))
+    if bad.size:
+        raise ValueError(f"{name}[{bad[0]}] = {idx[bad[0]]} is out of range: there are {len(vertices)} vertices")
+    return vertices[idx]
+
+
+def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
+    """Pins mesh vertices where they are now: one position constraint per vertex of ``indices``, of weight
+    ``weight`` (default: ``sim.default_weight()``) times the vertex's entry of ``weights`` (e.g. a painted
+    vertex group; default 1). Returns the constraint ids in the order of ``indices``; a vertex of weight 0
+    gets no constraint and None in its place."""
+    if not isinstance(sim, Simulation):
+        raise TypeError("sim must be an opdeform.Simulation")
+    points = _vertex_rows("indices", rest_vertices, indices)
+    scale = np.ones(len(points)) if weights is None else as_array("weights", weights, (len(points),))
+    bad = np.flatnonzero(~(scale >= 0.0) | ~np.isfinite(scale))
+    if bad.size:
+        raise ValueError(f"weights[{bad[0]}] = {scale[bad[0]]} must be finite and >= 0")
+    base = sim.default_weight("position") if weight is None else float(weight)
+    return [sim.add_position_constraint(p, None, base * w) if w > 0.0 else None for p, w in zip(points, scale)]
+
+
+def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weight=None):
+    """A direction constraint at mesh vertex ``index`` on the rest ``direction`` (e.g. its normal): turns it
+    towards ``target`` (None: keeps where it points now). Returns the constraint id."""
+    if not isinstance(sim, Simulation):
+        raise TypeError("sim must be an opdeform.Simulation")
+    point = _vertex_rows("index", rest_vertices, [index])[0]
+    return sim.add_direction_constraint(point, direction, target, weight)

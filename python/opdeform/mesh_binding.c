@@ -1,0 +1,456 @@
+// opdeform._core, mesh part: graph_from_mesh, the Skin type, parse_mesh and format_mesh (csrc mesh.h).
+//
+// Thin like the rest of the binding: buffers in (checked for size and format), the GIL released around
+// the C calls, status codes to exceptions. Outputs of Skin.deform may be float32 or float64 buffers, so
+// that Blender's foreach_set can take them in one block; the mesh parsers return bytearrays that the
+// Python layer views as numpy arrays without a copy.
+#include "binding.h"
+
+#include "opdeform/mesh.h"
+
+#include <limits.h>
+#include <string.h>
+
+// A C-contiguous float32 or float64 buffer of `count` items; its type in *type.
+static int GetFloatArray(PyObject* obj, const char* name, Py_ssize_t count, int writable, Py_buffer* view,
+						 od_Scalar* type)
+{
+	*type = OD_FLOAT64;
+	if (GetArray(obj, name, 'd', count, writable, view) == 0)
+	{
+		return 0;
+	}
+	PyErr_Clear();
+	*type = OD_FLOAT32;
+	if (GetArray(obj, name, 'f', count, writable, view) == 0)
+	{
+		return 0;
+	}
+	PyErr_Clear();
+	PyErr_Format(PyExc_ValueError, "%s must be a C-contiguous%s float32 or float64 buffer of %zd values", name,
+				 writable ? ", writable" : "", count);
+	return -1;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Graph from a mesh
+
+// graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle) -> Graph
+static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
+{
+	PyObject *vertices, *triangles;
+	int particles, mode, join, voxels;
+	if (!PyArg_ParseTuple(args, "OOiipi", &vertices, &triangles, &particles, &mode, &join, &voxels))
+	{
+		return NULL;
+	}
+	Py_ssize_t nv = ItemCount(vertices, "vertices", 24), nt = ItemCount(triangles, "triangles", 12);
+	if (nv < 0 || nt < 0)
+	{
+		return NULL;
+	}
+	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
+	{
+		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
+		return NULL;
+	}
+	Py_buffer vv, tv;
+	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	{
+		return NULL;
+	}
+	if (GetArray(triangles, "triangles", 'i', 3 * nt, 0, &tv) < 0)
+	{
+		PyBuffer_Release(&vv);
+		return NULL;
+	}
+	od_MeshGraphDef def = od_DefaultMeshGraphDef();
+	def.vertexCount = (int)nv;
+	def.vertices = vv.buf;
+	def.triangleCount = (int)nt;
+	def.triangles = tv.buf;
+	def.particleCount = particles;
+	def.mode = (od_MeshGraphMode)mode;
+	def.joinPieces = join;
+	def.voxelsPerParticle = voxels;
+	od_Graph* graph = NULL;
+	PyThreadState* ts = PyEval_SaveThread();
+	od_Status status = od_Graph_CreateFromMesh(&def, &graph);
+	PyEval_RestoreThread(ts);
+	PyBuffer_Release(&vv);
+	PyBuffer_Release(&tv);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	ModuleState* st = PyModule_GetState(module);
+	GraphObject* self = (GraphObject*)PyType_GenericAlloc(st->graphType, 0);
+	if (!self)
+	{
+		od_Graph_Destroy(graph);
+		return NULL;
+	}
+	self->graph = graph;
+	return (PyObject*)self;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Skin
+
+typedef struct
+{
+	PyObject_HEAD od_Skin* skin;
+	int busy; // set while a GIL-free deform runs (the skin's threads serve one call at a time)
+} SkinObject;
+
+// Skin(graph, vertices, neighbors, triangles=None, normals=None, threads=0)
+static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
+{
+	static char* keywords[] = { "graph", "vertices", "neighbors", "triangles", "normals", "threads", NULL };
+	PyObject *graphObj, *vertices, *triangles = Py_None, *normals = Py_None;
+	int neighbors, threads = 0;
+	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOi|OOi", keywords, &graphObj, &vertices, &neighbors, &triangles,
+									 &normals, &threads))
+	{
+		return NULL;
+	}
+	PyObject* module = PyType_GetModule(type);
+	const od_Graph* graph = Binding_Graph(module, graphObj);
+	Py_ssize_t nv = graph ? ItemCount(vertices, "vertices", 24) : -1;
+	Py_ssize_t nt = nv >= 0 && triangles != Py_None ? ItemCount(triangles, "triangles", 12) : 0;
+	if (nv < 0 || nt < 0)
+	{
+		return NULL;
+	}
+	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
+	{
+		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
+		return NULL;
+	}
+	Py_buffer vv, tv, nview;
+	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	{
+		return NULL;
+	}
+	if (GetOptionalArray(triangles, "triangles", 'i', 3 * nt, &tv) < 0)
+	{
+		PyBuffer_Release(&vv);
+		return NULL;
+	}
+	if (GetOptionalArray(normals, "normals", 'd', 3 * nv, &nview) < 0)
+	{
+		PyBuffer_Release(&vv);
+		ReleaseArray(&tv);
+		return NULL;
+	}
+	od_SkinDef def = od_DefaultSkinDef();
+	def.vertexCount = (int)nv;
+	def.vertices = vv.buf;
+	def.triangleCount = tv.obj ? (int)nt : 0;
+	def.triangles = tv.obj ? tv.buf : NULL;
+	def.normals = nview.obj ? nview.buf : NULL;
+	def.neighbors = neighbors;
+	def.threadCount = threads;
+	od_Skin* skin = NULL;
+	PyThreadState* ts = PyEval_SaveThread();
+	od_Status status = od_Skin_Create(graph, &def, &skin);
+	PyEval_RestoreThread(ts);
+	PyBuffer_Release(&vv);
+	ReleaseArray(&tv);
+	ReleaseArray(&nview);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	SkinObject* self = (SkinObject*)PyType_GenericAlloc(type, 0);
+	if (!self)
+	{
+		od_Skin_Destroy(skin);
+		return NULL;
+	}
+	self->skin = skin;
+	return (PyObject*)self;
+}
+
+static void Skin_dealloc(PyObject* obj)
+{
+	PyTypeObject* type = Py_TYPE(obj);
+	od_Skin_Destroy(((SkinObject*)obj)->skin);
+	freefunc tp_free = (freefunc)PyType_GetSlot(type, Py_tp_free);
+	tp_free(obj);
+	Py_DECREF(type);
+}
+
+static PyObject* Skin_get_n_vertices(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return PyLong_FromLong(od_Skin_GetVertexCount(((SkinObject*)obj)->skin));
+}
+
+static PyObject* Skin_get_n_particles(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return PyLong_FromLong(od_Skin_GetParticleCount(((SkinObject*)obj)->skin));
+}
+
+static PyObject* Skin_get_neighbors(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return PyLong_FromLong(od_Skin_GetNeighborCount(((SkinObject*)obj)->skin));
+}
+
+static PyObject* Skin_get_has_rest_normals(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return PyBool_FromLong(od_Skin_GetRestNormals(((SkinObject*)obj)->skin) != NULL);
+}
+
+// read(name, out): "indices" (int32 V*m), "weights" (float64 V*m) or "rest_normals" (float64 V*3).
+static PyObject* Skin_read(PyObject* obj, PyObject* args)
+{
+	const od_Skin* skin = ((SkinObject*)obj)->skin;
+	const char* name;
+	PyObject* out;
+	if (!PyArg_ParseTuple(args, "sO", &name, &out))
+	{
+		return NULL;
+	}
+	Py_ssize_t nv = od_Skin_GetVertexCount(skin), m = od_Skin_GetNeighborCount(skin);
+	int rc;
+	if (strcmp(name, "indices") == 0)
+	{
+		rc = CopyOut(out, "out", od_Skin_GetIndices(skin), nv * m, 'i');
+	}
+	else if (strcmp(name, "weights") == 0)
+	{
+		rc = CopyOut(out, "out", od_Skin_GetWeights(skin), nv * m, 'd');
+	}
+	else if (strcmp(name, "rest_normals") == 0 && od_Skin_GetRestNormals(skin))
+	{
+		rc = CopyOut(out, "out", od_Skin_GetRestNormals(skin), 3 * nv, 'd');
+	}
+	else
+	{
+		PyErr_Format(PyExc_ValueError, "no skin array '%s'", name);
+		rc = -1;
+	}
+	if (rc < 0)
+	{
+		return NULL;
+	}
+	Py_RETURN_NONE;
+}
+
+// deform(positions, rotations, out, normals_out=None, rest_normals=None)
+static PyObject* Skin_deform(PyObject* obj, PyObject* args)
+{
+	SkinObject* self = (SkinObject*)obj;
+	PyObject *positions, *rotations, *out, *normalsOut = Py_None, *restNormals = Py_None;
+	if (!PyArg_ParseTuple(args, "OOO|OO", &positions, &rotations, &out, &normalsOut, &restNormals))
+	{
+		return NULL;
+	}
+	if (self->busy)
+	{
+		PyErr_SetString(PyExc_RuntimeError, "the skin is deforming on another thread");
+		return NULL;
+	}
+	Py_ssize_t n = od_Skin_GetParticleCount(self->skin), nv = od_Skin_GetVertexCount(self->skin);
+	Py_buffer pv, rv, ov, nview, rnview;
+	memset(&nview, 0, sizeof nview);
+	memset(&rnview, 0, sizeof rnview);
+	od_SkinTarget target;
+	memset(&target, 0, sizeof target);
+	if (GetArray(positions, "positions", 'd', 3 * n, 0, &pv) < 0)
+	{
+		return NULL;
+	}
+	if (GetArray(rotations, "rotations", 'd', 9 * n, 0, &rv) < 0)
+	{
+		PyBuffer_Release(&pv);
+		return NULL;
+	}
+	if (GetFloatArray(out, "out", 3 * nv, 1, &ov, &target.positionType) < 0 ||
+		(normalsOut != Py_None && GetFloatArray(normalsOut, "normals_out", 3 * nv, 1, &nview, &target.normalType) < 0) ||
+		(restNormals != Py_None &&
+		 GetFloatArray(restNormals, "rest_normals", 3 * nv, 0, &rnview, &target.restNormalType) < 0))
+	{
+		ReleaseArray(&ov);
+		ReleaseArray(&nview);
+		PyBuffer_Release(&pv);
+		PyBuffer_Release(&rv);
+		return NULL;
+	}
+	target.positions = ov.buf;
+	target.normals = nview.obj ? nview.buf : NULL;
+	target.restNormals = rnview.obj ? rnview.buf : NULL;
+	self->busy = 1;
+	PyThreadState* ts = PyEval_SaveThread();
+	od_Status status = od_Skin_Deform(self->skin, pv.buf, rv.buf, &target);
+	PyEval_RestoreThread(ts);
+	self->busy = 0;
+	PyBuffer_Release(&pv);
+	PyBuffer_Release(&rv);
+	PyBuffer_Release(&ov);
+	ReleaseArray(&nview);
+	ReleaseArray(&rnview);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(PyType_GetModule(Py_TYPE(obj)), status);
+	}
+	Py_RETURN_NONE;
+}
+
+static PyGetSetDef Skin_getset[] = {
+	{ "n_vertices", Skin_get_n_vertices, NULL, "number of bound vertices", NULL },
+	{ "n_particles", Skin_get_n_particles, NULL, "number of particles of the graph", NULL },
+	{ "neighbors", Skin_get_neighbors, NULL, "particles per vertex (m)", NULL },
+	{ "has_rest_normals", Skin_get_has_rest_normals, NULL, "whether rest normals were given at binding", NULL },
+	{ NULL, NULL, NULL, NULL, NULL },
+};
+
+static PyMethodDef Skin_methods[] = {
+	{ "read", Skin_read, METH_VARARGS, "read(name, out): copy 'indices', 'weights' or 'rest_normals'" },
+	{ "deform", Skin_deform, METH_VARARGS, "deform(positions, rotations, out, normals_out=None, rest_normals=None)" },
+	{ NULL, NULL, 0, NULL },
+};
+
+static PyType_Slot Skin_slots[] = {
+	{ Py_tp_doc, "A rest mesh bound to a graph (linear-blend skinning, C core)." },
+	{ Py_tp_new, Skin_new },
+	{ Py_tp_dealloc, Skin_dealloc },
+	{ Py_tp_getset, Skin_getset },
+	{ Py_tp_methods, Skin_methods },
+	{ 0, NULL },
+};
+
+static PyType_Spec Skin_spec = {
+	.name = "opdeform._core.Skin",
+	.basicsize = sizeof(SkinObject),
+	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
+	.slots = Skin_slots,
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// OBJ and PLY
+
+// 1 for "ply", 0 for "obj", -1 with ValueError otherwise.
+static int ParseFormat(const char* format)
+{
+	int ply = strcmp(format, "ply") == 0;
+	if (!ply && strcmp(format, "obj") != 0)
+	{
+		PyErr_Format(PyExc_ValueError, "format must be 'obj' or 'ply', got '%s'", format);
+		return -1;
+	}
+	return ply;
+}
+
+// parse_mesh(data, format) -> (vertices bytearray of float64 V*3, triangles bytearray of int32 T*3)
+static PyObject* Mesh_parse_mesh(PyObject* module, PyObject* args)
+{
+	Py_buffer data;
+	const char* format;
+	if (!PyArg_ParseTuple(args, "y*s", &data, &format))
+	{
+		return NULL;
+	}
+	int ply = ParseFormat(format);
+	if (ply < 0)
+	{
+		PyBuffer_Release(&data);
+		return NULL;
+	}
+	od_Mesh mesh;
+	PyThreadState* ts = PyEval_SaveThread();
+	od_Status status = ply ? od_Mesh_ParsePly(data.buf, (size_t)data.len, &mesh)
+						   : od_Mesh_ParseObj(data.buf, (size_t)data.len, &mesh);
+	PyEval_RestoreThread(ts);
+	PyBuffer_Release(&data);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	PyObject* v = PyByteArray_FromStringAndSize((const char*)mesh.vertices,
+												(Py_ssize_t)sizeof(double) * 3 * mesh.vertexCount);
+	PyObject* t = v ? PyByteArray_FromStringAndSize((const char*)mesh.triangles,
+													(Py_ssize_t)sizeof(int) * 3 * mesh.triangleCount)
+					: NULL;
+	od_Mesh_Free(&mesh);
+	PyObject* result = t ? PyTuple_Pack(2, v, t) : NULL;
+	Py_XDECREF(v);
+	Py_XDECREF(t);
+	return result;
+}
+
+// format_mesh(format, vertices, triangles) -> bytes
+static PyObject* Mesh_format_mesh(PyObject* module, PyObject* args)
+{
+	const char* format;
+	PyObject *vertices, *triangles;
+	if (!PyArg_ParseTuple(args, "sOO", &format, &vertices, &triangles))
+	{
+		return NULL;
+	}
+	int ply = ParseFormat(format);
+	Py_ssize_t nv = ply < 0 ? -1 : ItemCount(vertices, "vertices", 24);
+	Py_ssize_t nt = nv < 0 ? -1 : ItemCount(triangles, "triangles", 12);
+	if (nt < 0)
+	{
+		return NULL;
+	}
+	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
+	{
+		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
+		return NULL;
+	}
+	Py_buffer vv, tv;
+	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	{
+		return NULL;
+	}
+	if (GetArray(triangles, "triangles", 'i', 3 * nt, 0, &tv) < 0)
+	{
+		PyBuffer_Release(&vv);
+		return NULL;
+	}
+	char* text = NULL;
+	size_t size = 0;
+	PyThreadState* ts = PyEval_SaveThread();
+	od_Status status = ply ? od_Mesh_FormatPly((int)nv, vv.buf, (int)nt, tv.buf, &text, &size)
+						   : od_Mesh_FormatObj((int)nv, vv.buf, (int)nt, tv.buf, &text, &size);
+	PyEval_RestoreThread(ts);
+	PyBuffer_Release(&vv);
+	PyBuffer_Release(&tv);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	PyObject* result = PyBytes_FromStringAndSize(text, (Py_ssize_t)size);
+	od_Mesh_FreeData(text);
+	return result;
+}
+
+static PyMethodDef Mesh_functions[] = {
+	{ "graph_from_mesh", Mesh_graph_from_mesh, METH_VARARGS,
+	  "graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle) -> Graph" },
+	{ "parse_mesh", Mesh_parse_mesh, METH_VARARGS, "parse_mesh(data, 'obj' | 'ply') -> (vertices, triangles)" },
+	{ "format_mesh", Mesh_format_mesh, METH_VARARGS, "format_mesh('obj' | 'ply', vertices, triangles) -> bytes" },
+	{ NULL, NULL, 0, NULL },
+};
+
+int Binding_AddMesh(PyObject* module)
+{
+	PyObject* skinType = PyType_FromModuleAndSpec(module, &Skin_spec, NULL);
+	if (!skinType)
+	{
+		return -1;
+	}
+	int rc = PyModule_AddObjectRef(module, "Skin", skinType);
+	Py_DECREF(skinType);
+	if (rc < 0)
+	{
+		return -1;
+	}
+	return PyModule_AddFunctions(module, Mesh_functions);
+}
