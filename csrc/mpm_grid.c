@@ -66,7 +66,9 @@ od_Status od_MpmSort_Reserve(od_MpmWorld* w, int capacity)
 	s->occupiedStart = os ? os : s->occupiedStart;
 	int32_t* bc = od_Realloc(s->byColour, n * sizeof *bc);
 	s->byColour = bc ? bc : s->byColour;
-	if (!keys || !swap || !order || !ob || !os || !bc)
+	uint8_t* reach = od_Realloc(s->occupiedReach, n);
+	s->occupiedReach = reach ? reach : s->occupiedReach;
+	if (!keys || !swap || !order || !ob || !os || !bc || !reach)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "world: out of memory for %d particles", capacity);
 	}
@@ -81,6 +83,7 @@ void od_MpmSort_Destroy(od_MpmSort* s)
 	od_Free(s->occupiedBlock);
 	od_Free(s->occupiedStart);
 	od_Free(s->byColour);
+	od_Free(s->occupiedReach);
 }
 
 static void od_BlockCoords(const od_MpmGrid* g, int32_t block, int b[3])
@@ -90,14 +93,29 @@ static void od_BlockCoords(const od_MpmGrid* g, int32_t block, int b[3])
 	b[2] = block / (g->blocks[0] * g->blocks[1]);
 }
 
-int32_t od_MpmBlockOf(const od_MpmWorld* w, const double x[3])
+// The key of particle i: its block, and which +1 neighbours its stencil reaches (local base >= 2).
+static uint64_t od_Key(const od_MpmWorld* w, int i)
 {
 	int b[3];
+	unsigned reach = 0;
 	for (int a = 0; a < 3; ++a)
 	{
-		b[a] = (int)floor((x[a] - w->def.lower[a]) * w->invDx - 0.5) / OD_MPM_BLOCK;
+		int base = (int)floor((w->particles[i].x[a] - w->def.lower[a]) * w->invDx - 0.5);
+		b[a] = base / OD_MPM_BLOCK;
+		reach |= (unsigned)(base % OD_MPM_BLOCK >= 2) << a;
 	}
-	return b[0] + w->grid.blocks[0] * (b[1] + w->grid.blocks[1] * b[2]);
+	uint64_t block = (uint64_t)(b[0] + w->grid.blocks[0] * (b[1] + w->grid.blocks[1] * b[2]));
+	return block << 32 | (uint64_t)reach << OD_MPM_INDEX_BITS | (uint32_t)i;
+}
+
+static int32_t od_KeyIndex(uint64_t key)
+{
+	return (int32_t)(key & (OD_MPM_MAX_PARTICLES - 1));
+}
+
+static uint8_t od_KeyReach(uint64_t key)
+{
+	return (uint8_t)((key >> OD_MPM_INDEX_BITS) & 7);
 }
 
 static void od_KeyTask(void* ctx, int task, int thread)
@@ -107,7 +125,7 @@ static void od_KeyTask(void* ctx, int task, int thread)
 	int chunk = (w->count + 63) / 64, end = (task + 1) * chunk < w->count ? (task + 1) * chunk : w->count;
 	for (int i = task * chunk; i < end; ++i)
 	{
-		w->sort.keys[i] = (uint64_t)od_MpmBlockOf(w, w->particles[i].x) << 32 | (uint32_t)i;
+		w->sort.keys[i] = od_Key(w, i);
 	}
 }
 
@@ -145,8 +163,8 @@ static void od_Reorder(od_MpmWorld* w)
 {
 	for (int k = 0; k < w->count; ++k)
 	{
-		w->spare[k] = w->particles[(uint32_t)w->sort.keys[k]];
-		w->sort.keys[k] = (w->sort.keys[k] & 0xffffffff00000000ull) | (uint32_t)k;
+		w->spare[k] = w->particles[od_KeyIndex(w->sort.keys[k])];
+		w->sort.keys[k] = (w->sort.keys[k] & ~(uint64_t)(OD_MPM_MAX_PARTICLES - 1)) | (uint32_t)k;
 	}
 	od_MpmParticle* t = w->particles;
 	w->particles = w->spare;
@@ -169,7 +187,7 @@ static od_Status od_AssignSlots(od_MpmWorld* w)
 		for (int n = 0; n < 8; ++n)
 		{
 			int32_t block = (b[0] + (n & 1)) + g->blocks[0] * ((b[1] + ((n >> 1) & 1)) + g->blocks[1] * (b[2] + (n >> 2)));
-			if (g->slotOfBlock[block] >= 0)
+			if ((n & w->sort.occupiedReach[ob]) != n || g->slotOfBlock[block] >= 0)
 			{
 				continue;
 			}
@@ -213,16 +231,18 @@ od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 	int colourCount[8] = { 0 };
 	for (int k = 0; k < w->count; ++k)
 	{
-		s->order[k] = (int32_t)(uint32_t)s->keys[k];
+		s->order[k] = od_KeyIndex(s->keys[k]);
 		int32_t block = (int32_t)(s->keys[k] >> 32);
 		if (k == 0 || block != s->occupiedBlock[s->occupiedCount - 1])
 		{
 			int b[3];
 			od_BlockCoords(&w->grid, block, b);
 			colourCount[(b[0] & 1) | (b[1] & 1) << 1 | (b[2] & 1) << 2]++;
+			s->occupiedReach[s->occupiedCount] = 0;
 			s->occupiedBlock[s->occupiedCount] = block;
 			s->occupiedStart[s->occupiedCount++] = k;
 		}
+		s->occupiedReach[s->occupiedCount - 1] |= od_KeyReach(s->keys[k]);
 	}
 	s->occupiedStart[s->occupiedCount] = w->count;
 	s->colourStart[0] = 0;
@@ -263,6 +283,10 @@ static void od_RegionTransfer(const od_MpmWorld* w, int ob, double* region, int 
 	od_BlockCoords(g, w->sort.occupiedBlock[ob], b);
 	for (int n = 0; n < 8; ++n)
 	{
+		if ((n & w->sort.occupiedReach[ob]) != n)
+		{
+			continue; // no particle of the block reaches this neighbour: its part of the region is zero
+		}
 		int o[3] = { n & 1, (n >> 1) & 1, n >> 2 };
 		int32_t block = (b[0] + o[0]) + g->blocks[0] * ((b[1] + o[1]) + g->blocks[1] * (b[2] + o[2]));
 		double* nodes = g->nodes + (size_t)g->slotOfBlock[block] * OD_BLOCK_DOUBLES;
@@ -340,6 +364,8 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 	od_BlockCoords(&w->grid, w->grid.blockOfSlot[task], b);
 	double* nodes = w->grid.nodes + (size_t)task * OD_BLOCK_DOUBLES;
 	od_Vec3 gravity = od_V3Load(w->def.gravity);
+	double columns[OD_MPM_BLOCK * OD_MPM_BLOCK][2], kappa[OD_MPM_BLOCK];
+	unsigned done = 0; // bits 0-15: columns whose wind is in `columns`; bits 16-19: levels in `kappa`
 	for (int i = 0; i < OD_BLOCK_NODES; ++i)
 	{
 		double* node = nodes + i * OD_NODE_DOUBLES;
@@ -353,7 +379,18 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 		od_Vec3 v = od_MulAdd(od_Scale(1.0 / node[3], od_V3Load(node)), job->dt, gravity);
 		if (job->windBlend > 0.0)
 		{
-			od_Vec3 wind = od_MpmWind_Velocity(&w->wind, x, job->time);
+			int column = i & 15, level = i >> 4;
+			if (!(done >> column & 1))
+			{
+				od_MpmWind_Column(&w->wind, x.x, x.y, job->time, columns[column]);
+				done |= 1u << column;
+			}
+			if (!(done >> (16 + level) & 1))
+			{
+				kappa[level] = od_MpmWind_Height(&w->wind, x.z);
+				done |= 1u << (16 + level);
+			}
+			od_Vec3 wind = od_MpmWind_At(&w->wind, columns[column], kappa[level]);
 			v = od_MulAdd(v, job->windBlend, od_Sub(wind, v));
 		}
 		for (int c = 0; c < w->colliderCount; ++c)

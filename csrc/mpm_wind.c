@@ -121,25 +121,42 @@ static double od_Fractal(const od_MpmWind* wind, double x, double y, double grad
 	return value / total;
 }
 
-od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time)
+void od_MpmWind_Column(const od_MpmWind* wind, double x, double y, double time, double column[2])
 {
 	const od_MpmWindDef* d = &wind->def;
-	double px = x.x - d->drift[0] * time, py = x.y - d->drift[1] * time, g[2];
-	od_Vec3 w = od_V3Load(d->velocity);
+	double px = x - d->drift[0] * time, py = y - d->drift[1] * time, g[2];
 	if (d->kind == OD_MPM_WIND_POTENTIAL)
 	{
 		// amplitude * wavelength * ∇noise: a velocity potential, so the flow has no curl
 		od_Fractal(wind, px, py, g);
-		double s = d->amplitude * d->wavelength;
-		return od_V3(w.x + s * g[0], w.y + s * g[1], w.z);
+		column[0] = d->amplitude * d->wavelength * g[0];
+		column[1] = d->amplitude * d->wavelength * g[1];
+		return;
 	}
-	double nx = od_Fractal(wind, px, py, g);
-	double ny = od_Fractal(wind, px + od_windChannelOffset, py - od_windChannelOffset, g);
-	double kappa = 1.0;
-	if (d->exponent != 0.0)
+	column[0] = d->amplitude * od_Fractal(wind, px, py, g);
+	column[1] = d->amplitude * od_Fractal(wind, px + od_windChannelOffset, py - od_windChannelOffset, g);
+}
+
+double od_MpmWind_Height(const od_MpmWind* wind, double z)
+{
+	const od_MpmWindDef* d = &wind->def;
+	if (d->kind != OD_MPM_WIND_NOISE || d->exponent == 0.0)
 	{
-		double height = (x.z - d->ground) / d->refHeight;
-		kappa = height > 0.0 ? pow(height, d->exponent) : 0.0;
+		return 1.0;
 	}
-	return od_V3(kappa * (w.x + d->amplitude * nx), kappa * (w.y + d->amplitude * ny), kappa * w.z);
+	double height = (z - d->ground) / d->refHeight;
+	return height > 0.0 ? pow(height, d->exponent) : 0.0;
+}
+
+od_Vec3 od_MpmWind_At(const od_MpmWind* wind, const double column[2], double kappa)
+{
+	const od_MpmWindDef* d = &wind->def;
+	return od_V3(kappa * (d->velocity[0] + column[0]), kappa * (d->velocity[1] + column[1]), kappa * d->velocity[2]);
+}
+
+od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time)
+{
+	double column[2];
+	od_MpmWind_Column(wind, x.x, x.y, time, column);
+	return od_MpmWind_At(wind, column, od_MpmWind_Height(wind, x.z));
 }

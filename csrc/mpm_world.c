@@ -228,9 +228,9 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 	{
 		return status;
 	}
-	if (d->count > 0x7fffffff - w->count)
+	if (d->count > OD_MPM_MAX_PARTICLES - w->count)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "particles: too many particles");
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: a world holds at most %d particles", OD_MPM_MAX_PARTICLES);
 	}
 	status = od_Reserve(w, w->count + d->count);
 	if (status != OD_OK)

@@ -78,13 +78,17 @@ typedef struct od_MpmGrid
 
 // Particles sorted by block for one substep: order[] holds particle indices; the occupied blocks (by
 // colour for P2G) index ranges of it.
+#define OD_MPM_INDEX_BITS 29 // particle index bits of a key; the 3 bits above say which +1 blocks it reaches
+#define OD_MPM_MAX_PARTICLES (1 << OD_MPM_INDEX_BITS)
+
 typedef struct od_MpmSort
 {
-	uint64_t* keys; // (block << 32 | particle) and its radix buffer
+	uint64_t* keys; // (block << 32 | reach << 29 | particle) and its radix buffer
 	uint64_t* swap;
 	int32_t* order;
 	int32_t* occupiedBlock; // block index of each occupied block
 	int32_t* occupiedStart; // count + 1 entries
+	uint8_t* occupiedReach; // bit a: some particle of the block reaches the next block along axis a
 	int occupiedCount;
 	int32_t* byColour;      // occupied block numbers grouped by colour
 	int colourStart[9];
@@ -132,8 +136,6 @@ od_Status od_MpmGrid_Init(od_MpmWorld* w);
 void od_MpmGrid_Destroy(od_MpmGrid* g);
 od_Status od_MpmSort_Reserve(od_MpmWorld* w, int capacity);
 void od_MpmSort_Destroy(od_MpmSort* s);
-// The block index of a position (its base node's block).
-int32_t od_MpmBlockOf(const od_MpmWorld* w, const double x[3]);
 // Sorts particles into blocks, reorders them physically when `reorder`, and gives every touched grid
 // block a cleared slot.
 od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder);
@@ -166,7 +168,12 @@ double od_MpmMaterial_WaveSpeed(const od_MpmMaterialSlot* slot, double h);
 
 // mpm_wind.c
 od_Status od_MpmWind_Set(od_MpmWind* wind, const od_MpmWindDef* def);
-// Wind velocity at a point and time.
+// The wind at (x, y, z) is od_MpmWind_At(od_MpmWind_Column(x, y, time), od_MpmWind_Height(z)): the noise
+// depends on the horizontal position only and the height scaling κ on z only, so a block of nodes
+// evaluates each once per column and per level.
+void od_MpmWind_Column(const od_MpmWind* wind, double x, double y, double time, double column[2]);
+double od_MpmWind_Height(const od_MpmWind* wind, double z);
+od_Vec3 od_MpmWind_At(const od_MpmWind* wind, const double column[2], double kappa);
 od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time);
 
 // mpm_collider.c

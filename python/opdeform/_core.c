@@ -797,6 +797,10 @@ static int module_exec(PyObject* module)
 	{
 		return -1;
 	}
+	if (Binding_AddMpm(module) < 0)
+	{
+		return -1;
+	}
 	return PyModule_AddStringConstant(module, "__version__", "0.1.0");
 }
 

@@ -55,3 +55,6 @@ Py_ssize_t ItemCount(PyObject* obj, const char* name, Py_ssize_t itemsize);
 
 // Adds opdeform._core.Skin, graph_from_mesh, parse_mesh and format_mesh (mesh_binding.c).
 int Binding_AddMesh(PyObject* module);
+
+// Adds opdeform._core.MpmWorld (mpm_binding.c).
+int Binding_AddMpm(PyObject* module);

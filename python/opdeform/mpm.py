@@ -1,0 +1,309 @@
+"""Tumbling particles: MLS-MPM snow whose particles turn with the material (Song et al. 2022).
+
+The C core (``opdeform._core.MpmWorld``) simulates; this module checks and converts arguments (ValueError
+naming the argument), provides the material presets, emitters that fill boxes, meshes and flake layers
+with randomly oriented particles, and PLY export of the frames. Quaternions are (w, x, y, z). See docs/mpm.md.
+"""
+
+import os
+from dataclasses import dataclass, astuple
+
+import numpy as np
+
+from . import _core, as_array
+
+__all__ = ["Material", "snow", "jelly", "flakes", "World", "fill_box", "fill_mesh", "flake_layer",
+           "random_orientations", "quaternions_to_euler", "write_ply", "read_ply", "write_frames"]
+
+_KINDS = {"snow": 0, "jelly": 1, "flakes": 2}
+_CONTACTS = {"sticky": 0, "slip": 1, "separate": 2}
+_SHAPES = {"plane": 0, "box": 1, "sphere": 2, "mesh": 3}
+_WINDS = {"off": 0, "noise": 1, "potential": 2}
+_FIELDS = {"positions": 3, "velocities": 3, "orientations": 4, "rotations": (3, 3), "deformation": (3, 3),
+           "affine": (3, 3), "plastic_j": ()}
+
+
+@dataclass
+class Material:
+    """kind: 'snow' (Stomakhin 2013 plasticity), 'jelly' (elastic) or 'flakes' (loose: no shear, no tension)."""
+    kind: str = "snow"
+    density: float = 600.0
+    young_modulus: float = 5e3
+    poisson_ratio: float = 0.3
+    critical_compression: float = 2.5e-2
+    critical_stretch: float = 4.5e-3
+    hardening: float = 10.0
+
+    def _core_tuple(self):
+        fields = astuple(self)
+        return (_choice("material.kind", self.kind, _KINDS),) + tuple(_float(f"material.{n}", v) for n, v in zip(
+            ("density", "young_modulus", "poisson_ratio", "critical_compression", "critical_stretch", "hardening"),
+            fields[1:]))
+
+
+def snow(**changes):
+    """The seed's Table 2: θc 2.5e-2, θs 4.5e-3, ξ 10, ρ 600, E 5e3, ν 0.3."""
+    return Material(**changes)
+
+
+def jelly(**changes):
+    return Material(**{"kind": "jelly", "density": 1000.0, "young_modulus": 1e5, **changes})
+
+
+def flakes(**changes):
+    return Material(**{"kind": "flakes", "density": 100.0, "young_modulus": 1e3, **changes})
+
+
+class World:
+    """A 3-D MLS-MPM world over the box [lower, upper] with grid spacing dx.
+
+    spin: η, the factor on each particle's rotation angle (0 = plain MLS-MPM, particles keep their rest
+    orientation). walls: contact of the domain's faces ('sticky', 'slip', 'separate'). threads: 0 = all cores.
+    """
+
+    def __init__(self, lower, upper, dx, gravity=(0.0, 0.0, -9.81), cfl=0.4, max_dt=1e-3, spin=1.0, walls="slip",
+                 wall_friction=0.0, threads=0):
+        self.dx = _float("dx", dx)
+        self._core = _core.MpmWorld(_vec("lower", lower), _vec("upper", upper), self.dx, _vec("gravity", gravity),
+                                    _float("cfl", cfl), _float("max_dt", max_dt), _float("spin", spin),
+                                    _choice("walls", walls, _CONTACTS), _float("wall_friction", wall_friction),
+                                    _int("threads", threads))
+
+    # -- content -------------------------------------------------------------------------------------------
+    def add_particles(self, positions, material=None, particle_volume=None, velocities=None, orientations=None,
+                      affine=None):
+        """Adds a batch of particles sharing a material. particle_volume defaults to (dx/2)³ (8 per cell)."""
+        pos = as_array("positions", positions, (None, 3))
+        n = pos.shape[0]
+        if n == 0:
+            raise ValueError("positions: need at least one particle")
+        if not np.all(np.isfinite(pos)):
+            raise ValueError("positions must be finite (found NaN or infinity)")
+        vel = None if velocities is None else as_array("velocities", velocities, (n, 3))
+        quat = None if orientations is None else as_array("orientations", orientations, (n, 4))
+        aff = None if affine is None else as_array("affine", affine, (n, 3, 3))
+        volume = (0.5 * self.dx) ** 3 if particle_volume is None else _float("particle_volume", particle_volume)
+        material = snow() if material is None else material
+        if not isinstance(material, Material):
+            raise ValueError(f"material must be an opdeform.mpm.Material, got {type(material).__name__}")
+        self._core.add_particles(pos, vel, aff, quat, volume, material._core_tuple())
+
+    def set_wind(self, kind="noise", velocity=(0.0, 0.0, 0.0), amplitude=1.0, wavelength=4.0, octaves=4,
+                 persistence=0.5, drift=(0.0, 0.0), drag=2.0, ground=0.0, ref_height=1.0, exponent=0.0, seed=1):
+        """Perlin-noise wind on the grid. kind: 'noise' (vortical), 'potential' (curl-free gradient of
+        noise) or 'off'. Grid velocities relax to the wind at rate ``drag`` (1/s); the wind is scaled by
+        ((z - ground) / ref_height) ** exponent ('noise' only) and its pattern drifts with ``drift`` (m/s)."""
+        drift = as_array("drift", drift, (2,))
+        self._core.set_wind(_choice("wind kind", kind, _WINDS), _vec("velocity", velocity),
+                            _float("amplitude", amplitude), _float("wavelength", wavelength), _int("octaves", octaves),
+                            _float("persistence", persistence), (float(drift[0]), float(drift[1])), _float("drag", drag),
+                            _float("ground", ground), _float("ref_height", ref_height), _float("exponent", exponent),
+                            _int("seed", seed) & 0xFFFFFFFF)
+
+    def add_collider(self, shape, contact="slip", friction=0.0, half_extents=(0.5, 0.5, 0.5), radius=None,
+                     vertices=None, triangles=None, rotation=None, translation=(0.0, 0.0, 0.0)):
+        """A collider: shape 'plane' (z < 0 of its frame), 'box', 'sphere' or 'mesh' (closed triangles in its
+        frame). Returns its id for move_collider."""
+        shape_id = _choice("shape", shape, _SHAPES)
+        if radius is not None:
+            half_extents = (radius, radius, radius)
+        verts = tris = None
+        if shape == "mesh":
+            verts = as_array("vertices", vertices, (None, 3))
+            tris = as_array("triangles", triangles, (None, 3), np.int32)
+            if tris.shape[0] == 0:
+                raise ValueError("triangles: a mesh collider needs at least one face")
+        return self._core.add_collider(shape_id, _choice("contact", contact, _CONTACTS), _float("friction", friction),
+                                       _vec("half_extents", half_extents), verts, tris, _rotation(rotation),
+                                       _vec("translation", translation))
+
+    def add_floor(self, height=0.0, contact="slip", friction=0.0):
+        return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, height))
+
+    def move_collider(self, id, translation, rotation=None):
+        """The collider's frame at the end of the next step(); it moves there at constant velocity."""
+        self._core.move_collider(_int("id", id), _rotation(rotation), _vec("translation", translation))
+
+    # -- stepping ------------------------------------------------------------------------------------------
+    def step(self, duration):
+        """Advances ``duration`` seconds in CFL-limited substeps, then updates the orientations."""
+        self._core.step(_float("duration", duration))
+
+    def substep(self, dt):
+        """One substep of exactly dt (no CFL limit, orientations not updated)."""
+        self._core.substep(_float("dt", dt))
+
+    def update_orientations(self):
+        self._core.update_orientations()
+
+    # -- state ---------------------------------------------------------------------------------------------
+    @property
+    def n_particles(self):
+        return self._core.n_particles
+
+    def read(self, name):
+        """A field as a numpy array: positions, velocities (n,3), orientations (n,4), rotations,
+        deformation, affine (n,3,3) or plastic_j (n,)."""
+        if name not in _FIELDS:
+            raise ValueError(f"name must be one of {sorted(_FIELDS)}, got {name!r}")
+        width = _FIELDS[name]
+        out = np.empty((self.n_particles,) + (width if isinstance(width, tuple) else (width,)))
+        self._core.read(name, out)
+        return out
+
+    positions = property(lambda self: self.read("positions"))
+    velocities = property(lambda self: self.read("velocities"))
+    orientations = property(lambda self: self.read("orientations"))
+    rotations = property(lambda self: self.read("rotations"))
+
+    @property
+    def stats(self):
+        """substeps, last_substeps, time, last_dt, active_blocks, max_speed."""
+        return self._core.stats()
+
+
+# -- emitters ------------------------------------------------------------------------------------------------
+def random_orientations(n, seed=0):
+    """n unit quaternions (w, x, y, z) uniform over the rotations (Shoemake)."""
+    rng = np.random.default_rng(seed)
+    u1, u2, u3 = rng.random((3, _int("n", n)))
+    a, b = np.sqrt(1.0 - u1), np.sqrt(u1)
+    q = np.stack([a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2), b * np.sin(2 * np.pi * u3),
+                  b * np.cos(2 * np.pi * u3)], axis=1)
+    return q * np.where(q[:, :1] < 0, -1.0, 1.0)
+
+
+def fill_box(lower, upper, spacing, jitter=0.0, seed=0):
+    """Particle centres on a lattice of ``spacing`` filling [lower, upper], each moved by up to
+    jitter * spacing at random."""
+    lo, hi, h = _vec("lower", lower), _vec("upper", upper), _float("spacing", spacing)
+    if h <= 0 or any(b <= a for a, b in zip(lo, hi)):
+        raise ValueError("fill_box: need spacing > 0 and lower < upper")
+    axes = [np.arange(a + 0.5 * h, b, h) for a, b in zip(lo, hi)]
+    pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    if jitter:
+        pts = pts + (np.random.default_rng(seed).random(pts.shape) - 0.5) * (_float("jitter", jitter) * h)
+    return pts
+
+
+def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
+    """Lattice points inside a closed triangle mesh (parity of ray crossings along +x)."""
+    v = as_array("vertices", vertices, (None, 3))
+    t = as_array("triangles", triangles, (None, 3), np.int32)
+    if t.shape[0] == 0:
+        raise ValueError("triangles: fill_mesh needs at least one face")
+    pts = fill_box(v.min(axis=0), v.max(axis=0), spacing, jitter, seed)
+    a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
+    det = (b[:, 1] - a[:, 1]) * (c[:, 2] - a[:, 2]) - (c[:, 1] - a[:, 1]) * (b[:, 2] - a[:, 2])
+    keep = det != 0
+    a, b, c, det = a[keep], b[keep], c[keep], det[keep]
+    inside = np.zeros(len(pts), bool)
+    for start in range(0, len(pts), 4096):
+        p = pts[start:start + 4096, None, :]
+        y, z = p[..., 1] - a[:, 1], p[..., 2] - a[:, 2]
+        u = (y * (c[:, 2] - a[:, 2]) - (c[:, 1] - a[:, 1]) * z) / det
+        w = ((b[:, 1] - a[:, 1]) * z - y * (b[:, 2] - a[:, 2])) / det
+        hit_x = a[:, 0] + u * (b[:, 0] - a[:, 0]) + w * (c[:, 0] - a[:, 0])
+        crossing = (u >= 0) & (w >= 0) & (u + w <= 1) & (hit_x > p[..., 0])
+        inside[start:start + 4096] = crossing.sum(axis=1) % 2 == 1
+    return pts[inside]
+
+
+def flake_layer(center, size, thickness, count, seed=0):
+    """``count`` flakes scattered uniformly in a slab of horizontal size (sx, sy) and ``thickness``."""
+    c = np.array(_vec("center", center))
+    s = as_array("size", size, (2,))
+    rng = np.random.default_rng(seed)
+    u = rng.random((_int("count", count), 3)) - 0.5
+    return c + u * np.array([s[0], s[1], _float("thickness", thickness)])
+
+
+def quaternions_to_euler(q):
+    """(n,4) quaternions (w, x, y, z) to (n,3) Euler angles in Blender's 'XYZ' order (for Blender < 4.1)."""
+    q = as_array("q", q, (None, 4))
+    w, x, y, z = q.T
+    rx = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    ry = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    rz = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.stack([rx, ry, rz], axis=1)
+
+
+# -- export --------------------------------------------------------------------------------------------------
+_PLY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz")
+
+
+def write_ply(path, positions, orientations, velocities=None):
+    """Binary little-endian PLY of vertices with float properties x y z qw qx qy qz [vx vy vz]."""
+    pos = as_array("positions", positions, (None, 3))
+    n = pos.shape[0]
+    cols = [pos, as_array("orientations", orientations, (n, 4))]
+    if velocities is not None:
+        cols.append(as_array("velocities", velocities, (n, 3)))
+    data = np.ascontiguousarray(np.concatenate(cols, axis=1), dtype="<f4")
+    names = _PLY_FIELDS[:data.shape[1]]
+    header = ["ply", "format binary_little_endian 1.0", "comment opdeform tumbling particles, quaternion w x y z",
+              f"element vertex {n}"] + [f"property float {name}" for name in names] + ["end_header"]
+    with open(path, "wb") as f:
+        f.write(("\n".join(header) + "\n").encode("ascii"))
+        f.write(data.tobytes())
+
+
+def read_ply(path):
+    """The dict of float arrays written by write_ply (name -> (n,))."""
+    with open(path, "rb") as f:
+        names, n = [], 0
+        while True:
+            line = f.readline().decode("ascii").strip()
+            if line.startswith("element vertex"):
+                n = int(line.split()[2])
+            elif line.startswith("property float"):
+                names.append(line.split()[2])
+            elif line == "end_header":
+                break
+        data = np.frombuffer(f.read(4 * n * len(names)), dtype="<f4").reshape(n, len(names))
+    return {name: data[:, k] for k, name in enumerate(names)}
+
+
+def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
+    """Steps ``world`` one frame at a time and writes out_dir/<prefix>_0000.ply ... (frame 0 = the initial
+    state). on_frame(index, world) runs before each step (move colliders there) and may return False to
+    stop. Returns the written paths."""
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+    for frame in range(_int("frames", frames) + 1):
+        if frame > 0:
+            if on_frame is not None and on_frame(frame, world) is False:
+                break
+            world.step(1.0 / fps)
+        path = os.path.join(out_dir, f"{prefix}_{frame:04d}.ply")
+        write_ply(path, world.positions, world.orientations, world.velocities)
+        paths.append(path)
+    return paths
+
+
+# -- argument helpers ----------------------------------------------------------------------------------------
+def _float(name, value):
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a number, got {value!r}") from None
+
+
+def _int(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    return int(value)
+
+
+def _vec(name, value):
+    return tuple(float(x) for x in as_array(name, value, (3,)))
+
+
+def _choice(name, value, options):
+    if value not in options:
+        raise ValueError(f"{name} must be one of {sorted(options)}, got {value!r}")
+    return options[value]
+
+
+def _rotation(rotation):
+    return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
