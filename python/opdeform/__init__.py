@@ -311,3 +311,6 @@ def _int(name, value):
 # The mesh layer builds on Graph and Simulation above.
 from . import io, meshes  # noqa: E402
 from .mesh import Skin, add_vertex_direction, pin_vertices  # noqa: E402
+
+
+from .shape_matching import ShapeMatching  # noqa: E402  (the baseline of issue 5; needs the names above)

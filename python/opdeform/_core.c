@@ -801,6 +801,10 @@ static int module_exec(PyObject* module)
 	{
 		return -1;
 	}
+	if (Binding_AddShapeMatching(module) < 0)
+	{
+		return -1;
+	}
 	return PyModule_AddStringConstant(module, "__version__", "0.1.0");
 }
 

@@ -58,3 +58,6 @@ int Binding_AddMesh(PyObject* module);
 
 // Adds opdeform._core.MpmWorld (mpm_binding.c).
 int Binding_AddMpm(PyObject* module);
+
+// Adds opdeform._core.ShapeMatching (shape_matching_binding.c).
+int Binding_AddShapeMatching(PyObject* module);
