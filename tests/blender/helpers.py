@@ -57,7 +57,8 @@ def fresh():
 
 
 def runtime():
-    return sys.modules[ADDON + ".blender.runtime"]
+    import importlib
+    return importlib.import_module(ADDON + ".blender.runtime")
 
 
 def mesh_object(name, vertices, triangles=(), edges=(), location=(0, 0, 0)):
