@@ -17,7 +17,8 @@
 //   the skinning particles with generalized inverse masses: with r_k = R_k a_k and J_k the inertia,
 //       K = Σ_k w_k² (I / v_k - [r_k]x J_k⁻¹ [r_k]x),  λ = K⁻¹ (t - p),
 //       x_k += w_k λ / v_k,  R_k <- exp([w_k J_k⁻¹ (r_k x λ)]x) R_k,
-//   so the first-order change of p is exactly t - p. Rotating, not only translating, lets a pinned face
+//   so the first-order change of p is exactly t - p. With J_k = R_k J̄_k R_kᵀ and r_k = R_k a_k, K's terms
+//   are R_k N_k R_kᵀ with N_k = w_k² (I / v_k + [a_k]xᵀ J̄_k⁻¹ [a_k]x) fixed per constraint (kept with it). Rotating, not only translating, lets a pinned face
 //   hold the bar's end against bending (a face of points pins the rotation as well as the position).
 // - A step (PBD): v <- (1 - c) v + h g, ω <- (1 - c) ω, x <- x + h v, R <- exp(h ω) R; `iterations`
 //   sweeps of (all groups, all constraints, floor); then v = (x - x⁽¹⁾)/h, ω = log(R R⁽¹⁾ᵀ)/h. The floor
@@ -45,6 +46,8 @@ typedef struct od_SmConstraint
 	int count;
 	int idx[OD_MAX_SKIN];
 	double w[OD_MAX_SKIN];
+	double arm[OD_MAX_SKIN][3];      // a_k = p̄ - X̄_k
+	double response[OD_MAX_SKIN][9]; // w_k² (I / v_k + [a_k]xᵀ J̄_k⁻¹ [a_k]x): K's term before turning by R_k
 } od_SmConstraint;
 
 struct od_ShapeMatching
@@ -236,13 +239,36 @@ void od_ShapeMatching_Destroy(od_ShapeMatching* sm)
 	od_Free(sm);
 }
 
+// Skinning weights, arms and the rotation-free part of K (R_k turns it: R_k N_k R_kᵀ) of a constraint.
+static void od_SmBind(const od_ShapeMatching* sm, od_SmConstraint* c, int neighbors)
+{
+	const od_Graph* g = sm->graph;
+	c->count = od_Graph_SkinWeights(g, c->point, neighbors, c->idx, c->w);
+	for (int k = 0; k < c->count; ++k)
+	{
+		int j = c->idx[k];
+		od_Vec3 arm = od_Sub(od_V3Load(c->point), od_V3Load(g->centers + 3 * j));
+		od_Mat3 skew = od_M3Skew(arm), inv = od_M3Load(sm->restInvInertia + 9 * j);
+		od_Mat3 js = od_M3Mul(&inv, &skew);
+		od_Mat3 n = od_M3MulTN(&skew, &js);
+		for (int d = 0; d < 9; d += 4)
+		{
+			n.m[d] += 1.0 / g->volumes[j];
+		}
+		for (int d = 0; d < 9; ++d)
+		{
+			c->response[k][d] = c->w[k] * c->w[k] * n.m[d];
+		}
+		od_V3Store(c->arm[k], arm);
+	}
+}
+
 od_Status od_ShapeMatching_SetDef(od_ShapeMatching* sm, const od_ShapeMatchingDef* def)
 {
 	od_Status status = od_SmCheckDef(def);
 	for (int s = 0; status == OD_OK && def->skinNeighbors != sm->def.skinNeighbors && s < sm->constraintCount; ++s)
 	{
-		od_SmConstraint* c = sm->constraints + s;
-		c->count = od_Graph_SkinWeights(sm->graph, c->point, def->skinNeighbors, c->idx, c->w);
+		od_SmBind(sm, sm->constraints + s, def->skinNeighbors);
 	}
 	if (status == OD_OK)
 	{
@@ -254,20 +280,15 @@ od_Status od_ShapeMatching_SetDef(od_ShapeMatching* sm, const od_ShapeMatchingDe
 // ---------------------------------------------------------------------------------------------------------
 // Constraints
 
-// The skinned point Σ_k w_k (R_k a_k + x_k); arms[k] = R_k a_k when arms is not NULL.
-static od_Vec3 od_SmSkinnedPoint(const od_ShapeMatching* sm, const od_SmConstraint* c, od_Vec3* arms)
+// The skinned point Σ_k w_k (R_k a_k + x_k).
+static od_Vec3 od_SmSkinnedPoint(const od_ShapeMatching* sm, const od_SmConstraint* c)
 {
-	od_Vec3 p = od_V3(0, 0, 0), point = od_V3Load(c->point);
+	od_Vec3 p = od_V3(0, 0, 0);
 	for (int k = 0; k < c->count; ++k)
 	{
 		int j = c->idx[k];
 		od_Mat3 r = od_M3Load(sm->R + 9 * j);
-		od_Vec3 arm = od_M3MulV(&r, od_Sub(point, od_V3Load(sm->graph->centers + 3 * j)));
-		if (arms)
-		{
-			arms[k] = arm;
-		}
-		p = od_MulAdd(p, c->w[k], od_Add(arm, od_V3Load(sm->x + 3 * j)));
+		p = od_MulAdd(p, c->w[k], od_Add(od_M3MulV(&r, od_V3Load(c->arm[k])), od_V3Load(sm->x + 3 * j)));
 	}
 	return p;
 }
@@ -303,14 +324,14 @@ od_Status od_ShapeMatching_AddPositionConstraint(od_ShapeMatching* sm, const dou
 	od_SmConstraint* c = sm->constraints + sm->constraintCount;
 	memset(c, 0, sizeof *c);
 	memcpy(c->point, point, sizeof c->point);
-	c->count = od_Graph_SkinWeights(sm->graph, point, sm->def.skinNeighbors, c->idx, c->w);
+	od_SmBind(sm, c, sm->def.skinNeighbors);
 	if (target)
 	{
 		memcpy(c->target, target, sizeof c->target);
 	}
 	else
 	{
-		od_V3Store(c->target, od_SmSkinnedPoint(sm, c, NULL));
+		od_V3Store(c->target, od_SmSkinnedPoint(sm, c));
 	}
 	if (id)
 	{
@@ -356,24 +377,14 @@ static bool od_SmSolveSymmetric(const od_Mat3* k, od_Vec3 b, od_Vec3* out)
 static void od_SmProject(od_ShapeMatching* sm, const od_SmConstraint* c)
 {
 	const od_Graph* g = sm->graph;
-	od_Vec3 arms[OD_MAX_SKIN];
-	od_Mat3 invInertia[OD_MAX_SKIN];
-	od_Vec3 error = od_Sub(od_V3Load(c->target), od_SmSkinnedPoint(sm, c, arms));
+	od_Vec3 error = od_Sub(od_V3Load(c->target), od_SmSkinnedPoint(sm, c));
 	od_Mat3 k = od_M3Zero();
 	for (int s = 0; s < c->count; ++s)
 	{
-		int j = c->idx[s];
-		od_Mat3 r = od_M3Load(sm->R + 9 * j), rest = od_M3Load(sm->restInvInertia + 9 * j);
-		od_Mat3 rj = od_M3Mul(&r, &rest);
-		invInertia[s] = od_M3MulNT(&rj, &r);
-		od_Mat3 skew = od_M3Skew(arms[s]);
-		od_Mat3 js = od_M3Mul(invInertia + s, &skew);
-		od_Mat3 sjs = od_M3Mul(&skew, &js);
-		double w2 = c->w[s] * c->w[s], invVolume = 1.0 / g->volumes[j];
-		od_M3AddScaled(&k, -w2, &sjs);
-		k.m[0] += w2 * invVolume;
-		k.m[4] += w2 * invVolume;
-		k.m[8] += w2 * invVolume;
+		od_Mat3 r = od_M3Load(sm->R + 9 * c->idx[s]), n = od_M3Load(c->response[s]);
+		od_Mat3 rn = od_M3Mul(&r, &n);
+		od_Mat3 term = od_M3MulNT(&rn, &r);
+		od_M3AddScaled(&k, 1.0, &term);
 	}
 	od_Vec3 lambda;
 	if (!od_SmSolveSymmetric(&k, error, &lambda))
@@ -384,8 +395,10 @@ static void od_SmProject(od_ShapeMatching* sm, const od_SmConstraint* c)
 	{
 		int j = c->idx[s];
 		od_V3Store(sm->x + 3 * j, od_MulAdd(od_V3Load(sm->x + 3 * j), c->w[s] / g->volumes[j], lambda));
-		od_Vec3 turn = od_Scale(c->w[s], od_M3MulV(invInertia + s, od_Cross(arms[s], lambda)));
-		od_Mat3 dr = od_M3ExpSkew(turn), r = od_M3Load(sm->R + 9 * j);
+		// w J⁻¹ (r x λ) with J = R J̄ Rᵀ and r = R a: w R J̄⁻¹ (a x Rᵀλ).
+		od_Mat3 r = od_M3Load(sm->R + 9 * j), inv = od_M3Load(sm->restInvInertia + 9 * j);
+		od_Vec3 local = od_M3MulV(&inv, od_Cross(od_V3Load(c->arm[s]), od_M3MulTV(&r, lambda)));
+		od_Mat3 dr = od_M3ExpSkew(od_Scale(c->w[s], od_M3MulV(&r, local)));
 		od_Mat3 turned = od_M3Mul(&dr, &r);
 		od_M3Store(sm->R + 9 * j, &turned);
 	}
