@@ -558,7 +558,9 @@ static void od_PrincipalAxes(const double* cov, od_Vec3* values, od_Mat3* frame)
 	od_Svd3(&a, &u, values, frame);
 }
 
-// Slabs of equal voxel count along the principal axis of the group.
+// Slabs along the principal axis of the group: of equal length over its voxels' extent (whole columns of
+// voxels stay together, so a straight bar gets its particles on its axis), or, where that leaves a slab
+// empty (a bent or gapped body), of equal voxel count.
 static od_Status od_ChainCells(od_Cells* c)
 {
 	od_Vec3 values;
@@ -566,20 +568,39 @@ static od_Status od_ChainCells(od_Cells* c)
 	od_CellMoments(c, NULL, 1);
 	od_PrincipalAxes(c->cov, &values, &frame);
 	od_Vec3 axis = od_V3(frame.m[0], frame.m[3], frame.m[6]);
-	double* order = od_Alloc(sizeof(double) * 2 * (size_t)c->count);
+	double* order = od_Alloc(sizeof(double) * 2 * (size_t)c->count); // (projection, index)
 	if (!order)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory ordering %d voxels", c->count);
 	}
+	double lo = INFINITY, hi = -INFINITY;
 	for (int i = 0; i < c->count; ++i)
 	{
 		order[2 * i] = od_Dot(axis, od_V3Load(c->pos + 3 * i));
 		order[2 * i + 1] = i;
+		lo = fmin(lo, order[2 * i]);
+		hi = fmax(hi, order[2 * i]);
 	}
-	qsort(order, (size_t)c->count, sizeof(double) * 2, od_CompareProjections);
-	for (int r = 0; r < c->count; ++r)
+	double start = lo - 0.5 * c->voxels->h, length = hi - lo + c->voxels->h;
+	memset(c->size, 0, sizeof(int) * (size_t)c->k);
+	for (int i = 0; i < c->count; ++i)
 	{
-		c->label[(int)order[2 * r + 1]] = (int)((long long)r * c->k / c->count);
+		int l = (int)floor((order[2 * i] - start) / length * c->k);
+		c->label[i] = l < 0 ? 0 : l >= c->k ? c->k - 1 : l;
+		c->size[c->label[i]]++;
+	}
+	bool empty = false;
+	for (int l = 0; l < c->k; ++l)
+	{
+		empty = empty || c->size[l] == 0;
+	}
+	if (empty)
+	{
+		qsort(order, (size_t)c->count, sizeof(double) * 2, od_CompareProjections);
+		for (int r = 0; r < c->count; ++r)
+		{
+			c->label[(int)order[2 * r + 1]] = (int)((long long)r * c->k / c->count);
+		}
 	}
 	od_Free(order);
 	return OD_OK;

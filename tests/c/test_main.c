@@ -5,6 +5,9 @@ int test_polar(void);
 int test_graph(void);
 int test_sim(void);
 int test_mpm(void);
+int test_mesh_graph(void);
+int test_skinning(void);
+int test_mesh_io(void);
 
 int main(void)
 {
@@ -13,6 +16,9 @@ int main(void)
 	RUN_TEST(test_graph);
 	RUN_TEST(test_sim);
 	RUN_TEST(test_mpm);
+	RUN_TEST(test_mesh_graph);
+	RUN_TEST(test_skinning);
+	RUN_TEST(test_mesh_io);
 	printf("%d passed, %d failed\n", total - failures, failures);
 	return failures ? 1 : 0;
 }

@@ -1,0 +1,215 @@
+"""opdeform.Skin: Sumner weights of the nearest particles, exact rest and rigid poses, normals, float32 and
+flat outputs, threads that do not change a bit, and constraints on mesh vertices."""
+
+import numpy as np
+import pytest
+
+import opdeform
+from opdeform import meshes
+
+
+def rotation(axis, angle):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+@pytest.fixture(scope="module")
+def creature():
+    v, t = meshes.creature()
+    g = opdeform.Graph.from_mesh(v, t, particles=100)
+    return v, t, g
+
+
+def rest_state(g):
+    return g.centers, np.tile(np.eye(3), (g.n_particles, 1, 1))
+
+
+def test_rest_state_gives_the_rest_mesh(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v)
+    out = skin.deform(*rest_state(g))
+    assert out.dtype == np.float64 and out.shape == v.shape
+    np.testing.assert_allclose(out, v, rtol=0, atol=1e-14)
+    out32 = skin.deform(*rest_state(g), out=np.empty(3 * len(v), np.float32))  # flat, like foreach_set
+    np.testing.assert_array_equal(out32.reshape(-1, 3), v.astype(np.float32))
+
+
+def test_rigid_motion_moves_the_mesh_rigidly(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v, triangles=t)
+    r = rotation([1.0, 2.0, 0.5], 0.9)
+    shift = np.array([0.3, -2.0, 1.5])
+    positions = g.centers @ r.T + shift
+    normals = np.empty((len(v), 3), np.float32)
+    out = skin.deform(positions, np.tile(r, (g.n_particles, 1, 1)), normals_out=normals)
+    np.testing.assert_allclose(out, v @ r.T + shift, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(normals, skin.rest_normals @ r.T, rtol=0, atol=1e-6)
+
+
+def test_weights_are_sumner_weights_of_the_nearest_particles(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v, neighbors=4)
+    idx, w = skin.indices, skin.weights
+    assert idx.shape == (len(v), 4) and idx.dtype == np.int32 and w.dtype == np.float64
+    assert np.all(w >= 0)
+    np.testing.assert_allclose(w.sum(axis=1), 1.0, rtol=0, atol=1e-14)
+    d = np.linalg.norm(v[:, None, :] - g.centers[None], axis=2)
+    order = np.argsort(d, axis=1, kind="stable")
+    np.testing.assert_array_equal(idx, order[:, :4])  # the four nearest, nearest first
+    dmax = np.take_along_axis(d, order[:, 4:5], axis=1)
+    expected = (1 - np.take_along_axis(d, order[:, :4], axis=1) / dmax) ** 2
+    np.testing.assert_allclose(w, expected / expected.sum(axis=1, keepdims=True), rtol=1e-12)
+    for k in range(0, len(v), 97):  # the same weights as the constraints get, bit for bit
+        ci, cw = g.skin_weights(v[k], 4)
+        assert np.array_equal(ci, idx[k]) and cw.tobytes() == w[k].tobytes()
+
+
+def test_normals_only_when_asked_and_from_the_given_rest_normals(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v)
+    assert skin.rest_normals is None
+    with pytest.raises(ValueError, match="rest normals"):
+        skin.deform(*rest_state(g), normals_out=np.empty((len(v), 3)))
+    given = np.tile(np.array([0.0, 0.0, 1.0], np.float32), (len(v), 1))
+    r = rotation([0, 1, 0], 0.5)
+    normals = np.empty((len(v), 3))
+    skin.deform(g.centers, np.tile(r, (g.n_particles, 1, 1)), normals_out=normals, rest_normals=given)
+    np.testing.assert_allclose(normals, np.tile(r[:, 2], (len(v), 1)), atol=1e-12)
+
+
+def test_rest_normals_from_triangles_point_outwards():
+    v, t = meshes.capsule(radius=0.1, length=1.0)
+    g = opdeform.Graph.from_mesh(v, t, particles=20)
+    n = opdeform.Skin(g, v, triangles=t).rest_normals
+    np.testing.assert_allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
+    medial = np.clip(v[:, 0], -0.5, 0.5)[:, None] * [1, 0, 0]
+    assert np.all(np.einsum("ij,ij->i", n, v - medial) > 0)
+
+
+def test_deform_sim_matches_the_simulations_own_skinning(creature):
+    v, t, g = creature
+    sim = opdeform.Simulation(g, 2e5)
+    sim.set_state(g.centers + [0, 0, 0.4], np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    sim.set_floor(0.0, 0.5)
+    sim.step(40)
+    skin = opdeform.Skin(g, v)
+    out = skin.deform_sim(sim)
+    np.testing.assert_allclose(out, sim.skin_points(v), rtol=0, atol=1e-12)
+
+
+def test_threads_do_not_change_a_bit():
+    v, t = meshes.subdivide(*meshes.creature(64), levels=2)  # over 32768 vertices: the threaded path
+    assert len(v) > 40000
+    g = opdeform.Graph.from_mesh(v, t, particles=150)
+    one, every = opdeform.Skin(g, v, triangles=t, threads=1), opdeform.Skin(g, v, triangles=t, threads=0)
+    assert one.indices.tobytes() == every.indices.tobytes() and one.weights.tobytes() == every.weights.tobytes()
+    rng = np.random.default_rng(1)
+    positions = g.centers + rng.normal(0, 0.02, g.centers.shape)
+    rotations = np.array([rotation(rng.normal(size=3), rng.uniform(0, 0.5)) for _ in range(g.n_particles)])
+    results = []
+    for skin in (one, every):
+        normals = np.empty((len(v), 3), np.float32)
+        out = skin.deform(positions, rotations, normals_out=normals)
+        results.append(out.tobytes() + normals.tobytes())
+    assert results[0] == results[1]
+
+
+def test_vertices_follow_only_their_own_piece():
+    a_v, a_t = meshes.capsule(radius=0.1, length=1.0)
+    b_v = a_v + [0.0, 0.25, 0.0]  # a second capsule close beside the first
+    v = np.concatenate([a_v, b_v])
+    t = np.concatenate([a_t, a_t + len(a_v)])
+    g = opdeform.Graph.from_mesh(v, t, particles=30)
+    count, piece = g.pieces()
+    assert count == 2
+    skin = opdeform.Skin(g, v, neighbors=6)
+    own = piece[skin.indices[:, 0]]
+    assert np.all(piece[skin.indices] == own[:, None])
+    assert np.all(own[: len(a_v)] != own[len(a_v):].reshape(-1)[0])
+
+
+def test_small_graphs_and_pieces_use_fewer_neighbors():
+    v, t = meshes.bar(segments=4, cross=1)
+    g = opdeform.Graph.from_mesh(v, t, particles=3, mode="chain")
+    skin = opdeform.Skin(g, v, neighbors=8)
+    assert skin.neighbors == 3
+    np.testing.assert_allclose(skin.weights.sum(axis=1), 1.0)
+    np.testing.assert_allclose(skin.deform(*rest_state(g)), v, atol=1e-14)
+
+
+def test_bad_arguments(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v)
+    n = g.n_particles
+    pos, rot = rest_state(g)
+    with pytest.raises(ValueError, match="neighbors"):
+        opdeform.Skin(g, v, neighbors=0)
+    with pytest.raises(ValueError, match="not finite"):
+        opdeform.Skin(g, np.full((3, 3), np.nan))
+    with pytest.raises(ValueError, match="refers to vertex"):
+        opdeform.Skin(g, v, triangles=[[0, 1, len(v)]])
+    with pytest.raises(ValueError, match="positions"):
+        skin.deform(pos[:-1], rot)
+    with pytest.raises(ValueError, match="rotations"):
+        skin.deform(pos, rot[:, :2])
+    with pytest.raises(ValueError, match="out"):
+        skin.deform(pos, rot, out=np.empty((len(v), 3), np.int32))
+    with pytest.raises(ValueError, match="out"):
+        skin.deform(pos, rot, out=np.empty((3, len(v))))
+    with pytest.raises(ValueError, match="out"):
+        skin.deform(pos, rot, out=np.empty((len(v), 6))[:, ::2])
+    with pytest.raises(TypeError):
+        opdeform.Skin("not a graph", v)
+    assert skin.n_vertices == len(v) and n == 100
+
+
+# -- constraints on mesh vertices ----------------------------------------------------------------------------
+
+def bar_sim():
+    v, t = meshes.bar(segments=20, cross=2)
+    g = opdeform.Graph.from_mesh(v, t, particles=20, mode="chain")
+    return v, t, opdeform.Simulation(g, 1e8)
+
+
+def test_pinned_end_holds_the_bar():
+    v, t, sim = bar_sim()
+    end = np.flatnonzero(v[:, 0] == 0.0)
+    group = np.linspace(0.0, 1.0, len(end))  # a painted vertex group: the first vertex has weight 0
+    ids = opdeform.pin_vertices(sim, v, end, weights=group)
+    assert ids[0] is None and all(isinstance(i, int) for i in ids[1:])
+    assert sim.n_constraints == len(end) - 1
+    sim.step(120)
+    skin = opdeform.Skin(sim.graph, v)
+    out = skin.deform_sim(sim)
+    assert np.abs(out[end[1:]] - v[end[1:]]).max() < 2e-3  # held
+    tip = np.flatnonzero(v[:, 0] == 2.0)
+    assert out[tip, 2].mean() < -1e-3  # the free end sags
+
+
+def test_pin_vertices_checks_its_arguments():
+    v, t, sim = bar_sim()
+    with pytest.raises(ValueError, match="out of range"):
+        opdeform.pin_vertices(sim, v, [0, len(v)])
+    with pytest.raises(ValueError, match="weights"):
+        opdeform.pin_vertices(sim, v, [0, 1], weights=[1.0, -1.0])
+    with pytest.raises(ValueError, match="weights"):
+        opdeform.pin_vertices(sim, v, [0, 1], weights=[1.0])
+    ids = opdeform.pin_vertices(sim, v, [0, 1], weight=5.0)
+    assert len(ids) == 2 and sim.n_constraints == 2
+
+
+def test_vertex_direction_turns_the_end():
+    v, t, sim = bar_sim()
+    opdeform.pin_vertices(sim, v, np.flatnonzero(v[:, 0] == 0.0))
+    tip = int(np.flatnonzero((v[:, 0] == 2.0) & (v[:, 1] == 0.0) & (v[:, 2] == 0.0))[0])
+    cid = opdeform.add_vertex_direction(sim, v, tip, [0.0, 0.0, 1.0])
+    target = rotation([1, 0, 0], 0.5) @ [0.0, 0.0, 1.0]
+    sim.set_constraint_target(cid, target)
+    sim.set_params(gravity=(0.0, 0.0, 0.0))
+    sim.solve_static(300)
+    idx, w = sim.graph.skin_weights(v[tip])
+    turned = np.einsum("j,jab,b->a", w, sim.rotations[idx], [0.0, 0.0, 1.0])
+    assert np.dot(turned / np.linalg.norm(turned), target) > 0.99
+    with pytest.raises(ValueError, match="out of range"):
+        opdeform.add_vertex_direction(sim, v, len(v), [0, 0, 1])
