@@ -118,12 +118,15 @@ static uint8_t od_KeyReach(uint64_t key)
 	return (uint8_t)((key >> OD_MPM_INDEX_BITS) & 7);
 }
 
+#define OD_KEY_TASKS 64
+
 static void od_KeyTask(void* ctx, int task, int thread)
 {
 	(void)thread;
 	od_MpmWorld* w = ctx;
-	int chunk = (w->count + 63) / 64, end = (task + 1) * chunk < w->count ? (task + 1) * chunk : w->count;
-	for (int i = task * chunk; i < end; ++i)
+	int begin, end;
+	od_TaskRange(w->count, OD_KEY_TASKS, task, &begin, &end);
+	for (int i = begin; i < end; ++i)
 	{
 		w->sort.keys[i] = od_Key(w, i);
 	}
@@ -221,7 +224,7 @@ static void od_ClearTask(void* ctx, int task, int thread)
 od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 {
 	od_MpmSort* s = &w->sort;
-	od_Pool_Run(w->pool, w->count < 64 ? 1 : 64, od_KeyTask, w);
+	od_Pool_Run(w->pool, OD_KEY_TASKS, od_KeyTask, w);
 	od_RadixSort(w);
 	if (reorder)
 	{

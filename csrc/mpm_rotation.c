@@ -86,19 +86,15 @@ static void od_QuatScaleAngle(const double q[4], double eta, double out[4])
 	}
 }
 
-typedef struct od_RotationJob
-{
-	od_MpmWorld* w;
-	int chunk;
-} od_RotationJob;
+#define OD_ROTATION_TASKS 256
 
 static void od_RotationTask(void* ctx, int task, int thread)
 {
 	(void)thread;
-	const od_RotationJob* job = ctx;
-	od_MpmWorld* w = job->w;
-	int end = (task + 1) * job->chunk < w->count ? (task + 1) * job->chunk : w->count;
-	for (int i = task * job->chunk; i < end; ++i)
+	od_MpmWorld* w = ctx;
+	int begin, end;
+	od_TaskRange(w->count, OD_ROTATION_TASKS, task, &begin, &end);
+	for (int i = begin; i < end; ++i)
 	{
 		const od_MpmParticle* p = &w->particles[i];
 		od_Mat3 F = od_M3Load(p->F), R = od_PolarRotation(&F);
@@ -125,6 +121,5 @@ static void od_RotationTask(void* ctx, int task, int thread)
 
 void od_MpmWorld_UpdateOrientations(od_MpmWorld* w)
 {
-	od_RotationJob job = { w, (w->count + 255) / 256 };
-	od_Pool_Run(w->pool, job.chunk > 0 ? (w->count + job.chunk - 1) / job.chunk : 0, od_RotationTask, &job);
+	od_Pool_Run(w->pool, OD_ROTATION_TASKS, od_RotationTask, w);
 }

@@ -15,3 +15,10 @@ void od_Pool_Destroy(od_Pool* pool);
 int od_Pool_Threads(const od_Pool* pool);
 // Runs tasks 0..count-1 and returns when all are done.
 void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx);
+
+// The items [*begin, *end) of `task` when `items` are cut into `tasks` nearly equal ranges.
+static inline void od_TaskRange(int items, int tasks, int task, int* begin, int* end)
+{
+	*begin = (int)((long long)items * task / tasks);
+	*end = (int)((long long)items * (task + 1) / tasks);
+}
