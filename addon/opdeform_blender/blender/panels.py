@@ -18,7 +18,6 @@ class _PhysicsPanel:
 
 class _SubPanel(_PhysicsPanel):
     bl_parent_id = "PHYSICS_PT_opdeform"
-    bl_options = {'DEFAULT_CLOSED'}
 
     @classmethod
     def poll(cls, context):
@@ -75,8 +74,8 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
             col.prop(s, "substeps")
             col.prop(s, "iterations")
             g = context.scene.gravity
-            col.label(text=("Gravity: scene (%.2f, %.2f, %.2f)" % tuple(g)) if context.scene.use_gravity
-                      else "Gravity: off in the scene", icon='FORCE_FORCE')
+            col.label(text=("Gravity %.3g, %.3g, %.3g" % tuple(g)) if context.scene.use_gravity
+                      else "Gravity off (scene)", icon='FORCE_FORCE')
         else:
             col.prop(s, "pose_iterations")
             col.prop(s, "pose_gravity")
@@ -85,7 +84,6 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
 
 class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
     bl_label = "Particles"
-    bl_options = set()
 
     def draw(self, context):
         from . import runtime
@@ -107,19 +105,21 @@ class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
             row.operator("opdeform.build", icon='FILE_REFRESH')
         if rt is not None:
             g = rt.engine.graph
-            layout.label(text=f"{g.n_particles} particles, {g.n_edges} edges, {rt.engine.n_vertices} vertices",
-                         icon='INFO')
+            col = layout.column(align=True)
+            col.label(text=f"{g.n_particles} particles, {g.n_edges} edges", icon='INFO')
+            col.label(text=f"{rt.engine.n_vertices} vertices skinned", icon='BLANK1')
         elif s.built:
             layout.label(text="Built: rebuilt on the next frame", icon='INFO')
-        row = layout.row(heading="Show")
-        row.prop(s, "show_particles", text="Ellipsoids")
-        sub = row.row()
+        col = layout.column(heading="Overlay", align=True)
+        col.prop(s, "show_particles", text="Ellipsoids")
+        sub = col.row()
         sub.active = s.show_particles
         sub.prop(s, "show_edges")
 
 
 class PHYSICS_PT_opdeform_floor(_SubPanel, bpy.types.Panel):
     bl_label = "Floor"
+    bl_options = {'DEFAULT_CLOSED'}
 
     def draw_header(self, context):
         self.layout.prop(context.object.opdeform, "use_floor", text="")
@@ -180,7 +180,7 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         col = layout.column(align=True)
-        col.prop(s, "frame_start", text="Simulation Start")
+        col.prop(s, "frame_start", text="Start")
         col.prop(s, "frame_end", text="End")
         layout.prop(s, "cache_directory")
         rt = runtime.get(obj)
