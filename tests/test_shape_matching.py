@@ -36,9 +36,10 @@ def test_runs_stays_finite_and_the_pinned_bar_sags():
 
 
 def test_stiffness_changes_with_iterations_and_step_size():
-    """The settled sag of the Fig. 1 bar: 1, 5 and 20 sweeps differ by more than 10 % each, and so do the step
-    sizes 1/30 and 1/120 (the ARAP solver's agree within 1 %: test_core.py)."""
-    by_iterations = [settled_sag(iterations=k) for k in (1, 5, 20)]
+    """The settled sag of the Fig. 1 bar: 1, 10 and 50 sweeps differ by more than 10 % each (measured 2.03,
+    1.71, 1.09 m), and so do the step sizes 1/30 and 1/120 (1.88, 1.22 m); the ARAP solver's agree within 1 %
+    (0.1117 m at every setting; test_core.py checks more)."""
+    by_iterations = [settled_sag(iterations=k) for k in (1, 10, 50)]
     for a, b in zip(by_iterations, by_iterations[1:]):
         assert a > 1.1 * b, by_iterations  # more sweeps, stiffer
     coarse, fine = settled_sag(dt=1 / 30), settled_sag(dt=1 / 120)
