@@ -107,7 +107,7 @@ def build_creature(scene):
     size = float(np.linalg.norm(v.max(0) - v.min(0)))
     v[:, 2] += 0.4 * size  # dropped from 0.4 x its size
     # tilt it so that it lands on one side and rolls a little
-    c, s = math.cos(0.35), math.sin(0.35)
+    c, s = math.cos(0.25), math.sin(0.25)
     centre = v.mean(0)
     v = (v - centre) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]]).T + centre
     obj = H.mesh_object("Creature", v, t)
@@ -116,12 +116,12 @@ def build_creature(scene):
         p.use_smooth = True
     st = obj.opdeform
     st.particles, st.graph_mode = 100, "auto"
-    st.stiffness, st.density, st.damping = 2e5, 1000.0, 0.01
+    st.stiffness, st.density, st.damping = 2e7, 1000.0, 0.01
     st.use_floor, st.floor_height, st.floor_friction = True, 0.0, 0.5
     st.iterations = 10
     floor_plane(scene, size=6 * size)
     lo, hi = v.min(0), v.max(0)
-    camera(scene, ((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.25 * size), (1.0, -1.6, 0.9), 2.3 * size)
+    camera(scene, ((lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, 0.4 * size), (1.0, -1.6, 0.7), 1.6 * size)
     return obj
 
 

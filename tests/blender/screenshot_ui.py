@@ -44,7 +44,7 @@ def _setup():
     s = obj.opdeform
     s.pin_group = "Feet"
     s.particles = 100
-    s.stiffness = 2e5
+    s.stiffness = 2e7
     bpy.ops.opdeform.enable(object=obj.name)
     top = v[int(np.argmax(z))]
     bpy.ops.opdeform.handle_add(object=obj.name, location=tuple(top))
