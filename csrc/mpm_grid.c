@@ -25,7 +25,13 @@ od_Status od_MpmGrid_Init(od_MpmWorld* w)
 	size_t total = 1;
 	for (int a = 0; a < 3; ++a)
 	{
-		g->cells[a] = (int)ceil((w->def.upper[a] - w->def.lower[a]) * w->invDx - 1e-9);
+		double cells = ceil((w->def.upper[a] - w->def.lower[a]) * w->invDx - 1e-9);
+		if (!(cells <= (double)(1 << 30))) // before the cast: a larger double does not fit an int
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "world: the domain spans %g cells on an axis, more than 2^30: increase dx",
+						   cells);
+		}
+		g->cells[a] = (int)cells;
 		g->blocks[a] = g->cells[a] / OD_MPM_BLOCK + 2;
 		total *= (size_t)g->blocks[a];
 	}

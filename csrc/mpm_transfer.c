@@ -160,8 +160,12 @@ static void od_G2PTask(void* ctx, int ob, int thread)
 		F = od_M3Mul(&G, &F);
 		od_M3Store(p->F, &F);
 		double h = od_MpmMaterial_Update(&w->materials[p->material], p);
-		double speed = od_Length(v);
-		td->maxSpeed = fmax(td->maxSpeed, isfinite(speed) ? speed : INFINITY);
+		double speed = od_Length(v), health = p->Jp * 0.0;
+		for (int e = 0; e < 9; ++e)
+		{
+			health += p->F[e] * 0.0 + C.m[e] * 0.0; // NaN or infinity in F or C (a huge Δt) fails the step too
+		}
+		td->maxSpeed = fmax(td->maxSpeed, isfinite(speed + health) ? speed : INFINITY);
 		td->maxHardening = fmax(td->maxHardening, h);
 	}
 }

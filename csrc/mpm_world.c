@@ -407,6 +407,14 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 	while (status == OD_OK && elapsed < duration)
 	{
 		double remaining = duration - elapsed, dt = od_CflDt(w);
+		if (!(dt > 0.0) || elapsed + dt == elapsed)
+		{
+			// an infinite wave speed (stiffness or hardening overflowed) would loop here forever
+			status = od_Fail(OD_ERROR_NOT_FINITE, "step: the CFL substep is %g s at time %g s (the material's wave "
+												  "speed overflowed); the state is no longer usable",
+							 dt, w->stats.time);
+			break;
+		}
 		// even out the end: never leave a sliver of a substep
 		dt = remaining <= dt ? remaining : (remaining < 2.0 * dt ? 0.5 * remaining : dt);
 		double end = remaining <= dt ? duration : elapsed + dt;
