@@ -14,7 +14,9 @@
 //    by side). Chain mode instead cuts a group into slabs of equal voxel count along its principal axis.
 // 5. Particles: each cell gives one ellipsoid at its centroid along its principal axes. The covariance
 //    of the union of the cell's voxel cubes is that of their centres plus h²/12 I, and a solid ellipsoid
-//    of radii r has covariance diag(r²)/5, so r = sqrt(5 λ) (always > 0).
+//    of radii r has covariance diag(r²)/5, so r = sqrt(5 λ) (always > 0). Voxels that the surface crosses
+//    are on average half inside, so they weigh half in a filled body (which keeps the ellipsoids from
+//    growing by the voxelization's overshoot).
 // 6. Edges: cells that share a voxel face; where that leaves a group in several parts, cells touching at
 //    a voxel edge or corner; then (separate solids of a joined group) the nearest particle pairs between
 //    parts (Borůvka), so that each group's graph is connected. Chain mode joins slab i to slab i + 1.
@@ -40,7 +42,7 @@ od_MeshGraphDef od_DefaultMeshGraphDef(void)
 	memset(&def, 0, sizeof def);
 	def.particleCount = 100;
 	def.mode = OD_MESH_AUTO;
-	def.voxelsPerParticle = 40;
+	def.voxelsPerParticle = 100;
 	return def;
 }
 
@@ -318,7 +320,7 @@ typedef struct od_Cells
 	int* seeds;     // k
 	double* mean;   // k*3
 	double* cov;    // k*9
-	int* size;      // k
+	double* size;   // k, the weight of each cell (shell voxels count half)
 	double* best;   // k, scratch
 	int* nearest;   // k, scratch
 	od_HeapItem* heap;
@@ -435,24 +437,31 @@ static int od_CellOfVoxel(const int* label, int i)
 	return label ? label[i] : 0;
 }
 
-// Means, covariances (of the voxel centres) and sizes of the cells (c->mean, c->cov, c->size).
+// The weight of voxel i in the moments: a voxel that a triangle crosses is on average half inside the body.
+static double od_VoxelWeight(const od_Cells* c, int i)
+{
+	return c->voxels->shell[i] ? 0.5 : 1.0;
+}
+
+// Weighted means, covariances (of the voxel centres) and weights of the cells (c->mean, c->cov, c->size).
 static void od_CellMoments(od_Cells* c, const int* label, int k)
 {
 	memset(c->mean, 0, sizeof(double) * 3 * (size_t)k);
 	memset(c->cov, 0, sizeof(double) * 9 * (size_t)k);
-	memset(c->size, 0, sizeof(int) * (size_t)k);
+	memset(c->size, 0, sizeof(double) * (size_t)k);
 	for (int i = 0; i < c->count; ++i)
 	{
 		int l = od_CellOfVoxel(label, i);
 		if (l >= 0)
 		{
-			c->size[l]++;
-			od_V3Store(c->mean + 3 * l, od_Add(od_V3Load(c->mean + 3 * l), od_V3Load(c->pos + 3 * i)));
+			c->size[l] += od_VoxelWeight(c, i);
+			od_V3Store(c->mean + 3 * l, od_MulAdd(od_V3Load(c->mean + 3 * l), od_VoxelWeight(c, i),
+												  od_V3Load(c->pos + 3 * i)));
 		}
 	}
 	for (int l = 0; l < k; ++l)
 	{
-		od_V3Store(c->mean + 3 * l, od_Scale(1.0 / (c->size[l] ? c->size[l] : 1), od_V3Load(c->mean + 3 * l)));
+		od_V3Store(c->mean + 3 * l, od_Scale(1.0 / (c->size[l] > 0.0 ? c->size[l] : 1.0), od_V3Load(c->mean + 3 * l)));
 	}
 	for (int i = 0; i < c->count; ++i)
 	{
@@ -461,7 +470,7 @@ static void od_CellMoments(od_Cells* c, const int* label, int k)
 		{
 			od_Vec3 d = od_Sub(od_V3Load(c->pos + 3 * i), od_V3Load(c->mean + 3 * l));
 			od_Mat3 cov = od_M3Load(c->cov + 9 * l);
-			od_M3AddOuter(&cov, 1.0 / c->size[l], d, d);
+			od_M3AddOuter(&cov, od_VoxelWeight(c, i) / c->size[l], d, d);
 			od_M3Store(c->cov + 9 * l, &cov);
 		}
 	}
@@ -582,17 +591,17 @@ static od_Status od_ChainCells(od_Cells* c)
 		hi = fmax(hi, order[2 * i]);
 	}
 	double start = lo - 0.5 * c->voxels->h, length = hi - lo + c->voxels->h;
-	memset(c->size, 0, sizeof(int) * (size_t)c->k);
+	memset(c->size, 0, sizeof(double) * (size_t)c->k);
 	for (int i = 0; i < c->count; ++i)
 	{
 		int l = (int)floor((order[2 * i] - start) / length * c->k);
 		c->label[i] = l < 0 ? 0 : l >= c->k ? c->k - 1 : l;
-		c->size[c->label[i]]++;
+		c->size[c->label[i]] += 1.0;
 	}
 	bool empty = false;
 	for (int l = 0; l < c->k; ++l)
 	{
-		empty = empty || c->size[l] == 0;
+		empty = empty || c->size[l] == 0.0;
 	}
 	if (empty)
 	{
@@ -820,7 +829,7 @@ static od_Status od_BuildGroup(od_Builder* b, const od_Group* g)
 	c.seeds = od_Alloc(sizeof(int) * (size_t)c.k);
 	c.mean = od_Alloc(sizeof(double) * 3 * (size_t)c.k);
 	c.cov = od_Alloc(sizeof(double) * 9 * (size_t)c.k);
-	c.size = od_Alloc(sizeof(int) * (size_t)c.k);
+	c.size = od_Alloc(sizeof(double) * (size_t)c.k);
 	c.best = od_Alloc(sizeof(double) * (size_t)c.k);
 	c.nearest = od_Alloc(sizeof(int) * (size_t)c.k);
 	od_Status status = OD_OK;

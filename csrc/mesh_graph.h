@@ -32,6 +32,7 @@ typedef struct od_Voxels
 	int dims[3];
 	int count;
 	int* cells;       // count linear cell indices ((z * dims[1] + y) * dims[0] + x), ascending
+	bool* shell;      // count: whether a triangle touches the voxel
 } od_Voxels;
 
 // The number of cells of the grid that od_Voxelize would use (to keep it below OD_VOXEL_CELL_LIMIT).

@@ -21,6 +21,7 @@
 #include "pool.h"
 
 #include <float.h>
+#include <math.h>
 #include <string.h>
 
 // Vertices per task of the pool, when deforming and when binding; meshes below two deform chunks get no pool.
@@ -343,75 +344,122 @@ typedef struct od_DeformJob
 	od_Scalar restNormalType;
 } od_DeformJob;
 
-static inline od_Vec3 od_Load3(const void* base, od_Scalar type, size_t v)
-{
-	if (type == OD_FLOAT32)
-	{
-		const float* f = (const float*)base + 3 * v;
-		return od_V3(f[0], f[1], f[2]);
-	}
-	return od_V3Load((const double*)base + 3 * v);
-}
+// Vertices are blended in blocks into double buffers on the stack, then stored in the target's types, so
+// that the blend has no per-vertex branch on types.
+#define OD_SKIN_BLOCK 256
 
-static inline void od_Store3(void* base, od_Scalar type, size_t v, od_Vec3 a)
+// Positions p and (when rn is not NULL) normals q, not yet normalized, of the count vertices from `first`,
+// as doubles; m is a compile-time constant where the caller passes one, so that the blend unrolls.
+static inline __attribute__((always_inline)) void od_BlendBlock(const od_Skin* s, const double* maps, size_t first,
+																int count, int m, const double* rn, double* p,
+																double* q)
 {
-	if (type == OD_FLOAT32)
+	const int* idx = s->idx + (size_t)m * first;
+	const double* w = s->w + (size_t)m * first;
+	const double* rest = s->rest + 3 * first;
+	for (int v = 0; v < count; ++v)
 	{
-		float* f = (float*)base + 3 * v;
-		f[0] = (float)a.x;
-		f[1] = (float)a.y;
-		f[2] = (float)a.z;
-	}
-	else
-	{
-		od_V3Store((double*)base + 3 * v, a);
-	}
-}
-
-// The vertex loop; m is a compile-time constant where the caller passes one, so the blend unrolls.
-static inline __attribute__((always_inline)) void od_DeformVertices(const od_DeformJob* job, int begin, int end,
-																	 int m)
-{
-	const od_Skin* s = job->skin;
-	const od_SkinTarget* t = job->target;
-	for (int v = begin; v < end; ++v)
-	{
-		const int* idx = s->idx + (size_t)m * v;
-		const double* w = s->w + (size_t)m * v;
 		double a[12] = { 0 };
 		for (int k = 0; k < m; ++k)
 		{
-			const double* map = job->maps + 12 * idx[k];
+			const double* map = maps + 12 * idx[m * v + k];
+			double wk = w[m * v + k];
 			for (int e = 0; e < 12; ++e)
 			{
-				a[e] += w[k] * map[e];
+				a[e] += wk * map[e];
 			}
 		}
-		od_Vec3 p = od_V3Load(s->rest + 3 * v);
-		od_Store3(t->positions, t->positionType, v,
-				  od_V3(a[0] * p.x + a[1] * p.y + a[2] * p.z + a[3], a[4] * p.x + a[5] * p.y + a[6] * p.z + a[7],
-						a[8] * p.x + a[9] * p.y + a[10] * p.z + a[11]));
-		if (t->normals)
+		const double* x = rest + 3 * v;
+		for (int r = 0; r < 3; ++r)
 		{
-			od_Vec3 n = od_Load3(job->restNormals, job->restNormalType, v);
-			od_Vec3 q = od_V3(a[0] * n.x + a[1] * n.y + a[2] * n.z, a[4] * n.x + a[5] * n.y + a[6] * n.z,
-							  a[8] * n.x + a[9] * n.y + a[10] * n.z);
-			double len = od_Length(q);
-			od_Store3(t->normals, t->normalType, v, len > 0.0 ? od_Scale(1.0 / len, q) : q);
+			p[3 * v + r] = a[4 * r] * x[0] + a[4 * r + 1] * x[1] + a[4 * r + 2] * x[2] + a[4 * r + 3];
 		}
+		if (rn)
+		{
+			const double* n = rn + 3 * v;
+			for (int r = 0; r < 3; ++r)
+			{
+				q[3 * v + r] = a[4 * r] * n[0] + a[4 * r + 1] * n[1] + a[4 * r + 2] * n[2];
+			}
+		}
+	}
+}
+
+// Scales count 3-vectors to unit length (zero ones stay zero), in passes the compiler vectorizes so that
+// square roots and divisions of neighbouring vertices overlap.
+static void od_NormalizeBlock(double* q, int count)
+{
+	double scale[OD_SKIN_BLOCK];
+	for (int v = 0; v < count; ++v)
+	{
+		scale[v] = q[3 * v] * q[3 * v] + q[3 * v + 1] * q[3 * v + 1] + q[3 * v + 2] * q[3 * v + 2];
+	}
+	for (int v = 0; v < count; ++v)
+	{
+		scale[v] = 1.0 / sqrt(scale[v] + DBL_MIN); // no branch; a zero vector times a finite scale stays zero
+	}
+	for (int v = 0; v < count; ++v)
+	{
+		q[3 * v] *= scale[v];
+		q[3 * v + 1] *= scale[v];
+		q[3 * v + 2] *= scale[v];
+	}
+}
+
+// Copies count doubles into base (of the given type) from item `first` on.
+static void od_StoreBlock(void* base, od_Scalar type, size_t first, const double* src, int count)
+{
+	if (type == OD_FLOAT32)
+	{
+		float* f = (float*)base + first;
+		for (int k = 0; k < count; ++k)
+		{
+			f[k] = (float)src[k];
+		}
+	}
+	else
+	{
+		memcpy((double*)base + first, src, sizeof(double) * (size_t)count);
 	}
 }
 
 static void od_DeformRange(void* context, int begin, int end)
 {
 	const od_DeformJob* job = context;
-	if (job->skin->m == 4)
+	const od_Skin* s = job->skin;
+	const od_SkinTarget* t = job->target;
+	double p[3 * OD_SKIN_BLOCK], q[3 * OD_SKIN_BLOCK], n[3 * OD_SKIN_BLOCK];
+	for (int first = begin; first < end; first += OD_SKIN_BLOCK)
 	{
-		od_DeformVertices(job, begin, end, 4);
-	}
-	else
-	{
-		od_DeformVertices(job, begin, end, job->skin->m);
+		int count = end - first < OD_SKIN_BLOCK ? end - first : OD_SKIN_BLOCK;
+		const double* rn = NULL;
+		if (t->normals && job->restNormalType == OD_FLOAT32)
+		{
+			const float* f = (const float*)job->restNormals + 3 * (size_t)first;
+			for (int k = 0; k < 3 * count; ++k)
+			{
+				n[k] = f[k];
+			}
+			rn = n;
+		}
+		else if (t->normals)
+		{
+			rn = (const double*)job->restNormals + 3 * (size_t)first;
+		}
+		if (s->m == 4)
+		{
+			od_BlendBlock(s, job->maps, (size_t)first, count, 4, rn, p, q);
+		}
+		else
+		{
+			od_BlendBlock(s, job->maps, (size_t)first, count, s->m, rn, p, q);
+		}
+		od_StoreBlock(t->positions, t->positionType, 3 * (size_t)first, p, 3 * count);
+		if (rn)
+		{
+			od_NormalizeBlock(q, count);
+			od_StoreBlock(t->normals, t->normalType, 3 * (size_t)first, q, 3 * count);
+		}
 	}
 }
 

@@ -206,15 +206,18 @@ od_Status od_Voxelize(const double* vertices, const int* triangles, const int* l
 		g->count += od_IsSolid(state[c], fill);
 	}
 	g->cells = od_Alloc(sizeof(int) * (size_t)(g->count ? g->count : 1));
-	if (!g->cells)
+	g->shell = od_Alloc(sizeof(bool) * (size_t)(g->count ? g->count : 1));
+	if (!g->cells || !g->shell)
 	{
 		od_Free(state);
+		od_Voxels_Destroy(g);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d voxels", g->count);
 	}
 	for (int c = 0, k = 0; c < cells; ++c)
 	{
 		if (od_IsSolid(state[c], fill))
 		{
+			g->shell[k] = state[c] == OD_CELL_SHELL;
 			g->cells[k++] = c;
 		}
 	}
@@ -225,7 +228,9 @@ od_Status od_Voxelize(const double* vertices, const int* triangles, const int* l
 void od_Voxels_Destroy(od_Voxels* g)
 {
 	od_Free(g->cells);
+	od_Free(g->shell);
 	g->cells = NULL;
+	g->shell = NULL;
 	g->count = 0;
 }
 

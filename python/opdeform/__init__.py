@@ -64,7 +64,7 @@ class Graph:
         self._core = _core.Graph(centers, radii, edges, axes)
 
     @classmethod
-    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=40):
+    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
         """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
         through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
         forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and

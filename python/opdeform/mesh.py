@@ -13,7 +13,7 @@ __all__ = ["MODES", "Skin", "add_vertex_direction", "graph_from_mesh", "pin_vert
 MODES = ("auto", "volume", "surface", "chain")
 
 
-def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=40):
+def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
     """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
     vertices = as_array("vertices", vertices, (None, 3))
     triangles = as_array("triangles", triangles, (None, 3), np.int32)

@@ -271,7 +271,8 @@ static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 		return NULL;
 	}
 	if (GetFloatArray(out, "out", 3 * nv, 1, &ov, &target.positionType) < 0 ||
-		(normalsOut != Py_None && GetFloatArray(normalsOut, "normals_out", 3 * nv, 1, &nview, &target.normalType) < 0) ||
+		(normalsOut != Py_None &&
+		 GetFloatArray(normalsOut, "normals_out", 3 * nv, 1, &nview, &target.normalType) < 0) ||
 		(restNormals != Py_None &&
 		 GetFloatArray(restNormals, "rest_normals", 3 * nv, 0, &rnview, &target.restNormalType) < 0))
 	{

@@ -123,10 +123,10 @@ _CREATURE_PARTS = [
     ((0.35, 0.0, 0.62), (0.58, 0.0, 0.88), 0.1, 0.08),       # neck
     ((0.56, 0.0, 0.92), (0.8, 0.0, 0.88), 0.11, 0.07),       # head
     ((-0.4, 0.0, 0.58), (-0.95, 0.0, 0.42), 0.1, 0.03),      # tail
-    ((0.25, 0.12, 0.5), (0.3, 0.16, 0.06), 0.075, 0.06),     # legs
-    ((0.25, -0.12, 0.5), (0.3, -0.16, 0.06), 0.075, 0.06),
-    ((-0.25, 0.12, 0.5), (-0.28, 0.16, 0.06), 0.075, 0.06),
-    ((-0.25, -0.12, 0.5), (-0.28, -0.16, 0.06), 0.075, 0.06),
+    ((0.25, 0.12, 0.5), (0.3, 0.24, 0.06), 0.075, 0.06),     # legs, splayed for a stable stance
+    ((0.25, -0.12, 0.5), (0.3, -0.24, 0.06), 0.075, 0.06),
+    ((-0.25, 0.12, 0.5), (-0.28, 0.24, 0.06), 0.075, 0.06),
+    ((-0.25, -0.12, 0.5), (-0.28, -0.24, 0.06), 0.075, 0.06),
 ]
 
 
@@ -209,8 +209,8 @@ def _is_closed_manifold(triangles):
 def creature(resolution=48):
     """The creature: about 1.9 m long, standing on z = 0, facing +x; ``resolution`` grid cells along its
     length (48 gives about 4,000 triangles, 130 about 28,000; ``subdivide`` for more)."""
-    lo = np.array([-1.05, -0.35, -0.1])
-    hi = np.array([0.95, 0.35, 1.1])
+    lo = np.array([-1.05, -0.4, -0.1])
+    hi = np.array([0.95, 0.4, 1.1])
     h = (hi[0] - lo[0]) / resolution
     # A saddle of the level set on a cell face makes an edge of four triangles; a shifted grid avoids it.
     for shift in (0.0, 0.31, 0.57, 0.83):

@@ -9,8 +9,9 @@ static int round_trip(const test_Mesh* m, int ply)
 {
 	char* data = NULL;
 	size_t size = 0;
-	od_Status status = ply ? od_Mesh_FormatPly(m->vertexCount, m->vertices, m->triangleCount, m->triangles, &data, &size)
-						   : od_Mesh_FormatObj(m->vertexCount, m->vertices, m->triangleCount, m->triangles, &data, &size);
+	od_Status (*format)(int, const double*, int, const int*, char**, size_t*) =
+		ply ? od_Mesh_FormatPly : od_Mesh_FormatObj;
+	od_Status status = format(m->vertexCount, m->vertices, m->triangleCount, m->triangles, &data, &size);
 	ENSURE(status == OD_OK);
 	od_Mesh back;
 	ENSURE((ply ? od_Mesh_ParsePly(data, size, &back) : od_Mesh_ParseObj(data, size, &back)) == OD_OK);

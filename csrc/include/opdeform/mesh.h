@@ -39,7 +39,7 @@ typedef struct od_MeshGraphDef
 	int particleCount;      // how many particles the graph gets (100)
 	od_MeshGraphMode mode;  // OD_MESH_AUTO
 	bool joinPieces;        // false: each connected piece of the mesh gets its own connected graph
-	int voxelsPerParticle;  // resolution of the voxelization that the particles are fitted to (40)
+	int voxelsPerParticle;  // resolution of the voxelization that the particles are fitted to (100)
 } od_MeshGraphDef;
 
 od_MeshGraphDef od_DefaultMeshGraphDef(void);

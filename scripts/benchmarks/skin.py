@@ -1,0 +1,115 @@
+"""Skinning 1,000,000 vertices (m = 4, positions and normals) against memory bandwidth; graph building.
+
+Skinning: ms per frame (median) on all cores and on one, into float32 buffers laid out for Blender's
+foreach_set, with the machine's memory bandwidth measured in the same run (a large copy on every core,
+counting bytes read and written) and the fraction of it the skinning reaches: the least bytes a frame must
+move (rest positions, indices, weights and rest normals read, positions and normals written) over the
+bandwidth, divided by the time taken. Graph building: seconds (median) for a 100k-triangle mesh into
+1,000 particles, and the binding of the million vertices.
+"""
+
+import os
+import statistics
+import threading
+import time
+
+import numpy as np
+
+import opdeform
+from opdeform import meshes
+
+from .common import table
+
+VERTICES = 1_000_000
+NEIGHBORS = 4
+
+
+def _median_s(fn, repeats):
+    samples = []
+    for _ in range(repeats):
+        t = time.perf_counter()
+        fn()
+        samples.append(time.perf_counter() - t)
+    return statistics.median(samples)
+
+
+def copy_bandwidth(threads, megabytes=512, repeats=9):
+    """GB/s of a large copy split over `threads` threads (numpy copies without the GIL): bytes read plus
+    bytes written per second, median of `repeats`."""
+    src = np.ones(megabytes * 2**20 // 8)
+    dst = np.empty_like(src)
+    parts = np.array_split(np.arange(len(src)), threads)
+    bounds = [(p[0], p[-1] + 1) for p in parts]
+
+    def copy():
+        workers = [threading.Thread(target=np.copyto, args=(dst[a:b], src[a:b])) for a, b in bounds[1:]]
+        for w in workers:
+            w.start()
+        a, b = bounds[0]
+        np.copyto(dst[a:b], src[a:b])
+        for w in workers:
+            w.join()
+
+    copy()
+    return 2 * src.nbytes / _median_s(copy, repeats) / 1e9
+
+
+def frame_bytes(n_vertices, m, normals=True, out_bytes=4):
+    """The least a frame moves: rest positions (f64), indices (i32), weights (f64), rest normals (f64) read;
+    positions and normals written."""
+    per_vertex = 24 + 4 * m + 8 * m + 3 * out_bytes + ((24 + 3 * out_bytes) if normals else 0)
+    return n_vertices * per_vertex
+
+
+def _million_vertex_mesh():
+    v, t = meshes.subdivide(*meshes.creature(138), levels=3)
+    return v, t
+
+
+def _falling_state(graph, steps=30):
+    sim = opdeform.Simulation(graph, 2e5)
+    sim.set_state(graph.centers + [0.0, 0.0, 0.3], np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+    sim.set_floor(0.0, 0.5)
+    sim.step(steps)
+    return sim.positions, sim.rotations
+
+
+def run(args):
+    cores = os.cpu_count()
+    print(f"machine: {cores} cores; mesh: the creature subdivided, first {VERTICES:,} vertices; m = {NEIGHBORS}")
+    v, t = _million_vertex_mesh()
+    base_v, base_t = meshes.creature()
+    graph = opdeform.Graph.from_mesh(base_v, base_t, particles=100)
+    normals = opdeform.Skin(graph, v, triangles=t).rest_normals[:VERTICES]
+    v = np.ascontiguousarray(v[:VERTICES])
+    bind_s = _median_s(lambda: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals), 3)
+    skins = {"all": opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals),
+             "one": opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals, threads=1)}
+    positions, rotations = _falling_state(graph)
+    out32, nrm32 = np.empty(3 * VERTICES, np.float32), np.empty(3 * VERTICES, np.float32)
+    out64, nrm64 = np.empty((VERTICES, 3)), np.empty((VERTICES, 3))
+    bandwidth = copy_bandwidth(cores)
+    cases = [("positions + normals, float32", "all", out32, nrm32, 4),
+             ("positions only, float32", "all", out32, None, 4),
+             ("positions + normals, float64", "all", out64, nrm64, 8),
+             ("positions + normals, float32", "one", out32, nrm32, 4)]
+    rows = []
+    for name, threads, out, nrm, size in cases:
+        skin = skins[threads]
+        skin.deform(positions, rotations, out, nrm)
+        seconds = _median_s(lambda: skin.deform(positions, rotations, out, nrm), 21)
+        moved = frame_bytes(VERTICES, NEIGHBORS, nrm is not None, size)
+        bound = moved / (bandwidth * 1e9)
+        rows.append((name, f"{cores if threads == 'all' else 1}", f"{seconds * 1e3:.2f}", f"{moved / 1e6:.0f}",
+                     f"{bound * 1e3:.2f}", f"{bound / seconds:.2f}"))
+    bandwidth_after = copy_bandwidth(cores)
+    table(rows, ["skinning 1M vertices", "threads", "ms/frame", "MB moved", "bandwidth ms", "fraction"])
+    print(f"memory bandwidth (copy on {cores} threads, read + write): {bandwidth:.1f} GB/s before, "
+          f"{bandwidth_after:.1f} GB/s after; one thread: {copy_bandwidth(1):.1f} GB/s")
+    print(f"binding {VERTICES:,} vertices (grid search, all cores): {bind_s:.3f} s")
+
+    big_v, big_t = meshes.subdivide(*meshes.creature(130))
+    build_s = _median_s(lambda: opdeform.Graph.from_mesh(big_v, big_t, particles=1000), 5)
+    g = opdeform.Graph.from_mesh(big_v, big_t, particles=1000)
+    print(f"graph building: {len(big_t):,} triangles into {g.n_particles} particles ({g.n_edges} edges): "
+          f"{build_s:.3f} s (median of 5)")
