@@ -23,9 +23,11 @@
 // Everything runs in one thread with ties broken by index, so the graph is the same bit for bit.
 #include "mesh_graph.h"
 
+#include "buffer.h"
 #include "core.h"
 #include "graph.h"
 #include "math3.h"
+#include "mesh_check.h"
 #include "polar.h"
 #include "union_find.h"
 
@@ -65,22 +67,7 @@ static od_Status od_CheckMeshGraphDef(const od_MeshGraphDef* def)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "voxels_per_particle = %d must be >= 1", def->voxelsPerParticle);
 	}
-	for (int v = 0; v < def->vertexCount; ++v)
-	{
-		if (!od_IsFinite3(def->vertices + 3 * v))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "vertices[%d] is not finite", v);
-		}
-	}
-	for (int t = 0; t < 3 * def->triangleCount; ++t)
-	{
-		if (def->triangles[t] < 0 || def->triangles[t] >= def->vertexCount)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "triangles[%d] refers to vertex %d, but there are %d vertices", t / 3,
-						   def->triangles[t], def->vertexCount);
-		}
-	}
-	return OD_OK;
+	return od_CheckMesh(def->vertexCount, def->vertices, def->triangleCount, def->triangles, true);
 }
 
 typedef struct od_Group
@@ -101,8 +88,7 @@ typedef struct od_Builder
 	double* centers; // particleCount*3
 	double* radii;   // particleCount*3
 	double* axes;    // particleCount*9
-	int* edges;      // edgeCount*2
-	int edgeCount, edgeCapacity;
+	od_Buffer edges; // int pairs (i < j)
 } od_Builder;
 
 static const int* od_GroupTriangles(const od_Builder* b, const od_Group* g, int* count)
@@ -323,8 +309,7 @@ typedef struct od_Cells
 	double* size;   // k, the weight of each cell (shell voxels count half)
 	double* best;   // k, scratch
 	int* nearest;   // k, scratch
-	od_HeapItem* heap;
-	int heapCount, heapCapacity;
+	od_Buffer heap;  // od_HeapItem, a binary heap ordered by (distance, voxel)
 	int offset[26]; // linear offsets of the 26 neighbours; the first 13 point forwards
 	double step[26];
 } od_Cells;
@@ -336,51 +321,49 @@ static int od_HeapLess(od_HeapItem a, od_HeapItem b)
 
 static od_Status od_HeapPush(od_Cells* c, double d, int v)
 {
-	if (c->heapCount == c->heapCapacity)
+	od_Status status = od_BufferReserve(&c->heap, sizeof(od_HeapItem));
+	if (status != OD_OK)
 	{
-		int capacity = c->heapCapacity ? 2 * c->heapCapacity : 1024;
-		od_HeapItem* heap = od_Realloc(c->heap, sizeof(od_HeapItem) * (size_t)capacity);
-		if (!heap)
-		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for the voxel queue");
-		}
-		c->heap = heap;
-		c->heapCapacity = capacity;
+		return status;
 	}
+	od_HeapItem* heap = (od_HeapItem*)c->heap.data;
 	od_HeapItem item = { d, v };
-	int i = c->heapCount++;
-	while (i > 0 && od_HeapLess(item, c->heap[(i - 1) / 2]))
+	size_t i = c->heap.size / sizeof item;
+	c->heap.size += sizeof item;
+	while (i > 0 && od_HeapLess(item, heap[(i - 1) / 2]))
 	{
-		c->heap[i] = c->heap[(i - 1) / 2];
+		heap[i] = heap[(i - 1) / 2];
 		i = (i - 1) / 2;
 	}
-	c->heap[i] = item;
+	heap[i] = item;
 	return OD_OK;
 }
 
 static od_HeapItem od_HeapPop(od_Cells* c)
 {
-	od_HeapItem top = c->heap[0], last = c->heap[--c->heapCount];
-	int i = 0;
+	od_HeapItem* heap = (od_HeapItem*)c->heap.data;
+	c->heap.size -= sizeof(od_HeapItem);
+	size_t count = c->heap.size / sizeof(od_HeapItem), i = 0;
+	od_HeapItem top = heap[0], last = heap[count];
 	for (;;)
 	{
-		int child = 2 * i + 1;
-		if (child >= c->heapCount)
+		size_t child = 2 * i + 1;
+		if (child >= count)
 		{
 			break;
 		}
-		if (child + 1 < c->heapCount && od_HeapLess(c->heap[child + 1], c->heap[child]))
+		if (child + 1 < count && od_HeapLess(heap[child + 1], heap[child]))
 		{
 			++child;
 		}
-		if (!od_HeapLess(c->heap[child], last))
+		if (!od_HeapLess(heap[child], last))
 		{
 			break;
 		}
-		c->heap[i] = c->heap[child];
+		heap[i] = heap[child];
 		i = child;
 	}
-	c->heap[i] = last;
+	heap[i] = last;
 	return top;
 }
 
@@ -388,7 +371,7 @@ static od_HeapItem od_HeapPop(od_Cells* c)
 static od_Status od_Spread(od_Cells* c)
 {
 	const int* cells = c->voxels->cells;
-	while (c->heapCount > 0)
+	while (c->heap.size > 0)
 	{
 		od_HeapItem top = od_HeapPop(c);
 		if (top.d > c->dist[top.v])
@@ -638,31 +621,13 @@ static void od_FitParticles(od_Builder* b, od_Cells* c, const od_Group* g)
 
 static od_Status od_AddEdge(od_Builder* b, int i, int j)
 {
-	if (b->edgeCount == b->edgeCapacity)
-	{
-		int capacity = b->edgeCapacity ? 2 * b->edgeCapacity : 256;
-		int* edges = od_Realloc(b->edges, sizeof(int) * 2 * (size_t)capacity);
-		if (!edges)
-		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for %d edges", capacity);
-		}
-		b->edges = edges;
-		b->edgeCapacity = capacity;
-	}
-	b->edges[2 * b->edgeCount] = i < j ? i : j;
-	b->edges[2 * b->edgeCount + 1] = i < j ? j : i;
-	b->edgeCount++;
-	return OD_OK;
+	int e[2] = { i < j ? i : j, i < j ? j : i };
+	return od_BufferAppend(&b->edges, e, sizeof e);
 }
 
-static int od_CompareEdges(const void* pa, const void* pb)
+static int od_EdgeCount(const od_Builder* b)
 {
-	const int *a = pa, *b = pb;
-	if (a[0] != b[0])
-	{
-		return a[0] < b[0] ? -1 : 1;
-	}
-	return (a[1] > b[1]) - (a[1] < b[1]);
+	return (int)(b->edges.size / (2 * sizeof(int)));
 }
 
 // Edges between cells whose voxels touch: faceOnly, every such pair; otherwise only pairs that join
@@ -768,20 +733,22 @@ static od_Status od_GroupEdges(od_Builder* b, const od_Cells* c, const od_Group*
 	}
 	else
 	{
-		int before = b->edgeCount;
+		int before = od_EdgeCount(b);
 		status = od_TouchingCells(b, c, g->first, true, parent);
 		if (status == OD_OK)
 		{
-			qsort(b->edges + 2 * before, (size_t)(b->edgeCount - before), sizeof(int) * 2, od_CompareEdges);
-			int unique = before;
-			for (int e = before; e < b->edgeCount; ++e)
+			// The face pairs, sorted and without repeats.
+			int* edges = (int*)b->edges.data;
+			int count = od_EdgeCount(b), unique = before;
+			qsort(edges + 2 * before, (size_t)(count - before), sizeof(int) * 2, od_CompareIntPairs);
+			for (int e = before; e < count; ++e)
 			{
-				if (unique == before || od_CompareEdges(b->edges + 2 * e, b->edges + 2 * (unique - 1)) != 0)
+				if (unique == before || od_CompareIntPairs(edges + 2 * e, edges + 2 * (unique - 1)) != 0)
 				{
-					memmove(b->edges + 2 * unique++, b->edges + 2 * e, sizeof(int) * 2);
+					memmove(edges + 2 * unique++, edges + 2 * e, sizeof(int) * 2);
 				}
 			}
-			b->edgeCount = unique;
+			b->edges.size = (size_t)unique * 2 * sizeof(int);
 			status = od_TouchingCells(b, c, g->first, false, parent);
 		}
 	}
@@ -863,7 +830,7 @@ static od_Status od_BuildGroup(od_Builder* b, const od_Group* g)
 	od_Free(c.size);
 	od_Free(c.best);
 	od_Free(c.nearest);
-	od_Free(c.heap);
+	od_Free(c.heap.data);
 	return status;
 }
 
@@ -909,8 +876,8 @@ static od_Status od_Build(od_Builder* b, od_Graph** graph)
 	def.centers = b->centers;
 	def.radii = b->radii;
 	def.axes = b->axes;
-	def.edgeCount = b->edgeCount;
-	def.edges = b->edges;
+	def.edgeCount = od_EdgeCount(b);
+	def.edges = (const int*)b->edges.data;
 	return od_Graph_Create(&def, graph);
 }
 
@@ -935,6 +902,6 @@ od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 	od_Free(b.centers);
 	od_Free(b.radii);
 	od_Free(b.axes);
-	od_Free(b.edges);
+	od_Free(b.edges.data);
 	return status;
 }

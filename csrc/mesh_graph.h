@@ -21,6 +21,8 @@ typedef struct od_MeshPieces
 } od_MeshPieces;
 
 od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* pieces);
+// qsort order of int pairs (the first two ints of each item): by the first, then the second.
+int od_CompareIntPairs(const void* a, const void* b);
 void od_MeshPieces_Destroy(od_MeshPieces* pieces);
 
 // The solid cells of a voxelization: cells touched by a triangle, plus (fill) every cell that the

@@ -7,7 +7,9 @@
 // strtol never run past the data. Out-of-range indices are errors naming the triangle.
 #include "opdeform/mesh.h"
 
+#include "buffer.h"
 #include "core.h"
+#include "mesh_check.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -16,35 +18,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-// A growable byte buffer.
-typedef struct od_Buffer
-{
-	char* data;
-	size_t size, capacity;
-} od_Buffer;
-
-static od_Status od_BufferAppend(od_Buffer* b, const void* bytes, size_t count)
-{
-	if (b->size + count > b->capacity)
-	{
-		size_t capacity = b->capacity ? b->capacity : 4096;
-		while (capacity < b->size + count)
-		{
-			capacity *= 2;
-		}
-		char* data = od_Realloc(b->data, capacity);
-		if (!data)
-		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for a mesh of %zu bytes", capacity);
-		}
-		b->data = data;
-		b->capacity = capacity;
-	}
-	memcpy(b->data + b->size, bytes, count);
-	b->size += count;
-	return OD_OK;
-}
 
 // The mesh being read: vertices and triangles as growing buffers, and the current polygon.
 typedef struct od_MeshReader
@@ -579,23 +552,6 @@ void od_Mesh_Free(od_Mesh* mesh)
 // ---------------------------------------------------------------------------------------------------------
 // Writing
 
-static od_Status od_CheckMesh(int vertexCount, const double* vertices, int triangleCount, const int* triangles)
-{
-	if (vertexCount < 0 || triangleCount < 0 || (vertexCount && !vertices) || (triangleCount && !triangles))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "a mesh needs its vertices and triangles");
-	}
-	for (int t = 0; t < 3 * triangleCount; ++t)
-	{
-		if (triangles[t] < 0 || triangles[t] >= vertexCount)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "triangles[%d] refers to vertex %d, but there are %d vertices", t / 3,
-						   triangles[t], vertexCount);
-		}
-	}
-	return OD_OK;
-}
-
 static od_Status od_Print(od_Buffer* b, const char* format, ...) OD_PRINTF(2, 3);
 
 static od_Status od_Print(od_Buffer* b, const char* format, ...)
@@ -608,41 +564,49 @@ static od_Status od_Print(od_Buffer* b, const char* format, ...)
 	return od_BufferAppend(b, line, (size_t)n);
 }
 
-static od_Status od_Handover(od_Status status, od_Buffer* b, char** data, size_t* size)
+typedef od_Status od_MeshWriter(od_Buffer* b, int vertexCount, const double* vertices, int triangleCount,
+								const int* triangles);
+
+// Checks the mesh, writes it into a new buffer and hands the buffer over.
+static od_Status od_Format(od_MeshWriter* write, int vertexCount, const double* vertices, int triangleCount,
+						   const int* triangles, char** data, size_t* size)
 {
+	*data = NULL;
+	*size = 0;
+	od_Buffer b = { 0 };
+	od_Status status = od_CheckMesh(vertexCount, vertices, triangleCount, triangles, false);
+	status = status == OD_OK ? write(&b, vertexCount, vertices, triangleCount, triangles) : status;
 	if (status != OD_OK)
 	{
-		od_Free(b->data);
+		od_Free(b.data);
 		return status;
 	}
-	*data = b->data;
-	*size = b->size;
+	*data = b.data;
+	*size = b.size;
 	return OD_OK;
+}
+
+static od_Status od_WriteObj(od_Buffer* b, int vertexCount, const double* vertices, int triangleCount,
+							 const int* triangles)
+{
+	od_Status status = od_Print(b, "# opdeform: %d vertices, %d triangles\n", vertexCount, triangleCount);
+	for (int v = 0; v < vertexCount && status == OD_OK; ++v)
+	{
+		const double* p = vertices + 3 * v;
+		status = od_Print(b, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+	}
+	for (int t = 0; t < triangleCount && status == OD_OK; ++t)
+	{
+		const int* tri = triangles + 3 * t;
+		status = od_Print(b, "f %d %d %d\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+	}
+	return status;
 }
 
 od_Status od_Mesh_FormatObj(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
 							char** data, size_t* size)
 {
-	*data = NULL;
-	*size = 0;
-	od_Status status = od_CheckMesh(vertexCount, vertices, triangleCount, triangles);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	od_Buffer b = { 0 };
-	status = od_Print(&b, "# opdeform: %d vertices, %d triangles\n", vertexCount, triangleCount);
-	for (int v = 0; v < vertexCount && status == OD_OK; ++v)
-	{
-		const double* p = vertices + 3 * v;
-		status = od_Print(&b, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
-	}
-	for (int t = 0; t < triangleCount && status == OD_OK; ++t)
-	{
-		const int* tri = triangles + 3 * t;
-		status = od_Print(&b, "f %d %d %d\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
-	}
-	return od_Handover(status, &b, data, size);
+	return od_Format(od_WriteObj, vertexCount, vertices, triangleCount, triangles, data, size);
 }
 
 static od_Status od_AppendLittle(od_Buffer* b, uint64_t bits, int size)
@@ -655,40 +619,37 @@ static od_Status od_AppendLittle(od_Buffer* b, uint64_t bits, int size)
 	return od_BufferAppend(b, bytes, (size_t)size);
 }
 
-od_Status od_Mesh_FormatPly(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
-							char** data, size_t* size)
+static od_Status od_WritePly(od_Buffer* b, int vertexCount, const double* vertices, int triangleCount,
+							 const int* triangles)
 {
-	*data = NULL;
-	*size = 0;
-	od_Status status = od_CheckMesh(vertexCount, vertices, triangleCount, triangles);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	od_Buffer b = { 0 };
-	status = od_Print(&b,
-					  "ply\nformat binary_little_endian 1.0\ncomment opdeform\nelement vertex %d\n"
-					  "property double x\nproperty double y\nproperty double z\n",
-					  vertexCount);
-	status = status == OD_OK ? od_Print(&b,
-										"element face %d\nproperty list uchar int vertex_indices\nend_header\n",
+	od_Status status = od_Print(b,
+								"ply\nformat binary_little_endian 1.0\ncomment opdeform\nelement vertex %d\n"
+								"property double x\nproperty double y\nproperty double z\n",
+								vertexCount);
+	status = status == OD_OK ? od_Print(b, "element face %d\nproperty list uchar int vertex_indices\nend_header\n",
 										triangleCount)
 							 : status;
 	for (int i = 0; i < 3 * vertexCount && status == OD_OK; ++i)
 	{
 		uint64_t bits;
 		memcpy(&bits, vertices + i, sizeof bits);
-		status = od_AppendLittle(&b, bits, 8);
+		status = od_AppendLittle(b, bits, 8);
 	}
 	for (int t = 0; t < triangleCount && status == OD_OK; ++t)
 	{
-		status = od_AppendLittle(&b, 3, 1);
+		status = od_AppendLittle(b, 3, 1);
 		for (int k = 0; k < 3 && status == OD_OK; ++k)
 		{
-			status = od_AppendLittle(&b, (uint32_t)triangles[3 * t + k], 4);
+			status = od_AppendLittle(b, (uint32_t)triangles[3 * t + k], 4);
 		}
 	}
-	return od_Handover(status, &b, data, size);
+	return status;
+}
+
+od_Status od_Mesh_FormatPly(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
+							char** data, size_t* size)
+{
+	return od_Format(od_WritePly, vertexCount, vertices, triangleCount, triangles, data, size);
 }
 
 void od_Mesh_FreeData(char* data)

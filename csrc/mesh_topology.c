@@ -74,7 +74,7 @@ static od_Status od_Weld(const od_MeshGraphDef* def, int* weld)
 	return OD_OK;
 }
 
-static int od_ComparePairs(const void* pa, const void* pb)
+int od_CompareIntPairs(const void* pa, const void* pb)
 {
 	const int *a = pa, *b = pb;
 	if (a[0] != b[0])
@@ -115,7 +115,7 @@ static od_Status od_MarkClosed(const od_MeshGraphDef* def, const int* weld, cons
 			e[2] = pieceOfTriangle[t];
 		}
 	}
-	qsort(edges, (size_t)count, sizeof(int) * 3, od_ComparePairs);
+	qsort(edges, (size_t)count, sizeof(int) * 3, od_CompareIntPairs);
 	for (int i = 0; i < count;)
 	{
 		int j = i;

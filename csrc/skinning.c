@@ -17,6 +17,7 @@
 #include "core.h"
 #include "graph.h"
 #include "math3.h"
+#include "mesh_check.h"
 #include "nearest.h"
 #include "pool.h"
 
@@ -152,34 +153,11 @@ static od_Status od_CheckSkinDef(const od_Graph* graph, const od_SkinDef* def)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "graph is required");
 	}
-	if (def->vertexCount < 0 || (def->vertexCount > 0 && !def->vertices))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "vertices: invalid vertex count %d", def->vertexCount);
-	}
 	if (def->neighbors < 1 || def->neighbors > OD_MAX_SKIN)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "neighbors = %d must be in [1, %d]", def->neighbors, OD_MAX_SKIN);
 	}
-	for (int v = 0; v < def->vertexCount; ++v)
-	{
-		if (!od_IsFinite3(def->vertices + 3 * v))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "vertices[%d] is not finite", v);
-		}
-	}
-	if (def->triangleCount < 0 || (def->triangleCount > 0 && !def->triangles))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "triangles: invalid triangle count %d", def->triangleCount);
-	}
-	for (int t = 0; t < 3 * def->triangleCount; ++t)
-	{
-		if (def->triangles[t] < 0 || def->triangles[t] >= def->vertexCount)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "triangles[%d] refers to vertex %d, but there are %d vertices", t / 3,
-						   def->triangles[t], def->vertexCount);
-		}
-	}
-	return OD_OK;
+	return od_CheckMesh(def->vertexCount, def->vertices, def->triangleCount, def->triangles, true);
 }
 
 // Area-weighted vertex normals (unit length; zero for vertices of no triangle or only degenerate ones).

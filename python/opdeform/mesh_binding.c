@@ -32,6 +32,37 @@ static int GetFloatArray(PyObject* obj, const char* name, Py_ssize_t count, int 
 	return -1;
 }
 
+// The buffers of a mesh: vertices (float64, V*3) and triangles (int32, T*3; None allowed when optional, then
+// T = 0). On failure nothing is held and an exception is set.
+static int GetMesh(PyObject* vertices, PyObject* triangles, int optional, Py_buffer* vv, Py_buffer* tv, int* nv,
+				   int* nt)
+{
+	memset(tv, 0, sizeof *tv);
+	Py_ssize_t v = ItemCount(vertices, "vertices", 24);
+	Py_ssize_t t = v < 0 ? -1 : optional && triangles == Py_None ? 0 : ItemCount(triangles, "triangles", 12);
+	if (t < 0)
+	{
+		return -1;
+	}
+	if (v > INT_MAX / 3 || t > INT_MAX / 3)
+	{
+		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
+		return -1;
+	}
+	if (GetArray(vertices, "vertices", 'd', 3 * v, 0, vv) < 0)
+	{
+		return -1;
+	}
+	if ((!optional || triangles != Py_None) && GetArray(triangles, "triangles", 'i', 3 * t, 0, tv) < 0)
+	{
+		PyBuffer_Release(vv);
+		return -1;
+	}
+	*nv = (int)v;
+	*nt = (int)t;
+	return 0;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Graph from a mesh
 
@@ -44,30 +75,16 @@ static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 	{
 		return NULL;
 	}
-	Py_ssize_t nv = ItemCount(vertices, "vertices", 24), nt = ItemCount(triangles, "triangles", 12);
-	if (nv < 0 || nt < 0)
-	{
-		return NULL;
-	}
-	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
-	{
-		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
-		return NULL;
-	}
 	Py_buffer vv, tv;
-	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	int nv, nt;
+	if (GetMesh(vertices, triangles, 0, &vv, &tv, &nv, &nt) < 0)
 	{
-		return NULL;
-	}
-	if (GetArray(triangles, "triangles", 'i', 3 * nt, 0, &tv) < 0)
-	{
-		PyBuffer_Release(&vv);
 		return NULL;
 	}
 	od_MeshGraphDef def = od_DefaultMeshGraphDef();
-	def.vertexCount = (int)nv;
+	def.vertexCount = nv;
 	def.vertices = vv.buf;
-	def.triangleCount = (int)nt;
+	def.triangleCount = nt;
 	def.triangles = tv.buf;
 	def.particleCount = particles;
 	def.mode = (od_MeshGraphMode)mode;
@@ -116,37 +133,22 @@ static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 	}
 	PyObject* module = PyType_GetModule(type);
 	const od_Graph* graph = Binding_Graph(module, graphObj);
-	Py_ssize_t nv = graph ? ItemCount(vertices, "vertices", 24) : -1;
-	Py_ssize_t nt = nv >= 0 && triangles != Py_None ? ItemCount(triangles, "triangles", 12) : 0;
-	if (nv < 0 || nt < 0)
-	{
-		return NULL;
-	}
-	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
-	{
-		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
-		return NULL;
-	}
 	Py_buffer vv, tv, nview;
-	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	int nv, nt;
+	if (!graph || GetMesh(vertices, triangles, 1, &vv, &tv, &nv, &nt) < 0)
 	{
 		return NULL;
 	}
-	if (GetOptionalArray(triangles, "triangles", 'i', 3 * nt, &tv) < 0)
-	{
-		PyBuffer_Release(&vv);
-		return NULL;
-	}
-	if (GetOptionalArray(normals, "normals", 'd', 3 * nv, &nview) < 0)
+	if (GetOptionalArray(normals, "normals", 'd', 3 * (Py_ssize_t)nv, &nview) < 0)
 	{
 		PyBuffer_Release(&vv);
 		ReleaseArray(&tv);
 		return NULL;
 	}
 	od_SkinDef def = od_DefaultSkinDef();
-	def.vertexCount = (int)nv;
+	def.vertexCount = nv;
 	def.vertices = vv.buf;
-	def.triangleCount = tv.obj ? (int)nt : 0;
+	def.triangleCount = nt;
 	def.triangles = tv.obj ? tv.buf : NULL;
 	def.normals = nview.obj ? nview.buf : NULL;
 	def.neighbors = neighbors;
@@ -393,33 +395,17 @@ static PyObject* Mesh_format_mesh(PyObject* module, PyObject* args)
 	{
 		return NULL;
 	}
-	int ply = ParseFormat(format);
-	Py_ssize_t nv = ply < 0 ? -1 : ItemCount(vertices, "vertices", 24);
-	Py_ssize_t nt = nv < 0 ? -1 : ItemCount(triangles, "triangles", 12);
-	if (nt < 0)
-	{
-		return NULL;
-	}
-	if (nv > INT_MAX / 3 || nt > INT_MAX / 3)
-	{
-		PyErr_SetString(PyExc_ValueError, "the mesh is too large");
-		return NULL;
-	}
+	int ply = ParseFormat(format), nv, nt;
 	Py_buffer vv, tv;
-	if (GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	if (ply < 0 || GetMesh(vertices, triangles, 0, &vv, &tv, &nv, &nt) < 0)
 	{
-		return NULL;
-	}
-	if (GetArray(triangles, "triangles", 'i', 3 * nt, 0, &tv) < 0)
-	{
-		PyBuffer_Release(&vv);
 		return NULL;
 	}
 	char* text = NULL;
 	size_t size = 0;
 	PyThreadState* ts = PyEval_SaveThread();
-	od_Status status = ply ? od_Mesh_FormatPly((int)nv, vv.buf, (int)nt, tv.buf, &text, &size)
-						   : od_Mesh_FormatObj((int)nv, vv.buf, (int)nt, tv.buf, &text, &size);
+	od_Status status = ply ? od_Mesh_FormatPly(nv, vv.buf, nt, tv.buf, &text, &size)
+						   : od_Mesh_FormatObj(nv, vv.buf, nt, tv.buf, &text, &size);
 	PyEval_RestoreThread(ts);
 	PyBuffer_Release(&vv);
 	PyBuffer_Release(&tv);

@@ -1,0 +1,45 @@
+// A growable array of bytes, for outputs of unknown size: mesh files, edge lists, queues.
+#pragma once
+
+#include "core.h"
+
+#include <string.h>
+
+typedef struct od_Buffer
+{
+	char* data;
+	size_t size, capacity;
+} od_Buffer;
+
+// Makes room for `count` more bytes (the capacity doubles as needed).
+static inline od_Status od_BufferReserve(od_Buffer* b, size_t count)
+{
+	if (b->size + count <= b->capacity)
+	{
+		return OD_OK;
+	}
+	size_t capacity = b->capacity ? b->capacity : 4096;
+	while (capacity < b->size + count)
+	{
+		capacity *= 2;
+	}
+	char* data = od_Realloc(b->data, capacity);
+	if (!data)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory growing a buffer to %zu bytes", capacity);
+	}
+	b->data = data;
+	b->capacity = capacity;
+	return OD_OK;
+}
+
+static inline od_Status od_BufferAppend(od_Buffer* b, const void* bytes, size_t count)
+{
+	od_Status status = od_BufferReserve(b, count);
+	if (status == OD_OK)
+	{
+		memcpy(b->data + b->size, bytes, count);
+		b->size += count;
+	}
+	return status;
+}
