@@ -29,11 +29,11 @@ try:
 except ImportError:  # outside Blender: only the bpy-free core/ is usable (tests, tools)
     _modules = ()
 else:
-    from .blender import handlers, operators, overlay, panels, properties
+    from .blender import handlers, operators, overlay, panels, properties, tumbling
 
     # Registered in this order, unregistered in the reverse order. Other features (e.g. an MPM panel) add
     # their module here; each module has a `classes` tuple and register()/unregister().
-    _modules = (properties, operators, panels, handlers, overlay)
+    _modules = (properties, operators, panels, handlers, overlay, tumbling)
 
 
 def register():

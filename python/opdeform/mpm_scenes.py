@@ -64,7 +64,7 @@ def snowflake_mesh(radius=1.0, thickness=0.08, arms=6):
     return vertices[:, [0, 2, 1]], triangles[:, ::-1].copy()  # the profile plane becomes xy, keep outward faces
 
 
-def scattered_flakes(spin=1.0, count=3000, seed=0, threads=0, fps=24, frames=96):
+def scattered_flakes(spin=1.0, count=3000, seed=0, threads=0, fps=24, frames=72):
     """Flakes released over a 3 m × 3 m area at 2.5 m height fall through vortical Perlin wind whose
     strength grows with height; the air's drag (the wind's coupling) holds them near 1 m/s."""
     world = mpm.World((0, 0, -0.2), (4, 4, 3), 0.05, spin=spin, threads=threads, max_dt=2e-3)
@@ -77,7 +77,7 @@ def scattered_flakes(spin=1.0, count=3000, seed=0, threads=0, fps=24, frames=96)
     return Scene(world, fps, frames, None, "plain_flakes" if spin == 0 else "flakes")
 
 
-def car_collision(spin=1.0, count=6000, seed=0, threads=0, fps=24, frames=48, speed=3.0):
+def car_collision(spin=1.0, count=6000, seed=0, threads=0, fps=24, frames=36, speed=3.0):
     """A layer of flakes lies on the ground; a car drives through it along +x at ``speed`` m/s."""
     world = mpm.World((0, 0, -0.2), (4, 2.5, 1.6), 0.04, spin=spin, threads=threads, max_dt=2e-3)
     positions = mpm.flake_layer((2.3, 1.25, 0.1), (3.0, 1.8), 0.18, count, seed)
