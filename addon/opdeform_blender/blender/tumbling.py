@@ -343,7 +343,7 @@ def free_frames(folder):
 
 
 @persistent
-def on_frame_change(scene, depsgraph=None):
+def tumbling_frame_change(scene, depsgraph=None):
     """Shows the baked frame (clamped to the baked range) on every domain's point cloud."""
     if _guard["busy"]:
         return
@@ -392,12 +392,21 @@ class OPDEFORM_OT_tumbling_disable(_ObjectOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
-class OPDEFORM_OT_tumbling_bake(OPDEFORM_OT_bake):
+class OPDEFORM_OT_tumbling_bake(_ObjectOperator, bpy.types.Operator):
     """Bake the tumbling particles to one PLY file per frame and show them as instanced flakes. Esc cancels
     and keeps the frames baked so far"""
     bl_idname = "opdeform.tumbling_bake"
     bl_label = "Bake Tumbling Particles"
     bl_options = {'REGISTER', 'UNDO'}
+
+    # The deformation bake's blocking, modal (progress bar, Esc) and reporting code, borrowed rather than
+    # inherited: Blender loses the Python class of a registered operator that another one subclasses.
+    _job = None
+    _timer = None
+    execute = OPDEFORM_OT_bake.execute
+    invoke = OPDEFORM_OT_bake.invoke
+    modal = OPDEFORM_OT_bake.modal
+    _end = OPDEFORM_OT_bake._end
 
     def _begin(self, context):
         return TumblingBakeJob(self.target(context), context.scene)
@@ -490,13 +499,13 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Object.opdeform_tumbling = PointerProperty(type=OPDEFORM_TumblingSettings)
-    if on_frame_change not in bpy.app.handlers.frame_change_post:
-        bpy.app.handlers.frame_change_post.append(on_frame_change)
+    if tumbling_frame_change not in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.append(tumbling_frame_change)
 
 
 def unregister():
-    while on_frame_change in bpy.app.handlers.frame_change_post:
-        bpy.app.handlers.frame_change_post.remove(on_frame_change)
+    while tumbling_frame_change in bpy.app.handlers.frame_change_post:
+        bpy.app.handlers.frame_change_post.remove(tumbling_frame_change)
     del bpy.types.Object.opdeform_tumbling
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)
