@@ -290,6 +290,7 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	bool reskin = def->skinNeighbors != sim->def.skinNeighbors;
 	bool refactor = reskin || def->stiffness != sim->def.stiffness || def->density != sim->def.density ||
 					def->dt != sim->def.dt;
+	bool restatic = reskin || def->stiffness != sim->def.stiffness; // no mass term: ρ and h do not enter
 	sim->def = *def;
 	if (reskin)
 	{
@@ -306,6 +307,9 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	if (refactor)
 	{
 		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
+	}
+	if (restatic)
+	{
 		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
 	}
 	sim->predictionValid = false;
