@@ -1,0 +1,59 @@
+"""Stability on stiff and extreme cases: one row per case of tests/stability_cases.py (the test suite's cases).
+
+Columns: the case, its parameters, its stated result (a figure against a bound), whether the case passed
+(finite, no rise of the objective inside a step beyond round-off, the figure within its bound), the worst rise
+as a fraction of the round-off allowance, and ms per step (mean over the case's steps, energy trace on).
+Runs the 10,000-frame jiggle in full (the test runs 1,500). Options: --quick (the test's lengths),
+--markdown (also print the table as Markdown), --only TEXT (cases whose name contains TEXT). Writes
+out/bench/stability/stability.csv.
+"""
+
+import csv
+import os
+import sys
+import time
+
+from .common import out_dir, table
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "..", "tests"))
+
+import stability_cases  # noqa: E402  (tests/ on the path first)
+
+
+def rows(quick=False, only=None):
+    for case in stability_cases.CASES:
+        if only and only not in case.name:
+            continue
+        t = time.perf_counter()
+        out = case.run(quick)
+        seconds = time.perf_counter() - t
+        checks = [f"{out.what} = {out.figure:.3g} <= {out.bound:g}"]
+        checks += [f"{w} = {f:.2g} <= {b:g}" for w, f, b in out.extra]
+        yield {"case": case.name, "parameters": case.params, "result": "; ".join(checks),
+               "pass": "pass" if out.passed else "FAIL", "rise": f"{max(out.rise, 0.0):.2g}",
+               "ms/step": f"{out.ms:.3f}", "s": f"{seconds:.1f}", "notes": out.notes}
+
+
+def run(args):
+    quick = "--quick" in args
+    only = args[args.index("--only") + 1] if "--only" in args else None
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    found = []
+    for row in rows(quick, only):
+        found.append(row)
+        print(f"  {row['case']}: {row['pass']} ({row['s']} s)", flush=True)
+    headers = ["case", "parameters", "result", "pass", "rise", "ms/step"]
+    table([[r[h] for h in headers] for r in found], headers)
+    failed = [r["case"] for r in found if r["pass"] != "pass"]
+    print(f"{len(found) - len(failed)} of {len(found)} cases pass" + (f"; failing: {', '.join(failed)}" if failed
+                                                                       else ""))
+    path = os.path.join(out_dir("stability"), "stability.csv")
+    with open(path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(found[0]) if found else ["case"])
+        writer.writeheader()
+        writer.writerows(found)
+    print(f"wrote {path}")
+    if "--markdown" in args:
+        print("\n| " + " | ".join(headers) + " |\n|" + " --- |" * len(headers))
+        for r in found:
+            print("| " + " | ".join(r[h] for h in headers) + " |")
