@@ -75,7 +75,12 @@ static void od_Gradient(const od_MpmWind* wind, int i, int j, double* gx, double
 static double od_Perlin(const od_MpmWind* wind, double x, double y, double grad[2])
 {
 	double fx = floor(x), fy = floor(y);
-	int i = (int)fx, j = (int)fy;
+	if (!isfinite(fx) || !isfinite(fy)) // a lattice coordinate that overflowed (a tiny wavelength): no noise
+	{
+		grad[0] = grad[1] = 0.0;
+		return 0.0;
+	}
+	int i = (int)fmod(fx, 256.0), j = (int)fmod(fy, 256.0); // the lattice repeats every 256 (perm & 255)
 	double u = x - fx, v = y - fy;
 	double su = u * u * u * (u * (u * 6 - 15) + 10), dsu = 30 * u * u * (u * (u - 2) + 1);
 	double sv = v * v * v * (v * (v * 6 - 15) + 10), dsv = 30 * v * v * (v * (v - 2) + 1);

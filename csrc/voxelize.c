@@ -175,6 +175,10 @@ od_Status od_Voxelize(const double* vertices, const int* triangles, const int* l
 					  od_Voxels* g)
 {
 	memset(g, 0, sizeof *g);
+	if (!(h > 0.0) || !isfinite(h)) // a mesh with no extent (one point) asks for an infinite cell
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "cannot voxelize with a cell size of %g: the mesh has no extent", h);
+	}
 	double lo[3], hi[3];
 	od_Bounds(vertices, triangles, list, count, lo, hi);
 	double cellCount = od_Frame(lo, hi, h, g->origin, g->dims);

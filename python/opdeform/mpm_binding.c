@@ -195,9 +195,11 @@ static PyObject* Mpm_add_collider(PyObject* obj, PyObject* args)
 	d.triangleCount = (int)nt;
 	d.triangles = tv.obj ? tv.buf : NULL;
 	int id = -1;
+	self->busy = 1; // other threads must not step (or add) meanwhile: the collider array may move
 	PyThreadState* ts = PyEval_SaveThread(); // a mesh's distance samples take a moment
 	od_Status status = od_MpmWorld_AddCollider(self->world, &d, &id);
 	PyEval_RestoreThread(ts);
+	self->busy = 0;
 	ReleaseArray(&vv);
 	ReleaseArray(&tv);
 	return status == OD_OK ? PyLong_FromLong(id) : MpmRaise(obj, status);
