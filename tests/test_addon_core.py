@@ -90,21 +90,14 @@ def test_loader_messages(tmp_path, monkeypatch):
         monkeypatch.setenv(loader.ENV_VAR, str(tmp_path / "nowhere"))
         mod, error = loader.load("nopackage", str(tmp_path), force=True)
         assert mod is None and "could not be loaded" in error and "nowhere" in error
-        old = tmp_path / "old"
-        old.mkdir()
-        monkeypatch.setenv(loader.ENV_VAR, _fake_package(old, "__version__ = '9.0.0'"))
-        mod, error = loader.load("nopackage", str(tmp_path), force=True)
-        assert mod is None and "does not match" in error
-        lacking = tmp_path / "lacking"
-        lacking.mkdir()
-        monkeypatch.setenv(loader.ENV_VAR, _fake_package(lacking, "__version__ = '0.1.0'\nclass Graph: pass\n"))
-        mod, error = loader.load("nopackage", str(tmp_path), force=True)
-        assert mod is None and "lacks" in error and "Skin" in error
-        broken = tmp_path / "broken"
-        broken.mkdir()
-        monkeypatch.setenv(loader.ENV_VAR, _fake_package(broken, "from . import _core\n"))
-        mod, error = loader.load("nopackage", str(tmp_path), force=True)
-        assert mod is None and "ImportError" in error
+        fakes = (("old", "__version__ = '9.0.0'", "does not match"),
+                 ("lacking", "__version__ = '0.1.0'\nclass Graph: pass\n", "lacks"),
+                 ("broken", "from . import _core\n", "ImportError"))
+        for folder, body, words in fakes:
+            (tmp_path / folder).mkdir()
+            monkeypatch.setenv(loader.ENV_VAR, _fake_package(tmp_path / folder, body))
+            mod, error = loader.load("nopackage", str(tmp_path), force=True)
+            assert mod is None and words in error, error
     finally:
         for k in [k for k in sys.modules if k == "opdeform" or k.startswith("opdeform.")]:
             del sys.modules[k]

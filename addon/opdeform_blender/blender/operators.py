@@ -336,12 +336,5 @@ classes = (OPDEFORM_OT_enable, OPDEFORM_OT_disable, OPDEFORM_OT_build, OPDEFORM_
            OPDEFORM_OT_solve_pose, OPDEFORM_OT_handle_add, OPDEFORM_OT_handle_remove, OPDEFORM_OT_bake,
            OPDEFORM_OT_free_bake, OPDEFORM_OT_retry_load)
 
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+# registers in the order of `classes`, unregisters in the reverse order
+register, unregister = bpy.utils.register_classes_factory(classes)

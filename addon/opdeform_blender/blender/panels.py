@@ -203,12 +203,5 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
 classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
            OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache)
 
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+# registers in the order of `classes`, unregisters in the reverse order
+register, unregister = bpy.utils.register_classes_factory(classes)

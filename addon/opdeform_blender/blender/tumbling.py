@@ -89,7 +89,8 @@ class OPDEFORM_TumblingSettings(bpy.types.PropertyGroup):
     frame_start: IntProperty(name="Start", default=1)
     frame_end: IntProperty(name="End", default=120)
     cache_directory: StringProperty(name="Folder", default="//opdeform_tumbling", subtype='DIR_PATH')
-    flake_size: FloatProperty(name="Flake Size", default=0.03, min=1e-4, subtype='DISTANCE')
+    flake_size: FloatProperty(name="Flake Size", default=0.03, min=1e-4, subtype='DISTANCE',
+                              description="Radius of the built-in snowflake (a chosen Instance keeps its size)")
     instance_object: PointerProperty(name="Instance", type=bpy.types.Object,
                                      description="Object instanced on every particle (empty: a snowflake)")
     baked: BoolProperty(name="Baked", default=False)
@@ -176,11 +177,16 @@ def _quaternion_attributes():
 
 
 def show_frame(points, mpm, folder, frame):
-    """Loads a baked frame into the point cloud (positions and the orientation attribute)."""
+    """Loads a baked frame into the point cloud; False when its file is missing."""
     data = core.read_frame(mpm, folder, frame)
     if data is None:
         return False
-    positions, quaternions = data
+    show_particles(points, mpm, *data)
+    return True
+
+
+def show_particles(points, mpm, positions, quaternions):
+    """Sets the point cloud's vertices and orientation attribute (quaternions w x y z)."""
     mesh = points.data
     if len(mesh.vertices) != len(positions):
         mesh.clear_geometry()
@@ -195,10 +201,10 @@ def show_frame(points, mpm, folder, frame):
         euler = mpm.quaternions_to_euler(quaternions)
         attr.data.foreach_set("vector", np.ascontiguousarray(euler, dtype=np.float32).ravel())
     mesh.update()
-    return True
 
 
-def snowflake_object(size):
+def snowflake_object():
+    """The add-on's snowflake: a six-armed star of radius 1 in the xy plane (not linked to any scene)."""
     import importlib
     scenes = importlib.import_module(runtime.module().__name__ + ".mpm_scenes")
     name = "OPDeform Snowflake"
@@ -209,7 +215,6 @@ def snowflake_object(size):
         mesh.from_pydata([tuple(v) for v in verts], [], [tuple(int(i) for i in t) for t in tris])
         mesh.update()
         obj = bpy.data.objects.new(name, mesh)
-    obj.scale = (size, size, size)
     return obj
 
 
@@ -222,8 +227,9 @@ def _geometry_sockets(group):
         group.outputs.new('NodeSocketGeometry', "Geometry")
 
 
-def instance_nodes(points, instance):
-    """Geometry Nodes on the point cloud: Instance on Points of `instance`, turned by the orientation."""
+def instance_nodes(points, instance, scale=1.0):
+    """Geometry Nodes on the point cloud: Instance on Points of `instance` (its own geometry, without its
+    transform) scaled by `scale` and turned by the orientation attribute."""
     name = f"{points.name} Instances"
     old = bpy.data.node_groups.get(name)
     if old is not None:
@@ -239,6 +245,7 @@ def instance_nodes(points, instance):
     attr.data_type = 'QUATERNION' if _quaternion_attributes() else 'FLOAT_VECTOR'
     attr.inputs["Name"].default_value = ATTRIBUTE
     place = nodes.new('GeometryNodeInstanceOnPoints')
+    place.inputs["Scale"].default_value = (scale, scale, scale)
     links.new(gin.outputs[0], place.inputs["Points"])
     links.new(info.outputs["Geometry"], place.inputs["Instance"])
     links.new(next(o for o in attr.outputs if o.name == "Attribute" and o.enabled), place.inputs["Rotation"])
@@ -332,7 +339,10 @@ class TumblingBakeJob:
         s.baked, s.baked_folder = True, self.path
         points = points_object(obj, self.scene)
         show_frame(points, self.mpm, self.path, self.start)
-        instance_nodes(points, s.instance_object or snowflake_object(s.flake_size))
+        if s.instance_object is not None:
+            instance_nodes(points, s.instance_object)
+        else:
+            instance_nodes(points, snowflake_object(), s.flake_size)
         self.scene.frame_set(self.original_frame)
         return count
 
