@@ -25,7 +25,7 @@ struct od_GlobalSolver
 	cholmod_dense* y;
 	cholmod_dense* e;
 	bool valid;
-	bool refine; // heavy constraints: one residual-form correction after each solve (od_FillResidual)
+	bool refine; // one residual-form correction after each solve (od_NeedsCorrection, od_FillResidual)
 };
 
 od_Status od_GlobalSolver_Create(od_GlobalSolver** out)
@@ -132,23 +132,38 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 	}
 }
 
-// Constraint weights far above the elastic terms (k times the mean volume; the default weight is 1e3 of
-// them) swamp the right side: at 1e12 a pin's term w t rounds to about ±200 N, against which the elastic
-// and inertia forces on its particles lose their digits, and the error lands outside the constraint's stiff
-// direction, in the soft modes (measured on the bar with 1e12-weight pins at both ends: 2e-5 m and 3.5e-3 J
-// off the exact minimiser, so global steps raised the energy). Above OD_HEAVY_WEIGHT such scenes get one
-// correction per solve from the residual summed term by term, which brings them to 1e-13 J.
+// When some terms of the matrix dwarf others, the assembled right side loses the small ones: constraint
+// weights far above the elastic terms (k times the mean volume; the default weight is 1e3 of them) round a
+// pin's w t to about ±200 N at 1e12, and a step stiff against its inertia (k Σ_j (v_i + v_j) h² far above
+// ρ v_i) rounds k v R (X̄_i - X̄_j) against m y / h². The error lands outside the stiff directions, in the
+// soft ones, and global steps raise the energy (measured: the bar with 1e12-weight pins at both ends came
+// out 2e-5 m and 3.5e-3 J off the exact minimiser; a collapsed 4x4x4 lattice at k = 1e12 ρ, h = 1/60 came to
+// rest at 1e-10 J with rises of 1e-11 J). Such scenes get one correction per solve from the residual summed
+// term by term (od_FillResidual), which brings them to round-off; the paper's scenes stay far below both
+// limits (the bar: 1e3 elastic units and a stiffness ratio of 1.1e3) and do what they did before.
 #define OD_HEAVY_WEIGHT 1e8
+#define OD_STIFF_STEP 3e3
 
-static bool od_HasHeavyConstraints(const od_Sim* sim)
+static bool od_NeedsCorrection(const od_Sim* sim)
 {
 	const od_Graph* g = sim->graph;
+	const od_SimDef* d = &sim->def;
 	double volume = 0.0;
 	for (int i = 0; i < g->n; ++i)
 	{
+		double elastic = 0.0;
+		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+		{
+			elastic += g->volumes[i] + g->volumes[g->adj[e]];
+		}
+		double inertia = d->density * g->volumes[i] / (d->dt * d->dt);
+		if (sim->mode == OD_DYNAMIC && d->stiffness * elastic > OD_STIFF_STEP * inertia)
+		{
+			return true;
+		}
 		volume += g->volumes[i];
 	}
-	double limit = OD_HEAVY_WEIGHT * sim->def.stiffness * volume / g->n;
+	double limit = OD_HEAVY_WEIGHT * d->stiffness * volume / g->n;
 	for (int s = 0; s < sim->constraints.count; ++s)
 	{
 		const od_Constraint* c = sim->constraints.items + s;
@@ -174,7 +189,7 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 		return od_Fail(OD_ERROR_MEMORY, "out of memory assembling the global matrix (%zu entries)", entries);
 	}
 	od_FillMatrix(sim, t);
-	s->refine = od_HasHeavyConstraints(sim);
+	s->refine = od_NeedsCorrection(sim);
 	cholmod_sparse* a = cholmod_triplet_to_sparse(t, entries, cc);
 	cholmod_free_triplet(&t, cc);
 	if (!a)
