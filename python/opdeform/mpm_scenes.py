@@ -48,7 +48,8 @@ def extrude_profile(profile, width):
 
 
 def car_mesh(length=1.2, width=0.55, height=0.45):
-    """A car's side silhouette (body, bonnet, cabin) extruded to its width; x forward, z up, wheels at z = 0."""
+    """A car's side silhouette (body, bonnet, cabin) extruded to its width; x forward, z up, the ground at
+    z = 0 and the body's underside 0.05 * height above it."""
     profile = np.array([(0.0, 0.05), (1.0, 0.05), (1.0, 0.35), (0.78, 0.45), (0.68, 0.9), (0.3, 0.9), (0.18, 0.5),
                         (0.0, 0.42)])
     profile = (profile - [0.5, 0.0]) * [length, height]
@@ -65,16 +66,21 @@ def snowflake_mesh(radius=1.0, thickness=0.08, arms=6):
 
 
 def scattered_flakes(spin=1.0, count=3000, seed=0, threads=0, fps=24, frames=72):
-    """Flakes released over a 3 m × 3 m area at 2.5 m height fall through vortical Perlin wind whose
-    strength grows with height; the air's drag (the wind's coupling) holds them near 1 m/s."""
+    """Flakes released flat (all alike, as the seed's) over a 3 m × 3 m area at 2.5 m height fall through
+    vortical Perlin wind whose strength grows with height; the air's drag (the wind's coupling) holds them
+    near 1 m/s. With spin = 0 they stay flat (plain MLS-MPM)."""
     world = mpm.World((0, 0, -0.2), (4, 4, 3), 0.05, spin=spin, threads=threads, max_dt=2e-3)
     positions = mpm.flake_layer((2.0, 2.0, 2.5), (3.0, 3.0), 0.3, count, seed)
-    world.add_particles(positions, mpm.flakes(), particle_volume=2e-6,
-                        orientations=mpm.random_orientations(count, seed + 1))
+    world.add_particles(positions, mpm.flakes(), particle_volume=2e-6)
     world.set_wind("noise", velocity=(0.6, 0.2, 0.0), amplitude=1.5, wavelength=1.5, octaves=4, persistence=0.6,
-                   drift=(0.4, 0.1), drag=8.0, ground=0.0, ref_height=2.0, exponent=0.4, seed=seed + 7)
+                   drift=(0.4, 0.1), drag=10.0, ground=0.0, ref_height=2.0, exponent=0.4, seed=seed + 7)
     world.add_floor(0.0, contact="sticky")
     return Scene(world, fps, frames, None, "plain_flakes" if spin == 0 else "flakes")
+
+
+def car_position(frame, fps=24, speed=3.0):
+    """Where the car of car_collision is at a frame (it starts at x = 0.5 and drives along +x)."""
+    return np.array([0.5 + speed * frame / fps, 1.25, 0.0])
 
 
 def car_collision(spin=1.0, count=6000, seed=0, threads=0, fps=24, frames=36, speed=3.0):
@@ -85,10 +91,10 @@ def car_collision(spin=1.0, count=6000, seed=0, threads=0, fps=24, frames=36, sp
                         orientations=mpm.random_orientations(count, seed + 1))
     world.add_floor(0.0, friction=0.5)
     vertices, triangles = car_mesh()
-    start = np.array([0.5, 1.25, 0.0])
-    car = world.add_collider("mesh", "separate", 0.3, vertices=vertices, triangles=triangles, translation=start)
+    car = world.add_collider("mesh", "separate", 0.3, vertices=vertices, triangles=triangles,
+                             translation=car_position(0, fps, speed))
 
     def drive(frame, world):
-        world.move_collider(car, start + [speed * frame / fps, 0.0, 0.0])
+        world.move_collider(car, car_position(frame, fps, speed))
 
     return Scene(world, fps, frames, drive, "car")
