@@ -2,7 +2,8 @@
 
 Columns: the case, its parameters, its stated result (a figure against a bound), whether the case passed
 (finite, no rise of the objective inside a step beyond round-off, the figure within its bound), the worst rise
-as a fraction of the round-off allowance, and ms per step (mean over the case's steps, energy trace on).
+as a fraction of the round-off allowance, and ms per step (mean CPU time over the case's steps, energy trace
+on).
 Runs the 10,000-frame jiggle in full (the test runs 1,500). Options: --quick (the test's lengths),
 --markdown (also print the table as Markdown), --only TEXT (cases whose name contains TEXT). Writes
 out/bench/stability/stability.csv.
@@ -56,4 +57,4 @@ def run(args):
     if "--markdown" in args:
         print("\n| " + " | ".join(headers) + " |\n|" + " --- |" * len(headers))
         for r in found:
-            print("| " + " | ".join(r[h] for h in headers) + " |")
+            print("| " + " | ".join(r[h].replace("|", "\\|") for h in headers) + " |")
