@@ -25,7 +25,7 @@ od_Status od_MpmGrid_Init(od_MpmWorld* w)
 	size_t total = 1;
 	for (int a = 0; a < 3; ++a)
 	{
-		double cells = ceil((w->def.upper[a] - w->def.lower[a]) * w->invDx - 1e-9);
+		double cells = ceil((w->model.def.upper[a] - w->model.def.lower[a]) * w->model.invDx - 1e-9);
 		if (!(cells <= (double)(1 << 30))) // before the cast: a larger double does not fit an int
 		{
 			return od_Fail(OD_ERROR_ARGUMENT, "world: the domain spans %g cells on an axis, more than 2^30: increase dx",
@@ -106,7 +106,7 @@ static uint64_t od_Key(const od_MpmWorld* w, int i)
 	unsigned reach = 0;
 	for (int a = 0; a < 3; ++a)
 	{
-		int base = (int)floor((w->particles[i].x[a] - w->def.lower[a]) * w->invDx - 0.5);
+		int base = (int)floor((w->state.particles[i].x[a] - w->model.def.lower[a]) * w->model.invDx - 0.5);
 		b[a] = base / OD_MPM_BLOCK;
 		reach |= (unsigned)(base % OD_MPM_BLOCK >= 2) << a;
 	}
@@ -131,7 +131,7 @@ static void od_KeyTask(void* ctx, int task, int thread)
 	(void)thread;
 	od_MpmWorld* w = ctx;
 	int begin, end;
-	od_TaskRange(w->count, OD_KEY_TASKS, task, &begin, &end);
+	od_TaskRange(w->state.count, OD_KEY_TASKS, task, &begin, &end);
 	for (int i = begin; i < end; ++i)
 	{
 		w->sort.keys[i] = od_Key(w, i);
@@ -147,7 +147,7 @@ static void od_RadixSort(od_MpmWorld* w)
 	for (int shift = 32; (maxBlock >> (shift - 32)) > 0; shift += 8)
 	{
 		int count[257] = { 0 };
-		for (int i = 0; i < w->count; ++i)
+		for (int i = 0; i < w->state.count; ++i)
 		{
 			count[((src[i] >> shift) & 255) + 1]++;
 		}
@@ -155,7 +155,7 @@ static void od_RadixSort(od_MpmWorld* w)
 		{
 			count[d + 1] += count[d];
 		}
-		for (int i = 0; i < w->count; ++i)
+		for (int i = 0; i < w->state.count; ++i)
 		{
 			dst[count[(src[i] >> shift) & 255]++] = src[i];
 		}
@@ -170,13 +170,13 @@ static void od_RadixSort(od_MpmWorld* w)
 // Moves the particles into sorted order (the keys then name the new places).
 static void od_Reorder(od_MpmWorld* w)
 {
-	for (int k = 0; k < w->count; ++k)
+	for (int k = 0; k < w->state.count; ++k)
 	{
-		w->spare[k] = w->particles[od_KeyIndex(w->sort.keys[k])];
+		w->spare[k] = w->state.particles[od_KeyIndex(w->sort.keys[k])];
 		w->sort.keys[k] = (w->sort.keys[k] & ~(uint64_t)(OD_MPM_MAX_PARTICLES - 1)) | (uint32_t)k;
 	}
-	od_MpmParticle* t = w->particles;
-	w->particles = w->spare;
+	od_MpmParticle* t = w->state.particles;
+	w->state.particles = w->spare;
 	w->spare = t;
 }
 
@@ -238,7 +238,7 @@ od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 	}
 	s->occupiedCount = 0;
 	int colourCount[8] = { 0 };
-	for (int k = 0; k < w->count; ++k)
+	for (int k = 0; k < w->state.count; ++k)
 	{
 		s->order[k] = od_KeyIndex(s->keys[k]);
 		int32_t block = (int32_t)(s->keys[k] >> 32);
@@ -253,7 +253,7 @@ od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 		}
 		s->occupiedReach[s->occupiedCount - 1] |= od_KeyReach(s->keys[k]);
 	}
-	s->occupiedStart[s->occupiedCount] = w->count;
+	s->occupiedStart[s->occupiedCount] = w->state.count;
 	s->colourStart[0] = 0;
 	for (int c = 0; c < 8; ++c)
 	{
@@ -358,7 +358,7 @@ static od_Vec3 od_Walls(const od_MpmWorld* w, const int node[3], od_Vec3 v)
 		{
 			double n[3] = { 0, 0, 0 };
 			n[a] = side;
-			v = od_MpmContactResponse(w->def.walls, w->def.wallFriction, v, od_V3Load(n));
+			v = od_MpmContactResponse(w->model.def.walls, w->model.def.wallFriction, v, od_V3Load(n));
 		}
 	}
 	return v;
@@ -372,7 +372,7 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 	int b[3];
 	od_BlockCoords(&w->grid, w->grid.blockOfSlot[task], b);
 	double* nodes = w->grid.nodes + (size_t)task * OD_BLOCK_DOUBLES;
-	od_Vec3 gravity = od_V3Load(w->def.gravity);
+	od_Vec3 gravity = od_V3Load(w->model.def.gravity);
 	double columns[OD_MPM_BLOCK * OD_MPM_BLOCK][2], kappa[OD_MPM_BLOCK];
 	unsigned done = 0; // bits 0-15: columns whose wind is in `columns`; bits 16-19: levels in `kappa`
 	for (int i = 0; i < OD_BLOCK_NODES; ++i)
@@ -383,23 +383,23 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 			continue;
 		}
 		int g[3] = { b[0] * OD_MPM_BLOCK + (i & 3), b[1] * OD_MPM_BLOCK + ((i >> 2) & 3), b[2] * OD_MPM_BLOCK + (i >> 4) };
-		od_Vec3 x = od_V3(w->def.lower[0] + g[0] / w->invDx, w->def.lower[1] + g[1] / w->invDx,
-						  w->def.lower[2] + g[2] / w->invDx);
+		od_Vec3 x = od_V3(w->model.def.lower[0] + g[0] / w->model.invDx, w->model.def.lower[1] + g[1] / w->model.invDx,
+						  w->model.def.lower[2] + g[2] / w->model.invDx);
 		od_Vec3 v = od_MulAdd(od_Scale(1.0 / node[3], od_V3Load(node)), job->dt, gravity);
 		if (job->windBlend > 0.0)
 		{
 			int column = i & 15, level = i >> 4;
 			if (!(done >> column & 1))
 			{
-				od_MpmWind_Column(&w->wind, x.x, x.y, job->time, columns[column]);
+				od_MpmWind_Column(&w->model.wind, x.x, x.y, job->time, columns[column]);
 				done |= 1u << column;
 			}
 			if (!(done >> (16 + level) & 1))
 			{
-				kappa[level] = od_MpmWind_Height(&w->wind, x.z);
+				kappa[level] = od_MpmWind_Height(&w->model.wind, x.z);
 				done |= 1u << (16 + level);
 			}
-			od_Vec3 wind = od_MpmWind_At(&w->wind, columns[column], kappa[level]);
+			od_Vec3 wind = od_MpmWind_At(&w->model.wind, columns[column], kappa[level]);
 			v = od_MulAdd(v, job->windBlend, od_Sub(wind, v));
 		}
 		for (int c = 0; c < w->colliderCount; ++c)
@@ -412,7 +412,7 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 
 void od_MpmGrid_Update(od_MpmWorld* w, double dt)
 {
-	od_UpdateJob job = { w, dt, w->stats.time + dt,
-						 w->wind.def.kind == OD_MPM_WIND_OFF ? 0.0 : 1.0 - exp(-w->wind.def.drag * dt) };
+	od_UpdateJob job = { w, dt, w->state.stats.time + dt,
+						 w->model.wind.def.kind == OD_MPM_WIND_OFF ? 0.0 : 1.0 - exp(-w->model.wind.def.drag * dt) };
 	od_Pool_Run(w->pool, w->grid.slotCount, od_UpdateTask, &job);
 }

@@ -93,13 +93,13 @@ static void od_RotationTask(void* ctx, int task, int thread)
 	(void)thread;
 	od_MpmWorld* w = ctx;
 	int begin, end;
-	od_TaskRange(w->count, OD_ROTATION_TASKS, task, &begin, &end);
+	od_TaskRange(w->state.count, OD_ROTATION_TASKS, task, &begin, &end);
 	for (int i = begin; i < end; ++i)
 	{
-		const od_MpmParticle* p = &w->particles[i];
+		const od_MpmParticle* p = &w->state.particles[i];
 		od_Mat3 F = od_M3Load(p->F), R = od_PolarRotation(&F);
-		double* old = w->polarQuat + 4 * p->id;
-		double* q = w->quat + 4 * p->id;
+		double* old = w->state.polarQuat + 4 * p->id;
+		double* q = w->state.quat + 4 * p->id;
 		double now[4], inverse[4] = { old[0], -old[1], -old[2], -old[3] }, delta[4], scaled[4];
 		od_QuatFromMatrix(&R, now);
 		if (now[0] * old[0] + now[1] * old[1] + now[2] * old[2] + now[3] * old[3] < 0.0)
@@ -110,7 +110,7 @@ static void od_RotationTask(void* ctx, int task, int thread)
 			}
 		}
 		od_QuatMul(now, inverse, delta);
-		od_QuatScaleAngle(delta, w->def.spin, scaled);
+		od_QuatScaleAngle(delta, w->model.def.spin, scaled);
 		od_QuatMul(scaled, q, q);
 		for (int k = 0; k < 4; ++k)
 		{

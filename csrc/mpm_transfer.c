@@ -14,7 +14,7 @@ void od_MpmStencil_Make(const od_MpmWorld* w, const double x[3], od_MpmStencil* 
 {
 	for (int a = 0; a < 3; ++a)
 	{
-		double g = (x[a] - w->def.lower[a]) * w->invDx;
+		double g = (x[a] - w->model.def.lower[a]) * w->model.invDx;
 		s->base[a] = (int)floor(g - 0.5);
 		double f = g - s->base[a];
 		s->fx[a] = f;
@@ -44,11 +44,11 @@ static void od_P2GTask(void* ctx, int task, int thread)
 	double* region = w->threadData[thread].region;
 	memset(region, 0, sizeof w->threadData[thread].region);
 	od_MpmGrid_RegionOrigin(w, ob, origin);
-	double dinv = 4.0 * w->invDx * w->invDx, dx = 1.0 / w->invDx;
+	double dinv = 4.0 * w->model.invDx * w->model.invDx, dx = 1.0 / w->model.invDx;
 	for (int k = w->sort.occupiedStart[ob]; k < w->sort.occupiedStart[ob + 1]; ++k)
 	{
-		const od_MpmParticle* p = &w->particles[w->sort.order[k]];
-		const od_MpmMaterialSlot* mat = &w->materials[p->material];
+		const od_MpmParticle* p = &w->state.particles[w->sort.order[k]];
+		const od_MpmMaterialSlot* mat = &w->model.materials[p->material];
 		od_MpmStencil s;
 		od_MpmStencil_Make(w, p->x, &s);
 		int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
@@ -94,17 +94,17 @@ void od_MpmP2G(od_MpmWorld* w, double dt)
 // Keeps a particle one cell inside the domain; the walls' contact rule applies to its velocity there.
 static void od_KeepInside(const od_MpmWorld* w, od_Vec3* x, od_Vec3* v)
 {
-	double dx = 1.0 / w->invDx;
+	double dx = 1.0 / w->model.invDx;
 	double* xs = &x->x;
 	for (int a = 0; a < 3; ++a)
 	{
-		double lo = w->def.lower[a] + dx, hi = w->def.lower[a] + (w->grid.cells[a] - 1) * dx;
+		double lo = w->model.def.lower[a] + dx, hi = w->model.def.lower[a] + (w->grid.cells[a] - 1) * dx;
 		if (xs[a] < lo || xs[a] > hi)
 		{
 			double n[3] = { 0, 0, 0 };
 			n[a] = xs[a] < lo ? 1.0 : -1.0;
 			xs[a] = xs[a] < lo ? lo : hi;
-			*v = od_MpmContactResponse(w->def.walls, w->def.wallFriction, *v, od_V3Load(n));
+			*v = od_MpmContactResponse(w->model.def.walls, w->model.def.wallFriction, *v, od_V3Load(n));
 		}
 	}
 }
@@ -117,10 +117,10 @@ static void od_G2PTask(void* ctx, int ob, int thread)
 	int origin[3];
 	od_MpmGrid_RegionOrigin(w, ob, origin);
 	od_MpmGrid_Load(w, ob, td->region);
-	double dinv = 4.0 * w->invDx * w->invDx, dx = 1.0 / w->invDx, dt = job->dt;
+	double dinv = 4.0 * w->model.invDx * w->model.invDx, dx = 1.0 / w->model.invDx, dt = job->dt;
 	for (int k = w->sort.occupiedStart[ob]; k < w->sort.occupiedStart[ob + 1]; ++k)
 	{
-		od_MpmParticle* p = &w->particles[w->sort.order[k]];
+		od_MpmParticle* p = &w->state.particles[w->sort.order[k]];
 		od_MpmStencil s;
 		od_MpmStencil_Make(w, p->x, &s);
 		int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
@@ -159,7 +159,7 @@ static void od_G2PTask(void* ctx, int ob, int thread)
 		od_M3Store(p->C, &C);
 		F = od_M3Mul(&G, &F);
 		od_M3Store(p->F, &F);
-		double h = od_MpmMaterial_Update(&w->materials[p->material], p);
+		double h = od_MpmMaterial_Update(&w->model.materials[p->material], p);
 		double speed = od_Length(v), health = p->Jp * 0.0;
 		for (int e = 0; e < 9; ++e)
 		{
@@ -180,11 +180,11 @@ void od_MpmG2P(od_MpmWorld* w, double dt)
 	}
 	od_TransferJob job = { w, dt, 0 };
 	od_Pool_Run(w->pool, w->sort.occupiedCount, od_G2PTask, &job);
-	w->maxSpeed = 0.0;
-	w->maxHardening = 0.0;
+	w->state.maxSpeed = 0.0;
+	w->state.maxHardening = 0.0;
 	for (int t = 0; t < threads; ++t)
 	{
-		w->maxSpeed = fmax(w->maxSpeed, w->threadData[t].maxSpeed);
-		w->maxHardening = fmax(w->maxHardening, w->threadData[t].maxHardening);
+		w->state.maxSpeed = fmax(w->state.maxSpeed, w->threadData[t].maxSpeed);
+		w->state.maxHardening = fmax(w->state.maxHardening, w->threadData[t].maxHardening);
 	}
 }

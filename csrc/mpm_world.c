@@ -73,11 +73,11 @@ od_Status od_MpmWorld_Create(const od_MpmWorldDef* def, od_MpmWorld** out)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "world: out of memory");
 	}
-	w->def = *def;
-	w->invDx = 1.0 / def->dx;
-	w->maxHardening = 1.0;
+	w->model.def = *def;
+	w->model.invDx = 1.0 / def->dx;
+	w->state.maxHardening = 1.0;
 	od_MpmWindDef wind = od_DefaultMpmWindDef();
-	status = od_MpmWind_Set(&w->wind, &wind);
+	status = od_MpmWind_Set(&w->model.wind, &wind);
 	if (status == OD_OK)
 	{
 		status = od_MpmGrid_Init(w);
@@ -111,11 +111,10 @@ void od_MpmWorld_Destroy(od_MpmWorld* w)
 		od_MpmCollider_Destroy(&w->colliders[c]);
 	}
 	od_Free(w->colliders);
-	od_Free(w->particles);
+	od_Free(w->state.particles);
 	od_Free(w->spare);
-	od_Free(w->restQuat);
-	od_Free(w->quat);
-	od_Free(w->polarQuat);
+	od_Free(w->state.quat);
+	od_Free(w->state.polarQuat);
 	od_MpmGrid_Destroy(&w->grid);
 	od_MpmSort_Destroy(&w->sort);
 	od_Pool_Destroy(w->pool);
@@ -125,17 +124,17 @@ void od_MpmWorld_Destroy(od_MpmWorld* w)
 
 od_MpmWorldDef od_MpmWorld_GetDef(const od_MpmWorld* w)
 {
-	return w->def;
+	return w->model.def;
 }
 
 int od_MpmWorld_GetParticleCount(const od_MpmWorld* w)
 {
-	return w->count;
+	return w->state.count;
 }
 
 od_MpmStats od_MpmWorld_GetStats(const od_MpmWorld* w)
 {
-	return w->stats;
+	return w->state.stats;
 }
 
 static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDef* d)
@@ -144,7 +143,7 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "particles: need at least one particle (got %d)", d->count);
 	}
-	if (w->materialCount == OD_MPM_MAX_MATERIALS)
+	if (w->model.materialCount == OD_MPM_MAX_MATERIALS)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "particles: at most %d batches per world", OD_MPM_MAX_MATERIALS);
 	}
@@ -157,7 +156,7 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 	{
 		return status;
 	}
-	double margin = 2.0 * w->def.dx;
+	double margin = 2.0 * w->model.def.dx;
 	for (int i = 0; i < d->count; ++i)
 	{
 		const double* x = d->positions + 3 * i;
@@ -167,7 +166,7 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 		}
 		for (int a = 0; a < 3; ++a)
 		{
-			if (x[a] < w->def.lower[a] + margin || x[a] > w->def.upper[a] - margin)
+			if (x[a] < w->model.def.lower[a] + margin || x[a] > w->model.def.upper[a] - margin)
 			{
 				return od_Fail(OD_ERROR_ARGUMENT,
 							   "particles: position %d (%g, %g, %g) is outside the domain shrunk by two cells", i, x[0],
@@ -196,15 +195,14 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 // Grows every per-particle array to hold `capacity` particles.
 static od_Status od_Reserve(od_MpmWorld* w, int capacity)
 {
-	if (capacity <= w->capacity)
+	if (capacity <= w->state.capacity)
 	{
 		return OD_OK;
 	}
-	void** arrays[5] = { (void**)&w->particles, (void**)&w->spare, (void**)&w->restQuat, (void**)&w->quat,
-						 (void**)&w->polarQuat };
-	size_t sizes[5] = { sizeof(od_MpmParticle), sizeof(od_MpmParticle), 4 * sizeof(double), 4 * sizeof(double),
-						4 * sizeof(double) };
-	for (int k = 0; k < 5; ++k)
+	void** arrays[4] = { (void**)&w->state.particles, (void**)&w->spare, (void**)&w->state.quat,
+						 (void**)&w->state.polarQuat };
+	size_t sizes[4] = { sizeof(od_MpmParticle), sizeof(od_MpmParticle), 4 * sizeof(double), 4 * sizeof(double) };
+	for (int k = 0; k < 4; ++k)
 	{
 		void* p = od_Realloc(*arrays[k], sizes[k] * (size_t)capacity);
 		if (!p)
@@ -216,7 +214,7 @@ static od_Status od_Reserve(od_MpmWorld* w, int capacity)
 	od_Status status = od_MpmSort_Reserve(w, capacity);
 	if (status == OD_OK)
 	{
-		w->capacity = capacity;
+		w->state.capacity = capacity;
 	}
 	return status;
 }
@@ -228,24 +226,24 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 	{
 		return status;
 	}
-	if (d->count > OD_MPM_MAX_PARTICLES - w->count)
+	if (d->count > OD_MPM_MAX_PARTICLES - w->state.count)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "particles: a world holds at most %d particles", OD_MPM_MAX_PARTICLES);
 	}
-	status = od_Reserve(w, w->count + d->count);
+	status = od_Reserve(w, w->state.count + d->count);
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	od_MpmMaterialSlot* slot = &w->materials[w->materialCount];
+	od_MpmMaterialSlot* slot = &w->model.materials[w->model.materialCount];
 	*slot = (od_MpmMaterialSlot){ .def = d->material, .volume = d->particleVolume };
 	od_MpmMaterial_Derive(slot);
 	static const double identity[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 }, unit[4] = { 1, 0, 0, 0 };
 	for (int i = 0; i < d->count; ++i)
 	{
-		int id = w->count + i;
-		od_MpmParticle* p = &w->particles[id];
-		*p = (od_MpmParticle){ .Jp = 1.0, .id = id, .material = w->materialCount };
+		int id = w->state.count + i;
+		od_MpmParticle* p = &w->state.particles[id];
+		*p = (od_MpmParticle){ .Jp = 1.0, .id = id, .material = w->model.materialCount };
 		memcpy(p->x, d->positions + 3 * i, sizeof p->x);
 		if (d->velocities)
 		{
@@ -260,26 +258,26 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 		double n = 1.0 / sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
 		for (int k = 0; k < 4; ++k)
 		{
-			w->restQuat[4 * id + k] = w->quat[4 * id + k] = n * q[k];
-			w->polarQuat[4 * id + k] = unit[k];
+			w->state.quat[4 * id + k] = n * q[k]; // starts at the rest orientation
+			w->state.polarQuat[4 * id + k] = unit[k];
 		}
-		w->maxSpeed = fmax(w->maxSpeed, od_Length(od_V3Load(p->v)));
+		w->state.maxSpeed = fmax(w->state.maxSpeed, od_Length(od_V3Load(p->v)));
 	}
-	w->materialCount++;
-	w->count += d->count;
-	w->sinceReorder = OD_MPM_REORDER_EVERY; // sort the newcomers into place at the next substep
+	w->model.materialCount++;
+	w->state.count += d->count;
+	w->state.sinceReorder = OD_MPM_REORDER_EVERY; // sort the newcomers into place at the next substep
 	return OD_OK;
 }
 
 od_Status od_MpmWorld_SetWind(od_MpmWorld* w, const od_MpmWindDef* def)
 {
-	return od_MpmWind_Set(&w->wind, def);
+	return od_MpmWind_Set(&w->model.wind, def);
 }
 
 od_Status od_MpmWorld_AddCollider(od_MpmWorld* w, const od_MpmColliderDef* def, int* id)
 {
 	od_MpmCollider c;
-	od_Status status = od_MpmCollider_Init(&c, def, w->def.dx);
+	od_Status status = od_MpmCollider_Init(&c, def, w->model.def.dx);
 	if (status != OD_OK)
 	{
 		return status;
@@ -308,42 +306,42 @@ od_Status od_MpmWorld_MoveCollider(od_MpmWorld* w, int id, const double rotation
 // The CFL bound of the next substep.
 static double od_CflDt(const od_MpmWorld* w)
 {
-	double speed = w->maxSpeed, wave = 0.0;
+	double speed = w->state.maxSpeed, wave = 0.0;
 	for (int c = 0; c < w->colliderCount; ++c)
 	{
 		speed = fmax(speed, od_MpmCollider_MaxSpeed(&w->colliders[c]));
 	}
-	for (int m = 0; m < w->materialCount; ++m)
+	for (int m = 0; m < w->model.materialCount; ++m)
 	{
-		double h = w->materials[m].def.kind == OD_MPM_SNOW ? w->maxHardening : 1.0;
-		wave = fmax(wave, od_MpmMaterial_WaveSpeed(&w->materials[m], h));
+		double h = w->model.materials[m].def.kind == OD_MPM_SNOW ? w->state.maxHardening : 1.0;
+		wave = fmax(wave, od_MpmMaterial_WaveSpeed(&w->model.materials[m], h));
 	}
-	double dt = w->def.cfl * w->def.dx / (speed + wave);
-	return dt < w->def.maxDt ? dt : w->def.maxDt;
+	double dt = w->model.def.cfl * w->model.def.dx / (speed + wave);
+	return dt < w->model.def.maxDt ? dt : w->model.def.maxDt;
 }
 
 static od_Status od_Advance(od_MpmWorld* w, double dt)
 {
-	int reorder = w->sinceReorder >= OD_MPM_REORDER_EVERY;
+	int reorder = w->state.sinceReorder >= OD_MPM_REORDER_EVERY;
 	od_Status status = od_MpmGrid_Prepare(w, reorder);
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	w->sinceReorder = reorder ? 1 : w->sinceReorder + 1;
+	w->state.sinceReorder = reorder ? 1 : w->state.sinceReorder + 1;
 	od_MpmP2G(w, dt);
 	od_MpmGrid_Update(w, dt);
 	od_MpmG2P(w, dt);
-	w->stats.time += dt;
-	w->stats.substeps++;
-	w->stats.lastDt = dt;
-	w->stats.activeBlocks = w->grid.slotCount;
-	w->stats.maxSpeed = w->maxSpeed;
-	if (!isfinite(w->maxSpeed))
+	w->state.stats.time += dt;
+	w->state.stats.substeps++;
+	w->state.stats.lastDt = dt;
+	w->state.stats.activeBlocks = w->grid.slotCount;
+	w->state.stats.maxSpeed = w->state.maxSpeed;
+	if (!isfinite(w->state.maxSpeed))
 	{
 		return od_Fail(OD_ERROR_NOT_FINITE, "step: a particle velocity became infinite or NaN (time %g s); the "
 											"state is no longer usable",
-					   w->stats.time);
+					   w->state.stats.time);
 	}
 	return OD_OK;
 }
@@ -354,7 +352,7 @@ static od_Status od_CheckCall(const od_MpmWorld* w, const char* name, double dur
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "%s must be > 0 and finite, got %g", name, duration);
 	}
-	if (w->count == 0)
+	if (w->state.count == 0)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "the world has no particles");
 	}
@@ -412,7 +410,7 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 			// an infinite wave speed (stiffness or hardening overflowed) would loop here forever
 			status = od_Fail(OD_ERROR_NOT_FINITE, "step: the CFL substep is %g s at time %g s (the material's wave "
 												  "speed overflowed); the state is no longer usable",
-							 dt, w->stats.time);
+							 dt, w->state.stats.time);
 			break;
 		}
 		// even out the end: never leave a sliver of a substep
@@ -427,7 +425,7 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 		substeps++;
 	}
 	od_EndCall(w);
-	w->stats.lastSubsteps = substeps;
+	w->state.stats.lastSubsteps = substeps;
 	if (status == OD_OK)
 	{
 		od_MpmWorld_UpdateOrientations(w);
@@ -446,21 +444,21 @@ void od_MpmWorld_Read(const od_MpmWorld* w, od_MpmField field, double* out)
 	int width = od_MpmFieldWidth(field);
 	if (field == OD_MPM_ORIENTATIONS)
 	{
-		memcpy(out, w->quat, sizeof(double) * 4 * (size_t)w->count);
+		memcpy(out, w->state.quat, sizeof(double) * 4 * (size_t)w->state.count);
 		return;
 	}
 	if (field == OD_MPM_ROTATIONS)
 	{
-		for (int i = 0; i < w->count; ++i)
+		for (int i = 0; i < w->state.count; ++i)
 		{
-			od_Mat3 r = od_QuatToMatrix(w->polarQuat + 4 * i);
+			od_Mat3 r = od_QuatToMatrix(w->state.polarQuat + 4 * i);
 			od_M3Store(out + 9 * i, &r);
 		}
 		return;
 	}
-	for (int i = 0; i < w->count; ++i)
+	for (int i = 0; i < w->state.count; ++i)
 	{
-		const od_MpmParticle* p = &w->particles[i];
+		const od_MpmParticle* p = &w->state.particles[i];
 		const double* src = field == OD_MPM_POSITIONS	 ? p->x
 							: field == OD_MPM_VELOCITIES  ? p->v
 							: field == OD_MPM_DEFORMATION ? p->F

@@ -102,33 +102,41 @@ typedef struct od_MpmThreadData
 	char pad[64];
 } od_MpmThreadData;
 
-struct od_MpmWorld
+// Constant once set (particles add material slots, set_wind replaces the wind).
+typedef struct od_MpmModel
 {
 	od_MpmWorldDef def;
 	double invDx;
 	od_MpmMaterialSlot materials[OD_MPM_MAX_MATERIALS];
 	int materialCount;
 	od_MpmWind wind;
-	od_MpmCollider* colliders;
-	int colliderCount;
+} od_MpmModel;
 
+// What a substep changes.
+typedef struct od_MpmState
+{
 	od_MpmParticle* particles;
-	od_MpmParticle* spare; // reorder buffer
 	int count, capacity;
-	// by particle id: rest orientation, current orientation, quaternion of the last polar rotation
-	double* restQuat;
+	// by particle id: current orientation, quaternion of the last polar rotation
 	double* quat;
 	double* polarQuat;
+	int sinceReorder;              // substeps since the particles were last moved into block order
+	double maxSpeed, maxHardening; // of the last G2P, for the next substep's CFL bound
+	od_MpmStats stats;
+} od_MpmState;
 
+struct od_MpmWorld
+{
+	od_MpmModel model;
+	od_MpmState state;
+	od_MpmCollider* colliders; // shapes (model) and their frames over the current call (state)
+	int colliderCount;
+	// scratch, sized at warm-up
+	od_MpmParticle* spare; // reorder buffer
 	od_MpmGrid grid;
 	od_MpmSort sort;
 	od_Pool* pool;
 	od_MpmThreadData* threadData;
-
-	// the current call: time at its start, its length, the substep's time since the call began
-	int sinceReorder; // substeps since the particles were last moved into block order
-	double maxSpeed, maxHardening; // of the last G2P, for the next substep's CFL bound
-	od_MpmStats stats;
 };
 
 // mpm_grid.c

@@ -97,15 +97,15 @@ static int test_bspline_moments(void)
 // Particle momentum and angular momentum, the latter with APIC's affine term m Δx²/4 axial(Cᵀ − C).
 static void particle_momenta(const od_MpmWorld* w, double p[3], double l[3])
 {
-	double q = 0.25 / (w->invDx * w->invDx);
+	double q = 0.25 / (w->model.invDx * w->model.invDx);
 	for (int a = 0; a < 3; ++a)
 	{
 		p[a] = l[a] = 0.0;
 	}
-	for (int i = 0; i < w->count; ++i)
+	for (int i = 0; i < w->state.count; ++i)
 	{
-		const od_MpmParticle* pt = &w->particles[i];
-		double m = w->materials[pt->material].mass;
+		const od_MpmParticle* pt = &w->state.particles[i];
+		double m = w->model.materials[pt->material].mass;
 		od_Vec3 lx = od_Scale(m, od_Cross(od_V3Load(pt->x), od_V3Load(pt->v)));
 		const double* C = pt->C;
 		double aff[3] = { C[7] - C[5], C[2] - C[6], C[3] - C[1] };
@@ -132,8 +132,8 @@ static void grid_momenta(const od_MpmWorld* w, int velocities, double p[3], doub
 		for (int i = 0; i < 64; ++i)
 		{
 			const double* node = g->nodes + ((size_t)s * 64 + i) * 4;
-			od_Vec3 x = od_V3((4 * b[0] + (i & 3)) / w->invDx, (4 * b[1] + ((i >> 2) & 3)) / w->invDx,
-							  (4 * b[2] + (i >> 4)) / w->invDx);
+			od_Vec3 x = od_V3((4 * b[0] + (i & 3)) / w->model.invDx, (4 * b[1] + ((i >> 2) & 3)) / w->model.invDx,
+							  (4 * b[2] + (i >> 4)) / w->model.invDx);
 			od_Vec3 mv = velocities ? od_Scale(node[3], od_V3Load(node)) : od_V3Load(node);
 			od_Vec3 lx = od_Cross(x, mv);
 			for (int a = 0; a < 3; ++a)
@@ -298,7 +298,7 @@ static int run_snow(int threads, double* out)
 {
 	od_MpmWorld* w = make_world(threads, 0.04);
 	ENSURE(w);
-	w->def.gravity[2] = -9.81;
+	w->model.def.gravity[2] = -9.81;
 	ENSURE(add_particles(w, 400, 0, od_MpmSnowMaterial(), 21));
 	od_MpmWindDef wind = od_DefaultMpmWindDef();
 	wind.kind = OD_MPM_WIND_NOISE;
