@@ -225,37 +225,6 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	return OD_OK;
 }
 
-static void od_FillRhs(const od_Sim* sim, double* b)
-{
-	const od_Graph* g = sim->graph;
-	const od_State* st = &sim->state;
-	int n = g->n;
-	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
-	for (int i = 0; i < n; ++i)
-	{
-		double m = rho * g->volumes[i];
-		od_Vec3 f = sim->mode == OD_DYNAMIC ? od_Scale(m / (h * h), od_V3Load(sim->y + 3 * i))
-											: od_Scale(m, od_V3Load(sim->def.gravity));
-		b[i] = f.x;
-		b[i + n] = f.y;
-		b[i + 2 * n] = f.z;
-	}
-	for (int e = 0; e < g->edgeCount; ++e)
-	{
-		int i = g->edges[2 * e], j = g->edges[2 * e + 1];
-		od_Mat3 ri = od_M3Load(st->R + 9 * i), rj = od_M3Load(st->R + 9 * j);
-		od_Vec3 d = od_Sub(od_V3Load(g->centers + 3 * i), od_V3Load(g->centers + 3 * j));
-		od_Vec3 f = od_Add(od_Scale(k * g->volumes[j], od_M3MulV(&ri, d)), od_Scale(k * g->volumes[i], od_M3MulV(&rj, d)));
-		b[i] += f.x;
-		b[i + n] += f.y;
-		b[i + 2 * n] += f.z;
-		b[j] -= f.x;
-		b[j + n] -= f.y;
-		b[j + 2 * n] -= f.z;
-	}
-	od_Constraints_AddRhs(sim, b);
-}
-
 static void od_AddRow(double* b, int n, int i, double sign, od_Vec3 f)
 {
 	b[i] += sign * f.x;
@@ -263,36 +232,53 @@ static void od_AddRow(double* b, int n, int i, double sign, od_Vec3 f)
 	b[i + 2 * n] += sign * f.z;
 }
 
-// b - A x at the current centres (-∂E/∂x), summed from small residuals so that nothing large cancels:
-// each edge's k v_j (R_i d - (x_i - x_j)) + k v_i (R_j d - (x_i - x_j)), d = X̄_i - X̄_j, the inertia's
-// (m/h²)(y - x) and each position constraint's -w w_a e with e = Σ_b w_b (R_b (p̄ - X̄_b) + x_b - t) (the
-// skinning weights sum to 1). A constraint's rounding then stays in its own, stiff direction.
-static void od_FillResidual(const od_Sim* sim, double* r)
+// The inertia (or gravity) and elastic terms of the right side b, or with `residual` of b - A x, each term
+// taken against the current centres before it is summed: (m/h²)(y - x) and, per edge, with d = X̄_i - X̄_j,
+// k v_j (R_i d - (x_i - x_j)) + k v_i (R_j d - (x_i - x_j)).
+static void od_FillTerms(const od_Sim* sim, double* b, bool residual)
 {
 	const od_Graph* g = sim->graph;
 	const od_State* st = &sim->state;
 	int n = g->n;
 	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
+	od_Vec3 zero = od_V3(0, 0, 0);
 	for (int i = 0; i < n; ++i)
 	{
 		double m = rho * g->volumes[i];
-		od_Vec3 f = sim->mode == OD_DYNAMIC
-						? od_Scale(m / (h * h), od_Sub(od_V3Load(sim->y + 3 * i), od_V3Load(st->x + 3 * i)))
-						: od_Scale(m, od_V3Load(sim->def.gravity));
-		r[i] = r[i + n] = r[i + 2 * n] = 0.0;
-		od_AddRow(r, n, i, 1.0, f);
+		od_Vec3 x = residual ? od_V3Load(st->x + 3 * i) : zero;
+		od_Vec3 f = sim->mode == OD_DYNAMIC ? od_Scale(m / (h * h), od_Sub(od_V3Load(sim->y + 3 * i), x))
+											: od_Scale(m, od_V3Load(sim->def.gravity));
+		b[i] = b[i + n] = b[i + 2 * n] = 0.0;
+		od_AddRow(b, n, i, 1.0, f);
 	}
 	for (int e = 0; e < g->edgeCount; ++e)
 	{
 		int i = g->edges[2 * e], j = g->edges[2 * e + 1];
 		od_Mat3 ri = od_M3Load(st->R + 9 * i), rj = od_M3Load(st->R + 9 * j);
 		od_Vec3 d = od_Sub(od_V3Load(g->centers + 3 * i), od_V3Load(g->centers + 3 * j));
-		od_Vec3 dx = od_Sub(od_V3Load(st->x + 3 * i), od_V3Load(st->x + 3 * j));
+		od_Vec3 dx = residual ? od_Sub(od_V3Load(st->x + 3 * i), od_V3Load(st->x + 3 * j)) : zero;
 		od_Vec3 f = od_Add(od_Scale(k * g->volumes[j], od_Sub(od_M3MulV(&ri, d), dx)),
 						   od_Scale(k * g->volumes[i], od_Sub(od_M3MulV(&rj, d), dx)));
-		od_AddRow(r, n, i, 1.0, f);
-		od_AddRow(r, n, j, -1.0, f);
+		od_AddRow(b, n, i, 1.0, f);
+		od_AddRow(b, n, j, -1.0, f);
 	}
+}
+
+static void od_FillRhs(const od_Sim* sim, double* b)
+{
+	od_FillTerms(sim, b, false);
+	od_Constraints_AddRhs(sim, b);
+}
+
+// b - A x at the current centres (-∂E/∂x), summed from small residuals so that nothing large cancels:
+// od_FillTerms' and each position constraint's -w w_a e with e = Σ_b w_b (R_b (p̄ - X̄_b) + x_b - t) (the
+// skinning weights sum to 1). A constraint's rounding then stays in its own, stiff direction.
+static void od_FillResidual(const od_Sim* sim, double* r)
+{
+	const od_Graph* g = sim->graph;
+	const od_State* st = &sim->state;
+	int n = g->n;
+	od_FillTerms(sim, r, true);
 	for (int s = 0; s < sim->constraints.count; ++s)
 	{
 		const od_Constraint* c = sim->constraints.items + s;
