@@ -740,7 +740,10 @@ static od_Status od_GroupEdges(od_Builder* b, const od_Cells* c, const od_Group*
 			// The face pairs, sorted and without repeats.
 			int* edges = (int*)b->edges.data;
 			int count = od_EdgeCount(b), unique = before;
-			qsort(edges + 2 * before, (size_t)(count - before), sizeof(int) * 2, od_CompareIntPairs);
+			if (count > before) // no edges yet: edges may be NULL, and NULL + 0 or qsort(NULL) is undefined
+			{
+				qsort(edges + 2 * before, (size_t)(count - before), sizeof(int) * 2, od_CompareIntPairs);
+			}
 			for (int e = before; e < count; ++e)
 			{
 				if (unique == before || od_CompareIntPairs(edges + 2 * e, edges + 2 * (unique - 1)) != 0)

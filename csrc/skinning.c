@@ -104,6 +104,7 @@ struct od_Skin
 	double* w;           // vertexCount*m
 	double* centers;     // particleCount*3, X̄
 	od_Pool* pool;       // NULL: one thread
+	double* maps;        // particleCount*12, each particle's affine map of a deform (allocated once)
 };
 
 // Runs fn over [0, count) in chunks, on the pool when there is one.
@@ -229,16 +230,17 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory binding %d vertices", def->vertexCount);
 	}
-	*s = (od_Skin){ def->vertexCount, graph->n, m, NULL, NULL, NULL, NULL, NULL, NULL };
+	*s = (od_Skin){ def->vertexCount, graph->n, m, NULL, NULL, NULL, NULL, NULL, NULL, NULL };
 	s->rest = od_Alloc(sizeof(double) * 3 * nv);
 	s->restNormals = normals ? od_Alloc(sizeof(double) * 3 * nv) : NULL;
 	s->idx = od_Alloc(sizeof(int) * m * nv);
 	s->w = od_Alloc(sizeof(double) * m * nv);
 	s->centers = od_Alloc(sizeof(double) * 3 * (size_t)graph->n);
+	s->maps = od_Alloc(sizeof(double) * 12 * (size_t)graph->n);
 	od_NearestGrid grid = { 0 };
 	int* pieceSize = od_AllocZero((size_t)graph->pieceCount, sizeof(int));
 	bool threads = def->threadCount != 1 && def->vertexCount >= 2 * OD_DEFORM_CHUNK;
-	if (!s->rest || (normals && !s->restNormals) || !s->idx || !s->w || !s->centers || !pieceSize ||
+	if (!s->rest || (normals && !s->restNormals) || !s->idx || !s->w || !s->centers || !s->maps || !pieceSize ||
 		(threads && od_Pool_Create(def->threadCount, &s->pool) != OD_OK) ||
 		od_NearestGrid_Create(&grid, graph->centers, graph->n) != OD_OK)
 	{
@@ -279,6 +281,7 @@ void od_Skin_Destroy(od_Skin* s)
 	od_Free(s->idx);
 	od_Free(s->w);
 	od_Free(s->centers);
+	od_Free(s->maps);
 	od_Pool_Destroy(s->pool);
 	od_Free(s);
 }
@@ -455,11 +458,7 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 		return od_Fail(OD_ERROR_ARGUMENT,
 					   "normals: give rest normals, or triangles or normals when binding, to get deformed normals");
 	}
-	double* maps = od_Alloc(sizeof(double) * 12 * (size_t)s->particleCount);
-	if (!maps)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "out of memory skinning %d particles", s->particleCount);
-	}
+	double* maps = s->maps; // a deform allocates nothing (one call at a time per skin, like the pool)
 	for (int j = 0; j < s->particleCount; ++j)
 	{
 		od_Mat3 r = od_M3Load(rotations + 9 * j);
@@ -475,6 +474,5 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 	}
 	od_DeformJob job = { s, maps, target, restNormals, restNormalType };
 	od_SkinRun(s, OD_DEFORM_CHUNK, od_DeformRange, &job);
-	od_Free(maps);
 	return OD_OK;
 }
