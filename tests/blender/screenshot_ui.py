@@ -74,11 +74,12 @@ def shoot():
     with bpy.context.temp_override(window=win, screen=win.screen, area=win.screen.areas[0]):
         bpy.ops.screen.screenshot(filepath=OUT)
     print("SCREENSHOT", OUT)
-    props = next(a for a in win.screen.areas if a.type == 'PROPERTIES')
-    panel = OUT.replace(".png", "_physics.png")
-    with bpy.context.temp_override(window=win, screen=win.screen, area=props):
-        bpy.ops.screen.screenshot_area(filepath=panel)
-    print("SCREENSHOT", panel)
+    for kind, suffix in (('PROPERTIES', "_physics.png"), ('VIEW_3D', "_viewport.png")):
+        area = next(a for a in win.screen.areas if a.type == kind)
+        path = OUT.replace(".png", suffix)
+        with bpy.context.temp_override(window=win, screen=win.screen, area=area):
+            bpy.ops.screen.screenshot_area(filepath=path)
+        print("SCREENSHOT", path)
     bpy.ops.wm.quit_blender()
 
 
