@@ -1,12 +1,12 @@
 """What each "leave it out" switch of the step costs and saves: ms/step of one scene without and with a feature.
 
 Every row times the same scene twice, side by side in one run (the two alternate, 21 repeats of 100 calls,
-5 for the 10,000-particle beam; medians of CPU time; one thread): without the feature and with it. Rows whose feature is inert (a floor 1 km below the
-body, direction constraints of negligible weight, a weight set to the value it already has) measure what the
-switch saves when the scene does not need the feature; the others what the feature costs when it is used.
-The with/without ratio of an inert row is what a step would cost without the switch.
-The switches themselves are checked in tests/test_features.py. Option: --quick (3 repeats of 20 calls).
-"""
+5 for the 10,000-particle beam; medians of CPU time; one thread): without the feature and with it. Rows
+whose feature is inert (a floor 1 km below the body, direction constraints of negligible weight, a weight
+set again every frame) measure what the switch saves when the scene does not need the feature: their
+with/without ratio is what a step would cost without the switch. The others measure what the feature costs
+when it is used. The switches themselves are checked in tests/test_features.py. Option: --quick (3 repeats
+of 20 calls)."""
 
 import math
 import os
