@@ -118,29 +118,25 @@ class Skin:
         return f"opdeform.Skin(n_vertices={self.n_vertices}, neighbors={self.neighbors})"
 
 
-def _vertex_rows(name, rest_vertices, indices):
-    vertices = as_array("rest_vertices", rest_vertices, (None, 3))
-    idx = as_array(name, indices, (None,), np.int64)
-    bad = np.flatnonzero((idx < 0) | (idx >= len(vertices)))
-    if bad.size:
-        raise ValueError(f"{name}[{bad[0]}] = {idx[bad[0]]} is out of range: there are {len(vertices)} vertices")
-    return vertices[idx]
-
-
 def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
     """Pins mesh vertices where they are now: one position constraint per vertex of ``indices``, of weight
     ``weight`` (default: ``sim.default_weight()``) times the vertex's entry of ``weights`` (e.g. a painted
-    vertex group; default 1). Returns the constraint ids in the order of ``indices``; a vertex of weight 0
-    gets no constraint and None in its place."""
+    vertex group; default 1). A vertex of weight 0 is not pinned. Returns the ids of the constraints added,
+    in the order of ``indices``."""
     if not isinstance(sim, Simulation):
         raise TypeError("sim must be an opdeform.Simulation")
-    points = _vertex_rows("indices", rest_vertices, indices)
+    vertices = as_array("rest_vertices", rest_vertices, (None, 3))
+    idx = as_array("indices", indices, (None,), np.int64)
+    bad = np.flatnonzero((idx < 0) | (idx >= len(vertices)))
+    if bad.size:
+        raise ValueError(f"indices[{bad[0]}] = {idx[bad[0]]} is out of range: there are {len(vertices)} vertices")
+    points = vertices[idx]
     scale = np.ones(len(points)) if weights is None else as_array("weights", weights, (len(points),))
     bad = np.flatnonzero(~(scale >= 0.0) | ~np.isfinite(scale))
     if bad.size:
         raise ValueError(f"weights[{bad[0]}] = {scale[bad[0]]} must be finite and >= 0")
     base = sim.default_weight("position") if weight is None else float(weight)
-    return [sim.add_position_constraint(p, None, base * w) if w > 0.0 else None for p, w in zip(points, scale)]
+    return [sim.add_position_constraint(p, None, base * w) for p, w in zip(points, scale) if w > 0.0]
 
 
 def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weight=None):
@@ -148,5 +144,8 @@ def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weig
     towards ``target`` (None: keeps where it points now). Returns the constraint id."""
     if not isinstance(sim, Simulation):
         raise TypeError("sim must be an opdeform.Simulation")
-    point = _vertex_rows("index", rest_vertices, [index])[0]
-    return sim.add_direction_constraint(point, direction, target, weight)
+    vertices = as_array("rest_vertices", rest_vertices, (None, 3))
+    index = _int("index", index)
+    if not 0 <= index < len(vertices):
+        raise ValueError(f"index = {index} is out of range: there are {len(vertices)} vertices")
+    return sim.add_direction_constraint(vertices[index], direction, target, weight)
