@@ -92,7 +92,9 @@ def run(args):
     cores = os.cpu_count() or 1
     taichi = "not requested (--no-taichi)" if opts.no_taichi else _taichi_status()
     bandwidth = _bandwidth_gbs()
-    print(f"machine: {cores} cores; copy bandwidth {bandwidth:.1f} GB/s (numpy, 1 thread, read + write)")
+    load = os.getloadavg()[0]
+    print(f"machine: {cores} cores; copy bandwidth {bandwidth:.1f} GB/s (numpy, 1 thread, read + write); "
+          f"load average {load:.1f} at the start (other work on the machine slows every column alike)")
     print("scene: snow block (seed's Table 2) falling at 1 m/s in [0,1]^3, 2 particles per cell per axis, "
           "gravity, dt = 2e-4 fixed, float64 (opdeform); taichi: mpm99 kernel in 3-D, dense grid\n")
     rows = []
@@ -124,7 +126,7 @@ def run(args):
         headers += ["taichi f64 1", f"taichi f64 {cores}", f"taichi f32 {cores}", "ours/taichi f64",
                     "ours/taichi f32"]
     headers += ["bytes/p-step", "GB/s", "of bandwidth"]
-    print("million particle-steps per second (median-free: one timed run each, after a warm-up step)")
+    print("million particle-steps per second (one timed run each, after a warm-up substep)")
     table(rows, headers)
     if taichi is not None:
         print(f"\ntaichi: {taichi}")
