@@ -287,6 +287,16 @@ def test_object_transform_and_floor():
     assert -0.05 < zs.min() < 0.1, zs.min()  # it fell to the floor and stopped there
 
 
+def test_low_poly_cube_clamps_particles():
+    v, t = H.box_mesh((-1, -1, 0), (1, 1, 2), (2, 2, 2))  # Blender's default cube: 8 vertices
+    obj = H.mesh_object("Cube", v, t)
+    obj.opdeform.frame_end = 7  # set by a script before enabling: kept (unset ones follow the scene's range)
+    bpy.ops.opdeform.enable(object=obj.name)  # 100 particles asked for
+    assert (obj.opdeform.frame_start, obj.opdeform.frame_end) == (1, 7)
+    assert H.runtime().get(obj).engine.graph.n_particles <= 8 and not obj.opdeform.error
+    H.play(range(1, 6))
+
+
 def test_save_reload_continues():
     obj = _enable_bar()
     live = H.play(range(1, 16))["Bar"]

@@ -35,10 +35,11 @@ class _ObjectOperator:
             return {'CANCELLED'}
 
 
-def _mesh_target(op, context, rt):
-    obj = op.target(context)
-    rt.check_object(obj)
-    return obj
+def _default_range(settings, scene):
+    """The cache range starts as the scene's frame range, unless a script or the user has set it."""
+    for prop, value in (("frame_start", scene.frame_start), ("frame_end", scene.frame_end)):
+        if not settings.is_property_set(prop):
+            setattr(settings, prop, value)
 
 
 class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
@@ -54,11 +55,9 @@ class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
         s = obj.opdeform
         if self.build:
             rt.module()
-            if not s.enabled:
-                s.frame_start, s.frame_end = context.scene.frame_start, context.scene.frame_end
+            _default_range(s, context.scene)
             rt.build(obj, context.scene)
-        elif not s.enabled:
-            s.frame_start, s.frame_end = context.scene.frame_start, context.scene.frame_end
+        _default_range(s, context.scene)
         s.enabled = True
         return {'FINISHED'}
 
@@ -93,13 +92,12 @@ class OPDEFORM_OT_build(_ObjectOperator, bpy.types.Operator):
 
     def run(self, context, obj, rt):
         rt.check_object(obj)
-        if not obj.opdeform.enabled:
-            s = obj.opdeform
-            s.frame_start, s.frame_end = context.scene.frame_start, context.scene.frame_end
+        _default_range(obj.opdeform, context.scene)
         t = rt.build(obj, context.scene)
         obj.opdeform.enabled = True
         g = t.engine.graph
-        self.report({'INFO'}, f"{obj.name}: {g.n_particles} particles, {g.n_edges} edges, "
+        clamped = " (the mesh has too few vertices for more)" if t.engine.particles_clamped else ""
+        self.report({'INFO'}, f"{obj.name}: {g.n_particles} particles{clamped}, {g.n_edges} edges, "
                               f"{t.engine.n_vertices} vertices")
         return {'FINISHED'}
 

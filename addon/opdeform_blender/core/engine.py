@@ -49,6 +49,10 @@ class Engine:
             self._world = np.empty((len(self.rest), 3))
         self.matrix_world = m
         self.triangles = triangles
+        # a low-poly mesh (the default cube) cannot hold more particles than it has distinct vertices
+        distinct = len(np.unique(self.rest_local, axis=0))
+        self.particles_clamped = int(particles) > distinct
+        particles = min(int(particles), distinct)
         try:
             self.graph = od.Graph.from_mesh(self.rest, triangles, particles=int(particles), mode=mode)
             self.skin = od.Skin(self.graph, self.rest, neighbors=int(neighbors))
