@@ -25,6 +25,13 @@ class _SubPanel(_PhysicsPanel):
         return obj is not None and obj.type == 'MESH' and obj.opdeform.enabled
 
 
+def _split(layout, context):
+    """(the layout with property split, the object, its settings)."""
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout, context.object, context.object.opdeform
+
+
 def _wrapped(layout, text, icon='NONE', width=60):
     col = layout.column(align=True)
     words, line, first = text.split(), "", True
@@ -87,11 +94,7 @@ class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
 
     def draw(self, context):
         from . import runtime
-        layout = self.layout
-        obj = context.object
-        s = obj.opdeform
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout, obj, s = _split(self.layout, context)
         col = layout.column()
         col.prop(s, "particles")
         col.prop(s, "graph_mode")
@@ -125,9 +128,7 @@ class PHYSICS_PT_opdeform_floor(_SubPanel, bpy.types.Panel):
         self.layout.prop(context.object.opdeform, "use_floor", text="")
 
     def draw(self, context):
-        s = context.object.opdeform
-        layout = self.layout
-        layout.use_property_split = True
+        layout, _, s = _split(self.layout, context)
         layout.active = s.use_floor
         layout.prop(s, "floor_height")
         layout.prop(s, "floor_friction")
@@ -137,10 +138,7 @@ class PHYSICS_PT_opdeform_pins(_SubPanel, bpy.types.Panel):
     bl_label = "Pins"
 
     def draw(self, context):
-        obj = context.object
-        s = obj.opdeform
-        layout = self.layout
-        layout.use_property_split = True
+        layout, obj, s = _split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
 
@@ -175,10 +173,7 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
 
     def draw(self, context):
         from . import runtime
-        obj = context.object
-        s = obj.opdeform
-        layout = self.layout
-        layout.use_property_split = True
+        layout, obj, s = _split(self.layout, context)
         col = layout.column(align=True)
         col.prop(s, "frame_start", text="Start")
         col.prop(s, "frame_end", text="End")
