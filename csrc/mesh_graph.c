@@ -9,9 +9,11 @@
 // 3. Particles are shared among groups in proportion to their voxels (one each first, largest first, while
 //    they last), never more than a group has voxels.
 // 4. Cells: the voxels of a group are split into as many cells as it has particles by geodesic k-means on
-//    the voxel graph (26-neighbours): farthest-point seeds, then Lloyd steps that move every seed to the
-//    voxel nearest its cell's centroid. Geodesic distance keeps a cell from spanning a gap (two legs side
-//    by side). Chain mode instead cuts a group into slabs of equal voxel count along its principal axis.
+//    the voxel graph (26-neighbours): seeds at the centroids of a balanced k-d split of the voxels (O(N log
+//    k), where farthest-point seeding costs up to O(N k)), cells grown from them by Dijkstra, then Lloyd
+//    steps that move every seed to the voxel nearest its cell's centroid. Geodesic distance keeps a cell
+//    from spanning a gap (two legs side by side). Chain mode instead cuts a group into slabs along its
+//    principal axis.
 // 5. Particles: each cell gives one ellipsoid at its centroid along its principal axes. The covariance
 //    of the union of the cell's voxel cubes is that of their centres plus h²/12 I, and a solid ellipsoid
 //    of radii r has covariance diag(r²)/5, so r = sqrt(5 λ) (always > 0). Voxels that the surface crosses
@@ -31,6 +33,7 @@
 #include "polar.h"
 #include "union_find.h"
 
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -309,7 +312,7 @@ typedef struct od_Cells
 	double* size;   // k, the weight of each cell (shell voxels count half)
 	double* best;   // k, scratch
 	int* nearest;   // k, scratch
-	od_Buffer heap;  // od_HeapItem, a binary heap ordered by (distance, voxel)
+	od_Buffer heap;  // od_HeapItem: Dijkstra's queue, nearest first
 	int offset[26]; // linear offsets of the 26 neighbours; the first 13 point forwards
 	double step[26];
 } od_Cells;
@@ -319,17 +322,18 @@ static int od_HeapLess(od_HeapItem a, od_HeapItem b)
 	return a.d < b.d || (a.d == b.d && a.v < b.v);
 }
 
-static od_Status od_HeapPush(od_Cells* c, double d, int v)
+// A binary heap of od_HeapItem in a buffer, least (d, v) first.
+static od_Status od_HeapPush(od_Buffer* buffer, double d, int v)
 {
-	od_Status status = od_BufferReserve(&c->heap, sizeof(od_HeapItem));
+	od_Status status = od_BufferReserve(buffer, sizeof(od_HeapItem));
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	od_HeapItem* heap = (od_HeapItem*)c->heap.data;
+	od_HeapItem* heap = (od_HeapItem*)buffer->data;
 	od_HeapItem item = { d, v };
-	size_t i = c->heap.size / sizeof item;
-	c->heap.size += sizeof item;
+	size_t i = buffer->size / sizeof item;
+	buffer->size += sizeof item;
 	while (i > 0 && od_HeapLess(item, heap[(i - 1) / 2]))
 	{
 		heap[i] = heap[(i - 1) / 2];
@@ -339,11 +343,11 @@ static od_Status od_HeapPush(od_Cells* c, double d, int v)
 	return OD_OK;
 }
 
-static od_HeapItem od_HeapPop(od_Cells* c)
+static od_HeapItem od_HeapPop(od_Buffer* buffer)
 {
-	od_HeapItem* heap = (od_HeapItem*)c->heap.data;
-	c->heap.size -= sizeof(od_HeapItem);
-	size_t count = c->heap.size / sizeof(od_HeapItem), i = 0;
+	od_HeapItem* heap = (od_HeapItem*)buffer->data;
+	buffer->size -= sizeof(od_HeapItem);
+	size_t count = buffer->size / sizeof(od_HeapItem), i = 0;
 	od_HeapItem top = heap[0], last = heap[count];
 	for (;;)
 	{
@@ -373,7 +377,7 @@ static od_Status od_Spread(od_Cells* c)
 	const int* cells = c->voxels->cells;
 	while (c->heap.size > 0)
 	{
-		od_HeapItem top = od_HeapPop(c);
+		od_HeapItem top = od_HeapPop(&c->heap);
 		if (top.d > c->dist[top.v])
 		{
 			continue;
@@ -386,7 +390,7 @@ static od_Status od_Spread(od_Cells* c)
 			{
 				c->dist[u] = d;
 				c->label[u] = c->label[top.v];
-				od_Status status = od_HeapPush(c, d, u);
+				od_Status status = od_HeapPush(&c->heap, d, u);
 				if (status != OD_OK)
 				{
 					return status;
@@ -402,7 +406,7 @@ static od_Status od_Seed(od_Cells* c, int cell, int voxel)
 	c->seeds[cell] = voxel;
 	c->dist[voxel] = 0.0;
 	c->label[voxel] = cell;
-	return od_HeapPush(c, 0.0, voxel);
+	return od_HeapPush(&c->heap, 0.0, voxel);
 }
 
 static void od_ClearCells(od_Cells* c)
@@ -490,25 +494,98 @@ static bool od_SeedsNearMeans(od_Cells* c, const int* label, int k)
 	return moved;
 }
 
+// The voxel's integer coordinate along an axis.
+static int od_VoxelCoordinate(const od_Cells* c, int i, int axis)
+{
+	int cell = c->voxels->cells[i];
+	const int* dims = c->voxels->dims;
+	return axis == 0 ? cell % dims[0] : axis == 1 ? (cell / dims[0]) % dims[1] : cell / (dims[0] * dims[1]);
+}
+
+// Splits the voxels order[begin, end) into `parts` cells labelled from `first`, of nearly equal voxel count,
+// by cuts across the longest extent (a k-d split; stable counting sorts on the integer voxel coordinates,
+// so O(voxels) per level and deterministic). `sorted` is scratch of the size of order, `slots` of
+// max(dims) + 1.
+static void od_SplitCells(od_Cells* c, int* order, int* sorted, int* slots, int begin, int end, int parts, int first)
+{
+	if (parts == 1)
+	{
+		for (int i = begin; i < end; ++i)
+		{
+			c->label[order[i]] = first;
+		}
+		return;
+	}
+	int lo[3] = { INT_MAX, INT_MAX, INT_MAX }, hi[3] = { INT_MIN, INT_MIN, INT_MIN }, axis = 0;
+	for (int i = begin; i < end; ++i)
+	{
+		for (int a = 0; a < 3; ++a)
+		{
+			int x = od_VoxelCoordinate(c, order[i], a);
+			lo[a] = x < lo[a] ? x : lo[a];
+			hi[a] = x > hi[a] ? x : hi[a];
+		}
+	}
+	for (int a = 1; a < 3; ++a)
+	{
+		axis = hi[a] - lo[a] > hi[axis] - lo[axis] ? a : axis;
+	}
+	int span = hi[axis] - lo[axis] + 1;
+	memset(slots, 0, sizeof(int) * (size_t)(span + 1));
+	for (int i = begin; i < end; ++i)
+	{
+		slots[od_VoxelCoordinate(c, order[i], axis) - lo[axis] + 1]++;
+	}
+	for (int x = 0; x < span; ++x)
+	{
+		slots[x + 1] += slots[x];
+	}
+	for (int i = begin; i < end; ++i)
+	{
+		sorted[begin + slots[od_VoxelCoordinate(c, order[i], axis) - lo[axis]]++] = order[i];
+	}
+	memcpy(order + begin, sorted + begin, sizeof(int) * (size_t)(end - begin));
+	int left = parts / 2, mid = begin + (int)((long long)(end - begin) * left / parts);
+	od_SplitCells(c, order, sorted, slots, begin, mid, left, first);
+	od_SplitCells(c, order, sorted, slots, mid, end, parts - left, first + left);
+}
+
 static od_Status od_GeodesicCells(od_Cells* c)
 {
-	// Farthest-point seeds: the first nearest the centroid, each next the farthest (geodesically) from all.
-	od_CellMoments(c, NULL, 1);
-	od_SeedsNearMeans(c, NULL, 1);
-	int next = c->seeds[0];
-	od_ClearCells(c);
-	for (int s = 0; s < c->k; ++s)
+	// Seeds: the voxel nearest the centroid of each part of a k-d split, then cells grown from them.
+	const int* dims = c->voxels->dims;
+	int longest = dims[0] > dims[1] ? dims[0] : dims[1];
+	longest = longest > dims[2] ? longest : dims[2];
+	int* order = od_Alloc(sizeof(int) * (size_t)c->count);
+	int* sorted = od_Alloc(sizeof(int) * (size_t)c->count);
+	int* slots = od_Alloc(sizeof(int) * ((size_t)longest + 1));
+	if (!order || !sorted || !slots)
 	{
-		od_Status status = od_Seed(c, s, next);
-		status = status == OD_OK ? od_Spread(c) : status;
-		if (status != OD_OK)
-		{
-			return status;
-		}
-		for (int i = 0; i < c->count; ++i)
-		{
-			next = c->dist[i] > c->dist[next] ? i : next;
-		}
+		od_Free(order);
+		od_Free(sorted);
+		od_Free(slots);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory splitting %d voxels", c->count);
+	}
+	for (int i = 0; i < c->count; ++i)
+	{
+		order[i] = i;
+	}
+	od_SplitCells(c, order, sorted, slots, 0, c->count, c->k, 0);
+	od_Free(order);
+	od_Free(sorted);
+	od_Free(slots);
+	od_CellMoments(c, c->label, c->k);
+	od_SeedsNearMeans(c, c->label, c->k);
+	od_ClearCells(c);
+	od_Status status = OD_OK;
+	for (int l = 0; l < c->k && status == OD_OK; ++l)
+	{
+		status = od_Seed(c, l, c->seeds[l]);
+	}
+	status = status == OD_OK ? od_Spread(c) : status;
+	if (status != OD_OK)
+	{
+		return status;
 	}
 	// Lloyd steps.
 	for (int step = 0; step < OD_LLOYD_STEPS; ++step)
@@ -519,7 +596,6 @@ static od_Status od_GeodesicCells(od_Cells* c)
 			break;
 		}
 		od_ClearCells(c);
-		od_Status status = OD_OK;
 		for (int l = 0; l < c->k && status == OD_OK; ++l)
 		{
 			status = od_Seed(c, l, c->seeds[l]);

@@ -98,8 +98,8 @@ def test_volume_fills_and_surface_stays_on_the_shell():
     for mode in ("volume", "surface"):
         c = opdeform.Graph.from_mesh(v, t, particles=60, mode=mode).centers
         depth[mode] = np.linalg.norm(c - np.clip(c[:, 0], -0.3, 0.3)[:, None] * [1, 0, 0], axis=1)
-    assert depth["volume"].min() < 0.06  # particles inside, near the axis
-    assert depth["surface"].min() > 0.12  # a hollow shell
+    assert depth["volume"].mean() < 0.15  # particles through the inside
+    assert depth["surface"].min() > 0.17  # a hollow shell: every particle near the surface
     # auto on a closed mesh is volume
     v_auto = opdeform.Graph.from_mesh(v, t, particles=60, mode="auto")
     np.testing.assert_array_equal(v_auto.centers, opdeform.Graph.from_mesh(v, t, particles=60, mode="volume").centers)
