@@ -198,14 +198,15 @@ def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
     keep = det != 0
     a, b, c, det = a[keep], b[keep], c[keep], det[keep]
     inside = np.zeros(len(pts), bool)
-    for start in range(0, len(pts), 4096):
-        p = pts[start:start + 4096, None, :]
+    chunk = max(1, 2_000_000 // max(1, len(a)))  # points per batch: about 2e6 point-triangle pairs
+    for start in range(0, len(pts), chunk):
+        p = pts[start:start + chunk, None, :]
         y, z = p[..., 1] - a[:, 1], p[..., 2] - a[:, 2]
         u = (y * (c[:, 2] - a[:, 2]) - (c[:, 1] - a[:, 1]) * z) / det
         w = ((b[:, 1] - a[:, 1]) * z - y * (b[:, 2] - a[:, 2])) / det
         hit_x = a[:, 0] + u * (b[:, 0] - a[:, 0]) + w * (c[:, 0] - a[:, 0])
         crossing = (u >= 0) & (w >= 0) & (u + w <= 1) & (hit_x > p[..., 0])
-        inside[start:start + 4096] = crossing.sum(axis=1) % 2 == 1
+        inside[start:start + chunk] = crossing.sum(axis=1) % 2 == 1
     return pts[inside]
 
 
