@@ -194,3 +194,19 @@ def test_fewer_vertices_than_particles_counts_distinct_vertices():
     soup_t = np.arange(len(soup_v), dtype=np.int32).reshape(-1, 3)
     with pytest.raises(ValueError, match=f"only {len(v)} distinct vertices"):
         opdeform.Graph.from_mesh(soup_v, soup_t, particles=len(v) + 1)
+
+
+def test_more_pieces_than_particles():
+    """The largest pieces get a particle each; the vertices of the others follow their nearest particle."""
+    v, t = [], []
+    for i in range(5):
+        pv, pt = meshes.capsule(radius=0.05 + 0.01 * i, length=0.3)
+        t.append(pt + sum(len(x) for x in v))
+        v.append(pv + [0.0, 0.5 * i, 0.0])
+    v, t = np.concatenate(v), np.concatenate(t)
+    g = opdeform.Graph.from_mesh(v, t, particles=3)
+    check_graph(g, 3)
+    assert g.pieces()[0] == 3 and g.n_edges == 0
+    assert np.all(g.centers[:, 1] > 0.9)  # on the three largest capsules (y = 1.0, 1.5, 2.0)
+    skin = opdeform.Skin(g, v)
+    np.testing.assert_allclose(skin.deform(g.centers, np.tile(np.eye(3), (3, 1, 1))), v, atol=1e-14)
