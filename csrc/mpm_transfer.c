@@ -60,20 +60,33 @@ static void od_P2GTask(void* ctx, int task, int thread)
 		{
 			A[e] = m * p->C[e] + st * tau[e];
 		}
-		double mv[3] = { m * p->v[0], m * p->v[1], m * p->v[2] };
+		// m v + A (xᵢ − x) = m v + A_x dx + A_y dy + A_z dz: the three terms per offset, once per particle
+		double term[3][3][3]; // [axis][offset][component]
+		for (int a = 0; a < 3; ++a)
+		{
+			for (int o = 0; o < 3; ++o)
+			{
+				double d = (o - s.fx[a]) * dx;
+				for (int c = 0; c < 3; ++c)
+				{
+					term[a][o][c] = A[3 * c + a] * d + (a == 0 ? m * p->v[c] : 0.0);
+				}
+			}
+		}
 		for (int kk = 0; kk < 3; ++kk)
 		{
-			double dz = (kk - s.fx[2]) * dx;
 			for (int j = 0; j < 3; ++j)
 			{
-				double dy = (j - s.fx[1]) * dx, wyz = s.w[1][j] * s.w[2][kk];
+				double wyz = s.w[1][j] * s.w[2][kk];
+				double yz[3] = { term[1][j][0] + term[2][kk][0], term[1][j][1] + term[2][kk][1],
+								 term[1][j][2] + term[2][kk][2] };
 				for (int i = 0; i < 3; ++i)
 				{
-					double dxx = (i - s.fx[0]) * dx, wt = s.w[0][i] * wyz;
+					double wt = s.w[0][i] * wyz;
 					double* node = od_RegionNode(region, local, i, j, kk);
-					node[0] += wt * (mv[0] + A[0] * dxx + A[1] * dy + A[2] * dz);
-					node[1] += wt * (mv[1] + A[3] * dxx + A[4] * dy + A[5] * dz);
-					node[2] += wt * (mv[2] + A[6] * dxx + A[7] * dy + A[8] * dz);
+					node[0] += wt * (term[0][i][0] + yz[0]);
+					node[1] += wt * (term[0][i][1] + yz[1]);
+					node[2] += wt * (term[0][i][2] + yz[2]);
 					node[3] += wt * m;
 				}
 			}
