@@ -300,9 +300,7 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 			c->count = od_Graph_SkinWeights(sim->graph, c->point, def->skinNeighbors, c->idx, c->w);
 		}
 		sim->constraints.touchDirty = true;
-	sim->constraints.targetsDirty = true;
-	sim->solverDef = od_DefaultSolverDef();
-	sim->colorsDirty = true;
+		sim->constraints.targetsDirty = true;
 	}
 	if (refactor)
 	{

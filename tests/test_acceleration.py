@@ -71,3 +71,13 @@ def test_bad_solver_settings_raise():
     with pytest.raises(ValueError, match="factorization"):
         sim.set_solver(factorization="dense")
     assert sim.solver["accelerator"] == "none"
+
+
+def test_parameter_changes_keep_the_solver_settings():
+    sim = scenes.fig1_bar()
+    sim.set_solver("chebyshev", rho=0.99, threads=2, factorization="simplicial")
+    sim.set_params(skin_neighbors=3, stiffness=2e9)
+    assert sim.solver == {"accelerator": "chebyshev", "window": 5, "rho": 0.99, "threads": 2,
+                          "factorization": "simplicial"}
+    sim.step(3)
+    assert np.all(np.isfinite(sim.positions))
