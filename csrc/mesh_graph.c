@@ -1,7 +1,9 @@
 // Building an oriented-particle graph from a triangle mesh (METHOD.md, "Building a graph from a mesh").
 //
 // 1. Pieces: connected components over welded vertices (mesh_topology.c). Each piece is a group of its
-//    own or, with joinPieces, one group holds them all.
+//    own or, with joinPieces, pieces whose bounding boxes overlap share a group (so that overlapping parts
+//    become one solid); separate groups of joined pieces are linked at the end by edges between their
+//    nearest particles.
 // 2. Voxels: every group is voxelized (voxelize.c) at one common cell size h, filled (closed pieces in
 //    auto and chain modes, every piece in volume mode) or as a shell (open pieces, surface mode). h is
 //    chosen so that there are about voxelsPerParticle voxels per particle: first from the area and the
@@ -75,7 +77,7 @@ static od_Status od_CheckMeshGraphDef(const od_MeshGraphDef* def)
 
 typedef struct od_Group
 {
-	int firstPiece, pieceCount;
+	int triangleStart, triangleCount; // its triangles: groupTriangles[triangleStart, + triangleCount)
 	bool fill;
 	od_Voxels voxels;
 	int particles;
@@ -88,6 +90,7 @@ typedef struct od_Builder
 	od_MeshPieces pieces;
 	int groupCount;
 	od_Group* groups;
+	int* groupTriangles; // triangle indices grouped by group
 	double* centers; // particleCount*3
 	double* radii;   // particleCount*3
 	double* axes;    // particleCount*9
@@ -96,31 +99,102 @@ typedef struct od_Builder
 
 static const int* od_GroupTriangles(const od_Builder* b, const od_Group* g, int* count)
 {
-	const int* start = b->pieces.triangleStart;
-	*count = start[g->firstPiece + g->pieceCount] - start[g->firstPiece];
-	return b->pieces.triangles + start[g->firstPiece];
+	*count = g->triangleCount;
+	return b->groupTriangles + g->triangleStart;
+}
+
+// The bounding box of a piece's vertices (lo, hi: 3 each).
+static void od_PieceBounds(const od_Builder* b, int piece, double* lo, double* hi)
+{
+	const od_MeshPieces* p = &b->pieces;
+	for (int a = 0; a < 3; ++a)
+	{
+		lo[a] = INFINITY;
+		hi[a] = -INFINITY;
+	}
+	for (int i = p->triangleStart[piece]; i < p->triangleStart[piece + 1]; ++i)
+	{
+		for (int k = 0; k < 3; ++k)
+		{
+			const double* x = b->def->vertices + 3 * b->def->triangles[3 * p->triangles[i] + k];
+			for (int a = 0; a < 3; ++a)
+			{
+				lo[a] = fmin(lo[a], x[a]);
+				hi[a] = fmax(hi[a], x[a]);
+			}
+		}
+	}
+}
+
+// groupOf[p] = the group of piece p: the piece itself, or (joinPieces) one group for the pieces whose
+// bounding boxes overlap, directly or through others, so that overlapping parts are voxelized as one solid
+// while distant parts keep grids of their own (and are joined by edges afterwards). Groups are numbered by
+// their first piece. Returns the number of groups.
+static int od_GroupPieces(od_Builder* b, int* groupOf, double* box)
+{
+	int count = b->pieces.count;
+	od_UnionInit(groupOf, count);
+	for (int p = 0; p < count && b->def->joinPieces; ++p)
+	{
+		od_PieceBounds(b, p, box + 6 * p, box + 6 * p + 3);
+		for (int q = 0; q < p; ++q)
+		{
+			bool overlap = true;
+			for (int a = 0; a < 3; ++a)
+			{
+				overlap = overlap && box[6 * p + a] <= box[6 * q + 3 + a] && box[6 * q + a] <= box[6 * p + 3 + a];
+			}
+			if (overlap)
+			{
+				od_Union(groupOf, p, q);
+			}
+		}
+	}
+	int groups = 0;
+	for (int p = 0; p < count; ++p) // roots are the smallest piece of their set, so they come first
+	{
+		groupOf[p] = od_Find(groupOf, p) == p ? groups++ : groupOf[groupOf[p]];
+	}
+	return groups;
 }
 
 static od_Status od_MakeGroups(od_Builder* b)
 {
 	const od_MeshGraphDef* def = b->def;
-	b->groupCount = def->joinPieces ? 1 : b->pieces.count;
-	b->groups = od_AllocZero((size_t)b->groupCount, sizeof(od_Group));
-	if (!b->groups)
+	const od_MeshPieces* pieces = &b->pieces;
+	int* groupOf = od_Alloc(sizeof(int) * (size_t)pieces->count);
+	double* box = od_Alloc(sizeof(double) * 6 * (size_t)pieces->count);
+	b->groupTriangles = od_Alloc(sizeof(int) * (size_t)def->triangleCount);
+	b->groups = od_AllocZero((size_t)pieces->count, sizeof(od_Group));
+	if (!groupOf || !box || !b->groupTriangles || !b->groups)
 	{
-		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d mesh pieces", b->pieces.count);
+		od_Free(groupOf);
+		od_Free(box);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d mesh pieces", pieces->count);
 	}
-	for (int i = 0; i < b->groupCount; ++i)
+	b->groupCount = od_GroupPieces(b, groupOf, box);
+	for (int p = 0; p < pieces->count; ++p)
 	{
-		od_Group* g = &b->groups[i];
-		g->firstPiece = def->joinPieces ? 0 : i;
-		g->pieceCount = def->joinPieces ? b->pieces.count : 1;
-		g->fill = def->mode == OD_MESH_VOLUME;
-		for (int p = g->firstPiece; p < g->firstPiece + g->pieceCount; ++p)
-		{
-			g->fill = g->fill || (def->mode != OD_MESH_SURFACE && b->pieces.closed[p]);
-		}
+		od_Group* g = &b->groups[groupOf[p]];
+		g->triangleCount += pieces->triangleStart[p + 1] - pieces->triangleStart[p];
+		g->fill = g->fill || def->mode == OD_MESH_VOLUME || (def->mode != OD_MESH_SURFACE && pieces->closed[p]);
 	}
+	for (int i = 0, start = 0; i < b->groupCount; ++i)
+	{
+		b->groups[i].triangleStart = start;
+		start += b->groups[i].triangleCount;
+		b->groups[i].triangleCount = 0; // refilled below
+	}
+	for (int p = 0; p < pieces->count; ++p)
+	{
+		od_Group* g = &b->groups[groupOf[p]];
+		int n = pieces->triangleStart[p + 1] - pieces->triangleStart[p];
+		memcpy(b->groupTriangles + g->triangleStart + g->triangleCount, pieces->triangles + pieces->triangleStart[p],
+			   sizeof(int) * (size_t)n);
+		g->triangleCount += n;
+	}
+	od_Free(groupOf);
+	od_Free(box);
 	return OD_OK;
 }
 
@@ -131,14 +205,11 @@ static od_Status od_MakeGroups(od_Builder* b)
 static double od_EstimateCellSize(const od_Builder* b, double target, double* exponent)
 {
 	double volume = 0.0, area = 0.0;
-	for (int i = 0; i < b->groupCount; ++i)
+	for (int p = 0; p < b->pieces.count; ++p)
 	{
-		const od_Group* g = &b->groups[i];
-		for (int p = g->firstPiece; p < g->firstPiece + g->pieceCount; ++p)
-		{
-			area += b->pieces.area[p];
-			volume += g->fill ? b->pieces.volume[p] : 0.0;
-		}
+		const od_MeshGraphMode mode = b->def->mode;
+		area += b->pieces.area[p];
+		volume += mode == OD_MESH_VOLUME || (mode != OD_MESH_SURFACE && b->pieces.closed[p]) ? b->pieces.volume[p] : 0.0;
 	}
 	if (!(area > 0.0))
 	{
@@ -732,11 +803,10 @@ static od_Status od_TouchingCells(od_Builder* b, const od_Cells* c, int first, b
 	return OD_OK;
 }
 
-// Borůvka: while the group's particles form several parts, join every part to its nearest other part
-// (pairs ordered by (distance, i, j), a strict order, so no cycle forms).
-static od_Status od_ConnectParts(od_Builder* b, const od_Group* g, int* parent)
+// Borůvka: while the particles first..first+k form several parts (parent: their sets, local indices), join
+// every part to its nearest other part (pairs ordered by (distance, i, j), a strict order: no cycle forms).
+static od_Status od_ConnectParts(od_Builder* b, int first, int k, int* parent)
 {
-	int k = g->particles;
 	int* best = od_Alloc(sizeof(int) * 2 * (size_t)k);
 	double* bestD = od_Alloc(sizeof(double) * (size_t)k);
 	if (!best || !bestD)
@@ -762,8 +832,8 @@ static od_Status od_ConnectParts(od_Builder* b, const od_Group* g, int* parent)
 				{
 					continue;
 				}
-				double d = od_Length(od_Sub(od_V3Load(b->centers + 3 * (g->first + i)),
-											od_V3Load(b->centers + 3 * (g->first + j))));
+				double d = od_Length(od_Sub(od_V3Load(b->centers + 3 * (first + i)),
+											od_V3Load(b->centers + 3 * (first + j))));
 				int part[2] = { pi, pj };
 				for (int s = 0; s < 2; ++s)
 				{
@@ -780,7 +850,7 @@ static od_Status od_ConnectParts(od_Builder* b, const od_Group* g, int* parent)
 		{
 			if (bestD[p] < INFINITY && od_Union(parent, best[2 * p], best[2 * p + 1]))
 			{
-				status = od_AddEdge(b, g->first + best[2 * p], g->first + best[2 * p + 1]);
+				status = od_AddEdge(b, first + best[2 * p], first + best[2 * p + 1]);
 				joined = true;
 			}
 		}
@@ -831,7 +901,7 @@ static od_Status od_GroupEdges(od_Builder* b, const od_Cells* c, const od_Group*
 			status = od_TouchingCells(b, c, g->first, false, parent);
 		}
 	}
-	status = status == OD_OK ? od_ConnectParts(b, g, parent) : status;
+	status = status == OD_OK ? od_ConnectParts(b, g->first, g->particles, parent) : status;
 	od_Free(parent);
 	return status;
 }
@@ -915,6 +985,26 @@ static od_Status od_BuildGroup(od_Builder* b, const od_Group* g)
 
 // ---------------------------------------------------------------------------------------------------------
 
+// Joined pieces that were voxelized apart (far from each other): edges between the nearest particles.
+static od_Status od_JoinGroups(od_Builder* b)
+{
+	int n = b->def->particleCount;
+	int* parent = od_Alloc(sizeof(int) * (size_t)n);
+	if (!parent)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory joining %d particles", n);
+	}
+	od_UnionInit(parent, n);
+	const int* edges = (const int*)b->edges.data;
+	for (int e = 0; e < od_EdgeCount(b); ++e)
+	{
+		od_Union(parent, edges[2 * e], edges[2 * e + 1]);
+	}
+	od_Status status = od_ConnectParts(b, 0, n, parent);
+	od_Free(parent);
+	return status;
+}
+
 static od_Status od_Build(od_Builder* b, od_Graph** graph)
 {
 	int n = b->def->particleCount;
@@ -946,6 +1036,7 @@ static od_Status od_Build(od_Builder* b, od_Graph** graph)
 	{
 		status = b->groups[i].particles > 0 ? od_BuildGroup(b, &b->groups[i]) : OD_OK;
 	}
+	status = status == OD_OK && b->def->joinPieces && b->groupCount > 1 ? od_JoinGroups(b) : status;
 	if (status != OD_OK)
 	{
 		return status;
@@ -977,6 +1068,7 @@ od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 		od_Voxels_Destroy(&b.groups[i].voxels);
 	}
 	od_Free(b.groups);
+	od_Free(b.groupTriangles);
 	od_MeshPieces_Destroy(&b.pieces);
 	od_Free(b.centers);
 	od_Free(b.radii);

@@ -124,6 +124,20 @@ def test_pieces_stay_separate_unless_joined():
     check_graph(joined, 40)
 
 
+def test_joined_pieces_far_apart_or_overlapping():
+    """Far apart: each keeps its own voxel grid and they are linked by edges; crossing: one solid."""
+    a_v, a_t = meshes.capsule(radius=0.05, length=0.5)
+    for shift, crossing in (([100.0, 0.0, 0.0], False), ([0.0, 0.0, 0.0], True)):
+        b_v = a_v @ np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]) + shift  # turned 90 degrees
+        v, t = np.concatenate([a_v, b_v]), np.concatenate([a_t, a_t + len(a_v)])
+        g = opdeform.Graph.from_mesh(v, t, particles=20, join_pieces=True)
+        check_graph(g, 20)
+        assert g.pieces()[0] == 1
+        if crossing:  # a particle where the two capsules cross, and more than one edge around it
+            middle = np.argmin(np.linalg.norm(g.centers, axis=1))
+            assert np.linalg.norm(g.centers[middle]) < 0.05 and np.sum(g.edges == middle) >= 3
+
+
 def test_duplicate_vertices_and_degenerate_triangles():
     v, t = meshes.capsule()
     reference = opdeform.Graph.from_mesh(v, t, particles=30)

@@ -38,7 +38,8 @@ typedef struct od_MeshGraphDef
 	const int* triangles;   // triangleCount*3, indices in [0, vertexCount)
 	int particleCount;      // how many particles the graph gets (100)
 	od_MeshGraphMode mode;  // OD_MESH_AUTO
-	bool joinPieces;        // false: each connected piece of the mesh gets its own connected graph
+	bool joinPieces;        // false: each connected piece of the mesh gets its own connected graph; true: one
+	                        // graph (pieces whose boxes overlap are one solid, others get joining edges)
 	int voxelsPerParticle;  // resolution of the voxelization that the particles are fitted to (100)
 } od_MeshGraphDef;
 
