@@ -207,9 +207,9 @@ static double od_EstimateCellSize(const od_Builder* b, double target, double* ex
 	double volume = 0.0, area = 0.0;
 	for (int p = 0; p < b->pieces.count; ++p)
 	{
-		const od_MeshGraphMode mode = b->def->mode;
+		// Only a closed piece's enclosed volume is known (an open one's signed volume means nothing).
 		area += b->pieces.area[p];
-		volume += mode == OD_MESH_VOLUME || (mode != OD_MESH_SURFACE && b->pieces.closed[p]) ? b->pieces.volume[p] : 0.0;
+		volume += b->def->mode != OD_MESH_SURFACE && b->pieces.closed[p] ? b->pieces.volume[p] : 0.0;
 	}
 	if (!(area > 0.0))
 	{
