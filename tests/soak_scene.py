@@ -65,7 +65,7 @@ def kinetic_energy(sim, masses):
     return 0.5 * float((masses * (v * v).sum(1)).sum())
 
 
-def run(steps, settle=600, samples=20, report=None):
+def run(steps, settle=1500, samples=20, report=None):
     """Runs the soak for `steps` frames; returns a dict of measurements (see the module doc)."""
     sim, handles, skin, vertices = make_scene()
     graph = sim.graph

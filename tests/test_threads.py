@@ -96,9 +96,10 @@ def _refused(outcome):
     return isinstance(outcome, RuntimeError) and "another thread" in str(outcome)
 
 
-def _probe_during(call, ready, probes, timeout=120.0):
+def _probe_during(call, ready, probes, timeout=120.0, limit=None):
     """Runs `call` on a second thread. Once `ready()` (a call that changes nothing) is refused here - so `call`
-    is running - runs `probes` in turn until one is not refused (then `call` has ended) or `call` ends.
+    is running - runs `probes` in turn until one is not refused (then `call` has ended), `call` ends, or
+    `limit` probes ran (stopping well before the end of `call` keeps the race at its end out of the test).
     Returns (outcomes of the probes, the error `call` raised or None, whether a probe got through)."""
     done = threading.Event()
     failure = []
@@ -121,7 +122,7 @@ def _probe_during(call, ready, probes, timeout=120.0):
             inside = _refused(exc)
     outcomes, through = [], False
     k = 0
-    while inside and not done.is_set() and not through:
+    while inside and not done.is_set() and not through and (limit is None or k < limit):
         try:
             outcomes.append(probes[k % len(probes)]())
             through = True
@@ -149,7 +150,8 @@ def test_one_simulation_from_two_threads_raises_and_loses_nothing():
                   lambda: sim.energy(), lambda: sim.set_floor(0.5), lambda: sim.clear_floor(),
                   lambda: sim.set_constraint_target(0, (0.0, 0.0, 0.0)), lambda: sim.remove_constraint(0),
                   lambda: setattr(sim, "trace_energy", True)]
-        outcomes, failure, through = _probe_during(lambda: sim.step(steps), lambda: sim.velocities, probes)
+        outcomes, failure, through = _probe_during(lambda: sim.step(steps), lambda: sim.velocities, probes,
+                                                   limit=2 * len(probes))
         assert failure is None, failure
         if not through:
             break  # every probe landed inside the step (one got through only if the step ended meanwhile)
@@ -178,7 +180,8 @@ def test_one_mpm_world_from_two_threads_raises():
         probes = [lambda: world.step(1 / 120), lambda: world.positions, lambda: world.add_floor(0.05),
                   lambda: world.move_collider(0, (0, 0, 0.1)), lambda: world.update_orientations(),
                   lambda: world.add_particles([(0.5, 0.5, 0.9)], mpm.snow())]
-        outcomes, failure, through = _probe_during(lambda: world.step(8 / 120), lambda: world.velocities, probes)
+        outcomes, failure, through = _probe_during(lambda: world.step(8 / 120), lambda: world.velocities, probes,
+                                                   limit=2 * len(probes))
         assert failure is None, failure
         if not through:
             break
