@@ -254,7 +254,10 @@ def read_ply(path):
     with open(path, "rb") as f:
         names, n = [], 0
         while True:
-            line = f.readline().decode("ascii").strip()
+            raw = f.readline()
+            if not raw:  # a file cut short (or empty): no end_header would ever come
+                raise ValueError(f"{path}: the PLY header ends before end_header")
+            line = raw.decode("ascii").strip()
             if line.startswith("element vertex"):
                 n = int(line.split()[2])
             elif line.startswith("property float"):

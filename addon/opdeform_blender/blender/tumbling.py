@@ -362,14 +362,15 @@ def tumbling_frame_change(scene, depsgraph=None):
         if s is None or not s.enabled or not s.baked:
             continue
         points = bpy.data.objects.get(s.points_name)
-        if points is None:
+        if points is None or points.type != 'MESH':  # gone, or replaced by a non-mesh of the same name
             continue
         frame = min(max(scene.frame_current, s.frame_start), s.frame_end)
         try:
             if not show_frame(points, _mpm(), s.baked_folder, frame):
                 s.error = f"baked frame {frame} is missing from {s.baked_folder}"
-        except (runtime.AddonError, OSError, ValueError) as exc:
-            s.error = str(exc)
+        except Exception as exc:  # a damaged frame file or a bug: report it, never raise from a handler
+            s.error = str(exc) if isinstance(exc, (runtime.AddonError, OSError, ValueError)) else \
+                f"{type(exc).__name__}: {exc}"
 
 
 # -- operators and panel -------------------------------------------------------------------------------------

@@ -1,0 +1,398 @@
+"""Blender-side robustness (docs/hardening.md), run by tests/test_addon_robustness.py through runner.py in both
+hosts: the add-on's handlers never raise (an error becomes obj.opdeform.error and that object pauses), and
+deleting the simulated object or its handle, undo, redo, reloading the file, renaming, and changing the
+mesh's vertex count between frames are handled without a crash or an escaped exception.
+
+Every test watches the add-on's app handlers: each registered handler is wrapped so that an exception that
+would escape to Blender (which only prints it) is recorded, and the test fails on it."""
+
+import contextlib
+import importlib
+import os
+
+import bmesh
+import bpy
+import numpy as np
+from bpy.app.handlers import persistent
+
+import helpers as H
+
+
+def _handlers_module():
+    return importlib.import_module(H.ADDON + ".blender.handlers")
+
+
+def _tumbling_module():
+    return importlib.import_module(H.ADDON + ".blender.tumbling")
+
+
+@contextlib.contextmanager
+def watched():
+    """Wraps the add-on's registered app handlers; yields the list of exceptions that escaped them."""
+    escaped = []
+    hm = _handlers_module()
+    pairs = list(hm.HANDLERS) + [("frame_change_post", _tumbling_module().tumbling_frame_change)]
+    swapped = []
+    for name, fn in pairs:
+        handlers = getattr(bpy.app.handlers, name)
+        for i, h in enumerate(list(handlers)):
+            if h is fn:
+                def wrapper(*args, _fn=fn, _name=name, **kw):
+                    try:
+                        return _fn(*args, **kw)
+                    except BaseException as exc:  # noqa: BLE001 - recorded, then Blender prints it
+                        escaped.append(f"{_name}/{_fn.__name__}: {type(exc).__name__}: {exc}")
+                        raise
+                wrapper = persistent(wrapper)
+                handlers[i] = wrapper
+                swapped.append((name, wrapper, fn))
+    try:
+        yield escaped
+    finally:
+        for name, wrapper, fn in swapped:
+            handlers = getattr(bpy.app.handlers, name)
+            for i, h in enumerate(list(handlers)):
+                if h is wrapper:
+                    handlers[i] = fn
+    assert not escaped, "exceptions escaped the add-on's handlers:\n" + "\n".join(escaped)
+
+
+def _enable_bar(name="Bar", **settings):
+    obj = H.bar_object(name)
+    for k, v in settings.items():
+        setattr(obj.opdeform, k, v)
+    bpy.ops.opdeform.enable(object=obj.name)
+    assert obj.opdeform.enabled and obj.opdeform.built and not obj.opdeform.error, obj.opdeform.error
+    return obj
+
+
+def _frames(frames):
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+
+
+def _finite(obj):
+    return bool(np.isfinite(H.positions(obj)).all())
+
+
+def _call_every_handler(scene):
+    """Calls each of the add-on's handler functions directly, as Blender would."""
+    hm = _handlers_module()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    hm.on_frame_change(scene, depsgraph)
+    hm.on_frame_change(scene)
+    hm.on_depsgraph_update(scene, depsgraph)
+    hm.on_depsgraph_update(scene)
+    hm.on_undo_post(scene)
+    hm.on_load_post(None)
+    _tumbling_module().tumbling_frame_change(scene, depsgraph)
+
+
+# -- errors become reports and pause the object ---------------------------------------------------------------
+
+def test_frame_handler_errors_become_reports_and_pause():
+    obj = _enable_bar()
+    other = _enable_bar("Other")
+    with watched():
+        _frames(range(1, 6))
+        od = H.runtime().module()
+        for exc in (od.SolverError("injected solver failure"), MemoryError("injected"), ZeroDivisionError("bug"),
+                    ValueError("injected value")):
+            rt = H.runtime().get(obj)
+            calls = []
+
+            def broken(frame, targets=None, _exc=exc, _calls=calls):
+                _calls.append(frame)
+                raise _exc
+
+            rt.engine.goto = broken
+            bpy.context.scene.frame_set(6)
+            assert calls == [6]
+            assert str(exc) in obj.opdeform.error, (exc, obj.opdeform.error)
+            paused = H.positions(obj)
+            _frames(range(7, 12))  # paused: no more calls, the mesh stays as it was
+            assert calls == [6]
+            np.testing.assert_array_equal(H.positions(obj), paused)
+            assert not other.opdeform.error, "an error on one object paused another"
+            del rt.engine.goto  # the instance attribute goes: the class's method is back
+            bpy.ops.opdeform.reset(object=obj.name)
+            assert not obj.opdeform.error
+            bpy.context.scene.frame_set(1)
+            _frames(range(2, 6))
+            assert _finite(obj)
+        _call_every_handler(bpy.context.scene)
+
+
+def test_pose_handler_errors_become_reports():
+    obj = _enable_bar(mode='POSE')
+    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    handle = obj.opdeform.handles[0].target
+    with watched():
+        rt = H.runtime().get(obj)
+
+        def broken(targets, iterations):
+            raise RuntimeError("injected pose failure")
+
+        rt.engine.pose = broken
+        handle.location = (1.8, 0.0, 0.5)
+        bpy.context.view_layer.update()  # depsgraph_update_post -> pose_update -> error report
+        assert "injected pose failure" in obj.opdeform.error
+        handle.location = (1.7, 0.0, 0.6)
+        bpy.context.view_layer.update()
+        _call_every_handler(bpy.context.scene)
+
+
+def test_bad_values_from_scripts_do_not_escape():
+    """Settings a script may set that the UI would not (NaN handle, NaN floor, start after end)."""
+    obj = _enable_bar()
+    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    handle = obj.opdeform.handles[0].target
+    with watched():
+        _frames(range(1, 4))
+        handle.location = (float("nan"), 0.0, 0.0)
+        bpy.context.view_layer.update()
+        _frames(range(4, 7))
+        assert obj.opdeform.error, "a NaN handle was not reported"
+        assert _finite(obj)
+        handle.location = (2.0, 0.0, 0.0)
+        bpy.ops.opdeform.reset(object=obj.name)
+        obj.opdeform.use_floor = True
+        obj.opdeform.floor_height = float("inf")
+        _frames(range(1, 4))
+        obj.opdeform.floor_height = 0.0
+        obj.opdeform.error = ""
+        obj.opdeform.frame_start, obj.opdeform.frame_end = 20, 5
+        _frames([1, 6, 25, -3, 10000])
+        _call_every_handler(bpy.context.scene)
+        assert _finite(obj)
+
+
+# -- the object, its handle or its mesh changes between frames ------------------------------------------------
+
+def test_delete_simulated_object_between_frames():
+    obj = _enable_bar()
+    keep = _enable_bar("Keep")
+    bpy.ops.opdeform.handle_add(object=keep.name, location=(2.0, 0.0, 0.0))
+    with watched():
+        _frames(range(1, 6))
+        bpy.data.objects.remove(obj, do_unlink=True)
+        _frames(range(6, 12))
+        _call_every_handler(bpy.context.scene)
+        assert not keep.opdeform.error, keep.opdeform.error
+        # the handle's empty goes too
+        bpy.data.objects.remove(keep.opdeform.handles[0].target, do_unlink=True)
+        _frames(range(12, 16))
+        _call_every_handler(bpy.context.scene)
+        assert _finite(keep)
+        # an object deleted with its mesh datablock
+        third = _enable_bar("Third")
+        _frames(range(1, 3))
+        mesh = third.data
+        bpy.data.objects.remove(third, do_unlink=True)
+        bpy.data.meshes.remove(mesh)
+        _frames(range(3, 6))
+        _call_every_handler(bpy.context.scene)
+
+
+def _remove_vertices(mesh, count):
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    bmesh.ops.delete(bm, geom=list(bm.verts)[:count], context='VERTS')
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.update()
+
+
+def test_vertex_count_change_between_frames_pauses_with_a_report():
+    obj = _enable_bar()
+    with watched():
+        _frames(range(1, 6))
+        # another mesh datablock put in place of the object's
+        own = obj.data
+        other = bpy.data.meshes.new("Other")
+        v, t = H.box_mesh((0, 0, 0), (1, 1, 1), (3, 3, 3))
+        other.from_pydata([tuple(map(float, p)) for p in v], [], [tuple(map(int, f)) for f in t])
+        obj.data = other
+        _frames(range(6, 9))
+        assert "vertex count" in obj.opdeform.error, obj.opdeform.error
+        obj.data = own
+        bpy.ops.opdeform.build(object=obj.name)
+        assert not obj.opdeform.error, obj.opdeform.error
+        bpy.context.scene.frame_set(1)
+        _frames(range(2, 6))
+        n = len(obj.data.vertices)
+        # more vertices (subdivided edges)
+        bm = bmesh.new()
+        bm.from_mesh(obj.data)
+        bmesh.ops.subdivide_edges(bm, edges=list(bm.edges)[:4], cuts=1)
+        bm.to_mesh(obj.data)
+        bm.free()
+        obj.data.update()
+        assert len(obj.data.vertices) > n
+        _frames(range(6, 9))
+        assert "vertex count" in obj.opdeform.error, obj.opdeform.error
+        assert _finite(obj) and len(H.positions(obj)) > n
+        # Build again: plays again
+        bpy.ops.opdeform.build(object=obj.name)
+        assert not obj.opdeform.error
+        bpy.context.scene.frame_set(1)
+        _frames(range(2, 6))
+        assert _finite(obj)
+        # fewer vertices
+        _remove_vertices(obj.data, 2)
+        _frames(range(6, 9))
+        assert "vertex count" in obj.opdeform.error, obj.opdeform.error
+        assert _finite(obj)
+        _call_every_handler(bpy.context.scene)
+
+
+def test_vertex_count_change_in_posing_mode():
+    obj = _enable_bar(mode='POSE')
+    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    handle = obj.opdeform.handles[0].target
+    with watched():
+        _remove_vertices(obj.data, 1)
+        handle.location = (1.8, 0.0, 0.4)
+        bpy.context.view_layer.update()
+        assert "vertex count" in obj.opdeform.error, obj.opdeform.error
+        _call_every_handler(bpy.context.scene)
+
+
+def test_rename_between_frames_continues():
+    obj = _enable_bar()
+    with watched():
+        _frames(range(1, 6))
+        obj.name = "Renamed"
+        _frames(range(6, 12))
+        assert not obj.opdeform.error, obj.opdeform.error
+        rt = H.runtime().get(obj)
+        assert rt is not None and rt.shown == ("frame", 11)
+
+
+# -- undo, redo, reload ----------------------------------------------------------------------------------------
+
+def test_undo_redo_between_frames():
+    obj = H.bar_object()
+    bpy.ops.ed.undo_push(message="bar")
+    with watched():
+        bpy.ops.opdeform.enable(object=obj.name)
+        bpy.ops.ed.undo_push(message="enabled")
+        _frames(range(1, 8))
+        live = H.positions(bpy.data.objects["Bar"])
+        bpy.ops.ed.undo()  # back to before Enable
+        _frames(range(8, 12))
+        obj = bpy.data.objects["Bar"]
+        assert not obj.opdeform.enabled
+        bpy.ops.ed.redo()
+        obj = bpy.data.objects["Bar"]
+        assert obj.opdeform.enabled
+        bpy.context.scene.frame_set(1)
+        _frames(range(2, 8))
+        np.testing.assert_array_equal(H.positions(obj), live)
+        # undo a deletion: the object comes back and plays again (rebuilt from its stored settings)
+        bpy.ops.ed.undo_push(message="before delete")
+        bpy.data.objects.remove(obj, do_unlink=True)
+        bpy.ops.ed.undo_push(message="deleted")
+        _frames(range(8, 10))
+        bpy.ops.ed.undo()
+        obj = bpy.data.objects["Bar"]
+        bpy.context.scene.frame_set(1)
+        _frames(range(2, 8))
+        assert not obj.opdeform.error, obj.opdeform.error
+        np.testing.assert_array_equal(H.positions(obj), live)
+        for _ in range(3):  # undo and redo in quick succession between frames
+            bpy.ops.ed.undo()
+            bpy.context.scene.frame_set(3)
+            bpy.ops.ed.redo()
+            bpy.context.scene.frame_set(4)
+        _call_every_handler(bpy.context.scene)
+
+
+def test_undo_of_a_vertex_count_change():
+    obj = _enable_bar()
+    bpy.ops.ed.undo_push(message="built")
+    with watched():
+        _frames(range(1, 4))
+        _remove_vertices(obj.data, 1)
+        bpy.ops.ed.undo_push(message="vertex deleted")
+        _frames(range(4, 6))
+        bpy.ops.ed.undo()
+        obj = bpy.data.objects["Bar"]
+        _frames(range(6, 9))
+        bpy.ops.ed.redo()
+        _frames(range(9, 11))
+        _call_every_handler(bpy.context.scene)
+
+
+def test_reload_between_frames():
+    obj = _enable_bar()
+    path = os.path.join(H.tmpdir(), "robust_reload.blend")
+    with watched():
+        _frames(range(1, 5))
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        _frames(range(5, 9))
+        bpy.ops.wm.revert_mainfile()  # reload in the middle of playback
+        _frames(range(9, 12))
+        obj = bpy.data.objects["Bar"]
+        assert not obj.opdeform.error, obj.opdeform.error
+        # a file saved with an error pauses the object after loading, without raising
+        obj.opdeform.error = "paused before saving"
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        _frames(range(1, 4))
+        assert bpy.data.objects["Bar"].opdeform.error == "paused before saving"
+        # a file whose mesh lost vertices before saving (it is rebuilt from what it has), then one whose
+        # simulated object was deleted
+        obj = bpy.data.objects["Bar"]
+        obj.opdeform.error = ""
+        _remove_vertices(obj.data, 1)
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        _frames(range(1, 4))
+        assert _finite(bpy.data.objects["Bar"])
+        bpy.data.objects.remove(bpy.data.objects["Bar"], do_unlink=True)
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        _frames(range(1, 4))
+        _call_every_handler(bpy.context.scene)
+
+
+# -- tumbling particles: the baked point cloud's handler ---------------------------------------------------------
+
+def test_tumbling_frames_survive_broken_data():
+    v, t = H.box_mesh((0.0, 0.0, -0.1), (1.0, 1.0, 1.0), (2, 2, 2))
+    obj = H.mesh_object("Domain", v, t)
+    bpy.ops.opdeform.tumbling_enable(object=obj.name)
+    s = obj.opdeform_tumbling
+    s.dx, s.count, s.frame_start, s.frame_end = 0.1, 60, 1, 4
+    s.layer_height, s.layer_thickness = 0.5, 0.2
+    s.cache_directory = os.path.join(H.tmpdir(), "robust_domain")
+    bpy.ops.opdeform.tumbling_bake(object=obj.name)
+    assert s.baked
+    tm = _tumbling_module()
+    folder = s.baked_folder
+    with watched():
+        _frames(range(1, 5))
+        # a frame file cut short, another one emptied, another one gone
+        frames = tm.core.baked_frames(folder)
+        with open(tm.core.frame_file(folder, frames[1]), "r+b") as f:
+            f.truncate(max(1, os.path.getsize(f.name) // 2))
+        open(tm.core.frame_file(folder, frames[2]), "wb").close()
+        os.remove(tm.core.frame_file(folder, frames[3]))
+        s.error = ""
+        _frames([1, 2, 3, 4])
+        assert s.error, "damaged or missing baked frames were not reported"
+        # the point cloud loses vertices, then is replaced by an empty of the same name
+        points = bpy.data.objects[s.points_name]
+        bm = bmesh.new()
+        bm.from_mesh(points.data)
+        bmesh.ops.delete(bm, geom=list(bm.verts)[:10], context='VERTS')
+        bm.to_mesh(points.data)
+        bm.free()
+        _frames([1, 2])
+        name = points.name
+        bpy.data.objects.remove(points, do_unlink=True)
+        empty = bpy.data.objects.new(name, None)
+        bpy.context.scene.collection.objects.link(empty)
+        _frames([1, 2, 3])
+        _call_every_handler(bpy.context.scene)
