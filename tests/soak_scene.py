@@ -16,6 +16,7 @@ import opdeform
 from opdeform import _core
 from opdeform import mesh as opmesh
 from opdeform import meshes
+from test_core import rigid_residual  # RMS distance after the best rigid alignment (Kabsch)
 
 WARMUP = 100
 
@@ -27,16 +28,6 @@ def rss_bytes():
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
     except OSError:
         return 0
-
-
-def rigid_residual(points, rest):
-    """RMS distance after the best proper rigid alignment of points onto rest (Kabsch)."""
-    p = points - points.mean(0)
-    q = rest - rest.mean(0)
-    u, _, vt = np.linalg.svd(p.T @ q)
-    d = np.sign(np.linalg.det(u @ vt))
-    rot = u @ np.diag([1.0, 1.0, d]) @ vt
-    return float(np.sqrt(((p @ rot - q) ** 2).sum(1).mean()))
 
 
 def make_scene(particles=60):
@@ -102,7 +93,7 @@ def run(steps, settle=1500, samples=20, report=None):
             sim.remove_constraint(cid)
     sim.set_params(gravity=(0.0, 0.0, 0.0), damping=0.05)
     sim.step(settle)
-    creep = rigid_residual(sim.positions, graph.centers)
+    creep = rigid_residual(sim.positions, graph.centers)[0]
     size = float(np.ptp(graph.centers, axis=0).max())
     return {
         "steps": steps,

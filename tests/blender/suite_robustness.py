@@ -123,10 +123,15 @@ def test_frame_handler_errors_become_reports_and_pause():
         _call_every_handler(bpy.context.scene)
 
 
-def test_pose_handler_errors_become_reports():
+def _posing_bar():
+    """The bar in posing mode with a handle at its free end: (object, the handle's empty)."""
     obj = _enable_bar(mode='POSE')
     bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
-    handle = obj.opdeform.handles[0].target
+    return obj, obj.opdeform.handles[0].target
+
+
+def test_pose_handler_errors_become_reports():
+    obj, handle = _posing_bar()
     with watched():
         rt = H.runtime().get(obj)
 
@@ -247,9 +252,7 @@ def test_vertex_count_change_between_frames_pauses_with_a_report():
 
 
 def test_vertex_count_change_in_posing_mode():
-    obj = _enable_bar(mode='POSE')
-    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
-    handle = obj.opdeform.handles[0].target
+    obj, handle = _posing_bar()
     with watched():
         _remove_vertices(obj.data, 1)
         handle.location = (1.8, 0.0, 0.4)
