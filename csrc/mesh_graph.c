@@ -540,6 +540,7 @@ static bool od_SeedsNearMeans(od_Cells* c, const int* label, int k)
 	for (int l = 0; l < k; ++l)
 	{
 		c->best[l] = INFINITY;
+		c->nearest[l] = c->seeds[l]; // a cell left without voxels keeps its seed
 	}
 	for (int i = 0; i < c->count; ++i)
 	{
@@ -942,7 +943,7 @@ static od_Status od_BuildGroup(od_Builder* b, const od_Group* g)
 	c.pos = od_Alloc(sizeof(double) * 3 * (size_t)c.count);
 	c.label = od_Alloc(sizeof(int) * (size_t)c.count);
 	c.dist = od_Alloc(sizeof(double) * (size_t)c.count);
-	c.seeds = od_Alloc(sizeof(int) * (size_t)c.k);
+	c.seeds = od_AllocZero((size_t)c.k, sizeof(int)); // read before the first seeding: compare defined values
 	c.mean = od_Alloc(sizeof(double) * 3 * (size_t)c.k);
 	c.cov = od_Alloc(sizeof(double) * 9 * (size_t)c.k);
 	c.size = od_Alloc(sizeof(double) * (size_t)c.k);
