@@ -126,32 +126,6 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 	def.mode = (od_MeshGraphMode)fuzz_int(&in, -1, 4);
 	def.joinPieces = fuzz_byte(&in) & 1;
 	def.voxelsPerParticle = fuzz_int(&in, -1, 40);
-	// Known slow path (docs/hardening.md): mode VOLUME on a mesh that encloses (almost) no volume voxelizes
-	// at the cell limit in every pass, ~1 s in a release build. Fuzz those meshes as surfaces instead.
-	if (def.mode == OD_MESH_VOLUME && triangleCount > 0 && vertexCount > 0)
-	{
-		double volume = 0.0, lo = INFINITY, hi = -INFINITY;
-		for (int t = 0; t < triangleCount; ++t)
-		{
-			const int* f = triangles + 3 * t;
-			if (f[0] < 0 || f[1] < 0 || f[2] < 0 || f[0] >= vertexCount || f[1] >= vertexCount || f[2] >= vertexCount)
-			{
-				continue;
-			}
-			const double *a = vertices + 3 * f[0], *b = vertices + 3 * f[1], *c = vertices + 3 * f[2];
-			volume += (a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
-					   a[2] * (b[0] * c[1] - b[1] * c[0])) / 6.0;
-		}
-		for (int k = 0; k < 3 * vertexCount; ++k)
-		{
-			lo = fmin(lo, vertices[k]);
-			hi = fmax(hi, vertices[k]);
-		}
-		if (!(fabs(volume) > 1e-3 * (hi - lo) * (hi - lo) * (hi - lo)))
-		{
-			def.mode = OD_MESH_SURFACE;
-		}
-	}
 	if (fuzz_tracing())
 	{
 		for (int v = 0; v < vertexCount; ++v)

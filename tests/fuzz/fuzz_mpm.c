@@ -33,9 +33,10 @@ static od_MpmWorldDef fuzz_world_def(FuzzInput* in)
 	d.dx = raw ? fuzz_double(in, 0.1) : 1.0 / (16 + fuzz_int(in, 0, 48));
 	fuzz_vec3(in, 10.0, d.gravity);
 	d.cfl = fuzz_byte(in) < 16 ? fuzz_double(in, 1.0) : 0.1 + 0.1 * fuzz_int(in, 0, 9);
-	// A tiny positive cfl is valid but makes every step take ~1/cfl substeps (see docs/hardening.md).
+	// A tiny positive cfl is valid but makes every step take ~1/cfl substeps (docs/hardening.md, open findings).
 	d.cfl = d.cfl > 0.0 && d.cfl < 0.01 ? 0.01 : d.cfl;
 	d.maxDt = fuzz_byte(in) < 16 ? fuzz_double(in, 1e-3) : 1e-4 * fuzz_int(in, 1, 20);
+	d.maxDt = d.maxDt > 0.0 && d.maxDt < 1e-5 ? 1e-5 : d.maxDt; // valid, but a step would take ~1/maxDt substeps
 	d.spin = fuzz_double(in, 1.0);
 	d.walls = (od_MpmContact)fuzz_int(in, -1, 3);
 	d.wallFriction = fuzz_double(in, 0.5);
