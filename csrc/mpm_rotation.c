@@ -97,7 +97,20 @@ static void od_RotationTask(void* ctx, int task, int thread)
 	for (int i = begin; i < end; ++i)
 	{
 		const od_MpmParticle* p = &w->state.particles[i];
-		od_Mat3 F = od_M3Load(p->F), R = od_PolarRotation(&F);
+		od_Mat3 F = od_M3Load(p->F);
+		double size = 0.0;
+		for (int k = 0; k < 9; ++k)
+		{
+			size = fmax(size, fabs(F.m[k]));
+		}
+		if (size > 1e100 || (size > 0.0 && size < 1e-100)) // R ignores a positive scale; FᵀF would over/underflow
+		{
+			for (int k = 0; k < 9; ++k)
+			{
+				F.m[k] /= size;
+			}
+		}
+		od_Mat3 R = od_PolarRotation(&F);
 		double* old = w->state.polarQuat + 4 * p->id;
 		double* q = w->state.quat + 4 * p->id;
 		double now[4], inverse[4] = { old[0], -old[1], -old[2], -old[3] }, delta[4], scaled[4];
