@@ -127,8 +127,13 @@ static od_Status add_particles(od_MpmWorld* w, const od_MpmWorldDef* wd, FuzzInp
 	d.orientations = (flags & 8) ? q : NULL;
 	d.particleVolume = fuzz_small_positive(in, wd->dx * wd->dx * wd->dx);
 	d.material = fuzz_material(in);
-	TRACE("particles %d flags %d volume %g material %d rho %g E %g nu %g\n", count, flags, d.particleVolume,
-		  (int)d.material.kind, d.material.density, d.material.youngModulus, d.material.poissonRatio);
+	TRACE("particles %d flags %d volume %.17g material %d rho %.17g E %.17g nu %.17g\n", count, flags,
+		  d.particleVolume, (int)d.material.kind, d.material.density, d.material.youngModulus, d.material.poissonRatio);
+	for (int i = 0; i < count && fuzz_tracing(); ++i)
+	{
+		TRACE("  x %.17g %.17g %.17g v %.17g %.17g %.17g\n", x[3 * i], x[3 * i + 1], x[3 * i + 2], v[3 * i], v[3 * i + 1],
+			  v[3 * i + 2]);
+	}
 	return od_MpmWorld_AddParticles(w, &d);
 }
 
@@ -218,9 +223,10 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 	{
 		return 0;
 	}
-	TRACE("world lower (%g %g %g) upper (%g %g %g) dx %g cfl %g maxDt %g spin %g walls %d friction %g threads %d\n",
-		  def.lower[0], def.lower[1], def.lower[2], def.upper[0], def.upper[1], def.upper[2], def.dx, def.cfl, def.maxDt,
-		  def.spin, (int)def.walls, def.wallFriction, def.threads);
+	TRACE("world lower (%.17g %.17g %.17g) upper (%.17g %.17g %.17g) dx %.17g gravity (%.17g %.17g %.17g) cfl %.17g "
+		  "maxDt %.17g spin %.17g walls %d friction %.17g threads %d\n",
+		  def.lower[0], def.lower[1], def.lower[2], def.upper[0], def.upper[1], def.upper[2], def.dx, def.gravity[0],
+		  def.gravity[1], def.gravity[2], def.cfl, def.maxDt, def.spin, (int)def.walls, def.wallFriction, def.threads);
 	od_MpmWorld* w = (od_MpmWorld*)&in;
 	od_Status status = od_MpmWorld_Create(&def, &w);
 	TRACE("  -> %s\n", od_StatusName(status));
@@ -279,7 +285,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 				double t = fuzz_small_positive(&in, code == 4 ? 1e-3 : 2e-3);
 				// A step runs duration / Δt substeps: any finite duration is valid, long ones are just slow.
 				t = code == 5 && isfinite(t) && t > 0.02 ? 0.02 : t;
-				TRACE("%s %g\n", code == 4 ? "substep" : "step", t);
+				TRACE("%s %.17g\n", code == 4 ? "substep" : "step", t);
 				status = code == 4 ? od_MpmWorld_Substep(w, t) : od_MpmWorld_Step(w, t);
 				break;
 			}
