@@ -253,6 +253,10 @@ static od_Status od_MeshInit(od_MpmCollider* c, const od_MpmColliderDef* def, do
 		}
 	}
 	double extent = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+	if (!(extent < 1e150)) // finite vertices whose differences overflow: no sample spacing fits them
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
+	}
 	c->spacing = fmax(0.5 * dx, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
 	size_t total = 1;
 	for (int a = 0; a < 3; ++a)
