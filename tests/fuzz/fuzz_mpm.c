@@ -36,7 +36,7 @@ static od_MpmWorldDef fuzz_world_def(FuzzInput* in)
 	// A tiny positive cfl is valid but makes every step take ~1/cfl substeps (docs/hardening.md, open findings).
 	d.cfl = d.cfl > 0.0 && d.cfl < 0.01 ? 0.01 : d.cfl;
 	d.maxDt = fuzz_byte(in) < 16 ? fuzz_double(in, 1e-3) : 1e-4 * fuzz_int(in, 1, 20);
-	d.maxDt = d.maxDt > 0.0 && d.maxDt < 1e-5 ? 1e-5 : d.maxDt; // valid, but a step would take ~1/maxDt substeps
+	d.maxDt = d.maxDt > 0.0 && d.maxDt < 1e-4 ? 1e-4 : d.maxDt; // valid, but a step would take ~1/maxDt substeps
 	d.spin = fuzz_double(in, 1.0);
 	d.walls = (od_MpmContact)fuzz_int(in, -1, 3);
 	d.wallFriction = fuzz_double(in, 0.5);
@@ -284,7 +284,7 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 			{
 				double t = fuzz_small_positive(&in, code == 4 ? 1e-3 : 2e-3);
 				// A step runs duration / Δt substeps: any finite duration is valid, long ones are just slow.
-				t = code == 5 && isfinite(t) && t > 0.02 ? 0.02 : t;
+				t = code == 5 && isfinite(t) && t > 0.01 ? 0.01 : t;
 				TRACE("%s %.17g\n", code == 4 ? "substep" : "step", t);
 				status = code == 4 ? od_MpmWorld_Substep(w, t) : od_MpmWorld_Step(w, t);
 				break;
