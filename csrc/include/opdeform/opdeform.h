@@ -5,6 +5,8 @@
 // the prefactored global matrix) and the state (centres, rotations, velocities). Arrays are row
 // major doubles: positions are n*3, rotations n*9 (R[3*r + c]), the layout of numpy (n,3) and (n,3,3).
 // A simulation borrows its graph: keep the graph alive until the simulation is destroyed.
+// One thread at a time per simulation: od_Sim_Step and od_Sim_SolveStatic refuse a concurrent call with
+// OD_ERROR_BUSY, but the other calls do not check (the Python binding refuses them all).
 #pragma once
 
 #include "opdeform/base.h"
