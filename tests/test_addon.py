@@ -79,6 +79,18 @@ def suite_results(host, suite, tmp_root):
     return _results[key]
 
 
+def check_suite_test(host, suite, name, tmp):
+    """One test of a Blender suite in one host: skipped where the host is missing, else it must report ok."""
+    why = host_missing(host)
+    if why:
+        pytest.skip(why)
+    proc, records, _ = suite_results(host, suite, tmp)
+    rec = records.get(name)
+    assert rec is not None, f"{name} did not report (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n" \
+                            f"{proc.stderr[-4000:]}"
+    assert rec["ok"], f"[{rec['host']}] {rec['error']}"
+
+
 @pytest.fixture(scope="session")
 def host_tmp(tmp_path_factory):
     return tmp_path_factory.mktemp("addon")
@@ -87,14 +99,7 @@ def host_tmp(tmp_path_factory):
 @pytest.mark.parametrize("host", HOSTS)
 @pytest.mark.parametrize("name", suite_names("suite_addon"))
 def test_addon_in_blender(host, name, host_tmp):
-    why = host_missing(host)
-    if why:
-        pytest.skip(why)
-    proc, records, _ = suite_results(host, "suite_addon", host_tmp)
-    rec = records.get(name)
-    assert rec is not None, f"{name} did not report (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n" \
-                            f"{proc.stderr[-4000:]}"
-    assert rec["ok"], f"[{rec['host']}] {rec['error']}"
+    check_suite_test(host, "suite_addon", name, host_tmp)
 
 
 @pytest.mark.parametrize("host", HOSTS)

@@ -4,7 +4,7 @@ host, the way test_addon.py runs suite_addon."""
 
 import pytest
 
-from test_addon import HOSTS, host_missing, suite_names, suite_results
+from test_addon import HOSTS, check_suite_test, suite_names
 
 
 @pytest.fixture(scope="session")
@@ -15,11 +15,4 @@ def tumbling_tmp(tmp_path_factory):
 @pytest.mark.parametrize("host", HOSTS)
 @pytest.mark.parametrize("name", suite_names("suite_tumbling"))
 def test_tumbling_in_blender(host, name, tumbling_tmp):
-    why = host_missing(host)
-    if why:
-        pytest.skip(why)
-    proc, records, _ = suite_results(host, "suite_tumbling", tumbling_tmp)
-    rec = records.get(name)
-    assert rec is not None, f"{name} did not report (exit {proc.returncode}):\n{proc.stdout[-4000:]}\n" \
-                            f"{proc.stderr[-4000:]}"
-    assert rec["ok"], f"[{rec['host']}] {rec['error']}"
+    check_suite_test(host, "suite_tumbling", name, tumbling_tmp)
