@@ -304,25 +304,19 @@ void od_Constraints_RotationChanged(od_Sim* sim, int i, const od_Mat3* before, c
 	}
 }
 
-// Row a of the right side (column-major b, n rows): Σ_c w w_a t_c - Σ_j R_j (Σ_c w w_a w_j a_cj).
-void od_Constraints_AddRhs(const od_Sim* sim, double* b)
+// Row a of the right side: Σ_c w w_a t_c - Σ_j R_j (Σ_c w w_a w_j a_cj).
+od_Vec3 od_Constraints_RhsRow(const od_Sim* sim, int a)
 {
 	const od_ConstraintSet* set = &sim->constraints;
-	int n = sim->graph->n;
-	for (int a = 0; a < n; ++a)
+	if (set->pairStart[a] == set->pairStart[a + 1])
 	{
-		if (set->pairStart[a] == set->pairStart[a + 1])
-		{
-			continue;
-		}
-		od_Vec3 f = od_V3Load(set->targetMoment + 12 * a + 9);
-		for (int p = set->pairStart[a]; p < set->pairStart[a + 1]; ++p)
-		{
-			od_Mat3 rj = od_M3Load(sim->state.R + 9 * set->pairCol[p]);
-			f = od_Sub(f, od_M3MulV(&rj, od_V3Load(set->pairData + OD_PAIR_DOUBLES * p + 12)));
-		}
-		b[a] += f.x;
-		b[a + n] += f.y;
-		b[a + 2 * n] += f.z;
+		return od_V3(0, 0, 0);
 	}
+	od_Vec3 f = od_V3Load(set->targetMoment + 12 * a + 9);
+	for (int p = set->pairStart[a]; p < set->pairStart[a + 1]; ++p)
+	{
+		od_Mat3 rj = od_M3Load(sim->state.R + 9 * set->pairCol[p]);
+		f = od_Sub(f, od_M3MulV(&rj, od_V3Load(set->pairData + OD_PAIR_DOUBLES * p + 12)));
+	}
+	return f;
 }

@@ -5,7 +5,9 @@
 //     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)).
 // Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
 // rest graph, k, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
-// of those (counted in od_SimCounters) and every iteration only assembles the right side and back-substitutes.
+// of those (counted in od_SimCounters) and every iteration only assembles the right side and substitutes
+// (cholesky.c, which keeps the factor in its own layout and may split the substitution over threads).
+#include "cholesky.h"
 #include "core.h"
 #include "math3.h"
 #include "sim.h"
@@ -19,11 +21,8 @@ static od_Status od_GlobalSolve(od_Sim* sim);
 struct od_GlobalSolver
 {
 	cholmod_common common;
-	cholmod_factor* factor;
-	cholmod_dense* rhs; // n x 3, column major
-	cholmod_dense* x;   // solve2 workspace, reused so that solves do not allocate
-	cholmod_dense* y;
-	cholmod_dense* e;
+	od_Cholesky* factor;
+	double* rhs; // n rows of (x, y, z)
 	bool valid;
 	bool refine; // solve for a correction from the residual instead (od_NeedsCorrection, od_FillResidual)
 };
@@ -38,7 +37,6 @@ od_Status od_GlobalSolver_Create(od_GlobalSolver** out)
 	cholmod_start(&s->common);
 	s->common.print = 0;
 	s->common.nmethods = 1;
-	s->common.method[0].ordering = CHOLMOD_AMD;
 	s->common.supernodal = CHOLMOD_AUTO;
 	*out = s;
 	return OD_OK;
@@ -46,11 +44,10 @@ od_Status od_GlobalSolver_Create(od_GlobalSolver** out)
 
 static void od_FreeFactor(od_GlobalSolver* s)
 {
-	cholmod_free_factor(&s->factor, &s->common);
-	cholmod_free_dense(&s->rhs, &s->common);
-	cholmod_free_dense(&s->x, &s->common);
-	cholmod_free_dense(&s->y, &s->common);
-	cholmod_free_dense(&s->e, &s->common);
+	od_Cholesky_Destroy(s->factor);
+	od_Free(s->rhs);
+	s->factor = NULL;
+	s->rhs = NULL;
 	s->valid = false;
 }
 
@@ -178,6 +175,23 @@ static bool od_NeedsCorrection(const od_Sim* sim)
 	return false;
 }
 
+static od_Status od_CheckFactor(const cholmod_factor* factor, const cholmod_common* cc)
+{
+	if (!factor || cc->status < CHOLMOD_OK)
+	{
+		return cc->status == CHOLMOD_OUT_OF_MEMORY ? od_Fail(OD_ERROR_MEMORY, "out of memory factoring the global matrix")
+												   : od_Fail(OD_ERROR_INTERNAL, "CHOLMOD failed (status %d)", cc->status);
+	}
+	if (cc->status == CHOLMOD_NOT_POSDEF)
+	{
+		return od_Fail(OD_ERROR_SINGULAR,
+					   "the global matrix is not positive definite (pivot %d): a piece of the graph is unconstrained "
+					   "or the parameters are degenerate",
+					   (int)factor->minor);
+	}
+	return OD_OK;
+}
+
 static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 {
 	int n = sim->graph->n;
@@ -199,89 +213,142 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory assembling the global matrix");
 	}
-	s->factor = cholmod_analyze(a, cc);
-	sim->counters.analyses++;
-	if (s->factor)
+	// One thread: AMD (the least fill here, and fast). More: METIS's nested dissection, whose balanced
+	// elimination tree splits the substitution between threads (cholesky.c); AMD if it is not built in.
+	int threads = sim->pool ? od_Pool_Threads(sim->pool) : 1;
+	cc->method[0].ordering = threads > 1 ? CHOLMOD_METIS : CHOLMOD_AMD;
+	cholmod_factor* factor = cholmod_analyze(a, cc);
+	if (!factor && cc->status == CHOLMOD_NOT_INSTALLED)
 	{
-		cholmod_factorize(a, s->factor, cc);
+		cc->method[0].ordering = CHOLMOD_AMD;
+		factor = cholmod_analyze(a, cc);
+	}
+	sim->counters.analyses++;
+	if (factor)
+	{
+		cholmod_factorize(a, factor, cc);
 		sim->counters.factorizations++;
 	}
 	cholmod_free_sparse(&a, cc);
-	s->rhs = cholmod_zeros((size_t)n, 3, CHOLMOD_REAL, cc);
-	if (!s->factor || !s->rhs || cc->status < CHOLMOD_OK)
+	od_Status status = od_CheckFactor(factor, cc);
+	if (status == OD_OK)
 	{
-		int status = cc->status;
-		od_FreeFactor(s);
-		return status == CHOLMOD_OUT_OF_MEMORY ? od_Fail(OD_ERROR_MEMORY, "out of memory factoring the global matrix")
-											   : od_Fail(OD_ERROR_INTERNAL, "CHOLMOD failed (status %d)", status);
+		status = od_Cholesky_Create(factor, cc, threads, &s->factor);
 	}
-	if (cc->status == CHOLMOD_NOT_POSDEF)
+	cholmod_free_factor(&factor, cc);
+	s->rhs = status == OD_OK ? od_Alloc(sizeof(double) * 3 * (size_t)n) : NULL;
+	if (status == OD_OK && !s->rhs)
 	{
-		int minor = (int)s->factor->minor;
+		status = od_Fail(OD_ERROR_MEMORY, "out of memory for the global solve");
+	}
+	if (status != OD_OK)
+	{
 		od_FreeFactor(s);
-		return od_Fail(OD_ERROR_SINGULAR,
-					   "the global matrix is not positive definite (pivot %d): a piece of the graph is unconstrained "
-					   "or the parameters are degenerate",
-					   minor);
+		return status;
 	}
 	s->valid = true;
 	return OD_OK;
 }
 
-static void od_AddRow(double* b, int n, int i, double sign, od_Vec3 f)
+static void od_AddRow(double* b, int i, double sign, od_Vec3 f)
 {
-	b[i] += sign * f.x;
-	b[i + n] += sign * f.y;
-	b[i + 2 * n] += sign * f.z;
+	b[3 * i] += sign * f.x;
+	b[3 * i + 1] += sign * f.y;
+	b[3 * i + 2] += sign * f.z;
 }
 
-// The inertia (or gravity) and elastic terms of the right side b, or with `residual` of b - A x, each term
-// taken against the current centres before it is summed: (m/h²)(y - x) and, per edge, with d = X̄_i - X̄_j,
-// k v_j (R_i d - (x_i - x_j)) + k v_i (R_j d - (x_i - x_j)).
-static void od_FillTerms(const od_Sim* sim, double* b, bool residual)
+// Row i of the right side b: the inertia (m/h²) y_i or gravity m_i g, the constraints' row
+// (od_Constraints_RhsRow) and per neighbour j, with d = X̄_i - X̄_j, k v_j R_i d + k v_i R_j d, gathered as
+// k [R_i Σ_j v_j d + v_i Σ_j R_j d]. With `residual`, row i of b - A x instead, each term taken against the
+// current centres before it is summed so that nothing large cancels: (m/h²)(y_i - x_i) and
+// k v_j (R_i d - (x_i - x_j)) + k v_i (R_j d - (x_i - x_j)); the constraints' part is added apart
+// (od_FillResidual). Rows are independent, so threads split them.
+static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 {
 	const od_Graph* g = sim->graph;
 	const od_State* st = &sim->state;
-	int n = g->n;
-	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
-	od_Vec3 zero = od_V3(0, 0, 0);
-	for (int i = 0; i < n; ++i)
+	double k = sim->def.stiffness, h = sim->def.dt, vi = g->volumes[i];
+	od_Vec3 xi = od_V3Load(st->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
+	od_Mat3 ri = od_M3Load(st->R + 9 * i);
+	od_Vec3 arm = od_V3(0, 0, 0), turned = arm;
+	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 	{
-		double m = rho * g->volumes[i];
-		od_Vec3 x = residual ? od_V3Load(st->x + 3 * i) : zero;
-		od_Vec3 f = sim->mode == OD_DYNAMIC ? od_Scale(m / (h * h), od_Sub(od_V3Load(sim->y + 3 * i), x))
-											: od_Scale(m, od_V3Load(sim->def.gravity));
-		b[i] = b[i + n] = b[i + 2 * n] = 0.0;
-		od_AddRow(b, n, i, 1.0, f);
+		int j = g->adj[e];
+		double vj = g->volumes[j];
+		od_Vec3 d = od_Sub(ci, od_V3Load(g->centers + 3 * j));
+		od_Mat3 rj = od_M3Load(st->R + 9 * j);
+		if (residual)
+		{
+			od_Vec3 dx = od_Sub(xi, od_V3Load(st->x + 3 * j));
+			arm = od_MulAdd(arm, vj, od_Sub(od_M3MulV(&ri, d), dx));
+			turned = od_MulAdd(turned, vi, od_Sub(od_M3MulV(&rj, d), dx));
+		}
+		else
+		{
+			arm = od_MulAdd(arm, vj, d);
+			turned = od_Add(turned, od_M3MulV(&rj, d));
+		}
 	}
-	for (int e = 0; e < g->edgeCount; ++e)
+	od_Vec3 f = residual ? od_Scale(k, od_Add(arm, turned))
+						 : od_Scale(k, od_Add(od_M3MulV(&ri, arm), od_Scale(vi, turned)));
+	double m = sim->def.density * vi;
+	if (sim->mode == OD_DYNAMIC)
 	{
-		int i = g->edges[2 * e], j = g->edges[2 * e + 1];
-		od_Mat3 ri = od_M3Load(st->R + 9 * i), rj = od_M3Load(st->R + 9 * j);
-		od_Vec3 d = od_Sub(od_V3Load(g->centers + 3 * i), od_V3Load(g->centers + 3 * j));
-		od_Vec3 dx = residual ? od_Sub(od_V3Load(st->x + 3 * i), od_V3Load(st->x + 3 * j)) : zero;
-		od_Vec3 f = od_Add(od_Scale(k * g->volumes[j], od_Sub(od_M3MulV(&ri, d), dx)),
-						   od_Scale(k * g->volumes[i], od_Sub(od_M3MulV(&rj, d), dx)));
-		od_AddRow(b, n, i, 1.0, f);
-		od_AddRow(b, n, j, -1.0, f);
+		od_Vec3 y = od_V3Load(sim->y + 3 * i);
+		f = od_MulAdd(f, m / (h * h), residual ? od_Sub(y, xi) : y);
+	}
+	else
+	{
+		f = od_MulAdd(f, m, od_V3Load(sim->def.gravity));
+	}
+	return residual ? f : od_Add(f, od_Constraints_RhsRow(sim, i));
+}
+
+#define OD_RHS_CHUNK 256
+
+typedef struct od_RhsJob
+{
+	const od_Sim* sim;
+	double* b;
+	bool residual;
+} od_RhsJob;
+
+static void od_RhsTask(void* ctx, int task, int thread)
+{
+	(void)thread;
+	const od_RhsJob* job = ctx;
+	int begin = task * OD_RHS_CHUNK, end = begin + OD_RHS_CHUNK;
+	end = end < job->sim->graph->n ? end : job->sim->graph->n;
+	for (int i = begin; i < end; ++i)
+	{
+		od_V3Store(job->b + 3 * i, od_RhsRow(job->sim, i, job->residual));
 	}
 }
 
-static void od_FillRhs(const od_Sim* sim, double* b)
+static void od_FillRows(const od_Sim* sim, double* b, bool residual)
 {
-	od_FillTerms(sim, b, false);
-	od_Constraints_AddRhs(sim, b);
+	od_RhsJob job = { sim, b, residual };
+	int tasks = (sim->graph->n + OD_RHS_CHUNK - 1) / OD_RHS_CHUNK;
+	if (sim->pool)
+	{
+		od_Pool_Run(sim->pool, tasks, od_RhsTask, &job);
+		return;
+	}
+	for (int t = 0; t < tasks; ++t)
+	{
+		od_RhsTask(&job, t, 0);
+	}
 }
 
 // b - A x at the current centres (-∂E/∂x), summed from small residuals so that nothing large cancels:
-// od_FillTerms' and each position constraint's -w w_a e with e = Σ_b w_b (R_b (p̄ - X̄_b) + x_b - t) (the
+// od_RhsRow's and each position constraint's -w w_a e with e = Σ_b w_b (R_b (p̄ - X̄_b) + x_b - t) (the
 // skinning weights sum to 1). A constraint's rounding then stays in its own, stiff direction.
 static void od_FillResidual(const od_Sim* sim, double* r)
 {
 	const od_Graph* g = sim->graph;
 	const od_State* st = &sim->state;
 	int n = g->n;
-	od_FillTerms(sim, r, true);
+	od_FillRows(sim, r, true);
 	for (int s = 0; s < sim->constraints.count; ++s)
 	{
 		const od_Constraint* c = sim->constraints.items + s;
@@ -300,7 +367,7 @@ static void od_FillResidual(const od_Sim* sim, double* r)
 		}
 		for (int a = 0; a < c->count; ++a)
 		{
-			od_AddRow(r, n, c->idx[a], -c->weight * c->w[a], off);
+			od_AddRow(r, c->idx[a], -c->weight * c->w[a], off);
 		}
 	}
 }
@@ -339,25 +406,25 @@ static od_Status od_GlobalSolve(od_Sim* sim)
 	int n = sim->graph->n;
 	if (s->refine)
 	{
-		od_FillResidual(sim, s->rhs->x);
+		od_FillResidual(sim, s->rhs);
 	}
 	else
 	{
-		od_FillRhs(sim, s->rhs->x);
+		od_FillRows(sim, s->rhs, false);
 	}
-	if (!cholmod_solve2(CHOLMOD_A, s->factor, s->rhs, NULL, &s->x, NULL, &s->y, &s->e, &s->common))
-	{
-		return od_Fail(OD_ERROR_INTERNAL, "CHOLMOD solve failed (status %d)", s->common.status);
-	}
-	sim->counters.solves++;
-	const double* x = s->x->x;
 	double* pos = sim->state.x;
-	for (int i = 0; i < n; ++i) // the solution, or with refine a correction to the current centres
+	if (!s->refine)
 	{
-		for (int c = 0; c < 3; ++c)
+		od_Cholesky_Solve(s->factor, sim->pool, s->rhs, pos);
+	}
+	else // a correction to the current centres
+	{
+		od_Cholesky_Solve(s->factor, sim->pool, s->rhs, s->rhs);
+		for (int i = 0; i < 3 * n; ++i)
 		{
-			pos[3 * i + c] = (s->refine ? pos[3 * i + c] : 0.0) + x[i + c * n];
+			pos[i] += s->rhs[i];
 		}
 	}
+	sim->counters.solves++;
 	return OD_OK;
 }

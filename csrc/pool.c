@@ -1,11 +1,14 @@
-// Thread pool. Design: workers sleep on a condition variable until a job's generation number changes,
-// then take task indices from an atomic counter; the caller works too and waits until every task is
-// finished. One job at a time; no allocation after creation.
+// Thread pool. Design: workers wait for a job's generation number to change, then take task indices from an
+// atomic counter; the caller works too and waits until every task is finished. Waiting spins for a short
+// while (OD_POOL_SPIN pauses, some tens of microseconds) before sleeping on a condition variable: a step
+// runs a job per colour and per substitution, a few hundred a step, and a sleep-and-wake costs about as
+// much as such a job. One job at a time; no allocation after creation.
 #include "pool.h"
 
 #include "core.h"
 
 #include <pthread.h>
+#include <stdbool.h>
 #include <stdatomic.h>
 #include <unistd.h>
 
@@ -22,15 +25,51 @@ struct od_Pool
 	od_PoolWorker* args;
 	pthread_mutex_t lock;
 	pthread_cond_t wake, done;
-	long long generation;
-	int quit;
+	atomic_llong generation;
+	atomic_int quit;
 	// the current job
 	od_PoolFn* fn;
 	void* ctx;
 	int count;
 	atomic_int next;
-	int running; // workers still inside the current job
+	atomic_int running; // workers still inside the current job
 };
+
+#define OD_POOL_SPIN 20000
+
+static void od_Pause(void)
+{
+#if defined(__x86_64__) || defined(__i386__)
+	__builtin_ia32_pause();
+#endif
+}
+
+// Spins until `*value != unwanted` or the spin budget is spent; true when it changed.
+static bool od_SpinWhileLL(atomic_llong* value, long long unwanted, atomic_int* quit)
+{
+	for (int k = 0; k < OD_POOL_SPIN; ++k)
+	{
+		if (atomic_load(value) != unwanted || atomic_load(quit))
+		{
+			return true;
+		}
+		od_Pause();
+	}
+	return false;
+}
+
+static bool od_SpinWhileBusy(atomic_int* running)
+{
+	for (int k = 0; k < OD_POOL_SPIN; ++k)
+	{
+		if (atomic_load(running) == 0)
+		{
+			return true;
+		}
+		od_Pause();
+	}
+	return false;
+}
 
 static void od_Pool_Work(od_Pool* pool, int thread)
 {
@@ -46,27 +85,30 @@ static void* od_Pool_Main(void* arg)
 	od_Pool* pool = w->pool;
 	int thread = w->thread;
 	long long seen = 0;
-	pthread_mutex_lock(&pool->lock);
 	for (;;)
 	{
-		while (!pool->quit && pool->generation == seen)
+		if (!od_SpinWhileLL(&pool->generation, seen, &pool->quit))
 		{
-			pthread_cond_wait(&pool->wake, &pool->lock);
+			pthread_mutex_lock(&pool->lock);
+			while (!atomic_load(&pool->quit) && atomic_load(&pool->generation) == seen)
+			{
+				pthread_cond_wait(&pool->wake, &pool->lock);
+			}
+			pthread_mutex_unlock(&pool->lock);
 		}
-		if (pool->quit)
+		if (atomic_load(&pool->quit))
 		{
 			break;
 		}
-		seen = pool->generation;
-		pthread_mutex_unlock(&pool->lock);
+		seen = atomic_load(&pool->generation);
 		od_Pool_Work(pool, thread);
-		pthread_mutex_lock(&pool->lock);
-		if (--pool->running == 0)
+		if (atomic_fetch_sub(&pool->running, 1) == 1)
 		{
+			pthread_mutex_lock(&pool->lock); // the caller may be about to sleep on `done`
 			pthread_cond_signal(&pool->done);
+			pthread_mutex_unlock(&pool->lock);
 		}
 	}
-	pthread_mutex_unlock(&pool->lock);
 	return NULL;
 }
 
@@ -115,7 +157,7 @@ void od_Pool_Destroy(od_Pool* pool)
 	if (pool->workers && pool->args)
 	{
 		pthread_mutex_lock(&pool->lock);
-		pool->quit = 1;
+		atomic_store(&pool->quit, 1);
 		pthread_cond_broadcast(&pool->wake);
 		pthread_mutex_unlock(&pool->lock);
 		for (int t = 1; t < pool->threads; ++t)
@@ -155,15 +197,18 @@ void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx)
 	pool->ctx = ctx;
 	pool->count = count;
 	atomic_store(&pool->next, 0);
-	pool->running = pool->threads - 1;
-	pool->generation++;
+	atomic_store(&pool->running, pool->threads - 1);
+	atomic_fetch_add(&pool->generation, 1);
 	pthread_cond_broadcast(&pool->wake);
 	pthread_mutex_unlock(&pool->lock);
 	od_Pool_Work(pool, 0);
-	pthread_mutex_lock(&pool->lock);
-	while (pool->running > 0)
+	if (!od_SpinWhileBusy(&pool->running))
 	{
-		pthread_cond_wait(&pool->done, &pool->lock);
+		pthread_mutex_lock(&pool->lock);
+		while (atomic_load(&pool->running) > 0)
+		{
+			pthread_cond_wait(&pool->done, &pool->lock);
+		}
+		pthread_mutex_unlock(&pool->lock);
 	}
-	pthread_mutex_unlock(&pool->lock);
 }

@@ -97,11 +97,7 @@ struct od_Sim
 	double* trace;
 	int traceCount, traceCapacity;
 
-	// Per directed edge (CSR order of graph->adj), scaled by k; rebuilt when k changes:
-	// k (Ā_j + Ā_i) and k v_j (X̄_j - X̄_i) of the local step, k v_j (X̄_i - X̄_j) of the right side.
-	double* edgeMoment; // 9 per directed edge
-	double* edgeArm;    // 3 per directed edge
-	double edgeStiffness;
+	double* rotatedMoment; // n*9, R_i Ā_i, current during a local step (local_step.c)
 
 	od_SolverDef solverDef;
 	od_Accelerator accelerator;
@@ -129,13 +125,12 @@ od_Status od_Constraints_Prepare(od_Sim* sim);
 void od_Constraints_BeginLocal(od_Sim* sim);
 void od_Constraints_AddLocal(const od_Sim* sim, int i, const od_Mat3* ri, od_Mat3* c);
 void od_Constraints_RotationChanged(od_Sim* sim, int i, const od_Mat3* before, const od_Mat3* after);
-void od_Constraints_AddRhs(const od_Sim* sim, double* b);
+od_Vec3 od_Constraints_RhsRow(const od_Sim* sim, int a);
 bool od_Constraints_Touches(const od_Sim* sim, int i);
 double od_Constraints_Energy(const od_Sim* sim);
 od_Status od_Constraints_CheckPinned(const od_Sim* sim);
 
 // local_step.c
-void od_LocalStep_PrepareEdges(od_Sim* sim);
 od_Status od_LocalStep_PrepareColors(od_Sim* sim);
 void od_LocalStep(od_Sim* sim);
 

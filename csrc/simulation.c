@@ -107,7 +107,7 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 	od_Pool_Destroy(sim->pool);
 	sim->pool = pool;
 	sim->colorsDirty = true;
-	if (def->factorization != sim->solverDef.factorization)
+	if (def->factorization != sim->solverDef.factorization || def->threads != sim->solverDef.threads)
 	{
 		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
 		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
@@ -222,9 +222,8 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 		sim->Rtilde = od_Alloc(sizeof(double) * 9 * n);
 		sim->inertiaTerm = od_Alloc(sizeof(double) * 9 * n);
 		sim->angularScale = od_Alloc(sizeof(double) * n);
-		sim->edgeMoment = od_Alloc(sizeof(double) * 18 * graph->edgeCount);
-		sim->edgeArm = od_Alloc(sizeof(double) * 6 * graph->edgeCount);
-		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->angularScale && sim->edgeMoment && sim->edgeArm
+		sim->rotatedMoment = od_Alloc(sizeof(double) * 9 * n);
+		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->angularScale && sim->rotatedMoment
 					 ? OD_OK
 					 : od_Fail(OD_ERROR_MEMORY, "out of memory for a simulation of %d particles", n);
 	}
@@ -260,8 +259,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->Rtilde);
 	od_Free(sim->inertiaTerm);
 	od_Free(sim->angularScale);
-	od_Free(sim->edgeMoment);
-	od_Free(sim->edgeArm);
+	od_Free(sim->rotatedMoment);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Accelerator_Destroy(&sim->accelerator);
@@ -599,7 +597,6 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		atomic_store(&sim->busy, 0);
 		return status;
 	}
-	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
 	return OD_OK;
 }

@@ -1,0 +1,21 @@
+// The global matrix's Cholesky factor, copied from CHOLMOD into a compact layout of our own, and its
+// forward and back substitution for the three right sides (x, y, z) at once. See cholesky.c.
+#pragma once
+
+#include "opdeform/base.h"
+#include "pool.h"
+
+#include <cholmod.h>
+
+typedef struct od_Cholesky od_Cholesky;
+
+// Copies the factor (converted in place to a simplicial LLᵀ) and plans the substitution for `threads`
+// threads (1: serial). CHOLMOD's factor may be freed afterwards.
+od_Status od_Cholesky_Create(cholmod_factor* factor, cholmod_common* common, int threads, od_Cholesky** out);
+void od_Cholesky_Destroy(od_Cholesky* chol);
+// The threads the plan splits the substitution over (1 when the elimination tree does not split well).
+int od_Cholesky_Threads(const od_Cholesky* chol);
+// Solves A x = b; b and x hold n rows of (x, y, z) in particle order and may alias. With a pool whose
+// thread count matches the plan, independent subtrees of the elimination tree run in parallel; the
+// result does not depend on which thread ran what.
+void od_Cholesky_Solve(od_Cholesky* chol, od_Pool* pool, const double* b, double* x);
