@@ -177,14 +177,16 @@ od_Status od_LocalStep_PrepareColors(od_Sim* sim)
 	return OD_OK;
 }
 
-#define OD_SWEEP_CHUNK 64
+// Work is cut into one contiguous range of particle indices per thread (od_TaskRange), not handed out in
+// small chunks: neighbouring indices share cache lines of R and P, and interleaved chunks made the two
+// threads fight over them (the 10k-particle sweep ran slower on two threads than on one).
 #define OD_MAX_THREADS 64
 
 typedef struct od_SweepJob
 {
 	od_Sim* sim;
 	const int* items;
-	int count;
+	int count, tasks;
 	bool directions;
 	long long fallbacks[OD_MAX_THREADS];
 } od_SweepJob;
@@ -192,8 +194,9 @@ typedef struct od_SweepJob
 static void od_SweepTask(void* ctx, int task, int thread)
 {
 	od_SweepJob* job = ctx;
-	int end = (task + 1) * OD_SWEEP_CHUNK < job->count ? (task + 1) * OD_SWEEP_CHUNK : job->count;
-	for (int k = task * OD_SWEEP_CHUNK; k < end; ++k)
+	int begin, end;
+	od_TaskRange(job->count, job->tasks, task, &begin, &end);
+	for (int k = begin; k < end; ++k)
 	{
 		job->fallbacks[thread] += od_UpdateRotation(job->sim, job->items[k], job->directions);
 	}
@@ -203,8 +206,9 @@ static void od_RotatedMomentTask(void* ctx, int task, int thread)
 {
 	(void)thread;
 	od_Sim* sim = ctx;
-	int end = (task + 1) * OD_SWEEP_CHUNK < sim->graph->n ? (task + 1) * OD_SWEEP_CHUNK : sim->graph->n;
-	for (int i = task * OD_SWEEP_CHUNK; i < end; ++i)
+	int begin, end;
+	od_TaskRange(sim->graph->n, od_Pool_Threads(sim->pool), task, &begin, &end);
+	for (int i = begin; i < end; ++i)
 	{
 		od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
 		od_SetRotatedMoment(sim, i, &r);
@@ -223,16 +227,16 @@ void od_LocalStep(od_Sim* sim)
 static void od_Sweep(od_Sim* sim)
 {
 	bool directions = sim->constraints.directionCount > 0;
-	int chunks = (sim->graph->n + OD_SWEEP_CHUNK - 1) / OD_SWEEP_CHUNK;
 	if (sim->pool)
 	{
-		od_Pool_Run(sim->pool, chunks, od_RotatedMomentTask, sim);
+		od_Pool_Run(sim->pool, od_Pool_Threads(sim->pool), od_RotatedMomentTask, sim);
 	}
 	else
 	{
-		for (int t = 0; t < chunks; ++t)
+		for (int i = 0; i < sim->graph->n; ++i)
 		{
-			od_RotatedMomentTask(sim, t, 0);
+			od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
+			od_SetRotatedMoment(sim, i, &r);
 		}
 	}
 	if (directions)
@@ -247,12 +251,12 @@ static void od_Sweep(od_Sim* sim)
 		}
 		return;
 	}
-	od_SweepJob job = { .sim = sim, .directions = directions };
+	od_SweepJob job = { .sim = sim, .directions = directions, .tasks = od_Pool_Threads(sim->pool) };
 	for (int c = 0; c < sim->colorCount; ++c)
 	{
 		job.items = sim->colorOrder + sim->colorStart[c];
 		job.count = sim->colorStart[c + 1] - sim->colorStart[c];
-		od_Pool_Run(sim->pool, (job.count + OD_SWEEP_CHUNK - 1) / OD_SWEEP_CHUNK, od_SweepTask, &job);
+		od_Pool_Run(sim->pool, job.tasks, od_SweepTask, &job);
 	}
 	for (int t = 0; t < OD_MAX_THREADS; ++t)
 	{
