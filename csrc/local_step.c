@@ -191,11 +191,18 @@ typedef struct od_SweepJob
 	long long fallbacks[OD_MAX_THREADS];
 } od_SweepJob;
 
+// A colour with fewer particles runs on the calling thread: waking the others costs more (measured: 100
+// particles stepped 1.6x slower on two threads than on one).
+#define OD_SWEEP_SPLIT 512
+
 static void od_SweepTask(void* ctx, int task, int thread)
 {
 	od_SweepJob* job = ctx;
-	int begin, end;
-	od_TaskRange(job->count, job->tasks, task, &begin, &end);
+	int begin = 0, end = job->count;
+	if (job->count >= OD_SWEEP_SPLIT)
+	{
+		od_TaskRange(job->count, job->tasks, task, &begin, &end);
+	}
 	for (int k = begin; k < end; ++k)
 	{
 		job->fallbacks[thread] += od_UpdateRotation(job->sim, job->items[k], job->directions);
@@ -227,7 +234,7 @@ void od_LocalStep(od_Sim* sim)
 static void od_Sweep(od_Sim* sim)
 {
 	bool directions = sim->constraints.directionCount > 0;
-	if (sim->pool)
+	if (sim->pool && sim->graph->n >= OD_SWEEP_SPLIT)
 	{
 		od_Pool_Run(sim->pool, od_Pool_Threads(sim->pool), od_RotatedMomentTask, sim);
 	}
@@ -256,7 +263,7 @@ static void od_Sweep(od_Sim* sim)
 	{
 		job.items = sim->colorOrder + sim->colorStart[c];
 		job.count = sim->colorStart[c + 1] - sim->colorStart[c];
-		od_Pool_Run(sim->pool, job.tasks, od_SweepTask, &job);
+		od_Pool_Run(sim->pool, job.count >= OD_SWEEP_SPLIT ? job.tasks : 1, od_SweepTask, &job);
 	}
 	for (int t = 0; t < OD_MAX_THREADS; ++t)
 	{
