@@ -234,11 +234,11 @@ void od_LocalStep(od_Sim* sim)
 static void od_Sweep(od_Sim* sim)
 {
 	bool directions = sim->constraints.directionCount > 0;
-	if (sim->pool && sim->graph->n >= OD_SWEEP_SPLIT)
+	if (!sim->rotatedMomentValid && sim->pool && sim->graph->n >= OD_SWEEP_SPLIT)
 	{
 		od_Pool_Run(sim->pool, od_Pool_Threads(sim->pool), od_RotatedMomentTask, sim);
 	}
-	else
+	else if (!sim->rotatedMomentValid)
 	{
 		for (int i = 0; i < sim->graph->n; ++i)
 		{
@@ -246,6 +246,7 @@ static void od_Sweep(od_Sim* sim)
 			od_SetRotatedMoment(sim, i, &r);
 		}
 	}
+	sim->rotatedMomentValid = true; // the sweep keeps P current as it turns each particle
 	if (directions)
 	{
 		od_Constraints_BeginLocal(sim);

@@ -97,7 +97,8 @@ struct od_Sim
 	double* trace;
 	int traceCount, traceCapacity;
 
-	double* rotatedMoment; // n*9, R_i Ā_i, current during a local step (local_step.c)
+	double* rotatedMoment;   // n*9, R_i Ā_i (local_step.c)
+	bool rotatedMomentValid; // rotatedMoment matches state.R; cleared wherever R changes outside a sweep
 
 	od_SolverDef solverDef;
 	od_Accelerator accelerator;

@@ -502,6 +502,7 @@ static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
 	int n = sim->graph->n;
 	double* rot = sim->state.R;
 	memcpy(sim->RInput, rot, sizeof(double) * 9 * n);
+	sim->rotatedMomentValid = false; // the last iteration ended on projected or restored rotations
 	od_LocalStep(sim);
 	memcpy(sim->RPlain, rot, sizeof(double) * 9 * n);
 	od_Accelerator_Apply(&sim->accelerator, sim->RInput, sim->RPlain);
@@ -532,6 +533,7 @@ static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
 static od_Status od_Iterate(od_Sim* sim, int iterations)
 {
 	sim->traceCount = 0;
+	sim->rotatedMomentValid = false; // R may have been set, predicted or orthonormalized since the last sweep
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
 	if (sim->solverDef.accelerator != OD_ACCELERATE_NONE && status == OD_OK)
