@@ -105,12 +105,11 @@ struct od_Sim
 	double* RInput; // 9n, the input R_k of an accelerated iteration (then the accelerated matrices)
 	double* RPlain; // 9n, its plain iterate local(global(R_k))
 	od_Pool* pool;  // local-step threads when solverDef.threads > 1
-	// Particles by colour: no two of one colour share an edge or a constraint, so a colour's rotations
-	// can be updated in parallel (Gauss-Seidel across colours). Rebuilt with the constraint terms.
-	int colorCount;
-	int* colorStart; // colorCount + 1
-	int* colorOrder; // n
-	bool colorsDirty;
+	// The parallel sweep's partition (local_step.c): sweepOrder[sweepStart[b]..sweepStart[b+1]) is block b's
+	// interior, swept by one thread; the last range, up to n, the border. Rebuilt with the constraint terms.
+	int* sweepStart; // threads + 2
+	int* sweepOrder; // n
+	bool partitionDirty;
 
 	od_SimCounters counters;
 	_Atomic int busy;
@@ -132,7 +131,7 @@ double od_Constraints_Energy(const od_Sim* sim);
 od_Status od_Constraints_CheckPinned(const od_Sim* sim);
 
 // local_step.c
-od_Status od_LocalStep_PrepareColors(od_Sim* sim);
+od_Status od_LocalStep_PreparePartition(od_Sim* sim);
 void od_LocalStep(od_Sim* sim);
 
 // global_solve.c

@@ -106,7 +106,7 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 	}
 	od_Pool_Destroy(sim->pool);
 	sim->pool = pool;
-	sim->colorsDirty = true;
+	sim->partitionDirty = true;
 	if (def->factorization != sim->solverDef.factorization || def->threads != sim->solverDef.threads)
 	{
 		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
@@ -206,7 +206,7 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 	sim->constraints.touchDirty = true;
 	sim->constraints.targetsDirty = true;
 	sim->solverDef = od_DefaultSolverDef();
-	sim->colorsDirty = true;
+	sim->partitionDirty = true;
 	status = od_AllocState(&sim->state, n);
 	if (status == OD_OK)
 	{
@@ -266,8 +266,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Pool_Destroy(sim->pool);
 	od_Free(sim->RInput);
 	od_Free(sim->RPlain);
-	od_Free(sim->colorStart);
-	od_Free(sim->colorOrder);
+	od_Free(sim->sweepStart);
+	od_Free(sim->sweepOrder);
 	od_GlobalSolver_Destroy(sim->solver[0]);
 	od_GlobalSolver_Destroy(sim->solver[1]);
 	od_Free(sim);
@@ -584,11 +584,11 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
 	}
 	sim->mode = mode;
-	sim->colorsDirty = sim->colorsDirty || sim->constraints.touchDirty;
+	sim->partitionDirty = sim->partitionDirty || sim->constraints.touchDirty;
 	od_Status status = od_Constraints_Prepare(sim);
 	if (status == OD_OK && sim->pool)
 	{
-		status = od_LocalStep_PrepareColors(sim);
+		status = od_LocalStep_PreparePartition(sim);
 	}
 	if (status == OD_OK && mode == OD_STATIC)
 	{
