@@ -392,12 +392,29 @@ od_Status od_MpmWorld_Substep(od_MpmWorld* w, double dt)
 	return status;
 }
 
+// A Step that would need more substeps than this fails instead of running for hours (a cfl or max_dt far
+// too small for the duration): 100,000 substeps are ~4e-7 s each for a frame at 24 fps.
+#define OD_MPM_MAX_SUBSTEPS 100000
+
+static od_Status od_TooManySubsteps(double duration, double dt)
+{
+	return od_Fail(OD_ERROR_ARGUMENT,
+				   "step: %g s needs more than %d substeps of %g s (cfl, max_dt or the material's wave speed); "
+				   "step it in shorter calls",
+				   duration, OD_MPM_MAX_SUBSTEPS, dt);
+}
+
 od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 {
 	od_Status status = od_CheckCall(w, "duration", duration);
 	if (status != OD_OK)
 	{
 		return status;
+	}
+	double first = od_CflDt(w);
+	if (first > 0.0 && duration / first > OD_MPM_MAX_SUBSTEPS)
+	{
+		return od_TooManySubsteps(duration, first); // before anything moves
 	}
 	od_BeginCall(w, duration);
 	double elapsed = 0.0;
@@ -411,6 +428,11 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 			status = od_Fail(OD_ERROR_NOT_FINITE, "step: the CFL substep is %g s at time %g s (the material's wave "
 												  "speed overflowed); the state is no longer usable",
 							 dt, w->state.stats.time);
+			break;
+		}
+		if (substeps == OD_MPM_MAX_SUBSTEPS) // the material sped up: the state stays valid at this time
+		{
+			status = od_TooManySubsteps(duration, dt);
 			break;
 		}
 		// even out the end: never leave a sliver of a substep

@@ -245,3 +245,15 @@ def test_bad_world_and_empty_world():
         mpm.World((0, 0, 0), (1, -1, 1), 0.1)
     with pytest.raises(ValueError, match="no particles"):
         mpm.World((0, 0, 0), (1, 1, 1), 0.1).step(0.01)
+
+
+def test_absurd_substep_bound_fails_before_moving_anything():
+    """A max_dt far too small for the duration would run for hours: the call refuses, the world unchanged."""
+    w = mpm.World((0, 0, 0), (1, 1, 1), 1 / 16, max_dt=1e-9, threads=1)
+    w.add_particles(mpm.fill_box((0.4, 0.4, 0.4), (0.6, 0.6, 0.6), 1 / 32), mpm.snow())
+    before = w.read("positions").copy()
+    with pytest.raises(ValueError, match="more than 100000 substeps"):
+        w.step(1 / 24)
+    assert np.array_equal(w.read("positions"), before)
+    w.step(1e-6)  # short calls still run
+    assert 1000 <= w.stats["last_substeps"] <= 1001  # the last substeps are evened out

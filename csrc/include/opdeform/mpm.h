@@ -159,6 +159,9 @@ od_Status od_MpmWorld_AddCollider(od_MpmWorld* world, const od_MpmColliderDef* d
 od_Status od_MpmWorld_MoveCollider(od_MpmWorld* world, int id, const double rotation[9], const double translation[3]);
 
 // Advances `duration` seconds in substeps chosen by the CFL condition, then updates the orientations.
+// OD_ERROR_ARGUMENT, with nothing moved, when the duration would take more than 100,000 substeps (and if
+// the material speeds up past that mid-call, the world stays valid at the time reached). OD_ERROR_NOT_FINITE
+// when a substep produced a non-finite state: the world's state is then unusable; create a new world.
 od_Status od_MpmWorld_Step(od_MpmWorld* world, double duration);
 // One substep of exactly dt (no CFL); orientations are not updated.
 od_Status od_MpmWorld_Substep(od_MpmWorld* world, double dt);
