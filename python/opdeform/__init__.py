@@ -262,9 +262,11 @@ class Simulation:
 
     def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto"):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
-        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy; local
-        step ``threads`` (0: one per core; more than 1 updates rotations colour by colour); CHOLMOD's
-        ``factorization`` path ("auto", "simplicial" or "supernodal")."""
+        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy;
+        ``threads`` (0: one per core) for the local step (a block of particles per thread, then the border),
+        the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
+        run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
+        flops per factor entry, else supernodal; "simplicial"; "supernodal")."""
         if accelerator not in self.ACCELERATORS:
             raise ValueError(f"accelerator must be one of {self.ACCELERATORS}, got {accelerator!r}")
         if factorization not in self.FACTORIZATIONS:
