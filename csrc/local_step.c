@@ -12,14 +12,34 @@
 
 #include <string.h>
 
-// C_i's elastic part, k Σ_j [R_j Ā_j + R_j Ā_i + v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ], is summed as k [Σ_j P_j +
-// (Σ_j R_j) Ā_i + Σ_j ...] with P_j = R_j Ā_j kept per particle (od_SetRotatedMoment): a neighbour costs 18
-// additions and 9 multiply-adds, and everything read per edge is a per-particle array that stays in cache.
-static void od_SetRotatedMoment(od_Sim* sim, int i, const od_Mat3* r)
+void od_LocalStep_PrepareEdges(od_Sim* sim)
 {
-	od_Mat3 a = od_M3Load(sim->graph->moments + 9 * i);
-	od_Mat3 p = od_M3Mul(r, &a);
-	od_M3Store(sim->rotatedMoment + 9 * i, &p);
+	const od_Graph* g = sim->graph;
+	double k = sim->def.stiffness;
+	if (sim->edgeStiffness == k)
+	{
+		return;
+	}
+	for (int i = 0; i < g->n; ++i)
+	{
+		od_Mat3 ai = od_M3Load(g->moments + 9 * i);
+		od_Vec3 ci = od_V3Load(g->centers + 3 * i), row = od_V3(0, 0, 0);
+		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+		{
+			int j = g->adj[e];
+			od_Mat3 sum = od_M3Load(g->moments + 9 * j);
+			od_M3AddScaled(&sum, 1.0, &ai);
+			for (int c = 0; c < 9; ++c)
+			{
+				sim->edgeMoment[9 * e + c] = k * sum.m[c];
+			}
+			od_Vec3 arm = od_Scale(k * g->volumes[j], od_Sub(od_V3Load(g->centers + 3 * j), ci));
+			od_V3Store(sim->edgeArm + 3 * e, arm);
+			row = od_Sub(row, arm);
+		}
+		od_V3Store(sim->rowArm + 3 * i, row);
+	}
+	sim->edgeStiffness = k;
 }
 
 static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
@@ -27,49 +47,32 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 	const od_Graph* g = sim->graph;
 	const double* x = sim->state.x;
 	const double* rot = sim->state.R;
-	const double* pm = sim->rotatedMoment;
-	const double* ctr = g->centers;
-	double sumP[9] = { 0 }, sumR[9] = { 0 }, arm[9] = { 0 };
+	double c[9] = { 0 };
+	double xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
 	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 	{
 		int j = g->adj[e];
 		const double* rj = rot + 9 * j;
-		const double* pj = pm + 9 * j;
-		for (int c = 0; c < 9; ++c)
-		{
-			sumP[c] += pj[c];
-			sumR[c] += rj[c];
-		}
-		double vj = g->volumes[j];
-		double d[3], a[3];
-		for (int c = 0; c < 3; ++c)
-		{
-			d[c] = x[3 * j + c] - x[3 * i + c];
-			a[c] = vj * (ctr[3 * j + c] - ctr[3 * i + c]);
-		}
+		const double* m = sim->edgeMoment + 9 * e;
+		const double* a = sim->edgeArm + 3 * e;
+		double d[3] = { x[3 * j] - xi0, x[3 * j + 1] - xi1, x[3 * j + 2] - xi2 };
 		for (int r = 0; r < 3; ++r)
 		{
-			for (int c = 0; c < 3; ++c)
+			for (int k = 0; k < 3; ++k)
 			{
-				arm[3 * r + c] += d[r] * a[c];
+				c[3 * r + k] += rj[3 * r] * m[k] + rj[3 * r + 1] * m[3 + k] + rj[3 * r + 2] * m[6 + k] + d[r] * a[k];
 			}
 		}
-	}
-	od_Mat3 ai = od_M3Load(g->moments + 9 * i), sr = od_M3Load(sumR);
-	od_Mat3 out = od_M3Mul(&sr, &ai);
-	double k = sim->def.stiffness;
-	for (int c = 0; c < 9; ++c)
-	{
-		out.m[c] = k * (out.m[c] + sumP[c] + arm[c]);
 	}
 	if (sim->mode == OD_DYNAMIC)
 	{
 		const double* t = sim->inertiaTerm + 9 * i;
-		for (int c = 0; c < 9; ++c)
+		for (int k = 0; k < 9; ++k)
 		{
-			out.m[c] += t[c];
+			c[k] += t[k];
 		}
 	}
+	od_Mat3 out = od_M3Load(c);
 	if (od_Constraints_Touches(sim, i))
 	{
 		od_Constraints_AddLocal(sim, i, ri, &out);
@@ -85,7 +88,6 @@ static int od_UpdateRotation(od_Sim* sim, int i, bool directions)
 	od_Mat3 r = before;
 	int fallback = od_PolarRotationWarm(&c, &r);
 	od_M3Store(rot, &r);
-	od_SetRotatedMoment(sim, i, &r);
 	if (directions)
 	{
 		od_Constraints_RotationChanged(sim, i, &before, &r);
@@ -199,19 +201,6 @@ static void od_SweepTask(void* ctx, int block, int thread)
 	}
 }
 
-static void od_RotatedMomentTask(void* ctx, int task, int thread)
-{
-	(void)thread;
-	od_Sim* sim = ctx;
-	int begin, end;
-	od_TaskRange(sim->graph->n, od_Pool_Threads(sim->pool), task, &begin, &end);
-	for (int i = begin; i < end; ++i)
-	{
-		od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
-		od_SetRotatedMoment(sim, i, &r);
-	}
-}
-
 static void od_Sweep(od_Sim* sim);
 
 void od_LocalStep(od_Sim* sim)
@@ -224,19 +213,6 @@ void od_LocalStep(od_Sim* sim)
 static void od_Sweep(od_Sim* sim)
 {
 	bool directions = sim->constraints.directionCount > 0;
-	if (!sim->rotatedMomentValid && sim->pool && sim->graph->n >= OD_SWEEP_SPLIT)
-	{
-		od_Pool_Run(sim->pool, od_Pool_Threads(sim->pool), od_RotatedMomentTask, sim);
-	}
-	else if (!sim->rotatedMomentValid)
-	{
-		for (int i = 0; i < sim->graph->n; ++i)
-		{
-			od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
-			od_SetRotatedMoment(sim, i, &r);
-		}
-	}
-	sim->rotatedMomentValid = true; // the sweep keeps P current as it turns each particle
 	if (directions)
 	{
 		od_Constraints_BeginLocal(sim);

@@ -97,8 +97,12 @@ struct od_Sim
 	double* trace;
 	int traceCount, traceCapacity;
 
-	double* rotatedMoment;   // n*9, R_i Ā_i (local_step.c)
-	bool rotatedMomentValid; // rotatedMoment matches state.R; cleared wherever R changes outside a sweep
+	// Per directed edge (CSR order of graph->adj), scaled by k; rebuilt when k changes:
+	// k (Ā_j + Ā_i) and k v_j (X̄_j - X̄_i) of the local step, k v_j (X̄_i - X̄_j) of the right side.
+	double* edgeMoment; // 9 per directed edge
+	double* edgeArm;    // 3 per directed edge
+	double* rowArm;     // 3 per particle: k Σ_j v_j (X̄_i - X̄_j), the right side's R_i term (global_solve.c)
+	double edgeStiffness;
 
 	od_SolverDef solverDef;
 	od_Accelerator accelerator;
@@ -131,6 +135,7 @@ double od_Constraints_Energy(const od_Sim* sim);
 od_Status od_Constraints_CheckPinned(const od_Sim* sim);
 
 // local_step.c
+void od_LocalStep_PrepareEdges(od_Sim* sim);
 od_Status od_LocalStep_PreparePartition(od_Sim* sim);
 void od_LocalStep(od_Sim* sim);
 

@@ -222,8 +222,11 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 		sim->Rtilde = od_Alloc(sizeof(double) * 9 * n);
 		sim->inertiaTerm = od_Alloc(sizeof(double) * 9 * n);
 		sim->angularScale = od_Alloc(sizeof(double) * n);
-		sim->rotatedMoment = od_Alloc(sizeof(double) * 9 * n);
-		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->angularScale && sim->rotatedMoment
+		sim->edgeMoment = od_Alloc(sizeof(double) * 18 * graph->edgeCount);
+		sim->edgeArm = od_Alloc(sizeof(double) * 6 * graph->edgeCount);
+		sim->rowArm = od_Alloc(sizeof(double) * 3 * n);
+		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->angularScale && sim->edgeMoment && sim->edgeArm &&
+						 sim->rowArm
 					 ? OD_OK
 					 : od_Fail(OD_ERROR_MEMORY, "out of memory for a simulation of %d particles", n);
 	}
@@ -259,7 +262,9 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->Rtilde);
 	od_Free(sim->inertiaTerm);
 	od_Free(sim->angularScale);
-	od_Free(sim->rotatedMoment);
+	od_Free(sim->edgeMoment);
+	od_Free(sim->edgeArm);
+	od_Free(sim->rowArm);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Accelerator_Destroy(&sim->accelerator);
@@ -502,7 +507,6 @@ static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
 	int n = sim->graph->n;
 	double* rot = sim->state.R;
 	memcpy(sim->RInput, rot, sizeof(double) * 9 * n);
-	sim->rotatedMomentValid = false; // the last iteration ended on projected or restored rotations
 	od_LocalStep(sim);
 	memcpy(sim->RPlain, rot, sizeof(double) * 9 * n);
 	od_Accelerator_Apply(&sim->accelerator, sim->RInput, sim->RPlain);
@@ -533,7 +537,6 @@ static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
 static od_Status od_Iterate(od_Sim* sim, int iterations)
 {
 	sim->traceCount = 0;
-	sim->rotatedMomentValid = false; // R may have been set, predicted or orthonormalized since the last sweep
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
 	if (sim->solverDef.accelerator != OD_ACCELERATE_NONE && status == OD_OK)
@@ -599,6 +602,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		atomic_store(&sim->busy, 0);
 		return status;
 	}
+	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
 	return OD_OK;
 }

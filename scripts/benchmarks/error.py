@@ -104,7 +104,7 @@ def steady_twist():
 
 def build_scenes(quick):
     out = []
-    out.append(Scene("bar static pose from rest", scenes.fig1_bar, "static"))
+    out.append(Scene("bar static pose from rest", scenes.fig1_bar, "static", k_max=5000))
     out.append(Scene("twisted bar hard step", twist_prepared([]), "step"))
     make, state = steady_twist()
     sc = Scene("twisted bar steady state", make, "step", prepare=lambda s: s.set_state(*state))
