@@ -2,8 +2,10 @@
 with the shares of the local step, the global solve and skinning (a surface mesh of ~10 vertices per
 particle, deformed every step without normals), the growth rate, and the one-off cost of analysing and
 factoring with CHOLMOD's simplicial and supernodal paths (the substitution is the same for both: cholesky.c
-copies the factor). Options: --max N (largest particle count, default 100000)."""
+copies the factor). Writes out/bench/scale/scale.csv and scale.png (ms/step against particles, log-log, with
+the share of each stage). Options: --max N (largest particle count, default 100000)."""
 
+import csv
 import math
 import os
 import statistics
@@ -14,7 +16,7 @@ import numpy as np
 import opdeform
 from opdeform import meshes
 
-from .common import table
+from .common import out_dir, table
 from .error import lattice
 
 SIZES = ((10, 5, 2), (10, 10, 10), (100, 10, 10), (250, 20, 20))  # 100, 1,000, 10,000 and 100,000 particles
@@ -75,7 +77,7 @@ def measure(sim, skin, steps):
 def run(args):
     largest = int(args[args.index("--max") + 1]) if "--max" in args else 100000
     cores = os.cpu_count() or 1
-    rows, factor_rows, series = [], [], {}
+    rows, factor_rows, series, shares = [], [], {}, []
     for dims in SIZES:
         n = dims[0] * dims[1] * dims[2]
         if n > largest:
@@ -91,6 +93,7 @@ def run(args):
             series.setdefault(label, []).append((n, ms))
             rows.append((n, sim.graph.n_edges, skin.n_vertices, label, f"{ms:.3f}", f"{skin_ms:.3f}",
                          f"{100 * local:.0f} %", f"{100 * glob:.0f} %", f"{100 * skin_share:.0f} %"))
+            shares.append((n, label, local, glob, skin_share))
         factor_rows.append((n, *(f"{factor_ms(dims, f):.1f}" for f in ("simplicial", "supernodal"))))
     table(rows, ["particles", "edges", "vertices", "threads", "ms/step", "skin ms", "local", "global", "skinning"])
     print()
@@ -99,7 +102,42 @@ def run(args):
     for label, pts in series.items():
         for (n0, t0), (n1, t1) in zip(pts, pts[1:]):
             print(f"growth ({label}), {n0} -> {n1} particles: ms/step ~ n^{math.log(t1 / t0) / math.log(n1 / n0):.2f}")
+    write(rows, series, shares)
     ten_k = {label: ms for label, pts in series.items() for n, ms in pts if n == 10000}
     if ten_k:
         best = min(ten_k, key=ten_k.get)
         print(f"10,000 particles at 10 iterations: {ten_k[best]:.2f} ms/step on {best} (aim: under 16 ms)")
+
+
+def write(rows, series, shares):
+    folder = out_dir("scale")
+    with open(os.path.join(folder, "scale.csv"), "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["particles", "edges", "vertices", "threads", "ms_per_step", "skin_ms", "local", "global",
+                    "skinning"])
+        w.writerows(rows)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 3.8))
+    for label, pts in series.items():
+        a.loglog(*zip(*pts), marker="o", label=label)
+    a.axhline(16.0, color="grey", ls=":", label="16 ms")
+    a.set_xlabel("particles")
+    a.set_ylabel("ms/step (10 iterations)")
+    a.legend(fontsize=8)
+    names = [f"{n:,}\n{label}" for n, label, *_ in shares]
+    bottom = np.zeros(len(shares))
+    for k, stage in enumerate(("local step", "global solve", "skinning")):
+        part = np.array([x[2 + k] for x in shares]) * 100
+        b.bar(names, part, bottom=bottom, label=stage)
+        bottom += part
+    b.set_ylabel("% of step + skinning")
+    b.tick_params(axis="x", labelsize=6)
+    b.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(folder, "scale.png"), dpi=90)
+    plt.close(fig)
+    print(f"wrote {folder}/scale.csv and scale.png")
