@@ -1,10 +1,15 @@
-"""Dispatch: python -m benchmarks [suite|all] [options]. The default suite is `core`."""
+"""Dispatch: python -m benchmarks [suite|report|all] [options]. The default suite is `core`; `report` runs
+the error-against-time report with its plots, the stability table, the leave-it-out switches and the scale
+series in one go."""
 
 import importlib
 import pkgutil
 import sys
 
 import benchmarks
+
+
+REPORT = ("error", "stability", "features", "scale")
 
 
 def suites():
@@ -14,7 +19,7 @@ def suites():
 def main(argv):
     names = suites()
     if argv and argv[0] in ("-h", "--help"):
-        print("usage: scripts/bench [SUITE|all] [options]\nsuites:")
+        print("usage: scripts/bench [SUITE|report|all] [options]\nsuites:")
         for name in names:
             print(f"  {name:10s} {importlib.import_module('benchmarks.' + name).__doc__.strip().splitlines()[0]}")
         return 0
@@ -25,7 +30,7 @@ def main(argv):
             argv = [flag_suite] + argv[1:]
     target = argv[0] if argv and not argv[0].startswith("-") else "core"
     rest = argv[1:] if argv and not argv[0].startswith("-") else argv
-    for name in names if target == "all" else [target]:
+    for name in names if target == "all" else REPORT if target == "report" else [target]:
         if name not in names:
             print(f"unknown suite {name!r}; suites: {', '.join(names)}", file=sys.stderr)
             return 2
