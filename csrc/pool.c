@@ -1,8 +1,8 @@
 // Thread pool. Design: workers wait for a job's generation number to change, then take task indices from an
 // atomic counter; the caller works too and waits until every task is finished. Waiting spins for a short
-// while (OD_POOL_SPIN pauses, some tens of microseconds) before sleeping on a condition variable: a step
-// runs a job per colour and per substitution, a few hundred a step, and a sleep-and-wake costs about as
-// much as such a job. One job at a time; no allocation after creation.
+// while (OD_POOL_SPIN pauses, some tens of microseconds) before sleeping on a condition variable: each
+// iteration of a step runs four short jobs (a local sweep, a right side, two substitution passes), and a
+// sleep-and-wake costs about as much as one. One job at a time; no allocation after creation.
 #include "pool.h"
 
 #include "core.h"
@@ -44,25 +44,23 @@ static void od_Pause(void)
 #endif
 }
 
-// Spins until `*value != unwanted` or the spin budget is spent; true when it changed.
-static bool od_SpinWhileLL(atomic_llong* value, long long unwanted, atomic_int* quit)
+static bool od_NewJob(od_Pool* pool, long long seen)
 {
-	for (int k = 0; k < OD_POOL_SPIN; ++k)
-	{
-		if (atomic_load(value) != unwanted || atomic_load(quit))
-		{
-			return true;
-		}
-		od_Pause();
-	}
-	return false;
+	return atomic_load(&pool->generation) != seen || atomic_load(&pool->quit);
 }
 
-static bool od_SpinWhileBusy(atomic_int* running)
+static bool od_JobDone(od_Pool* pool, long long seen)
+{
+	(void)seen;
+	return atomic_load(&pool->running) == 0;
+}
+
+// Spins until done(pool, seen) or the spin budget is spent; true when it came true.
+static bool od_SpinUntil(bool (*done)(od_Pool*, long long), od_Pool* pool, long long seen)
 {
 	for (int k = 0; k < OD_POOL_SPIN; ++k)
 	{
-		if (atomic_load(running) == 0)
+		if (done(pool, seen))
 		{
 			return true;
 		}
@@ -87,7 +85,7 @@ static void* od_Pool_Main(void* arg)
 	long long seen = 0;
 	for (;;)
 	{
-		if (!od_SpinWhileLL(&pool->generation, seen, &pool->quit))
+		if (!od_SpinUntil(od_NewJob, pool, seen))
 		{
 			pthread_mutex_lock(&pool->lock);
 			while (!atomic_load(&pool->quit) && atomic_load(&pool->generation) == seen)
@@ -202,7 +200,7 @@ void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx)
 	pthread_cond_broadcast(&pool->wake);
 	pthread_mutex_unlock(&pool->lock);
 	od_Pool_Work(pool, 0);
-	if (!od_SpinWhileBusy(&pool->running))
+	if (!od_SpinUntil(od_JobDone, pool, 0))
 	{
 		pthread_mutex_lock(&pool->lock);
 		while (atomic_load(&pool->running) > 0)
