@@ -801,10 +801,12 @@ static int module_exec(PyObject* module)
 	{
 		return -1;
 	}
+#ifdef OD_BASELINES
 	if (Binding_AddShapeMatching(module) < 0)
 	{
 		return -1;
 	}
+#endif
 	return PyModule_AddStringConstant(module, "__version__", "0.1.0");
 }
 
