@@ -1,7 +1,7 @@
 // MPM: B-spline moments, exact transfers (affine fields, linear and angular momentum with the affine
 // term), the snow clamp, curl-free wind, mesh distances, determinism across thread counts and no
 // allocation per substep after warm-up.
-#include "mpm_world.h"
+#include "world.h"
 #include "polar.h"
 #include "test_macros.h"
 

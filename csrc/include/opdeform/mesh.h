@@ -10,7 +10,11 @@
 // Vertices are row-major doubles (V*3), triangles row-major ints (T*3), as in numpy (V,3) and (T,3).
 #pragma once
 
-#include "opdeform/opdeform.h"
+#if defined(OD_LAYER_CHECK) && !defined(OD_USES_MESH)
+#error "opdeform/mesh.h is the mesh layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
+#endif
+
+#include "opdeform/graph.h"
 
 #include <stdbool.h>
 #include <stddef.h>

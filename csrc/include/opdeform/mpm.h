@@ -11,6 +11,10 @@
 // leaves a message for od_GetErrorMessage(); a failed call changes nothing.
 #pragma once
 
+#if defined(OD_LAYER_CHECK) && !defined(OD_USES_MPM)
+#error "opdeform/mpm.h is the mpm layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
+#endif
+
 #include "opdeform/base.h"
 
 #ifdef __cplusplus

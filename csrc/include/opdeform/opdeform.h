@@ -1,6 +1,6 @@
 // opdeform: ARAP dynamic deformation with oriented particles (Choi 2016), the public C API.
 //
-// The rest graph (od_Graph) is immutable once made and may be shared by many simulations.
+// The rest graph (od_Graph, opdeform/graph.h) is immutable once made and may be shared by many simulations.
 // A simulation (od_Sim) holds the model that depends on its parameters and constraints (weights,
 // the prefactored global matrix) and the state (centres, rotations, velocities). Arrays are row
 // major doubles: positions are n*3, rotations n*9 (R[3*r + c]), the layout of numpy (n,3) and (n,3,3).
@@ -9,36 +9,17 @@
 // OD_ERROR_BUSY, but the other calls do not check (the Python binding refuses them all).
 #pragma once
 
-#include "opdeform/base.h"
+#if defined(OD_LAYER_CHECK) && !defined(OD_USES_ARAP)
+#error "opdeform/opdeform.h is the arap layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
+#endif
+
+#include "opdeform/graph.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-typedef struct od_Graph od_Graph;
 typedef struct od_Sim od_Sim;
-
-typedef struct od_GraphDef
-{
-	int particleCount;
-	const double* centers; // particleCount*3
-	const double* radii;   // particleCount*3, all > 0
-	const double* axes;    // particleCount*9 rest frames (columns are the ellipsoid axes), NULL = identity
-	int edgeCount;
-	const int* edges;      // edgeCount*2 undirected; no self-loops, no duplicates
-} od_GraphDef;
-
-od_GraphDef od_DefaultGraphDef(void);
-od_Status od_Graph_Create(const od_GraphDef* def, od_Graph** graph);
-void od_Graph_Destroy(od_Graph* graph);
-int od_Graph_GetParticleCount(const od_Graph* graph);
-int od_Graph_GetEdgeCount(const od_Graph* graph);
-const double* od_Graph_GetCenters(const od_Graph* graph);
-const double* od_Graph_GetAxes(const od_Graph* graph);
-const double* od_Graph_GetRadii(const od_Graph* graph);
-const int* od_Graph_GetEdges(const od_Graph* graph);
-// The number of connected pieces, and for each particle the index of its piece (may be NULL).
-int od_Graph_GetPieces(const od_Graph* graph, int* pieceOfParticle);
 
 typedef struct od_SimDef
 {
@@ -126,10 +107,6 @@ typedef struct od_SimCounters
 } od_SimCounters;
 
 od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
-
-// Sumner et al. 2007 weights of a rest-space point over its m nearest particles. idx and w have room for m;
-// returns the count written (min(m, n)).
-int od_Graph_SkinWeights(const od_Graph* graph, const double point[3], int m, int* idx, double* w);
 
 #ifdef __cplusplus
 }

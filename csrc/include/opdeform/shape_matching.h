@@ -13,7 +13,11 @@
 // borrows its graph: keep the graph alive until the object is destroyed.
 #pragma once
 
-#include "opdeform/opdeform.h"
+#if defined(OD_LAYER_CHECK) && !defined(OD_USES_BASELINE)
+#error "opdeform/shape_matching.h is the baseline layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
+#endif
+
+#include "opdeform/graph.h"
 
 #ifdef __cplusplus
 extern "C" {

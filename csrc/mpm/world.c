@@ -3,10 +3,10 @@
 // Design: a Step of a frame's duration runs substeps of Δt = min(maxDt, cfl Δx / (v + c)), where v is
 // the fastest particle or collider point and c the elastic wave speed at the largest hardening that the
 // last substep produced; the last substeps are evened out so that the frame ends exactly. A substep is
-// sort (mpm_grid.c) -> P2G -> grid update -> G2P (mpm_transfer.c). Orientations are updated once per
-// Step (mpm_rotation.c). All buffers are sized when particles are added; the grid's node pool grows
+// sort (grid.c) -> P2G -> grid update -> G2P (transfer.c). Orientations are updated once per
+// Step (rotation.c). All buffers are sized when particles are added; the grid's node pool grows
 // during the first substeps only.
-#include "mpm_world.h"
+#include "world.h"
 
 #include "core.h"
 

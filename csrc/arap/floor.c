@@ -4,8 +4,9 @@
 // A particle below that is lifted by the difference. Friction is Coulomb-like and position based: the
 // tangential displacement of this step is cut by at most μ times the lift (the normal impulse of the
 // contact times h), and the angular velocity of the touching particle is scaled by the same ratio.
+#include "floor.h"
+
 #include "math3.h"
-#include "sim.h"
 
 void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 {

@@ -5,9 +5,9 @@
 // per-particle output data kept in the order particles were added (rest and current orientation), the
 // colliders' frames and the clock. Scratch: the sort buffers and the blocked grid, sized at warm-up.
 //
-// One substep: sort (mpm_grid.c) -> P2G (mpm_transfer.c) -> grid update with gravity, wind and colliders
-// (mpm_world.c, mpm_wind.c, mpm_collider.c) -> G2P, which also updates F, applies the plasticity and
-// computes the stress the next P2G scatters (mpm_material.c).
+// One substep: sort (grid.c) -> P2G (transfer.c) -> grid update with gravity, wind and colliders
+// (world.c, wind.c, collider.c) -> G2P, which also updates F, applies the plasticity and
+// computes the stress the next P2G scatters (material.c).
 #pragma once
 
 #include "opdeform/mpm.h"
@@ -139,7 +139,7 @@ struct od_MpmWorld
 	od_MpmThreadData* threadData;
 };
 
-// mpm_grid.c
+// grid.c
 od_Status od_MpmGrid_Init(od_MpmWorld* w);
 void od_MpmGrid_Destroy(od_MpmGrid* g);
 od_Status od_MpmSort_Reserve(od_MpmWorld* w, int capacity);
@@ -155,7 +155,7 @@ void od_MpmGrid_Load(const od_MpmWorld* w, int ob, double* region);
 // The region's first node (global node coordinates) of an occupied block.
 void od_MpmGrid_RegionOrigin(const od_MpmWorld* w, int ob, int origin[3]);
 
-// mpm_transfer.c
+// transfer.c
 typedef struct od_MpmStencil
 {
 	int base[3];     // first node, global node coordinates
@@ -166,7 +166,7 @@ void od_MpmStencil_Make(const od_MpmWorld* w, const double x[3], od_MpmStencil* 
 void od_MpmP2G(od_MpmWorld* w, double dt);
 void od_MpmG2P(od_MpmWorld* w, double dt);
 
-// mpm_material.c
+// material.c
 od_Status od_MpmMaterial_Check(const od_MpmMaterial* m);
 void od_MpmMaterial_Derive(od_MpmMaterialSlot* slot);
 // Plasticity projection of p->F (and p->Jp), then p->tau; returns the hardening factor used.
@@ -174,7 +174,7 @@ double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p);
 // Largest elastic wave speed at hardening factor h.
 double od_MpmMaterial_WaveSpeed(const od_MpmMaterialSlot* slot, double h);
 
-// mpm_wind.c
+// wind.c
 od_Status od_MpmWind_Set(od_MpmWind* wind, const od_MpmWindDef* def);
 // The wind at (x, y, z) is od_MpmWind_At(od_MpmWind_Column(x, y, time), od_MpmWind_Height(z)): the noise
 // depends on the horizontal position only and the height scaling κ on z only, so a block of nodes
@@ -184,7 +184,7 @@ double od_MpmWind_Height(const od_MpmWind* wind, double z);
 od_Vec3 od_MpmWind_At(const od_MpmWind* wind, const double column[2], double kappa);
 od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time);
 
-// mpm_collider.c
+// collider.c
 od_Status od_MpmCollider_Init(od_MpmCollider* c, const od_MpmColliderDef* def, double dx);
 void od_MpmCollider_Destroy(od_MpmCollider* c);
 od_Status od_MpmCollider_SetTarget(od_MpmCollider* c, const double rotation[9], const double translation[3]);
@@ -201,6 +201,6 @@ void od_MpmCollider_Particle(const od_MpmCollider* c, od_Vec3* x, od_Vec3* v);
 // Contact response of a relative velocity against a surface normal.
 od_Vec3 od_MpmContactResponse(od_MpmContact contact, double friction, od_Vec3 vrel, od_Vec3 n);
 
-// mpm_rotation.c (and od_MpmWorld_UpdateOrientations)
+// rotation.c (and od_MpmWorld_UpdateOrientations)
 void od_QuatFromMatrix(const od_Mat3* r, double q[4]);
 od_Mat3 od_QuatToMatrix(const double q[4]);

@@ -9,7 +9,7 @@
 // regions reach get node storage, from a pool that grows at warm-up only. The particles themselves are
 // moved into sorted order every OD_MPM_REORDER_EVERY substeps; in between they are visited through the
 // sorted index, which stays nearly sequential because particles move less than a cell per substep.
-#include "mpm_world.h"
+#include "world.h"
 
 #include "core.h"
 

@@ -5,8 +5,8 @@
 // velocity), so the wind has two forms: NOISE, two independent noise channels as the x and y velocity
 // (a vortical flow; the height profile adds shear), and POTENTIAL, the horizontal gradient of one noise
 // channel with no height profile (curl-free: the control case that must turn nothing). Grid velocities
-// relax towards the wind at the drag rate (mpm_world.c), so the wind cannot push faster than itself.
-#include "mpm_world.h"
+// relax towards the wind at the drag rate (world.c), so the wind cannot push faster than itself.
+#include "world.h"
 
 #include "core.h"
 

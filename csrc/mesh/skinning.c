@@ -1,10 +1,4 @@
-// Linear-blend skinning (eq. 1) with Sumner et al. 2007 weights over the nearest particles of a rest point.
-//
-// Weights: w_j = (1 - |p - X̄_j| / dmax)² for the m nearest particles, dmax the distance to the (m+1)-th,
-// then normalised. Ties in distance are broken by particle index, so results are deterministic. Only
-// particles of the connected piece of the nearest particle take part: a point never follows a piece of
-// the body it is not attached to. The constraints (brute-force search) and the mesh skin (grid search)
-// get the same weights bit for bit.
+// Linear-blend skinning (eq. 1) with the Sumner weights of graph/skin_weights.c.
 //
 // od_Skin binds every vertex once and then deforms per frame: each particle's rigid motion is folded into
 // one 3x4 affine map [Rj | xj - Rj X̄j], every vertex blends its m maps and applies the blend to its rest
@@ -20,6 +14,7 @@
 #include "mesh_check.h"
 #include "nearest.h"
 #include "pool.h"
+#include "skin_weights.h"
 
 #include <float.h>
 #include <math.h>
@@ -29,70 +24,6 @@
 // Vertices per task of the pool, when deforming and when binding; meshes below two deform chunks get no pool.
 #define OD_DEFORM_CHUNK 8192
 #define OD_BIND_CHUNK 1024
-
-// Sumner weights from the (up to m+1) nearest distances; returns the count of weights written.
-static int od_SumnerWeights(const double* dist, const int* near, int count, int m, int* idx, double* w)
-{
-	int used = count < m + 1 ? count : m;
-	double dmax = count == m + 1 ? dist[m] : dist[count - 1] * (1.0 + 1e-6) + DBL_MIN * 1e10;
-	double sum = 0.0;
-	for (int k = 0; k < used; ++k)
-	{
-		double t = dmax > 0.0 ? 1.0 - dist[k] / dmax : 0.0;
-		idx[k] = near[k];
-		w[k] = t * t;
-		sum += w[k];
-	}
-	for (int k = 0; k < used; ++k)
-	{
-		// All weights vanish only when the m nearest are as far as the (m+1)-th: share equally.
-		w[k] = sum > 0.0 ? w[k] / sum : 1.0 / used;
-	}
-	return used;
-}
-
-// The k nearest particles of p in the piece of its nearest particle, by the grid (or brute force when
-// grid is NULL); pieceSize (with a grid) caps k at the size of the piece.
-static int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p,
-							 int k, double* dist, int* near)
-{
-	const int* label = NULL;
-	int want = 0;
-	if (g->pieceCount > 1)
-	{
-		int nearest = 0;
-		double d;
-		if (grid)
-		{
-			od_NearestGrid_Query(grid, NULL, 0, p, 1, &d, &nearest);
-		}
-		else
-		{
-			od_NearestBrute(g->centers, g->n, NULL, 0, p, 1, &d, &nearest);
-		}
-		label = g->piece;
-		want = g->piece[nearest];
-		k = pieceSize && pieceSize[want] < k ? pieceSize[want] : k;
-	}
-	return grid ? od_NearestGrid_Query(grid, label, want, p, k, dist, near)
-				: od_NearestBrute(g->centers, g->n, label, want, p, k, dist, near);
-}
-
-int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* idx, double* w)
-{
-	if (m < 1)
-	{
-		return 0;
-	}
-	m = m > OD_MAX_SKIN ? OD_MAX_SKIN : m;
-	double dist[OD_MAX_SKIN + 1];
-	int near[OD_MAX_SKIN + 1];
-	int count = od_NearestInPiece(g, NULL, NULL, point, m + 1, dist, near);
-	return od_SumnerWeights(dist, near, count, m, idx, w);
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// The mesh skin
 
 struct od_Skin
 {

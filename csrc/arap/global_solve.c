@@ -5,25 +5,37 @@
 //     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)).
 // Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
 // rest graph, k, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
-// of those (counted in od_SimCounters) and every iteration only assembles the right side and substitutes
+// of those (counted in od_SimCounters: the solver keeps the inputs it factored, od_MatrixKey, and compares
+// them with the simulation's before each solve; nothing else invalidates it) and every iteration only assembles the right side and substitutes
 // (cholesky.c, which keeps the factor in its own layout and may split the substitution over threads).
+#include "global_solve.h"
+
 #include "cholesky.h"
+#include "clock.h"
 #include "core.h"
 #include "math3.h"
-#include "sim.h"
+#include "position_constraints.h"
 
 #include <cholmod.h>
 #include <string.h>
-#include <time.h>
 
 static od_Status od_GlobalSolve(od_Sim* sim);
+
+// What the factored matrix was made of: a solve refactors when any differs from the simulation's.
+typedef struct od_MatrixKey
+{
+	unsigned constraints; // od_ConstraintSet.matrixVersion
+	double stiffness, density, dt; // density and dt 0 for static poses (no mass term)
+	int factorization, threads;
+} od_MatrixKey;
 
 struct od_GlobalSolver
 {
 	cholmod_common common;
 	od_Cholesky* factor;
 	double* rhs; // n rows of (x, y, z)
-	bool valid;
+	bool valid;  // a factor of the matrix that key describes
+	od_MatrixKey key;
 	bool refine; // solve for a correction from the residual instead (od_NeedsCorrection, od_FillResidual)
 };
 
@@ -67,30 +79,33 @@ void od_GlobalSolver_Destroy(od_GlobalSolver* s)
 	od_Free(s);
 }
 
-void od_GlobalSolver_Invalidate(od_GlobalSolver* s)
+static od_MatrixKey od_KeyOf(const od_Sim* sim)
 {
-	if (s)
-	{
-		s->valid = false;
-	}
+	bool dynamic = sim->mode == OD_DYNAMIC;
+	return (od_MatrixKey){
+		.constraints = sim->constraints.matrixVersion,
+		.stiffness = sim->def.stiffness,
+		.density = dynamic ? sim->def.density : 0.0,
+		.dt = dynamic ? sim->def.dt : 0.0,
+		.factorization = sim->solverDef.factorization,
+		.threads = sim->solverDef.threads,
+	};
+}
+
+static bool od_SameKey(const od_MatrixKey* a, const od_MatrixKey* b)
+{
+	return a->constraints == b->constraints && a->stiffness == b->stiffness && a->density == b->density &&
+		   a->dt == b->dt && a->factorization == b->factorization && a->threads == b->threads;
 }
 
 static size_t od_EntryCount(const od_Sim* sim)
 {
-	size_t entries = (size_t)sim->graph->n + 3 * (size_t)sim->graph->edgeCount;
-	for (int s = 0; s < sim->constraints.count; ++s)
-	{
-		const od_Constraint* c = sim->constraints.items + s;
-		if (c->kind == OD_POSITION)
-		{
-			entries += (size_t)c->count * (size_t)(c->count + 1) / 2;
-		}
-	}
-	return entries;
+	return (size_t)sim->graph->n + 3 * (size_t)sim->graph->edgeCount + od_Positions_EntryCount(&sim->constraints);
 }
 
-static void od_PushEntry(cholmod_triplet* t, int row, int col, double value)
+static void od_PushEntry(void* context, int row, int col, double value)
 {
+	cholmod_triplet* t = context;
 	int* ti = t->i;
 	int* tj = t->j;
 	double* tx = t->x;
@@ -117,21 +132,7 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 		od_PushEntry(t, b, b, kab);
 		od_PushEntry(t, a, b, -kab);
 	}
-	for (int s = 0; s < sim->constraints.count; ++s)
-	{
-		const od_Constraint* c = sim->constraints.items + s;
-		if (c->kind != OD_POSITION)
-		{
-			continue;
-		}
-		for (int a = 0; a < c->count; ++a)
-		{
-			for (int b = a; b < c->count; ++b)
-			{
-				od_PushEntry(t, c->idx[a], c->idx[b], c->weight * c->w[a] * c->w[b]);
-			}
-		}
-	}
+	od_Positions_FillMatrix(&sim->constraints, od_PushEntry, t);
 }
 
 // When some terms of the matrix dwarf others, the assembled right side loses the small ones: constraint
@@ -168,16 +169,7 @@ static bool od_NeedsCorrection(const od_Sim* sim)
 		}
 		volume += g->volumes[i];
 	}
-	double limit = OD_HEAVY_WEIGHT * d->stiffness * volume / g->n;
-	for (int s = 0; s < sim->constraints.count; ++s)
-	{
-		const od_Constraint* c = sim->constraints.items + s;
-		if (c->kind == OD_POSITION && c->weight > limit)
-		{
-			return true;
-		}
-	}
-	return false;
+	return od_Positions_MaxWeight(&sim->constraints) > OD_HEAVY_WEIGHT * d->stiffness * volume / g->n;
 }
 
 static od_Status od_CheckFactor(const cholmod_factor* factor, const cholmod_common* cc)
@@ -260,15 +252,8 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	return OD_OK;
 }
 
-static void od_AddRow(double* b, int i, double sign, od_Vec3 f)
-{
-	b[3 * i] += sign * f.x;
-	b[3 * i + 1] += sign * f.y;
-	b[3 * i + 2] += sign * f.z;
-}
-
 // Row i of the right side b: the inertia (m/h²) y_i or gravity m_i g, the constraints' row
-// (od_Constraints_RhsRow) and per neighbour j, with d = X̄_i - X̄_j, k v_j R_i d + k v_i R_j d, gathered as
+// (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j, k v_j R_i d + k v_i R_j d, gathered as
 // R_i (k Σ_j v_j d) + k v_i Σ_j R_j d, the first sum kept per particle (rowArm, local_step.c). With
 // `residual`, row i of b - A x instead, each term taken against the
 // current centres before it is summed so that nothing large cancels: (m/h²)(y_i - x_i) and
@@ -311,7 +296,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	{
 		f = od_MulAdd(f, m, od_V3Load(sim->def.gravity));
 	}
-	return residual ? f : od_Add(f, od_Constraints_RhsRow(sim, i));
+	return residual ? f : od_Add(f, od_Positions_RhsRow(sim, i));
 }
 
 #define OD_RHS_CHUNK 256
@@ -351,62 +336,28 @@ static void od_FillRows(const od_Sim* sim, double* b, bool residual)
 }
 
 // b - A x at the current centres (-∂E/∂x), summed from small residuals so that nothing large cancels:
-// od_RhsRow's and each position constraint's -w w_a e with e = Σ_b w_b (R_b (p̄ - X̄_b) + x_b - t) (the
-// skinning weights sum to 1). A constraint's rounding then stays in its own, stiff direction.
+// od_RhsRow's and each position constraint's (od_Positions_AddResidual).
 static void od_FillResidual(const od_Sim* sim, double* r)
 {
-	const od_Graph* g = sim->graph;
-	const od_State* st = &sim->state;
-	int n = g->n;
 	od_FillRows(sim, r, true);
-	for (int s = 0; s < sim->constraints.count; ++s)
-	{
-		const od_Constraint* c = sim->constraints.items + s;
-		if (c->kind != OD_POSITION)
-		{
-			continue;
-		}
-		od_Vec3 p = od_V3Load(c->point), t = od_V3Load(c->target), off = od_V3(0, 0, 0);
-		for (int a = 0; a < c->count; ++a)
-		{
-			int b = c->idx[a];
-			od_Mat3 rb = od_M3Load(st->R + 9 * b);
-			od_Vec3 arm = od_Sub(p, od_V3Load(g->centers + 3 * b));
-			od_Vec3 q = od_Add(od_M3MulV(&rb, arm), od_Sub(od_V3Load(st->x + 3 * b), t));
-			off = od_MulAdd(off, c->w[a], q);
-		}
-		for (int a = 0; a < c->count; ++a)
-		{
-			od_AddRow(r, c->idx[a], -c->weight * c->w[a], off);
-		}
-	}
-}
-
-static double od_Now(void)
-{
-	struct timespec t;
-	clock_gettime(CLOCK_MONOTONIC, &t);
-	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+	od_Positions_AddResidual(sim, r);
 }
 
 od_Status od_GlobalStep(od_Sim* sim)
 {
-	double start = od_Now();
+	double start = od_Clock();
 	od_Status status = od_GlobalSolve(sim);
-	sim->counters.globalSeconds += od_Now() - start;
+	sim->counters.globalSeconds += od_Clock() - start;
 	return status;
-}
-
-double od_Clock(void)
-{
-	return od_Now();
 }
 
 static od_Status od_GlobalSolve(od_Sim* sim)
 {
 	od_GlobalSolver* s = sim->solver[sim->mode];
-	if (!s->valid)
+	od_MatrixKey key = od_KeyOf(sim);
+	if (!s->valid || !od_SameKey(&s->key, &key))
 	{
+		s->key = key;
 		od_Status status = od_Factor(sim, s);
 		if (status != OD_OK)
 		{

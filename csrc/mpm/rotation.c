@@ -9,7 +9,7 @@
 // continuous however far a particle has turned (no wrap at π when η ≠ 1), and since each increment's
 // quaternion is taken in the hemisphere of the previous one, the output quaternions never flip sign
 // between frames (what interpolating renderers need). Increments must stay below half a turn per update.
-#include "mpm_world.h"
+#include "world.h"
 
 #include "polar.h"
 

@@ -5,10 +5,15 @@
 // The energy is exactly -tr(R_iᵀ C_i) + const in R_i, so each update is an exact block-coordinate
 // minimization. Updates are Gauss-Seidel (each particle sees its neighbours' new rotations): with
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
+#include "local_step.h"
+
+#include "clock.h"
+#include "constraints.h"
+#include "core.h"
+#include "direction_constraints.h"
 #include "math3.h"
 #include "polar.h"
-#include "core.h"
-#include "sim.h"
+#include "position_constraints.h"
 
 #include <string.h>
 
@@ -75,7 +80,8 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 	od_Mat3 out = od_M3Load(c);
 	if (od_Constraints_Touches(sim, i))
 	{
-		od_Constraints_AddLocal(sim, i, ri, &out);
+		od_Positions_AddLocal(sim, i, &out);
+		od_Directions_AddLocal(sim, i, ri, &out);
 	}
 	return out;
 }
@@ -90,7 +96,7 @@ static int od_UpdateRotation(od_Sim* sim, int i, bool directions)
 	od_M3Store(rot, &r);
 	if (directions)
 	{
-		od_Constraints_RotationChanged(sim, i, &before, &r);
+		od_Directions_RotationChanged(sim, i, &before, &r);
 	}
 	return fallback;
 }
@@ -215,7 +221,7 @@ static void od_Sweep(od_Sim* sim)
 	bool directions = sim->constraints.directionCount > 0;
 	if (directions)
 	{
-		od_Constraints_BeginLocal(sim);
+		od_Directions_BeginLocal(sim);
 	}
 	if (!sim->pool || sim->graph->n < OD_SWEEP_SPLIT)
 	{

@@ -10,7 +10,7 @@
 //   turns the flakes.
 // The fixed-corotated Kirchhoff stress τ = 2μ (F − R) Fᵀ + λ J (J − 1) I equals U diag(2μ (σ − 1) σ +
 // λ J (J − 1)) Uᵀ, so no matrix product with R is needed.
-#include "mpm_world.h"
+#include "world.h"
 
 #include "core.h"
 #include "polar.h"

@@ -1,7 +1,7 @@
 // The rest deformation graph: ellipsoid particles joined by undirected edges (internal layout).
 #pragma once
 
-#include "opdeform/opdeform.h"
+#include "opdeform/graph.h"
 
 // Most skinning neighbours a point or constraint may have.
 #define OD_MAX_SKIN 16

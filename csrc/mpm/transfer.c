@@ -2,11 +2,11 @@
 //
 // Design: both transfers work block by block on a 6³ region of nodes kept in the thread's scratch: P2G
 // scatters every particle of an occupied block into the region and then adds the region into the grid
-// (colour by colour, see mpm_grid.c); G2P copies the region out of the grid and gathers from it. With
+// (colour by colour, see grid.c); G2P copies the region out of the grid and gathers from it. With
 // D⁻¹ = 4/Δx², P2G adds w (m v + (m C − Δt V D⁻¹ τ)(xᵢ − x)) and w m to each of the 27 nodes; G2P takes
 // v = Σ w vᵢ and C = D⁻¹ Σ w vᵢ (xᵢ − x)ᵀ, moves the particle, updates F ← (I + Δt C) F and runs the
-// material's plasticity and stress (mpm_material.c), whose τ the next P2G scatters.
-#include "mpm_world.h"
+// material's plasticity and stress (material.c), whose τ the next P2G scatters.
+#include "world.h"
 
 #include <string.h>
 

@@ -1,4 +1,5 @@
-// A growable array of bytes, for outputs of unknown size: mesh files, edge lists, queues.
+// A growable array of bytes, for outputs of unknown size (mesh files, edge lists, queues), and the resize
+// of an array whose size is known.
 #pragma once
 
 #include "core.h"
@@ -42,4 +43,16 @@ static inline od_Status od_BufferAppend(od_Buffer* b, const void* bytes, size_t 
 		b->size += count;
 	}
 	return status;
+}
+
+// Resizes *p to `bytes` (at least 1); on failure *p is kept and the message names `what`.
+static inline od_Status od_Resize(void** p, size_t bytes, const char* what)
+{
+	void* q = od_Realloc(*p, bytes ? bytes : 1);
+	if (!q)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the %s", what);
+	}
+	*p = q;
+	return OD_OK;
 }

@@ -1,7 +1,9 @@
 // The objective of a step (METHOD.md): elastic energy integrated over the ellipsoids, the inertia of
 // variational implicit Euler (or the potential of gravity for a static pose) and the constraints.
+#include "energy.h"
+
+#include "constraints.h"
 #include "math3.h"
-#include "sim.h"
 
 void od_Predict(od_Sim* sim)
 {

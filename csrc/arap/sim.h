@@ -1,6 +1,7 @@
 // Internal layout of a simulation: the model (graph, parameters, constraints, factorizations), the
 // state (centres, rotations, velocities) and preallocated scratch. Every stage of a step is a function
 // of (sim) that reads the model and rewrites the state; nothing is allocated per step after warm-up.
+// Types only: each stage declares its functions in its own header (constraints.h, local_step.h, ...).
 #pragma once
 
 #include "acceleration.h"
@@ -35,10 +36,12 @@ typedef struct od_ConstraintSet
 	int* slotOfId; // id -> slot, -1 when removed
 	int idCapacity, nextId;
 	int positionCount, directionCount;
-	bool touchDirty;   // the set changed: rebuild the terms below (constraint_terms.c)
-	bool targetsDirty; // a position target changed: rebuild targetMoment
+	unsigned matrixVersion; // advances with every change of the global matrix's constraint terms
+	bool pairsDirty;        // the position constraints changed: rebuild the pairs below
+	bool incidenceDirty;    // the direction constraints (or the slots) changed: rebuild touch*
+	bool targetsDirty;      // a position target changed: rebuild targetMoment
 
-	// Direction constraints, per particle i: entries touchStart[i]..touchStart[i+1]-1 of touchSlot
+	// Direction constraints (direction_constraints.c), per particle i: entries touchStart[i]..touchStart[i+1]-1 of touchSlot
 	// (constraint slot) and touchArm (w_i n̄, how R_i turns the skinned direction).
 	int* touchStart;
 	int* touchSlot;
@@ -46,7 +49,7 @@ typedef struct od_ConstraintSet
 	int touchCapacity;
 	double* current; // per slot: the unnormalised skinned direction Σ w_j R_j n̄, kept current in the local step
 
-	// Position constraints folded into ordered particle pairs (i, j) that share one: row i holds, for each
+	// Position constraints (position_constraints.c) folded into ordered particle pairs (i, j) that share one: row i holds, for each
 	// pair, P_ij = Σ_c w w_i w_j a_cj a_ciᵀ (9), Σ_c w w_i w_j a_ci (3) and Σ_c w w_i w_j a_cj (3), with
 	// a_cj = p̄_c - X̄_j. Per particle, Σ_c w w_i t_c a_ciᵀ (9) and Σ_c w w_i t_c (3) depend on the targets.
 	int* pairStart;
@@ -70,7 +73,7 @@ typedef enum od_Mode
 	OD_STATIC = 1,
 } od_Mode;
 
-typedef struct od_GlobalSolver od_GlobalSolver; // global_solve.c
+typedef struct od_GlobalSolver od_GlobalSolver; // opaque, global_solve.c
 
 struct od_Sim
 {
@@ -118,37 +121,3 @@ struct od_Sim
 	od_SimCounters counters;
 	_Atomic int busy;
 };
-
-// constraints.c
-void od_Constraints_Destroy(od_ConstraintSet* set);
-void od_Constraints_CurrentPoint(const od_Constraint* c, const od_Graph* g, const od_State* s, double out[3]);
-void od_Constraints_CurrentDirection(const od_Constraint* c, const od_State* s, double out[3], double* length);
-
-// constraint_terms.c
-od_Status od_Constraints_Prepare(od_Sim* sim);
-void od_Constraints_BeginLocal(od_Sim* sim);
-void od_Constraints_AddLocal(const od_Sim* sim, int i, const od_Mat3* ri, od_Mat3* c);
-void od_Constraints_RotationChanged(od_Sim* sim, int i, const od_Mat3* before, const od_Mat3* after);
-od_Vec3 od_Constraints_RhsRow(const od_Sim* sim, int a);
-bool od_Constraints_Touches(const od_Sim* sim, int i);
-double od_Constraints_Energy(const od_Sim* sim);
-od_Status od_Constraints_CheckPinned(const od_Sim* sim);
-
-// local_step.c
-void od_LocalStep_PrepareEdges(od_Sim* sim);
-od_Status od_LocalStep_PreparePartition(od_Sim* sim);
-void od_LocalStep(od_Sim* sim);
-
-// global_solve.c
-od_Status od_GlobalSolver_Create(od_GlobalSolver** solver);
-void od_GlobalSolver_Destroy(od_GlobalSolver* solver);
-void od_GlobalSolver_Invalidate(od_GlobalSolver* solver);
-od_Status od_GlobalStep(od_Sim* sim);
-double od_Clock(void); // monotonic seconds
-
-// floor.c
-void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale);
-
-// energy.c
-double od_Energy(const od_Sim* sim);
-void od_Predict(od_Sim* sim);

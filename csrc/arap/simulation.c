@@ -7,9 +7,15 @@
 // absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
 // which is what makes the stiffness depend on h and the iteration count.
 // A call that produces a non-finite state restores the state it started from and fails.
+#include "constraints.h"
 #include "core.h"
+#include "energy.h"
+#include "floor.h"
+#include "global_solve.h"
+#include "local_step.h"
 #include "math3.h"
 #include "polar.h"
+#include "position_constraints.h"
 #include "sim.h"
 
 #include <math.h>
@@ -107,11 +113,6 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 	od_Pool_Destroy(sim->pool);
 	sim->pool = pool;
 	sim->partitionDirty = true;
-	if (def->factorization != sim->solverDef.factorization || def->threads != sim->solverDef.threads)
-	{
-		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
-		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
-	}
 	sim->solverDef = *def;
 	return OD_OK;
 }
@@ -203,8 +204,7 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 	}
 	sim->graph = graph;
 	sim->def = *def;
-	sim->constraints.touchDirty = true;
-	sim->constraints.targetsDirty = true;
+	sim->constraints.pairsDirty = sim->constraints.incidenceDirty = sim->constraints.targetsDirty = true;
 	sim->solverDef = od_DefaultSolverDef();
 	sim->partitionDirty = true;
 	status = od_AllocState(&sim->state, n);
@@ -291,27 +291,10 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 		return status;
 	}
 	bool reskin = def->skinNeighbors != sim->def.skinNeighbors;
-	bool refactor = reskin || def->stiffness != sim->def.stiffness || def->density != sim->def.density ||
-					def->dt != sim->def.dt;
-	bool restatic = reskin || def->stiffness != sim->def.stiffness; // no mass term: ρ and h do not enter
-	sim->def = *def;
+	sim->def = *def; // the global solver notices a change of k, ρ or h itself (global_solve.c)
 	if (reskin)
 	{
-		for (int s = 0; s < sim->constraints.count; ++s)
-		{
-			od_Constraint* c = sim->constraints.items + s;
-			c->count = od_Graph_SkinWeights(sim->graph, c->point, def->skinNeighbors, c->idx, c->w);
-		}
-		sim->constraints.touchDirty = true;
-		sim->constraints.targetsDirty = true;
-	}
-	if (refactor)
-	{
-		od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
-	}
-	if (restatic)
-	{
-		od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
+		od_Constraints_Reskin(sim);
 	}
 	sim->predictionValid = false;
 	return OD_OK;
@@ -587,7 +570,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
 	}
 	sim->mode = mode;
-	sim->partitionDirty = sim->partitionDirty || sim->constraints.touchDirty;
+	sim->partitionDirty = sim->partitionDirty || sim->constraints.pairsDirty || sim->constraints.incidenceDirty;
 	od_Status status = od_Constraints_Prepare(sim);
 	if (status == OD_OK && sim->pool)
 	{
@@ -595,7 +578,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 	}
 	if (status == OD_OK && mode == OD_STATIC)
 	{
-		status = od_Constraints_CheckPinned(sim);
+		status = od_Positions_CheckPinned(sim);
 	}
 	if (status != OD_OK)
 	{

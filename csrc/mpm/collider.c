@@ -9,7 +9,7 @@
 // surface and loses its approaching normal velocity, so nothing passes through.
 // A mesh is turned once into distance samples on a local grid: exact distances to the triangles in a
 // narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x.
-#include "mpm_world.h"
+#include "world.h"
 
 #include "core.h"
 

@@ -1,11 +1,19 @@
-// Position and direction constraints (eqs. 8 and 10 of the paper) on rest-space points.
+// The constraint set: position and direction constraints (eqs. 8 and 10 of the paper) on rest-space points.
 //
 // A constraint is skinned like a mesh vertex: its point moves with the m nearest particles and the
 // Sumner weights of METHOD.md. The set is stored densely (slots) with an id -> slot table, so removal
-// is O(1) and ids stay valid. Adding or removing a constraint or changing a weight invalidates the
-// factorizations; moving a target does not (it only changes right-hand sides).
+// is O(1) and ids stay valid. The set never reaches into the solver: a change that alters the global
+// matrix (adding or removing a position constraint, or changing its weight) advances matrixVersion, which
+// the global solver compares with the version it factored (global_solve.c); direction constraints and
+// moved targets change only the terms rebuilt here, lazily, by od_Constraints_Prepare. Each kind's maths
+// lives in its own file (position_constraints.c, direction_constraints.c).
+#include "constraints.h"
+
+#include "buffer.h"
 #include "core.h"
+#include "direction_constraints.h"
 #include "math3.h"
+#include "position_constraints.h"
 #include "sim.h"
 
 #include <math.h>
@@ -47,37 +55,19 @@ void od_Constraints_Destroy(od_ConstraintSet* set)
 	memset(set, 0, sizeof *set);
 }
 
-static void od_Invalidate(od_Sim* sim)
+// Marks what a change of constraint c (added, removed, reweighted) made stale.
+static void od_Changed(od_ConstraintSet* set, const od_Constraint* c)
 {
-	od_GlobalSolver_Invalidate(sim->solver[OD_DYNAMIC]);
-	od_GlobalSolver_Invalidate(sim->solver[OD_STATIC]);
-	sim->constraints.touchDirty = true;
-	sim->constraints.targetsDirty = true;
-}
-
-void od_Constraints_CurrentPoint(const od_Constraint* c, const od_Graph* g, const od_State* s, double out[3])
-{
-	od_Vec3 p = od_V3Load(c->point), sum = od_V3(0, 0, 0);
-	for (int k = 0; k < c->count; ++k)
+	if (c->kind == OD_POSITION)
 	{
-		int j = c->idx[k];
-		od_Mat3 r = od_M3Load(s->R + 9 * j);
-		od_Vec3 q = od_Add(od_M3MulV(&r, od_Sub(p, od_V3Load(g->centers + 3 * j))), od_V3Load(s->x + 3 * j));
-		sum = od_MulAdd(sum, c->w[k], q);
+		set->matrixVersion++;
+		set->pairsDirty = true;
+		set->targetsDirty = true;
 	}
-	od_V3Store(out, sum);
-}
-
-void od_Constraints_CurrentDirection(const od_Constraint* c, const od_State* s, double out[3], double* length)
-{
-	od_Vec3 n = od_V3Load(c->direction), sum = od_V3(0, 0, 0);
-	for (int k = 0; k < c->count; ++k)
+	else
 	{
-		od_Mat3 r = od_M3Load(s->R + 9 * c->idx[k]);
-		sum = od_MulAdd(sum, c->w[k], od_M3MulV(&r, n));
+		set->incidenceDirty = true;
 	}
-	*length = od_Length(sum);
-	od_V3Store(out, sum);
 }
 
 static od_Status od_CheckVector(const char* name, const double* v, bool nonzero)
@@ -126,7 +116,7 @@ static od_Status od_AddConstraint(od_Sim* sim, od_Constraint* c, int* id)
 	{
 		set->directionCount++;
 	}
-	od_Invalidate(sim);
+	od_Changed(set, c);
 	*id = c->id;
 	return OD_OK;
 }
@@ -159,7 +149,7 @@ od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const
 	else
 	{
 		c.count = od_Graph_SkinWeights(sim->graph, c.point, sim->def.skinNeighbors, c.idx, c.w);
-		od_Constraints_CurrentPoint(&c, sim->graph, &sim->state, c.target);
+		od_Positions_Current(&c, sim->graph, &sim->state, c.target);
 	}
 	return od_AddConstraint(sim, &c, id);
 }
@@ -198,7 +188,7 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 	else
 	{
 		c.count = od_Graph_SkinWeights(sim->graph, c.point, sim->def.skinNeighbors, c.idx, c.w);
-		od_Constraints_CurrentDirection(&c, &sim->state, c.target, &length);
+		od_Directions_Current(&c, &sim->state, c.target, &length);
 		if (length < 1e-12)
 		{
 			return od_Fail(OD_ERROR_ARGUMENT, "direction: the skinned direction at this point vanishes; give a target");
@@ -254,7 +244,10 @@ od_Status od_Sim_SetConstraintWeight(od_Sim* sim, int id, double weight)
 		return status;
 	}
 	c->weight = weight;
-	od_Invalidate(sim);
+	if (c->kind == OD_POSITION) // a direction constraint's weight is read where it is used: nothing is stale
+	{
+		od_Changed(&sim->constraints, c);
+	}
 	return OD_OK;
 }
 
@@ -267,6 +260,8 @@ od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id)
 	}
 	od_ConstraintSet* set = &sim->constraints;
 	int slot = set->slotOfId[id];
+	od_Changed(set, c);
+	set->incidenceDirty = true; // the last constraint moves into the freed slot, which touchSlot names
 	if (c->kind == OD_POSITION)
 	{
 		set->positionCount--;
@@ -278,7 +273,6 @@ od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id)
 	set->items[slot] = set->items[--set->count];
 	set->slotOfId[set->items[slot].id] = slot;
 	set->slotOfId[id] = -1;
-	od_Invalidate(sim);
 	return OD_OK;
 }
 
@@ -287,56 +281,62 @@ int od_Sim_GetConstraintCount(const od_Sim* sim)
 	return sim->constraints.count;
 }
 
-double od_Constraints_Energy(const od_Sim* sim)
+void od_Constraints_Reskin(od_Sim* sim)
 {
-	const od_ConstraintSet* set = &sim->constraints;
-	double e = 0.0;
+	od_ConstraintSet* set = &sim->constraints;
 	for (int s = 0; s < set->count; ++s)
 	{
-		const od_Constraint* c = set->items + s;
-		double q[3], l = 1.0;
-		if (c->kind == OD_POSITION)
-		{
-			od_Constraints_CurrentPoint(c, sim->graph, &sim->state, q);
-		}
-		else
-		{
-			od_Constraints_CurrentDirection(c, &sim->state, q, &l);
-			l = l > 0.0 ? l : 1.0;
-		}
-		od_Vec3 d = od_Sub(od_Scale(1.0 / l, od_V3Load(q)), od_V3Load(c->target));
-		e += 0.5 * c->weight * od_Dot(d, d);
+		od_Constraint* c = set->items + s;
+		c->count = od_Graph_SkinWeights(sim->graph, c->point, sim->def.skinNeighbors, c->idx, c->w);
 	}
-	return e;
+	set->matrixVersion++;
+	set->pairsDirty = set->incidenceDirty = set->targetsDirty = true;
 }
 
-// A static pose is defined only when every connected piece has a position constraint.
-od_Status od_Constraints_CheckPinned(const od_Sim* sim)
+// Rebuilds what the set's changes made stale; called at the start of every step or static solve.
+od_Status od_Constraints_Prepare(od_Sim* sim)
 {
+	od_ConstraintSet* set = &sim->constraints;
 	const od_Graph* g = sim->graph;
+	od_Status status = OD_OK;
+	if (!set->touchStart)
+	{
+		size_t rows = sizeof(int) * ((size_t)g->n + 1);
+		status = od_Resize((void**)&set->touchStart, rows, "constraint terms");
+		if (status == OD_OK)
+		{
+			status = od_Resize((void**)&set->pairStart, rows, "constraint terms");
+		}
+		if (status == OD_OK)
+		{
+			status = od_Resize((void**)&set->targetMoment, sizeof(double) * 12 * (size_t)g->n, "constraint terms");
+		}
+	}
+	if (status == OD_OK && set->incidenceDirty)
+	{
+		status = od_Directions_Build(set, g);
+		set->incidenceDirty = status != OD_OK;
+	}
+	if (status == OD_OK && set->pairsDirty)
+	{
+		status = od_Positions_Build(set, g);
+		set->pairsDirty = status != OD_OK;
+	}
+	if (status == OD_OK && set->targetsDirty)
+	{
+		od_Positions_BuildTargets(set, g);
+		set->targetsDirty = false;
+	}
+	return status;
+}
+
+bool od_Constraints_Touches(const od_Sim* sim, int i)
+{
 	const od_ConstraintSet* set = &sim->constraints;
-	if (set->positionCount == 0)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "solve_static needs at least one position constraint");
-	}
-	for (int piece = 0; piece < g->pieceCount; ++piece)
-	{
-		bool pinned = false;
-		for (int s = 0; s < set->count && !pinned; ++s)
-		{
-			const od_Constraint* c = set->items + s;
-			for (int k = 0; k < c->count && !pinned; ++k)
-			{
-				pinned = c->kind == OD_POSITION && c->w[k] > 0.0 && g->piece[c->idx[k]] == piece;
-			}
-		}
-		if (!pinned)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT,
-						   "solve_static: connected piece %d of the graph has no position constraint, so its pose "
-						   "is undetermined",
-						   piece);
-		}
-	}
-	return OD_OK;
+	return set->pairStart[i] != set->pairStart[i + 1] || set->touchStart[i] != set->touchStart[i + 1];
+}
+
+double od_Constraints_Energy(const od_Sim* sim)
+{
+	return od_Positions_Energy(sim) + od_Directions_Energy(sim);
 }

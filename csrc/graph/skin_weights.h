@@ -1,0 +1,13 @@
+// Skinning weights of rest points over the nearest particles of their piece (skin_weights.c).
+#pragma once
+
+#include "nearest.h"
+#include "opdeform/graph.h"
+
+// Sumner weights from the (up to m+1) nearest distances; returns the count of weights written.
+int od_SumnerWeights(const double* dist, const int* near, int count, int m, int* idx, double* w);
+
+// The k nearest particles of p in the piece of its nearest particle, by the grid (or brute force when
+// grid is NULL); pieceSize (with a grid) caps k at the size of the piece.
+int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p, int k,
+					  double* dist, int* near);
