@@ -1,22 +1,15 @@
-// Colliders of the MPM world: floor plane, box, sphere and closed triangle mesh, static or moving.
-//
-// Design: every shape is a signed distance φ (negative inside) with an outward normal, evaluated in the
-// collider's frame. A moving collider goes from its frame at the start of a Step/Substep call to the
-// target set by od_MpmWorld_MoveCollider, linearly in translation and along the shortest arc in rotation,
-// so it has one linear and one angular velocity per call; each substep places it at the substep's end.
+// Colliders of the MPM world: the contact rule on top of the shared signed-distance colliders
+// (collide/collider.c: plane, box, sphere, closed mesh; moving along its target over a Step/Substep call,
+// placed at each substep's end).
 // The grid update applies the contact rule to nodes inside (sticky, slip or separate, with Coulomb
 // friction on the relative velocity); after G2P a particle that still ended inside is moved back to the
 // surface and loses its approaching normal velocity, so nothing passes through.
-// A mesh is turned once into distance samples on a local grid: exact distances to the triangles in a
-// narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x.
 #include "world.h"
 
 #include "core.h"
 
-#include <stdlib.h>
-
-#define OD_MESH_MAX_DIM 96 // distance samples per axis at most
-#define OD_MESH_BAND 3     // samples around each triangle that get the exact distance
+#include <math.h>
+#include <string.h>
 
 od_MpmColliderDef od_DefaultMpmColliderDef(void)
 {
@@ -27,450 +20,30 @@ od_MpmColliderDef od_DefaultMpmColliderDef(void)
 								.rotation = { 1, 0, 0, 0, 1, 0, 0, 0, 1 } };
 }
 
-// ---------------------------------------------------------------------------------------------------------
-// Mesh distance samples
-
-// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
-static od_Vec3 od_ClosestOnTriangle(od_Vec3 p, od_Vec3 a, od_Vec3 b, od_Vec3 c)
-{
-	od_Vec3 ab = od_Sub(b, a), ac = od_Sub(c, a), ap = od_Sub(p, a);
-	double d1 = od_Dot(ab, ap), d2 = od_Dot(ac, ap);
-	if (d1 <= 0.0 && d2 <= 0.0)
-	{
-		return a;
-	}
-	od_Vec3 bp = od_Sub(p, b);
-	double d3 = od_Dot(ab, bp), d4 = od_Dot(ac, bp);
-	if (d3 >= 0.0 && d4 <= d3)
-	{
-		return b;
-	}
-	double vc = d1 * d4 - d3 * d2;
-	if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
-	{
-		return od_MulAdd(a, d1 / (d1 - d3), ab);
-	}
-	od_Vec3 cp = od_Sub(p, c);
-	double d5 = od_Dot(ab, cp), d6 = od_Dot(ac, cp);
-	if (d6 >= 0.0 && d5 <= d6)
-	{
-		return c;
-	}
-	double vb = d5 * d2 - d1 * d6;
-	if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
-	{
-		return od_MulAdd(a, d2 / (d2 - d6), ac);
-	}
-	double va = d3 * d6 - d5 * d4;
-	if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
-	{
-		return od_MulAdd(b, (d4 - d3) / ((d4 - d3) + (d5 - d6)), od_Sub(c, b));
-	}
-	double denom = 1.0 / (va + vb + vc);
-	return od_Add(a, od_Add(od_Scale(vb * denom, ab), od_Scale(vc * denom, ac)));
-}
-
-static int od_CompareDouble(const void* a, const void* b)
-{
-	double x = *(const double*)a, y = *(const double*)b;
-	return (x > y) - (x < y);
-}
-
-typedef struct od_MeshView
-{
-	const double* v;
-	const int* t;
-	int triangles;
-} od_MeshView;
-
-static od_Vec3 od_MeshVertex(const od_MeshView* m, int tri, int corner)
-{
-	return od_V3Load(m->v + 3 * m->t[3 * tri + corner]);
-}
-
-static size_t od_SdfIndex(const int dims[3], int i, int j, int k)
-{
-	return ((size_t)k * dims[1] + j) * dims[0] + i;
-}
-
-// Exact unsigned distances within OD_MESH_BAND samples of each triangle.
-static void od_SdfBand(od_MpmCollider* c, const od_MeshView* m)
-{
-	for (int tri = 0; tri < m->triangles; ++tri)
-	{
-		od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), cc = od_MeshVertex(m, tri, 2);
-		int lo[3], hi[3];
-		for (int ax = 0; ax < 3; ++ax)
-		{
-			double mn = fmin(fmin((&a.x)[ax], (&b.x)[ax]), (&cc.x)[ax]);
-			double mx = fmax(fmax((&a.x)[ax], (&b.x)[ax]), (&cc.x)[ax]);
-			lo[ax] = (int)floor((mn - c->origin[ax]) / c->spacing) - OD_MESH_BAND;
-			hi[ax] = (int)ceil((mx - c->origin[ax]) / c->spacing) + OD_MESH_BAND;
-			lo[ax] = lo[ax] < 0 ? 0 : lo[ax];
-			hi[ax] = hi[ax] >= c->dims[ax] ? c->dims[ax] - 1 : hi[ax];
-		}
-		for (int k = lo[2]; k <= hi[2]; ++k)
-		{
-			for (int j = lo[1]; j <= hi[1]; ++j)
-			{
-				for (int i = lo[0]; i <= hi[0]; ++i)
-				{
-					od_Vec3 p = od_V3(c->origin[0] + i * c->spacing, c->origin[1] + j * c->spacing,
-									  c->origin[2] + k * c->spacing);
-					double d = od_Length(od_Sub(p, od_ClosestOnTriangle(p, a, b, cc)));
-					double* s = &c->sdf[od_SdfIndex(c->dims, i, j, k)];
-					*s = fmin(*s, d);
-				}
-			}
-		}
-	}
-}
-
-// Two chamfer sweeps (26 neighbours) carry the band's distances through the rest of the samples.
-static void od_SdfSweep(od_MpmCollider* c)
-{
-	const int* n = c->dims;
-	for (int pass = 0; pass < 2; ++pass)
-	{
-		int step = pass == 0 ? 1 : -1;
-		for (int kk = 0; kk < n[2]; ++kk)
-		{
-			int k = pass == 0 ? kk : n[2] - 1 - kk;
-			for (int jj = 0; jj < n[1]; ++jj)
-			{
-				int j = pass == 0 ? jj : n[1] - 1 - jj;
-				for (int ii = 0; ii < n[0]; ++ii)
-				{
-					int i = pass == 0 ? ii : n[0] - 1 - ii;
-					double* s = &c->sdf[od_SdfIndex(n, i, j, k)];
-					// neighbours already visited in this sweep direction
-					for (int dz = -1; dz <= 0; ++dz)
-					{
-						for (int dy = -1; dy <= 1; ++dy)
-						{
-							for (int dxx = -1; dxx <= 1; ++dxx)
-							{
-								if (dz == 0 && (dy > 0 || (dy == 0 && dxx >= 0)))
-								{
-									continue;
-								}
-								int a = i + step * dxx, b = j + step * dy, e = k + step * dz;
-								if (a < 0 || b < 0 || e < 0 || a >= n[0] || b >= n[1] || e >= n[2])
-								{
-									continue;
-								}
-								double w = c->spacing * sqrt((double)(dxx * dxx + dy * dy + dz * dz));
-								*s = fmin(*s, c->sdf[od_SdfIndex(n, a, b, e)] + w);
-							}
-						}
-					}
-				}
-			}
-		}
-	}
-}
-
-// Negates the samples inside the mesh: odd number of crossings of the +x ray from each sample.
-static od_Status od_SdfSign(od_MpmCollider* c, const od_MeshView* m)
-{
-	double* hits = od_Alloc(sizeof(double) * (size_t)m->triangles);
-	if (!hits)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
-	}
-	// a tiny irrational offset keeps rays off shared edges and vertices
-	const double jitter[2] = { 1.37e-7 * c->spacing, 2.71e-7 * c->spacing };
-	for (int k = 0; k < c->dims[2]; ++k)
-	{
-		for (int j = 0; j < c->dims[1]; ++j)
-		{
-			double y = c->origin[1] + j * c->spacing + jitter[0], z = c->origin[2] + k * c->spacing + jitter[1];
-			int count = 0;
-			for (int tri = 0; tri < m->triangles; ++tri)
-			{
-				od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), e = od_MeshVertex(m, tri, 2);
-				// barycentric coordinates of (y, z) in the triangle projected on the yz plane
-				double det = (b.y - a.y) * (e.z - a.z) - (e.y - a.y) * (b.z - a.z);
-				if (det == 0.0)
-				{
-					continue;
-				}
-				double u = ((y - a.y) * (e.z - a.z) - (e.y - a.y) * (z - a.z)) / det;
-				double v = ((b.y - a.y) * (z - a.z) - (y - a.y) * (b.z - a.z)) / det;
-				if (u >= 0.0 && v >= 0.0 && u + v <= 1.0)
-				{
-					hits[count++] = a.x + u * (b.x - a.x) + v * (e.x - a.x);
-				}
-			}
-			qsort(hits, (size_t)count, sizeof *hits, od_CompareDouble);
-			int h = 0;
-			for (int i = 0; i < c->dims[0]; ++i)
-			{
-				double x = c->origin[0] + i * c->spacing;
-				while (h < count && hits[h] < x)
-				{
-					++h;
-				}
-				if (h % 2 == 1)
-				{
-					double* s = &c->sdf[od_SdfIndex(c->dims, i, j, k)];
-					*s = -*s;
-				}
-			}
-		}
-	}
-	od_Free(hits);
-	return OD_OK;
-}
-
-static od_Status od_MeshInit(od_MpmCollider* c, const od_MpmColliderDef* def, double dx)
-{
-	if (def->triangleCount < 1 || def->vertexCount < 3 || !def->vertices || !def->triangles)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: a mesh needs vertices and at least one triangle (got %d)",
-					   def->triangleCount);
-	}
-	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
-	for (int i = 0; i < def->vertexCount; ++i)
-	{
-		if (!od_IsFinite3(def->vertices + 3 * i))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "collider: vertex %d is not finite", i);
-		}
-		for (int a = 0; a < 3; ++a)
-		{
-			lo[a] = fmin(lo[a], def->vertices[3 * i + a]);
-			hi[a] = fmax(hi[a], def->vertices[3 * i + a]);
-		}
-		c->radius = fmax(c->radius, od_Length(od_V3Load(def->vertices + 3 * i)));
-	}
-	for (int k = 0; k < 3 * def->triangleCount; ++k)
-	{
-		if (def->triangles[k] < 0 || def->triangles[k] >= def->vertexCount)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "collider: triangle %d uses vertex %d, outside [0, %d)", k / 3,
-						   def->triangles[k], def->vertexCount);
-		}
-	}
-	double extent = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
-	if (!(extent < 1e150)) // finite vertices whose differences overflow: no sample spacing fits them
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
-	}
-	c->spacing = fmax(0.5 * dx, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
-	size_t total = 1;
-	for (int a = 0; a < 3; ++a)
-	{
-		c->origin[a] = lo[a] - (OD_MESH_BAND + 1) * c->spacing;
-		c->dims[a] = (int)ceil((hi[a] - lo[a]) / c->spacing) + 2 * OD_MESH_BAND + 3;
-		total *= (size_t)c->dims[a];
-	}
-	c->sdf = od_Alloc(total * sizeof(double));
-	if (!c->sdf)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
-	}
-	for (size_t i = 0; i < total; ++i)
-	{
-		c->sdf[i] = INFINITY;
-	}
-	od_MeshView m = { def->vertices, def->triangles, def->triangleCount };
-	od_SdfBand(c, &m);
-	od_SdfSweep(c);
-	return od_SdfSign(c, &m);
-}
-
-// Trilinear sample of the mesh distance at local point p (clamped to the sample box: far away is outside).
-static double od_MeshDistance(const od_MpmCollider* c, od_Vec3 p)
-{
-	double g[3] = { (p.x - c->origin[0]) / c->spacing, (p.y - c->origin[1]) / c->spacing,
-					(p.z - c->origin[2]) / c->spacing };
-	int i[3];
-	double f[3], outside = 0.0;
-	for (int a = 0; a < 3; ++a)
-	{
-		double lim = c->dims[a] - 1.000001;
-		double clamped = g[a] < 0.0 ? 0.0 : (g[a] > lim ? lim : g[a]);
-		outside += (g[a] - clamped) * (g[a] - clamped);
-		i[a] = (int)clamped;
-		f[a] = clamped - i[a];
-	}
-	double d = 0.0;
-	for (int corner = 0; corner < 8; ++corner)
-	{
-		int a = corner & 1, b = (corner >> 1) & 1, e = corner >> 2;
-		double w = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
-		d += w * c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
-	}
-	return d + sqrt(outside) * c->spacing;
-}
-
-// ---------------------------------------------------------------------------------------------------------
-// Shapes
-
-// Signed distance and outward normal in the collider's frame.
-static double od_ShapeDistance(const od_MpmCollider* c, od_Vec3 p, od_Vec3* n)
-{
-	const double* h = c->def.halfExtents;
-	switch (c->def.shape)
-	{
-		case OD_MPM_PLANE:
-			*n = od_V3(0, 0, 1);
-			return p.z;
-		case OD_MPM_SPHERE:
-		{
-			double len = od_Length(p);
-			*n = len > 0.0 ? od_Scale(1.0 / len, p) : od_V3(0, 0, 1);
-			return len - h[0];
-		}
-		case OD_MPM_BOX:
-		{
-			double q[3] = { fabs(p.x) - h[0], fabs(p.y) - h[1], fabs(p.z) - h[2] }, sgn[3] = { p.x < 0 ? -1 : 1,
-																							  p.y < 0 ? -1 : 1,
-																							  p.z < 0 ? -1 : 1 };
-			if (q[0] > 0.0 || q[1] > 0.0 || q[2] > 0.0)
-			{
-				od_Vec3 o = od_V3(sgn[0] * fmax(q[0], 0.0), sgn[1] * fmax(q[1], 0.0), sgn[2] * fmax(q[2], 0.0));
-				double len = od_Length(o);
-				*n = od_Scale(1.0 / len, o);
-				return len;
-			}
-			int a = q[0] >= q[1] && q[0] >= q[2] ? 0 : (q[1] >= q[2] ? 1 : 2);
-			double nn[3] = { 0, 0, 0 };
-			nn[a] = sgn[a];
-			*n = od_V3Load(nn);
-			return q[a];
-		}
-		case OD_MPM_MESH:
-		{
-			double e = 0.5 * c->spacing, d = od_MeshDistance(c, p);
-			if (d >= 0.0)
-			{
-				*n = od_V3(0, 0, 1); // outside: no caller needs the normal
-				return d;
-			}
-			od_Vec3 g = od_V3(od_MeshDistance(c, od_V3(p.x + e, p.y, p.z)) - od_MeshDistance(c, od_V3(p.x - e, p.y, p.z)),
-							  od_MeshDistance(c, od_V3(p.x, p.y + e, p.z)) - od_MeshDistance(c, od_V3(p.x, p.y - e, p.z)),
-							  od_MeshDistance(c, od_V3(p.x, p.y, p.z + e)) - od_MeshDistance(c, od_V3(p.x, p.y, p.z - e)));
-			double len = od_Length(g);
-			*n = len > 0.0 ? od_Scale(1.0 / len, g) : od_V3(0, 0, 1);
-			return d;
-		}
-	}
-	*n = od_V3(0, 0, 1);
-	return INFINITY;
-}
-
-// Signed distance and world normal at world point x for the current frame (a mesh skips the normal
-// outside, where no caller needs it).
-static double od_ColliderDistance(const od_MpmCollider* c, od_Vec3 x, od_Vec3* n)
-{
-	od_Vec3 local = od_M3MulTV(&c->R, od_Sub(x, c->t)), ln;
-	double d = od_ShapeDistance(c, local, &ln);
-	*n = od_M3MulV(&c->R, ln);
-	return d;
-}
-
-static od_Vec3 od_ColliderVelocity(const od_MpmCollider* c, od_Vec3 x)
-{
-	return od_Add(c->velocity, od_Cross(c->omega, od_Sub(x, c->t)));
-}
-
-static int od_IsRotation(const double* r)
-{
-	od_Mat3 m = od_M3Load(r), rtr = od_M3MulTN(&m, &m);
-	for (int k = 0; k < 9; ++k)
-	{
-		if (!(fabs(rtr.m[k] - (k % 4 == 0)) < 1e-6))
-		{
-			return 0;
-		}
-	}
-	return od_M3Det(&m) > 0.0;
-}
-
-od_Status od_MpmCollider_SetTarget(od_MpmCollider* c, const double rotation[9], const double translation[3])
-{
-	if (!od_IsRotation(rotation) || !od_IsFinite3(translation))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: rotation must be a proper rotation and translation finite");
-	}
-	c->R1 = od_M3Load(rotation);
-	c->t1 = od_V3Load(translation);
-	return OD_OK;
-}
-
 od_Status od_MpmCollider_Init(od_MpmCollider* c, const od_MpmColliderDef* def, double dx)
 {
-	*c = (od_MpmCollider){ .def = *def };
-	c->def.vertices = NULL;
-	c->def.triangles = NULL;
-	if (def->shape < OD_MPM_PLANE || def->shape > OD_MPM_MESH || def->contact < OD_MPM_STICKY ||
-		def->contact > OD_MPM_SEPARATE)
+	*c = (od_MpmCollider){ .contact = def->contact, .friction = def->friction };
+	if (def->contact < OD_MPM_STICKY || def->contact > OD_MPM_SEPARATE)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: unknown shape %d or contact %d", (int)def->shape,
-					   (int)def->contact);
+		return od_Fail(OD_ERROR_ARGUMENT, "collider: unknown contact %d", (int)def->contact);
 	}
 	if (!(def->friction >= 0.0) || !isfinite(def->friction))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "collider: friction must be >= 0, got %g", def->friction);
 	}
-	if ((def->shape == OD_MPM_BOX && !(def->halfExtents[0] > 0 && def->halfExtents[1] > 0 && def->halfExtents[2] > 0)) ||
-		(def->shape == OD_MPM_SPHERE && !(def->halfExtents[0] > 0)) || !od_IsFinite3(def->halfExtents))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: box half extents and sphere radius must be > 0");
-	}
-	od_Status status = od_MpmCollider_SetTarget(c, def->rotation, def->translation);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	c->R0 = c->R = c->R1;
-	c->t0 = c->t = c->t1;
-	c->radius = def->shape == OD_MPM_BOX ? od_Length(od_V3Load(def->halfExtents))
-										 : (def->shape == OD_MPM_SPHERE ? def->halfExtents[0] : 0.0);
-	if (def->shape == OD_MPM_MESH)
-	{
-		status = od_MeshInit(c, def, dx);
-		if (status != OD_OK)
-		{
-			od_MpmCollider_Destroy(c);
-		}
-	}
-	return status;
+	od_ShapeDef shape = { .kind = (od_ShapeKind)def->shape,
+						  .vertexCount = def->vertexCount,
+						  .vertices = def->vertices,
+						  .triangleCount = def->triangleCount,
+						  .triangles = def->triangles,
+						  .spacing = 0.5 * dx };
+	memcpy(shape.halfExtents, def->halfExtents, sizeof shape.halfExtents);
+	return od_Collider_Init(&c->body, &shape, def->rotation, def->translation);
 }
 
 void od_MpmCollider_Destroy(od_MpmCollider* c)
 {
-	od_Free(c->sdf);
-	c->sdf = NULL;
-}
-
-void od_MpmCollider_BeginCall(od_MpmCollider* c, double duration)
-{
-	od_Mat3 delta = od_M3MulNT(&c->R1, &c->R0);
-	c->omega = od_Scale(1.0 / duration, od_M3LogRotation(&delta));
-	c->velocity = od_Scale(1.0 / duration, od_Sub(c->t1, c->t0));
-}
-
-void od_MpmCollider_Place(od_MpmCollider* c, double s)
-{
-	od_Mat3 delta = od_M3MulNT(&c->R1, &c->R0);
-	od_Mat3 partial = od_M3ExpSkew(od_Scale(s, od_M3LogRotation(&delta)));
-	c->R = od_M3Mul(&partial, &c->R0);
-	c->t = od_MulAdd(c->t0, s, od_Sub(c->t1, c->t0));
-}
-
-void od_MpmCollider_EndCall(od_MpmCollider* c)
-{
-	c->R = c->R0 = c->R1;
-	c->t = c->t0 = c->t1;
-	c->velocity = c->omega = od_V3(0, 0, 0);
-}
-
-double od_MpmCollider_MaxSpeed(const od_MpmCollider* c)
-{
-	return od_Length(c->velocity) + od_Length(c->omega) * c->radius;
+	od_Collider_Destroy(&c->body);
 }
 
 od_Vec3 od_MpmContactResponse(od_MpmContact contact, double friction, od_Vec3 vrel, od_Vec3 n)
@@ -497,24 +70,24 @@ od_Vec3 od_MpmContactResponse(od_MpmContact contact, double friction, od_Vec3 vr
 od_Vec3 od_MpmCollider_Node(const od_MpmCollider* c, od_Vec3 x, od_Vec3 v)
 {
 	od_Vec3 n;
-	if (od_ColliderDistance(c, x, &n) >= 0.0)
+	if (od_Collider_Distance(&c->body, x, &n) >= 0.0)
 	{
 		return v;
 	}
-	od_Vec3 vc = od_ColliderVelocity(c, x);
-	return od_Add(vc, od_MpmContactResponse(c->def.contact, c->def.friction, od_Sub(v, vc), n));
+	od_Vec3 vc = od_Collider_Velocity(&c->body, x);
+	return od_Add(vc, od_MpmContactResponse(c->contact, c->friction, od_Sub(v, vc), n));
 }
 
 void od_MpmCollider_Particle(const od_MpmCollider* c, od_Vec3* x, od_Vec3* v)
 {
 	od_Vec3 n;
-	double d = od_ColliderDistance(c, *x, &n);
+	double d = od_Collider_Distance(&c->body, *x, &n);
 	if (d >= 0.0)
 	{
 		return;
 	}
 	*x = od_MulAdd(*x, -d, n);
-	od_Vec3 vc = od_ColliderVelocity(c, *x), vrel = od_Sub(*v, vc);
+	od_Vec3 vc = od_Collider_Velocity(&c->body, *x), vrel = od_Sub(*v, vc);
 	double vn = od_Dot(vrel, n);
 	if (vn < 0.0)
 	{

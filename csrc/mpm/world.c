@@ -300,7 +300,7 @@ od_Status od_MpmWorld_MoveCollider(od_MpmWorld* w, int id, const double rotation
 	{
 		return od_Fail(OD_ERROR_NOT_FOUND, "collider: no collider %d (there are %d)", id, w->colliderCount);
 	}
-	return od_MpmCollider_SetTarget(&w->colliders[id], rotation, translation);
+	return od_Collider_SetTarget(&w->colliders[id].body, rotation, translation);
 }
 
 // The CFL bound of the next substep.
@@ -309,7 +309,7 @@ static double od_CflDt(const od_MpmWorld* w)
 	double speed = w->state.maxSpeed, wave = 0.0;
 	for (int c = 0; c < w->colliderCount; ++c)
 	{
-		speed = fmax(speed, od_MpmCollider_MaxSpeed(&w->colliders[c]));
+		speed = fmax(speed, od_Collider_MaxSpeed(&w->colliders[c].body));
 	}
 	for (int m = 0; m < w->model.materialCount; ++m)
 	{
@@ -363,7 +363,7 @@ static void od_BeginCall(od_MpmWorld* w, double duration)
 {
 	for (int c = 0; c < w->colliderCount; ++c)
 	{
-		od_MpmCollider_BeginCall(&w->colliders[c], duration);
+		od_Collider_BeginCall(&w->colliders[c].body, duration);
 	}
 }
 
@@ -371,7 +371,7 @@ static void od_EndCall(od_MpmWorld* w)
 {
 	for (int c = 0; c < w->colliderCount; ++c)
 	{
-		od_MpmCollider_EndCall(&w->colliders[c]);
+		od_Collider_EndCall(&w->colliders[c].body);
 	}
 }
 
@@ -385,7 +385,7 @@ od_Status od_MpmWorld_Substep(od_MpmWorld* w, double dt)
 	od_BeginCall(w, dt);
 	for (int c = 0; c < w->colliderCount; ++c)
 	{
-		od_MpmCollider_Place(&w->colliders[c], 1.0);
+		od_Collider_Place(&w->colliders[c].body, 1.0);
 	}
 	status = od_Advance(w, dt);
 	od_EndCall(w);
@@ -440,7 +440,7 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 		double end = remaining <= dt ? duration : elapsed + dt;
 		for (int c = 0; c < w->colliderCount; ++c)
 		{
-			od_MpmCollider_Place(&w->colliders[c], end / duration);
+			od_Collider_Place(&w->colliders[c].body, end / duration);
 		}
 		status = od_Advance(w, dt);
 		elapsed = end;

@@ -12,6 +12,7 @@
 
 #include "opdeform/mpm.h"
 
+#include "collider.h"
 #include "math3.h"
 #include "pool.h"
 
@@ -43,19 +44,9 @@ typedef struct od_MpmMaterialSlot
 
 typedef struct od_MpmCollider
 {
-	od_MpmColliderDef def; // arrays not kept; mesh data below
-	// mesh: signed distance samples on a local grid
-	double* sdf;
-	int dims[3];
-	double origin[3], spacing;
-	double radius; // bounding radius about the frame origin (for the CFL bound)
-	// frames: at the start of the current call, its target, and the velocity over the call
-	od_Mat3 R0, R1;
-	od_Vec3 t0, t1;
-	od_Vec3 omega, velocity;
-	// the frame at the end of the current substep
-	od_Mat3 R;
-	od_Vec3 t;
+	od_MpmContact contact;
+	double friction;
+	od_Collider body; // shape and frames (collide/collider.c)
 } od_MpmCollider;
 
 typedef struct od_MpmWind
@@ -187,13 +178,6 @@ od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time);
 // collider.c
 od_Status od_MpmCollider_Init(od_MpmCollider* c, const od_MpmColliderDef* def, double dx);
 void od_MpmCollider_Destroy(od_MpmCollider* c);
-od_Status od_MpmCollider_SetTarget(od_MpmCollider* c, const double rotation[9], const double translation[3]);
-// Sets the frame at fraction s in [0, 1] of the current call.
-void od_MpmCollider_Place(od_MpmCollider* c, double s);
-// Starts a call of length `duration`: velocities from the current frame to the target.
-void od_MpmCollider_BeginCall(od_MpmCollider* c, double duration);
-void od_MpmCollider_EndCall(od_MpmCollider* c);
-double od_MpmCollider_MaxSpeed(const od_MpmCollider* c);
 // Grid boundary condition on a node velocity at x; returns the velocity unchanged when x is outside.
 od_Vec3 od_MpmCollider_Node(const od_MpmCollider* c, od_Vec3 x, od_Vec3 v);
 // Pushes a particle that ended inside the collider back to its surface (position and velocity).
