@@ -1,3 +1,4 @@
+// A monotonic clock for the solvers' time counters.
 #include "clock.h"
 
 #include <time.h>
