@@ -3,6 +3,7 @@
 #include "energy.h"
 
 #include "constraints.h"
+#include "goal.h"
 #include "math3.h"
 
 void od_Predict(od_Sim* sim)
@@ -87,6 +88,6 @@ static double od_GravityEnergy(const od_Sim* sim)
 
 double od_Energy(const od_Sim* sim)
 {
-	double e = od_ElasticEnergy(sim) + od_Constraints_Energy(sim);
+	double e = od_ElasticEnergy(sim) + od_Constraints_Energy(sim) + od_Goals_Energy(sim);
 	return e + (sim->mode == OD_DYNAMIC ? od_InertiaEnergy(sim) : od_GravityEnergy(sim));
 }

@@ -13,6 +13,7 @@
 #include "cholesky.h"
 #include "clock.h"
 #include "core.h"
+#include "goal.h"
 #include "math3.h"
 #include "position_constraints.h"
 
@@ -25,6 +26,7 @@ static od_Status od_GlobalSolve(od_Sim* sim);
 typedef struct od_MatrixKey
 {
 	unsigned constraints; // od_ConstraintSet.matrixVersion
+	unsigned goals;       // od_Goals.version
 	double stiffness, density, dt; // density and dt 0 for static poses (no mass term)
 	int factorization, threads;
 } od_MatrixKey;
@@ -84,6 +86,7 @@ static od_MatrixKey od_KeyOf(const od_Sim* sim)
 	bool dynamic = sim->mode == OD_DYNAMIC;
 	return (od_MatrixKey){
 		.constraints = sim->constraints.matrixVersion,
+		.goals = sim->goals.version,
 		.stiffness = sim->def.stiffness,
 		.density = dynamic ? sim->def.density : 0.0,
 		.dt = dynamic ? sim->def.dt : 0.0,
@@ -94,7 +97,7 @@ static od_MatrixKey od_KeyOf(const od_Sim* sim)
 
 static bool od_SameKey(const od_MatrixKey* a, const od_MatrixKey* b)
 {
-	return a->constraints == b->constraints && a->stiffness == b->stiffness && a->density == b->density &&
+	return a->constraints == b->constraints && a->goals == b->goals && a->stiffness == b->stiffness && a->density == b->density &&
 		   a->dt == b->dt && a->factorization == b->factorization && a->threads == b->threads;
 }
 
@@ -121,7 +124,7 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
 	for (int i = 0; i < g->n; ++i)
 	{
-		double diag = sim->mode == OD_DYNAMIC ? rho * g->volumes[i] / (h * h) : 0.0;
+		double diag = (sim->mode == OD_DYNAMIC ? rho * g->volumes[i] / (h * h) : 0.0) + od_Goals_Diagonal(sim, i);
 		od_PushEntry(t, i, i, diag);
 	}
 	for (int e = 0; e < g->edgeCount; ++e)
@@ -295,6 +298,10 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	else
 	{
 		f = od_MulAdd(f, m, od_V3Load(sim->def.gravity));
+	}
+	if (sim->goals.omega2)
+	{
+		f = od_Add(f, od_Goals_RhsRow(sim, i, residual));
 	}
 	return residual ? f : od_Add(f, od_Positions_RhsRow(sim, i));
 }

@@ -11,6 +11,7 @@
 #include "constraints.h"
 #include "core.h"
 #include "direction_constraints.h"
+#include "goal.h"
 #include "math3.h"
 #include "polar.h"
 #include "position_constraints.h"
@@ -76,6 +77,10 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 		{
 			c[k] += t[k];
 		}
+	}
+	if (sim->goals.omega2)
+	{
+		od_Goals_AddLocal(sim, i, c);
 	}
 	od_Mat3 out = od_M3Load(c);
 	if (od_Constraints_Touches(sim, i))

@@ -14,6 +14,7 @@
 
 #include "buffer.h"
 #include "core.h"
+#include "goal.h"
 #include "graph.h"
 #include "math3.h"
 #include "sim.h"
@@ -273,18 +274,31 @@ double od_Positions_Energy(const od_Sim* sim)
 	return e;
 }
 
-// A static pose is defined only when every connected piece has a position constraint.
+// Whether a goal holds some particle of the piece.
+static bool od_GoalHolds(const od_Sim* sim, int piece)
+{
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		if (sim->graph->piece[i] == piece && od_Goals_Hold(sim, i))
+		{
+			return true;
+		}
+	}
+	return false;
+}
+
+// A static pose is defined only when every connected piece has a position constraint (or a goal).
 od_Status od_Positions_CheckPinned(const od_Sim* sim)
 {
 	const od_Graph* g = sim->graph;
 	const od_ConstraintSet* set = &sim->constraints;
-	if (set->positionCount == 0)
+	if (set->positionCount == 0 && !sim->goals.omega2)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "solve_static needs at least one position constraint");
 	}
 	for (int piece = 0; piece < g->pieceCount; ++piece)
 	{
-		bool pinned = false;
+		bool pinned = od_GoalHolds(sim, piece);
 		for (int s = 0; s < set->count && !pinned; ++s)
 		{
 			const od_Constraint* c = set->items + s;

@@ -67,6 +67,16 @@ typedef struct od_State
 	double* omega; // n*3
 } od_State;
 
+// Goals (goal.c): NULL arrays when the simulation has none.
+typedef struct od_Goals
+{
+	double* omega2;   // n, (2π f_i)²
+	double* x;        // n*3 goal centres g_i
+	double* R;        // n*9 goal rotations G_i
+	double* term;     // n*9, ρ ω_i² G_i Ā_i: the goal's term of C_i
+	unsigned version; // advances with every change of the frequencies (they enter the global matrix)
+} od_Goals;
+
 typedef enum od_Mode
 {
 	OD_DYNAMIC = 0,
@@ -81,6 +91,7 @@ struct od_Sim
 	od_SimDef def;
 	od_ConstraintSet constraints;
 	od_GlobalSolver* solver[2]; // per mode
+	od_Goals goals;
 	bool hasFloor;
 	double floorHeight, floorFriction;
 

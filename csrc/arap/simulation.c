@@ -9,9 +9,11 @@
 // A call that produces a non-finite state restores the state it started from and fails.
 #include "constraints.h"
 #include "core.h"
+#include "check.h"
 #include "energy.h"
 #include "floor.h"
 #include "global_solve.h"
+#include "goal.h"
 #include "local_step.h"
 #include "math3.h"
 #include "polar.h"
@@ -267,6 +269,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->rowArm);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
+	od_Goals_Destroy(&sim->goals);
 	od_Accelerator_Destroy(&sim->accelerator);
 	od_Pool_Destroy(sim->pool);
 	od_Free(sim->RInput);
@@ -321,39 +324,6 @@ void od_Sim_ClearFloor(od_Sim* sim)
 	sim->hasFloor = false;
 }
 
-static od_Status od_CheckRotations(const double* rotations, int n)
-{
-	for (int i = 0; i < n; ++i)
-	{
-		od_Mat3 r = od_M3Load(rotations + 9 * i);
-		od_Mat3 rtr = od_M3MulTN(&r, &r);
-		double err = 0.0;
-		for (int k = 0; k < 9; ++k)
-		{
-			double d = rtr.m[k] - (k % 4 == 0 ? 1.0 : 0.0);
-			err += d * d;
-		}
-		if (!(err < 1e-12) || !(od_M3Det(&r) > 0.0))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "rotations[%d] is not a proper rotation (|RᵀR - I|² = %.3g, det = %.6g)",
-						   i, err, od_M3Det(&r));
-		}
-	}
-	return OD_OK;
-}
-
-static od_Status od_CheckFinite(const char* name, const double* values, int count)
-{
-	for (int k = 0; k < count; ++k)
-	{
-		if (!isfinite(values[k]))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "%s[%d][%d] is not finite", name, k / 3, k % 3);
-		}
-	}
-	return OD_OK;
-}
-
 od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
 						  const double* angularVelocities)
 {
@@ -365,7 +335,7 @@ od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* ro
 	od_Status status = od_CheckFinite("positions", positions, 3 * n);
 	if (status == OD_OK)
 	{
-		status = od_CheckRotations(rotations, n);
+		status = od_CheckRotations("rotations", rotations, n);
 	}
 	if (status == OD_OK && velocities)
 	{

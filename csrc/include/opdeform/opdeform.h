@@ -49,6 +49,15 @@ od_Status od_Sim_SetConstraintWeight(od_Sim* sim, int id, double weight);
 od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id);
 int od_Sim_GetConstraintCount(const od_Sim* sim);
 
+// Goals (Soft Body's Goal, nCloth's Input Mesh Attract): each particle is pulled toward a goal frame, its
+// goal centre and rotation (an animated shape, see od_Skin_FitGoals), by a spring given as a frequency in
+// Hz, so that it means the same at any size, mass and frame rate (0: free; ~1000 Hz follows the goal to
+// about 1e-6 of the motion per step at 24 fps). Frequencies enter the global matrix (one refactor per
+// change); new goal frames each frame change only the right side. NULL frequencies remove the goals.
+od_Status od_Sim_SetGoalFrequencies(od_Sim* sim, const double* frequencies); // n values >= 0
+// positions n*3; rotations n*9 proper rotations, NULL = the rest frames. Frames start at the rest frames.
+od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* rotations);
+
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction);
 void od_Sim_ClearFloor(od_Sim* sim);
 

@@ -1,0 +1,17 @@
+// Goals (goal.c): a pull of each particle toward an animated frame; their terms of the global matrix, the
+// right side, the local step and the objective.
+#pragma once
+
+#include "math3.h"
+#include "sim.h"
+
+void od_Goals_Destroy(od_Goals* goals);
+// ρ v_i ω_i², the goal's entry of the global matrix's diagonal (0 without goals).
+double od_Goals_Diagonal(const od_Sim* sim, int i);
+// ρ v_i ω_i² g_i, or with `residual` ρ v_i ω_i² (g_i - x_i).
+od_Vec3 od_Goals_RhsRow(const od_Sim* sim, int i, bool residual);
+// Adds ρ ω_i² G_i Ā_i to the local step's C_i (call only when sim->goals.omega2).
+void od_Goals_AddLocal(const od_Sim* sim, int i, double c[9]);
+// Whether particle i has a goal of nonzero frequency (it then pins its piece in a static pose).
+bool od_Goals_Hold(const od_Sim* sim, int i);
+double od_Goals_Energy(const od_Sim* sim);
