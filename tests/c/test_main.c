@@ -8,6 +8,7 @@ int test_goal(void);
 int test_mpm(void);
 int test_mesh_graph(void);
 int test_skinning(void);
+int test_goal_fit(void);
 int test_mesh_io(void);
 int test_cholesky(void);
 
@@ -21,6 +22,7 @@ int main(void)
 	RUN_TEST(test_mpm);
 	RUN_TEST(test_mesh_graph);
 	RUN_TEST(test_skinning);
+	RUN_TEST(test_goal_fit);
 	RUN_TEST(test_mesh_io);
 	RUN_TEST(test_cholesky);
 	printf("%d passed, %d failed\n", total - failures, failures);

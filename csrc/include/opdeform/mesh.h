@@ -127,6 +127,28 @@ od_Status od_Mesh_FormatPly(int vertexCount, const double* vertices, int triangl
 							char** data, size_t* size);
 void od_Mesh_FreeData(char* data);
 
+// ---------------------------------------------------------------------------------------------------------
+// Goal frames from an animated mesh (goal_fit.c): per particle, the rigid motion that best carries its
+// nearest rest vertices onto their animated positions; the input of od_Sim_SetGoals.
+
+#define OD_MAX_GOAL_NEIGHBORS 64
+
+typedef struct od_GoalFit od_GoalFit;
+
+typedef struct od_GoalFitDef
+{
+	int vertexCount;
+	const double* vertices; // vertexCount*3 rest positions, finite (copied)
+	int neighbors;          // vertices per particle (16), at most OD_MAX_GOAL_NEIGHBORS
+} od_GoalFitDef;
+
+od_GoalFitDef od_DefaultGoalFitDef(void);
+od_Status od_GoalFit_Create(const od_Graph* graph, const od_GoalFitDef* def, od_GoalFit** fit);
+void od_GoalFit_Destroy(od_GoalFit* fit);
+int od_GoalFit_GetVertexCount(const od_GoalFit* fit);
+// animated: vertexCount*3 (the deformed rest vertices, same order); positions n*3, rotations n*9 written.
+od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations);
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,162 @@
+// Goal frames from an animated mesh, the input of od_Sim_SetGoals: each particle's goal is the rigid
+// motion that best carries its k nearest rest vertices onto their animated positions. Weighted least
+// squares (Kabsch): the weighted centroids x̄, ȳ, then R = the polar rotation of the cross-covariance
+// Σ w (y - ȳ)(x - x̄)ᵀ, and the goal centre ȳ + R (X̄ - x̄). The weights are the Sumner weights of the
+// skin (graph/skin_weights.c) over the k nearest vertices of the particle's rest centre, so a particle
+// follows the part of the surface it stands for. Binding finds the neighbours once (a grid over the
+// vertices); a fit is O(particles · k) with one 3x3 SVD per particle and allocates nothing.
+#include "opdeform/mesh.h"
+
+#include "check.h"
+#include "core.h"
+#include "graph.h"
+#include "math3.h"
+#include "mesh_check.h"
+#include "nearest.h"
+#include "polar.h"
+#include "skin_weights.h"
+
+#include <string.h>
+
+struct od_GoalFit
+{
+	int particleCount, vertexCount, k;
+	double* centers; // particleCount*3, X̄
+	int* idx;        // particleCount*k vertex indices
+	double* w;       // particleCount*k weights, summing to 1 per particle
+	double* centroid; // particleCount*3, x̄: the weighted rest centroid of each particle's vertices
+	double* rest;     // vertexCount*3 rest vertices
+};
+
+od_GoalFitDef od_DefaultGoalFitDef(void)
+{
+	return (od_GoalFitDef){ .neighbors = 16 };
+}
+
+void od_GoalFit_Destroy(od_GoalFit* fit)
+{
+	if (fit)
+	{
+		od_Free(fit->centers);
+		od_Free(fit->idx);
+		od_Free(fit->w);
+		od_Free(fit->centroid);
+		od_Free(fit->rest);
+		od_Free(fit);
+	}
+}
+
+static od_Status od_Bind(od_GoalFit* fit, const od_Graph* graph, const double* vertices)
+{
+	od_NearestGrid grid;
+	od_Status status = od_NearestGrid_Create(&grid, vertices, fit->vertexCount);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	double dist[OD_MAX_GOAL_NEIGHBORS + 1];
+	int near[OD_MAX_GOAL_NEIGHBORS + 1];
+	for (int j = 0; j < fit->particleCount; ++j)
+	{
+		int* idx = fit->idx + (size_t)fit->k * j;
+		double* w = fit->w + (size_t)fit->k * j;
+		int count = od_NearestGrid_Query(&grid, NULL, 0, graph->centers + 3 * j, fit->k + 1, dist, near);
+		int used = od_SumnerWeights(dist, near, count, fit->k, idx, w);
+		od_Vec3 centroid = od_V3(0, 0, 0);
+		for (int a = 0; a < fit->k; ++a)
+		{
+			idx[a] = a < used ? idx[a] : idx[0];
+			w[a] = a < used ? w[a] : 0.0;
+			centroid = od_MulAdd(centroid, w[a], od_V3Load(vertices + 3 * idx[a]));
+		}
+		od_V3Store(fit->centroid + 3 * j, centroid);
+	}
+	od_NearestGrid_Destroy(&grid);
+	return OD_OK;
+}
+
+od_Status od_GoalFit_Create(const od_Graph* graph, const od_GoalFitDef* def, od_GoalFit** out)
+{
+	*out = NULL;
+	if (!graph || !def || def->vertexCount < 1 || !def->vertices)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "goal fit: a graph and at least one rest vertex are required");
+	}
+	if (def->neighbors < 1 || def->neighbors > OD_MAX_GOAL_NEIGHBORS)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "neighbors = %d must be in [1, %d]", def->neighbors, OD_MAX_GOAL_NEIGHBORS);
+	}
+	od_Status status = od_CheckFinite("vertices", def->vertices, 3 * def->vertexCount);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_GoalFit* fit = od_AllocZero(1, sizeof *fit);
+	if (!fit)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for a goal fit");
+	}
+	size_t n = (size_t)graph->n;
+	fit->particleCount = graph->n;
+	fit->vertexCount = def->vertexCount;
+	fit->k = def->neighbors < def->vertexCount ? def->neighbors : def->vertexCount;
+	fit->centers = od_Alloc(sizeof(double) * 3 * n);
+	fit->idx = od_Alloc(sizeof(int) * fit->k * n);
+	fit->w = od_Alloc(sizeof(double) * fit->k * n);
+	fit->centroid = od_Alloc(sizeof(double) * 3 * n);
+	fit->rest = od_Alloc(sizeof(double) * 3 * (size_t)def->vertexCount);
+	status = fit->centers && fit->idx && fit->w && fit->centroid && fit->rest ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory for a goal fit");
+	if (status == OD_OK)
+	{
+		memcpy(fit->centers, graph->centers, sizeof(double) * 3 * n);
+		memcpy(fit->rest, def->vertices, sizeof(double) * 3 * (size_t)def->vertexCount);
+		status = od_Bind(fit, graph, def->vertices);
+	}
+	if (status != OD_OK)
+	{
+		od_GoalFit_Destroy(fit);
+		return status;
+	}
+	*out = fit;
+	return OD_OK;
+}
+
+int od_GoalFit_GetVertexCount(const od_GoalFit* fit)
+{
+	return fit->vertexCount;
+}
+
+// The rigid motion of particle j's vertices from rest to `animated`.
+static void od_FitOne(const od_GoalFit* fit, const double* animated, int j, double* position, double* rotation)
+{
+	const int* idx = fit->idx + (size_t)fit->k * j;
+	const double* w = fit->w + (size_t)fit->k * j;
+	od_Vec3 xbar = od_V3Load(fit->centroid + 3 * j), ybar = od_V3(0, 0, 0);
+	for (int a = 0; a < fit->k; ++a)
+	{
+		ybar = od_MulAdd(ybar, w[a], od_V3Load(animated + 3 * idx[a]));
+	}
+	od_Mat3 cov = { { 0 } };
+	for (int a = 0; a < fit->k; ++a)
+	{
+		od_Vec3 y = od_Sub(od_V3Load(animated + 3 * idx[a]), ybar), x = od_Sub(od_V3Load(fit->rest + 3 * idx[a]), xbar);
+		od_M3AddOuter(&cov, w[a], y, x);
+	}
+	od_Mat3 r = od_PolarRotation(&cov);
+	od_M3Store(rotation, &r);
+	od_V3Store(position, od_Add(ybar, od_M3MulV(&r, od_Sub(od_V3Load(fit->centers + 3 * j), xbar))));
+}
+
+od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations)
+{
+	od_Status status = od_CheckFinite("animated vertices", animated, 3 * fit->vertexCount);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	for (int j = 0; j < fit->particleCount; ++j)
+	{
+		od_FitOne(fit, animated, j, positions + 3 * j, rotations + 9 * j);
+	}
+	return OD_OK;
+}

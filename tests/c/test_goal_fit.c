@@ -1,0 +1,69 @@
+// Goal frames fitted to an animated mesh: a rigid motion of the mesh gives every particle that motion,
+// exactly; a non-finite input fails and writes nothing.
+#include "opdeform/mesh.h"
+#include "test_macros.h"
+#include "test_mesh_util.h"
+
+#include <string.h>
+
+// p turned by angle about z, then moved by t.
+static void turn_point(double angle, const double t[3], const double* p, double* out)
+{
+	out[0] = cos(angle) * p[0] - sin(angle) * p[1] + t[0];
+	out[1] = sin(angle) * p[0] + cos(angle) * p[1] + t[1];
+	out[2] = p[2] + t[2];
+}
+
+int test_goal_fit(void)
+{
+	int n[3] = { 12, 3, 3 };
+	double size[3] = { 1.2, 0.3, 0.3 }, origin[3] = { 0.0, -0.15, -0.15 }, t[3] = { 0.3, -2.0, 1.0 }, angle = 1.1;
+	test_Mesh box = test_box(n, size, origin);
+	od_MeshGraphDef gdef = od_DefaultMeshGraphDef();
+	gdef.vertexCount = box.vertexCount;
+	gdef.vertices = box.vertices;
+	gdef.triangleCount = box.triangleCount;
+	gdef.triangles = box.triangles;
+	gdef.particleCount = 12;
+	od_Graph* g = NULL;
+	ENSURE(od_Graph_CreateFromMesh(&gdef, &g) == OD_OK);
+	od_GoalFitDef def = od_DefaultGoalFitDef();
+	def.vertexCount = box.vertexCount;
+	def.vertices = box.vertices;
+	od_GoalFit* fit = NULL;
+	ENSURE(od_GoalFit_Create(g, &def, &fit) == OD_OK && od_GoalFit_GetVertexCount(fit) == box.vertexCount);
+	double* moved = malloc(sizeof(double) * 3 * box.vertexCount);
+	for (int v = 0; v < box.vertexCount; ++v)
+	{
+		turn_point(angle, t, box.vertices + 3 * v, moved + 3 * v);
+	}
+	int np = od_Graph_GetParticleCount(g);
+	double* x = malloc(sizeof(double) * 3 * np);
+	double* r = malloc(sizeof(double) * 9 * np);
+	ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_OK);
+	for (int j = 0; j < np; ++j)
+	{
+		double want[3];
+		turn_point(angle, t, od_Graph_GetCenters(g) + 3 * j, want);
+		for (int a = 0; a < 3; ++a)
+		{
+			ENSURE_SMALL(x[3 * j + a] - want[a], 1e-12);
+		}
+		ENSURE_SMALL(r[9 * j] - cos(angle), 1e-12);
+		ENSURE_SMALL(r[9 * j + 3] - sin(angle), 1e-12);
+		ENSURE_SMALL(r[9 * j + 8] - 1.0, 1e-12);
+	}
+	moved[5] = NAN;
+	x[0] = 42.0;
+	ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_ERROR_ARGUMENT && x[0] == 42.0);
+	def.neighbors = 0;
+	od_GoalFit* bad = NULL;
+	ENSURE(od_GoalFit_Create(g, &def, &bad) == OD_ERROR_ARGUMENT && !bad);
+	free(moved);
+	free(x);
+	free(r);
+	od_GoalFit_Destroy(fit);
+	od_Graph_Destroy(g);
+	test_free_mesh(&box);
+	return 0;
+}
