@@ -1,10 +1,12 @@
 """The add-on's bpy-free core (addon/opdeform_blender/core): PC2 files, frame logic, handle maths, the module
-loader's messages and the engine's replay guarantees. Plain pytest, no Blender."""
+loader's messages, the engine's replay guarantees and the tumbling particles' emitters, settings and frame
+files. Plain pytest, no Blender."""
 
 import math
 import os
 import sys
 import textwrap
+import types
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +16,7 @@ import opdeform
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import frames, handles, loader, pc2  # noqa: E402
+from opdeform_blender.core import frames, handles, loader, pc2, tumbling  # noqa: E402
 from opdeform_blender.core.engine import Engine, EngineError  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
@@ -152,3 +154,57 @@ def test_engine_rejects_bad_meshes():
     e.set_constraints(handles=())
     with pytest.raises(EngineError, match="posing needs"):
         e.pose(None, 5)
+
+
+def _tumbling_settings(**kw):
+    s = dict(dx=0.05, spin=1.0, material="flakes", density=100.0, young_modulus=1e3, poisson_ratio=0.3,
+             spacing=0.1, count=50, layer_height=0.8, layer_thickness=0.1, seed=3, wind="off", use_floor=True,
+             floor_height=0.0, floor_friction=0.3)
+    s.update(kw)
+    return types.SimpleNamespace(**s)
+
+
+def test_tumbling_emitters_and_settings():
+    from opdeform import mpm
+    s = _tumbling_settings()
+    lower, upper = np.zeros(3), np.ones(3)
+    layer = tumbling.flake_layer(mpm, s, lower, upper)
+    assert layer.shape == (50, 3) and (layer >= 0.15 - 1e-9).all() and (layer <= 0.85 + 1e-9).all()
+    assert np.all(np.abs(layer[:, 2] - 0.8) <= 0.035 + 1e-9)  # the layer's height and thickness
+    with pytest.raises(ValueError, match="grid spacing"):
+        tumbling.flake_layer(mpm, _tumbling_settings(dx=0.5), lower, upper)
+    v, t = _unit_cube()
+    matrix = np.eye(4)
+    matrix[:3, 3] = (5.0, 0.0, 0.0)
+    volume = tumbling.fill_volume(mpm, s, v, t, matrix)
+    assert len(volume) > 100 and (volume[:, 0] > 4.9).all() and (volume[:, 0] < 6.1).all()
+    settings = tumbling.settings_dict(s, (0, 0, -9.81), lower, upper)
+    assert settings["wind"] is None and settings["floor"] == (0.0, 0.3) and settings["gravity"] == (0, 0, -9.81)
+    windy = _tumbling_settings(wind="noise", wind_velocity=(1, 0, 0), wind_amplitude=1.0, wind_wavelength=1.0,
+                               wind_octaves=2, wind_persistence=0.5, wind_drift=(0, 0), wind_drag=1.0,
+                               wind_exponent=0.4, use_floor=False)
+    settings = tumbling.settings_dict(windy, (0, 0, 0), lower, upper)
+    assert settings["wind"]["ref_height"] == 1.0 and settings["wind"]["seed"] == 4 and settings["floor"] is None
+
+
+def _unit_cube():
+    """The closed unit cube [0, 1]^3: (vertices, triangles)."""
+    v = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = ((0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3))
+    return v, np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+
+
+def test_tumbling_frame_files(tmp_path):
+    folder = str(tmp_path)
+    for f in (1, 2, 3):
+        open(tumbling.frame_file(folder, f), "w").close()
+    (tmp_path / "notes.txt").write_text("kept")
+    assert tumbling.baked_frames(folder) == [1, 2, 3]
+    tumbling.free_frames(folder)
+    assert tumbling.baked_frames(folder) == [] and (tmp_path / "notes.txt").exists()
+    assert [tumbling.shown_frame(f, 2, 5) for f in (0, 2, 4, 9)] == [2, 2, 4, 5]
+    job = frames.BakeFrames()
+    job.start, job.end, job.frame = 2, 5, 5
+    assert job.total == 4 and not job.done
+    job.frame = 6
+    assert job.done

@@ -3,7 +3,8 @@
 Physics tab > Oriented Particles. Loads as a legacy add-on (bl_info, Blender 3.4+) and as an extension
 (blender_manifest.toml, Blender 4.2+). The compiled opdeform module is vendored by scripts/package, or found
 through $OPDEFORM_PYTHONPATH (development), see core/loader.py. Layout follows glTF-Blender-IO: core/ is
-bpy-free, blender/ holds properties, operators, panels, handlers and the overlay.
+bpy-free, blender/ holds properties, operators, panels, handlers, the overlay, and the glue to Blender data
+(runtime, tumbling_runtime, point_cloud).
 """
 
 bl_info = {
@@ -17,23 +18,31 @@ bl_info = {
     "category": "Physics",
 }
 
+import importlib
+import sys
+
 ADDON_PACKAGE = __package__ or __name__
 
-if "_modules" in locals():  # F8 / script reload: reload the submodules too
-    import importlib
-    for _m in _modules:  # noqa: F821
-        importlib.reload(_m)
+# Every module of the add-on, each after the modules it imports. A script reload (F8) reloads them all, in this
+# order, so that a change anywhere is picked up; tests/test_addon_core.py checks that every file is listed. Those
+# with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
+# order. A new feature (e.g. an MPM panel) adds its modules here.
+MODULES = ("core", "core.loader", "core.pc2", "core.frames", "core.cache", "core.handles", "core.engine",
+           "core.tumbling", "blender", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
+           "blender.properties", "blender.operators", "blender.panels", "blender.handlers", "blender.overlay")
+
+if "_modules" in locals():  # F8 / script reload: Blender reloads this file; reload the modules first
+    for _name in MODULES:
+        if f"{__name__}.{_name}" in sys.modules:
+            importlib.reload(sys.modules[f"{__name__}.{_name}"])
 
 try:
     import bpy  # noqa: F401
 except ImportError:  # outside Blender: only the bpy-free core/ is usable (tests, tools)
     _modules = ()
 else:
-    from .blender import handlers, operators, overlay, panels, properties, tumbling
-
-    # Registered in this order, unregistered in the reverse order. Other features (e.g. an MPM panel) add
-    # their module here; each module has a `classes` tuple and register()/unregister().
-    _modules = (properties, operators, panels, handlers, overlay, tumbling)
+    _modules = tuple(m for m in (importlib.import_module("." + name, __name__) for name in MODULES)
+                     if hasattr(m, "register"))
 
 
 def register():

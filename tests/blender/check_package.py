@@ -3,7 +3,8 @@
     blender -b --factory-startup --python-exit-code 1 -P check_package.py -- ZIP legacy|extension ok|broken
     <python with bpy> check_package.py ZIP legacy|extension ok|broken
 
-"ok": the vendored compiled module loads and a mesh builds, plays and bakes. "broken": the zip's compiled
+"ok": the vendored compiled module loads (without the shape-matching baseline) and a mesh builds, plays and
+bakes. "broken": the zip's compiled
 module is damaged; the add-on still registers, the panel says what is wrong and the operators report it.
 The caller points BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at an empty folder and leaves
 OPDEFORM_PYTHONPATH unset.
@@ -42,7 +43,9 @@ bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(0, 0, 1))
 obj = bpy.context.object
 if expect == "ok":
     assert loaded and "vendored" in where, where
-    assert sys.modules[module_name + ".vendor.opdeform"].__file__.startswith(os.path.dirname(addon.__file__))
+    vendored = sys.modules[module_name + ".vendor.opdeform"]
+    assert vendored.__file__.startswith(os.path.dirname(addon.__file__))
+    assert not hasattr(vendored, "ShapeMatching") and not hasattr(vendored._core, "ShapeMatching")
     obj.opdeform.particles = 12
     bpy.ops.opdeform.enable()
     obj.opdeform.frame_end = 10

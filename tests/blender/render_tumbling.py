@@ -61,8 +61,9 @@ def _stage(name, target, distance):
 
 def render(demo_dir):
     H.fresh()
-    tumbling = importlib.import_module(H.ADDON + ".blender.tumbling")
-    mpm = tumbling._mpm()
+    tumbling = importlib.import_module(H.ADDON + ".blender.tumbling_runtime")
+    cloud = importlib.import_module(H.ADDON + ".blender.point_cloud")
+    mpm = tumbling.mpm()
     scenes = importlib.import_module(mpm.__name__.rsplit(".", 1)[0] + ".mpm_scenes")
     for name, frames in SCENES.items():
         folder = os.path.join(demo_dir, name)
@@ -72,9 +73,9 @@ def render(demo_dir):
         car = name == "car"
         _stage(name, (2.2, 1.25, 0.3) if car else (2.0, 2.0, 1.2), 4.5 if car else 7.0)
         points = H.mesh_object(f"{name} particles", [])
-        flake = tumbling.snowflake_object()
+        flake = cloud.snowflake_object()
         flake.data.materials.append(_material("Flake", (0.95, 0.97, 1.0), emission=0.3))
-        tumbling.instance_nodes(points, flake, 0.035 if car else 0.05)
+        cloud.instance_nodes(points, flake, 0.035 if car else 0.05)
         body = None
         if car:
             verts, tris = scenes.car_mesh()
@@ -85,8 +86,8 @@ def render(demo_dir):
             if not os.path.isfile(path):
                 continue
             data = mpm.read_ply(path)
-            tumbling.show_particles(points, mpm, np.column_stack([data[k] for k in ("x", "y", "z")]),
-                                    np.column_stack([data[k] for k in ("qw", "qx", "qy", "qz")]))
+            cloud.show_particles(points, mpm, np.column_stack([data[k] for k in ("x", "y", "z")]),
+                                 np.column_stack([data[k] for k in ("qw", "qx", "qy", "qz")]))
             if body is not None:
                 body.location = tuple(scenes.car_position(frame))
             out = os.path.join(demo_dir, f"{name}_{frame:04d}.png")

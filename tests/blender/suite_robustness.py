@@ -23,7 +23,7 @@ def _handlers_module():
 
 
 def _tumbling_module():
-    return importlib.import_module(H.ADDON + ".blender.tumbling")
+    return importlib.import_module(H.ADDON + ".blender.tumbling_runtime")
 
 
 @contextlib.contextmanager
@@ -31,7 +31,7 @@ def watched():
     """Wraps the add-on's registered app handlers; yields the list of exceptions that escaped them."""
     escaped = []
     hm = _handlers_module()
-    pairs = list(hm.HANDLERS) + [("frame_change_post", _tumbling_module().tumbling_frame_change)]
+    pairs = list(hm.HANDLERS)
     swapped = []
     for name, fn in pairs:
         handlers = getattr(bpy.app.handlers, name)
@@ -85,7 +85,7 @@ def _call_every_handler(scene):
     hm.on_depsgraph_update(scene)
     hm.on_undo_post(scene)
     hm.on_load_post(None)
-    _tumbling_module().tumbling_frame_change(scene, depsgraph)
+    hm.tumbling_frame_change(scene, depsgraph)
 
 
 # -- errors become reports and pause the object ---------------------------------------------------------------

@@ -13,7 +13,7 @@ import helpers
 
 def tumbling():
     import importlib
-    return importlib.import_module(helpers.ADDON + ".blender.tumbling")
+    return importlib.import_module(helpers.ADDON + ".blender.tumbling_runtime")
 
 
 def domain(name="Domain", lo=(0.0, 0.0, -0.1), hi=(1.0, 1.0, 1.0)):
@@ -59,7 +59,7 @@ def test_bake_plays_frames_with_orientation_and_instances():
     assert core.baked_frames(s.baked_folder) == list(range(1, 9))
     points = bpy.data.objects[s.points_name]
     assert len(points.data.vertices) == 300
-    mpm = tumbling()._mpm()
+    mpm = tumbling().mpm()
     scene = bpy.context.scene
     turned = []
     for frame in (1, 5, 8):
@@ -95,7 +95,7 @@ def test_animated_collider_pushes_and_nothing_enters_it():
     car, collection = animated_box()
     s.colliders = collection
     bpy.ops.opdeform.tumbling_bake(object=obj.name)
-    mpm = tumbling()._mpm()
+    mpm = tumbling().mpm()
     core = tumbling().core
     first, _ = core.read_frame(mpm, s.baked_folder, 1)
     for frame in range(2, 9):

@@ -1,4 +1,5 @@
-"""App handlers: live playback (frame change), posing and handle edits (depsgraph update), file load and undo.
+"""App handlers: live playback (frame change), posing and handle edits (depsgraph update), file load and undo,
+and the baked tumbling particles shown on their point clouds (frame change).
 
 They never raise: an error becomes ``obj.opdeform.error`` (shown in the panel and printed), and that object's
 simulation pauses until Reset. They only touch enabled objects and never re-evaluate the whole scene.
@@ -110,8 +111,26 @@ def on_undo_post(*args):
     mark_discovery()
 
 
+@persistent
+def tumbling_frame_change(scene, depsgraph=None):
+    """Shows the baked frame (clamped to the baked range) on every tumbling domain's point cloud."""
+    from . import runtime, tumbling_runtime
+    if tumbling_runtime.baking():
+        return
+    for obj in scene.objects:
+        s = getattr(obj, "opdeform_tumbling", None)
+        if s is None or not s.enabled or not s.baked:
+            continue
+        try:
+            tumbling_runtime.show_baked(obj, scene)
+        except Exception as exc:  # a damaged frame file or a bug: report it, never raise from a handler
+            s.error = str(exc) if isinstance(exc, (runtime.AddonError, OSError, ValueError)) else \
+                f"{type(exc).__name__}: {exc}"
+
+
 HANDLERS = (
     ("frame_change_post", on_frame_change),
+    ("frame_change_post", tumbling_frame_change),
     ("depsgraph_update_post", on_depsgraph_update),
     ("load_post", on_load_post),
     ("undo_post", on_undo_post),

@@ -212,21 +212,15 @@ class OPDEFORM_OT_handle_remove(_ObjectOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
-class OPDEFORM_OT_bake(_ObjectOperator, bpy.types.Operator):
-    """Bake the simulation to a PC2 file and add a Mesh Cache modifier: renders then need neither the add-on
-    nor Python. Esc cancels and keeps the frames baked so far"""
-    bl_idname = "opdeform.bake"
-    bl_label = "Bake"
-    bl_options = {'REGISTER', 'UNDO'}
+class _ModalBake:
+    """What both Bake buttons share: a bake job (``step()``, ``done``, ``frame``, ``start``, ``total``,
+    ``obj_name``, ``path``, ``finish()``) run blocking from scripts and in background mode, else modal with a
+    progress bar and Esc, which keeps the frames baked so far. The operator gives ``_begin(context)``, which
+    makes the job. A mixin, never registered itself: Blender loses the Python class of a registered operator
+    that another one subclasses."""
 
     _job = None
     _timer = None
-
-    def _begin(self, context):
-        rt = _runtime()
-        obj = self.target(context)
-        rt.check_object(obj)
-        return rt.BakeJob(obj, context.scene)
 
     def execute(self, context):
         """Blocking (background mode, scripts)."""
@@ -300,6 +294,20 @@ class OPDEFORM_OT_bake(_ObjectOperator, bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
 
+class OPDEFORM_OT_bake(_ModalBake, _ObjectOperator, bpy.types.Operator):
+    """Bake the simulation to a PC2 file and add a Mesh Cache modifier: renders then need neither the add-on
+    nor Python. Esc cancels and keeps the frames baked so far"""
+    bl_idname = "opdeform.bake"
+    bl_label = "Bake"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def _begin(self, context):
+        rt = _runtime()
+        obj = self.target(context)
+        rt.check_object(obj)
+        return rt.BakeJob(obj, context.scene)
+
+
 class OPDEFORM_OT_free_bake(_ObjectOperator, bpy.types.Operator):
     """Remove the Mesh Cache modifier and delete the baked PC2 file; live playback resumes"""
     bl_idname = "opdeform.free_bake"
@@ -330,9 +338,66 @@ class OPDEFORM_OT_retry_load(bpy.types.Operator):
         return {'FINISHED'}
 
 
+# -- tumbling particles ----------------------------------------------------------------------------------
+class OPDEFORM_OT_tumbling_enable(_ObjectOperator, bpy.types.Operator):
+    """Make this mesh the domain of a tumbling-particle simulation (its bounding box)"""
+    bl_idname = "opdeform.tumbling_enable"
+    bl_label = "Enable Tumbling Particles"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def run(self, context, obj, rt):
+        if obj is None or obj.type != 'MESH':
+            raise rt.AddonError("select a mesh object: its bounding box becomes the domain")
+        s = obj.opdeform_tumbling
+        s.enabled = True
+        s.frame_start, s.frame_end = context.scene.frame_start, context.scene.frame_end
+        obj.display_type = 'WIRE'
+        return {'FINISHED'}
+
+
+class OPDEFORM_OT_tumbling_disable(_ObjectOperator, bpy.types.Operator):
+    """Stop using this mesh as a tumbling-particle domain (the baked frames stay on disk)"""
+    bl_idname = "opdeform.tumbling_disable"
+    bl_label = "Disable Tumbling Particles"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def run(self, context, obj, rt):
+        if obj is None:
+            raise rt.AddonError("no object")
+        obj.opdeform_tumbling.enabled = False
+        return {'FINISHED'}
+
+
+class OPDEFORM_OT_tumbling_bake(_ModalBake, _ObjectOperator, bpy.types.Operator):
+    """Bake the tumbling particles to one PLY file per frame and show them as instanced flakes. Esc cancels
+    and keeps the frames baked so far"""
+    bl_idname = "opdeform.tumbling_bake"
+    bl_label = "Bake Tumbling Particles"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def _begin(self, context):
+        from . import tumbling_runtime
+        return tumbling_runtime.BakeJob(self.target(context), context.scene)
+
+
+class OPDEFORM_OT_tumbling_free_bake(_ObjectOperator, bpy.types.Operator):
+    """Delete the baked frames and the point cloud"""
+    bl_idname = "opdeform.tumbling_free_bake"
+    bl_label = "Free Bake"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    def run(self, context, obj, rt):
+        from . import tumbling_runtime
+        if obj is None:
+            raise rt.AddonError("no object")
+        tumbling_runtime.free_bake(obj)
+        return {'FINISHED'}
+
+
 classes = (OPDEFORM_OT_enable, OPDEFORM_OT_disable, OPDEFORM_OT_build, OPDEFORM_OT_reset,
            OPDEFORM_OT_solve_pose, OPDEFORM_OT_handle_add, OPDEFORM_OT_handle_remove, OPDEFORM_OT_bake,
-           OPDEFORM_OT_free_bake, OPDEFORM_OT_retry_load)
+           OPDEFORM_OT_free_bake, OPDEFORM_OT_retry_load, OPDEFORM_OT_tumbling_enable, OPDEFORM_OT_tumbling_disable,
+           OPDEFORM_OT_tumbling_bake, OPDEFORM_OT_tumbling_free_bake)
 
 # registers in the order of `classes`, unregisters in the reverse order
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,4 +1,5 @@
-"""The Physics tab panel "Oriented Particles", laid out like Blender's Soft Body and Cloth panels."""
+"""The Physics tab panels "Oriented Particles" (with its sub-panels) and "Tumbling Particles", laid out like
+Blender's Soft Body and Cloth panels."""
 
 import bpy
 
@@ -43,6 +44,20 @@ def _wrapped(layout, text, icon='NONE', width=60):
             line = f"{line} {w}".strip()
     if line:
         col.label(text=line, icon=icon if first else 'BLANK1')
+
+
+def _cache_settings(layout, s):
+    """The frame range and folder of a bake (deformation or tumbling settings)."""
+    col = layout.column(align=True)
+    col.prop(s, "frame_start", text="Start")
+    col.prop(s, "frame_end", text="End")
+    layout.prop(s, "cache_directory")
+
+
+def _bake_buttons(layout, bake, free):
+    row = layout.row(align=True)
+    row.operator(bake, icon='REC')
+    row.operator(free, icon='TRASH')
 
 
 class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
@@ -174,16 +189,11 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
     def draw(self, context):
         from . import runtime
         layout, obj, s = _split(self.layout, context)
-        col = layout.column(align=True)
-        col.prop(s, "frame_start", text="Start")
-        col.prop(s, "frame_end", text="End")
-        layout.prop(s, "cache_directory")
+        _cache_settings(layout, s)
         rt = runtime.get(obj)
         if rt is not None:
             layout.label(text=f"In memory: {len(rt.engine.cache)} frames", icon='MEMORY')
-        row = layout.row(align=True)
-        row.operator("opdeform.bake", icon='REC')
-        row.operator("opdeform.free_bake", icon='TRASH')
+        _bake_buttons(layout, "opdeform.bake", "opdeform.free_bake")
         if s.baked:
             mod = runtime.cache_modifier(obj)
             layout.label(text=f"Baked: {s.bake_file}", icon='CHECKMARK' if mod else 'ERROR')
@@ -195,8 +205,52 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
                 row.label(text="Cache outdated: settings changed since the bake", icon='ERROR')
 
 
+WIND_SETTINGS = ("wind_velocity", "wind_amplitude", "wind_wavelength", "wind_octaves", "wind_persistence",
+                 "wind_drift", "wind_drag", "wind_exponent")
+
+
+def _tumbling_columns(s):
+    """(heading, settings) of the Tumbling Particles panel's columns, for the settings' current choices."""
+    emitter = ("emitter_object",) if s.emitter == 'VOLUME' else ("count", "layer_height", "layer_thickness")
+    floor = ("floor_height", "floor_friction") if s.use_floor else ()
+    return (("", ("dx", "spin", "material", "density", "young_modulus", "poisson_ratio")),
+            ("Emitter", ("emitter", *emitter, "spacing", "seed")),
+            ("Wind", ("wind", *(WIND_SETTINGS if s.wind != "off" else ()))),
+            ("Colliders", ("use_floor", *floor, "colliders", "collider_contact", "collider_friction")),
+            ("Display", ("instance_object", "flake_size")))
+
+
+class PHYSICS_PT_opdeform_tumbling(_PhysicsPanel, bpy.types.Panel):
+    bl_label = "Tumbling Particles"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout = self.layout
+        s = context.object.opdeform_tumbling
+        if not s.enabled:
+            layout.operator("opdeform.tumbling_enable", icon='MOD_PARTICLES')
+            return
+        row = layout.row()
+        row.label(text="Domain: this object's bounding box", icon='MESH_CUBE')
+        row.operator("opdeform.tumbling_disable", text="", icon='X')
+        if s.error:
+            box = layout.box()
+            box.alert = True
+            _wrapped(box, s.error, 'ERROR')
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        for heading, names in _tumbling_columns(s):
+            col = layout.column(heading=heading)
+            for name in names:
+                col.prop(s, name)
+        _cache_settings(layout, s)
+        _bake_buttons(layout, "opdeform.tumbling_bake", "opdeform.tumbling_free_bake")
+        if s.baked:
+            layout.label(text=f"Baked to {s.baked_folder}", icon='CHECKMARK')
+
+
 classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
-           OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache)
+           OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
 
 # registers in the order of `classes`, unregisters in the reverse order
 register, unregister = bpy.utils.register_classes_factory(classes)

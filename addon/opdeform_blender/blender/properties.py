@@ -1,8 +1,11 @@
-"""Settings stored in the .blend: ``Object.opdeform`` (OPDEFORM_ObjectSettings) and its handles."""
+"""Settings stored in the .blend: ``Object.opdeform`` (OPDEFORM_ObjectSettings) and its handles, and
+``Object.opdeform_tumbling`` (OPDEFORM_TumblingSettings, a tumbling-particle domain)."""
 
 import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
+
+from ..core import tumbling
 
 GRAPH_MODE_ITEMS = (
     ("auto", "Auto", "Volume for closed meshes, surface for open or thin ones"),
@@ -14,6 +17,16 @@ MODE_ITEMS = (
     ("DYNAMIC", "Dynamics", "Playing the timeline simulates (jiggle, soft body, falling)"),
     ("POSE", "Posing", "No dynamics: moving a handle re-solves the static ARAP pose"),
 )
+
+MATERIALS = (("flakes", "Flakes", "Loose flakes: no shear, no tension, they resist compression only"),
+             ("snow", "Snow", "Stomakhin 2013 snow (the seed's Table 2)"),
+             ("jelly", "Jelly", "Elastic, no plasticity"))
+EMITTERS = (("LAYER", "Flake Layer", "Flakes scattered in a horizontal layer across the domain"),
+            ("VOLUME", "Object Volume", "Particles filling the emitter object's closed mesh"))
+WINDS = (("off", "Off", "No wind"), ("noise", "Noise", "Perlin-noise wind with vorticity: flakes tumble"),
+         ("potential", "Curl-Free", "Gradient of Perlin noise: pushes flakes without turning them"))
+CONTACTS = (("separate", "Separate", "Material may leave the surface"), ("slip", "Slip", "Slides along"),
+            ("sticky", "Sticky", "Moves with the collider"))
 
 
 def _poll_handle(self, obj):
@@ -92,16 +105,80 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     show_edges: BoolProperty(name="Edges", default=True)
 
 
-classes = (OPDEFORM_HandleItem, OPDEFORM_ObjectSettings)
+def _material_preset(self, context):
+    from . import runtime, tumbling_runtime
+    try:
+        preset = getattr(tumbling_runtime.mpm(), self.material)()
+    except runtime.AddonError:
+        return  # the module is missing: the panel says so; keep the values
+    self.density, self.young_modulus, self.poisson_ratio = preset.density, preset.young_modulus, \
+        preset.poisson_ratio
+
+
+class OPDEFORM_TumblingSettings(bpy.types.PropertyGroup):
+    enabled: BoolProperty(name="Tumbling Particles", default=False)
+    error: StringProperty(name="Error", default="")
+    dx: FloatProperty(name="Grid Spacing", default=0.05, min=1e-4, soft_max=1.0, subtype='DISTANCE',
+                      description="MPM grid cell size; the domain is this object's bounding box")
+    spin: FloatProperty(name="Spin", default=1.0, min=0.0, soft_max=5.0,
+                        description="η: scales each particle's rotation angle (0 = plain MLS-MPM, no turning)")
+    material: EnumProperty(name="Material", items=MATERIALS, default="flakes", update=_material_preset)
+    density: FloatProperty(name="Density", default=100.0, min=1e-3, description="kg/m^3")
+    young_modulus: FloatProperty(name="Young's Modulus", default=1e3, min=1e-3, description="Pa")
+    poisson_ratio: FloatProperty(name="Poisson Ratio", default=0.3, min=0.0, max=0.49)
+    emitter: EnumProperty(name="Emitter", items=EMITTERS, default="LAYER")
+    emitter_object: PointerProperty(name="Object", type=bpy.types.Object, poll=lambda s, o: o.type == 'MESH')
+    spacing: FloatProperty(name="Particle Spacing", default=0.025, min=1e-4, subtype='DISTANCE',
+                           description="Distance between particles filling a volume (and each one's size)")
+    count: IntProperty(name="Flakes", default=2000, min=1, soft_max=100000)
+    layer_height: FloatProperty(name="Height", default=0.8, min=0.0, max=1.0, subtype='FACTOR',
+                                description="Where the layer lies between the domain's bottom and top")
+    layer_thickness: FloatProperty(name="Thickness", default=0.1, min=0.0, max=1.0, subtype='FACTOR')
+    seed: IntProperty(name="Seed", default=0, min=0)
+    wind: EnumProperty(name="Wind", items=WINDS, default="noise")
+    wind_velocity: FloatVectorProperty(name="Mean Velocity", size=3, default=(0.5, 0.0, 0.0), subtype='VELOCITY')
+    wind_amplitude: FloatProperty(name="Strength", default=1.5, min=0.0, description="m/s of the noise")
+    wind_wavelength: FloatProperty(name="Wavelength", default=1.5, min=1e-3, subtype='DISTANCE')
+    wind_octaves: IntProperty(name="Octaves", default=4, min=1, max=16)
+    wind_persistence: FloatProperty(name="Persistence", default=0.6, min=0.01, soft_max=2.0)
+    wind_drift: FloatVectorProperty(name="Drift", size=2, default=(0.4, 0.1),
+                                    description="m/s: the noise pattern moves with this velocity")
+    wind_drag: FloatProperty(name="Air Drag", default=8.0, min=0.0, description="1/s: how fast the air "
+                                                                                "carries the particles along")
+    wind_exponent: FloatProperty(name="Height Exponent", default=0.4, min=0.0, soft_max=2.0,
+                                 description="The wind grows as height^exponent above the domain's bottom")
+    use_floor: BoolProperty(name="Floor", default=True)
+    floor_height: FloatProperty(name="Height", default=0.0, subtype='DISTANCE')
+    floor_friction: FloatProperty(name="Friction", default=0.3, min=0.0)
+    colliders: PointerProperty(name="Colliders", type=bpy.types.Collection,
+                               description="Mesh objects (animated or not) that push the particles")
+    collider_contact: EnumProperty(name="Contact", items=CONTACTS, default="separate")
+    collider_friction: FloatProperty(name="Friction", default=0.3, min=0.0)
+    frame_start: IntProperty(name="Start", default=1)
+    frame_end: IntProperty(name="End", default=120)
+    cache_directory: StringProperty(name="Folder", default=tumbling.DEFAULT_FOLDER, subtype='DIR_PATH')
+    flake_size: FloatProperty(name="Flake Size", default=0.03, min=1e-4, subtype='DISTANCE',
+                              description="Radius of the built-in snowflake (a chosen Instance keeps its size)")
+    instance_object: PointerProperty(name="Instance", type=bpy.types.Object,
+                                     description="Object instanced on every particle (empty: a snowflake)")
+    baked: BoolProperty(name="Baked", default=False)
+    baked_folder: StringProperty(default="", subtype='DIR_PATH')
+    points_name: StringProperty(default="")
+
+
+classes = (OPDEFORM_HandleItem, OPDEFORM_ObjectSettings, OPDEFORM_TumblingSettings)
+POINTERS = (("opdeform", OPDEFORM_ObjectSettings), ("opdeform_tumbling", OPDEFORM_TumblingSettings))
 
 
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
-    bpy.types.Object.opdeform = PointerProperty(type=OPDEFORM_ObjectSettings)
+    for name, cls in POINTERS:
+        setattr(bpy.types.Object, name, PointerProperty(type=cls))
 
 
 def unregister():
-    del bpy.types.Object.opdeform
+    for name, _ in reversed(POINTERS):
+        delattr(bpy.types.Object, name)
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -14,6 +14,7 @@ import numpy as np
 from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
 from ..core import loader, pc2
+from ..core.frames import BakeFrames
 from ..core.engine import Engine, EngineError
 
 REST_ATTRIBUTE = "opdeform_rest"
@@ -397,16 +398,20 @@ def pose_update(obj, scene, depsgraph=None, force=False):
 
 
 # -- bake ----------------------------------------------------------------------------------------------
-def bake_path(obj):
-    s = obj.opdeform
-    folder = s.cache_directory or "//opdeform_cache"
+def cache_folder(folder):
+    """The absolute path of a cache folder setting ('//': next to the .blend, which must be saved then)."""
     if folder.startswith("//") and not bpy.data.filepath:
         raise AddonError("save the .blend file first, or choose an absolute cache folder")
+    return bpy.path.abspath(folder)
+
+
+def bake_path(obj):
+    folder = obj.opdeform.cache_directory or "//opdeform_cache"
     name = bpy.path.clean_name(obj.name) + ".pc2"
-    return os.path.join(bpy.path.abspath(folder), name), os.path.join(folder, name)
+    return os.path.join(cache_folder(folder), name), os.path.join(folder, name)
 
 
-class BakeJob:
+class BakeJob(BakeFrames):
     """A bake one frame at a time: live playback's own code path (frame_set runs the frame handler) writing
     every frame to a PC2 file. Stopping early keeps the frames written so far."""
 
@@ -438,14 +443,6 @@ class BakeJob:
     @property
     def obj(self):
         return bpy.data.objects.get(self.obj_name)
-
-    @property
-    def total(self):
-        return self.end - self.start + 1
-
-    @property
-    def done(self):
-        return self.frame > self.end
 
     def step(self):
         """Bakes one frame. Raises AddonError when the simulation reported an error."""

@@ -33,3 +33,16 @@ def plan(frame, start, end, last, solver_frame):
         return Plan("simulate", frame, "reset", tuple(range(start + 1, frame + 1)))
     restore = None if solver_frame == last else last
     return Plan("simulate", frame, restore, tuple(range(last + 1, frame + 1)))
+
+
+class BakeFrames:
+    """The frame count of a bake job (the deformation's and the tumbling particles'): the job sets ``start``,
+    ``end`` and ``frame``, the next frame to bake; the Bake operators show ``total`` and stop at ``done``."""
+
+    @property
+    def total(self):
+        return self.end - self.start + 1
+
+    @property
+    def done(self):
+        return self.frame > self.end

@@ -2,9 +2,13 @@
 writes one PLY per frame (positions, orientation quaternions, velocities), and the frames read back. The
 functions take the ``opdeform.mpm`` module that core/loader.py found.
 
-The Blender side (blender/tumbling.py) gathers the settings, the emitter's particles and the colliders'
-meshes and per-frame matrices from the scene, and turns the frames into a point cloud whose orientation
-attribute drives Geometry Nodes' Instance on Points.
+Also the plain logic around them: where the particles are emitted, the settings dictionary made from the
+Tumbling Particles settings, the cache folder and which baked frame a scene frame shows.
+
+The Blender side (blender/tumbling_runtime.py) gathers the settings, the emitter's mesh and the colliders'
+meshes and per-frame matrices from the scene; blender/point_cloud.py turns the frames into a point cloud whose
+orientation attribute drives Geometry Nodes' Instance on Points. Errors here are ValueError, which the Blender
+side reports.
 """
 
 import os
@@ -12,10 +16,60 @@ import os
 import numpy as np
 
 QUATERNION_ATTRIBUTES = (4, 1)  # Blender version with QUATERNION mesh attributes and rotation sockets
+DEFAULT_FOLDER = "//opdeform_tumbling"  # next to the .blend
 
 
 def frame_file(folder, frame):
     return os.path.join(folder, f"tumbling_{int(frame):05d}.ply")
+
+
+def free_frames(folder):
+    """Deletes the baked frame files in folder (nothing else)."""
+    for frame in baked_frames(folder):
+        os.remove(frame_file(folder, frame))
+
+
+def shown_frame(frame, start, end):
+    """The baked frame a scene frame shows: past either end of the baked range, the end's frame."""
+    return min(max(frame, start), end)
+
+
+def settings_dict(s, gravity, lower, upper):
+    """The Bake's settings from the Tumbling Particles settings ``s`` (any object with their attributes), the
+    scene's gravity and the domain's world box."""
+    wind = None
+    if s.wind != "off":
+        wind = {"kind": s.wind, "velocity": tuple(s.wind_velocity), "amplitude": s.wind_amplitude,
+                "wavelength": s.wind_wavelength, "octaves": s.wind_octaves, "persistence": s.wind_persistence,
+                "drift": tuple(s.wind_drift), "drag": s.wind_drag, "ground": float(lower[2]),
+                "ref_height": float(upper[2] - lower[2]), "exponent": s.wind_exponent, "seed": s.seed + 1}
+    return {"lower": tuple(lower), "upper": tuple(upper), "dx": s.dx, "gravity": tuple(gravity), "spin": s.spin,
+            "material": s.material, "density": s.density, "young_modulus": s.young_modulus,
+            "poisson_ratio": s.poisson_ratio, "spacing": s.spacing, "seed": s.seed, "wind": wind,
+            "floor": (s.floor_height, s.floor_friction) if s.use_floor else None}
+
+
+def flake_layer(mpm, s, lower, upper):
+    """The Flake Layer emitter: s.count flakes in a horizontal layer at s.layer_height (a share of the
+    domain's height), s.layer_thickness thick, kept 3 cells clear of the domain's faces (particles must
+    start 2 cells inside)."""
+    inner_lo, inner_hi = np.asarray(lower, float) + 3 * s.dx, np.asarray(upper, float) - 3 * s.dx
+    if np.any(inner_hi <= inner_lo):
+        raise ValueError("the domain is too small for its grid spacing: lower Grid Spacing")
+    size = inner_hi - inner_lo
+    thickness = s.layer_thickness * size[2]
+    centre = inner_lo + size * [0.5, 0.5, 0.0]
+    centre[2] = np.clip(lower[2] + s.layer_height * (upper[2] - lower[2]), inner_lo[2] + thickness / 2,
+                        inner_hi[2] - thickness / 2)
+    return mpm.flake_layer(centre, size[:2], thickness, s.count, seed=s.seed)
+
+
+def fill_volume(mpm, s, vertices, triangles, matrix):
+    """The Object Volume emitter: particles s.spacing apart filling the closed mesh (vertices in the object's
+    frame, placed by its 4x4 world matrix)."""
+    m = np.asarray(matrix, float).reshape(4, 4)
+    world = np.asarray(vertices, float) @ m[:3, :3].T + m[:3, 3]
+    return mpm.fill_mesh(world, triangles, s.spacing, jitter=0.5, seed=s.seed)
 
 
 def split_matrix(matrix):
