@@ -1,13 +1,15 @@
 """The argument converters of every opdeform call: any array-like or number in, what the core reads out.
 
-The rule: a wrong value for a number or array argument (None, a string, NaN where the core forbids it, a
-wrong shape) raises ValueError naming the argument; an object of the wrong class where an opdeform object
+The rule: a wrong value for a number or array argument (None, a string, NaN, a wrong shape) raises
+ValueError naming the argument; an object of the wrong class where an opdeform object
 is required raises TypeError naming the expected type (checked where that object is used).
 """
 
+import math
+
 import numpy as np
 
-__all__ = ["as_array", "choice", "integer", "number", "vec3"]
+__all__ = ["as_array", "choice", "integer", "number", "vector"]
 
 
 def as_array(name, value, shape, dtype=np.float64):
@@ -33,13 +35,14 @@ def as_array(name, value, shape, dtype=np.float64):
 
 
 def number(name, value):
-    """A float for the core (which checks the range and finiteness)."""
-    if isinstance(value, (str, bytes)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+    """A finite float (None, strings, NaN and infinities refused; the core checks the range)."""
     try:
-        return float(value)
+        x = None if isinstance(value, (str, bytes)) else float(value)
     except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
+        x = None
+    if x is None or not math.isfinite(x):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return x
 
 
 def integer(name, value):
@@ -49,16 +52,20 @@ def integer(name, value):
     return int(value)
 
 
-def vec3(name, value):
-    """Three floats for the core (which checks finiteness); fast for tuples, lists and 1-D arrays."""
-    if isinstance(value, np.ndarray) and value.shape == (3,) and np.issubdtype(value.dtype, np.number):
+_WORDS = {2: "two", 3: "three"}
+
+
+def vector(name, value, size=3):
+    """``size`` finite floats as a tuple; fast for tuples, lists and 1-D arrays."""
+    if isinstance(value, np.ndarray) and value.shape == (size,) and np.issubdtype(value.dtype, np.number):
         value = value.tolist()
-    if isinstance(value, (tuple, list)) and len(value) == 3 and not any(isinstance(x, (str, bytes)) for x in value):
-        try:
-            return (float(value[0]), float(value[1]), float(value[2]))
-        except (TypeError, ValueError):
-            pass
-    return tuple(float(x) for x in as_array(name, value, (3,)))
+    if not (isinstance(value, (tuple, list)) and len(value) == size
+            and all(isinstance(x, (int, float, np.number)) for x in value)):
+        value = as_array(name, value, (size,)).tolist()
+    result = tuple(float(x) for x in value)
+    if not all(math.isfinite(x) for x in result):
+        raise ValueError(f"{name} must be {_WORDS.get(size, size)} finite numbers, got {value!r}")
+    return result
 
 
 def choice(name, value, options):

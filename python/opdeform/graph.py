@@ -3,7 +3,7 @@
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, vec3
+from ._arguments import as_array, choice, integer, vector
 
 __all__ = ["Graph", "MODES"]
 
@@ -83,7 +83,7 @@ class Graph:
         m = integer("m", m)
         idx = np.empty(m, np.int32)
         w = np.empty(m)
-        count = self._core.skin_weights(vec3("point", point), m, idx, w)
+        count = self._core.skin_weights(vector("point", point), m, idx, w)
         return idx[:count], w[:count]
 
     def __repr__(self):

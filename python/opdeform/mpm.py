@@ -11,7 +11,7 @@ from dataclasses import dataclass, astuple
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, number, vec3
+from ._arguments import as_array, choice, integer, number, vector
 
 __all__ = ["Material", "snow", "jelly", "flakes", "World", "fill_box", "fill_mesh", "flake_layer",
            "random_orientations", "quaternions_to_euler", "write_ply", "read_ply", "write_frames"]
@@ -65,10 +65,10 @@ class World:
     def __init__(self, lower, upper, dx, gravity=(0.0, 0.0, -9.81), cfl=0.4, max_dt=1e-3, spin=1.0, walls="slip",
                  wall_friction=0.0, threads=0):
         self.dx = number("dx", dx)
-        self._core = _core.MpmWorld(vec3("lower", lower), vec3("upper", upper), self.dx, vec3("gravity", gravity),
-                                    number("cfl", cfl), number("max_dt", max_dt), number("spin", spin),
-                                    choice("walls", walls, _CONTACTS), number("wall_friction", wall_friction),
-                                    integer("threads", threads))
+        self._core = _core.MpmWorld(vector("lower", lower), vector("upper", upper), self.dx,
+                                    vector("gravity", gravity), number("cfl", cfl), number("max_dt", max_dt),
+                                    number("spin", spin), choice("walls", walls, _CONTACTS),
+                                    number("wall_friction", wall_friction), integer("threads", threads))
 
     # -- content -------------------------------------------------------------------------------------------
     def add_particles(self, positions, material=None, particle_volume=None, velocities=None, orientations=None,
@@ -94,11 +94,10 @@ class World:
         """Perlin-noise wind on the grid. kind: 'noise' (vortical), 'potential' (curl-free gradient of
         noise) or 'off'. Grid velocities relax to the wind at rate ``drag`` (1/s); the wind is scaled by
         ((z - ground) / ref_height) ** exponent ('noise' only) and its pattern drifts with ``drift`` (m/s)."""
-        drift = as_array("drift", drift, (2,))
-        self._core.set_wind(choice("wind kind", kind, _WINDS), vec3("velocity", velocity),
+        self._core.set_wind(choice("wind kind", kind, _WINDS), vector("velocity", velocity),
                             number("amplitude", amplitude), number("wavelength", wavelength),
                             integer("octaves", octaves), number("persistence", persistence),
-                            (float(drift[0]), float(drift[1])), number("drag", drag), number("ground", ground),
+                            vector("drift", drift, 2), number("drag", drag), number("ground", ground),
                             number("ref_height", ref_height), number("exponent", exponent),
                             integer("seed", seed) & 0xFFFFFFFF)
 
@@ -116,15 +115,15 @@ class World:
             if tris.shape[0] == 0:
                 raise ValueError("triangles: a mesh collider needs at least one face")
         return self._core.add_collider(shape_id, choice("contact", contact, _CONTACTS), number("friction", friction),
-                                       vec3("half_extents", half_extents), verts, tris, _rotation(rotation),
-                                       vec3("translation", translation))
+                                       vector("half_extents", half_extents), verts, tris, _rotation(rotation),
+                                       vector("translation", translation))
 
     def add_floor(self, height=0.0, contact="slip", friction=0.0):
-        return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, height))
+        return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, number("height", height)))
 
     def move_collider(self, id, translation, rotation=None):
         """The collider's frame at the end of the next step(); it moves there at constant velocity."""
-        self._core.move_collider(integer("id", id), _rotation(rotation), vec3("translation", translation))
+        self._core.move_collider(integer("id", id), _rotation(rotation), vector("translation", translation))
 
     # -- stepping ------------------------------------------------------------------------------------------
     def step(self, duration):
@@ -178,7 +177,7 @@ def random_orientations(n, seed=0):
 def fill_box(lower, upper, spacing, jitter=0.0, seed=0):
     """Particle centres on a lattice of ``spacing`` filling [lower, upper], each moved by up to
     jitter * spacing at random."""
-    lo, hi, h = vec3("lower", lower), vec3("upper", upper), number("spacing", spacing)
+    lo, hi, h = vector("lower", lower), vector("upper", upper), number("spacing", spacing)
     if h <= 0 or any(b <= a for a, b in zip(lo, hi)):
         raise ValueError("fill_box: need spacing > 0 and lower < upper")
     axes = [np.arange(a + 0.5 * h, b, h) for a, b in zip(lo, hi)]
@@ -214,7 +213,7 @@ def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
 
 def flake_layer(center, size, thickness, count, seed=0):
     """``count`` flakes scattered uniformly in a slab of horizontal size (sx, sy) and ``thickness``."""
-    c = np.array(vec3("center", center))
+    c = np.array(vector("center", center))
     s = as_array("size", size, (2,))
     rng = np.random.default_rng(seed)
     u = rng.random((integer("count", count), 3)) - 0.5

@@ -10,7 +10,7 @@ Simulation's state protocol, so the state accessors below are the Simulation's o
 import numpy as np
 
 from . import _core
-from ._arguments import vec3
+from ._arguments import vector
 from .graph import Graph
 from .scenes import bar_graph, end_face_points
 from .simulation import Simulation, core_params
@@ -35,8 +35,8 @@ class ShapeMatching:
 
     def add_position_constraint(self, point, target=None):
         """Holds the rest-space point at target (None: where it is now). Returns the constraint id."""
-        target = None if target is None else vec3("target", target)
-        return self._core.add_position_constraint(vec3("point", point), target)
+        target = None if target is None else vector("target", target)
+        return self._core.add_position_constraint(vector("point", point), target)
 
     def __repr__(self):
         p = self.params

@@ -3,7 +3,7 @@
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, number, vec3
+from ._arguments import as_array, choice, integer, number, vector
 from .graph import Graph
 
 __all__ = ["Simulation"]
@@ -39,18 +39,18 @@ class Simulation:
     def add_position_constraint(self, point, target=None, weight=None):
         """Pins the rest-space point to target (None: where it is now). Returns the constraint id."""
         weight = self.default_weight("position") if weight is None else number("weight", weight)
-        target = None if target is None else vec3("target", target)
-        return self._core.add_position_constraint(vec3("point", point), target, weight)
+        target = None if target is None else vector("target", target)
+        return self._core.add_position_constraint(vector("point", point), target, weight)
 
     def add_direction_constraint(self, point, direction, target=None, weight=None):
         """Turns the rest direction at the rest-space point towards target (None: where it points now)."""
         weight = self.default_weight("direction") if weight is None else number("weight", weight)
-        target = None if target is None else vec3("target", target)
-        return self._core.add_direction_constraint(vec3("point", point), vec3("direction", direction), target,
+        target = None if target is None else vector("target", target)
+        return self._core.add_direction_constraint(vector("point", point), vector("direction", direction), target,
                                                    weight)
 
     def set_constraint_target(self, id, target):
-        self._core.set_constraint_target(integer("id", id), vec3("target", target))
+        self._core.set_constraint_target(integer("id", id), vector("target", target))
 
     def set_constraint_weight(self, id, weight):
         self._core.set_constraint_weight(integer("id", id), number("weight", weight))
@@ -186,5 +186,5 @@ class Simulation:
 def core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors):
     """The core's positional parameters (a Simulation's and a ShapeMatching's), each converted by name."""
     return (number("stiffness", stiffness), number("density", density), number("dt", dt),
-            integer("iterations", iterations), vec3("gravity", gravity), number("damping", damping),
+            integer("iterations", iterations), vector("gravity", gravity), number("damping", damping),
             integer("skin_neighbors", skin_neighbors))
