@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from test_threads import _world
 
 import opdeform
 from opdeform import _core, mesh, meshes, mpm
@@ -31,13 +32,6 @@ def _sim_state(sim):
     counters = {k: v for k, v in sim.counters.items() if not k.endswith("_seconds")}
     solver = sim.solver if hasattr(sim, "solver") else None
     return [sim.positions, sim.rotations, sim.velocities, sim.params, sim.n_constraints, counters, solver]
-
-
-def _world():
-    world = mpm.World((0, 0, 0), (1, 1, 1), 1 / 16, threads=1)
-    world.add_particles(mpm.fill_box((0.4, 0.4, 0.4), (0.6, 0.6, 0.6), 1 / 16), mpm.snow())
-    world.add_floor(0.1)
-    return world
 
 
 def _world_state(world):
@@ -96,14 +90,6 @@ CASES = [pytest.param(name, keyword, bad, id=f"{name}-{keyword}-{bad!r}")
          if not (bad is None and default is None)]  # None is a valid value where it is the default
 
 
-def _equal(a, b):
-    if isinstance(a, np.ndarray):
-        return np.array_equal(a, b)
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    return a == b
-
-
 @pytest.mark.parametrize("name, keyword, bad", CASES)
 def test_a_bad_number_or_array_raises_value_error_naming_it(name, keyword, bad):
     make, call, valid, state = CALLS[name]
@@ -112,7 +98,7 @@ def test_a_bad_number_or_array_raises_value_error_naming_it(name, keyword, bad):
     with pytest.raises(ValueError, match=keyword.replace("_", "[_ ]")):
         call(obj, **{**valid, keyword: bad})
     if state:
-        assert all(_equal(a, b) for a, b in zip(state(obj), before)), "a failed call changed the object"
+        np.testing.assert_equal(state(obj), before, "a failed call changed the object")
 
 
 def test_every_call_of_the_list_is_valid_as_given():

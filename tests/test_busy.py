@@ -5,10 +5,10 @@ afterwards."""
 
 import inspect
 import re
-import threading
 
 import numpy as np
 import pytest
+from test_threads import _probe_during, _world
 
 import opdeform
 from opdeform import _core, mesh, meshes, mpm, scenes
@@ -102,9 +102,7 @@ def _shape_matching_case(scale):
 
 
 def _world_case(scale):
-    w = mpm.World((0, 0, 0), (1, 1, 1), 1 / 32, threads=1)
-    w.add_particles(mpm.fill_box((0.35, 0.35, 0.3), (0.65, 0.65, 0.5), 1 / 64), mpm.snow())
-    w.add_floor(0.1)
+    w = _world()
     probes = {
         "add_particles": lambda: w.add_particles([(0.5, 0.5, 0.9)], mpm.snow()),
         "set_wind": lambda: w.set_wind(), "add_collider": lambda: w.add_collider("sphere", radius=0.1),
@@ -148,47 +146,6 @@ def _skin_case(big_mesh):
     return Case(skin, lambda: skin.deform(x, r, normals_out=normals), probes, snapshot, "n_vertices")
 
 
-def _equal(a, b):
-    if isinstance(a, np.ndarray):
-        return np.array_equal(a, b)
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    return a == b
-
-
-def _outcome(call):
-    try:
-        return call()
-    except Exception as exc:  # noqa: BLE001 - the outcome is what is checked
-        return exc
-
-
-def _probe_inside(case):
-    """Runs case.run on a thread and, once the object refuses calls, every probe; returns their outcomes, or
-    None when the run was not surely going on from before the first probe to after the last."""
-    refused = lambda: isinstance(_outcome(case.ready), RuntimeError)  # noqa: E731
-    done, failure = threading.Event(), []
-
-    def worker():
-        try:
-            case.run()
-        except BaseException as exc:  # noqa: BLE001 - reported to the test
-            failure.append(exc)
-        finally:
-            done.set()
-
-    thread = threading.Thread(target=worker)
-    thread.start()
-    while not done.is_set() and not refused():
-        pass
-    inside = not done.is_set()
-    outcomes = {name: _outcome(probe) for name, probe in case.probes.items()}
-    inside = inside and refused()  # still the same call: it sets the guard once, from start to end
-    thread.join(120)
-    assert not thread.is_alive() and not failure, failure
-    return outcomes if inside else None
-
-
 CASES = {"Simulation": _sim_case, "MpmWorld": _world_case}
 if hasattr(_core, "ShapeMatching"):
     CASES["ShapeMatching"] = _shape_matching_case
@@ -205,13 +162,14 @@ def test_every_call_is_refused_while_busy(type_name, big_mesh):
         expected = (_public(cls) | {n + "=" for n in _setters(cls)}
                     | {"_core." + n for n in _public(type(case.obj._core))})
         assert set(case.probes) == expected, "a public call of the type has no probe here"
-        outcomes = _probe_inside(case)
-        if outcomes is not None:
-            break
-    assert outcomes is not None, "the long call never outlasted the probes"
-    wrong = {name: o for name, o in outcomes.items() if not (isinstance(o, RuntimeError) and message.match(str(o)))}
-    assert not wrong, wrong
+        names = list(case.probes)
+        outcomes, failure, through = _probe_during(case.run, case.ready, [case.probes[n] for n in names],
+                                                   limit=len(names))
+        assert failure is None, failure
+        if len(outcomes) == len(names) and not through:
+            break  # every probe landed inside the run (one got through only if the run ended, or has no guard)
+    refused = {name: isinstance(o, RuntimeError) and bool(message.match(str(o))) for name, o in zip(names, outcomes)}
+    assert len(outcomes) == len(names) and all(refused.values()), dict(zip(names, outcomes))
     twin = make(scale)
     twin.run()
-    for got, want in zip(case.snapshot(), twin.snapshot()):
-        assert _equal(got, want), "a refused call changed the object"
+    np.testing.assert_equal(case.snapshot(), twin.snapshot(), "a refused call changed the object")

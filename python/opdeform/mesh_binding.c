@@ -179,25 +179,14 @@ static void Skin_dealloc(PyObject* obj)
 	Binding_Free(obj);
 }
 
-static PyObject* Skin_get_n_vertices(PyObject* obj, void* closure)
-{
-	(void)closure;
-	const od_Skin* skin = Skin_Enter(obj);
-	return skin ? PyLong_FromLong(od_Skin_GetVertexCount(skin)) : NULL;
-}
+// The counts a Skin reports; a getter's closure points at one of them.
+typedef int (*SkinCount)(const od_Skin* skin);
+static const SkinCount SkinCounts[3] = { od_Skin_GetVertexCount, od_Skin_GetParticleCount, od_Skin_GetNeighborCount };
 
-static PyObject* Skin_get_n_particles(PyObject* obj, void* closure)
+static PyObject* Skin_get_count(PyObject* obj, void* closure)
 {
-	(void)closure;
 	const od_Skin* skin = Skin_Enter(obj);
-	return skin ? PyLong_FromLong(od_Skin_GetParticleCount(skin)) : NULL;
-}
-
-static PyObject* Skin_get_neighbors(PyObject* obj, void* closure)
-{
-	(void)closure;
-	const od_Skin* skin = Skin_Enter(obj);
-	return skin ? PyLong_FromLong(od_Skin_GetNeighborCount(skin)) : NULL;
+	return skin ? PyLong_FromLong((*(const SkinCount*)closure)(skin)) : NULL;
 }
 
 static PyObject* Skin_get_has_rest_normals(PyObject* obj, void* closure)
@@ -294,9 +283,9 @@ static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 }
 
 static PyGetSetDef Skin_getset[] = {
-	{ "n_vertices", Skin_get_n_vertices, NULL, "number of bound vertices", NULL },
-	{ "n_particles", Skin_get_n_particles, NULL, "number of particles of the graph", NULL },
-	{ "neighbors", Skin_get_neighbors, NULL, "particles per vertex (m)", NULL },
+	{ "n_vertices", Skin_get_count, NULL, "number of bound vertices", (void*)&SkinCounts[0] },
+	{ "n_particles", Skin_get_count, NULL, "number of particles of the graph", (void*)&SkinCounts[1] },
+	{ "neighbors", Skin_get_count, NULL, "particles per vertex (m)", (void*)&SkinCounts[2] },
 	{ "has_rest_normals", Skin_get_has_rest_normals, NULL, "whether rest normals were given at binding", NULL },
 	{ NULL, NULL, NULL, NULL, NULL },
 };
