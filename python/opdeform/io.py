@@ -11,7 +11,8 @@ import os
 
 import numpy as np
 
-from . import _core, as_array
+from . import _core
+from ._arguments import as_array
 
 __all__ = ["read", "read_obj", "read_ply", "write", "write_obj", "write_ply"]
 

@@ -6,24 +6,17 @@ The C core does the work with the GIL released; this layer checks shapes and dty
 
 import numpy as np
 
-from . import Graph, Simulation, _core, _int, as_array
+from . import _core
+from ._arguments import as_array, integer, number
+from .graph import MODES, Graph
+from .simulation import Simulation
 
 __all__ = ["MODES", "Skin", "add_vertex_direction", "graph_from_mesh", "pin_vertices"]
-
-MODES = ("auto", "volume", "surface", "chain")
 
 
 def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
     """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
-    vertices = as_array("vertices", vertices, (None, 3))
-    triangles = as_array("triangles", triangles, (None, 3), np.int32)
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-    core = _core.graph_from_mesh(vertices, triangles, _int("particles", particles), MODES.index(mode),
-                                 bool(join_pieces), _int("voxels_per_particle", voxels_per_particle))
-    graph = Graph.__new__(Graph)
-    graph._core = core
-    return graph
+    return Graph.from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle)
 
 
 def _output(name, out, n_vertices):
@@ -62,8 +55,8 @@ class Skin:
         vertices = as_array("rest_vertices", rest_vertices, (None, 3))
         triangles = None if triangles is None else as_array("triangles", triangles, (None, 3), np.int32)
         normals = None if rest_normals is None else as_array("rest_normals", rest_normals, (len(vertices), 3))
-        self._core = _core.Skin(graph._core, vertices, _int("neighbors", neighbors), triangles, normals,
-                                _int("threads", threads))
+        self._core = _core.Skin(graph._core, vertices, integer("neighbors", neighbors), triangles, normals,
+                                integer("threads", threads))
 
     @property
     def n_vertices(self):
@@ -135,7 +128,7 @@ def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
     bad = np.flatnonzero(~(scale >= 0.0) | ~np.isfinite(scale))
     if bad.size:
         raise ValueError(f"weights[{bad[0]}] = {scale[bad[0]]} must be finite and >= 0")
-    base = sim.default_weight("position") if weight is None else float(weight)
+    base = sim.default_weight("position") if weight is None else number("weight", weight)
     return [sim.add_position_constraint(p, None, base * w) for p, w in zip(points, scale) if w > 0.0]
 
 
@@ -145,7 +138,7 @@ def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weig
     if not isinstance(sim, Simulation):
         raise TypeError("sim must be an opdeform.Simulation")
     vertices = as_array("rest_vertices", rest_vertices, (None, 3))
-    index = _int("index", index)
+    index = integer("index", index)
     if not 0 <= index < len(vertices):
         raise ValueError(f"index = {index} is out of range: there are {len(vertices)} vertices")
     return sim.add_direction_constraint(vertices[index], direction, target, weight)

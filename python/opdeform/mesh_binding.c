@@ -4,7 +4,8 @@
 // the C calls, status codes to exceptions. Outputs of Skin.deform may be float32 or float64 buffers, so
 // that Blender's foreach_set can take them in one block; the mesh parsers return bytearrays that the
 // Python layer views as numpy arrays without a copy.
-#include "binding.h"
+#include "graph_binding.h"
+#include "mesh_binding.h"
 
 #include "opdeform/mesh.h"
 
@@ -100,15 +101,7 @@ static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 	{
 		return RaiseStatus(module, status);
 	}
-	ModuleState* st = PyModule_GetState(module);
-	GraphObject* self = (GraphObject*)PyType_GenericAlloc(st->graphType, 0);
-	if (!self)
-	{
-		od_Graph_Destroy(graph);
-		return NULL;
-	}
-	self->graph = graph;
-	return (PyObject*)self;
+	return Graph_Wrap(module, graph);
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -116,9 +109,15 @@ static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 
 typedef struct
 {
-	PyObject_HEAD od_Skin* skin;
-	int busy; // set while a GIL-free deform runs (the skin's threads serve one call at a time)
+	GuardedObject head; // busy while a GIL-free deform runs (the skin's threads serve one call at a time)
+	od_Skin* skin;
 } SkinObject;
+
+// The od_Skin of obj, or NULL with RuntimeError while a deform on another thread runs.
+static od_Skin* Skin_Enter(PyObject* obj)
+{
+	return Binding_Enter(obj) < 0 ? NULL : ((SkinObject*)obj)->skin;
+}
 
 // Skin(graph, vertices, neighbors, triangles=None, normals=None, threads=0)
 static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
@@ -132,7 +131,7 @@ static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 		return NULL;
 	}
 	PyObject* module = PyType_GetModule(type);
-	const od_Graph* graph = Binding_Graph(module, graphObj);
+	const od_Graph* graph = Graph_FromObject(module, graphObj);
 	Py_buffer vv, tv, nview;
 	int nv, nt;
 	if (!graph || GetMesh(vertices, triangles, 1, &vv, &tv, &nv, &nt) < 0)
@@ -149,8 +148,8 @@ static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 	def.vertexCount = nv;
 	def.vertices = vv.buf;
 	def.triangleCount = nt;
-	def.triangles = tv.obj ? tv.buf : NULL;
-	def.normals = nview.obj ? nview.buf : NULL;
+	def.triangles = ArrayData(&tv);
+	def.normals = ArrayData(&nview);
 	def.neighbors = neighbors;
 	def.threadCount = threads;
 	od_Skin* skin = NULL;
@@ -176,44 +175,34 @@ static PyObject* Skin_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 
 static void Skin_dealloc(PyObject* obj)
 {
-	PyTypeObject* type = Py_TYPE(obj);
 	od_Skin_Destroy(((SkinObject*)obj)->skin);
-	freefunc tp_free = (freefunc)PyType_GetSlot(type, Py_tp_free);
-	tp_free(obj);
-	Py_DECREF(type);
+	Binding_Free(obj);
 }
 
-static PyObject* Skin_get_n_vertices(PyObject* obj, void* closure)
-{
-	(void)closure;
-	return PyLong_FromLong(od_Skin_GetVertexCount(((SkinObject*)obj)->skin));
-}
+// The counts a Skin reports; a getter's closure points at one of them.
+typedef int (*SkinCount)(const od_Skin* skin);
+static const SkinCount SkinCounts[3] = { od_Skin_GetVertexCount, od_Skin_GetParticleCount, od_Skin_GetNeighborCount };
 
-static PyObject* Skin_get_n_particles(PyObject* obj, void* closure)
+static PyObject* Skin_get_count(PyObject* obj, void* closure)
 {
-	(void)closure;
-	return PyLong_FromLong(od_Skin_GetParticleCount(((SkinObject*)obj)->skin));
-}
-
-static PyObject* Skin_get_neighbors(PyObject* obj, void* closure)
-{
-	(void)closure;
-	return PyLong_FromLong(od_Skin_GetNeighborCount(((SkinObject*)obj)->skin));
+	const od_Skin* skin = Skin_Enter(obj);
+	return skin ? PyLong_FromLong((*(const SkinCount*)closure)(skin)) : NULL;
 }
 
 static PyObject* Skin_get_has_rest_normals(PyObject* obj, void* closure)
 {
 	(void)closure;
-	return PyBool_FromLong(od_Skin_GetRestNormals(((SkinObject*)obj)->skin) != NULL);
+	const od_Skin* skin = Skin_Enter(obj);
+	return skin ? PyBool_FromLong(od_Skin_GetRestNormals(skin) != NULL) : NULL;
 }
 
 // read(name, out): "indices" (int32 V*m), "weights" (float64 V*m) or "rest_normals" (float64 V*3).
 static PyObject* Skin_read(PyObject* obj, PyObject* args)
 {
-	const od_Skin* skin = ((SkinObject*)obj)->skin;
+	const od_Skin* skin = Skin_Enter(obj);
 	const char* name;
 	PyObject* out;
-	if (!PyArg_ParseTuple(args, "sO", &name, &out))
+	if (!skin || !PyArg_ParseTuple(args, "sO", &name, &out))
 	{
 		return NULL;
 	}
@@ -246,18 +235,13 @@ static PyObject* Skin_read(PyObject* obj, PyObject* args)
 // deform(positions, rotations, out, normals_out=None, rest_normals=None)
 static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 {
-	SkinObject* self = (SkinObject*)obj;
+	od_Skin* skin = Skin_Enter(obj);
 	PyObject *positions, *rotations, *out, *normalsOut = Py_None, *restNormals = Py_None;
-	if (!PyArg_ParseTuple(args, "OOO|OO", &positions, &rotations, &out, &normalsOut, &restNormals))
+	if (!skin || !PyArg_ParseTuple(args, "OOO|OO", &positions, &rotations, &out, &normalsOut, &restNormals))
 	{
 		return NULL;
 	}
-	if (self->busy)
-	{
-		PyErr_SetString(PyExc_RuntimeError, "the skin is deforming on another thread");
-		return NULL;
-	}
-	Py_ssize_t n = od_Skin_GetParticleCount(self->skin), nv = od_Skin_GetVertexCount(self->skin);
+	Py_ssize_t n = od_Skin_GetParticleCount(skin), nv = od_Skin_GetVertexCount(skin);
 	Py_buffer pv, rv, ov, nview, rnview;
 	memset(&nview, 0, sizeof nview);
 	memset(&rnview, 0, sizeof rnview);
@@ -285,29 +269,23 @@ static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 		return NULL;
 	}
 	target.positions = ov.buf;
-	target.normals = nview.obj ? nview.buf : NULL;
-	target.restNormals = rnview.obj ? rnview.buf : NULL;
-	self->busy = 1;
-	PyThreadState* ts = PyEval_SaveThread();
-	od_Status status = od_Skin_Deform(self->skin, pv.buf, rv.buf, &target);
-	PyEval_RestoreThread(ts);
-	self->busy = 0;
+	target.normals = ArrayData(&nview);
+	target.restNormals = ArrayData(&rnview);
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = od_Skin_Deform(skin, pv.buf, rv.buf, &target);
+	Binding_End(obj, ts);
 	PyBuffer_Release(&pv);
 	PyBuffer_Release(&rv);
 	PyBuffer_Release(&ov);
 	ReleaseArray(&nview);
 	ReleaseArray(&rnview);
-	if (status != OD_OK)
-	{
-		return RaiseStatus(PyType_GetModule(Py_TYPE(obj)), status);
-	}
-	Py_RETURN_NONE;
+	return Binding_Done(obj, status);
 }
 
 static PyGetSetDef Skin_getset[] = {
-	{ "n_vertices", Skin_get_n_vertices, NULL, "number of bound vertices", NULL },
-	{ "n_particles", Skin_get_n_particles, NULL, "number of particles of the graph", NULL },
-	{ "neighbors", Skin_get_neighbors, NULL, "particles per vertex (m)", NULL },
+	{ "n_vertices", Skin_get_count, NULL, "number of bound vertices", (void*)&SkinCounts[0] },
+	{ "n_particles", Skin_get_count, NULL, "number of particles of the graph", (void*)&SkinCounts[1] },
+	{ "neighbors", Skin_get_count, NULL, "particles per vertex (m)", (void*)&SkinCounts[2] },
 	{ "has_rest_normals", Skin_get_has_rest_normals, NULL, "whether rest normals were given at binding", NULL },
 	{ NULL, NULL, NULL, NULL, NULL },
 };
@@ -327,7 +305,7 @@ static PyType_Slot Skin_slots[] = {
 	{ 0, NULL },
 };
 
-static PyType_Spec Skin_spec = {
+PyType_Spec Skin_Spec = {
 	.name = "opdeform._core.Skin",
 	.basicsize = sizeof(SkinObject),
 	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
@@ -418,26 +396,10 @@ static PyObject* Mesh_format_mesh(PyObject* module, PyObject* args)
 	return result;
 }
 
-static PyMethodDef Mesh_functions[] = {
+PyMethodDef Mesh_Functions[] = {
 	{ "graph_from_mesh", Mesh_graph_from_mesh, METH_VARARGS,
 	  "graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle) -> Graph" },
 	{ "parse_mesh", Mesh_parse_mesh, METH_VARARGS, "parse_mesh(data, 'obj' | 'ply') -> (vertices, triangles)" },
 	{ "format_mesh", Mesh_format_mesh, METH_VARARGS, "format_mesh('obj' | 'ply', vertices, triangles) -> bytes" },
 	{ NULL, NULL, 0, NULL },
 };
-
-int Binding_AddMesh(PyObject* module)
-{
-	PyObject* skinType = PyType_FromModuleAndSpec(module, &Skin_spec, NULL);
-	if (!skinType)
-	{
-		return -1;
-	}
-	int rc = PyModule_AddObjectRef(module, "Skin", skinType);
-	Py_DECREF(skinType);
-	if (rc < 0)
-	{
-		return -1;
-	}
-	return PyModule_AddFunctions(module, Mesh_functions);
-}

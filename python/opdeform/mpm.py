@@ -10,7 +10,8 @@ from dataclasses import dataclass, astuple
 
 import numpy as np
 
-from . import _core, as_array
+from . import _core
+from ._arguments import as_array, choice, integer, number, vector
 
 __all__ = ["Material", "snow", "jelly", "flakes", "World", "fill_box", "fill_mesh", "flake_layer",
            "random_orientations", "quaternions_to_euler", "write_ply", "read_ply", "write_frames"]
@@ -36,7 +37,7 @@ class Material:
 
     def _core_tuple(self):
         fields = astuple(self)
-        return (_choice("material.kind", self.kind, _KINDS),) + tuple(_float(f"material.{n}", v) for n, v in zip(
+        return (choice("material.kind", self.kind, _KINDS),) + tuple(number(f"material.{n}", v) for n, v in zip(
             ("density", "young_modulus", "poisson_ratio", "critical_compression", "critical_stretch", "hardening"),
             fields[1:]))
 
@@ -63,11 +64,11 @@ class World:
 
     def __init__(self, lower, upper, dx, gravity=(0.0, 0.0, -9.81), cfl=0.4, max_dt=1e-3, spin=1.0, walls="slip",
                  wall_friction=0.0, threads=0):
-        self.dx = _float("dx", dx)
-        self._core = _core.MpmWorld(_vec("lower", lower), _vec("upper", upper), self.dx, _vec("gravity", gravity),
-                                    _float("cfl", cfl), _float("max_dt", max_dt), _float("spin", spin),
-                                    _choice("walls", walls, _CONTACTS), _float("wall_friction", wall_friction),
-                                    _int("threads", threads))
+        self.dx = number("dx", dx)
+        self._core = _core.MpmWorld(vector("lower", lower), vector("upper", upper), self.dx,
+                                    vector("gravity", gravity), number("cfl", cfl), number("max_dt", max_dt),
+                                    number("spin", spin), choice("walls", walls, _CONTACTS),
+                                    number("wall_friction", wall_friction), integer("threads", threads))
 
     # -- content -------------------------------------------------------------------------------------------
     def add_particles(self, positions, material=None, particle_volume=None, velocities=None, orientations=None,
@@ -82,7 +83,7 @@ class World:
         vel = None if velocities is None else as_array("velocities", velocities, (n, 3))
         quat = None if orientations is None else as_array("orientations", orientations, (n, 4))
         aff = None if affine is None else as_array("affine", affine, (n, 3, 3))
-        volume = (0.5 * self.dx) ** 3 if particle_volume is None else _float("particle_volume", particle_volume)
+        volume = (0.5 * self.dx) ** 3 if particle_volume is None else number("particle_volume", particle_volume)
         material = snow() if material is None else material
         if not isinstance(material, Material):
             raise ValueError(f"material must be an opdeform.mpm.Material, got {type(material).__name__}")
@@ -93,45 +94,45 @@ class World:
         """Perlin-noise wind on the grid. kind: 'noise' (vortical), 'potential' (curl-free gradient of
         noise) or 'off'. Grid velocities relax to the wind at rate ``drag`` (1/s); the wind is scaled by
         ((z - ground) / ref_height) ** exponent ('noise' only) and its pattern drifts with ``drift`` (m/s)."""
-        drift = as_array("drift", drift, (2,))
-        self._core.set_wind(_choice("wind kind", kind, _WINDS), _vec("velocity", velocity),
-                            _float("amplitude", amplitude), _float("wavelength", wavelength), _int("octaves", octaves),
-                            _float("persistence", persistence), (float(drift[0]), float(drift[1])), _float("drag", drag),
-                            _float("ground", ground), _float("ref_height", ref_height), _float("exponent", exponent),
-                            _int("seed", seed) & 0xFFFFFFFF)
+        self._core.set_wind(choice("wind kind", kind, _WINDS), vector("velocity", velocity),
+                            number("amplitude", amplitude), number("wavelength", wavelength),
+                            integer("octaves", octaves), number("persistence", persistence),
+                            vector("drift", drift, 2), number("drag", drag), number("ground", ground),
+                            number("ref_height", ref_height), number("exponent", exponent),
+                            integer("seed", seed) & 0xFFFFFFFF)
 
     def add_collider(self, shape, contact="slip", friction=0.0, half_extents=(0.5, 0.5, 0.5), radius=None,
                      vertices=None, triangles=None, rotation=None, translation=(0.0, 0.0, 0.0)):
         """A collider: shape 'plane' (z < 0 of its frame), 'box', 'sphere' or 'mesh' (closed triangles in its
         frame). Returns its id for move_collider."""
-        shape_id = _choice("shape", shape, _SHAPES)
+        shape_id = choice("shape", shape, _SHAPES)
         if radius is not None:
-            half_extents = (radius, radius, radius)
+            half_extents = (number("radius", radius),) * 3
         verts = tris = None
         if shape == "mesh":
             verts = as_array("vertices", vertices, (None, 3))
             tris = as_array("triangles", triangles, (None, 3), np.int32)
             if tris.shape[0] == 0:
                 raise ValueError("triangles: a mesh collider needs at least one face")
-        return self._core.add_collider(shape_id, _choice("contact", contact, _CONTACTS), _float("friction", friction),
-                                       _vec("half_extents", half_extents), verts, tris, _rotation(rotation),
-                                       _vec("translation", translation))
+        return self._core.add_collider(shape_id, choice("contact", contact, _CONTACTS), number("friction", friction),
+                                       vector("half_extents", half_extents), verts, tris, _rotation(rotation),
+                                       vector("translation", translation))
 
     def add_floor(self, height=0.0, contact="slip", friction=0.0):
-        return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, height))
+        return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, number("height", height)))
 
     def move_collider(self, id, translation, rotation=None):
         """The collider's frame at the end of the next step(); it moves there at constant velocity."""
-        self._core.move_collider(_int("id", id), _rotation(rotation), _vec("translation", translation))
+        self._core.move_collider(integer("id", id), _rotation(rotation), vector("translation", translation))
 
     # -- stepping ------------------------------------------------------------------------------------------
     def step(self, duration):
         """Advances ``duration`` seconds in CFL-limited substeps, then updates the orientations."""
-        self._core.step(_float("duration", duration))
+        self._core.step(number("duration", duration))
 
     def substep(self, dt):
         """One substep of exactly dt (no CFL limit, orientations not updated)."""
-        self._core.substep(_float("dt", dt))
+        self._core.substep(number("dt", dt))
 
     def update_orientations(self):
         self._core.update_orientations()
@@ -166,7 +167,7 @@ class World:
 def random_orientations(n, seed=0):
     """n unit quaternions (w, x, y, z) uniform over the rotations (Shoemake)."""
     rng = np.random.default_rng(seed)
-    u1, u2, u3 = rng.random((3, _int("n", n)))
+    u1, u2, u3 = rng.random((3, integer("n", n)))
     a, b = np.sqrt(1.0 - u1), np.sqrt(u1)
     q = np.stack([a * np.sin(2 * np.pi * u2), a * np.cos(2 * np.pi * u2), b * np.sin(2 * np.pi * u3),
                   b * np.cos(2 * np.pi * u3)], axis=1)
@@ -176,13 +177,13 @@ def random_orientations(n, seed=0):
 def fill_box(lower, upper, spacing, jitter=0.0, seed=0):
     """Particle centres on a lattice of ``spacing`` filling [lower, upper], each moved by up to
     jitter * spacing at random."""
-    lo, hi, h = _vec("lower", lower), _vec("upper", upper), _float("spacing", spacing)
+    lo, hi, h = vector("lower", lower), vector("upper", upper), number("spacing", spacing)
     if h <= 0 or any(b <= a for a, b in zip(lo, hi)):
         raise ValueError("fill_box: need spacing > 0 and lower < upper")
     axes = [np.arange(a + 0.5 * h, b, h) for a, b in zip(lo, hi)]
     pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
     if jitter:
-        pts = pts + (np.random.default_rng(seed).random(pts.shape) - 0.5) * (_float("jitter", jitter) * h)
+        pts = pts + (np.random.default_rng(seed).random(pts.shape) - 0.5) * (number("jitter", jitter) * h)
     return pts
 
 
@@ -212,11 +213,11 @@ def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
 
 def flake_layer(center, size, thickness, count, seed=0):
     """``count`` flakes scattered uniformly in a slab of horizontal size (sx, sy) and ``thickness``."""
-    c = np.array(_vec("center", center))
+    c = np.array(vector("center", center))
     s = as_array("size", size, (2,))
     rng = np.random.default_rng(seed)
-    u = rng.random((_int("count", count), 3)) - 0.5
-    return c + u * np.array([s[0], s[1], _float("thickness", thickness)])
+    u = rng.random((integer("count", count), 3)) - 0.5
+    return c + u * np.array([s[0], s[1], number("thickness", thickness)])
 
 
 def quaternions_to_euler(q):
@@ -274,7 +275,7 @@ def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
     stop. Returns the written paths."""
     os.makedirs(out_dir, exist_ok=True)
     paths = []
-    for frame in range(_int("frames", frames) + 1):
+    for frame in range(integer("frames", frames) + 1):
         if frame > 0:
             if on_frame is not None and on_frame(frame, world) is False:
                 break
@@ -286,28 +287,5 @@ def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
 
 
 # -- argument helpers ----------------------------------------------------------------------------------------
-def _float(name, value):
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-
-
-def _int(name, value):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    return int(value)
-
-
-def _vec(name, value):
-    return tuple(float(x) for x in as_array(name, value, (3,)))
-
-
-def _choice(name, value, options):
-    if value not in options:
-        raise ValueError(f"{name} must be one of {sorted(options)}, got {value!r}")
-    return options[value]
-
-
 def _rotation(rotation):
     return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))

@@ -2,8 +2,8 @@
 //
 // Arguments arrive already checked and converted by opdeform/mpm.py: C-contiguous float64/int32 buffers
 // and plain numbers. This file only checks buffer sizes, maps status codes to exceptions and releases
-// the GIL around the steps (a busy flag refuses other calls on the same world meanwhile).
-#include "binding.h"
+// the GIL around the steps and a mesh collider's set-up (the busy guard refuses every call meanwhile).
+#include "mpm_binding.h"
 
 #include "opdeform/mpm.h"
 
@@ -11,32 +11,14 @@
 
 typedef struct
 {
-	PyObject_HEAD od_MpmWorld* world;
-	int busy;
+	GuardedObject head;
+	od_MpmWorld* world;
 } MpmObject;
 
-static PyObject* MpmRaise(PyObject* obj, od_Status status)
+// The od_MpmWorld of obj, or NULL with RuntimeError while a call on another thread runs.
+static od_MpmWorld* Mpm_Enter(PyObject* obj)
 {
-	return RaiseStatus(PyType_GetModule(Py_TYPE(obj)), status);
-}
-
-static int MpmEnter(MpmObject* self)
-{
-	if (self->busy)
-	{
-		PyErr_SetString(PyExc_RuntimeError, "the MPM world is being stepped by another thread");
-		return -1;
-	}
-	return 0;
-}
-
-static PyObject* MpmDone(PyObject* obj, od_Status status)
-{
-	if (status != OD_OK)
-	{
-		return MpmRaise(obj, status);
-	}
-	Py_RETURN_NONE;
+	return Binding_Enter(obj) < 0 ? NULL : ((MpmObject*)obj)->world;
 }
 
 // MpmWorld(lower, upper, dx, gravity, cfl, max_dt, spin, walls, wall_friction, threads)
@@ -72,31 +54,28 @@ static PyObject* Mpm_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 
 static void Mpm_dealloc(PyObject* obj)
 {
-	PyTypeObject* type = Py_TYPE(obj);
 	od_MpmWorld_Destroy(((MpmObject*)obj)->world);
-	freefunc tp_free = (freefunc)PyType_GetSlot(type, Py_tp_free);
-	tp_free(obj);
-	Py_DECREF(type);
+	Binding_Free(obj);
 }
 
 // add_particles(positions, velocities|None, affine|None, orientations|None, particle_volume,
 //               (kind, density, young, poisson, critical_compression, critical_stretch, hardening))
 static PyObject* Mpm_add_particles(PyObject* obj, PyObject* args)
 {
-	MpmObject* self = (MpmObject*)obj;
-	PyObject *pos, *vel, *aff, *quat;
+	od_MpmWorld* world = Mpm_Enter(obj);
+	PyObject* arrays[4]; // positions, velocities, affine, orientations
 	od_MpmParticlesDef d = od_DefaultMpmParticlesDef();
 	od_MpmMaterial* m = &d.material;
 	int kind;
-	if (MpmEnter(self) < 0 ||
-		!PyArg_ParseTuple(args, "OOOOd(idddddd)", &pos, &vel, &aff, &quat, &d.particleVolume, &kind, &m->density,
-						  &m->youngModulus, &m->poissonRatio, &m->criticalCompression, &m->criticalStretch,
-						  &m->hardening))
+	if (!world ||
+		!PyArg_ParseTuple(args, "OOOOd(idddddd)", &arrays[0], &arrays[1], &arrays[2], &arrays[3], &d.particleVolume,
+						  &kind, &m->density, &m->youngModulus, &m->poissonRatio, &m->criticalCompression,
+						  &m->criticalStretch, &m->hardening))
 	{
 		return NULL;
 	}
 	m->kind = (od_MpmMaterialKind)kind;
-	Py_ssize_t n = ItemCount(pos, "positions", 24);
+	Py_ssize_t n = ItemCount(arrays[0], "positions", 24);
 	if (n < 0)
 	{
 		return NULL;
@@ -106,41 +85,32 @@ static PyObject* Mpm_add_particles(PyObject* obj, PyObject* args)
 		PyErr_SetString(PyExc_ValueError, "positions: too many particles");
 		return NULL;
 	}
+	const ArraySpec specs[4] = { { "positions", 'd', 3 * n, 0 }, { "velocities", 'd', 3 * n, 1 },
+								 { "affine", 'd', 9 * n, 1 }, { "orientations", 'd', 4 * n, 1 } };
 	Py_buffer views[4];
-	memset(views, 0, sizeof views);
-	if (GetArray(pos, "positions", 'd', 3 * n, 0, &views[0]) < 0 ||
-		GetOptionalArray(vel, "velocities", 'd', 3 * n, &views[1]) < 0 ||
-		GetOptionalArray(aff, "affine", 'd', 9 * n, &views[2]) < 0 ||
-		GetOptionalArray(quat, "orientations", 'd', 4 * n, &views[3]) < 0)
+	if (GetArrays(arrays, specs, 4, views) < 0)
 	{
-		for (int k = 0; k < 4; ++k)
-		{
-			ReleaseArray(&views[k]);
-		}
 		return NULL;
 	}
 	d.count = (int)n;
 	d.positions = views[0].buf;
-	d.velocities = views[1].obj ? views[1].buf : NULL;
-	d.affine = views[2].obj ? views[2].buf : NULL;
-	d.orientations = views[3].obj ? views[3].buf : NULL;
-	od_Status status = od_MpmWorld_AddParticles(self->world, &d);
-	for (int k = 0; k < 4; ++k)
-	{
-		ReleaseArray(&views[k]);
-	}
-	return MpmDone(obj, status);
+	d.velocities = ArrayData(&views[1]);
+	d.affine = ArrayData(&views[2]);
+	d.orientations = ArrayData(&views[3]);
+	od_Status status = od_MpmWorld_AddParticles(world, &d);
+	ReleaseArrays(views, 4);
+	return Binding_Done(obj, status);
 }
 
 // set_wind(kind, velocity, amplitude, wavelength, octaves, persistence, drift, drag, ground, ref_height,
 //          exponent, seed)
 static PyObject* Mpm_set_wind(PyObject* obj, PyObject* args)
 {
-	MpmObject* self = (MpmObject*)obj;
+	od_MpmWorld* world = Mpm_Enter(obj);
 	od_MpmWindDef d = od_DefaultMpmWindDef();
 	int kind;
 	unsigned int seed;
-	if (MpmEnter(self) < 0 ||
+	if (!world ||
 		!PyArg_ParseTuple(args, "i(ddd)ddid(dd)ddddI", &kind, &d.velocity[0], &d.velocity[1], &d.velocity[2],
 						  &d.amplitude, &d.wavelength, &d.octaves, &d.persistence, &d.drift[0], &d.drift[1], &d.drag,
 						  &d.ground, &d.refHeight, &d.exponent, &seed))
@@ -149,17 +119,17 @@ static PyObject* Mpm_set_wind(PyObject* obj, PyObject* args)
 	}
 	d.kind = (od_MpmWindKind)kind;
 	d.seed = seed;
-	return MpmDone(obj, od_MpmWorld_SetWind(self->world, &d));
+	return Binding_Done(obj, od_MpmWorld_SetWind(world, &d));
 }
 
 // add_collider(shape, contact, friction, half_extents, vertices|None, triangles|None, rotation, translation)
 static PyObject* Mpm_add_collider(PyObject* obj, PyObject* args)
 {
-	MpmObject* self = (MpmObject*)obj;
+	od_MpmWorld* world = Mpm_Enter(obj);
 	od_MpmColliderDef d = od_DefaultMpmColliderDef();
 	int shape, contact;
 	PyObject *verts, *tris, *rot;
-	if (MpmEnter(self) < 0 ||
+	if (!world ||
 		!PyArg_ParseTuple(args, "iid(ddd)OOO(ddd)", &shape, &contact, &d.friction, &d.halfExtents[0],
 						  &d.halfExtents[1], &d.halfExtents[2], &verts, &tris, &rot, &d.translation[0],
 						  &d.translation[1], &d.translation[2]))
@@ -191,28 +161,27 @@ static PyObject* Mpm_add_collider(PyObject* obj, PyObject* args)
 		return NULL;
 	}
 	d.vertexCount = (int)nv;
-	d.vertices = vv.obj ? vv.buf : NULL;
+	d.vertices = ArrayData(&vv);
 	d.triangleCount = (int)nt;
-	d.triangles = tv.obj ? tv.buf : NULL;
+	d.triangles = ArrayData(&tv);
 	int id = -1;
-	self->busy = 1; // other threads must not step (or add) meanwhile: the collider array may move
-	PyThreadState* ts = PyEval_SaveThread(); // a mesh's distance samples take a moment
-	od_Status status = od_MpmWorld_AddCollider(self->world, &d, &id);
-	PyEval_RestoreThread(ts);
-	self->busy = 0;
+	// A mesh's distance samples take a moment; no other call meanwhile: the collider array may move.
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = od_MpmWorld_AddCollider(world, &d, &id);
+	Binding_End(obj, ts);
 	ReleaseArray(&vv);
 	ReleaseArray(&tv);
-	return status == OD_OK ? PyLong_FromLong(id) : MpmRaise(obj, status);
+	return Binding_Id(obj, status, id);
 }
 
 // move_collider(id, rotation (9 float64), translation)
 static PyObject* Mpm_move_collider(PyObject* obj, PyObject* args)
 {
-	MpmObject* self = (MpmObject*)obj;
+	od_MpmWorld* world = Mpm_Enter(obj);
 	int id;
 	PyObject* rot;
 	double t[3];
-	if (MpmEnter(self) < 0 || !PyArg_ParseTuple(args, "iO(ddd)", &id, &rot, &t[0], &t[1], &t[2]))
+	if (!world || !PyArg_ParseTuple(args, "iO(ddd)", &id, &rot, &t[0], &t[1], &t[2]))
 	{
 		return NULL;
 	}
@@ -221,27 +190,24 @@ static PyObject* Mpm_move_collider(PyObject* obj, PyObject* args)
 	{
 		return NULL;
 	}
-	od_Status status = od_MpmWorld_MoveCollider(self->world, id, rv.buf, t);
+	od_Status status = od_MpmWorld_MoveCollider(world, id, rv.buf, t);
 	PyBuffer_Release(&rv);
-	return MpmDone(obj, status);
+	return Binding_Done(obj, status);
 }
 
 // Runs Step (substep = 0) or Substep (substep = 1) with the GIL released.
 static PyObject* MpmAdvance(PyObject* obj, PyObject* args, int substep)
 {
-	MpmObject* self = (MpmObject*)obj;
+	od_MpmWorld* world = Mpm_Enter(obj);
 	double duration;
-	if (MpmEnter(self) < 0 || !PyArg_ParseTuple(args, "d", &duration))
+	if (!world || !PyArg_ParseTuple(args, "d", &duration))
 	{
 		return NULL;
 	}
-	self->busy = 1;
-	PyThreadState* ts = PyEval_SaveThread();
-	od_Status status =
-		substep ? od_MpmWorld_Substep(self->world, duration) : od_MpmWorld_Step(self->world, duration);
-	PyEval_RestoreThread(ts);
-	self->busy = 0;
-	return MpmDone(obj, status);
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = substep ? od_MpmWorld_Substep(world, duration) : od_MpmWorld_Step(world, duration);
+	Binding_End(obj, ts);
+	return Binding_Done(obj, status);
 }
 
 static PyObject* Mpm_step(PyObject* obj, PyObject* args)
@@ -257,12 +223,12 @@ static PyObject* Mpm_substep(PyObject* obj, PyObject* args)
 static PyObject* Mpm_update_orientations(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
-	MpmObject* self = (MpmObject*)obj;
-	if (MpmEnter(self) < 0)
+	od_MpmWorld* world = Mpm_Enter(obj);
+	if (!world)
 	{
 		return NULL;
 	}
-	od_MpmWorld_UpdateOrientations(self->world);
+	od_MpmWorld_UpdateOrientations(world);
 	Py_RETURN_NONE;
 }
 
@@ -272,10 +238,10 @@ static const char* const MpmFieldNames[] = { "positions", "velocities", "orienta
 // read(name, out): copies a field (float64, n * width) into a writable buffer.
 static PyObject* Mpm_read(PyObject* obj, PyObject* args)
 {
-	MpmObject* self = (MpmObject*)obj;
+	od_MpmWorld* world = Mpm_Enter(obj);
 	const char* name;
 	PyObject* out;
-	if (MpmEnter(self) < 0 || !PyArg_ParseTuple(args, "sO", &name, &out))
+	if (!world || !PyArg_ParseTuple(args, "sO", &name, &out))
 	{
 		return NULL;
 	}
@@ -283,13 +249,13 @@ static PyObject* Mpm_read(PyObject* obj, PyObject* args)
 	{
 		if (strcmp(name, MpmFieldNames[f]) == 0)
 		{
-			Py_ssize_t count = (Py_ssize_t)od_MpmFieldWidth((od_MpmField)f) * od_MpmWorld_GetParticleCount(self->world);
+			Py_ssize_t count = (Py_ssize_t)od_MpmFieldWidth((od_MpmField)f) * od_MpmWorld_GetParticleCount(world);
 			Py_buffer view;
 			if (GetArray(out, "out", 'd', count, 1, &view) < 0)
 			{
 				return NULL;
 			}
-			od_MpmWorld_Read(self->world, (od_MpmField)f, view.buf);
+			od_MpmWorld_Read(world, (od_MpmField)f, view.buf);
 			PyBuffer_Release(&view);
 			Py_RETURN_NONE;
 		}
@@ -301,7 +267,12 @@ static PyObject* Mpm_read(PyObject* obj, PyObject* args)
 static PyObject* Mpm_stats(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
-	od_MpmStats s = od_MpmWorld_GetStats(((MpmObject*)obj)->world);
+	od_MpmWorld* world = Mpm_Enter(obj);
+	if (!world)
+	{
+		return NULL;
+	}
+	od_MpmStats s = od_MpmWorld_GetStats(world);
 	return Py_BuildValue("{sLsisdsdsisd}", "substeps", s.substeps, "last_substeps", s.lastSubsteps, "time", s.time,
 						 "last_dt", s.lastDt, "active_blocks", s.activeBlocks, "max_speed", s.maxSpeed);
 }
@@ -309,7 +280,8 @@ static PyObject* Mpm_stats(PyObject* obj, PyObject* unused)
 static PyObject* Mpm_get_n_particles(PyObject* obj, void* closure)
 {
 	(void)closure;
-	return PyLong_FromLong(od_MpmWorld_GetParticleCount(((MpmObject*)obj)->world));
+	od_MpmWorld* world = Mpm_Enter(obj);
+	return world ? PyLong_FromLong(od_MpmWorld_GetParticleCount(world)) : NULL;
 }
 
 static PyGetSetDef Mpm_getset[] = {
@@ -339,21 +311,9 @@ static PyType_Slot Mpm_slots[] = {
 	{ 0, NULL },
 };
 
-static PyType_Spec Mpm_spec = {
+PyType_Spec Mpm_Spec = {
 	.name = "opdeform._core.MpmWorld",
 	.basicsize = sizeof(MpmObject),
 	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
 	.slots = Mpm_slots,
 };
-
-int Binding_AddMpm(PyObject* module)
-{
-	PyObject* type = PyType_FromModuleAndSpec(module, &Mpm_spec, NULL);
-	if (!type)
-	{
-		return -1;
-	}
-	int rc = PyModule_AddObjectRef(module, "MpmWorld", type);
-	Py_DECREF(type);
-	return rc;
-}

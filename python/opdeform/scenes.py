@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from . import Graph, Simulation
+from .graph import Graph
+from .simulation import Simulation
 
 BAR_LENGTH = 2.0
 BAR_WIDTH = 0.2

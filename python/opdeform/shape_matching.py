@@ -9,7 +9,11 @@ Simulation's state protocol, so the state accessors below are the Simulation's o
 
 import numpy as np
 
-from . import Graph, Simulation, _core, _int, _vec3
+from . import _core
+from ._arguments import vector
+from .graph import Graph
+from .scenes import bar_graph, end_face_points
+from .simulation import Simulation, core_params
 
 __all__ = ["ShapeMatching", "fig1_bar", "settle"]
 
@@ -26,14 +30,13 @@ class ShapeMatching:
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
         self.graph = graph
-        self._core = _core.ShapeMatching(graph._core, float(stiffness), float(density), float(dt),
-                                         _int("iterations", iterations), _vec3("gravity", gravity), float(damping),
-                                         _int("skin_neighbors", skin_neighbors))
+        self._core = _core.ShapeMatching(graph._core, *core_params(stiffness, density, dt, iterations, gravity,
+                                                                   damping, skin_neighbors))
 
     def add_position_constraint(self, point, target=None):
         """Holds the rest-space point at target (None: where it is now). Returns the constraint id."""
-        target = None if target is None else _vec3("target", target)
-        return self._core.add_position_constraint(_vec3("point", point), target)
+        target = None if target is None else vector("target", target)
+        return self._core.add_position_constraint(vector("point", point), target)
 
     def __repr__(self):
         p = self.params
@@ -61,10 +64,8 @@ class ShapeMatching:
 def fig1_bar(**args):
     """The set-up of ``scenes.fig1_bar`` for shape matching: the bar held at its x = 0 end face by 25 position
     constraints. ``args`` go to ShapeMatching; the tip is ``scenes.BAR_TIP``."""
-    from . import scenes
-
-    sm = ShapeMatching(scenes.bar_graph(), **args)
-    for p in scenes.end_face_points(0.0):
+    sm = ShapeMatching(bar_graph(), **args)
+    for p in end_face_points(0.0):
         sm.add_position_constraint(p)
     return sm
 

@@ -1,0 +1,80 @@
+"""The argument converters of every opdeform call: any array-like or number in, what the core reads out.
+
+The rule: a wrong value for a number or array argument (None, a string, NaN, a wrong shape) raises
+ValueError naming the argument; an object of the wrong class where an opdeform object
+is required raises TypeError naming the expected type (checked where that object is used).
+"""
+
+import math
+
+import numpy as np
+
+__all__ = ["as_array", "choice", "integer", "number", "vector"]
+
+
+def as_array(name, value, shape, dtype=np.float64):
+    """``value`` as a C-contiguous array of ``shape`` (None = any length); ValueError naming ``name``."""
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{name}: not an array of numbers ({exc})") from None
+    if arr.size == 0 and len(shape) > 1 and shape[0] is None:
+        arr = arr.reshape((0,) + tuple(shape[1:]))
+    if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+        want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if np.issubdtype(dtype, np.integer):
+        if arr.size and not np.issubdtype(arr.dtype, np.integer):
+            if not np.issubdtype(arr.dtype, np.number) or not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
+                raise ValueError(f"{name} must hold integers")
+        if arr.size and (arr.min() < np.iinfo(dtype).min or arr.max() > np.iinfo(dtype).max):
+            raise ValueError(f"{name} holds values outside the {np.dtype(dtype).name} range")
+    elif arr.size and not (np.issubdtype(arr.dtype, np.number) or arr.dtype == np.bool_):
+        raise ValueError(f"{name} must hold numbers, got dtype {arr.dtype}")
+    return np.ascontiguousarray(arr, dtype=dtype)
+
+
+def number(name, value):
+    """A finite float (None, strings, NaN and infinities refused; the core checks the range)."""
+    try:
+        x = None if isinstance(value, (str, bytes)) else float(value)
+    except (TypeError, ValueError):
+        x = None
+    if x is None or not math.isfinite(x):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    return x
+
+
+def integer(name, value):
+    """An int (bool and float refused, numpy integers accepted)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    return int(value)
+
+
+_WORDS = {2: "two", 3: "three"}
+
+
+def vector(name, value, size=3):
+    """``size`` finite floats as a tuple; fast for tuples, lists and 1-D arrays."""
+    if isinstance(value, np.ndarray) and value.shape == (size,) and np.issubdtype(value.dtype, np.number):
+        value = value.tolist()
+    if not (isinstance(value, (tuple, list)) and len(value) == size
+            and all(isinstance(x, (int, float, np.number)) for x in value)):
+        value = as_array(name, value, (size,)).tolist()
+    result = tuple(float(x) for x in value)
+    if not all(math.isfinite(x) for x in result):
+        raise ValueError(f"{name} must be {_WORDS.get(size, size)} finite numbers, got {value!r}")
+    return result
+
+
+def choice(name, value, options):
+    """options[value] (a dict or a sequence: its index); ValueError naming the argument otherwise."""
+    try:
+        found = value in options
+    except TypeError:  # an unhashable value
+        found = False
+    if not found:
+        listed = sorted(options) if isinstance(options, dict) else list(options)
+        raise ValueError(f"{name} must be one of {listed}, got {value!r}")
+    return options[value] if isinstance(options, dict) else options.index(value)

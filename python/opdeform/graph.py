@@ -1,0 +1,90 @@
+"""The rest graph of ellipsoid particles (``opdeform.Graph``), given directly or built from a mesh."""
+
+import numpy as np
+
+from . import _core
+from ._arguments import as_array, choice, integer, vector
+
+__all__ = ["Graph", "MODES"]
+
+MODES = ("auto", "volume", "surface", "chain")
+
+
+class Graph:
+    """Rest graph of ellipsoid particles.
+
+    centers (n,3); radii (n,3) > 0; edges (m,2) undirected particle pairs; axes (n,3,3) rest frames whose
+    columns are the ellipsoid axes (proper rotations; default identity).
+    """
+
+    def __init__(self, centers, radii, edges, axes=None):
+        centers = as_array("centers", centers, (None, 3))
+        n = centers.shape[0]
+        radii = as_array("radii", radii, (n, 3))
+        edges = as_array("edges", edges, (None, 2), np.int32)
+        axes = None if axes is None else as_array("axes", axes, (n, 3, 3))
+        self._core = _core.Graph(centers, radii, edges, axes)
+
+    @classmethod
+    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
+        """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
+        through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
+        forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and
+        radii are the principal axes of the part of the body each particle stands for. Each connected piece
+        gets its own connected graph unless ``join_pieces``. Deterministic. See opdeform.mesh."""
+        vertices = as_array("vertices", vertices, (None, 3))
+        triangles = as_array("triangles", triangles, (None, 3), np.int32)
+        graph = cls.__new__(cls)
+        graph._core = _core.graph_from_mesh(vertices, triangles, integer("particles", particles),
+                                            choice("mode", mode, MODES), bool(join_pieces),
+                                            integer("voxels_per_particle", voxels_per_particle))
+        return graph
+
+    @property
+    def n_particles(self):
+        return self._core.n_particles
+
+    @property
+    def n_edges(self):
+        return self._core.n_edges
+
+    def _read(self, name, shape, dtype=np.float64):
+        out = np.empty(shape, dtype)
+        self._core.read(name, out)
+        return out
+
+    @property
+    def centers(self):
+        return self._read("centers", (self.n_particles, 3))
+
+    @property
+    def radii(self):
+        return self._read("radii", (self.n_particles, 3))
+
+    @property
+    def axes(self):
+        return self._read("axes", (self.n_particles, 3, 3))
+
+    @property
+    def edges(self):
+        return self._read("edges", (self.n_edges, 2), np.int32)
+
+    @property
+    def volumes(self):
+        r = self.radii
+        return 4.0 / 3.0 * np.pi * r[:, 0] * r[:, 1] * r[:, 2]
+
+    def pieces(self):
+        """(count, label of each particle) of the connected pieces."""
+        return self._core.piece_count(), self._read("pieces", (self.n_particles,), np.int32)
+
+    def skin_weights(self, point, m=4):
+        """Indices and Sumner weights of the m nearest particles of a rest-space point."""
+        m = integer("m", m)
+        idx = np.empty(m, np.int32)
+        w = np.empty(m)
+        count = self._core.skin_weights(vector("point", point), m, idx, w)
+        return idx[:count], w[:count]
+
+    def __repr__(self):
+        return f"opdeform.Graph(n_particles={self.n_particles}, n_edges={self.n_edges})"

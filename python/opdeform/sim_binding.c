@@ -1,0 +1,383 @@
+// opdeform._core.Simulation: ARAP dynamics of a graph (csrc/include/opdeform/opdeform.h).
+//
+// Arguments arrive converted by opdeform/simulation.py: plain numbers, tuples and C-contiguous buffers. The
+// GIL is released around step and solve_static; meanwhile the busy guard refuses every call on the object.
+#include "graph_binding.h"
+#include "sim_binding.h"
+
+#include <string.h>
+
+typedef struct
+{
+	GuardedObject head;
+	od_Sim* sim;
+	PyObject* graph; // keeps the od_Graph alive
+	Py_ssize_t n;    // particles
+	int tracing;     // whether set_energy_trace is on (the core has no getter)
+} SimObject;
+
+// The od_Sim of obj, or NULL with RuntimeError while a call on another thread runs.
+static od_Sim* Sim_Enter(PyObject* obj)
+{
+	return Binding_Enter(obj) < 0 ? NULL : ((SimObject*)obj)->sim;
+}
+
+// Simulation(graph, stiffness, density, dt, iterations, gravity, damping, skin_neighbors)
+static PyObject* Sim_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
+{
+	static char* keywords[] = { "graph", "stiffness", "density", "dt", "iterations", "gravity", "damping",
+								"skin_neighbors", NULL };
+	PyObject* graphObj;
+	od_SimDef def = od_DefaultSimDef();
+	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "Od|ddi(ddd)di", keywords, &graphObj, &def.stiffness,
+									 &def.density, &def.dt, &def.iterations, &def.gravity[0], &def.gravity[1],
+									 &def.gravity[2], &def.damping, &def.skinNeighbors))
+	{
+		return NULL;
+	}
+	PyObject* module = PyType_GetModule(type);
+	const od_Graph* graph = Graph_FromObject(module, graphObj);
+	if (!graph)
+	{
+		return NULL;
+	}
+	od_Sim* sim = NULL;
+	od_Status status = od_Sim_Create(graph, &def, &sim);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	SimObject* self = (SimObject*)PyType_GenericAlloc(type, 0);
+	if (!self)
+	{
+		od_Sim_Destroy(sim);
+		return NULL;
+	}
+	self->sim = sim;
+	self->graph = Py_NewRef(graphObj);
+	self->n = od_Graph_GetParticleCount(graph);
+	return (PyObject*)self;
+}
+
+static void Sim_dealloc(PyObject* obj)
+{
+	SimObject* self = (SimObject*)obj;
+	od_Sim_Destroy(self->sim);
+	Py_XDECREF(self->graph);
+	Binding_Free(obj);
+}
+
+// add_position_constraint((x,y,z), target or None, weight) -> id
+static PyObject* Sim_add_position_constraint(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	double p[3], t[3], weight;
+	PyObject* target;
+	int given;
+	if (!sim || !PyArg_ParseTuple(args, "(ddd)Od", &p[0], &p[1], &p[2], &target, &weight) ||
+		GetOptionalPoint(target, t, &given) < 0)
+	{
+		return NULL;
+	}
+	int id = -1;
+	od_Status status = od_Sim_AddPositionConstraint(sim, p, given ? t : NULL, weight, &id);
+	return Binding_Id(obj, status, id);
+}
+
+// add_direction_constraint((x,y,z), (dx,dy,dz), target or None, weight) -> id
+static PyObject* Sim_add_direction_constraint(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	double p[3], d[3], t[3], weight;
+	PyObject* target;
+	int given;
+	if (!sim ||
+		!PyArg_ParseTuple(args, "(ddd)(ddd)Od", &p[0], &p[1], &p[2], &d[0], &d[1], &d[2], &target, &weight) ||
+		GetOptionalPoint(target, t, &given) < 0)
+	{
+		return NULL;
+	}
+	int id = -1;
+	od_Status status = od_Sim_AddDirectionConstraint(sim, p, d, given ? t : NULL, weight, &id);
+	return Binding_Id(obj, status, id);
+}
+
+static PyObject* Sim_set_constraint_target(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	double t[3];
+	if (!sim || !PyArg_ParseTuple(args, "i(ddd)", &id, &t[0], &t[1], &t[2]))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetConstraintTarget(sim, id, t));
+}
+
+static PyObject* Sim_set_constraint_weight(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	double w;
+	if (!sim || !PyArg_ParseTuple(args, "id", &id, &w))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetConstraintWeight(sim, id, w));
+}
+
+static PyObject* Sim_remove_constraint(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	if (!sim || !PyArg_ParseTuple(args, "i", &id))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_RemoveConstraint(sim, id));
+}
+
+static PyObject* Sim_constraint_count(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyLong_FromLong(od_Sim_GetConstraintCount(sim)) : NULL;
+}
+
+static PyObject* Sim_set_floor(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	double height, friction;
+	if (!sim || !PyArg_ParseTuple(args, "dd", &height, &friction))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetFloor(sim, height, friction));
+}
+
+static PyObject* Sim_clear_floor(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_Sim_ClearFloor(sim);
+	Py_RETURN_NONE;
+}
+
+// Runs step (static = 0) or solve_static (static = 1) with the GIL released.
+static PyObject* RunSolver(PyObject* obj, PyObject* args, int isStatic)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int count;
+	if (!sim || !PyArg_ParseTuple(args, "i", &count))
+	{
+		return NULL;
+	}
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = isStatic ? od_Sim_SolveStatic(sim, count) : od_Sim_Step(sim, count);
+	Binding_End(obj, ts);
+	return Binding_Done(obj, status);
+}
+
+static PyObject* Sim_step(PyObject* obj, PyObject* args)
+{
+	return RunSolver(obj, args, 0);
+}
+
+static PyObject* Sim_solve_static(PyObject* obj, PyObject* args)
+{
+	return RunSolver(obj, args, 1);
+}
+
+// set_state(positions, rotations, velocities=None, angular_velocities=None)
+static PyObject* Sim_set_state(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	Py_buffer v[4];
+	if (!sim || GetStateArrays(args, ((SimObject*)obj)->n, v) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_SetState(sim, v[0].buf, v[1].buf, ArrayData(&v[2]), ArrayData(&v[3]));
+	ReleaseArrays(v, 4);
+	return Binding_Done(obj, status);
+}
+
+// read(name, out) -> count: "positions", "rotations", "velocities", "angular_velocities" or "energy_trace".
+static PyObject* Sim_read(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	const char* name;
+	PyObject* out;
+	if (!sim || !PyArg_ParseTuple(args, "sO", &name, &out))
+	{
+		return NULL;
+	}
+	const double* fields[4] = { od_Sim_GetPositions(sim), od_Sim_GetRotations(sim), od_Sim_GetVelocities(sim),
+								od_Sim_GetAngularVelocities(sim) };
+	int index = StateArrayIndex(name), traceCount = 0;
+	if (index < 0 && strcmp(name, "energy_trace") != 0)
+	{
+		PyErr_Format(PyExc_ValueError, "unknown state array '%s'", name);
+		return NULL;
+	}
+	const double* data = index >= 0 ? fields[index] : od_Sim_GetEnergyTrace(sim, &traceCount);
+	Py_ssize_t count = index >= 0 ? StateArrayCount(index, ((SimObject*)obj)->n) : traceCount;
+	if (count > 0 && CopyOut(out, "out", data, count, 'd') < 0)
+	{
+		return NULL;
+	}
+	return PyLong_FromSsize_t(count);
+}
+
+static PyObject* Sim_trace_length(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	int count = 0;
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_Sim_GetEnergyTrace(sim, &count);
+	return PyLong_FromLong(count);
+}
+
+static PyObject* Sim_get_trace_energy(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return Sim_Enter(obj) ? PyBool_FromLong(((SimObject*)obj)->tracing) : NULL;
+}
+
+static int Sim_set_trace_energy(PyObject* obj, PyObject* value, void* closure)
+{
+	(void)closure;
+	od_Sim* sim = Sim_Enter(obj);
+	if (sim && !value)
+	{
+		PyErr_SetString(PyExc_AttributeError, "trace_energy cannot be deleted");
+	}
+	int enabled = sim && value ? PyObject_IsTrue(value) : -1;
+	if (enabled < 0)
+	{
+		return -1;
+	}
+	od_Sim_SetEnergyTrace(sim, enabled);
+	((SimObject*)obj)->tracing = enabled;
+	return 0;
+}
+
+static PyObject* Sim_energy(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyFloat_FromDouble(od_Sim_GetEnergy(sim)) : NULL;
+}
+
+static PyObject* Sim_params(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? BINDING_DEF_DICT(od_Sim_GetDef(sim)) : NULL;
+}
+
+// set_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors)
+static PyObject* Sim_set_params(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	od_SimDef d;
+	if (!sim || !PyArg_ParseTuple(args, BINDING_DEF_FORMAT, BINDING_DEF_ARGS(d)))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetDef(sim, &d));
+}
+
+static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_SimCounters c = od_Sim_GetCounters(sim);
+	return Py_BuildValue("{sLsLsLsLsLsLsLsdsd}", "factorizations", c.factorizations, "analyses", c.analyses,
+						 "solves", c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks, "accelerated",
+						 c.accelerated, "rejected", c.rejected, "local_seconds", c.localSeconds, "global_seconds",
+						 c.globalSeconds);
+}
+
+// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads, factorization)
+static PyObject* Sim_set_solver(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	od_SolverDef d = od_DefaultSolverDef();
+	int kind;
+	if (!sim || !PyArg_ParseTuple(args, "iidii", &kind, &d.window, &d.rho, &d.threads, &d.factorization))
+	{
+		return NULL;
+	}
+	d.accelerator = (od_AcceleratorKind)kind;
+	return Binding_Done(obj, od_Sim_SetSolver(sim, &d));
+}
+
+static PyObject* Sim_solver(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_SolverDef d = od_Sim_GetSolver(sim);
+	return Py_BuildValue("{sisisdsisi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho,
+						 "threads", d.threads, "factorization", d.factorization);
+}
+
+static PyGetSetDef Sim_getset[] = {
+	{ "trace_energy", Sim_get_trace_energy, Sim_set_trace_energy, "record the objective of every half step", NULL },
+	{ NULL, NULL, NULL, NULL, NULL },
+};
+
+static PyMethodDef Sim_methods[] = {
+	{ "add_position_constraint", Sim_add_position_constraint, METH_VARARGS, NULL },
+	{ "add_direction_constraint", Sim_add_direction_constraint, METH_VARARGS, NULL },
+	{ "set_constraint_target", Sim_set_constraint_target, METH_VARARGS, NULL },
+	{ "set_constraint_weight", Sim_set_constraint_weight, METH_VARARGS, NULL },
+	{ "remove_constraint", Sim_remove_constraint, METH_VARARGS, NULL },
+	{ "constraint_count", Sim_constraint_count, METH_NOARGS, NULL },
+	{ "set_floor", Sim_set_floor, METH_VARARGS, NULL },
+	{ "clear_floor", Sim_clear_floor, METH_NOARGS, NULL },
+	{ "step", Sim_step, METH_VARARGS, NULL },
+	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
+	{ "set_state", Sim_set_state, METH_VARARGS, NULL },
+	{ "read", Sim_read, METH_VARARGS, NULL },
+	{ "trace_length", Sim_trace_length, METH_NOARGS, NULL },
+	{ "energy", Sim_energy, METH_NOARGS, NULL },
+	{ "params", Sim_params, METH_NOARGS, NULL },
+	{ "set_params", Sim_set_params, METH_VARARGS, NULL },
+	{ "counters", Sim_counters, METH_NOARGS, NULL },
+	{ "set_solver", Sim_set_solver, METH_VARARGS, NULL },
+	{ "solver", Sim_solver, METH_NOARGS, NULL },
+	{ NULL, NULL, 0, NULL },
+};
+
+static PyType_Slot Sim_slots[] = {
+	{ Py_tp_doc, "ARAP dynamics of an oriented-particle graph (C core)." },
+	{ Py_tp_new, Sim_new },
+	{ Py_tp_dealloc, Sim_dealloc },
+	{ Py_tp_getset, Sim_getset },
+	{ Py_tp_methods, Sim_methods },
+	{ 0, NULL },
+};
+
+PyType_Spec Sim_Spec = {
+	.name = "opdeform._core.Simulation",
+	.basicsize = sizeof(SimObject),
+	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
+	.slots = Sim_slots,
+};
