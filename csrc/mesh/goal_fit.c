@@ -4,7 +4,8 @@
 // Σ w (y - ȳ)(x - x̄)ᵀ, and the goal centre ȳ + R (X̄ - x̄). The weights are the Sumner weights of the
 // skin (graph/skin_weights.c) over the k nearest vertices of the particle's rest centre, so a particle
 // follows the part of the surface it stands for. Binding finds the neighbours once (a grid over the
-// vertices); a fit is O(particles · k) with one 3x3 SVD per particle and allocates nothing.
+// vertices); a fit is O(particles · k) with one 3x3 SVD per particle, reads only those vertices (a NaN
+// elsewhere in the mesh does not reach the goals) and allocates nothing.
 #include "opdeform/mesh.h"
 
 #include "check.h"
@@ -147,9 +148,22 @@ static void od_FitOne(const od_GoalFit* fit, const double* animated, int j, doub
 	od_V3Store(position, od_Add(ybar, od_M3MulV(&r, od_Sub(od_V3Load(fit->centers + 3 * j), xbar))));
 }
 
+// The vertices a fit reads (k per particle, not the whole mesh) must be finite.
+static od_Status od_CheckUsed(const od_GoalFit* fit, const double* animated)
+{
+	for (size_t a = 0; a < (size_t)fit->k * fit->particleCount; ++a)
+	{
+		if (!od_IsFinite3(animated + 3 * fit->idx[a]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "animated vertices[%d] is not finite", fit->idx[a]);
+		}
+	}
+	return OD_OK;
+}
+
 od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations)
 {
-	od_Status status = od_CheckFinite("animated vertices", animated, 3 * fit->vertexCount);
+	od_Status status = od_CheckUsed(fit, animated);
 	if (status != OD_OK)
 	{
 		return status;

@@ -6,6 +6,7 @@
 // (opdeform/*.py) converts arguments; the per-type files check sizes, map status codes to exceptions and
 // release the GIL around the heavy calls. This is the one file that knows every type: the exec slot creates
 // them from their specs into module state (the one place that holds them) and adds them to the module.
+#include "goal_fit_binding.h"
 #include "graph_binding.h"
 #include "mesh_binding.h"
 #include "mpm_binding.h"
@@ -42,6 +43,7 @@ static int Module_exec(PyObject* module)
 	if (!st->solverError || PyModule_AddObjectRef(module, "SolverError", st->solverError) < 0 ||
 		Module_AddType(module, &Graph_Spec, &st->graphType) < 0 ||
 		Module_AddType(module, &Sim_Spec, &st->simType) < 0 || Module_AddType(module, &Skin_Spec, &st->skinType) < 0 ||
+		Module_AddType(module, &GoalFit_Spec, &st->goalFitType) < 0 ||
 		Module_AddType(module, &Mpm_Spec, &st->mpmType) < 0 || PyModule_AddFunctions(module, Mesh_Functions) < 0)
 	{
 		return -1;
@@ -61,6 +63,7 @@ static int Module_traverse(PyObject* module, visitproc visit, void* arg)
 	Py_VISIT(st->graphType);
 	Py_VISIT(st->simType);
 	Py_VISIT(st->skinType);
+	Py_VISIT(st->goalFitType);
 	Py_VISIT(st->mpmType);
 	Py_VISIT(st->smType);
 	Py_VISIT(st->solverError);
@@ -73,6 +76,7 @@ static int Module_clear(PyObject* module)
 	Py_CLEAR(st->graphType);
 	Py_CLEAR(st->simType);
 	Py_CLEAR(st->skinType);
+	Py_CLEAR(st->goalFitType);
 	Py_CLEAR(st->mpmType);
 	Py_CLEAR(st->smType);
 	Py_CLEAR(st->solverError);

@@ -21,6 +21,7 @@ typedef struct
 	PyTypeObject* graphType;
 	PyTypeObject* simType;
 	PyTypeObject* skinType;
+	PyTypeObject* goalFitType;
 	PyTypeObject* mpmType;
 	PyTypeObject* smType;    // NULL without OD_BASELINES
 	PyObject* solverError;   // opdeform._core.SolverError (RuntimeError)

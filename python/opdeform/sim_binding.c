@@ -155,6 +155,42 @@ static PyObject* Sim_set_floor(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, od_Sim_SetFloor(sim, height, friction));
 }
 
+// set_goal_frequencies(frequencies or None): n values in Hz
+static PyObject* Sim_set_goal_frequencies(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* arg;
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "O", &arg) || GetOptionalArray(arg, "frequencies", 'd', ((SimObject*)obj)->n, &view) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_SetGoalFrequencies(sim, ArrayData(&view));
+	ReleaseArray(&view);
+	return Binding_Done(obj, status);
+}
+
+// set_goals(positions, rotations or None)
+static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	const ArraySpec specs[2] = { { "positions", 'd', 3 * n, 0 }, { "rotations", 'd', 9 * n, 1 } };
+	Py_buffer views[2];
+	if (GetArrays(objs, specs, 2, views) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_SetGoals(sim, views[0].buf, ArrayData(&views[1]));
+	ReleaseArrays(views, 2);
+	return Binding_Done(obj, status);
+}
+
 static PyObject* Sim_clear_floor(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
@@ -352,6 +388,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "constraint_count", Sim_constraint_count, METH_NOARGS, NULL },
 	{ "set_floor", Sim_set_floor, METH_VARARGS, NULL },
 	{ "clear_floor", Sim_clear_floor, METH_NOARGS, NULL },
+	{ "set_goal_frequencies", Sim_set_goal_frequencies, METH_VARARGS, "set_goal_frequencies(frequencies or None)" },
+	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "step", Sim_step, METH_VARARGS, NULL },
 	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
 	{ "set_state", Sim_set_state, METH_VARARGS, NULL },

@@ -4,6 +4,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, choice, integer, number, vector
+from .goals import goal_frequency
 from .graph import Graph
 
 __all__ = ["Simulation"]
@@ -63,6 +64,29 @@ class Simulation:
         return self._core.constraint_count()
 
     # -- floor -----------------------------------------------------------------------------------------
+    # -- goals ----------------------------------------------------------------------------------------
+    def set_goal_strength(self, strength):
+        """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
+        0 free, 1 follows the goals. None removes the goals. A change refactors the global matrix once."""
+        if strength is None:
+            self._core.set_goal_frequencies(None)
+            return
+        s = as_array("strength", np.broadcast_to(np.asarray(strength, dtype=np.float64), (self.graph.n_particles,)),
+                     (self.graph.n_particles,))
+        self.set_goal_frequencies(goal_frequency(s))
+
+    def set_goal_frequencies(self, frequencies):
+        """The goal springs as frequencies in Hz, one per particle (>= 0), or None to remove the goals."""
+        hz = None if frequencies is None else as_array("frequencies", frequencies, (self.graph.n_particles,))
+        self._core.set_goal_frequencies(hz)
+
+    def set_goals(self, positions, rotations=None):
+        """Goal centres (n,3) and rotations (n,3,3; None: the rest frames), e.g. from ``GoalFit.fit``. Only the
+        right side changes: no refactoring. Needs goal strengths first."""
+        n = self.graph.n_particles
+        rot = None if rotations is None else as_array("rotations", rotations, (n, 3, 3))
+        self._core.set_goals(as_array("positions", positions, (n, 3)), rot)
+
     def set_floor(self, height=0.0, friction=0.0):
         """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
         self._core.set_floor(number("height", height), number("friction", friction))

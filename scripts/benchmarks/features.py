@@ -97,6 +97,29 @@ def handle_moves(sim):
     return move, reweigh
 
 
+def goal_steps(graph, vertices, goals, fitted):
+    """Step functions of the creature on the floor; with goals, each step first sets goal frames of an
+    animated copy of the mesh (a sway of 0.1 rad about z), fitted to its vertices each step when `fitted`
+    (else fitted once: the solver's own cost)."""
+    sim = opdeform.Simulation(graph, 2e5)
+    sim.set_floor(0.0, 0.5)
+    fit = opdeform.GoalFit(graph, vertices)
+    sways = [vertices @ np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0, 0, 1.0]]).T
+             for a in 0.1 * np.sin(np.arange(20) / 3)]
+    frames = [fit.fit(sway) for sway in sways]
+    if goals:
+        sim.set_goal_strength(0.5)
+    k = [0]
+
+    def step():
+        k[0] = (k[0] + 1) % len(sways)
+        if goals:
+            sim.set_goals(*(fit.fit(sways[k[0]]) if fitted else frames[k[0]]))
+        sim.step()
+
+    return step
+
+
 def rows(repeats, inner):
     out = []
 
@@ -134,9 +157,16 @@ def rows(repeats, inner):
     untraced, traced = body(), body(trace=True)
     row("energy trace", "fig4 body falling", "costs: trace_energy = True", (untraced.step, traced.step))
 
-    # Normals: skinned only when an output for them is given.
+    # Goals: the creature following an animated copy of itself (a sway), goal frames fitted every step.
     v, t = meshes.subdivide(*meshes.creature(), levels=2)
     graph = opdeform.Graph.from_mesh(*meshes.creature(), particles=100)
+    scene = f"creature, 100 particles, {len(v):,}-vertex goal mesh, floor"
+    row("goals", scene, "costs: strength 0.5, new frames each step", (goal_steps(graph, v, False, False),
+                                                                       goal_steps(graph, v, True, False)))
+    row("goals", scene, "costs: the same, frames fitted each step", (goal_steps(graph, v, False, False),
+                                                                      goal_steps(graph, v, True, True)))
+
+    # Normals: skinned only when an output for them is given.
     skin = opdeform.Skin(graph, v, triangles=t, threads=1)
     pos, rot = graph.centers + 0.01, np.tile(np.eye(3), (graph.n_particles, 1, 1))
     out32, nrm32 = np.empty(3 * len(v), np.float32), np.empty(3 * len(v), np.float32)

@@ -1,0 +1,113 @@
+// opdeform._core, goal part: GoalFit, the goal frames of a graph's particles fitted to an animated mesh
+// (csrc/mesh/goal_fit.c). A fit is O(particles) and runs with the GIL held, so the type needs no busy guard.
+#include "goal_fit_binding.h"
+
+#include "graph_binding.h"
+
+#include "opdeform/mesh.h"
+
+typedef struct
+{
+	PyObject_HEAD od_GoalFit* fit;
+	Py_ssize_t particles;
+} GoalFitObject;
+
+// GoalFit(graph, vertices, neighbors)
+static PyObject* GoalFit_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
+{
+	static char* keywords[] = { "graph", "vertices", "neighbors", NULL };
+	PyObject *graphObj, *vertices;
+	int neighbors;
+	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "OOi", keywords, &graphObj, &vertices, &neighbors))
+	{
+		return NULL;
+	}
+	PyObject* module = PyType_GetModule(type);
+	const od_Graph* graph = Graph_FromObject(module, graphObj);
+	Py_ssize_t nv = graph ? ItemCount(vertices, "vertices", 24) : -1;
+	Py_buffer vv;
+	if (nv < 0 || GetArray(vertices, "vertices", 'd', 3 * nv, 0, &vv) < 0)
+	{
+		return NULL;
+	}
+	od_GoalFitDef def = od_DefaultGoalFitDef();
+	def.vertexCount = (int)nv;
+	def.vertices = vv.buf;
+	def.neighbors = neighbors;
+	od_GoalFit* fit = NULL;
+	od_Status status = od_GoalFit_Create(graph, &def, &fit);
+	PyBuffer_Release(&vv);
+	if (status != OD_OK)
+	{
+		return RaiseStatus(module, status);
+	}
+	GoalFitObject* self = (GoalFitObject*)PyType_GenericAlloc(type, 0);
+	if (!self)
+	{
+		od_GoalFit_Destroy(fit);
+		return NULL;
+	}
+	self->fit = fit;
+	self->particles = od_Graph_GetParticleCount(graph);
+	return (PyObject*)self;
+}
+
+static void GoalFit_dealloc(PyObject* obj)
+{
+	od_GoalFit_Destroy(((GoalFitObject*)obj)->fit);
+	Binding_Free(obj);
+}
+
+// fit(animated, positions_out, rotations_out)
+static PyObject* GoalFit_fit(PyObject* obj, PyObject* args)
+{
+	GoalFitObject* self = (GoalFitObject*)obj;
+	PyObject *animated, *positions, *rotations;
+	if (!PyArg_ParseTuple(args, "OOO", &animated, &positions, &rotations))
+	{
+		return NULL;
+	}
+	Py_buffer views[3] = { { 0 } };
+	if (GetArray(animated, "animated", 'd', 3 * (Py_ssize_t)od_GoalFit_GetVertexCount(self->fit), 0, &views[0]) < 0 ||
+		GetArray(positions, "positions", 'd', 3 * self->particles, 1, &views[1]) < 0 ||
+		GetArray(rotations, "rotations", 'd', 9 * self->particles, 1, &views[2]) < 0)
+	{
+		ReleaseArrays(views, 3);
+		return NULL;
+	}
+	od_Status status = od_GoalFit_Compute(self->fit, views[0].buf, views[1].buf, views[2].buf);
+	ReleaseArrays(views, 3);
+	return Binding_Done(obj, status);
+}
+
+static PyObject* GoalFit_get_n_vertices(PyObject* obj, void* closure)
+{
+	(void)closure;
+	return PyLong_FromLong(od_GoalFit_GetVertexCount(((GoalFitObject*)obj)->fit));
+}
+
+static PyGetSetDef GoalFit_getset[] = {
+	{ "n_vertices", GoalFit_get_n_vertices, NULL, "rest vertices", NULL },
+	{ NULL, NULL, NULL, NULL, NULL },
+};
+
+static PyMethodDef GoalFit_methods[] = {
+	{ "fit", GoalFit_fit, METH_VARARGS, "fit(animated, positions_out, rotations_out)" },
+	{ NULL, NULL, 0, NULL },
+};
+
+static PyType_Slot GoalFit_slots[] = {
+	{ Py_tp_doc, "Goal frames of a graph's particles fitted to an animated mesh (C core)." },
+	{ Py_tp_new, GoalFit_new },
+	{ Py_tp_dealloc, GoalFit_dealloc },
+	{ Py_tp_getset, GoalFit_getset },
+	{ Py_tp_methods, GoalFit_methods },
+	{ 0, NULL },
+};
+
+PyType_Spec GoalFit_Spec = {
+	.name = "opdeform._core.GoalFit",
+	.basicsize = sizeof(GoalFitObject),
+	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
+	.slots = GoalFit_slots,
+};
