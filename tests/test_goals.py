@@ -136,3 +136,11 @@ def test_energy_decreases_with_goals(tail):
     sim.step()
     e = sim.energy_trace
     assert len(e) > 3 and np.all(np.diff(e) <= 1e-12 * abs(e[0]))
+
+
+def test_painted_weights_become_particle_strengths(tail):
+    v, g, fit, _ = tail
+    np.testing.assert_allclose(fit.particle_values(np.full(len(v), 0.3)), 0.3, rtol=1e-12)
+    ramp = fit.particle_values(v[:, 0] / 2.0)  # a weight painted along the tail
+    assert np.all(np.abs(ramp - g.centers[:, 0] / 2.0) < 0.1)
+    assert fit.indices.shape == (g.n_particles, fit.neighbors) and np.allclose(fit.weights.sum(axis=1), 1.0)

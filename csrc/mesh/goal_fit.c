@@ -127,6 +127,21 @@ int od_GoalFit_GetVertexCount(const od_GoalFit* fit)
 	return fit->vertexCount;
 }
 
+int od_GoalFit_GetNeighborCount(const od_GoalFit* fit)
+{
+	return fit->k;
+}
+
+const int* od_GoalFit_GetIndices(const od_GoalFit* fit)
+{
+	return fit->idx;
+}
+
+const double* od_GoalFit_GetWeights(const od_GoalFit* fit)
+{
+	return fit->w;
+}
+
 // The rigid motion of particle j's vertices from rest to `animated`.
 static void od_FitOne(const od_GoalFit* fit, const double* animated, int j, double* position, double* rotation)
 {

@@ -6,6 +6,8 @@
 
 #include "opdeform/mesh.h"
 
+#include <string.h>
+
 typedef struct
 {
 	PyObject_HEAD od_GoalFit* fit;
@@ -80,19 +82,45 @@ static PyObject* GoalFit_fit(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
-static PyObject* GoalFit_get_n_vertices(PyObject* obj, void* closure)
+// read(name, out): "indices" (int32 n*k) or "weights" (float64 n*k).
+static PyObject* GoalFit_read(PyObject* obj, PyObject* args)
 {
-	(void)closure;
-	return PyLong_FromLong(od_GoalFit_GetVertexCount(((GoalFitObject*)obj)->fit));
+	GoalFitObject* self = (GoalFitObject*)obj;
+	const char* name;
+	PyObject* out;
+	if (!PyArg_ParseTuple(args, "sO", &name, &out))
+	{
+		return NULL;
+	}
+	Py_ssize_t count = self->particles * od_GoalFit_GetNeighborCount(self->fit);
+	int indices = strcmp(name, "indices") == 0;
+	if (!indices && strcmp(name, "weights") != 0)
+	{
+		PyErr_Format(PyExc_ValueError, "unknown GoalFit array '%s'", name);
+		return NULL;
+	}
+	const void* data = indices ? (const void*)od_GoalFit_GetIndices(self->fit) : od_GoalFit_GetWeights(self->fit);
+	return CopyOut(out, "out", data, count, indices ? 'i' : 'd') < 0 ? NULL : PyLong_FromSsize_t(count);
+}
+
+// The counts a GoalFit reports; a getter's closure points at one of them.
+typedef int (*GoalFitCount)(const od_GoalFit* fit);
+static const GoalFitCount GoalFitCounts[2] = { od_GoalFit_GetVertexCount, od_GoalFit_GetNeighborCount };
+
+static PyObject* GoalFit_get_count(PyObject* obj, void* closure)
+{
+	return PyLong_FromLong((*(const GoalFitCount*)closure)(((GoalFitObject*)obj)->fit));
 }
 
 static PyGetSetDef GoalFit_getset[] = {
-	{ "n_vertices", GoalFit_get_n_vertices, NULL, "rest vertices", NULL },
+	{ "n_vertices", GoalFit_get_count, NULL, "rest vertices", (void*)&GoalFitCounts[0] },
+	{ "neighbors", GoalFit_get_count, NULL, "vertices per particle", (void*)&GoalFitCounts[1] },
 	{ NULL, NULL, NULL, NULL, NULL },
 };
 
 static PyMethodDef GoalFit_methods[] = {
 	{ "fit", GoalFit_fit, METH_VARARGS, "fit(animated, positions_out, rotations_out)" },
+	{ "read", GoalFit_read, METH_VARARGS, "read(name, out): copy 'indices' or 'weights'" },
 	{ NULL, NULL, 0, NULL },
 };
 

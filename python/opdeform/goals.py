@@ -45,6 +45,31 @@ class GoalFit:
     def n_vertices(self):
         return self._core.n_vertices
 
+    @property
+    def neighbors(self):
+        return self._core.neighbors
+
+    def _read(self, name, dtype):
+        out = np.empty((self.graph.n_particles, self.neighbors), dtype)
+        self._core.read(name, out)
+        return out
+
+    @property
+    def indices(self):
+        """(n, k) int32: each particle's rest vertices, nearest first."""
+        return self._read("indices", np.int32)
+
+    @property
+    def weights(self):
+        """(n, k): their weights, summing to 1 per particle."""
+        return self._read("weights", np.float64)
+
+    def particle_values(self, vertex_values):
+        """Per-vertex values (V,), e.g. a painted goal weight, as per-particle values: each particle's weighted
+        mean over its vertices."""
+        values = as_array("vertex_values", vertex_values, (self.n_vertices,))
+        return (values[self.indices] * self.weights).sum(axis=1)
+
     def fit(self, animated):
         """(positions (n,3), rotations (n,3,3)) of the goal frames for the animated vertices (V,3)."""
         n = self.graph.n_particles

@@ -146,6 +146,10 @@ od_GoalFitDef od_DefaultGoalFitDef(void);
 od_Status od_GoalFit_Create(const od_Graph* graph, const od_GoalFitDef* def, od_GoalFit** fit);
 void od_GoalFit_Destroy(od_GoalFit* fit);
 int od_GoalFit_GetVertexCount(const od_GoalFit* fit);
+int od_GoalFit_GetNeighborCount(const od_GoalFit* fit); // k actually used (at most the vertex count)
+// particleCount*k: each particle's vertices and their weights (summing to 1).
+const int* od_GoalFit_GetIndices(const od_GoalFit* fit);
+const double* od_GoalFit_GetWeights(const od_GoalFit* fit);
 // animated: vertexCount*3 (the deformed rest vertices, same order); positions n*3, rotations n*9 written.
 od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations);
 
