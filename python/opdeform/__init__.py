@@ -64,15 +64,18 @@ class Graph:
         self._core = _core.Graph(centers, radii, edges, axes)
 
     @classmethod
-    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
+    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
+                  small_pieces="attach"):
         """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
         through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
         forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and
         radii are the principal axes of the part of the body each particle stands for. Each connected piece
-        gets its own connected graph unless ``join_pieces``. Deterministic. See opdeform.mesh."""
+        gets its own connected graph unless ``join_pieces``; a small piece (an eye, a button) is carried by
+        the nearest large one (``small_pieces="attach"``) or gets particles of its own joined to it ("own").
+        Deterministic. See opdeform.mesh."""
         from .mesh import graph_from_mesh
 
-        return graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle)
+        return graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle, small_pieces)
 
     @property
     def n_particles(self):

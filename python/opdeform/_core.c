@@ -221,7 +221,8 @@ static PyObject* Graph_get_n_edges(PyObject* obj, void* closure)
 	return PyLong_FromLong(od_Graph_GetEdgeCount(((GraphObject*)obj)->graph));
 }
 
-// Graph.read(name, out): copies "centers", "radii", "axes", "edges" or "pieces" into a writable buffer.
+// Graph.read(name, out): copies "centers", "radii", "axes", "edges", "pieces" or "mesh_pieces" into a writable
+// buffer.
 static PyObject* Graph_read(PyObject* obj, PyObject* args)
 {
 	const od_Graph* g = ((GraphObject*)obj)->graph;
@@ -249,13 +250,13 @@ static PyObject* Graph_read(PyObject* obj, PyObject* args)
 	{
 		rc = CopyOut(out, "out", od_Graph_GetEdges(g), 2 * m, 'i');
 	}
-	else if (strcmp(name, "pieces") == 0)
+	else if (strcmp(name, "pieces") == 0 || strcmp(name, "mesh_pieces") == 0)
 	{
 		Py_buffer view;
 		rc = GetArray(out, "out", 'i', n, 1, &view);
 		if (rc == 0)
 		{
-			od_Graph_GetPieces(g, view.buf);
+			(name[0] == 'p' ? od_Graph_GetPieces : od_Graph_GetMeshPieces)(g, view.buf);
 			PyBuffer_Release(&view);
 		}
 	}
@@ -275,6 +276,12 @@ static PyObject* Graph_piece_count(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
 	return PyLong_FromLong(od_Graph_GetPieces(((GraphObject*)obj)->graph, NULL));
+}
+
+static PyObject* Graph_mesh_piece_count(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	return PyLong_FromLong(od_Graph_GetMeshPieces(((GraphObject*)obj)->graph, NULL));
 }
 
 // Graph.skin_weights(point, m, idx_out(int32 m), w_out(float64 m)) -> count
@@ -311,6 +318,7 @@ static PyGetSetDef Graph_getset[] = {
 static PyMethodDef Graph_methods[] = {
 	{ "read", Graph_read, METH_VARARGS, "read(name, out): copy a graph array into a writable buffer" },
 	{ "piece_count", Graph_piece_count, METH_NOARGS, "number of connected pieces" },
+	{ "mesh_piece_count", Graph_mesh_piece_count, METH_NOARGS, "number of mesh pieces (0: not from a mesh)" },
 	{ "skin_weights", Graph_skin_weights, METH_VARARGS, "skin_weights(point, m, idx_out, w_out) -> count" },
 	{ NULL, NULL, 0, NULL },
 };

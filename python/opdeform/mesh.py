@@ -8,22 +8,40 @@ import numpy as np
 
 from . import Graph, Simulation, _core, _int, as_array
 
-__all__ = ["MODES", "Skin", "add_vertex_direction", "graph_from_mesh", "pin_vertices"]
+__all__ = ["MODES", "SMALL_PIECES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
 
 MODES = ("auto", "volume", "surface", "chain")
+SMALL_PIECES = ("attach", "own")  # the order of od_SmallPieces
 
 
-def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
-    """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
+def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
+                    small_pieces="attach"):
+    """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``).
+
+    ``small_pieces``: what becomes of a piece with fewer voxels than a tenth of the largest piece's (an eye,
+    a tooth, a button): "attach" gives it no particles, and the particles of the large piece nearest to it
+    skin it rigidly; "own" gives it at least 4 particles of its own, joined by edges to that piece."""
     vertices = as_array("vertices", vertices, (None, 3))
     triangles = as_array("triangles", triangles, (None, 3), np.int32)
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
+    if small_pieces not in SMALL_PIECES:
+        raise ValueError(f"small_pieces must be one of {SMALL_PIECES}, got {small_pieces!r}")
     core = _core.graph_from_mesh(vertices, triangles, _int("particles", particles), MODES.index(mode),
-                                 bool(join_pieces), _int("voxels_per_particle", voxels_per_particle))
+                                 bool(join_pieces), _int("voxels_per_particle", voxels_per_particle),
+                                 SMALL_PIECES.index(small_pieces))
     graph = Graph.__new__(Graph)
     graph._core = core
     return graph
+
+
+def mesh_pieces(graph):
+    """(count, the mesh piece of each particle) of a graph built from a mesh: pieces are the connected pieces
+    of the triangle mesh (or groups of them with ``join_pieces``), numbered by their first triangle; a piece
+    may have no particles ("attach"). A vertex is skinned only by particles of its own piece, or of the piece
+    that carries it. (0, None) for a graph not built from a mesh."""
+    count = graph._core.mesh_piece_count()
+    return count, graph._read("mesh_pieces", (graph.n_particles,), np.int32) if count else None
 
 
 def _output(name, out, n_vertices):
