@@ -6,6 +6,7 @@ int test_graph(void);
 int test_sim(void);
 int test_mpm(void);
 int test_mesh_graph(void);
+int test_loose_parts(void);
 int test_skinning(void);
 int test_mesh_io(void);
 int test_cholesky(void);
@@ -18,6 +19,7 @@ int main(void)
 	RUN_TEST(test_sim);
 	RUN_TEST(test_mpm);
 	RUN_TEST(test_mesh_graph);
+	RUN_TEST(test_loose_parts);
 	RUN_TEST(test_skinning);
 	RUN_TEST(test_mesh_io);
 	RUN_TEST(test_cholesky);
