@@ -1102,7 +1102,8 @@ static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 	{
 		int nearest = 0;
 		double d;
-		od_NearestBrute(b->centers, b->def->particleCount, b->particleGroup, host, b->centers + 3 * i, 1, &d, &nearest);
+		const double* p = b->centers + 3 * i;
+		od_NearestBrute(b->centers, b->def->particleCount, b->particleGroup, host, p, 1, &d, &nearest);
 		status = od_AddEdge(b, i, nearest);
 	}
 	return status;
@@ -1112,7 +1113,8 @@ static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 // particle when there were fewer particles than groups) the group of the particle nearest its anchor,
 // whose particles then skin it. A small group of its own is linked by edges, from each of its particles
 // to the nearest one of the large group nearest its anchor: on its own it is a free body, which on
-// Suzanne kept falling through the head when the head landed (the eyes left their sockets).
+// Suzanne (tests/test_loose_parts.py) kept falling through the head when the head landed: the eyes left
+// their sockets by 39 % and 35 % of the head's size at 100 and 1,000 particles; linked, 0.03 % and 0.8 %.
 static od_Status od_HostGroups(od_Builder* b)
 {
 	int n = b->def->particleCount;

@@ -14,16 +14,7 @@ static test_Mesh bar_and_bead(void)
 	double barSize[3] = { 2.0, 0.2, 0.2 }, barAt[3] = { 0.0, -0.1, -0.1 };
 	double beadSize[3] = { 0.1, 0.1, 0.1 }, beadAt[3] = { 0.95, 0.12, -0.05 };
 	test_Mesh bar = test_box(nBar, barSize, barAt), bead = test_box(nBead, beadSize, beadAt);
-	test_Mesh both = { bar.vertexCount + bead.vertexCount, bar.triangleCount + bead.triangleCount, NULL, NULL };
-	both.vertices = malloc(sizeof(double) * 3 * both.vertexCount);
-	both.triangles = malloc(sizeof(int) * 3 * both.triangleCount);
-	memcpy(both.vertices, bar.vertices, sizeof(double) * 3 * bar.vertexCount);
-	memcpy(both.vertices + 3 * bar.vertexCount, bead.vertices, sizeof(double) * 3 * bead.vertexCount);
-	memcpy(both.triangles, bar.triangles, sizeof(int) * 3 * bar.triangleCount);
-	for (int k = 0; k < 3 * bead.triangleCount; ++k)
-	{
-		both.triangles[3 * bar.triangleCount + k] = bead.triangles[k] + bar.vertexCount;
-	}
+	test_Mesh both = test_concat(&bar, &bead);
 	test_free_mesh(&bar);
 	test_free_mesh(&bead);
 	return both;

@@ -37,6 +37,11 @@ typedef enum od_MeshGraphMode
 // What becomes of a small piece of the mesh (an eye, a tooth, a button): one whose voxels are fewer than
 // OD_SMALL_PIECE_RATIO of the largest piece's (a share of the mesh, so the same at any scale and any
 // particle count). Pieces of no area (degenerate triangles only: a point or a line) are never small.
+// Attaching gives no particles rather than particles joined by edges (which is OD_SMALL_OWN): the piece
+// costs none of the budget (thirty teeth would take 120 particles of 4 each) and moves by one affine map,
+// which is what rigid means; on Suzanne dropped (tests/test_loose_parts.py) both keep the eyes in their
+// sockets (off by 0.03 % and 2.6 % of the head's size at 100 and 1,000 particles attached, 0.03 % and
+// 0.8 % with their own particles), where before this the eyes tore off (22 % and 28 %, edges 191x, 283x).
 typedef enum od_SmallPieces
 {
 	OD_SMALL_ATTACH, // no particles: skinned rigidly by the particles of the large piece nearest to it
