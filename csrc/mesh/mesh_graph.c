@@ -9,7 +9,9 @@
 //    chosen so that there are about voxelsPerParticle voxels per particle: first from the area and the
 //    enclosed volume, then corrected by counting.
 // 3. Particles are shared among groups in proportion to their voxels (one each first, largest first, while
-//    they last), never more than a group has voxels.
+//    they last), never more than a group has voxels. A small group (under OD_SMALL_PIECE_RATIO of the
+//    largest one's voxels: an eye, a button) gets none when attached, at least OD_SMALL_PIECE_PARTICLES
+//    when it has its own.
 // 4. Cells: the voxels of a group are split into as many cells as it has particles by geodesic k-means on
 //    the voxel graph (26-neighbours): seeds at the centroids of a balanced k-d split of the voxels (O(N log
 //    k), where farthest-point seeding costs up to O(N k)), cells grown from them by Dijkstra, then Lloyd
@@ -24,6 +26,9 @@
 // 6. Edges: cells that share a voxel face; where that leaves a group in several parts, cells touching at
 //    a voxel edge or corner; then (separate solids of a joined group) the nearest particle pairs between
 //    parts (Borůvka), so that each group's graph is connected. Chain mode joins slab i to slab i + 1.
+// 7. Mesh pieces: each particle of a small group of its own is linked to the nearest large group; the graph
+//    records the group of each particle and vertex, and the group that carries each group without
+//    particles (graph/piece_map.c), so that a vertex is skinned only by its own piece.
 // Everything runs in one thread with ties broken by index, so the graph is the same bit for bit.
 #include "mesh_graph.h"
 
