@@ -256,6 +256,7 @@ void od_Graph_Destroy(od_Graph* g)
 	od_Free(g->adjStart);
 	od_Free(g->adj);
 	od_Free(g->piece);
+	od_PieceMap_Destroy(g->meshPieces);
 	od_Free(g);
 }
 
@@ -296,4 +297,23 @@ int od_Graph_GetPieces(const od_Graph* g, int* pieceOfParticle)
 		memcpy(pieceOfParticle, g->piece, sizeof(int) * g->n);
 	}
 	return g->pieceCount;
+}
+
+od_Status od_Graph_SetMeshPieces(od_Graph* g, const od_PieceMapDef* def)
+{
+	od_PieceMap_Destroy(g->meshPieces);
+	return od_PieceMap_Create(def, g->n, &g->meshPieces);
+}
+
+int od_Graph_GetMeshPieces(const od_Graph* g, int* meshPieceOfParticle)
+{
+	if (!g->meshPieces)
+	{
+		return 0;
+	}
+	if (meshPieceOfParticle)
+	{
+		memcpy(meshPieceOfParticle, g->meshPieces->particlePiece, sizeof(int) * g->n);
+	}
+	return g->meshPieces->pieceCount;
 }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "opdeform/graph.h"
+#include "piece_map.h"
 
 // Most skinning neighbours a point or constraint may have.
 #define OD_MAX_SKIN 16
@@ -20,4 +21,8 @@ struct od_Graph
 	int* adj;         // 2*edgeCount, sorted per particle
 	int pieceCount;
 	int* piece;       // n, connected piece of each particle
+	od_PieceMap* meshPieces; // built from a mesh: the mesh piece of each particle and point; NULL otherwise
 };
+
+// Gives a graph built from a mesh its map of mesh pieces (mesh/mesh_graph.c); the graph keeps a copy.
+od_Status od_Graph_SetMeshPieces(od_Graph* graph, const od_PieceMapDef* def);

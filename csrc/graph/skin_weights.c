@@ -1,7 +1,8 @@
 // Skinning weights of a rest point (Sumner et al. 2007): w_j = (1 - |p - X̄_j| / dmax)² over the m nearest
 // particles, dmax the distance to the (m+1)-th, then normalised. Ties in distance are broken by particle
 // index, so results are deterministic. Only particles of the connected piece of the nearest particle take
-// part: a point never follows a piece of the body it is not attached to. The constraints (brute-force
+// part (for a graph built from a mesh, of the point's own mesh piece: piece_map.c): a point never follows
+// a piece of the body it is not attached to. The constraints (brute-force
 // search) and the mesh skin (grid search, mesh/skinning.c) get the same weights bit for bit.
 #include "skin_weights.h"
 
@@ -31,14 +32,20 @@ int od_SumnerWeights(const double* dist, const int* near, int count, int m, int*
 	return used;
 }
 
-// The k nearest particles of p in the piece of its nearest particle, by the grid (or brute force when
-// grid is NULL); pieceSize (with a grid) caps k at the size of the piece.
+// The k nearest particles of p in the mesh piece that skins it (graphs built from a mesh, piece_map.c) or
+// in the piece of its nearest particle, by the grid (or brute force when grid is NULL); pieceSize (with a
+// grid) caps k at the size of the piece.
 int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p,
 							 int k, double* dist, int* near)
 {
 	const int* label = NULL;
-	int want = 0;
-	if (g->pieceCount > 1)
+	int want = 0, size = k;
+	if (g->meshPieces)
+	{
+		p = od_PieceMap_Locate(g->meshPieces, p, &want, &size);
+		label = g->meshPieces->particlePiece;
+	}
+	else if (g->pieceCount > 1)
 	{
 		int nearest = 0;
 		double d;
@@ -52,8 +59,9 @@ int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* 
 		}
 		label = g->piece;
 		want = g->piece[nearest];
-		k = pieceSize && pieceSize[want] < k ? pieceSize[want] : k;
+		size = pieceSize ? pieceSize[want] : k;
 	}
+	k = size < k ? size : k;
 	return grid ? od_NearestGrid_Query(grid, label, want, p, k, dist, near)
 				: od_NearestBrute(g->centers, g->n, label, want, p, k, dist, near);
 }

@@ -17,6 +17,7 @@ typedef struct od_MeshPieces
 	double* area;         // count
 	double* volume;       // count, |enclosed volume| (meaningful for closed pieces)
 	bool* closed;         // count: every edge of its non-degenerate triangles is shared by exactly two
+	int* pieceOfVertex;   // vertexCount: the piece of each vertex, -1 for a vertex of no triangle
 	int distinctVertices; // vertices used by triangles, after welding
 } od_MeshPieces;
 

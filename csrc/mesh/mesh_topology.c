@@ -188,13 +188,18 @@ od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* p)
 		p->area = od_AllocZero((size_t)p->count, sizeof(double));
 		p->volume = od_AllocZero((size_t)p->count, sizeof(double));
 		p->closed = od_AllocZero((size_t)p->count, sizeof(bool));
-		if (!p->triangleStart || !p->triangles || !p->area || !p->volume || !p->closed)
+		p->pieceOfVertex = od_Alloc(sizeof(int) * (size_t)nv);
+		if (!p->triangleStart || !p->triangles || !p->area || !p->volume || !p->closed || !p->pieceOfVertex)
 		{
 			status = od_Fail(OD_ERROR_MEMORY, "out of memory for %d mesh pieces", p->count);
 		}
 	}
 	if (status == OD_OK)
 	{
+		for (int v = 0; v < nv; ++v)
+		{
+			p->pieceOfVertex[v] = pieceOf[od_Find(parent, weld[v])];
+		}
 		for (int t = 0; t < nt; ++t)
 		{
 			p->triangleStart[pieceOfTriangle[t] + 1]++;
@@ -239,5 +244,6 @@ void od_MeshPieces_Destroy(od_MeshPieces* p)
 	od_Free(p->area);
 	od_Free(p->volume);
 	od_Free(p->closed);
+	od_Free(p->pieceOfVertex);
 	memset(p, 0, sizeof *p);
 }

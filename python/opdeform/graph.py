@@ -5,9 +5,10 @@ import numpy as np
 from . import _core
 from ._arguments import as_array, choice, integer, vector
 
-__all__ = ["Graph", "MODES"]
+__all__ = ["Graph", "MODES", "SMALL_PIECES"]
 
 MODES = ("auto", "volume", "surface", "chain")
+SMALL_PIECES = ("attach", "own")  # the order of od_SmallPieces
 
 
 class Graph:
@@ -26,18 +27,23 @@ class Graph:
         self._core = _core.Graph(centers, radii, edges, axes)
 
     @classmethod
-    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
+    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
+                  small_pieces="attach"):
         """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
         through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
         forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and
         radii are the principal axes of the part of the body each particle stands for. Each connected piece
-        gets its own connected graph unless ``join_pieces``. Deterministic. See opdeform.mesh."""
+        gets its own connected graph unless ``join_pieces``. ``small_pieces``: what becomes of a piece with
+        fewer voxels than a tenth of the largest piece's (an eye, a tooth, a button): "attach" gives it no
+        particles, and the particles of the large piece nearest to it skin it rigidly; "own" gives it at least
+        4 particles of its own, joined by edges to that piece. Deterministic. See opdeform.mesh."""
         vertices = as_array("vertices", vertices, (None, 3))
         triangles = as_array("triangles", triangles, (None, 3), np.int32)
         graph = cls.__new__(cls)
         graph._core = _core.graph_from_mesh(vertices, triangles, integer("particles", particles),
                                             choice("mode", mode, MODES), bool(join_pieces),
-                                            integer("voxels_per_particle", voxels_per_particle))
+                                            integer("voxels_per_particle", voxels_per_particle),
+                                            choice("small_pieces", small_pieces, SMALL_PIECES))
         return graph
 
     @property

@@ -84,19 +84,27 @@ static PyObject* Graph_get_n_edges(PyObject* obj, void* closure)
 }
 
 // Copies the labels of the connected pieces into an int32 buffer of n.
-static int ReadPieces(const od_Graph* g, PyObject* out, Py_ssize_t n)
+// The graph's own connected pieces ("pieces") or the mesh piece of each particle ("mesh_pieces").
+static int ReadPieces(const od_Graph* g, PyObject* out, Py_ssize_t n, int (*get)(const od_Graph*, int*))
 {
 	Py_buffer view;
 	if (GetArray(out, "out", 'i', n, 1, &view) < 0)
 	{
 		return -1;
 	}
-	od_Graph_GetPieces(g, view.buf);
+	get(g, view.buf);
 	PyBuffer_Release(&view);
 	return 0;
 }
 
-// Graph.read(name, out): copies "centers", "radii", "axes", "edges" or "pieces" into a writable buffer.
+static PyObject* Graph_mesh_piece_count(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	return PyLong_FromLong(od_Graph_GetMeshPieces(((GraphObject*)obj)->graph, NULL));
+}
+
+// Graph.read(name, out): copies "centers", "radii", "axes", "edges", "pieces" or "mesh_pieces" into a writable
+// buffer.
 static PyObject* Graph_read(PyObject* obj, PyObject* args)
 {
 	const od_Graph* g = ((GraphObject*)obj)->graph;
@@ -124,9 +132,9 @@ static PyObject* Graph_read(PyObject* obj, PyObject* args)
 	{
 		rc = CopyOut(out, "out", od_Graph_GetEdges(g), 2 * m, 'i');
 	}
-	else if (strcmp(name, "pieces") == 0)
+	else if (strcmp(name, "pieces") == 0 || strcmp(name, "mesh_pieces") == 0)
 	{
-		rc = ReadPieces(g, out, n);
+		rc = ReadPieces(g, out, n, name[0] == 'p' ? od_Graph_GetPieces : od_Graph_GetMeshPieces);
 	}
 	else
 	{
@@ -180,6 +188,7 @@ static PyGetSetDef Graph_getset[] = {
 static PyMethodDef Graph_methods[] = {
 	{ "read", Graph_read, METH_VARARGS, "read(name, out): copy a graph array into a writable buffer" },
 	{ "piece_count", Graph_piece_count, METH_NOARGS, "number of connected pieces" },
+	{ "mesh_piece_count", Graph_mesh_piece_count, METH_NOARGS, "number of mesh pieces (0: not from a mesh)" },
 	{ "skin_weights", Graph_skin_weights, METH_VARARGS, "skin_weights(point, m, idx_out, w_out) -> count" },
 	{ NULL, NULL, 0, NULL },
 };

@@ -8,15 +8,25 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, integer, number
-from .graph import MODES, Graph
+from .graph import MODES, SMALL_PIECES, Graph
 from .simulation import Simulation
 
-__all__ = ["MODES", "Skin", "add_vertex_direction", "graph_from_mesh", "pin_vertices"]
+__all__ = ["MODES", "SMALL_PIECES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
 
 
-def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100):
+def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
+                    small_pieces="attach"):
     """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
-    return Graph.from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle)
+    return Graph.from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle, small_pieces)
+
+
+def mesh_pieces(graph):
+    """(count, the mesh piece of each particle) of a graph built from a mesh: pieces are the connected pieces
+    of the triangle mesh (or groups of them with ``join_pieces``), numbered by their first triangle; a piece
+    may have no particles ("attach"). A vertex is skinned only by particles of its own piece, or of the piece
+    that carries it. (0, None) for a graph not built from a mesh."""
+    count = graph._core.mesh_piece_count()
+    return count, graph._read("mesh_pieces", (graph.n_particles,), np.int32) if count else None
 
 
 def _output(name, out, n_vertices):

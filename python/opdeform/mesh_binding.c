@@ -67,12 +67,12 @@ static int GetMesh(PyObject* vertices, PyObject* triangles, int optional, Py_buf
 // ---------------------------------------------------------------------------------------------------------
 // Graph from a mesh
 
-// graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle) -> Graph
+// graph_from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle, small_pieces) -> Graph
 static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 {
 	PyObject *vertices, *triangles;
-	int particles, mode, join, voxels;
-	if (!PyArg_ParseTuple(args, "OOiipi", &vertices, &triangles, &particles, &mode, &join, &voxels))
+	int particles, mode, join, voxels, small;
+	if (!PyArg_ParseTuple(args, "OOiipii", &vertices, &triangles, &particles, &mode, &join, &voxels, &small))
 	{
 		return NULL;
 	}
@@ -91,6 +91,7 @@ static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 	def.mode = (od_MeshGraphMode)mode;
 	def.joinPieces = join;
 	def.voxelsPerParticle = voxels;
+	def.smallPieces = (od_SmallPieces)small;
 	od_Graph* graph = NULL;
 	PyThreadState* ts = PyEval_SaveThread();
 	od_Status status = od_Graph_CreateFromMesh(&def, &graph);

@@ -7,6 +7,7 @@ int test_sim(void);
 int test_goal(void);
 int test_mpm(void);
 int test_mesh_graph(void);
+int test_loose_parts(void);
 int test_skinning(void);
 int test_goal_fit(void);
 int test_mesh_io(void);
@@ -21,6 +22,7 @@ int main(void)
 	RUN_TEST(test_goal);
 	RUN_TEST(test_mpm);
 	RUN_TEST(test_mesh_graph);
+	RUN_TEST(test_loose_parts);
 	RUN_TEST(test_skinning);
 	RUN_TEST(test_goal_fit);
 	RUN_TEST(test_mesh_io);

@@ -62,16 +62,7 @@ int test_mesh_graph(void)
 	// Two boxes: two pieces, or one when joined.
 	double far[3] = { 0.0, 1.0, 0.0 };
 	test_Mesh other = test_box(n, size, far);
-	test_Mesh both = { bar.vertexCount + other.vertexCount, bar.triangleCount + other.triangleCount, NULL, NULL };
-	both.vertices = malloc(sizeof(double) * 3 * both.vertexCount);
-	both.triangles = malloc(sizeof(int) * 3 * both.triangleCount);
-	memcpy(both.vertices, bar.vertices, sizeof(double) * 3 * bar.vertexCount);
-	memcpy(both.vertices + 3 * bar.vertexCount, other.vertices, sizeof(double) * 3 * other.vertexCount);
-	memcpy(both.triangles, bar.triangles, sizeof(int) * 3 * bar.triangleCount);
-	for (int k = 0; k < 3 * other.triangleCount; ++k)
-	{
-		both.triangles[3 * bar.triangleCount + k] = other.triangles[k] + bar.vertexCount;
-	}
+	test_Mesh both = test_concat(&bar, &other);
 	ENSURE(build(&both, 24, OD_MESH_AUTO, false, &g) == OD_OK);
 	ENSURE(od_Graph_GetPieces(g, NULL) == 2);
 	od_Graph_Destroy(g);

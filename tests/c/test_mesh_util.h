@@ -2,6 +2,7 @@
 #pragma once
 
 #include <stdlib.h>
+#include <string.h>
 
 typedef struct test_Mesh
 {
@@ -70,4 +71,20 @@ static inline void test_free_mesh(test_Mesh* m)
 {
 	free(m->vertices);
 	free(m->triangles);
+}
+
+// The two meshes as one (a's vertices and triangles first). Free with test_free_mesh.
+static inline test_Mesh test_concat(const test_Mesh* a, const test_Mesh* b)
+{
+	test_Mesh m = { a->vertexCount + b->vertexCount, a->triangleCount + b->triangleCount, NULL, NULL };
+	m.vertices = malloc(sizeof(double) * 3 * (size_t)m.vertexCount);
+	m.triangles = malloc(sizeof(int) * 3 * (size_t)m.triangleCount);
+	memcpy(m.vertices, a->vertices, sizeof(double) * 3 * (size_t)a->vertexCount);
+	memcpy(m.vertices + 3 * a->vertexCount, b->vertices, sizeof(double) * 3 * (size_t)b->vertexCount);
+	memcpy(m.triangles, a->triangles, sizeof(int) * 3 * (size_t)a->triangleCount);
+	for (int k = 0; k < 3 * b->triangleCount; ++k)
+	{
+		m.triangles[3 * a->triangleCount + k] = b->triangles[k] + a->vertexCount;
+	}
+	return m;
 }

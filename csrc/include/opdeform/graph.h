@@ -35,9 +35,14 @@ const double* od_Graph_GetRadii(const od_Graph* graph);
 const int* od_Graph_GetEdges(const od_Graph* graph);
 // The number of connected pieces, and for each particle the index of its piece (may be NULL).
 int od_Graph_GetPieces(const od_Graph* graph, int* pieceOfParticle);
+// A graph built from a mesh (mesh.h): the number of mesh pieces (connected pieces of the triangle mesh, or
+// groups of joined pieces) and for each particle the mesh piece it stands for (may be NULL); 0 for a graph
+// made otherwise. A rest point is skinned only by particles of its own mesh piece (od_Graph_SkinWeights).
+int od_Graph_GetMeshPieces(const od_Graph* graph, int* meshPieceOfParticle);
 
-// Sumner et al. 2007 weights of a rest-space point over its m nearest particles. idx and w have room for m;
-// returns the count written (min(m, n)).
+// Sumner et al. 2007 weights of a rest-space point over its m nearest particles (of the piece of its
+// nearest particle; for a graph built from a mesh, of its own mesh piece, or for a mesh piece without
+// particles, of the piece that carries it). idx and w have room for m; returns the count written.
 int od_Graph_SkinWeights(const od_Graph* graph, const double point[3], int m, int* idx, double* w);
 
 #ifdef __cplusplus
