@@ -48,7 +48,8 @@ def compile_text(source, text, tmp_path):
     path.write_text(text)
     folder = os.path.join(ROOT, os.path.dirname(source))
     cmd = args + ["-iquote", folder, "-c", str(path), "-o", str(tmp_path / "probe.o")]
-    return subprocess.run(cmd, cwd=build, capture_output=True, text=True)
+    env = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}  # not the ASan runtime of scripts/test-sanitize
+    return subprocess.run(cmd, cwd=build, capture_output=True, text=True, env=env)
 
 
 @pytest.mark.parametrize("source, include, expect", [
