@@ -19,12 +19,7 @@ int test_goal_fit(void)
 	int n[3] = { 12, 3, 3 };
 	double size[3] = { 1.2, 0.3, 0.3 }, origin[3] = { 0.0, -0.15, -0.15 }, t[3] = { 0.3, -2.0, 1.0 }, angle = 1.1;
 	test_Mesh box = test_box(n, size, origin);
-	od_MeshGraphDef gdef = od_DefaultMeshGraphDef();
-	gdef.vertexCount = box.vertexCount;
-	gdef.vertices = box.vertices;
-	gdef.triangleCount = box.triangleCount;
-	gdef.triangles = box.triangles;
-	gdef.particleCount = 12;
+	od_MeshGraphDef gdef = test_graph_def(&box, 12);
 	od_Graph* g = NULL;
 	ENSURE(od_Graph_CreateFromMesh(&gdef, &g) == OD_OK);
 	od_GoalFitDef def = od_DefaultGoalFitDef();

@@ -22,12 +22,7 @@ static test_Mesh bar_and_bead(void)
 
 static od_Status build(const test_Mesh* m, od_SmallPieces small, od_Graph** g)
 {
-	od_MeshGraphDef def = od_DefaultMeshGraphDef();
-	def.vertexCount = m->vertexCount;
-	def.vertices = m->vertices;
-	def.triangleCount = m->triangleCount;
-	def.triangles = m->triangles;
-	def.particleCount = 30;
+	od_MeshGraphDef def = test_graph_def(m, 30);
 	def.smallPieces = small;
 	return od_Graph_CreateFromMesh(&def, g);
 }

@@ -1,6 +1,8 @@
 // Meshes for the C tests of the mesh parts: a closed box of quads split into triangles.
 #pragma once
 
+#include "opdeform/mesh.h"
+
 #include <stdlib.h>
 #include <string.h>
 
@@ -87,4 +89,16 @@ static inline test_Mesh test_concat(const test_Mesh* a, const test_Mesh* b)
 		m.triangles[3 * a->triangleCount + k] = b->triangles[k] + a->vertexCount;
 	}
 	return m;
+}
+
+// A graph definition of `particles` particles over the mesh, the other fields at their defaults.
+static inline od_MeshGraphDef test_graph_def(const test_Mesh* m, int particles)
+{
+	od_MeshGraphDef def = od_DefaultMeshGraphDef();
+	def.vertexCount = m->vertexCount;
+	def.vertices = m->vertices;
+	def.triangleCount = m->triangleCount;
+	def.triangles = m->triangles;
+	def.particleCount = particles;
+	return def;
 }
