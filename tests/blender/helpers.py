@@ -117,8 +117,14 @@ def bar_object(name="Bar", pinned=True, particles=20):
     return obj
 
 
-def positions(obj):
+def base_positions(obj):
+    """The mesh's own vertex positions (the add-on never writes them)."""
     return runtime().vertex_positions(obj.data).copy()
+
+
+def positions(obj):
+    """What the object shows: its evaluated mesh (the OPDeform modifier's offset or the bake included)."""
+    return evaluated_positions(obj)
 
 
 def evaluated_positions(obj):

@@ -156,6 +156,27 @@ class PHYSICS_PT_opdeform_pins(_SubPanel, bpy.types.Panel):
         layout, obj, s = _split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
+        layout.label(text="Pins hold firmly at any weight; for a soft hold paint a Goal group", icon='INFO')
+
+
+class PHYSICS_PT_opdeform_goal(_SubPanel, bpy.types.Panel):
+    bl_label = "Goal"
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.opdeform, "use_goal", text="")
+
+    def draw(self, context):
+        from . import modifier
+        layout, obj, s = _split(self.layout, context)
+        layout.active = s.use_goal
+        layout.prop(s, "goal_strength")
+        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Weight Group")
+        mod = modifier.get(obj)
+        if mod is None:
+            layout.label(text="The OPDeform modifier is missing: Build adds it", icon='ERROR')
+        else:
+            layout.label(text=f"Follows the stack above OPDeform (modifier {modifier.index(obj) + 1} of "
+                              f"{len(obj.modifiers)})", icon='MODIFIER')
 
 
 class OPDEFORM_UL_handles(bpy.types.UIList):
@@ -250,7 +271,7 @@ class PHYSICS_PT_opdeform_tumbling(_PhysicsPanel, bpy.types.Panel):
 
 
 classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
-           OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
+           PHYSICS_PT_opdeform_goal, OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
 
 # registers in the order of `classes`, unregisters in the reverse order
 register, unregister = bpy.utils.register_classes_factory(classes)
