@@ -208,7 +208,7 @@ class Engine:
                 w = np.asarray(vertex_weights, dtype=np.float64)
                 if len(w) != self.n_vertices or not np.all((w >= 0.0) & (w <= 1.0)):
                     raise EngineError("goal weights must be one per vertex, in 0..1")
-                values *= self.fit.particle_values(w)
+                values *= np.clip(self.fit.particle_values(w), 0.0, 1.0)  # a mean may round past 1
         if _same(values, self.goal_strength):
             return False
         self.sim.set_goal_strength(values)
