@@ -337,9 +337,6 @@ def frame_input(obj, rt, depsgraph):
     if len(incoming) != n:
         raise AddonError(f"{obj.name}: the evaluated mesh has {len(incoming)} vertices where the mesh has {n}: a "
                          "modifier changes the vertex count (e.g. Subdivision); move it after OPDeform")
-    if not np.all(np.isfinite(incoming)):
-        raise AddonError(f"{obj.name}: the input at the OPDeform modifier has non-finite (NaN or infinite) "
-                         "vertices")
     return incoming, np.array(evaluated.matrix_world, dtype=np.float64)
 
 
@@ -401,7 +398,10 @@ def frame_update(obj, scene, depsgraph=None):
             show(obj, rt, offset)
         return rt
     targets = handle_targets(rt, s, depsgraph)
-    out = rt.engine.goto(frame, targets, incoming, matrix)
+    try:
+        out = rt.engine.goto(frame, targets, incoming, matrix)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
     rt.remember(frame, out)
     t1 = time.perf_counter()
     show(obj, rt, rt.engine.offset)

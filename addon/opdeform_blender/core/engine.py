@@ -218,11 +218,7 @@ class Engine:
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix)."""
-        goals = self.fit.fit(to_world(incoming, matrix))
-        if not (np.all(np.isfinite(goals[0])) and np.all(np.isfinite(goals[1]))):
-            raise EngineError("the goal positions are not finite (the animated input has NaN or infinite "
-                              "vertices)")
-        return goals
+        return self.fit.fit(to_world(incoming, matrix))
 
     # -- state ----------------------------------------------------------------------------------------
     def _state(self):
@@ -276,6 +272,8 @@ class Engine:
         core/frames.py); frames skipped by a jump get blended handle targets and goals."""
         self.timing = {"solver": 0.0, "skin": 0.0}
         incoming = self.rest_local if incoming is None else incoming
+        if not np.all(np.isfinite(incoming)):
+            raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
         matrix = check_matrix(matrix) if self.goal_strength is not None else self.matrix_world
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
         plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame)
