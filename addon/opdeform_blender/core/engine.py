@@ -258,6 +258,11 @@ class Engine:
     def _reference(self, goals):
         return self._rest_skin if goals is None else self.skin.deform(*goals)
 
+    def overlay_matrix(self, matrix):
+        """What carries the simulation's world to where the object shows it now (its transform matrix): the
+        identity with a goal (the simulation follows the object), else the motion since Build."""
+        return np.eye(4) if self.goal_strength is not None else np.asarray(matrix) @ np.linalg.inv(self.matrix_world)
+
     def rest_output(self, incoming=None):
         self.shown_state = self._rest_state[:2]
         self.offset[:] = 0.0
