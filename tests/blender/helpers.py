@@ -198,16 +198,26 @@ class FakeLayout:
         object.__setattr__(self, name, value)
 
 
+class _FakePanel:
+    """Stands for a panel instance: its layout records, its other attributes and methods are the class's."""
+
+    def __init__(self, cls, layout):
+        self.layout, self._cls = layout, cls
+
+    def __getattr__(self, name):
+        value = getattr(self._cls, name)
+        return value.__get__(self) if callable(value) and hasattr(value, "__get__") else value
+
+
 def draw_panels():
     """Runs poll/draw_header/draw of every add-on panel for the active object; the recorded log."""
-    import types
     log = []
     panels = [c for c in bpy.types.Panel.__subclasses__() if c.__module__.startswith(ADDON)]
     assert panels, "no panels registered"
     for cls in panels:
         if not cls.poll(bpy.context):
             continue
-        fake = types.SimpleNamespace(layout=FakeLayout(log))
+        fake = _FakePanel(cls, FakeLayout(log))
         if hasattr(cls, "draw_header"):
             cls.draw_header(fake, bpy.context)
         cls.draw(fake, bpy.context)
