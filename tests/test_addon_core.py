@@ -208,3 +208,23 @@ def test_tumbling_frame_files(tmp_path):
     assert job.total == 4 and not job.done
     job.frame = 6
     assert job.done
+
+
+@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
+def test_engine_goal_follows_the_input_and_rejects_bad_goals():
+    e, v, _ = _bar_engine()
+    e.set_constraints()
+    for strength, weights in ((1.5, None), (0.5, np.full(len(v), 1.5)), (float("nan"), None)):
+        with pytest.raises(EngineError, match="0..1"):
+            e.set_goal(strength, weights)
+    e.set_goal(1.0)
+    moved = (v + (0.0, 0.0, 0.3)).astype(np.float32)
+    for f in range(1, 6):
+        out = e.goto(f, None, moved, np.eye(4))
+    assert np.abs(out - moved).max() < 1e-3 * 2.0  # full strength: the input itself
+    shown = out.copy()
+    with pytest.raises(EngineError, match="non-finite"):
+        e.goto(6, None, np.full_like(moved, np.nan), np.eye(4))
+    assert np.array_equal(e.out, shown) and e.cache.last == 5  # nothing changed
+    e.set_goal(None)
+    assert e.goal_strength is None and len(e.cache) == 0

@@ -28,7 +28,7 @@ ADDON_PACKAGE = __package__ or __name__
 # with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
 # order. A new feature (e.g. an MPM panel) adds its modules here.
 MODULES = ("core", "core.loader", "core.pc2", "core.frames", "core.cache", "core.handles", "core.engine",
-           "core.tumbling", "blender", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
+           "core.tumbling", "blender", "blender.modifier", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
            "blender.properties", "blender.operators", "blender.panels", "blender.handlers", "blender.overlay")
 
 if "_modules" in locals():  # F8 / script reload: Blender reloads this file; reload the modules first

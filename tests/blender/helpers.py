@@ -117,8 +117,14 @@ def bar_object(name="Bar", pinned=True, particles=20):
     return obj
 
 
-def positions(obj):
+def base_positions(obj):
+    """The mesh's own vertex positions (the add-on never writes them)."""
     return runtime().vertex_positions(obj.data).copy()
+
+
+def positions(obj):
+    """What the object shows: its evaluated mesh (the OPDeform modifier's offset or the bake included)."""
+    return evaluated_positions(obj)
 
 
 def evaluated_positions(obj):
@@ -192,16 +198,26 @@ class FakeLayout:
         object.__setattr__(self, name, value)
 
 
+class _FakePanel:
+    """Stands for a panel instance: its layout records, its other attributes and methods are the class's."""
+
+    def __init__(self, cls, layout):
+        self.layout, self._cls = layout, cls
+
+    def __getattr__(self, name):
+        value = getattr(self._cls, name)
+        return value.__get__(self) if callable(value) and hasattr(value, "__get__") else value
+
+
 def draw_panels():
     """Runs poll/draw_header/draw of every add-on panel for the active object; the recorded log."""
-    import types
     log = []
     panels = [c for c in bpy.types.Panel.__subclasses__() if c.__module__.startswith(ADDON)]
     assert panels, "no panels registered"
     for cls in panels:
         if not cls.poll(bpy.context):
             continue
-        fake = types.SimpleNamespace(layout=FakeLayout(log))
+        fake = _FakePanel(cls, FakeLayout(log))
         if hasattr(cls, "draw_header"):
             cls.draw_header(fake, bpy.context)
         cls.draw(fake, bpy.context)
@@ -210,3 +226,103 @@ def draw_panels():
 
 def labels(log):
     return " | ".join(entry[1] for entry in log if entry[0] == "label")
+
+
+FPS = 24
+SWING_FRAMES = 12  # 60 degrees in 0.5 s at 24 fps, then held
+
+
+def _keyframe_swing(owner, path, frames=SWING_FRAMES):
+    """owner.<path>[2] (a z rotation) keyed 0 at frame 1 and 60 degrees at 1 + frames, linear, then held."""
+    import math
+    getattr(owner, path)[2] = 0.0
+    owner.keyframe_insert(path, index=2, frame=1)
+    getattr(owner, path)[2] = math.radians(60.0)
+    owner.keyframe_insert(path, index=2, frame=1 + frames)
+    action = owner.id_data.animation_data.action
+    for fc in action_fcurves(action):
+        for k in fc.keyframe_points:
+            k.interpolation = 'LINEAR'
+
+
+def action_fcurves(action):
+    """The F-curves of an action (Blender 5's layered actions keep them in a channelbag)."""
+    if hasattr(action, "fcurves") and len(action.fcurves):
+        return list(action.fcurves)
+    return [fc for layer in action.layers for strip in layer.strips for bag in strip.channelbags
+            for fc in bag.fcurves]
+
+
+def tail_rig(strength=0.5, armature=True, frames=6 * FPS, group=None):
+    """The swinging-armature shot: a 2 m tail (the bar, 20 chain particles, gravity off) skinned to a 2-bone
+    armature whose root bone swings 60 degrees about z in 0.5 s and stops (armature=False: the tail object
+    itself is keyframed). group: a goal weight group of this weight on every vertex. Returns the tail."""
+    scene = bpy.context.scene
+    scene.use_gravity = False
+    scene.render.fps = FPS
+    scene.frame_end = frames
+    tail = bar_object("Tail", pinned=False)
+    if armature:
+        rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+        scene.collection.objects.link(rig)
+        bpy.context.view_layer.objects.active = rig
+        bpy.ops.object.mode_set(mode='EDIT')
+        root = rig.data.edit_bones.new("Root")
+        root.head, root.tail = (0, 0, 0), (1, 0, 0)
+        tip = rig.data.edit_bones.new("Tip")
+        tip.head, tip.tail, tip.parent, tip.use_connect = (1, 0, 0), (2, 0, 0), root, True
+        bpy.ops.object.mode_set(mode='OBJECT')
+        x = np.array([v.co.x for v in tail.data.vertices])
+        w_tip = np.clip(x - 0.5, 0.0, 1.0)
+        for name, w in (("Root", 1.0 - w_tip), ("Tip", w_tip)):
+            g = tail.vertex_groups.new(name=name)
+            for i, wi in enumerate(w):
+                g.add([i], float(wi), 'REPLACE')
+        tail.modifiers.new("Armature", 'ARMATURE').object = rig
+        bone = rig.pose.bones["Root"]
+        bone.rotation_mode = 'XYZ'
+        _keyframe_swing(bone, "rotation_euler")
+    else:
+        _keyframe_swing(tail, "rotation_euler")
+    if group is not None:
+        g = tail.vertex_groups.new(name="Goal")
+        g.add(list(range(len(tail.data.vertices))), group, 'REPLACE')
+        tail.opdeform.goal_group = "Goal"
+    s = tail.opdeform
+    s.use_goal, s.goal_strength = True, strength
+    s.frame_start, s.frame_end = 1, frames
+    bpy.context.view_layer.objects.active = tail
+    bpy.ops.opdeform.enable(object=tail.name)
+    return tail
+
+
+def animated_positions(obj):
+    """The input at the OPDeform modifier now (the animation without opdeform's effect), object space."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    return runtime().modifier.read_input(obj.evaluated_get(depsgraph).data)
+
+
+def tail_motion(obj, frames):
+    """Plays the frames; per frame (world space): the tip's output, the tip's animated position, and the
+    largest distance of any output vertex from the animation."""
+    scene = bpy.context.scene
+    tip = int(np.argmin(np.linalg.norm(base_positions(obj) - (2.0, 0.0, 0.0), axis=1)))  # on the tail's axis
+    out = []
+    for f in frames:
+        scene.frame_set(f)
+        m = np.array(obj.matrix_world)
+        shown, animated = positions(obj) @ m[:3, :3].T + m[:3, 3], animated_positions(obj) @ m[:3, :3].T + m[:3, 3]
+        out.append((shown[tip], animated[tip], np.linalg.norm(shown - animated, axis=1).max()))
+    return out
+
+
+def animated_or_plain(obj):
+    """The object's evaluated mesh with every opdeform modifier off (the plain animation)."""
+    saved = [(m, m.show_viewport) for m in obj.modifiers if m.name.startswith("OPDeform")]
+    for m, _ in saved:
+        m.show_viewport = False
+    try:
+        return evaluated_positions(obj)
+    finally:
+        for m, v in saved:
+            m.show_viewport = v

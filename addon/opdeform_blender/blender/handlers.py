@@ -112,6 +112,26 @@ def on_undo_post(*args):
 
 
 @persistent
+def on_save_pre(*args):
+    """A saved file carries no offset: opened without the add-on it shows the original mesh and animation."""
+    from . import modifier
+    for mesh in bpy.data.meshes:
+        if mesh.library is None:
+            modifier.clear_offset(mesh)
+
+
+@persistent
+def on_save_post(*args):
+    """Shows the simulated frames again after a save."""
+    from . import runtime
+    for scene in bpy.data.scenes:
+        for obj in enabled_objects(scene):
+            rt = runtime.get(obj)
+            if rt is not None and rt.deformed and runtime.is_live(obj):
+                _safely(obj, runtime.show, rt, rt.engine.offset)
+
+
+@persistent
 def tumbling_frame_change(scene, depsgraph=None):
     """Shows the baked frame (clamped to the baked range) on every tumbling domain's point cloud."""
     from . import runtime, tumbling_runtime
@@ -135,6 +155,8 @@ HANDLERS = (
     ("load_post", on_load_post),
     ("undo_post", on_undo_post),
     ("redo_post", on_undo_post),
+    ("save_pre", on_save_pre),
+    ("save_post", on_save_post),
 )
 classes = ()
 
@@ -154,3 +176,7 @@ def unregister():
             handlers.remove(fn)
     from . import runtime
     runtime.clear()
+    try:
+        on_save_pre()  # disabled or uninstalled: every mesh shows its input again
+    except AttributeError:  # Blender is quitting: bpy.data is no longer readable (nothing is saved then)
+        pass

@@ -63,7 +63,8 @@ class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
 
 
 class OPDEFORM_OT_disable(_ObjectOperator, bpy.types.Operator):
-    """Stop simulating this object: the rest shape comes back (a bake and its modifier stay)"""
+    """Stop simulating this object: its OPDeform modifier goes, the mesh shows its input again (a bake and its
+    Mesh Cache modifier stay)"""
     bl_idname = "opdeform.disable"
     bl_label = "Disable Oriented Particles"
     bl_options = {'REGISTER', 'UNDO'}
@@ -73,10 +74,7 @@ class OPDEFORM_OT_disable(_ObjectOperator, bpy.types.Operator):
             raise rt.AddonError("no object")
         s = obj.opdeform
         if obj.type == 'MESH':
-            rt.restore_rest(obj)
-            attr = obj.data.attributes.get(rt.REST_ATTRIBUTE)
-            if attr is not None:
-                obj.data.attributes.remove(attr)
+            rt.modifier.remove(obj)
         rt.drop(obj)
         s.enabled = False
         s.built = False

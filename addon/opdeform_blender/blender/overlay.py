@@ -1,11 +1,12 @@
 """Viewport overlay: the particles' ellipsoids (three principal ellipses each) and the graph's edges, drawn
-from the state the mesh shows. Toggled per object (Show Particles, Edges). Nothing is drawn in background
+from the state the mesh shows, carried by the object's current transform; hidden while baked. Toggled per object (Show Particles, Edges). Nothing is drawn in background
 mode."""
 
 import math
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 SEGMENTS = 16
 _handle = {"draw": None}
@@ -53,8 +54,8 @@ def _draw():
         view_layer = context.view_layer
         for k, rt in runtime.items():
             obj = next((o for o in view_layer.objects if runtime.key(o) == k), None)
-            if obj is None or not obj.opdeform.show_particles or not obj.visible_get():
-                continue
+            if obj is None or not obj.opdeform.show_particles or not obj.visible_get() or not runtime.is_live(obj):
+                continue  # hidden while baked: the Mesh Cache modifier shows frames the particles no longer hold
             e = rt.engine
             pos, rot = e.shown_state
             stamp = (id(pos), id(rot), obj.opdeform.show_edges)
@@ -72,9 +73,11 @@ def _draw():
             gpu.state.depth_test_set('LESS_EQUAL')
             gpu.state.line_width_set(1.5)
             shader.bind()
-            for batch, color in cached[1]:
-                shader.uniform_float("color", color)
-                batch.draw(shader)
+            with gpu.matrix.push_pop():
+                gpu.matrix.multiply_matrix(Matrix(e.overlay_matrix(np.array(obj.matrix_world)).tolist()))
+                for batch, color in cached[1]:
+                    shader.uniform_float("color", color)
+                    batch.draw(shader)
             gpu.state.depth_test_set('NONE')
     except Exception as exc:  # drawing must never break the viewport
         print(f"opdeform overlay: {type(exc).__name__}: {exc}")

@@ -26,6 +26,19 @@ class _SubPanel(_PhysicsPanel):
         return obj is not None and obj.type == 'MESH' and obj.opdeform.enabled
 
 
+class _ToggledSubPanel(_SubPanel):
+    """A sub-panel whose header holds an on/off setting (``toggle``) that greys out its body when off."""
+    toggle = ""
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.opdeform, self.toggle, text="")
+
+    def body(self, context):
+        layout, obj, s = _split(self.layout, context)
+        layout.active = getattr(s, self.toggle)
+        return layout, obj, s
+
+
 def _split(layout, context):
     """(the layout with property split, the object, its settings)."""
     layout.use_property_split = True
@@ -135,16 +148,13 @@ class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
         sub.prop(s, "show_edges")
 
 
-class PHYSICS_PT_opdeform_floor(_SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_floor(_ToggledSubPanel, bpy.types.Panel):
     bl_label = "Floor"
     bl_options = {'DEFAULT_CLOSED'}
-
-    def draw_header(self, context):
-        self.layout.prop(context.object.opdeform, "use_floor", text="")
+    toggle = "use_floor"
 
     def draw(self, context):
-        layout, _, s = _split(self.layout, context)
-        layout.active = s.use_floor
+        layout, _, s = self.body(context)
         layout.prop(s, "floor_height")
         layout.prop(s, "floor_friction")
 
@@ -156,6 +166,24 @@ class PHYSICS_PT_opdeform_pins(_SubPanel, bpy.types.Panel):
         layout, obj, s = _split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
+        layout.label(text="Pins hold firmly at any weight; for a soft hold paint a Goal group", icon='INFO')
+
+
+class PHYSICS_PT_opdeform_goal(_ToggledSubPanel, bpy.types.Panel):
+    bl_label = "Goal"
+    toggle = "use_goal"
+
+    def draw(self, context):
+        from . import modifier
+        layout, obj, s = self.body(context)
+        layout.prop(s, "goal_strength")
+        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Weight Group")
+        mod = modifier.get(obj)
+        if mod is None:
+            layout.label(text="The OPDeform modifier is missing: Build adds it", icon='ERROR')
+        else:
+            layout.label(text=f"Follows the stack above OPDeform (modifier {modifier.index(obj) + 1} of "
+                              f"{len(obj.modifiers)})", icon='MODIFIER')
 
 
 class OPDEFORM_UL_handles(bpy.types.UIList):
@@ -250,7 +278,7 @@ class PHYSICS_PT_opdeform_tumbling(_PhysicsPanel, bpy.types.Panel):
 
 
 classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
-           OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
+           PHYSICS_PT_opdeform_goal, OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
 
 # registers in the order of `classes`, unregisters in the reverse order
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -39,13 +39,24 @@ def show_frame(points, mpm, folder, frame):
     return True
 
 
+def write_positions(mesh, verts):
+    """The fast path: one foreach_set of a float32 buffer ("position" attribute on 3.5+, vertex co before)."""
+    flat = verts.reshape(-1)
+    attr = mesh.attributes.get("position")
+    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+        attr.data.foreach_set("vector", flat)
+    else:
+        mesh.vertices.foreach_set("co", flat)
+    mesh.update()
+
+
 def show_particles(points, mpm, positions, quaternions):
     """Sets the point cloud's vertices and orientation attribute (quaternions w x y z)."""
     mesh = points.data
     if len(mesh.vertices) != len(positions):
         mesh.clear_geometry()
         mesh.vertices.add(len(positions))
-    runtime.write_positions(mesh, np.ascontiguousarray(positions, dtype=np.float32))
+    write_positions(mesh, np.ascontiguousarray(positions, dtype=np.float32))
     attr = mesh.attributes.get(ATTRIBUTE)
     if attr is None:
         attr = mesh.attributes.new(ATTRIBUTE, 'QUATERNION' if _quaternion_attributes() else 'FLOAT_VECTOR', 'POINT')

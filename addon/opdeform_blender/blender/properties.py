@@ -89,6 +89,17 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                               description="Vertex group whose vertices are held in place (weight = constraint "
                                           "weight); read at Build")
     pin_strength: FloatProperty(name="Pin Strength", default=1.0, min=0.0, soft_max=10.0)
+    # goal: follow the animated input (Armature, shape keys, object animation) with secondary motion
+    use_goal: BoolProperty(name="Goal", default=False,
+                           description="Pull the particles toward the animated shape that reaches the OPDeform "
+                                       "modifier (secondary motion on an animation); off: a soft body around the "
+                                       "rest shape")
+    goal_strength: FloatProperty(name="Strength", default=0.5, min=0.0, max=1.0, subtype='FACTOR',
+                                 description="0: free dynamics, 1: exactly the animation; in between the body "
+                                             "lags, overshoots and settles back (0.2 Hz to 1000 Hz springs)")
+    goal_group: StringProperty(name="Goal Group", default="",
+                               description="Vertex group whose weights (0..1) multiply the strength per vertex "
+                                           "(empty: everywhere); read at Build")
     handles: CollectionProperty(type=OPDEFORM_HandleItem)
     handle_index: IntProperty(default=0)
     # cache

@@ -1,5 +1,6 @@
 """Per-object simulation state that lives only in memory (the Engine), and the glue between Blender data and
-the bpy-free core: reading meshes, vertex groups and handles, writing vertices, baking.
+the bpy-free core: reading meshes, vertex groups, handles and the input at opdeform's modifier, writing the
+offset that modifier adds (never the mesh's vertex positions), baking.
 
 Nothing here keeps a bpy pointer across calls: runtimes are keyed by the object's session_uid, so undo and
 file loads cannot leave dangling references.
@@ -16,9 +17,10 @@ from ..core import handles as handle_math
 from ..core import loader, pc2
 from ..core.frames import BakeFrames
 from ..core.engine import Engine, EngineError
+from . import modifier
 
-REST_ATTRIBUTE = "opdeform_rest"
 MODIFIER_NAME = "OPDeform Cache"
+RECENT_FRAMES = 3  # outputs kept for subframes (motion blur) between the last frames shown
 
 
 class AddonError(Exception):
@@ -31,13 +33,21 @@ _runtimes = {}
 class Runtime:
     """What the add-on holds for one object between frames."""
 
-    def __init__(self, engine, graph_key, pins):
+    def __init__(self, engine, graph_key, pins, goal_weights):
         self.engine = engine
         self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
         self.pins = pins  # (indices, weights) read from the pin group at Build
+        self.goal_weights = goal_weights  # per-vertex weights of the goal group (None: 1 everywhere)
         self.handle_matrices = None  # bytes of the handle transforms last used
-        self.shown = None  # what the mesh shows: ("rest"|"frame"|"pose", frame)
+        self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
+        self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
+        self.baking = False  # a bake computes frames without writing the offset
         self.timing = {}
+
+    def remember(self, frame, out):
+        self.recent[frame] = out.copy()
+        for f in sorted(self.recent)[:-RECENT_FRAMES]:
+            del self.recent[f]
 
     @property
     def deformed(self):
@@ -91,9 +101,6 @@ def check_object(obj):
         raise AddonError(f"mesh {mesh.name!r} has no vertices")
     if len(mesh.polygons) == 0:
         raise AddonError(f"mesh {mesh.name!r} has no faces: oriented particles need a surface or a volume")
-    if mesh.shape_keys is not None:
-        raise AddonError(f"mesh {mesh.name!r} has shape keys: apply or remove them first (the simulation "
-                         "writes the base shape)")
     if obj.mode == 'EDIT':
         raise AddonError(f"{obj.name!r} is in Edit Mode: leave it first")
 
@@ -108,39 +115,6 @@ def vertex_positions(mesh):
     return buf.reshape(-1, 3)
 
 
-def write_positions(mesh, verts):
-    """The fast path: one foreach_set of a float32 buffer ("position" attribute on 3.5+, vertex co before)."""
-    flat = verts.reshape(-1)
-    attr = mesh.attributes.get("position")
-    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
-        attr.data.foreach_set("vector", flat)
-    else:
-        mesh.vertices.foreach_set("co", flat)
-    mesh.update()
-
-
-def rest_positions(obj, rt=None):
-    """The rest shape: the stored rest attribute (the mesh may show a simulated frame), else the mesh itself.
-    When the add-on knows the mesh shows its rest shape, the mesh wins (edits made at the start frame)."""
-    mesh = obj.data
-    attr = mesh.attributes.get(REST_ATTRIBUTE)
-    n = len(mesh.vertices)
-    if rt is not None and rt.deformed and rt.engine.n_vertices == n:
-        return rt.engine.rest_local.copy()
-    if attr is not None and (rt is None) and len(attr.data) == n:
-        buf = np.empty(n * 3, dtype=np.float32)
-        attr.data.foreach_get("vector", buf)
-        return buf.reshape(-1, 3)
-    return vertex_positions(mesh)
-
-
-def store_rest(mesh, rest):
-    attr = mesh.attributes.get(REST_ATTRIBUTE)
-    if attr is None:
-        attr = mesh.attributes.new(REST_ATTRIBUTE, 'FLOAT_VECTOR', 'POINT')
-    attr.data.foreach_set("vector", np.ascontiguousarray(rest, dtype=np.float32).reshape(-1))
-
-
 def triangles(mesh):
     mesh.calc_loop_triangles()
     tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
@@ -148,14 +122,13 @@ def triangles(mesh):
     return tri.reshape(-1, 3)
 
 
-def read_pin_group(obj, settings):
-    """(indices, weights) of the pin group's vertices with a weight above zero; None without a group."""
-    name = settings.pin_group
+def read_vertex_group(obj, name, what):
+    """(indices, weights) of the group's vertices with a weight above zero; None without a group name."""
     if not name:
         return None
     group = obj.vertex_groups.get(name)
     if group is None:
-        raise AddonError(f"pin group {name!r} is not a vertex group of {obj.name!r}")
+        raise AddonError(f"{what} group {name!r} is not a vertex group of {obj.name!r}")
     gi = group.index
     idx, w = [], []
     for v in obj.data.vertices:
@@ -164,8 +137,18 @@ def read_pin_group(obj, settings):
                 idx.append(v.index)
                 w.append(g.weight)
     if not idx:
-        raise AddonError(f"pin group {name!r} has no vertices (or only zero weights)")
+        raise AddonError(f"{what} group {name!r} of {obj.name!r} has no vertices (or only zero weights)")
     return np.array(idx, dtype=np.int64), np.array(w, dtype=np.float64)
+
+
+def read_goal_weights(obj, settings):
+    """The goal group as one weight per vertex (0 outside the group); None without a group."""
+    group = read_vertex_group(obj, settings.goal_group, "goal")
+    if group is None:
+        return None
+    weights = np.zeros(len(obj.data.vertices))
+    weights[group[0]] = group[1]
+    return weights
 
 
 def handle_matrix(item, depsgraph=None):
@@ -220,7 +203,7 @@ def handle_signature(settings, depsgraph=None):
 
 # -- settings ------------------------------------------------------------------------------------------
 def graph_key(settings):
-    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group)
+    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group, settings.goal_group)
 
 
 def frame_rate(scene):
@@ -244,8 +227,13 @@ def signature(settings, scene):
     hs = tuple((h.target.name, h.vertex, h.use_rotation, round(h.strength, 9)) for h in active_handles(settings))
     p = sim_params(settings, scene)
     parts = (graph_key(settings), sorted(p.items()), settings.substeps, floor(settings), settings.pin_strength,
-             hs, settings.frame_start, settings.frame_end, settings.mode)
+             hs, settings.frame_start, settings.frame_end, settings.mode, goal_strength(settings))
     return repr(parts)
+
+
+def goal_strength(settings):
+    """The goal strength in use: None when off (and in posing mode, which has no animation to follow)."""
+    return settings.goal_strength if settings.use_goal and settings.mode == 'DYNAMIC' else None
 
 
 def bind_new_handles(rt, settings, depsgraph=None):
@@ -268,6 +256,7 @@ def configure(rt, obj, scene, depsgraph=None):
     pins = rt.pins or (np.zeros(0, np.int64), None)
     handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
+    e.set_goal(goal_strength(s), rt.goal_weights)
 
 
 # -- build ---------------------------------------------------------------------------------------------
@@ -277,9 +266,9 @@ def build(obj, scene, depsgraph=None):
     check_object(obj)
     od = module()
     s = obj.opdeform
-    old = get(obj)
-    rest = rest_positions(obj, old)
-    pins = read_pin_group(obj, s)
+    rest = vertex_positions(obj.data)
+    pins = read_vertex_group(obj, s.pin_group, "pin")
+    goal_weights = read_goal_weights(obj, s)
     matrix = np.array(obj.matrix_world, dtype=np.float64)
     for h in active_handles(s):  # validate before changing anything
         try:
@@ -290,7 +279,7 @@ def build(obj, scene, depsgraph=None):
         engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors)
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
-    rt = Runtime(engine, graph_key(s), pins)
+    rt = Runtime(engine, graph_key(s), pins, goal_weights)
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:
@@ -298,7 +287,7 @@ def build(obj, scene, depsgraph=None):
     except (EngineError, ValueError, od.SolverError) as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     # committed: from here on the object changes
-    store_rest(obj.data, rest)
+    modifier.ensure(obj)
     _runtimes[key(obj)] = rt
     s.built = True
     if s.error:
@@ -308,32 +297,65 @@ def build(obj, scene, depsgraph=None):
 
 
 def ensure(obj, scene, depsgraph=None):
-    """The object's runtime; rebuilt from the stored settings after a file load or undo."""
+    """The object's runtime; rebuilt from the stored settings after a file load or undo, and when the mesh
+    changed since Build (Edit Mode edits reach the rest shape)."""
     rt = get(obj)
-    if rt is None and obj.opdeform.built:
+    if rt is None and obj.opdeform.built or rt is not None and not np.array_equal(
+            vertex_positions(obj.data), rt.engine.rest_local):
         rt = build(obj, scene, depsgraph)
-    if rt is not None and rt.engine.n_vertices != len(obj.data.vertices):
-        drop(obj)
-        raise AddonError(f"{obj.name}: the vertex count changed since Build: press Build again")
     return rt
 
 
 def show_rest(obj, rt):
-    write_positions(obj.data, rt.engine.rest_output())
+    rt.engine.rest_output()
+    modifier.clear_offset(obj.data)
     rt.shown = ("rest", None)
 
 
-def restore_rest(obj):
-    """Puts the rest shape back into the mesh (disable, free bake)."""
-    rt = get(obj)
-    if rt is not None:
-        show_rest(obj, rt)
+def check_writable(obj):
+    """Live playback writes the offset into the mesh: refused for a linked mesh and a mesh shared by objects."""
+    mesh = obj.data
+    if mesh.library is not None:
+        raise AddonError(f"{obj.name}: its mesh {mesh.name!r} is linked from a library (a library override?): "
+                         "live playback cannot write it; Bake instead, the bake plays on the override")
+    users = [o.name for o in bpy.data.objects if o.data == mesh and o != obj]
+    if users:
+        raise AddonError(f"{obj.name}: its mesh {mesh.name!r} is shared with {', '.join(users)} (linked "
+                         "duplicates): live playback would move them all; Object > Relations > Make Single User, "
+                         "or Bake (each object plays its own bake)")
+
+
+def frame_input(obj, rt, depsgraph):
+    """(the object-space positions reaching opdeform's modifier, the object's transform) in this evaluation."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    evaluated = obj.evaluated_get(depsgraph)
+    incoming = modifier.read_input(evaluated.data)
+    if incoming is None:
+        raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
+    n = rt.engine.n_vertices
+    if len(incoming) != n:
+        raise AddonError(f"{obj.name}: the evaluated mesh has {len(incoming)} vertices where the mesh has {n}: a "
+                         "modifier changes the vertex count (e.g. Subdivision); move it after OPDeform")
+    return incoming, np.array(evaluated.matrix_world, dtype=np.float64)
+
+
+def show(obj, rt, offset):
+    """Writes the offset (float32 (V, 3)) the modifier adds, unless a bake computes the frames."""
+    if rt.baking:
         return
-    attr = obj.data.attributes.get(REST_ATTRIBUTE) if obj.type == 'MESH' else None
-    if attr is not None and len(attr.data) == len(obj.data.vertices):
-        buf = np.empty(len(attr.data) * 3, dtype=np.float32)
-        attr.data.foreach_get("vector", buf)
-        write_positions(obj.data, buf)
+    check_writable(obj)
+    modifier.write_offset(obj.data, offset)
+
+
+def subframe_offset(rt, frame, subframe, incoming):
+    """Between frames (motion blur): the outputs of the frame and the next blended as the Mesh Cache modifier
+    blends a bake (linearly, in float32), minus this input. None when either was not shown just before: a
+    subframe never simulates."""
+    if frame not in rt.recent or frame + 1 not in rt.recent:
+        return None
+    t = np.float32(subframe)
+    return rt.recent[frame] * (np.float32(1.0) - t) + rt.recent[frame + 1] * t - incoming
 
 
 def set_error(obj, message):
@@ -349,10 +371,12 @@ def cache_modifier(obj):
 
 
 def is_live(obj):
-    """Whether playback should simulate obj now (enabled, no error, not baked, not being edited)."""
+    """Whether playback should simulate obj now (enabled, no error, not baked, not being edited, its
+    modifier on)."""
     s = obj.opdeform
-    return (s.enabled and s.built and not s.error and obj.type == 'MESH' and obj.mode != 'EDIT'
-            and not (s.baked and cache_modifier(obj) is not None))
+    mod = modifier.get(obj) if obj.type == 'MESH' else None
+    return (s.enabled and s.built and not s.error and mod is not None and mod.show_viewport
+            and obj.mode != 'EDIT' and not (s.baked and cache_modifier(obj) is not None))
 
 
 # -- per frame -----------------------------------------------------------------------------------------
@@ -366,11 +390,21 @@ def frame_update(obj, scene, depsgraph=None):
     if s.mode != 'DYNAMIC':
         return rt
     configure(rt, obj, scene, depsgraph)
+    incoming, matrix = frame_input(obj, rt, depsgraph)
+    frame, subframe = scene.frame_current, scene.frame_subframe
+    if subframe > 0.0:
+        offset = subframe_offset(rt, frame, subframe, incoming)
+        if offset is not None:
+            show(obj, rt, offset)
+        return rt
     targets = handle_targets(rt, s, depsgraph)
-    frame = scene.frame_current
-    out = rt.engine.goto(frame, targets)
+    try:
+        out = rt.engine.goto(frame, targets, incoming, matrix)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
+    rt.remember(frame, out)
     t1 = time.perf_counter()
-    write_positions(obj.data, out)
+    show(obj, rt, rt.engine.offset)
     rt.shown = ("rest" if frame <= s.frame_start else "frame", frame)
     t2 = time.perf_counter()
     rt.timing = dict(rt.engine.timing, total=t2 - t0, write=t2 - t1)
@@ -388,11 +422,12 @@ def pose_update(obj, scene, depsgraph=None, force=False):
     targets = handle_targets(rt, s, depsgraph)
     if not force and rt.handle_matrices == before and rt.shown is not None and rt.shown[0] == "pose":
         return False
+    incoming = frame_input(obj, rt, depsgraph)[0]
     try:
-        out = rt.engine.pose(targets, s.pose_iterations)
+        rt.engine.pose(targets, s.pose_iterations, incoming)
     except EngineError as exc:
         raise AddonError(str(exc)) from None
-    write_positions(obj.data, out)
+    show(obj, rt, rt.engine.offset)
     rt.shown = ("pose", None)
     return True
 
@@ -437,6 +472,7 @@ class BakeJob(BakeFrames):
             obj.modifiers.remove(mod)
         s.baked = False
         self.rt.engine.invalidate()
+        self.rt.baking = True
         self.writer = pc2.PC2Writer(self.path, self.rt.engine.n_vertices, self.start, 1.0)
         self.started = time.perf_counter()
 
@@ -461,6 +497,7 @@ class BakeJob(BakeFrames):
     def finish(self):
         """Closes the file and adds the Mesh Cache modifier (first in the stack). Returns frames baked."""
         self.writer.close()
+        self.rt.baking = False
         obj = self.obj
         count = self.writer.count
         if obj is None or count == 0:
@@ -476,26 +513,28 @@ class BakeJob(BakeFrames):
         mod.forward_axis = 'POS_Y'
         mod.up_axis = 'POS_Z'
         mod.deform_mode = 'OVERWRITE'
-        mod.interpolation = 'NONE'
-        if len(obj.modifiers) > 1:
-            _move_first(obj, mod)
+        mod.interpolation = 'LINEAR'  # subframes (motion blur) blend frames, as live playback does
+        _move_after_opdeform(obj, mod)
         s.baked = True
         s.bake_file = self.stored_path
         s.bake_signature = signature(s, self.scene)
-        rt = get(obj)
-        if rt is not None:
-            show_rest(obj, rt)  # the base mesh keeps its rest shape; the modifier shows the frames
+        modifier.clear_offset(obj.data)  # the Mesh Cache modifier shows the frames
         self.scene.frame_set(self.original_frame)
         return count
 
 
-def _move_first(obj, mod):
+def _move_after_opdeform(obj, mod):
+    """The baked frames replace the OPDeform modifier's output where it sits in the stack (the bake holds the
+    input too: Armature and all); modifiers after it (a Subdivision) still apply."""
     index = list(obj.modifiers).index(mod)
+    target = modifier.index(obj) + 1 if modifier.get(obj) is not None else 0
+    if target == index:
+        return
     if hasattr(obj.modifiers, "move"):
-        obj.modifiers.move(index, 0)
+        obj.modifiers.move(index, target)
         return
     with bpy.context.temp_override(object=obj, active_object=obj):
-        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
+        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=target)
 
 
 def free_bake(obj, delete_file=True):

@@ -1,5 +1,5 @@
 """In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities) and the
-handle targets that produced them. A few kilobytes per frame for a hundred particles: the skinned vertices are
+handle targets and goal frames that produced them. A few kilobytes per frame for a hundred particles: the skinned vertices are
 not kept, they are recomputed from the state when a cached frame is shown."""
 
 import numpy as np
@@ -20,8 +20,8 @@ class StateCache:
     def __len__(self):
         return len(self.frames)
 
-    def store(self, frame, state, targets):
-        self.frames[frame] = (state, None if targets is None else np.array(targets, copy=True))
+    def store(self, frame, state, targets, goals=None):
+        self.frames[frame] = (state, None if targets is None else np.array(targets, copy=True), goals)
         if self.last is None or frame > self.last:
             self.last = frame
 
@@ -30,6 +30,9 @@ class StateCache:
 
     def targets(self, frame):
         return self.frames[frame][1]
+
+    def goals(self, frame):
+        return self.frames[frame][2]
 
     def truncate(self, keep_until):
         """Drops the frames after keep_until (what follows is outdated); keeps the rest."""

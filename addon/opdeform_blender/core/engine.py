@@ -1,8 +1,16 @@
 """The simulation behind one Blender object, free of bpy: rest mesh -> graph -> simulation -> skinned vertices.
 
-The Blender layer reads the object's settings, mesh, vertex group and handle transforms, passes them here as
-numbers, and writes ``Engine.out`` (float32, object space, the layout ``foreach_set("co", ...)`` copies) back
-into the mesh. Bakes and live playback both go through ``goto``, so a bake equals playback bit for bit.
+The Blender layer reads the object's settings, mesh, vertex groups, handle transforms and, each frame, the
+*input*: the object-space vertices that reach opdeform's modifier (the rest mesh deformed by shape keys, an
+Armature, ...) and the object's transform. The engine never writes the mesh: it returns ``Engine.offset``
+(float32, object space), which opdeform's Geometry Nodes modifier adds to that input, and ``Engine.out`` =
+input + offset, which is exactly what the modifier shows (the same float32 addition). Bakes and live
+playback both go through ``goto``, so a bake equals playback bit for bit.
+
+The simulation runs in world space. Without a goal the world is the one of the object's transform at Build
+and offset = skin(state) - skin(rest frames). With a goal each frame's input, placed by the object's current
+transform, is fitted to per-particle goal frames (``GoalFit``) that pull the particles with the goal strength,
+and offset = skin(state) - skin(goal frames): secondary motion layered on the animation, none at strength 1.
 """
 
 import time
@@ -20,6 +28,31 @@ class EngineError(ValueError):
     """Bad input from the scene (a mesh without faces, an empty pin group, ...): a message for the user."""
 
 
+def check_matrix(matrix):
+    """The object's 4x4 transform (None: identity) as float64; EngineError when degenerate or not finite."""
+    m = np.eye(4) if matrix is None else np.asarray(matrix, dtype=np.float64).reshape(4, 4)
+    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) < 1e-12:
+        raise EngineError("the object's transform is degenerate or not finite")
+    return m
+
+
+def to_world(local, m):
+    return np.asarray(local, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
+
+
+def blend_goals(a, b, u):
+    """Goal frames between two (positions, rotations) pairs: positions linearly, rotations linearly then made
+    proper rotations again (for frames skipped by a jump, like the handle targets)."""
+    u_, _, vt = np.linalg.svd((1.0 - u) * a[1] + u * b[1])
+    flip = np.linalg.det(u_ @ vt) < 0
+    u_[flip, :, -1] *= -1.0
+    return (1.0 - u) * a[0] + u * b[0], u_ @ vt
+
+
+def _same(a, b):
+    return a is b or (a is not None and b is not None and np.array_equal(a, b))
+
+
 class Engine:
     def __init__(self, od, rest_local, triangles, matrix_world=None, particles=100, mode="auto",
                  neighbors=4):
@@ -34,19 +67,9 @@ class Engine:
             raise EngineError("the mesh has non-finite vertex coordinates")
         if mode not in GRAPH_MODES:
             raise EngineError(f"graph mode must be one of {', '.join(GRAPH_MODES)}, got {mode!r}")
-        m = np.eye(4) if matrix_world is None else np.asarray(matrix_world, dtype=np.float64).reshape(4, 4)
-        if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) < 1e-12:
-            raise EngineError("the object's transform is degenerate or not finite")
+        m = check_matrix(matrix_world)
         self.rest_local = np.ascontiguousarray(rest_local)
-        self.identity = bool(np.array_equal(m, np.eye(4)))
-        if self.identity:
-            self.rest = self.rest_local.astype(np.float64)
-            self._to_local = None
-        else:
-            self.rest = self.rest_local.astype(np.float64) @ m[:3, :3].T + m[:3, 3]
-            inv = np.linalg.inv(m)
-            self._to_local = (np.ascontiguousarray(inv[:3, :3].T), inv[:3, 3].copy())
-            self._world = np.empty((len(self.rest), 3))
+        self.rest = to_world(self.rest_local, m)
         self.matrix_world = m
         self.triangles = triangles
         # a low-poly mesh (the default cube) cannot hold more particles than it has distinct vertices
@@ -62,6 +85,10 @@ class Engine:
         n = self.graph.n_particles
         self._rest_state = (self.graph.centers, np.tile(np.eye(3), (n, 1, 1)), np.zeros((n, 3)), np.zeros((n, 3)))
         self.out = np.empty((len(self.rest), 3), dtype=np.float32)
+        self.offset = np.zeros((len(self.rest), 3), dtype=np.float32)
+        self._rest_skin = self.skin.deform(*self._rest_state[:2])
+        self.fit = None
+        self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.sim = None
         self._params = None
         self._substeps = 1
@@ -167,79 +194,125 @@ class Engine:
             for cid, direction in zip(ids[1:], t[1:]):
                 self.sim.set_constraint_target(cid, direction)
 
+    def set_goal(self, strength, vertex_weights=None):
+        """The goal: None (off), or a strength in [0, 1] times a per-vertex weight in [0, 1] (a painted goal
+        group; None: 1 everywhere), turned into per-particle strengths. A change outdates the cache."""
+        values = None
+        if strength is not None:
+            if not (np.isfinite(strength) and 0.0 <= strength <= 1.0):
+                raise EngineError(f"the goal strength must be in 0..1, got {strength}")
+            if self.fit is None:
+                self.fit = self.od.GoalFit(self.graph, self.rest)
+            values = np.full(self.graph.n_particles, float(strength))
+            if vertex_weights is not None:
+                w = np.asarray(vertex_weights, dtype=np.float64)
+                if len(w) != self.n_vertices or not np.all((w >= 0.0) & (w <= 1.0)):
+                    raise EngineError("goal weights must be one per vertex, in 0..1")
+                values *= np.clip(self.fit.particle_values(w), 0.0, 1.0)  # a mean may round past 1
+        if _same(values, self.goal_strength):
+            return False
+        self.sim.set_goal_strength(values)
+        self.goal_strength = values
+        self.invalidate()
+        return True
+
+    def goal_frames(self, incoming, matrix):
+        """The goal frames fitted to this frame's input (object-space vertices placed by matrix)."""
+        return self.fit.fit(to_world(incoming, matrix))
+
     # -- state ----------------------------------------------------------------------------------------
     def _state(self):
         s = self.sim
         return (s.positions, s.rotations, s.velocities, s.angular_velocities)
 
-    def reset(self, targets=None):
-        """The rest state at the start frame; the cache's start entry is (re)written."""
-        self.sim.set_state(*self._rest_state)
+    def reset(self, targets=None, goals=None):
+        """The start frame: the rest state, or the goal frames at rest (velocity 0) with a goal; the cache's
+        start entry is (re)written."""
+        state = self._rest_state if goals is None else (goals[0], goals[1], *self._rest_state[2:])
+        self.sim.set_state(*state)
         self._apply_targets(targets)
+        self._apply_goals(goals)
         self.solver_frame = self.start
-        self.cache.store(self.start, self._rest_state, targets)
+        self.cache.store(self.start, state, targets, goals)
 
     def _restore(self, frame):
         self.sim.set_state(*self.cache.state(frame))
         self.solver_frame = frame
 
+    def _apply_goals(self, goals):
+        if goals is not None:
+            self.sim.set_goals(*goals)
+
     # -- output ---------------------------------------------------------------------------------------
-    def _emit(self, positions, rotations):
+    def _emit(self, positions, rotations, reference, incoming, matrix):
+        """offset = skin(state) - reference (world), in object space; out = incoming + offset."""
         t = time.perf_counter()
-        if self._to_local is None:
-            self.skin.deform(positions, rotations, out=self.out)
-        else:
-            self.skin.deform(positions, rotations, out=self._world)
-            a, b = self._to_local
-            np.matmul(self._world, a, out=self._world)
-            self._world += b
-            self.out[:] = self._world
+        moved = self.skin.deform(positions, rotations)
+        moved -= reference
+        self.offset[:] = moved @ np.linalg.inv(matrix[:3, :3]).T
+        np.add(incoming, self.offset, out=self.out)
         self.timing["skin"] += time.perf_counter() - t
         self.shown_state = (positions, rotations)
         return self.out
 
-    def rest_output(self):
+    def _reference(self, goals):
+        return self._rest_skin if goals is None else self.skin.deform(*goals)
+
+    def overlay_matrix(self, matrix):
+        """What carries the simulation's world to where the object shows it now (its transform matrix): the
+        identity with a goal (the simulation follows the object), else the motion since Build."""
+        return np.eye(4) if self.goal_strength is not None else np.asarray(matrix) @ np.linalg.inv(self.matrix_world)
+
+    def rest_output(self, incoming=None):
         self.shown_state = self._rest_state[:2]
-        self.out[:] = self.rest_local
+        self.offset[:] = 0.0
+        self.out[:] = self.rest_local if incoming is None else incoming
         return self.out
 
     # -- frames ---------------------------------------------------------------------------------------
-    def goto(self, frame, targets=None):
-        """The object-space vertices (float32 (V, 3), ``self.out``) of ``frame`` with handle targets (H, 4, 3)
-        taken at that frame. Simulates what the cache lacks (see core/frames.py)."""
+    def goto(self, frame, targets=None, incoming=None, matrix=None):
+        """The object-space vertices (float32 (V, 3), ``self.out``; ``self.offset`` is what was added to the
+        input) of ``frame`` with handle targets (H, 4, 3) and the input (V, 3) and transform (4, 4) at that
+        frame (None: the rest mesh and the transform at Build). Simulates what the cache lacks (see
+        core/frames.py); frames skipped by a jump get blended handle targets and goals."""
         self.timing = {"solver": 0.0, "skin": 0.0}
+        incoming = self.rest_local if incoming is None else incoming
+        if not np.all(np.isfinite(incoming)):
+            raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
+        matrix = check_matrix(matrix) if self.goal_strength is not None else self.matrix_world
+        goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
         plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame)
         if plan.kind == "rest":
-            return self.rest_output()
+            return self.rest_output(incoming)
         if plan.kind == "reset":
-            self.reset(targets)
-            return self.rest_output()
+            self.reset(targets, goals)
+            return self.rest_output(incoming)
         if plan.kind == "show":
-            pos, rot = self.cache.state(plan.frame)[:2]
-            return self._emit(pos, rot)
+            state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
+            return self._emit(state[0], state[1], self._reference(cached), incoming, matrix)
         if plan.restore == "reset":
-            self.reset(targets)
+            self.reset(targets, goals)
         elif plan.restore is not None:
             self._restore(plan.restore)
         last = self.solver_frame
-        before = self.cache.targets(last)
+        before, before_goals = self.cache.targets(last), self.cache.goals(last)
         t0 = time.perf_counter()
         for k in plan.steps:
-            if targets is None or before is None:
-                tk = targets
-            elif k == plan.frame:
-                tk = targets
-            else:
-                tk = handle_math.blend(before, targets, (k - last) / (plan.frame - last))
+            u = (k - last) / (plan.frame - last)
+            tk = targets if k == plan.frame or targets is None or before is None else \
+                handle_math.blend(before, targets, u)
+            gk = goals if k == plan.frame or goals is None or before_goals is None else \
+                blend_goals(before_goals, goals, u)
             self._apply_targets(tk)
+            self._apply_goals(gk)
             self.sim.step(self._substeps)
             self.solver_frame = k
-            self.cache.store(k, self._state(), tk)
+            self.cache.store(k, self._state(), tk, gk)
         self.timing["solver"] += time.perf_counter() - t0
         pos, rot = self.cache.state(plan.frame)[:2]
-        return self._emit(pos, rot)
+        return self._emit(pos, rot, self._reference(goals), incoming, matrix)
 
-    def pose(self, targets, iterations):
+    def pose(self, targets, iterations, incoming=None):
         """Posing mode: the static ARAP pose for the targets, warm-started from the current state."""
         self.timing = {"solver": 0.0, "skin": 0.0}
         if self.n_constraints == 0:
@@ -251,4 +324,5 @@ class Engine:
         self.timing["solver"] += time.perf_counter() - t0
         self.cache.clear()
         self.solver_frame = None
-        return self._emit(self.sim.positions, self.sim.rotations)
+        incoming = self.rest_local if incoming is None else incoming
+        return self._emit(self.sim.positions, self.sim.rotations, self._rest_skin, incoming, self.matrix_world)

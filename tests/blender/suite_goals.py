@@ -1,0 +1,187 @@
+"""Goals and non-destructive output inside Blender (run by tests/test_addon_goals.py through runner.py, in
+Debian's Blender and in the bpy module): the armature-swung tail lags, overshoots and settles back onto the
+animation, follows it exactly at full strength, object keyframes count, a painted goal weight softens; the
+mesh's own vertices never change (play, bake, disable, reload); Edit Mode edits reach the rest; subframes
+blend like the bake; linked duplicates and bad input are reports that keep the last good frame."""
+
+import math
+import os
+
+import bpy
+import numpy as np
+
+import helpers as H
+
+LENGTH = 2.0  # the tail
+
+
+def _angles(motion):
+    """Per frame: the tip's angle about z ahead of the animated tip (degrees), the tip's distance from it."""
+    ahead = [math.degrees(math.atan2(o[1], o[0]) - math.atan2(a[1], a[0])) for o, a, _ in motion]
+    return np.array(ahead), np.array([np.linalg.norm(o - a) for o, a, _ in motion])
+
+
+def test_armature_tail_lags_overshoots_and_settles():
+    tail = H.tail_rig(0.5)
+    base = H.base_positions(tail)
+    motion = H.tail_motion(tail, range(1, 6 * H.FPS + 1))
+    assert not tail.opdeform.error, tail.opdeform.error
+    ahead, lag = _angles(motion)
+    swing = slice(1, H.SWING_FRAMES + 1)
+    assert lag[swing].max() > 0.1 and ahead[swing].min() < -3.0, (lag[swing].max(), ahead[swing].min())
+    assert ahead[H.SWING_FRAMES + 1:].max() > 1.0, "no overshoot after the swing stopped"
+    assert motion[-1][2] < 1e-3 * LENGTH, f"not settled onto the animation: {motion[-1][2]}"
+    np.testing.assert_array_equal(H.base_positions(tail), base)  # the mesh itself never moved
+
+
+def test_full_strength_is_the_animation():
+    for armature in (True, False):  # the armature's swing, then the object's own keyframes
+        H.fresh()
+        tail = H.tail_rig(1.0, armature=armature)
+        motion = H.tail_motion(tail, range(1, 2 * H.FPS + 1))
+        assert not tail.opdeform.error, tail.opdeform.error
+        worst = max(d for _, _, d in motion)
+        assert worst < 1e-3 * LENGTH, (armature, worst)
+        assert np.linalg.norm(motion[-1][1] - motion[0][1]) > 1.0, "the animation did not move the tip"
+
+
+def test_object_keyframes_lag_and_settle():
+    tail = H.tail_rig(0.5, armature=False)
+    ahead, lag = _angles(H.tail_motion(tail, range(1, 6 * H.FPS + 1)))
+    assert lag[1:H.SWING_FRAMES + 1].max() > 0.1 and ahead[H.SWING_FRAMES + 1:].max() > 1.0
+    assert lag[-1] < 1e-3 * LENGTH, lag[-1]
+
+
+def test_goal_weight_softens():
+    """Strength 1 with a goal group painted 0.2 everywhere lags visibly; painted 1 it is the animation."""
+    deviations = {}
+    for weight in (0.2, 1.0):
+        H.fresh()
+        tail = H.tail_rig(1.0, group=weight)
+        deviations[weight] = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    assert deviations[1.0] < 1e-3 * LENGTH and deviations[0.2] > 0.05, deviations
+
+
+def test_base_mesh_unchanged_after_play_bake_disable_reload():
+    tail = H.tail_rig(0.5)
+    tail.opdeform.frame_end = 24
+    base = H.base_positions(tail)
+    users = {m.name for m in tail.modifiers}, set(tail.vertex_groups.keys())
+    live = H.play(range(1, 25))["Tail"]
+    np.testing.assert_array_equal(H.base_positions(tail), base)
+    path = os.path.join(H.tmpdir(), "goals.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    assert "opdeform_offset" in tail.data.attributes, "the offset is back after the save"
+    bpy.ops.opdeform.bake(object=tail.name)
+    np.testing.assert_array_equal(H.base_positions(tail), base)
+    for f in (1, 12, 24):  # the bake plays the frames of live playback, Armature included
+        bpy.context.scene.frame_set(f)
+        np.testing.assert_array_equal(H.positions(tail), live[f])
+    bpy.ops.opdeform.free_bake(object=tail.name)
+    bpy.context.scene.frame_set(12)
+    bpy.ops.opdeform.disable(object=tail.name)
+    assert "OPDeform" not in tail.modifiers and "opdeform_offset" not in tail.data.attributes
+    np.testing.assert_array_equal(H.positions(tail), H.animated_or_plain(tail))  # the plain animation
+    assert users[0] - {"OPDeform"} <= {m.name for m in tail.modifiers} and users[1] == set(tail.vertex_groups.keys())
+    bpy.ops.wm.open_mainfile(filepath=path)  # saved while playing: no offset in the file
+    tail = bpy.data.objects["Tail"]
+    assert "opdeform_offset" not in tail.data.attributes
+    np.testing.assert_array_equal(H.base_positions(tail), base)
+    H.disable_addon()  # without the add-on: the original mesh and its animation
+    bpy.context.scene.frame_set(12)
+    np.testing.assert_array_equal(H.positions(tail), H.animated_or_plain(tail))
+    H.enable_addon()
+
+
+def test_edit_mode_edits_reach_the_rest():
+    import bmesh
+    obj = H.bar_object()
+    bpy.ops.opdeform.enable(object=obj.name)
+    H.play(range(1, 11))
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    vert = max(bm.verts, key=lambda v: v.co.x)
+    tip = vert.index
+    assert abs(vert.co.x - 2.0) < 1e-6, "Edit Mode does not show the rest mesh"
+    vert.co.z += 0.3
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.scene.frame_set(11)
+    rt = H.runtime().get(obj)
+    assert not obj.opdeform.error, obj.opdeform.error
+    assert rt.engine.rest_local[tip, 2] == H.base_positions(obj)[tip, 2] > 0.15
+
+
+def test_subframes_blend_like_the_bake():
+    tail = H.tail_rig(0.5)
+    tail.opdeform.frame_end = 14
+    H.play(range(1, 12))
+    scene = bpy.context.scene
+    scene.frame_set(10, subframe=0.5)
+    live = H.positions(tail)
+    scene.frame_set(10)
+    at10 = H.positions(tail)
+    scene.frame_set(11)
+    at11 = H.positions(tail)
+    assert np.abs(live - 0.5 * (at10 + at11)).max() < 1e-5 and np.abs(at11 - at10).max() > 1e-2
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "subframes.blend"))
+    bpy.ops.opdeform.bake(object=tail.name)
+    scene.frame_set(10, subframe=0.5)
+    assert np.abs(H.positions(tail) - live).max() < 1e-6 * LENGTH
+
+
+def test_linked_duplicates_report_and_bake():
+    obj = H.bar_object()
+    bpy.ops.opdeform.enable(object=obj.name)
+    twin = obj.copy()  # Alt+D: the same mesh
+    twin.name = "Twin"
+    bpy.context.scene.collection.objects.link(twin)
+    bpy.context.scene.frame_set(2)
+    assert "shared with Twin" in obj.opdeform.error and "Make Single User" in obj.opdeform.error, obj.opdeform.error
+    bpy.ops.opdeform.reset(object=obj.name)
+    obj.opdeform.frame_end = 10
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "twins.blend"))
+    bpy.ops.opdeform.bake(object=obj.name)  # a bake writes nothing into the shared mesh
+    assert obj.opdeform.baked and not obj.opdeform.error, obj.opdeform.error
+
+
+def test_bad_goal_input_reports_and_keeps_the_last_frame():
+    tail = H.tail_rig(0.5)
+    for name, words in (("Missing", "not a vertex group"), ("Empty", "no vertices")):
+        if name == "Empty":
+            tail.vertex_groups.new(name="Empty")
+        tail.opdeform.goal_group = name
+        H.expect_error(lambda: bpy.ops.opdeform.build(object=tail.name), name, words, "Tail")
+    tail.opdeform.goal_group = ""
+    bpy.ops.opdeform.build(object=tail.name)
+    H.play(range(1, 6))
+    shown = H.runtime().get(tail).engine.offset.copy()
+    key = tail.shape_key_add(name="Basis")  # a shape key with NaN positions: non-finite goal positions
+    bad = tail.shape_key_add(name="Bad")
+    bad.data[0].co = (float("nan"), 0.0, 0.0)
+    bad.value = 1.0
+    bpy.context.scene.frame_set(6)
+    assert "non-finite" in tail.opdeform.error and "Tail" in tail.opdeform.error, tail.opdeform.error
+    np.testing.assert_array_equal(H.runtime().get(tail).engine.offset, shown)
+    assert key is not None
+
+
+def test_shape_keys_are_followed():
+    """Shape keys are the input like an Armature: at full strength the output is the shape-keyed mesh."""
+    obj = H.bar_object(pinned=False)
+    obj.shape_key_add(name="Basis")
+    up = obj.shape_key_add(name="Up")
+    for p in up.data:
+        p.co.z += 0.1 * p.co.x
+    up.value = 0.0
+    up.keyframe_insert("value", frame=1)
+    up.value = 1.0
+    up.keyframe_insert("value", frame=10)
+    bpy.context.scene.use_gravity = False
+    obj.opdeform.use_goal, obj.opdeform.goal_strength = True, 1.0
+    bpy.ops.opdeform.enable(object=obj.name)
+    for f in range(1, 13):
+        bpy.context.scene.frame_set(f)
+        assert np.abs(H.positions(obj) - H.animated_positions(obj)).max() < 2e-3, f
+    assert H.positions(obj)[:, 2].max() > 0.25 and not obj.opdeform.error
