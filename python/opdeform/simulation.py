@@ -175,8 +175,8 @@ class Simulation:
         the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
         run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
         flops per factor entry, else supernodal; "simplicial"; "supernodal"). ``tolerance`` > 0: each step
-        iterates until its estimated error (the largest distance of a particle's material from the step's
-        solution, as a fraction of the body's size) is at most this, at most ``max_iterations`` pairs, and
+        iterates until its residual (the largest displacement of a particle's material in the last pair, as
+        a fraction of the body's size) is at most this, at most ``max_iterations`` pairs, and
         ``step_report`` says what it reached; 0: ``iterations`` pairs a step. None keeps the current value of
         either (defaults: 0 and 100)."""
         current = self._core.solver()
