@@ -73,7 +73,7 @@ def test_the_tolerance_is_reached_on_every_step_and_reported():
 def test_without_a_tolerance_a_step_is_exactly_its_iterations():
     sim = scenes.fig1_bar()
     sim.step(3)
-    assert sim.solver["tolerance"] == 0.0
+    assert sim.tolerance == 0.0 and sim.max_iterations == 100
     assert sim.step_report == dict(steps=3, iterations=30, most_iterations=10, error=-1.0, unconverged=0)
 
 

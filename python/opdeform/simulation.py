@@ -188,7 +188,9 @@ class Simulation:
 
     @property
     def solver(self):
+        """The accelerator, window, rho, threads and factorization (``tolerance`` and ``max_iterations`` apart)."""
         s = self._core.solver()
+        del s["tolerance"], s["max_iterations"]
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
         s["factorization"] = self.FACTORIZATIONS[s["factorization"]]
         return s
@@ -197,6 +199,16 @@ class Simulation:
     def counters(self):
         """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
         return self._core.counters()
+
+    @property
+    def tolerance(self):
+        """The residual tolerance of a step (0: ``iterations`` pairs a step), set by ``set_solver``."""
+        return self._core.solver()["tolerance"]
+
+    @property
+    def max_iterations(self):
+        """The cap of a step under a tolerance, set by ``set_solver``."""
+        return self._core.solver()["max_iterations"]
 
     @property
     def step_report(self):
