@@ -85,6 +85,14 @@ typedef enum od_Mode
 
 typedef struct od_GlobalSolver od_GlobalSolver; // opaque, global_solve.c
 
+// The error estimate under a tolerance (tolerance.c).
+typedef struct od_Tolerance
+{
+	double* x;     // n*3, the centres of the previous iterate
+	double* R;     // n*9, its rotations
+	double size;   // the rest body's largest extent (m)
+} od_Tolerance;
+
 struct od_Sim
 {
 	const od_Graph* graph;
@@ -129,6 +137,8 @@ struct od_Sim
 	int* sweepOrder; // n
 	bool partitionDirty;
 
+	od_Tolerance tolerance;
+	od_StepReport report;
 	od_SimCounters counters;
 	_Atomic int busy;
 };

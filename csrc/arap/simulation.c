@@ -19,6 +19,7 @@
 #include "polar.h"
 #include "position_constraints.h"
 #include "sim.h"
+#include "tolerance.h"
 
 #include <math.h>
 #include <stdatomic.h>
@@ -46,6 +47,7 @@ od_SolverDef od_DefaultSolverDef(void)
 	def.window = 5;
 	def.rho = 0.999;
 	def.threads = 1;
+	def.maxIterations = 100;
 	return def;
 }
 
@@ -73,6 +75,11 @@ static od_Status od_CheckSolverDef(const od_SolverDef* def)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, 64] (0: one per core)", def->threads);
 	}
+	if (!(def->tolerance >= 0.0) || !isfinite(def->tolerance) || def->maxIterations < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "tolerance = %g must be finite and >= 0, max_iterations = %d >= 1",
+					   def->tolerance, def->maxIterations);
+	}
 	return OD_OK;
 }
 
@@ -94,6 +101,10 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 		}
 	}
 	status = od_Accelerator_Reset(&sim->accelerator, def->accelerator, 3 * n3, def->window, def->rho);
+	if (status == OD_OK && def->tolerance > 0.0)
+	{
+		status = od_Tolerance_Prepare(sim);
+	}
 	if (status != OD_OK)
 	{
 		return status;
@@ -271,6 +282,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Constraints_Destroy(&sim->constraints);
 	od_Goals_Destroy(&sim->goals);
 	od_Accelerator_Destroy(&sim->accelerator);
+	od_Tolerance_Destroy(&sim->tolerance);
 	od_Pool_Destroy(sim->pool);
 	od_Free(sim->RInput);
 	od_Free(sim->RPlain);
@@ -402,6 +414,11 @@ od_SimCounters od_Sim_GetCounters(const od_Sim* sim)
 	return sim->counters;
 }
 
+od_StepReport od_Sim_GetStepReport(const od_Sim* sim)
+{
+	return sim->report;
+}
+
 void od_Sim_SetEnergyTrace(od_Sim* sim, int enabled)
 {
 	sim->traceEnabled = enabled != 0;
@@ -486,29 +503,58 @@ static od_Status od_AcceleratedIteration(od_Sim* sim, double* accepted)
 	return status;
 }
 
-// The shared iteration: a global solve with the current rotations, then local/global pairs.
+static od_Status od_PlainIteration(od_Sim* sim)
+{
+	od_LocalStep(sim);
+	od_Trace(sim);
+	return od_GlobalStep(sim);
+}
+
+// Records a dynamic step's iterations and estimated error (-1: none, no tolerance) in the call's report.
+static void od_Report(od_Sim* sim, int iterations, double error)
+{
+	od_StepReport* r = &sim->report;
+	r->steps++;
+	r->iterations += iterations;
+	r->mostIterations = iterations > r->mostIterations ? iterations : r->mostIterations;
+	r->error = fmax(r->error, error);
+	r->unconverged += error > sim->solverDef.tolerance;
+}
+
+// The shared iteration: a global solve with the current rotations, then local/global pairs: `iterations`
+// of them, or under a tolerance (dynamic steps only) until the estimate is below it, at most maxIterations.
 static od_Status od_Iterate(od_Sim* sim, int iterations)
 {
 	sim->traceCount = 0;
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
-	if (sim->solverDef.accelerator != OD_ACCELERATE_NONE && status == OD_OK)
+	bool accelerate = sim->solverDef.accelerator != OD_ACCELERATE_NONE;
+	bool tolerance = sim->solverDef.tolerance > 0.0 && sim->mode == OD_DYNAMIC;
+	double accepted = 0.0, error = -1.0;
+	if (accelerate && status == OD_OK)
 	{
 		od_Accelerator_Restart(&sim->accelerator);
-		double accepted = od_Energy(sim);
-		for (int it = 0; it < iterations && status == OD_OK; ++it)
-		{
-			status = od_AcceleratedIteration(sim, &accepted);
-			od_Trace(sim);
-		}
-		return status;
+		accepted = od_Energy(sim);
 	}
-	for (int it = 0; it < iterations && status == OD_OK; ++it)
+	if (tolerance)
 	{
-		od_LocalStep(sim);
+		od_Tolerance_Start(sim);
+		iterations = sim->solverDef.maxIterations;
+	}
+	int it = 0;
+	while (it < iterations && status == OD_OK)
+	{
+		status = accelerate ? od_AcceleratedIteration(sim, &accepted) : od_PlainIteration(sim);
 		od_Trace(sim);
-		status = od_GlobalStep(sim);
-		od_Trace(sim);
+		++it;
+		if (tolerance && (error = od_Tolerance_Estimate(sim)) <= sim->solverDef.tolerance)
+		{
+			break;
+		}
+	}
+	if (sim->mode == OD_DYNAMIC)
+	{
+		od_Report(sim, it, error);
 	}
 	return status;
 }
@@ -587,6 +633,7 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 		return status;
 	}
 	int n = sim->graph->n;
+	sim->report = (od_StepReport){ .error = -1.0 };
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
 		memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);

@@ -347,13 +347,15 @@ static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
 						 c.globalSeconds);
 }
 
-// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads, factorization)
+// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads, factorization, tolerance,
+// max_iterations)
 static PyObject* Sim_set_solver(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
 	od_SolverDef d = od_DefaultSolverDef();
 	int kind;
-	if (!sim || !PyArg_ParseTuple(args, "iidii", &kind, &d.window, &d.rho, &d.threads, &d.factorization))
+	if (!sim || !PyArg_ParseTuple(args, "iidiidi", &kind, &d.window, &d.rho, &d.threads, &d.factorization,
+								  &d.tolerance, &d.maxIterations))
 	{
 		return NULL;
 	}
@@ -370,8 +372,22 @@ static PyObject* Sim_solver(PyObject* obj, PyObject* unused)
 		return NULL;
 	}
 	od_SolverDef d = od_Sim_GetSolver(sim);
-	return Py_BuildValue("{sisisdsisi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho,
-						 "threads", d.threads, "factorization", d.factorization);
+	return Py_BuildValue("{sisisdsisisdsi}", "accelerator", (int)d.accelerator, "window", d.window, "rho", d.rho,
+						 "threads", d.threads, "factorization", d.factorization, "tolerance", d.tolerance,
+						 "max_iterations", d.maxIterations);
+}
+
+static PyObject* Sim_step_report(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_StepReport r = od_Sim_GetStepReport(sim);
+	return Py_BuildValue("{sisisisdsi}", "steps", r.steps, "iterations", r.iterations, "most_iterations",
+						 r.mostIterations, "error", r.error, "unconverged", r.unconverged);
 }
 
 static PyGetSetDef Sim_getset[] = {
@@ -399,6 +415,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "params", Sim_params, METH_NOARGS, NULL },
 	{ "set_params", Sim_set_params, METH_VARARGS, NULL },
 	{ "counters", Sim_counters, METH_NOARGS, NULL },
+	{ "step_report", Sim_step_report, METH_NOARGS, NULL },
 	{ "set_solver", Sim_set_solver, METH_VARARGS, NULL },
 	{ "solver", Sim_solver, METH_NOARGS, NULL },
 	{ NULL, NULL, 0, NULL },

@@ -167,20 +167,30 @@ class Simulation:
 
     FACTORIZATIONS = ("auto", "simplicial", "supernodal")
 
-    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto"):
+    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto", tolerance=None,
+                   max_iterations=None):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
         ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy;
         ``threads`` (0: one per core) for the local step (a block of particles per thread, then the border),
         the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
         run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
-        flops per factor entry, else supernodal; "simplicial"; "supernodal")."""
+        flops per factor entry, else supernodal; "simplicial"; "supernodal"). ``tolerance`` > 0: each step
+        iterates until its residual (the largest displacement of a particle's material in the last pair, as
+        a fraction of the body's size) is at most this, at most ``max_iterations`` pairs, and
+        ``step_report`` says what it reached; 0: ``iterations`` pairs a step. None keeps the current value of
+        either (defaults: 0 and 100)."""
+        current = self._core.solver()
+        tolerance = current["tolerance"] if tolerance is None else number("tolerance", tolerance)
+        cap = current["max_iterations"] if max_iterations is None else integer("max_iterations", max_iterations)
         self._core.set_solver(choice("accelerator", accelerator, self.ACCELERATORS), integer("window", window),
                               number("rho", rho), integer("threads", threads),
-                              choice("factorization", factorization, self.FACTORIZATIONS))
+                              choice("factorization", factorization, self.FACTORIZATIONS), tolerance, cap)
 
     @property
     def solver(self):
+        """The accelerator, window, rho, threads and factorization (``tolerance`` and ``max_iterations`` apart)."""
         s = self._core.solver()
+        del s["tolerance"], s["max_iterations"]
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
         s["factorization"] = self.FACTORIZATIONS[s["factorization"]]
         return s
@@ -189,6 +199,23 @@ class Simulation:
     def counters(self):
         """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
         return self._core.counters()
+
+    @property
+    def tolerance(self):
+        """The residual tolerance of a step (0: ``iterations`` pairs a step), set by ``set_solver``."""
+        return self._core.solver()["tolerance"]
+
+    @property
+    def max_iterations(self):
+        """The cap of a step under a tolerance, set by ``set_solver``."""
+        return self._core.solver()["max_iterations"]
+
+    @property
+    def step_report(self):
+        """What the last ``step`` call did: steps, iterations (all steps), most_iterations (in one step), error
+        (the largest residual at the end of a step, a fraction of the body's size; -1 without a
+        tolerance) and unconverged (steps that stopped at max_iterations above the tolerance)."""
+        return self._core.step_report()
 
     @property
     def trace_energy(self):

@@ -138,15 +138,19 @@ def build_scenes(quick):
 
 
 def _clip(make, k, variant):
-    """120 steps (2 s) of a set-up; returns the particle positions of every frame and ms/step."""
-    sim, animate = make(k, variant)
+    """120 steps (2 s) of a set-up; returns the particle positions of every frame and processor ms/step.
+    ``k`` is an iteration count, or a float below 1: a residual tolerance (Simulation.set_solver)."""
+    tolerance = k if isinstance(k, float) else 0.0
+    sim, animate = make(10 if tolerance else k, variant)
+    if tolerance:
+        sim.set_solver(variant, tolerance=tolerance)
     frames = []
-    t = time.perf_counter()
+    t = time.process_time()
     for f in range(120):
         animate(f / 60.0)
         sim.step()
         frames.append(sim.positions)
-    return np.array(frames), (time.perf_counter() - t) * 1e3 / 120
+    return np.array(frames), (time.process_time() - t) * 1e3 / 120
 
 
 def twisted_clip(k, variant):
@@ -166,18 +170,30 @@ def sagging_clip(k, variant):
     return sim, lambda t: None
 
 
-def clip_error(iteration_counts):
-    """Each 2-second clip at each iteration count against a converged ARAP clip (positions over time)."""
+TOLERANCES = (1e-4, 5e-5, 2e-5, 1e-5)
+
+
+def clip_error(iteration_counts, rounds=3):
+    """Each 2-second clip at each iteration count and each tolerance against a converged ARAP clip (positions
+    over time). The variants are timed interleaved, one run of each per round, in processor time, and the
+    median of the rounds kept, so that a load that comes and goes cannot favour one of them."""
     rows = []
     for name, make, variants in (("twisted bar", twisted_clip, VARIANTS),
                                  ("sagging bar", sagging_clip, VARIANTS + ("shape matching",))):
         ref, _ = _clip(make, 400, "chebyshev")
-        for variant in variants:
-            for k in iteration_counts:
-                frames, ms = _clip(make, k, variant)
-                err = float(np.sqrt(((frames - ref) ** 2).sum(-1).mean()) / scenes.BAR_LENGTH)
-                rows.append((name, variant, k, ms, err))
+        runs = [(v, k) for v in variants for k in iteration_counts]
+        runs += [(v, t) for v in VARIANTS for t in TOLERANCES]
+        times, frames = {r: [] for r in runs}, {}
+        for _ in range(rounds):
+            for run in runs:
+                frames[run], ms = _clip(make, run[1], run[0])
+                times[run].append(ms)
+        for variant, k in runs:
+            err = float(np.sqrt(((frames[variant, k] - ref) ** 2).sum(-1).mean()) / scenes.BAR_LENGTH)
+            label = f"tol {k:g}" if isinstance(k, float) else k
+            rows.append((name, variant, label, statistics.median(times[variant, k]), err))
     return rows
+
 
 
 def plot(scene, rows, path):
@@ -272,6 +288,7 @@ def run(args):
         w.writerow(["clip", "variant", "iterations", "ms_per_step", "rms_position_error_over_bar_length"])
         w.writerows(clip)
     print()
+    print(f"load average {os.getloadavg()[0]:.2f}; ms/step in processor time, variants interleaved")
     print("2-second clips (120 steps) against a converged ARAP clip: RMS position error / bar length")
     table([(c, v, k, f"{ms:.3f}", f"{e:.2e}") for c, v, k, ms, e in clip],
           ["clip", "variant", "iterations", "ms/step", "error"])

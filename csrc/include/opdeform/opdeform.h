@@ -96,6 +96,10 @@ typedef struct od_SolverDef
 	                // border; the right side and the substitution split too (same bits run to run)
 	int factorization; // CHOLMOD's path: 0 auto (supernodal from 400 flops per factor entry), 1 simplicial,
 	                   // 2 supernodal; the substitution is the same for all (cholesky.c)
+	double tolerance;  // 0: od_SimDef.iterations pairs per step. > 0: iterate each step until the residual
+	                   // (tolerance.c: the largest displacement of a particle's material in the last pair, as a
+	                   // fraction of the body's size) is at most this, or maxIterations pairs were made
+	int maxIterations; // the cap of a step under a tolerance (>= 1)
 } od_SolverDef;
 
 od_SolverDef od_DefaultSolverDef(void);
@@ -116,6 +120,19 @@ typedef struct od_SimCounters
 } od_SimCounters;
 
 od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
+
+// What the last od_Sim_Step call did (all of its steps).
+typedef struct od_StepReport
+{
+	int steps;
+	int iterations;     // local/global pairs, all steps
+	int mostIterations; // the most in one step
+	double error;       // the largest residual at the end of a step (fraction of the body's size);
+	                    // measured only under a tolerance, else -1
+	int unconverged;    // steps that stopped at maxIterations above the tolerance
+} od_StepReport;
+
+od_StepReport od_Sim_GetStepReport(const od_Sim* sim);
 
 #ifdef __cplusplus
 }

@@ -1,0 +1,135 @@
+"""Settings an artist can use (issue 14): stiffness in Pa that keeps the look at any size, presets and their
+droop, the error tolerance reached on every step and reported, the frame-rate helper and the panel's warnings.
+Figures in docs/settings.md."""
+import math
+
+import numpy as np
+import pytest
+
+import opdeform
+from opdeform import materials, meshes, scenes
+
+
+def tail(scale=1.0, particles=100):
+    """The 2 m x 0.2 m tail of the issue, root at x = 0."""
+    v, t = meshes.bar(length=2.0, width=0.2, segments=80, cross=4)
+    v = v * scale
+    return v, t, opdeform.Graph.from_mesh(v, t, particles=particles)
+
+
+def droop(material, scale=1.0, particles=100):
+    """Static droop of the pinned tail's tip as a fraction of its length."""
+    v, t, g = tail(scale, particles)
+    m = materials.PRESETS[material]
+    sim = opdeform.Simulation(g, materials.stiffness_for(g, m.modulus), density=m.density)
+    opdeform.pin_vertices(sim, v, np.flatnonzero(v[:, 0] <= 1e-9))
+    sim.set_solver("chebyshev")
+    sim.solve_static(4000)
+    tip = np.flatnonzero(v[:, 0] >= v[:, 0].max() - 1e-9)
+    return -float((sim.skin_points(v[tip])[:, 2] - v[tip, 2]).mean()) / (2.0 * scale)
+
+
+def test_the_same_modulus_droops_the_same_at_any_scale():
+    d = [droop("Rubber", s) for s in (0.1, 1.0, 10.0)]
+    assert max(d) / min(d) < 1.1, d
+
+
+@pytest.mark.xfail(strict=True, reason="open: the affine calibration of k misses how the graph bends with one or "
+                   "two particles across (droop 7 % at 50 particles, 16-18 % from 150 to 400; docs/settings.md)")
+def test_the_same_modulus_droops_the_same_at_any_particle_count():
+    d = [droop("Rubber", 1.0, n) for n in (50, 100, 200, 400)]
+    assert max(d) / min(d) < 1.1, d
+
+
+def test_presets_droop_as_documented():
+    d = {name: droop(name) for name in materials.PRESETS}
+    assert 0.08 < d["Rubber"] < 0.14  # the default: roughly 10 %
+    assert d["Jelly"] > d["Flesh"] > d["Rubber"] > d["Stiff"]
+    assert d["Stiff"] < 0.02
+
+
+def sagging_clip(tolerance=0.0, iterations=10, accelerator="none"):
+    sim = scenes.fig1_bar(iterations=iterations)
+    sim.set_solver(accelerator, tolerance=tolerance)
+    frames, reports = [], []
+    for _ in range(120):
+        sim.step()
+        frames.append(sim.positions)
+        reports.append(sim.step_report)
+    return np.array(frames), reports
+
+
+def test_the_tolerance_is_reached_on_every_step_and_reported():
+    ref, _ = sagging_clip(iterations=400, accelerator="chebyshev")
+    frames, reports = sagging_clip(materials.DEFAULT_TOLERANCE, accelerator=materials.DEFAULT_ACCELERATOR)
+    for r in reports:
+        assert r["steps"] == 1 and r["unconverged"] == 0
+        assert 0.0 <= r["error"] <= materials.DEFAULT_TOLERANCE
+        assert 1 <= r["iterations"] <= 100
+    error = np.sqrt(((frames - ref) ** 2).sum(-1).mean()) / scenes.BAR_LENGTH
+    assert error < 2e-3  # 0.2 % of the bar's length over the 2-second clip
+
+
+def test_without_a_tolerance_a_step_is_exactly_its_iterations():
+    sim = scenes.fig1_bar()
+    sim.step(3)
+    assert sim.tolerance == 0.0 and sim.max_iterations == 100
+    assert sim.step_report == dict(steps=3, iterations=30, most_iterations=10, error=-1.0, unconverged=0)
+
+
+def test_a_step_that_hits_the_cap_is_reported():
+    sim = scenes.fig1_bar()
+    sim.set_solver(tolerance=1e-14, max_iterations=3)
+    sim.step(2)
+    r = sim.step_report
+    assert r["iterations"] == 6 and r["unconverged"] == 2 and r["error"] > 1e-14
+
+
+def test_a_turned_handle_is_followed_at_defaults():
+    bar = scenes.TwistedBar()
+    bar.sim.set_solver(materials.DEFAULT_ACCELERATOR, tolerance=materials.DEFAULT_TOLERANCE)
+    bar.pose(math.radians(60.0), (0.0, 0.0, 0.0))
+    bar.sim.step(30)  # 0.5 s
+    a, b = bar.sim.skin_points([(2.0, 0.0, 0.0), (2.0, 0.1, 0.0)])
+    assert abs(math.degrees(math.atan2(b[2] - a[2], b[1] - a[1])) - 60.0) < 10.0
+
+
+def test_substeps_give_one_step_size_at_every_frame_rate():
+    assert [materials.substeps_for(f) for f in (24, 30, 48, 60)] == [10, 8, 5, 4]
+    assert [materials.substeps_for(f, 1 / 120) for f in (24, 30, 60)] == [5, 4, 2]
+    assert materials.step_damping(0.0, 0.1) == 0.0
+    assert materials.step_damping(1.0, 0.5) == pytest.approx(2 * materials.step_damping(1.0, 0.25)
+                                                             - materials.step_damping(1.0, 0.25) ** 2)
+
+
+def test_scale_keeps_the_stiffness_formula():
+    _, _, g = tail()
+    big = opdeform.Graph(g.centers * 10, g.radii * 10, g.edges, g.axes)
+    # k ~ modulus * size / spacing^2: ten times larger, a tenth of k
+    assert materials.stiffness_for(big, 1e6) == pytest.approx(materials.stiffness_for(g, 1e6) / 10, rel=1e-9)
+    with pytest.raises(ValueError):
+        materials.stiffness_for(g, -1.0)
+
+
+def test_stretch_warning():
+    _, _, g = tail()
+    ratio, edges = materials.stretch_warning(g, g.centers)
+    assert ratio == pytest.approx(1.0) and len(edges) == 0
+    stretched = g.centers * np.array([3.0, 1.0, 1.0])
+    ratio, edges = materials.stretch_warning(g, stretched)
+    assert ratio > 2.0 and len(edges) > 0
+
+
+def test_thin_part_warning():
+    v, t, coarse = tail(particles=20)
+    thickness, spacing, warn = materials.thin_part_warning(coarse, v, t)
+    assert thickness == pytest.approx(0.2, rel=0.05) and warn
+    _, _, fine = tail(particles=400)
+    assert not materials.thin_part_warning(fine, v, t)[2]
+
+
+def test_handle_warning():
+    sim = scenes.fig1_bar()
+    assert not materials.handle_warning(sim, speed=1.0, fps=24)[1]
+    assert materials.handle_warning(sim, speed=5.0, fps=24)[1]  # 0.21 m a step on a 2 m bar
+    assert not materials.handle_warning(sim, speed=5.0, fps=24, substeps=5)[1]
