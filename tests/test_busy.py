@@ -69,6 +69,8 @@ def _sim_case(scale):
         "params": lambda: sim.params, "set_params": lambda: sim.set_params(damping=0.5),
         "set_solver": lambda: sim.set_solver("anderson"), "solver": lambda: sim.solver,
         "counters": lambda: sim.counters, "energy_trace": lambda: sim.energy_trace,
+        "tolerance": lambda: sim.tolerance, "max_iterations": lambda: sim.max_iterations,
+        "step_report": lambda: sim.step_report,
         "trace_energy": lambda: sim.trace_energy, "trace_energy=": lambda: setattr(sim, "trace_energy", True),
     }
 
