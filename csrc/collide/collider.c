@@ -303,6 +303,7 @@ static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexC
 		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
 	}
 	c->spacing = fmax(c->minSpacing, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
+	c->spacing = c->resolution > 0 ? fmax(c->spacing, extent / c->resolution) : c->spacing;
 	size_t total = 1;
 	for (int a = 0; a < 3; ++a)
 	{
@@ -384,13 +385,15 @@ od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool
 	return OD_OK;
 }
 
-// An open mesh must be wound one way: the side of a triangle is what tells inside from outside.
-static od_Status od_CheckOpenWinding(const od_ShapeDef* def)
+// A mesh declared open, or found open when asked to look (def->detectOpen), must be wound one way: the side
+// of a triangle is what tells inside from outside.
+static od_Status od_CheckOpen(od_Collider* c, const od_ShapeDef* def)
 {
 	bool closed;
 	int flipped;
 	od_Status status = od_Collider_MeshTopology(def->triangles, def->triangleCount, &closed, &flipped);
-	if (status == OD_OK && flipped >= 0)
+	c->kind = def->kind == OD_SHAPE_OPEN_MESH || !closed ? OD_SHAPE_OPEN_MESH : OD_SHAPE_MESH;
+	if (status == OD_OK && c->kind == OD_SHAPE_OPEN_MESH && flipped >= 0)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT,
 					   "collider: triangles[%d] is wound against a neighbour (an inverted face of an open mesh)",
@@ -408,11 +411,12 @@ static od_Status od_MeshInit(od_Collider* c, const od_ShapeDef* def)
 	}
 	od_MeshView m = { def->vertices, def->triangles, def->triangleCount };
 	c->minSpacing = def->spacing;
+	c->resolution = def->resolution;
 	od_Status status = od_MeshBounds(c, &m, def->vertexCount, (double[3]){ INFINITY, INFINITY, INFINITY },
 									 (double[3]){ -INFINITY, -INFINITY, -INFINITY });
-	if (status == OD_OK && def->kind == OD_SHAPE_OPEN_MESH)
+	if (status == OD_OK && (def->kind == OD_SHAPE_OPEN_MESH || def->detectOpen))
 	{
-		status = od_CheckOpenWinding(def);
+		status = od_CheckOpen(c, def);
 	}
 	return status == OD_OK ? od_MeshSample(c, &m, def->vertexCount) : status;
 }

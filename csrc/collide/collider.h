@@ -27,6 +27,8 @@ typedef struct od_ShapeDef
 	int triangleCount;
 	const int* triangles;   // triangleCount*3 (mesh; not kept)
 	double spacing;         // the finest distance sample spacing a mesh needs
+	int resolution;         // mesh: at most this many samples along its longest side (0: as many as allowed)
+	bool detectOpen;        // OD_SHAPE_MESH: becomes OD_SHAPE_OPEN_MESH when an edge lacks its second triangle
 } od_ShapeDef;
 
 typedef struct od_Collider
@@ -39,6 +41,7 @@ typedef struct od_Collider
 	size_t capacity; // samples allocated
 	int dims[3];
 	double origin[3], spacing, minSpacing;
+	int resolution;
 	double radius; // bounding radius about the frame origin (for speed bounds)
 	// frames: at the start of the current call, its target, and the velocity over the call
 	od_Mat3 R0, R1;
