@@ -152,6 +152,11 @@ static void od_SdfBand(od_Collider* c, const od_MeshView* m)
 static void od_SdfSweep(od_Collider* c)
 {
 	const int* n = c->dims;
+	double reach[4]; // the distance to a neighbour by its squared offset in samples
+	for (int d2 = 0; d2 < 4; ++d2)
+	{
+		reach[d2] = c->spacing * sqrt((double)d2);
+	}
 	for (int pass = 0; pass < 2; ++pass)
 	{
 		int step = pass == 0 ? 1 : -1;
@@ -181,13 +186,16 @@ static void od_SdfSweep(od_Collider* c)
 								{
 									continue;
 								}
-								double w = c->spacing * sqrt((double)(dxx * dxx + dy * dy + dz * dz));
 								size_t from = od_SdfIndex(n, a, b, e);
-								if (c->side && c->sdf[from] + w < *s)
+								double through = c->sdf[from] + reach[dxx * dxx + dy * dy + dz * dz];
+								if (through < *s)
 								{
-									c->side[s - c->sdf] = c->side[from];
+									*s = through;
+									if (c->side)
+									{
+										c->side[s - c->sdf] = c->side[from];
+									}
 								}
-								*s = fmin(*s, c->sdf[from] + w);
 							}
 						}
 					}
@@ -197,12 +205,85 @@ static void od_SdfSweep(od_Collider* c)
 	}
 }
 
+// The rows of samples (j, k) whose yz lies in triangle tri's yz bounds: [lo[0], hi[0]] x [lo[1], hi[1]].
+static void od_RowRange(const od_Collider* c, const od_MeshView* m, int tri, int lo[2], int hi[2])
+{
+	for (int a = 0; a < 2; ++a)
+	{
+		double mn = INFINITY, mx = -INFINITY;
+		for (int corner = 0; corner < 3; ++corner)
+		{
+			double v = m->v[3 * m->t[3 * tri + corner] + 1 + a];
+			mn = fmin(mn, v);
+			mx = fmax(mx, v);
+		}
+		lo[a] = (int)fmax(floor((mn - c->origin[1 + a]) / c->spacing), 0.0);
+		hi[a] = (int)fmin(ceil((mx - c->origin[1 + a]) / c->spacing), c->dims[1 + a] - 1.0);
+	}
+}
+
+// Counts (fill = NULL) or lists (fill: each row's next free slot) the triangles of each row of samples.
+static void od_VisitRows(const od_Collider* c, const od_MeshView* m, int* count, int* fill, int* rowTris)
+{
+	for (int tri = 0; tri < m->triangles; ++tri)
+	{
+		int lo[2], hi[2];
+		od_RowRange(c, m, tri, lo, hi);
+		for (int k = lo[1]; k <= hi[1]; ++k)
+		{
+			for (int j = lo[0]; j <= hi[0]; ++j)
+			{
+				size_t row = (size_t)k * c->dims[1] + j;
+				if (fill)
+				{
+					rowTris[fill[row]++] = tri;
+				}
+				else
+				{
+					++count[row + 1];
+				}
+			}
+		}
+	}
+}
+
+// Per row of samples along x, the triangles whose yz bounds hold it (rows rowStart[r]..rowStart[r+1] of
+// rowTris): what its ray can cross. Measured: a 3,744-triangle sphere sampled at 64 took 185 ms when every
+// row tested every triangle.
+static int* od_RowTriangles(const od_Collider* c, const od_MeshView* m, int** rowTris)
+{
+	size_t rows = (size_t)c->dims[1] * c->dims[2];
+	int* start = od_AllocZero(rows + 1, sizeof(int));
+	int* fill = od_Alloc(sizeof(int) * (rows + 1));
+	if (start && fill)
+	{
+		od_VisitRows(c, m, start, NULL, NULL);
+		for (size_t r = 0; r < rows; ++r)
+		{
+			start[r + 1] += start[r];
+		}
+		memcpy(fill, start, sizeof(int) * (rows + 1));
+		*rowTris = od_Alloc(sizeof(int) * ((size_t)start[rows] + 1));
+	}
+	if (*rowTris)
+	{
+		od_VisitRows(c, m, NULL, fill, *rowTris);
+	}
+	od_Free(fill);
+	return start;
+}
+
 // Negates the samples inside the mesh: odd number of crossings of the +x ray from each sample.
 static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 {
+	int* rowTris = NULL;
+	int* rowStart = od_RowTriangles(c, m, &rowTris);
 	double* hits = od_Alloc(sizeof(double) * (size_t)m->triangles);
-	if (!hits)
+	if (!hits || !rowStart || !rowTris)
 	{
+		od_Free(hits);
+		od_Free(rowStart);
+		od_Free(rowTris);
 		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
 	}
 	// a tiny irrational offset keeps rays off shared edges and vertices
@@ -213,8 +294,10 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 		{
 			double y = c->origin[1] + j * c->spacing + jitter[0], z = c->origin[2] + k * c->spacing + jitter[1];
 			int count = 0;
-			for (int tri = 0; tri < m->triangles; ++tri)
+			size_t row = (size_t)k * c->dims[1] + j;
+			for (int r = rowStart[row]; r < rowStart[row + 1]; ++r)
 			{
+				int tri = rowTris[r];
 				od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), e = od_MeshVertex(m, tri, 2);
 				// barycentric coordinates of (y, z) in the triangle projected on the yz plane
 				double det = (b.y - a.y) * (e.z - a.z) - (e.y - a.y) * (b.z - a.z);
@@ -247,6 +330,8 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 		}
 	}
 	od_Free(hits);
+	od_Free(rowStart);
+	od_Free(rowTris);
 	return OD_OK;
 }
 
@@ -432,7 +517,8 @@ od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int ve
 	return status == OD_OK ? od_MeshSample(c, &m, vertexCount) : status;
 }
 
-// Trilinear sample of the mesh distance at local point p (clamped to the sample box: far away is outside).
+// Trilinear sample of the mesh distance at local point p (clamped to the sample box, then the distance to it:
+// beyond the box is outside a closed mesh and, behind an open one, inside).
 static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 {
 	double g[3] = { (p.x - c->origin[0]) / c->spacing, (p.y - c->origin[1]) / c->spacing,
@@ -454,7 +540,7 @@ static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 		double w = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
 		d += w * c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
 	}
-	return d + sqrt(outside) * c->spacing;
+	return d < 0.0 ? d - sqrt(outside) * c->spacing : d + sqrt(outside) * c->spacing; // < 0: behind an open mesh
 }
 
 // ---------------------------------------------------------------------------------------------------------
