@@ -7,6 +7,6 @@
 
 // The fraction of a tangential slide that Coulomb friction keeps when it may take at most `limit` of it.
 double od_CoulombKeep(double slide, double limit);
-// Contact over the fraction [s0, s1] of the current call: moves the particles out of the colliders (and
-// the start of a step of those that began inside), with friction (scaling angularScale).
-void od_ContactStep(od_Sim* sim, od_State* before, double s0, double s1);
+// Contact over the fraction [s0, s1] of the current call (before: the state at the step's start): moves the
+// particles out of the colliders, with friction (scaling angularScale).
+void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);
