@@ -31,7 +31,13 @@ def _sim():
 def _sim_state(sim):
     counters = {k: v for k, v in sim.counters.items() if not k.endswith("_seconds")}
     solver = sim.solver if hasattr(sim, "solver") else None
-    return [sim.positions, sim.rotations, sim.velocities, sim.params, sim.n_constraints, counters, solver]
+    colliders = sim.collider_distances([(0.0, 0.0, 0.0)]) if hasattr(sim, "n_colliders") else None
+    return [sim.positions, sim.rotations, sim.velocities, sim.params, sim.n_constraints, counters, solver, colliders]
+
+
+def _with_collider(sim):
+    sim.add_collider("sphere")
+    return sim
 
 
 def _world_state(world):
@@ -52,6 +58,10 @@ CALLS = {
     "Simulation.add_position_constraint": (_sim, lambda s, **kw: s.add_position_constraint(**kw),
                                            dict(point=(1, 0, 0)), _sim_state),
     "Simulation.set_floor": (_sim, lambda s, **kw: s.set_floor(**kw), {}, _sim_state),
+    "Simulation.add_collider": (_sim, lambda s, **kw: s.add_collider(**kw),
+                                dict(shape="mesh", vertices=_BOX[0], triangles=_BOX[1]), _sim_state),
+    "Simulation.move_collider": (lambda: _with_collider(_sim()), lambda s, **kw: s.move_collider(**kw),
+                                 dict(id=0, translation=(0, 0, 0)), _sim_state),
     "Skin": (None, lambda _, **kw: mesh.Skin(_graph(), **kw), dict(rest_vertices=[(0, 0, 0), (1, 0, 1)]), None),
     "mpm.World": (None, lambda _, **kw: mpm.World(**kw), dict(lower=(0, 0, 0), upper=(1, 1, 1), dx=0.1), None),
     "mpm.World.add_particles": (_world, lambda w, **kw: w.add_particles(**kw), dict(positions=[(0.5, 0.5, 0.5)]),

@@ -6,6 +6,7 @@
 // contact times h), and the angular velocity of the touching particle is scaled by the same ratio.
 #include "floor.h"
 
+#include "contact.h"
 #include "math3.h"
 
 void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
@@ -36,8 +37,7 @@ void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 			continue;
 		}
 		double dx = x[3 * i] - before->x[3 * i], dy = x[3 * i + 1] - before->x[3 * i + 1];
-		double slide = sqrt(dx * dx + dy * dy), limit = mu * lift;
-		double keep = slide > limit ? 1.0 - limit / slide : 0.0;
+		double keep = od_CoulombKeep(sqrt(dx * dx + dy * dy), mu * lift);
 		x[3 * i] = before->x[3 * i] + keep * dx;
 		x[3 * i + 1] = before->x[3 * i + 1] + keep * dy;
 		angularScale[i] = keep;

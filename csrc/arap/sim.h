@@ -5,6 +5,7 @@
 #pragma once
 
 #include "acceleration.h"
+#include "collider.h"
 #include "graph.h"
 #include "pool.h"
 
@@ -77,6 +78,25 @@ typedef struct od_Goals
 	unsigned version; // advances with every change of the frequencies (they enter the global matrix)
 } od_Goals;
 
+// A scene collider (colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the
+// turn between them (contact.c).
+typedef struct od_SimCollider
+{
+	int id;
+	od_Collider body; // shape and frames over the current call (collide/collider.c)
+	double friction, thickness;
+	int vertexCount, triangleCount;
+	int* triangles;   // a mesh's, kept for new vertices
+	od_Mat3 Ra, Rb;
+	od_Vec3 ta, tb, turn;
+} od_SimCollider;
+
+typedef struct od_Colliders
+{
+	od_SimCollider* items;
+	int count, capacity, nextId;
+} od_Colliders;
+
 typedef enum od_Mode
 {
 	OD_DYNAMIC = 0,
@@ -102,6 +122,7 @@ struct od_Sim
 	od_Goals goals;
 	bool hasFloor;
 	double floorHeight, floorFriction;
+	od_Colliders colliders;
 
 	od_State state;
 	od_State saved;    // the state at the start of the current call, restored on failure
@@ -113,7 +134,7 @@ struct od_Sim
 	double* y;            // n*3 predicted centres
 	double* Rtilde;       // n*9 predicted rotations
 	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
-	double* angularScale; // n, friction's scaling of the angular velocity of touching particles
+	double* angularScale; // n, friction's scaling of the angular velocity of touching particles (floor, colliders)
 
 	bool traceEnabled;
 	double* trace;

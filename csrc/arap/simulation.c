@@ -2,12 +2,15 @@
 //
 // A dynamic step (METHOD.md):
 //   predict y, R̃ from (x, v, R, ω) -> global solve with the previous rotations -> `iterations` pairs of
-//   (local Gauss-Seidel rotations, global solve) -> floor -> v = (x - x⁽¹⁾)/h, ω = log(R R⁽¹⁾ᵀ)/h.
+//   (local Gauss-Seidel rotations, global solve) -> floor -> colliders (contact.c) -> v = (x - x⁽¹⁾)/h,
+//   ω = log(R R⁽¹⁾ᵀ)/h.
 // Starting with the global solve matters: starting with a local step makes pinned particles rotate to
 // absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
 // which is what makes the stiffness depend on h and the iteration count.
 // A call that produces a non-finite state restores the state it started from and fails.
+#include "colliders.h"
 #include "constraints.h"
+#include "contact.h"
 #include "core.h"
 #include "check.h"
 #include "energy.h"
@@ -280,6 +283,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->rowArm);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
+	od_Colliders_Destroy(&sim->colliders);
 	od_Goals_Destroy(&sim->goals);
 	od_Accelerator_Destroy(&sim->accelerator);
 	od_Tolerance_Destroy(&sim->tolerance);
@@ -571,7 +575,7 @@ static void od_UpdateVelocities(od_Sim* sim, const od_State* before)
 		od_M3Store(s->R + 9 * i, &r);
 		od_Mat3 dr = od_M3MulNT(&r, &r0);
 		od_Vec3 w = od_Scale(invH, od_M3LogRotation(&dr));
-		if (sim->hasFloor)
+		if (sim->hasFloor || sim->colliders.count)
 		{
 			w = od_Scale(sim->angularScale[i], w);
 		}
@@ -634,6 +638,7 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 	}
 	int n = sim->graph->n;
 	sim->report = (od_StepReport){ .error = -1.0 };
+	od_Colliders_BeginCall(sim, steps);
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
 		memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
@@ -644,10 +649,16 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 		{
 			od_FloorStep(sim, &sim->previous, sim->angularScale);
 		}
+		if (sim->colliders.count)
+		{
+			od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps);
+		}
 		od_UpdateVelocities(sim, &sim->previous);
 		sim->counters.steps++;
 	}
-	return od_End(sim, status);
+	status = od_End(sim, status);
+	od_Colliders_EndCall(sim, status == OD_OK);
+	return status;
 }
 
 od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations)

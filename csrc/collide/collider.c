@@ -1,18 +1,23 @@
-// Colliders as signed distances: plane, box, sphere and closed triangle mesh, static or moving. Shared by
-// the subsystems that collide (MPM today; the ARAP solver next), so that there is one implementation.
+// Colliders as signed distances: plane, box, sphere, capsule, closed and open triangle meshes, static, moving
+// or deforming. Shared by the subsystems that collide (MPM and the ARAP solver), one implementation of each.
 //
 // Design: every shape is a signed distance φ (negative inside) with an outward normal, evaluated in the
 // collider's frame. A moving collider goes from its frame at the start of a call to the target set by
 // od_Collider_SetTarget, linearly in translation and along the shortest arc in rotation, so it has one
 // linear and one angular velocity per call; od_Collider_Place puts it at a fraction of the call.
 // A mesh is turned once into distance samples on a local grid: exact distances to the triangles in a
-// narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x.
+// narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x. An open mesh
+// (a ramp, a terrain, a table top: no inside to count crossings into) takes its sign from the side of its
+// nearest triangle instead, carried through the sweep with the distance; beyond its rim that side extends,
+// so behind a rim counts as inside. New vertices (a deforming collider) re-sample in the same memory when it
+// is large enough.
 // What a contact does (stick, slip, push back) is the caller's: see mpm/collider.c.
 #include "collider.h"
 
 #include "core.h"
 
 #include <math.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -85,12 +90,28 @@ static size_t od_SdfIndex(const int dims[3], int i, int j, int k)
 	return ((size_t)k * dims[1] + j) * dims[0] + i;
 }
 
-// Exact unsigned distances within OD_MESH_BAND samples of each triangle.
+// An open mesh's sample at index `at` keeps the nearest triangle's distance d and the cosine between the
+// direction to the sample and that triangle's normal; of triangles equally near (an edge or a vertex), the one
+// that faces the sample most squarely, which is the side that a fold's either face agrees on.
+static void od_KeepSide(od_Collider* c, size_t at, double d, double cosine)
+{
+	double tie = 1e-9 * c->spacing;
+	if (d < c->sdf[at] - tie || (d <= c->sdf[at] + tie && fabs(cosine) > fabs(c->side[at])))
+	{
+		c->sdf[at] = fmin(c->sdf[at], d);
+		c->side[at] = cosine;
+	}
+}
+
+// Exact unsigned distances within OD_MESH_BAND samples of each triangle (and an open mesh's sides).
 static void od_SdfBand(od_Collider* c, const od_MeshView* m)
 {
 	for (int tri = 0; tri < m->triangles; ++tri)
 	{
 		od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), cc = od_MeshVertex(m, tri, 2);
+		od_Vec3 normal = od_Cross(od_Sub(b, a), od_Sub(cc, a));
+		double area = od_Length(normal);
+		normal = area > 0.0 ? od_Scale(1.0 / area, normal) : normal;
 		int lo[3], hi[3];
 		for (int ax = 0; ax < 3; ++ax)
 		{
@@ -109,19 +130,33 @@ static void od_SdfBand(od_Collider* c, const od_MeshView* m)
 				{
 					od_Vec3 p = od_V3(c->origin[0] + i * c->spacing, c->origin[1] + j * c->spacing,
 									  c->origin[2] + k * c->spacing);
-					double d = od_Length(od_Sub(p, od_ClosestOnTriangle(p, a, b, cc)));
-					double* s = &c->sdf[od_SdfIndex(c->dims, i, j, k)];
-					*s = fmin(*s, d);
+					od_Vec3 q = od_ClosestOnTriangle(p, a, b, cc);
+					double d = od_Length(od_Sub(p, q));
+					size_t at = od_SdfIndex(c->dims, i, j, k);
+					if (c->side)
+					{
+						od_KeepSide(c, at, d, d > 0.0 ? od_Dot(od_Sub(p, q), normal) / d : 0.0);
+					}
+					else
+					{
+						c->sdf[at] = fmin(c->sdf[at], d);
+					}
 				}
 			}
 		}
 	}
 }
 
-// Two chamfer sweeps (26 neighbours) carry the band's distances through the rest of the samples.
+// Two chamfer sweeps (26 neighbours) carry the band's distances (and an open mesh's sides) through the rest of
+// the samples.
 static void od_SdfSweep(od_Collider* c)
 {
 	const int* n = c->dims;
+	double reach[4]; // the distance to a neighbour by its squared offset in samples
+	for (int d2 = 0; d2 < 4; ++d2)
+	{
+		reach[d2] = c->spacing * sqrt((double)d2);
+	}
 	for (int pass = 0; pass < 2; ++pass)
 	{
 		int step = pass == 0 ? 1 : -1;
@@ -151,8 +186,16 @@ static void od_SdfSweep(od_Collider* c)
 								{
 									continue;
 								}
-								double w = c->spacing * sqrt((double)(dxx * dxx + dy * dy + dz * dz));
-								*s = fmin(*s, c->sdf[od_SdfIndex(n, a, b, e)] + w);
+								size_t from = od_SdfIndex(n, a, b, e);
+								double through = c->sdf[from] + reach[dxx * dxx + dy * dy + dz * dz];
+								if (through < *s)
+								{
+									*s = through;
+									if (c->side)
+									{
+										c->side[s - c->sdf] = c->side[from];
+									}
+								}
 							}
 						}
 					}
@@ -162,12 +205,85 @@ static void od_SdfSweep(od_Collider* c)
 	}
 }
 
+// The rows of samples (j, k) whose yz lies in triangle tri's yz bounds: [lo[0], hi[0]] x [lo[1], hi[1]].
+static void od_RowRange(const od_Collider* c, const od_MeshView* m, int tri, int lo[2], int hi[2])
+{
+	for (int a = 0; a < 2; ++a)
+	{
+		double mn = INFINITY, mx = -INFINITY;
+		for (int corner = 0; corner < 3; ++corner)
+		{
+			double v = m->v[3 * m->t[3 * tri + corner] + 1 + a];
+			mn = fmin(mn, v);
+			mx = fmax(mx, v);
+		}
+		lo[a] = (int)fmax(floor((mn - c->origin[1 + a]) / c->spacing), 0.0);
+		hi[a] = (int)fmin(ceil((mx - c->origin[1 + a]) / c->spacing), c->dims[1 + a] - 1.0);
+	}
+}
+
+// Counts (fill = NULL) or lists (fill: each row's next free slot) the triangles of each row of samples.
+static void od_VisitRows(const od_Collider* c, const od_MeshView* m, int* count, int* fill, int* rowTris)
+{
+	for (int tri = 0; tri < m->triangles; ++tri)
+	{
+		int lo[2], hi[2];
+		od_RowRange(c, m, tri, lo, hi);
+		for (int k = lo[1]; k <= hi[1]; ++k)
+		{
+			for (int j = lo[0]; j <= hi[0]; ++j)
+			{
+				size_t row = (size_t)k * c->dims[1] + j;
+				if (fill)
+				{
+					rowTris[fill[row]++] = tri;
+				}
+				else
+				{
+					++count[row + 1];
+				}
+			}
+		}
+	}
+}
+
+// Per row of samples along x, the triangles whose yz bounds hold it (rows rowStart[r]..rowStart[r+1] of
+// rowTris): what its ray can cross. Measured: a 3,744-triangle sphere sampled at 64 took 185 ms when every
+// row tested every triangle.
+static int* od_RowTriangles(const od_Collider* c, const od_MeshView* m, int** rowTris)
+{
+	size_t rows = (size_t)c->dims[1] * c->dims[2];
+	int* start = od_AllocZero(rows + 1, sizeof(int));
+	int* fill = od_Alloc(sizeof(int) * (rows + 1));
+	if (start && fill)
+	{
+		od_VisitRows(c, m, start, NULL, NULL);
+		for (size_t r = 0; r < rows; ++r)
+		{
+			start[r + 1] += start[r];
+		}
+		memcpy(fill, start, sizeof(int) * (rows + 1));
+		*rowTris = od_Alloc(sizeof(int) * ((size_t)start[rows] + 1));
+	}
+	if (*rowTris)
+	{
+		od_VisitRows(c, m, NULL, fill, *rowTris);
+	}
+	od_Free(fill);
+	return start;
+}
+
 // Negates the samples inside the mesh: odd number of crossings of the +x ray from each sample.
 static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 {
+	int* rowTris = NULL;
+	int* rowStart = od_RowTriangles(c, m, &rowTris);
 	double* hits = od_Alloc(sizeof(double) * (size_t)m->triangles);
-	if (!hits)
+	if (!hits || !rowStart || !rowTris)
 	{
+		od_Free(hits);
+		od_Free(rowStart);
+		od_Free(rowTris);
 		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
 	}
 	// a tiny irrational offset keeps rays off shared edges and vertices
@@ -178,8 +294,10 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 		{
 			double y = c->origin[1] + j * c->spacing + jitter[0], z = c->origin[2] + k * c->spacing + jitter[1];
 			int count = 0;
-			for (int tri = 0; tri < m->triangles; ++tri)
+			size_t row = (size_t)k * c->dims[1] + j;
+			for (int r = rowStart[row]; r < rowStart[row + 1]; ++r)
 			{
+				int tri = rowTris[r];
 				od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), e = od_MeshVertex(m, tri, 2);
 				// barycentric coordinates of (y, z) in the triangle projected on the yz plane
 				double det = (b.y - a.y) * (e.z - a.z) - (e.y - a.y) * (b.z - a.z);
@@ -212,7 +330,161 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 		}
 	}
 	od_Free(hits);
+	od_Free(rowStart);
+	od_Free(rowTris);
 	return OD_OK;
+}
+
+// Makes an open mesh's samples behind their nearest triangle negative.
+static void od_SdfSide(od_Collider* c, size_t total)
+{
+	for (size_t i = 0; i < total; ++i)
+	{
+		c->sdf[i] = c->side[i] < 0.0 ? -c->sdf[i] : c->sdf[i];
+	}
+}
+
+// Checks a mesh's vertices (finite) and triangles (in range); its bounds, and its radius about the frame origin.
+static od_Status od_MeshBounds(od_Collider* c, const od_MeshView* m, int vertexCount, double lo[3], double hi[3])
+{
+	c->radius = 0.0;
+	for (int i = 0; i < vertexCount; ++i)
+	{
+		if (!od_IsFinite3(m->v + 3 * i))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "collider: vertices[%d] is not finite", i);
+		}
+		for (int a = 0; a < 3; ++a)
+		{
+			lo[a] = fmin(lo[a], m->v[3 * i + a]);
+			hi[a] = fmax(hi[a], m->v[3 * i + a]);
+		}
+		c->radius = fmax(c->radius, od_Length(od_V3Load(m->v + 3 * i)));
+	}
+	for (int k = 0; k < 3 * m->triangles; ++k)
+	{
+		if (m->t[k] < 0 || m->t[k] >= vertexCount)
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "collider: triangles[%d] uses vertex %d, outside [0, %d)", k / 3,
+						   m->t[k], vertexCount);
+		}
+	}
+	return OD_OK;
+}
+
+// Distance samples of a mesh at the finest spacing its bounds allow (not finer than minSpacing), in memory
+// reused when it is large enough (a deforming collider re-sampled each frame).
+static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexCount)
+{
+	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+	od_Status status = od_MeshBounds(c, m, vertexCount, lo, hi);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	double extent = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+	if (!(extent < 1e150)) // finite vertices whose differences overflow: no sample spacing fits them
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
+	}
+	c->spacing = fmax(c->minSpacing, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
+	c->spacing = c->resolution > 0 ? fmax(c->spacing, extent / c->resolution) : c->spacing;
+	size_t total = 1;
+	for (int a = 0; a < 3; ++a)
+	{
+		c->origin[a] = lo[a] - (OD_MESH_BAND + 1) * c->spacing;
+		c->dims[a] = (int)ceil((hi[a] - lo[a]) / c->spacing) + 2 * OD_MESH_BAND + 3;
+		total *= (size_t)c->dims[a];
+	}
+	if (total > c->capacity)
+	{
+		bool open = c->kind == OD_SHAPE_OPEN_MESH;
+		od_Free(c->sdf);
+		od_Free(c->side);
+		c->sdf = od_Alloc(total * sizeof(double));
+		c->side = open ? od_Alloc(total * sizeof(double)) : NULL;
+		c->capacity = c->sdf && (c->side || !open) ? total : 0;
+		if (!c->capacity)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
+		}
+	}
+	for (size_t i = 0; i < total; ++i)
+	{
+		c->sdf[i] = INFINITY;
+	}
+	if (c->side)
+	{
+		memset(c->side, 0, total * sizeof(double));
+	}
+	od_SdfBand(c, m);
+	od_SdfSweep(c);
+	if (c->side)
+	{
+		od_SdfSide(c, total);
+		return OD_OK;
+	}
+	return od_SdfSign(c, m);
+}
+
+typedef struct od_Edge
+{
+	int a, b; // a < b
+	int forward; // whether the triangle runs a -> b
+	int triangle;
+} od_Edge;
+
+static int od_CompareEdge(const void* x, const void* y)
+{
+	const od_Edge *p = x, *q = y;
+	return p->a != q->a ? (p->a > q->a) - (p->a < q->a) : (p->b > q->b) - (p->b < q->b);
+}
+
+od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool* closed, int* flipped)
+{
+	od_Edge* e = od_Alloc(sizeof(od_Edge) * 3 * (size_t)triangleCount);
+	if (!e)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
+	}
+	for (int k = 0; k < 3 * triangleCount; ++k)
+	{
+		int from = triangles[k], to = triangles[k % 3 == 2 ? k - 2 : k + 1];
+		e[k] = (od_Edge){ .a = from < to ? from : to, .b = from < to ? to : from, .forward = from < to, .triangle = k / 3 };
+	}
+	qsort(e, 3 * (size_t)triangleCount, sizeof *e, od_CompareEdge);
+	*closed = true;
+	*flipped = -1;
+	for (int k = 0, next; k < 3 * triangleCount; k = next)
+	{
+		for (next = k + 1; next < 3 * triangleCount && od_CompareEdge(&e[k], &e[next]) == 0; ++next)
+		{
+			if (e[next].forward == e[k].forward && *flipped < 0)
+			{
+				*flipped = e[next].triangle > e[k].triangle ? e[next].triangle : e[k].triangle;
+			}
+		}
+		*closed = *closed && next - k == 2;
+	}
+	od_Free(e);
+	return OD_OK;
+}
+
+// A mesh declared open, or found open when asked to look (def->detectOpen), must be wound one way: the side
+// of a triangle is what tells inside from outside.
+static od_Status od_CheckOpen(od_Collider* c, const od_ShapeDef* def)
+{
+	bool closed;
+	int flipped;
+	od_Status status = od_Collider_MeshTopology(def->triangles, def->triangleCount, &closed, &flipped);
+	c->kind = def->kind == OD_SHAPE_OPEN_MESH || !closed ? OD_SHAPE_OPEN_MESH : OD_SHAPE_MESH;
+	if (status == OD_OK && c->kind == OD_SHAPE_OPEN_MESH && flipped >= 0)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "collider: triangles[%d] is wound against a neighbour (an inverted face of an open mesh)",
+					   flipped);
+	}
+	return status;
 }
 
 static od_Status od_MeshInit(od_Collider* c, const od_ShapeDef* def)
@@ -222,57 +494,31 @@ static od_Status od_MeshInit(od_Collider* c, const od_ShapeDef* def)
 		return od_Fail(OD_ERROR_ARGUMENT, "collider: a mesh needs vertices and at least one triangle (got %d)",
 					   def->triangleCount);
 	}
-	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
-	for (int i = 0; i < def->vertexCount; ++i)
-	{
-		if (!od_IsFinite3(def->vertices + 3 * i))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "collider: vertex %d is not finite", i);
-		}
-		for (int a = 0; a < 3; ++a)
-		{
-			lo[a] = fmin(lo[a], def->vertices[3 * i + a]);
-			hi[a] = fmax(hi[a], def->vertices[3 * i + a]);
-		}
-		c->radius = fmax(c->radius, od_Length(od_V3Load(def->vertices + 3 * i)));
-	}
-	for (int k = 0; k < 3 * def->triangleCount; ++k)
-	{
-		if (def->triangles[k] < 0 || def->triangles[k] >= def->vertexCount)
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "collider: triangle %d uses vertex %d, outside [0, %d)", k / 3,
-						   def->triangles[k], def->vertexCount);
-		}
-	}
-	double extent = fmax(fmax(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
-	if (!(extent < 1e150)) // finite vertices whose differences overflow: no sample spacing fits them
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
-	}
-	c->spacing = fmax(def->spacing, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
-	size_t total = 1;
-	for (int a = 0; a < 3; ++a)
-	{
-		c->origin[a] = lo[a] - (OD_MESH_BAND + 1) * c->spacing;
-		c->dims[a] = (int)ceil((hi[a] - lo[a]) / c->spacing) + 2 * OD_MESH_BAND + 3;
-		total *= (size_t)c->dims[a];
-	}
-	c->sdf = od_Alloc(total * sizeof(double));
-	if (!c->sdf)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
-	}
-	for (size_t i = 0; i < total; ++i)
-	{
-		c->sdf[i] = INFINITY;
-	}
 	od_MeshView m = { def->vertices, def->triangles, def->triangleCount };
-	od_SdfBand(c, &m);
-	od_SdfSweep(c);
-	return od_SdfSign(c, &m);
+	c->minSpacing = def->spacing;
+	c->resolution = def->resolution;
+	od_Status status = od_MeshBounds(c, &m, def->vertexCount, (double[3]){ INFINITY, INFINITY, INFINITY },
+									 (double[3]){ -INFINITY, -INFINITY, -INFINITY });
+	if (status == OD_OK && (def->kind == OD_SHAPE_OPEN_MESH || def->detectOpen))
+	{
+		status = od_CheckOpen(c, def);
+	}
+	return status == OD_OK ? od_MeshSample(c, &m, def->vertexCount) : status;
 }
 
-// Trilinear sample of the mesh distance at local point p (clamped to the sample box: far away is outside).
+od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int vertexCount, const int* triangles,
+								  int triangleCount)
+{
+	od_MeshView m = { vertices, triangles, triangleCount };
+	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+	double radius = c->radius;
+	od_Status status = od_MeshBounds(c, &m, vertexCount, lo, hi); // checked first: a failure changes nothing
+	c->radius = radius;
+	return status == OD_OK ? od_MeshSample(c, &m, vertexCount) : status;
+}
+
+// Trilinear sample of the mesh distance at local point p (clamped to the sample box, then the distance to it:
+// beyond the box is outside a closed mesh and, behind an open one, inside).
 static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 {
 	double g[3] = { (p.x - c->origin[0]) / c->spacing, (p.y - c->origin[1]) / c->spacing,
@@ -294,14 +540,14 @@ static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 		double w = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
 		d += w * c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
 	}
-	return d + sqrt(outside) * c->spacing;
+	return d < 0.0 ? d - sqrt(outside) * c->spacing : d + sqrt(outside) * c->spacing; // < 0: behind an open mesh
 }
 
 // ---------------------------------------------------------------------------------------------------------
 // Shapes
 
-// Signed distance and outward normal in the collider's frame.
-static double od_ShapeDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n)
+// Signed distance and outward normal in the collider's frame (a mesh's normal outside only when `outside`).
+static double od_ShapeDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n, bool outside)
 {
 	const double* h = c->halfExtents;
 	switch (c->kind)
@@ -333,10 +579,18 @@ static double od_ShapeDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n)
 			*n = od_V3Load(nn);
 			return q[a];
 		}
+		case OD_SHAPE_CAPSULE:
+		{
+			od_Vec3 q = od_V3(p.x, p.y, p.z - fmax(-h[2], fmin(h[2], p.z)));
+			double len = od_Length(q);
+			*n = len > 0.0 ? od_Scale(1.0 / len, q) : od_V3(1, 0, 0);
+			return len - h[0];
+		}
 		case OD_SHAPE_MESH:
+		case OD_SHAPE_OPEN_MESH:
 		{
 			double e = 0.5 * c->spacing, d = od_MeshDistance(c, p);
-			if (d >= 0.0)
+			if (d >= 0.0 && !outside)
 			{
 				*n = od_V3(0, 0, 1); // outside: no caller needs the normal
 				return d;
@@ -358,9 +612,14 @@ static double od_ShapeDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n)
 double od_Collider_Distance(const od_Collider* c, od_Vec3 x, od_Vec3* n)
 {
 	od_Vec3 local = od_M3MulTV(&c->R, od_Sub(x, c->t)), ln;
-	double d = od_ShapeDistance(c, local, &ln);
+	double d = od_ShapeDistance(c, local, &ln, false);
 	*n = od_M3MulV(&c->R, ln);
 	return d;
+}
+
+double od_Collider_LocalDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n)
+{
+	return od_ShapeDistance(c, p, n, true);
 }
 
 od_Vec3 od_Collider_Velocity(const od_Collider* c, od_Vec3 x)
@@ -395,15 +654,17 @@ od_Status od_Collider_SetTarget(od_Collider* c, const double rotation[9], const 
 od_Status od_Collider_Init(od_Collider* c, const od_ShapeDef* def, const double rotation[9], const double translation[3])
 {
 	*c = (od_Collider){ .kind = def->kind };
-	if (def->kind < OD_SHAPE_PLANE || def->kind > OD_SHAPE_MESH)
+	if (def->kind < OD_SHAPE_PLANE || def->kind > OD_SHAPE_OPEN_MESH)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "collider: unknown shape %d", (int)def->kind);
 	}
 	const double* h = def->halfExtents;
-	if ((def->kind == OD_SHAPE_BOX && !(h[0] > 0 && h[1] > 0 && h[2] > 0)) || (def->kind == OD_SHAPE_SPHERE && !(h[0] > 0)) ||
-		!od_IsFinite3(h))
+	if ((def->kind == OD_SHAPE_BOX && !(h[0] > 0 && h[1] > 0 && h[2] > 0)) ||
+		((def->kind == OD_SHAPE_SPHERE || def->kind == OD_SHAPE_CAPSULE) && !(h[0] > 0)) ||
+		(def->kind == OD_SHAPE_CAPSULE && !(h[2] >= 0)) || !od_IsFinite3(h))
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "collider: box half extents and sphere radius must be > 0");
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "collider: box half extents, sphere and capsule radius must be > 0 (capsule half length >= 0)");
 	}
 	memcpy(c->halfExtents, h, sizeof c->halfExtents);
 	od_Status status = od_Collider_SetTarget(c, rotation, translation);
@@ -414,7 +675,8 @@ od_Status od_Collider_Init(od_Collider* c, const od_ShapeDef* def, const double 
 	c->R0 = c->R = c->R1;
 	c->t0 = c->t = c->t1;
 	c->radius = def->kind == OD_SHAPE_BOX ? od_Length(od_V3Load(h)) : (def->kind == OD_SHAPE_SPHERE ? h[0] : 0.0);
-	if (def->kind == OD_SHAPE_MESH)
+	c->radius = def->kind == OD_SHAPE_CAPSULE ? h[0] + h[2] : c->radius;
+	if (def->kind == OD_SHAPE_MESH || def->kind == OD_SHAPE_OPEN_MESH)
 	{
 		status = od_MeshInit(c, def);
 		if (status != OD_OK)
@@ -428,7 +690,9 @@ od_Status od_Collider_Init(od_Collider* c, const od_ShapeDef* def, const double 
 void od_Collider_Destroy(od_Collider* c)
 {
 	od_Free(c->sdf);
-	c->sdf = NULL;
+	od_Free(c->side);
+	c->sdf = c->side = NULL;
+	c->capacity = 0;
 }
 
 void od_Collider_BeginCall(od_Collider* c, double duration)
@@ -438,12 +702,17 @@ void od_Collider_BeginCall(od_Collider* c, double duration)
 	c->velocity = od_Scale(1.0 / duration, od_Sub(c->t1, c->t0));
 }
 
-void od_Collider_Place(od_Collider* c, double s)
+void od_Collider_FrameAt(const od_Collider* c, double s, od_Mat3* R, od_Vec3* t)
 {
 	od_Mat3 delta = od_M3MulNT(&c->R1, &c->R0);
 	od_Mat3 partial = od_M3ExpSkew(od_Scale(s, od_M3LogRotation(&delta)));
-	c->R = od_M3Mul(&partial, &c->R0);
-	c->t = od_MulAdd(c->t0, s, od_Sub(c->t1, c->t0));
+	*R = od_M3Mul(&partial, &c->R0);
+	*t = od_MulAdd(c->t0, s, od_Sub(c->t1, c->t0));
+}
+
+void od_Collider_Place(od_Collider* c, double s)
+{
+	od_Collider_FrameAt(c, s, &c->R, &c->t);
 }
 
 void od_Collider_EndCall(od_Collider* c)

@@ -113,9 +113,15 @@ class Skin:
         self._core.deform(positions, rotations, out, normals_out, rest_normals)
         return out
 
-    def deform_sim(self, sim, out=None, normals_out=None):
-        """``deform`` with the simulation's current positions and rotations."""
-        return self.deform(sim.positions, sim.rotations, out, normals_out)
+    def deform_sim(self, sim, out=None, normals_out=None, push_out=True):
+        """``deform`` with the simulation's current positions and rotations; with ``push_out`` the vertices
+        inside its colliders or below its floor are moved to their surface (``Simulation.push_out``,
+        docs/contact.md)."""
+        out = self.deform(sim.positions, sim.rotations, out, normals_out)
+        if push_out:
+            flat = out.reshape(-1, 3)
+            flat[:] = sim.push_out(flat)
+        return out
 
     def __repr__(self):
         return f"opdeform.Skin(n_vertices={self.n_vertices}, neighbors={self.neighbors})"

@@ -5,6 +5,9 @@
 #include "graph_binding.h"
 #include "sim_binding.h"
 
+#include "opdeform/colliders.h"
+
+#include <limits.h>
 #include <string.h>
 
 typedef struct
@@ -201,6 +204,147 @@ static PyObject* Sim_clear_floor(PyObject* obj, PyObject* unused)
 	}
 	od_Sim_ClearFloor(sim);
 	Py_RETURN_NONE;
+}
+
+// add_collider(shape, half_extents, radius, half_length, vertices or None, triangles or None, resolution,
+// friction, thickness, rotation (9 values), translation) -> id
+static PyObject* Sim_add_collider(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	od_ColliderDef d = od_DefaultColliderDef();
+	int shape;
+	PyObject* objs[3];
+	double* h = d.halfExtents;
+	double* t = d.translation;
+	if (!sim || !PyArg_ParseTuple(args, "i(ddd)ddOOiddO(ddd)", &shape, &h[0], &h[1], &h[2], &d.radius,
+								  &d.halfLength, &objs[0], &objs[1], &d.resolution, &d.friction, &d.thickness,
+								  &objs[2], &t[0], &t[1], &t[2]))
+	{
+		return NULL;
+	}
+	Py_ssize_t nv = objs[0] == Py_None ? 0 : ItemCount(objs[0], "vertices", 3 * sizeof(double));
+	Py_ssize_t nt = objs[1] == Py_None ? 0 : ItemCount(objs[1], "triangles", 3 * sizeof(int));
+	const ArraySpec specs[3] = { { "vertices", 'd', 3 * nv, 1 }, { "triangles", 'i', 3 * nt, 1 },
+								 { "rotation", 'd', 9, 0 } };
+	Py_buffer views[3];
+	if (nv < 0 || nt < 0 || nv > INT_MAX || nt > INT_MAX || GetArrays(objs, specs, 3, views) < 0)
+	{
+		return nv > INT_MAX || nt > INT_MAX ? PyErr_Format(PyExc_ValueError, "vertices: too many") : NULL;
+	}
+	d.shape = (od_ColliderShape)shape;
+	d.vertexCount = (int)nv;
+	d.vertices = ArrayData(&views[0]);
+	d.triangleCount = (int)nt;
+	d.triangles = ArrayData(&views[1]);
+	memcpy(d.rotation, views[2].buf, sizeof d.rotation);
+	int id = -1;
+	od_Status status = od_Sim_AddCollider(sim, &d, &id);
+	ReleaseArrays(views, 3);
+	return Binding_Id(obj, status, id);
+}
+
+// move_collider(id, rotation (9 values), translation)
+static PyObject* Sim_move_collider(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	PyObject* rotation;
+	double t[3];
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "iO(ddd)", &id, &rotation, &t[0], &t[1], &t[2]) ||
+		GetArray(rotation, "rotation", 'd', 9, 0, &view) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_MoveCollider(sim, id, view.buf, t);
+	ReleaseArray(&view);
+	return Binding_Done(obj, status);
+}
+
+// update_collider_vertices(id, vertices)
+static PyObject* Sim_update_collider_vertices(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	PyObject* vertices;
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "iO", &id, &vertices))
+	{
+		return NULL;
+	}
+	Py_ssize_t nv = ItemCount(vertices, "vertices", 3 * sizeof(double));
+	if (nv < 0 || nv > INT_MAX || GetArray(vertices, "vertices", 'd', 3 * nv, 0, &view) < 0)
+	{
+		return nv > INT_MAX ? PyErr_Format(PyExc_ValueError, "vertices: too many") : NULL;
+	}
+	od_Status status = od_Sim_UpdateColliderVertices(sim, id, view.buf, (int)nv);
+	ReleaseArray(&view);
+	return Binding_Done(obj, status);
+}
+
+static PyObject* Sim_set_collider_contact(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	double friction, thickness;
+	if (!sim || !PyArg_ParseTuple(args, "idd", &id, &friction, &thickness))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetColliderContact(sim, id, friction, thickness));
+}
+
+static PyObject* Sim_remove_collider(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	if (!sim || !PyArg_ParseTuple(args, "i", &id))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_RemoveCollider(sim, id));
+}
+
+static PyObject* Sim_collider_count(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyLong_FromLong(od_Sim_GetColliderCount(sim)) : NULL;
+}
+
+// push_out(points) -> moved: points (float64, 3 per point) rewritten in place, or
+// collider_distances(points, out): the signed distance of each point into out (float64, 1 per point).
+static PyObject* PointQuery(PyObject* obj, PyObject* args, int push)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2] = { NULL, NULL };
+	if (!sim || !PyArg_ParseTuple(args, push ? "O" : "OO", &objs[0], &objs[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ItemCount(objs[0], "points", 3 * sizeof(double));
+	Py_buffer views[2] = { { 0 }, { 0 } };
+	if (n < 0 || n > INT_MAX || GetArray(objs[0], "points", 'd', 3 * n, push, &views[0]) < 0 ||
+		(!push && GetArray(objs[1], "out", 'd', n, 1, &views[1]) < 0))
+	{
+		ReleaseArrays(views, 2);
+		return n > INT_MAX ? PyErr_Format(PyExc_ValueError, "points: too many") : NULL;
+	}
+	int moved = 0;
+	od_Status status = push ? od_Sim_PushOut(sim, views[0].buf, (int)n, &moved)
+							: od_Sim_GetColliderDistances(sim, views[0].buf, (int)n, views[1].buf);
+	ReleaseArrays(views, 2);
+	return Binding_Id(obj, status, moved);
+}
+
+static PyObject* Sim_push_out(PyObject* obj, PyObject* args)
+{
+	return PointQuery(obj, args, 1);
+}
+
+static PyObject* Sim_collider_distances(PyObject* obj, PyObject* args)
+{
+	return PointQuery(obj, args, 0);
 }
 
 // Runs step (static = 0) or solve_static (static = 1) with the GIL released.
@@ -406,6 +550,14 @@ static PyMethodDef Sim_methods[] = {
 	{ "clear_floor", Sim_clear_floor, METH_NOARGS, NULL },
 	{ "set_goal_frequencies", Sim_set_goal_frequencies, METH_VARARGS, "set_goal_frequencies(frequencies or None)" },
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
+	{ "add_collider", Sim_add_collider, METH_VARARGS, NULL },
+	{ "move_collider", Sim_move_collider, METH_VARARGS, NULL },
+	{ "update_collider_vertices", Sim_update_collider_vertices, METH_VARARGS, NULL },
+	{ "set_collider_contact", Sim_set_collider_contact, METH_VARARGS, NULL },
+	{ "remove_collider", Sim_remove_collider, METH_VARARGS, NULL },
+	{ "collider_count", Sim_collider_count, METH_NOARGS, NULL },
+	{ "push_out", Sim_push_out, METH_VARARGS, "push_out(points) -> moved: points rewritten in place" },
+	{ "collider_distances", Sim_collider_distances, METH_VARARGS, "collider_distances(points, out)" },
 	{ "step", Sim_step, METH_VARARGS, NULL },
 	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
 	{ "set_state", Sim_set_state, METH_VARARGS, NULL },

@@ -94,6 +94,65 @@ class Simulation:
     def clear_floor(self):
         self._core.clear_floor()
 
+    # -- colliders (docs/contact.md) --------------------------------------------------------------------
+    COLLIDER_SHAPES = ("plane", "box", "sphere", "capsule", "mesh")
+
+    def add_collider(self, shape, half_extents=(0.5, 0.5, 0.5), radius=0.5, half_length=0.5, vertices=None,
+                     triangles=None, rotation=None, translation=(0.0, 0.0, 0.0), normal=None, friction=0.5,
+                     thickness=0.005, resolution=64):
+        """A scene collider; returns its id. ``shape``: "plane" (z < 0 of its frame; or give ``normal``: the
+        plane through ``translation`` facing it), "box" (``half_extents``), "sphere" (``radius``), "capsule"
+        (``radius`` about the segment |z| <= ``half_length``) or "mesh" (``vertices`` (V,3), ``triangles``
+        (T,3) in its frame; closed, or open with its faces wound counter-clockwise seen from outside; sampled
+        at ``resolution`` samples along its longest side). Particles keep ``thickness`` (> 0) from the surface,
+        with Coulomb ``friction``."""
+        index = choice("shape", shape, self.COLLIDER_SHAPES)
+        verts = tris = None
+        if index == 4:
+            verts = as_array("vertices", vertices, (None, 3))
+            tris = as_array("triangles", triangles, (None, 3), np.int32)
+        if normal is not None:
+            rotation = frame_from_normal(vector("normal", normal))
+        return self._core.add_collider(index, vector("half_extents", half_extents), number("radius", radius),
+                                       number("half_length", half_length), verts, tris,
+                                       integer("resolution", resolution), number("friction", friction),
+                                       number("thickness", thickness), _rotation(rotation),
+                                       vector("translation", translation))
+
+    def move_collider(self, id, translation, rotation=None):
+        """The collider's frame at the end of the next ``step`` call (reached at constant velocity over its
+        steps; contact follows the swept motion)."""
+        self._core.move_collider(integer("id", id), _rotation(rotation), vector("translation", translation))
+
+    def update_collider_vertices(self, id, vertices):
+        """New vertices (V,3) of a mesh collider, in its frame (a deforming collider): re-sampled now."""
+        self._core.update_collider_vertices(integer("id", id), as_array("vertices", vertices, (None, 3)))
+
+    def set_collider_contact(self, id, friction=0.5, thickness=0.005):
+        self._core.set_collider_contact(integer("id", id), number("friction", friction),
+                                        number("thickness", thickness))
+
+    def remove_collider(self, id):
+        self._core.remove_collider(integer("id", id))
+
+    @property
+    def n_colliders(self):
+        return self._core.collider_count()
+
+    def push_out(self, points):
+        """A copy of ``points`` (n,3) with those inside a collider or below the floor moved to the surface:
+        what a skinned mesh shows (``Skin.deform_sim`` does it)."""
+        out = as_array("points", points, (None, 3)).copy()
+        self._core.push_out(out)
+        return out
+
+    def collider_distances(self, points):
+        """The signed distance of each point (n,3) to the nearest collider or the floor (negative inside)."""
+        pts = as_array("points", points, (None, 3))
+        out = np.empty(len(pts))
+        self._core.collider_distances(pts, out)
+        return out
+
     # -- solving ---------------------------------------------------------------------------------------
     def step(self, steps=1):
         """Advances ``steps`` time steps. On a non-finite result raises SolverError and keeps the state."""
@@ -232,6 +291,22 @@ class Simulation:
         out = np.empty(self._core.trace_length())
         self._core.read("energy_trace", out)
         return out
+
+
+def frame_from_normal(normal):
+    """A rotation whose z axis is ``normal`` (the frame of a plane collider facing it)."""
+    n = np.asarray(normal, dtype=np.float64)
+    length = np.linalg.norm(n)
+    if not length > 0:
+        raise ValueError(f"normal must not be zero, got {tuple(normal)}")
+    z = n / length
+    x = np.cross([0.0, 1.0, 0.0] if abs(z[1]) < 0.9 else [1.0, 0.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _rotation(rotation):
+    return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
 
 
 def core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors):

@@ -1,0 +1,248 @@
+// Contact of the particles' ellipsoids with the scene colliders (docs/contact.md), after a step's iterations
+// as the floor's (floor.c), and the push-out of skinned points.
+//
+// Ellipsoid against a signed distance φ with normal n: with M = E diag(a², b², c²) Eᵀ (E = R Ē, the current
+// frame) the ellipsoid reaches s = sqrt(nᵀ M n) along n, and its deepest point is x - M n / s. With the
+// centre's φ and n, it is thickness + s - φ deep (exact for a plane or a face); a centre outside is refined
+// twice at the deepest point's φ and normal (exact for a sphere on a sphere; an ellipsoid on a curved collider
+// settles in the second). A centre inside keeps its own normal: the deepest point of a particle in a thin
+// collider may be nearer its far side, and alternating between the two sides pushed particles half out. Friction is Coulomb and position based, as the floor's: the
+// particle's displacement relative to the collider's surface (the surface point's own motion taken out) is
+// cut, tangentially, by at most μ times the push, and the particle's angular velocity by the same ratio.
+//
+// Moving colliders: the collider goes from its frame at the step's start to that at its end (linear in
+// translation, along the shortest arc in rotation), the particle from its start to its solved end. In the
+// collider's frame the particle's relative path is sampled every half of its smallest radius (at most 64
+// samples); at the first sample in contact the particle is caught: the rest of its relative motion keeps its
+// part along the surface there and loses the part into it, so it is carried with the collider to the step's
+// end (on the side it touched), where it is pushed out. A resting or sliding contact is caught at the first
+// sample, where this is the plain projection. A 30 km/h collider at 24 fps moves 35 cm a step: 7 samples for a
+// 10 cm limb of 5 cm particles, where the end frame alone would have put the collider past the limb
+// (tests/test_contact.py). Far particles cost one distance query: φ at the end, less the farthest the
+// relative path can stray, still beyond the particle's reach.
+//
+// A particle that begins a step inside (placed there, or a collider that appeared over it) leaves at 1 m/s
+// at most, as PhysX's depenetration velocity: pushed out, never shot out. Measured on the blob of
+// tests/test_contact.py placed half inside a box: its fastest particle moves at 1.0 m/s while it comes out
+// (10 steps); out in one step, the squashed half rebounded at 7.8 m/s.
+#include "contact.h"
+
+#include "check.h"
+#include "math3.h"
+
+#include <math.h>
+
+#define OD_SWEEP_MAX 64       // samples of a particle's path relative to a collider at most
+#define OD_RECOVERY_SPEED 1.0 // m/s: how fast a particle that began a step inside a collider leaves it
+
+double od_CoulombKeep(double slide, double limit)
+{
+	return slide > limit ? 1.0 - limit / slide : 0.0;
+}
+
+// How far an ellipsoid of moment M reaches along unit n: sqrt(nᵀ M n).
+static double od_Support(const od_Mat3* M, od_Vec3 n)
+{
+	return sqrt(od_Dot(n, od_M3MulV(M, n)));
+}
+
+// How deep an ellipsoid (centre l, moment M, both in the collider's frame) is within `thickness` of the
+// collider's surface (<= 0: clear of it), with the normal along which to push it out. From the centre's
+// distance and normal; a centre outside is refined at the deepest point, unless the normal there turns away
+// (the far side of a thin collider).
+static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, double thickness, double reach,
+					   od_Vec3* n)
+{
+	double phi = od_Collider_LocalDistance(body, l, n);
+	if (phi >= reach + thickness)
+	{
+		return thickness + reach - phi;
+	}
+	double depth = thickness + od_Support(M, *n) - phi;
+	od_Vec3 centre = *n, m;
+	for (int pass = 0; pass < 2 && phi > 0.0; ++pass)
+	{
+		od_Vec3 deepest = od_MulAdd(l, -1.0 / od_Support(M, *n), od_M3MulV(M, *n));
+		double d = thickness - od_Collider_LocalDistance(body, deepest, &m);
+		if (od_Dot(m, centre) <= 0.0)
+		{
+			break;
+		}
+		depth = d;
+		*n = m;
+	}
+	return depth;
+}
+
+// M in the frame R: Rᵀ M R.
+static od_Mat3 od_InFrame(const od_Mat3* M, const od_Mat3* R)
+{
+	od_Mat3 mr = od_M3Mul(M, R);
+	return od_M3MulTN(R, &mr);
+}
+
+// A particle: its moment M (world), reach (largest radius), sampling step (half its smallest radius) and how
+// far it may leave a collider it began the step inside.
+typedef struct od_Body
+{
+	od_Mat3 M;
+	double reach, step, recovery;
+} od_Body;
+
+static od_Body od_BodyOf(const od_Sim* sim, int i)
+{
+	const double* r = sim->graph->radii + 3 * i;
+	od_Mat3 rot = od_M3Load(sim->state.R + 9 * i), e0 = od_M3Load(sim->graph->axes + 9 * i);
+	od_Mat3 e = od_M3Mul(&rot, &e0), es = e;
+	for (int k = 0; k < 9; ++k)
+	{
+		es.m[k] *= r[k % 3] * r[k % 3];
+	}
+	return (od_Body){ .M = od_M3MulNT(&es, &e), .reach = fmax(fmax(r[0], r[1]), r[2]),
+					  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = OD_RECOVERY_SPEED * sim->def.dt };
+}
+
+// Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
+// end: lb, less the part of its motion after its first contact that went into the surface along the normal
+// there (the motion along the surface stays, so that sliding is not slowed).
+static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3 x, od_Vec3 la,
+							   od_Vec3 lb)
+{
+	int samples = (int)fmin(ceil(od_Length(od_Sub(lb, la)) / b->step), OD_SWEEP_MAX);
+	for (int k = 1; k < samples; ++k)
+	{
+		double s = (double)k / samples;
+		od_Mat3 turn = od_M3ExpSkew(od_Scale(s, c->turn));
+		od_Mat3 R = od_M3Mul(&turn, &c->Ra), M = od_InFrame(&b->M, &R);
+		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
+		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
+		if (od_Depth(&c->body, &M, l, c->thickness, b->reach, &n) > 0.0)
+		{
+			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, l), n), 0.0), n);
+		}
+	}
+	return lb;
+}
+
+// One particle against one collider over the step: *x caught, pushed out (if it began inside, by at most
+// its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio.
+static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3* x, double* keep)
+{
+	od_Vec3 n, lb = od_M3MulTV(&c->Rb, od_Sub(*x, c->tb));
+	double travel = od_Length(od_Sub(*x, start)) + od_Length(od_Sub(c->tb, c->ta)) +
+					od_Length(c->turn) * (od_Length(od_Sub(*x, c->tb)) + od_Length(od_Sub(*x, start)));
+	if (od_Collider_LocalDistance(&c->body, lb, &n) >= b->reach + c->thickness + travel)
+	{
+		return;
+	}
+	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
+	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
+	double left = od_Depth(&c->body, &Ma, la, c->thickness, b->reach, &n) - b->recovery; // began inside
+	od_Vec3 l = od_FirstContact(c, b, start, *x, la, lb);
+	double depth = od_Depth(&c->body, &Mb, l, c->thickness, b->reach, &n);
+	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
+	{
+		return;
+	}
+	l = od_MulAdd(l, fmax(depth - fmax(left, 0.0), 0.0), n);
+	od_Vec3 moved = od_Add(od_M3MulV(&c->Rb, l), c->tb);
+	double push = od_Dot(od_Sub(moved, *x), od_M3MulV(&c->Rb, n));
+	if (c->friction > 0.0 && push > 0.0)
+	{
+		od_Vec3 slip = od_Sub(od_Add(od_M3MulV(&c->Ra, l), c->ta), start), na = od_M3MulV(&c->Ra, n);
+		slip = od_MulAdd(slip, -od_Dot(slip, na), na);
+		double k = od_CoulombKeep(od_Length(slip), c->friction * push);
+		moved = od_MulAdd(moved, k - 1.0, slip);
+		*keep *= k;
+	}
+	*x = moved;
+}
+
+void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1)
+{
+	for (int k = 0; k < sim->colliders.count; ++k)
+	{
+		od_SimCollider* c = &sim->colliders.items[k];
+		od_Collider_FrameAt(&c->body, s0, &c->Ra, &c->ta);
+		od_Collider_FrameAt(&c->body, s1, &c->Rb, &c->tb);
+		od_Mat3 delta = od_M3MulNT(&c->Rb, &c->Ra);
+		c->turn = od_M3LogRotation(&delta);
+		od_Collider_Place(&c->body, s1);
+	}
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Body b = od_BodyOf(sim, i);
+		od_Vec3 start = od_V3Load(before->x + 3 * i), x = od_V3Load(sim->state.x + 3 * i);
+		double keep = sim->hasFloor ? sim->angularScale[i] : 1.0;
+		for (int k = 0; k < sim->colliders.count; ++k)
+		{
+			od_Touch(&sim->colliders.items[k], &b, start, &x, &keep);
+		}
+		od_V3Store(sim->state.x + 3 * i, x);
+		sim->angularScale[i] = keep;
+	}
+}
+
+// The signed distance of world point p to collider c at its placed frame, the normal and the local point.
+static double od_PlacedDistance(const od_SimCollider* c, od_Vec3 p, od_Vec3* local, od_Vec3* n)
+{
+	*local = od_M3MulTV(&c->body.R, od_Sub(p, c->body.t));
+	return od_Collider_LocalDistance(&c->body, *local, n);
+}
+
+od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* moved)
+{
+	od_Status status = od_CheckFinite("points", points, 3 * count);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	int changed = 0;
+	for (int i = 0; i < count; ++i)
+	{
+		od_Vec3 p = od_V3Load(points + 3 * i), before = p, l, n;
+		for (int k = 0; k < sim->colliders.count; ++k)
+		{
+			const od_SimCollider* c = &sim->colliders.items[k];
+			double phi = od_PlacedDistance(c, p, &l, &n);
+			if (!(phi < 0.0))
+			{
+				continue;
+			}
+			for (int pass = 0; pass < 2 && phi < 0.0; ++pass) // a sampled mesh's surface: twice
+			{
+				l = od_MulAdd(l, -phi, n);
+				phi = od_Collider_LocalDistance(&c->body, l, &n);
+			}
+			p = od_Add(od_M3MulV(&c->body.R, l), c->body.t);
+		}
+		p.z = sim->hasFloor ? fmax(p.z, sim->floorHeight) : p.z;
+		changed += p.x != before.x || p.y != before.y || p.z != before.z;
+		od_V3Store(points + 3 * i, p);
+	}
+	if (moved)
+	{
+		*moved = changed;
+	}
+	return OD_OK;
+}
+
+od_Status od_Sim_GetColliderDistances(const od_Sim* sim, const double* points, int count, double* distances)
+{
+	od_Status status = od_CheckFinite("points", points, 3 * count);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	for (int i = 0; i < count; ++i)
+	{
+		od_Vec3 p = od_V3Load(points + 3 * i), l, n;
+		double d = sim->hasFloor ? p.z - sim->floorHeight : INFINITY;
+		for (int k = 0; k < sim->colliders.count; ++k)
+		{
+			d = fmin(d, od_PlacedDistance(&sim->colliders.items[k], p, &l, &n));
+		}
+		distances[i] = d;
+	}
+	return OD_OK;
+}

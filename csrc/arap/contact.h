@@ -1,0 +1,12 @@
+// Contact with the scene colliders (contact.c): the particles' ellipsoids after a step's iterations, the
+// friction rule the floor shares, and the push-out of skinned points (opdeform/colliders.h).
+#pragma once
+
+#include "opdeform/colliders.h"
+#include "sim.h"
+
+// The fraction of a tangential slide that Coulomb friction keeps when it may take at most `limit` of it.
+double od_CoulombKeep(double slide, double limit);
+// Contact over the fraction [s0, s1] of the current call (before: the state at the step's start): moves the
+// particles out of the colliders, with friction (scaling angularScale).
+void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);

@@ -1,0 +1,66 @@
+// opdeform: scene colliders of an ARAP simulation (docs/contact.md), the public C API.
+//
+// A collider is a signed distance (collide/collider.c, the one MPM uses too): a plane, box, sphere, capsule or
+// triangle mesh in its own frame. Each particle's ellipsoid touches it at its support along the surface
+// normal; contact pushes the particle out to `thickness` from the surface, with Coulomb friction. A collider
+// may move and turn (od_Sim_MoveCollider: the frame at the end of the next od_Sim_Step call, reached at
+// constant velocity over its steps; contact is tested along the swept motion, so a fast collider does not
+// pass through a thin limb) and deform (od_Sim_UpdateColliderVertices re-samples a mesh).
+#pragma once
+
+#if defined(OD_LAYER_CHECK) && !defined(OD_USES_ARAP)
+#error "opdeform/colliders.h is the arap layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
+#endif
+
+#include "opdeform/opdeform.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum od_ColliderShape
+{
+	OD_COLLIDER_PLANE = 0,   // the half space z < 0 of the collider's frame (any orientation: turn the frame)
+	OD_COLLIDER_BOX = 1,     // |x|, |y|, |z| <= halfExtents
+	OD_COLLIDER_SPHERE = 2,  // radius
+	OD_COLLIDER_CAPSULE = 3, // radius about the segment |z| <= halfLength of the frame's z axis
+	OD_COLLIDER_MESH = 4     // triangles: closed (inside by the parity of crossings) or open (inside is behind
+	                         // the nearest triangle, whose winding gives its front: counter-clockwise)
+} od_ColliderShape;
+
+typedef struct od_ColliderDef
+{
+	od_ColliderShape shape;
+	double halfExtents[3]; // box
+	double radius;         // sphere, capsule
+	double halfLength;     // capsule
+	int vertexCount;       // mesh, in the collider's frame (copied: not kept)
+	const double* vertices;
+	int triangleCount;
+	const int* triangles;
+	int resolution;        // mesh: distance samples along its longest side (8..88, default 64)
+	double friction;       // Coulomb coefficient >= 0 (default 0.5)
+	double thickness;      // > 0: the particles keep this far from the surface (default 0.005 m)
+	double rotation[9];    // the collider's frame in the world (default identity, at the origin)
+	double translation[3];
+} od_ColliderDef;
+
+od_ColliderDef od_DefaultColliderDef(void);
+od_Status od_Sim_AddCollider(od_Sim* sim, const od_ColliderDef* def, int* id);
+// The collider's frame at the end of the next od_Sim_Step call; rotation must be proper.
+od_Status od_Sim_MoveCollider(od_Sim* sim, int id, const double rotation[9], const double translation[3]);
+// New vertices of a mesh collider (vertexCount*3, as many as it has, same triangles, its frame): re-sampled now.
+od_Status od_Sim_UpdateColliderVertices(od_Sim* sim, int id, const double* vertices, int vertexCount);
+od_Status od_Sim_SetColliderContact(od_Sim* sim, int id, double friction, double thickness);
+od_Status od_Sim_RemoveCollider(od_Sim* sim, int id);
+int od_Sim_GetColliderCount(const od_Sim* sim);
+
+// Moves each point (count*3) that is inside a collider (at its current frame) or below the floor to the
+// surface: the skinned mesh shown without passing into them. *moved: how many moved (may be NULL).
+od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* moved);
+// The signed distance of each point to the nearest collider or floor (negative inside), INFINITY with none.
+od_Status od_Sim_GetColliderDistances(const od_Sim* sim, const double* points, int count, double* distances);
+
+#ifdef __cplusplus
+}
+#endif

@@ -1,0 +1,84 @@
+"""What scene colliders cost (issue 13, docs/contact.md): ms/step of a drop with and without contact.
+
+Each row times two simulations side by side in one run (features.side_by_side: alternating, medians of CPU time,
+one thread): the creature (a Suzanne-like blob) with 100 or 1,000 particles falling freely, and the same body
+resting on a sphere or sliding down a 30-degree ramp (settled there before timing, so that every particle near
+the collider is tested and pushed). Then the push-out of a skinned mesh against the skinning alone, and the
+re-sampling of a deforming mesh collider per call. Option: --quick (3 repeats of 20 calls)."""
+
+import math
+import os
+import statistics
+import time
+
+import numpy as np
+
+import opdeform
+from opdeform import meshes
+
+from .common import table
+from .features import side_by_side
+
+RAMP = (0.0, -math.sin(math.radians(30)), math.cos(math.radians(30)))
+
+
+def creature(particles):
+    v, t = meshes.creature(64)
+    return v, t, opdeform.Graph.from_mesh(v, t, particles=particles)
+
+
+def drop(graph, collider):
+    """The body 0.1 m above the collider's top (or free: collider None), settled for 1 s when it has one."""
+    sim = opdeform.Simulation(graph, 2e5, damping=0.02)
+    lift = 1.1 - graph.centers[:, 2].min() + graph.radii.max()
+    sim.set_state(graph.centers + (0.0, 0.0, lift), np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+    if collider == "sphere":
+        sim.add_collider("sphere", radius=1.0)
+    elif collider == "ramp":
+        sim.add_collider("plane", normal=RAMP, translation=(0.0, 0.0, 1.0), friction=0.3)
+    if collider:
+        sim.step(60)
+    return sim
+
+
+def resample_ms(resolution, repeats):
+    """ms per update_collider_vertices of a 3,744-triangle sphere breathing, at a sampling resolution."""
+    sv, st = meshes.capsule(radius=0.5, length=0.0, segments=48, rings=16)
+    sim = opdeform.Simulation(opdeform.Graph([[0, 0, 5.0]], [[0.1] * 3], np.zeros((0, 2), int)), 1e5)
+    cid = sim.add_collider("mesh", vertices=sv, triangles=st, resolution=resolution)
+    times = []
+    for k in range(repeats):
+        t = time.process_time()
+        sim.update_collider_vertices(cid, sv * (1.0 + 0.01 * (k % 2)))
+        times.append((time.process_time() - t) * 1e3)
+    return len(st), statistics.median(times)
+
+
+def rows(repeats, inner):
+    out = []
+    for particles in (100, 1000):
+        v, t, graph = creature(particles)
+        free = drop(graph, None)
+        for collider in ("sphere", "ramp"):
+            touching = drop(graph, collider)
+            ms0, ms1 = side_by_side(free.step, touching.step, repeats=repeats, inner=inner)
+            out.append((f"creature, {graph.n_particles} particles", f"on a {collider}", f"{ms0:.4f}",
+                        f"{ms1:.4f}", f"{ms1 / ms0:.2f}"))
+        skin = opdeform.Skin(graph, *meshes.subdivide(v, t, levels=1)[:1], threads=1)
+        ms0, ms1 = side_by_side(lambda: skin.deform_sim(touching, push_out=False), lambda: skin.deform_sim(touching),
+                                repeats=repeats, inner=max(inner // 10, 1))
+        out.append((f"its skin, {skin.n_vertices:,} vertices", "deform_sim push_out, on the ramp", f"{ms0:.4f}",
+                    f"{ms1:.4f}", f"{ms1 / ms0:.2f}"))
+    for resolution in (32, 64):
+        triangles, ms = resample_ms(resolution, max(repeats // 3, 3))
+        out.append((f"sphere mesh, {triangles:,} triangles", f"update_collider_vertices, resolution {resolution}",
+                    "", f"{ms:.1f}", ""))
+    return out
+
+
+def run(args):
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
+    quick = "--quick" in args
+    print(f"load average {os.getloadavg()[0]:.1f} at the start (CPU time of one thread; other work on the "
+          "machine slows both columns alike)")
+    table(rows(3 if quick else 15, 20 if quick else 100), ["scene", "contact", "ms free fall", "ms with", "ratio"])

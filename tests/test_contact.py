@@ -1,0 +1,233 @@
+"""Scene colliders of the ARAP solver (docs/contact.md, issue 13): a blob rests on a sphere with its skinned
+surface outside it, slides down a 30-degree ramp (plane or open mesh) at g (sin - mu cos), a 30 km/h board does
+not pass through a 10 cm limb at 24 fps, a deforming mesh collider lifts what rests on it, a particle that
+starts half inside is pushed out without being shot out, and bad input raises ValueError naming the argument with
+nothing changed."""
+
+import math
+
+import numpy as np
+import pytest
+
+import opdeform
+from opdeform import meshes
+from opdeform.simulation import frame_from_normal
+
+RAMP = math.radians(30.0)
+RAMP_NORMAL = (0.0, -math.sin(RAMP), math.cos(RAMP))  # downhill is -y
+
+
+@pytest.fixture(scope="module")
+def blob():
+    v, t = meshes.capsule(radius=0.2, length=0.2)  # 0.6 x 0.4 x 0.4 m
+    return v, t, opdeform.Graph.from_mesh(v, t, particles=100)
+
+
+def _sim(graph, offset, **kw):
+    sim = opdeform.Simulation(graph, 3e4, dt=1 / 60, **kw)
+    sim.set_state(graph.centers + offset, np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+    return sim
+
+
+def _penetration(sim, skin, size, steps, push_out=True):
+    """The deepest skinned vertex inside a collider over the steps, as a fraction of the object's size."""
+    worst = 0.0
+    for _ in range(steps):
+        sim.step()
+        shown = skin.deform_sim(sim, push_out=push_out)
+        worst = max(worst, -sim.collider_distances(shown).min())
+    return worst / size
+
+
+def test_blob_rests_on_a_sphere_with_its_skin_outside(blob):
+    v, t, g = blob
+    sim = _sim(g, (0.0, 0.0, 1.6), damping=0.02)
+    sim.add_collider("sphere", radius=1.0)
+    skin = opdeform.Skin(g, v)
+    size = np.ptp(v, axis=0).max()
+    assert _penetration(sim, skin, size, 120, push_out=False) < 0.02  # the particles alone keep it out
+    assert _penetration(sim, skin, size, 120) < 1e-9                  # pushed out: none at all
+    assert np.abs(sim.velocities).max() < 0.01                        # at rest
+    centre = sim.positions.mean(axis=0)
+    assert np.hypot(centre[0], centre[1]) < 0.05 and 1.0 < centre[2] < 1.2  # on top, not rolled off
+
+
+def _slide(graph, friction, shape):
+    sim = _sim(graph, np.asarray(RAMP_NORMAL) * 0.21 - graph.centers.mean(axis=0))
+    if shape == "plane":
+        sim.add_collider("plane", normal=RAMP_NORMAL, friction=friction)
+    else:  # an open mesh: the sheet turned to the ramp
+        sv, st = meshes.sheet((6.0, 6.0), (3, 3))
+        sim.add_collider("mesh", vertices=sv @ frame_from_normal(RAMP_NORMAL).T, triangles=st, friction=friction)
+    start = sim.positions.mean(axis=0)
+    sim.step(30)
+    moved = sim.positions.mean(axis=0) - start
+    return -moved[1] / math.cos(RAMP), sim.collider_distances(sim.positions).min()
+
+
+@pytest.mark.parametrize("shape", ["plane", "mesh"])
+def test_blob_slides_down_a_ramp_slower_with_friction(blob, shape):
+    g = blob[2]
+    free, gap_free = _slide(g, 0.0, shape)
+    rough, gap_rough = _slide(g, 0.3, shape)
+    t = 0.5
+    assert free == pytest.approx(0.5 * 9.81 * math.sin(RAMP) * t ** 2, rel=0.1)  # frictionless: g sin
+    assert rough == pytest.approx(0.5 * 9.81 * (math.sin(RAMP) - 0.3 * math.cos(RAMP)) * t ** 2, rel=0.15)
+    assert rough < 0.6 * free
+    assert min(gap_free, gap_rough) > 0.0  # on the ramp, not in it
+
+
+def _board_through_limb(move):
+    """A 2 cm board 0.8 m wide crossing a 10 cm limb at 30 km/h, 24 fps; how many particles it left behind."""
+    v, t = meshes.capsule(radius=0.05, length=0.5)
+    g = opdeform.Graph.from_mesh(v, t, particles=40)
+    sim = opdeform.Simulation(g, 1e5, dt=1 / 24, gravity=(0, 0, 0))
+    half, y, speed = (0.4, 0.01, 0.4), -0.5, 30 / 3.6
+    cid = sim.add_collider("box", half_extents=half, translation=(0, y, 0))
+    behind = 0
+    for _ in range(12):
+        y += speed / 24
+        cid = move(sim, cid, half, y)
+        sim.step()
+        behind = max(behind, int(np.sum(sim.positions[:, 1] < y - half[1])))
+    return behind, sim
+
+
+def test_a_30_kmh_collider_does_not_tunnel_through_a_10_cm_limb():
+    def moved(sim, cid, half, y):
+        sim.move_collider(cid, (0, y, 0))
+        return cid
+
+    def teleported(sim, cid, half, y):
+        sim.remove_collider(cid)
+        return sim.add_collider("box", half_extents=half, translation=(0, y, 0))
+
+    behind, sim = _board_through_limb(moved)
+    assert behind == 0
+    assert sim.velocities[:, 1].mean() == pytest.approx(30 / 3.6, rel=0.1)  # carried along at its speed
+    assert _board_through_limb(teleported)[0] == sim.graph.n_particles  # what the sweep prevents
+
+
+def test_a_deforming_mesh_collider_lifts_the_blob(blob):
+    g = blob[2]
+    sv, st = meshes.capsule(radius=0.5, length=0.0, segments=24, rings=8)
+    sim = _sim(g, (0.0, 0.0, 0.75), damping=0.02)
+    cid = sim.add_collider("mesh", vertices=sv, triangles=st, resolution=32)
+    sim.step(120)
+    low = sim.positions[:, 2].min()
+    for k in range(60):
+        sim.update_collider_vertices(cid, sv * (1 + 0.4 * (k + 1) / 60))  # radius 0.5 -> 0.7
+        sim.step()
+    sim.step(60)
+    assert sim.positions[:, 2].min() - low == pytest.approx(0.2, abs=0.02)
+    assert sim.collider_distances(sim.positions).min() > 0.0
+
+
+@pytest.mark.parametrize("shape", ["box", "sphere", "capsule"])
+def test_a_blob_that_starts_half_inside_is_pushed_out_not_shot_out(blob, shape):
+    g = blob[2]
+    top = {"box": 0.2, "sphere": 0.25, "capsule": 0.25}[shape]  # the blob's centre on the collider's top
+    sim = _sim(g, (0.0, 0.0, top) - g.centers.mean(axis=0), damping=0.02)
+    along_x = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]] if shape == "capsule" else None
+    sim.add_collider(shape, half_extents=(1.0, 1.0, 0.2), radius=0.25, half_length=0.5, rotation=along_x)
+    assert sim.collider_distances(sim.positions).min() < -0.08
+    for _ in range(60):
+        sim.step()
+        assert np.isfinite(sim.positions).all() and np.abs(sim.velocities).max() < 1.5
+    assert sim.collider_distances(sim.positions).min() > 0.0
+
+
+def test_capsule_and_mesh_distances_and_removal():
+    g = opdeform.Graph([[0, 0, 5.0]], [[0.1] * 3], np.zeros((0, 2), int))
+    sim = opdeform.Simulation(g, 1e5)
+    cap = sim.add_collider("capsule", radius=0.5, half_length=1.0)
+    np.testing.assert_allclose(sim.collider_distances([(2, 0, 0), (0, 0, 2), (0, 0, 0.2)]), [1.5, 0.5, -0.5])
+    sv, st = meshes.sheet((2.0, 2.0), (2, 2))
+    sim.remove_collider(cap)
+    sim.add_collider("mesh", vertices=sv, triangles=st)  # open: behind the sheet (-z) is inside
+    d = sim.collider_distances([(0.1, 0.2, 0.3), (0.1, 0.2, -0.3)])
+    np.testing.assert_allclose(d, [0.3, -0.3], atol=0.01)
+    np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.3)]), [(0.1, 0.2, 0.0)], atol=0.01)
+    assert sim.n_colliders == 1
+
+
+def _flipped_sheet():
+    sv, st = meshes.sheet((1.0, 1.0), (2, 2))
+    st = st.copy()
+    st[3] = st[3][::-1]
+    return sv, st
+
+
+def _nan_vertices():
+    sv, st = meshes.sheet()
+    sv = sv.copy()
+    sv[5, 1] = np.nan
+    return dict(vertices=sv, triangles=st)
+
+
+BAD = {
+    "no faces": (dict(shape="mesh", vertices=np.zeros((3, 3)), triangles=np.zeros((0, 3), int)), "triangles"),
+    "nan vertices": (dict(shape="mesh", **_nan_vertices()), "vertices"),
+    "zero thickness": (dict(shape="sphere", thickness=0.0), "thickness"),
+    "negative thickness": (dict(shape="sphere", thickness=-0.01), "thickness"),
+    "inverted open mesh": (dict(shape="mesh", vertices=_flipped_sheet()[0], triangles=_flipped_sheet()[1]),
+                           "triangles"),
+    "index out of range": (dict(shape="mesh", vertices=np.zeros((3, 3)), triangles=[[0, 1, 3]]), "triangles"),
+    "negative friction": (dict(shape="plane", friction=-1.0), "friction"),
+    "zero radius": (dict(shape="sphere", radius=0.0), "radius"),
+    "improper rotation": (dict(shape="box", rotation=-np.eye(3)), "rotation"),
+    "unknown shape": (dict(shape="torus"), "shape"),
+    "nan translation": (dict(shape="box", translation=(0, np.nan, 0)), "translation"),
+    "bad resolution": (dict(shape="mesh", vertices=meshes.sheet()[0], triangles=meshes.sheet()[1], resolution=2),
+                       "resolution"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_collider_input_raises_naming_the_argument_and_changes_nothing(blob, case):
+    kwargs, name = BAD[case]
+    sim = _sim(blob[2], (0.0, 0.0, 1.0))
+    sim.add_collider("plane")
+    sim.step(3)
+    before = [sim.positions, sim.velocities, sim.n_colliders]
+    with pytest.raises(ValueError, match=name):
+        sim.add_collider(**kwargs)
+    for a, b in zip(before, [sim.positions, sim.velocities, sim.n_colliders]):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_bad_moves_and_updates_raise_and_change_nothing(blob):
+    sim = _sim(blob[2], (0.0, 0.0, 1.0))
+    sv, st = meshes.sheet((1.0, 1.0), (2, 2))
+    mesh = sim.add_collider("mesh", vertices=sv, triangles=st)
+    ball = sim.add_collider("sphere", radius=0.3, translation=(3, 0, 0))
+    probe = [(0.1, 0.1, 0.2), (3.0, 0.0, 0.5)]
+    before = sim.collider_distances(probe)
+    with pytest.raises(ValueError, match="vertices"):
+        sim.update_collider_vertices(mesh, sv[:-1])
+    with pytest.raises(ValueError, match="vertices"):
+        sim.update_collider_vertices(mesh, np.where(np.arange(len(sv))[:, None] == 2, np.nan, sv))
+    with pytest.raises(ValueError, match="vertices"):
+        sim.update_collider_vertices(ball, sv)
+    with pytest.raises(ValueError, match="rotation"):
+        sim.move_collider(ball, (0, 0, 0), rotation=np.diag([1.0, 1.0, -1.0]))
+    with pytest.raises(ValueError, match="thickness"):
+        sim.set_collider_contact(ball, 0.5, 0.0)
+    with pytest.raises(IndexError):
+        sim.move_collider(99, (0, 0, 0))
+    with pytest.raises(IndexError):
+        sim.remove_collider(99)
+    np.testing.assert_array_equal(sim.collider_distances(probe), before)
+    assert sim.n_colliders == 2
+
+
+def test_a_moved_collider_arrives_at_the_end_of_the_next_step_call():
+    g = opdeform.Graph([[0, 0, 5.0]], [[0.1] * 3], np.zeros((0, 2), int))
+    sim = opdeform.Simulation(g, 1e5)
+    cid = sim.add_collider("sphere", radius=0.5)
+    sim.move_collider(cid, (1.0, 0.0, 0.0), rotation=frame_from_normal((1.0, 0.0, 0.0)))
+    assert sim.collider_distances([(0, 0, 0)])[0] == pytest.approx(-0.5)  # not before the step
+    sim.step(4)
+    assert sim.collider_distances([(1, 0, 0)])[0] == pytest.approx(-0.5)
+    sim.step(2)  # stays there
+    assert sim.collider_distances([(1, 0, 0)])[0] == pytest.approx(-0.5)
