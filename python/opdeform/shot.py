@@ -508,6 +508,7 @@ def _plot(path, rows, title):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    rows = rows[1:] or rows  # the first frame is the rest shape: nothing was solved
     frames = [r["frame"] for r in rows]
     fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
     top.semilogy(frames, [max(r["residual"], 1e-17) for r in rows])
