@@ -198,9 +198,9 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 	return od_AddConstraint(sim, &c, id);
 }
 
-static od_Constraint* od_Find(od_Sim* sim, int id)
+static od_Constraint* od_Find(const od_Sim* sim, int id)
 {
-	od_ConstraintSet* set = &sim->constraints;
+	const od_ConstraintSet* set = &sim->constraints;
 	if (id < 0 || id >= set->nextId || set->slotOfId[id] < 0)
 	{
 		od_Fail(OD_ERROR_NOT_FOUND, "no constraint with id %d", id);
@@ -228,6 +228,29 @@ od_Status od_Sim_SetConstraintTarget(od_Sim* sim, int id, const double target[3]
 	}
 	od_V3Store(c->target, t);
 	sim->constraints.targetsDirty = c->kind == OD_POSITION || sim->constraints.targetsDirty;
+	return OD_OK;
+}
+
+od_Status od_Sim_GetConstraintTarget(const od_Sim* sim, int id, double target[3])
+{
+	const od_Constraint* c = od_Find(sim, id);
+	if (!c)
+	{
+		return OD_ERROR_NOT_FOUND;
+	}
+	memcpy(target, c->target, sizeof c->target);
+	return OD_OK;
+}
+
+od_Status od_Sim_RestoreConstraintTarget(od_Sim* sim, int id, const double target[3])
+{
+	od_Constraint* c = od_Find(sim, id);
+	if (!c)
+	{
+		return OD_ERROR_NOT_FOUND;
+	}
+	memcpy(c->target, target, sizeof c->target);
+	sim->constraints.targetsDirty = true;
 	return OD_OK;
 }
 

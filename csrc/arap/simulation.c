@@ -340,8 +340,9 @@ void od_Sim_ClearFloor(od_Sim* sim)
 	sim->hasFloor = false;
 }
 
-od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
-						  const double* angularVelocities)
+// SetState (rotations orthonormalised) or RestoreState (copied as they are).
+static od_Status od_PutState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+							 const double* angularVelocities, bool exact)
 {
 	int n = sim->graph->n;
 	if (!positions || !rotations)
@@ -370,7 +371,10 @@ od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* ro
 	for (int i = 0; i < n; ++i)
 	{
 		od_Mat3 r = od_M3Load(rotations + 9 * i);
-		od_Orthonormalize(&r);
+		if (!exact)
+		{
+			od_Orthonormalize(&r);
+		}
 		od_M3Store(s->R + 9 * i, &r);
 	}
 	if (velocities)
@@ -391,6 +395,18 @@ od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* ro
 	}
 	sim->predictionValid = false;
 	return OD_OK;
+}
+
+od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+						  const double* angularVelocities)
+{
+	return od_PutState(sim, positions, rotations, velocities, angularVelocities, false);
+}
+
+od_Status od_Sim_RestoreState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+							  const double* angularVelocities)
+{
+	return od_PutState(sim, positions, rotations, velocities, angularVelocities, true);
 }
 
 const double* od_Sim_GetPositions(const od_Sim* sim)

@@ -38,8 +38,15 @@ class GoalFit:
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
         self.graph = graph
-        self._core = _core.GoalFit(graph._core, as_array("rest_vertices", rest_vertices, (None, 3)),
-                                   integer("neighbors", neighbors))
+        vertices = as_array("rest_vertices", rest_vertices, (None, 3))
+        self._core = _core.GoalFit(graph._core, vertices, integer("neighbors", neighbors))
+        self._args = (graph, vertices.copy(), neighbors)  # a pickle fits again
+
+    def __getstate__(self):
+        return self._args
+
+    def __setstate__(self, args):
+        self.__init__(*args)
 
     @property
     def n_vertices(self):

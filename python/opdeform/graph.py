@@ -25,6 +25,9 @@ class Graph:
         edges = as_array("edges", edges, (None, 2), np.int32)
         axes = None if axes is None else as_array("axes", axes, (n, 3, 3))
         self._core = _core.Graph(centers, radii, edges, axes)
+        # the core keeps a checked copy (axes orthonormalised, a mesh's pieces) with no way back in: a pickle
+        # holds what the graph was made from and makes it again, to the same bits
+        self._made = ("arrays", tuple(None if a is None else a.copy() for a in (centers, radii, edges, axes)))
 
     @classmethod
     def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
@@ -44,7 +47,16 @@ class Graph:
                                             choice("mode", mode, MODES), bool(join_pieces),
                                             integer("voxels_per_particle", voxels_per_particle),
                                             choice("small_pieces", small_pieces, SMALL_PIECES))
+        graph._made = ("from_mesh", (vertices.copy(), triangles.copy(), particles, mode, join_pieces,
+                                     voxels_per_particle, small_pieces))
         return graph
+
+    def __getstate__(self):
+        return self._made
+
+    def __setstate__(self, made):
+        kind, args = made
+        self.__dict__.update((Graph.from_mesh(*args) if kind == "from_mesh" else Graph(*args)).__dict__)
 
     @property
     def n_particles(self):

@@ -67,6 +67,14 @@ class Skin:
         normals = None if rest_normals is None else as_array("rest_normals", rest_normals, (len(vertices), 3))
         self._core = _core.Skin(graph._core, vertices, integer("neighbors", neighbors), triangles, normals,
                                 integer("threads", threads))
+        arrays = tuple(None if a is None else a.copy() for a in (vertices, triangles, normals))
+        self._args = (graph, arrays[0], neighbors, *arrays[1:], threads)  # a pickle binds again
+
+    def __getstate__(self):
+        return self._args
+
+    def __setstate__(self, args):
+        self.__init__(*args)
 
     @property
     def n_vertices(self):

@@ -69,6 +69,16 @@ class World:
                                     vector("gravity", gravity), number("cfl", cfl), number("max_dt", max_dt),
                                     number("spin", spin), choice("walls", walls, _CONTACTS),
                                     number("wall_friction", wall_friction), integer("threads", threads))
+        # the calls that make the model, for pickling (the state itself comes from the core as bytes)
+        self._calls = [("__init__", (lower, upper, dx, gravity, cfl, max_dt, spin, walls, wall_friction, threads))]
+
+    def __getstate__(self):
+        return {"calls": self._calls, "state": self._core.save_state()}
+
+    def __setstate__(self, saved):
+        for name, args in saved["calls"]:
+            getattr(self, name)(*args)
+        self._core.load_state(saved["state"])
 
     # -- content -------------------------------------------------------------------------------------------
     def add_particles(self, positions, material=None, particle_volume=None, velocities=None, orientations=None,
@@ -100,6 +110,8 @@ class World:
                             vector("drift", drift, 2), number("drag", drag), number("ground", ground),
                             number("ref_height", ref_height), number("exponent", exponent),
                             integer("seed", seed) & 0xFFFFFFFF)
+        self._calls.append(("set_wind", (kind, velocity, amplitude, wavelength, octaves, persistence, drift, drag,
+                                         ground, ref_height, exponent, seed)))
 
     def add_collider(self, shape, contact="slip", friction=0.0, half_extents=(0.5, 0.5, 0.5), radius=None,
                      vertices=None, triangles=None, rotation=None, translation=(0.0, 0.0, 0.0)):
@@ -114,9 +126,12 @@ class World:
             tris = as_array("triangles", triangles, (None, 3), np.int32)
             if tris.shape[0] == 0:
                 raise ValueError("triangles: a mesh collider needs at least one face")
-        return self._core.add_collider(shape_id, choice("contact", contact, _CONTACTS), number("friction", friction),
-                                       vector("half_extents", half_extents), verts, tris, _rotation(rotation),
-                                       vector("translation", translation))
+        id = self._core.add_collider(shape_id, choice("contact", contact, _CONTACTS), number("friction", friction),
+                                     vector("half_extents", half_extents), verts, tris, _rotation(rotation),
+                                     vector("translation", translation))
+        self._calls.append(("add_collider", (shape, contact, friction, half_extents, None, verts, tris, rotation,
+                                             translation)))
+        return id
 
     def add_floor(self, height=0.0, contact="slip", friction=0.0):
         return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, number("height", height)))

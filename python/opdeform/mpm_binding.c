@@ -277,6 +277,32 @@ static PyObject* Mpm_stats(PyObject* obj, PyObject* unused)
 						 "last_dt", s.lastDt, "active_blocks", s.activeBlocks, "max_speed", s.maxSpeed);
 }
 
+// save_state() -> bytes; load_state(bytes): the world's state for a checkpoint (od_MpmWorld_SaveState).
+static PyObject* Mpm_save_state(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_MpmWorld* world = Mpm_Enter(obj);
+	PyObject* out = world ? PyBytes_FromStringAndSize(NULL, (Py_ssize_t)od_MpmWorld_StateSize(world)) : NULL;
+	if (out)
+	{
+		od_MpmWorld_SaveState(world, PyBytes_AsString(out));
+	}
+	return out;
+}
+
+static PyObject* Mpm_load_state(PyObject* obj, PyObject* args)
+{
+	od_MpmWorld* world = Mpm_Enter(obj);
+	PyObject* data;
+	char* bytes;
+	Py_ssize_t size;
+	if (!world || !PyArg_ParseTuple(args, "O!", &PyBytes_Type, &data) || PyBytes_AsStringAndSize(data, &bytes, &size) < 0)
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_MpmWorld_LoadState(world, bytes, (size_t)size));
+}
+
 static PyObject* Mpm_get_n_particles(PyObject* obj, void* closure)
 {
 	(void)closure;
@@ -299,6 +325,8 @@ static PyMethodDef Mpm_methods[] = {
 	{ "update_orientations", Mpm_update_orientations, METH_NOARGS, NULL },
 	{ "read", Mpm_read, METH_VARARGS, NULL },
 	{ "stats", Mpm_stats, METH_NOARGS, NULL },
+	{ "save_state", Mpm_save_state, METH_NOARGS, NULL },
+	{ "load_state", Mpm_load_state, METH_VARARGS, NULL },
 	{ NULL, NULL, 0, NULL },
 };
 

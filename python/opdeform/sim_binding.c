@@ -117,6 +117,31 @@ static PyObject* Sim_set_constraint_target(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, od_Sim_SetConstraintTarget(sim, id, t));
 }
 
+static PyObject* Sim_constraint_target(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	double t[3];
+	if (!sim || !PyArg_ParseTuple(args, "i", &id))
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_GetConstraintTarget(sim, id, t);
+	return status == OD_OK ? Py_BuildValue("(ddd)", t[0], t[1], t[2]) : Binding_Done(obj, status);
+}
+
+static PyObject* Sim_restore_constraint_target(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int id;
+	double t[3];
+	if (!sim || !PyArg_ParseTuple(args, "i(ddd)", &id, &t[0], &t[1], &t[2]))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_RestoreConstraintTarget(sim, id, t));
+}
+
 static PyObject* Sim_set_constraint_weight(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
@@ -373,7 +398,9 @@ static PyObject* Sim_solve_static(PyObject* obj, PyObject* args)
 }
 
 // set_state(positions, rotations, velocities=None, angular_velocities=None)
-static PyObject* Sim_set_state(PyObject* obj, PyObject* args)
+// set_state and restore_state(positions, rotations, velocities=None, angular_velocities=None): od_Sim_SetState
+// (rotations orthonormalised) or od_Sim_RestoreState (as they are).
+static PyObject* PutState(PyObject* obj, PyObject* args, int exact)
 {
 	od_Sim* sim = Sim_Enter(obj);
 	Py_buffer v[4];
@@ -381,9 +408,20 @@ static PyObject* Sim_set_state(PyObject* obj, PyObject* args)
 	{
 		return NULL;
 	}
-	od_Status status = od_Sim_SetState(sim, v[0].buf, v[1].buf, ArrayData(&v[2]), ArrayData(&v[3]));
+	od_Status status = (exact ? od_Sim_RestoreState : od_Sim_SetState)(sim, v[0].buf, v[1].buf, ArrayData(&v[2]),
+																	   ArrayData(&v[3]));
 	ReleaseArrays(v, 4);
 	return Binding_Done(obj, status);
+}
+
+static PyObject* Sim_set_state(PyObject* obj, PyObject* args)
+{
+	return PutState(obj, args, 0);
+}
+
+static PyObject* Sim_restore_state(PyObject* obj, PyObject* args)
+{
+	return PutState(obj, args, 1);
 }
 
 // read(name, out) -> count: "positions", "rotations", "velocities", "angular_velocities" or "energy_trace".
@@ -544,6 +582,9 @@ static PyMethodDef Sim_methods[] = {
 	{ "add_direction_constraint", Sim_add_direction_constraint, METH_VARARGS, NULL },
 	{ "set_constraint_target", Sim_set_constraint_target, METH_VARARGS, NULL },
 	{ "set_constraint_weight", Sim_set_constraint_weight, METH_VARARGS, NULL },
+	{ "constraint_target", Sim_constraint_target, METH_VARARGS, "constraint_target(id) -> the target as stored" },
+	{ "restore_constraint_target", Sim_restore_constraint_target, METH_VARARGS,
+	  "restore_constraint_target(id, target): sets a stored target back unchanged" },
 	{ "remove_constraint", Sim_remove_constraint, METH_VARARGS, NULL },
 	{ "constraint_count", Sim_constraint_count, METH_NOARGS, NULL },
 	{ "set_floor", Sim_set_floor, METH_VARARGS, NULL },
@@ -561,6 +602,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "step", Sim_step, METH_VARARGS, NULL },
 	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
 	{ "set_state", Sim_set_state, METH_VARARGS, NULL },
+	{ "restore_state", Sim_restore_state, METH_VARARGS, NULL },
 	{ "read", Sim_read, METH_VARARGS, NULL },
 	{ "trace_length", Sim_trace_length, METH_NOARGS, NULL },
 	{ "energy", Sim_energy, METH_NOARGS, NULL },

@@ -18,13 +18,24 @@ class Simulation:
                  damping=0.0, skin_neighbors=4):
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
+        self._start(graph, core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors))
+
+    def _start(self, graph, params):
         self.graph = graph
-        self._core = _core.Simulation(graph._core, *core_params(stiffness, density, dt, iterations, gravity, damping,
-                                                            skin_neighbors))
+        self._core = _core.Simulation(graph._core, *params)
         v = graph.volumes
         r2 = (graph.radii ** 2).sum(axis=1)
         self._mean_volume = float(v.mean())
         self._mean_moment = float((0.2 * v * r2).mean())
+        # What the core cannot give back, for pickling: the constraints as added (kind, point, direction,
+        # weight) by id, the adds and removals since the set was last empty (they decide the slot order, and
+        # so the bits), the ids issued before that, the floor and the goals.
+        self._constraints = {}
+        self._history = []
+        self._ids_before = 0
+        self._floor = None
+        self._goal_hz = None
+        self._goal_frames = None
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind="position"):
@@ -41,23 +52,37 @@ class Simulation:
         """Pins the rest-space point to target (None: where it is now). Returns the constraint id."""
         weight = self.default_weight("position") if weight is None else number("weight", weight)
         target = None if target is None else vector("target", target)
-        return self._core.add_position_constraint(vector("point", point), target, weight)
+        point = vector("point", point)
+        return self._added(self._core.add_position_constraint(point, target, weight), [0, point, None, weight])
 
     def add_direction_constraint(self, point, direction, target=None, weight=None):
         """Turns the rest direction at the rest-space point towards target (None: where it points now)."""
         weight = self.default_weight("direction") if weight is None else number("weight", weight)
         target = None if target is None else vector("target", target)
-        return self._core.add_direction_constraint(vector("point", point), vector("direction", direction), target,
-                                                   weight)
+        point, direction = vector("point", point), vector("direction", direction)
+        return self._added(self._core.add_direction_constraint(point, direction, target, weight),
+                           [1, point, direction, weight])
+
+    def _added(self, id, record):
+        self._constraints[id] = record
+        self._history.append(id)
+        return id
 
     def set_constraint_target(self, id, target):
         self._core.set_constraint_target(integer("id", id), vector("target", target))
 
     def set_constraint_weight(self, id, weight):
-        self._core.set_constraint_weight(integer("id", id), number("weight", weight))
+        weight = number("weight", weight)
+        self._core.set_constraint_weight(integer("id", id), weight)
+        self._constraints[id][3] = weight
 
     def remove_constraint(self, id):
         self._core.remove_constraint(integer("id", id))
+        del self._constraints[id]
+        self._history.append(~id)  # ~id < 0: a removal
+        if not self._constraints:
+            self._ids_before += sum(1 for op in self._history if op >= 0)
+            self._history = []
 
     @property
     def n_constraints(self):
@@ -69,7 +94,7 @@ class Simulation:
         """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
         0 free, 1 follows the goals. None removes the goals. A change refactors the global matrix once."""
         if strength is None:
-            self._core.set_goal_frequencies(None)
+            self.set_goal_frequencies(None)
             return
         s = as_array("strength", np.broadcast_to(np.asarray(strength, dtype=np.float64), (self.graph.n_particles,)),
                      (self.graph.n_particles,))
@@ -77,22 +102,30 @@ class Simulation:
 
     def set_goal_frequencies(self, frequencies):
         """The goal springs as frequencies in Hz, one per particle (>= 0), or None to remove the goals."""
-        hz = None if frequencies is None else as_array("frequencies", frequencies, (self.graph.n_particles,))
+        hz = None if frequencies is None else as_array("frequencies", frequencies, (self.graph.n_particles,)).copy()
         self._core.set_goal_frequencies(hz)
+        if hz is None or self._goal_hz is None:  # goal frames start again at the rest frames
+            self._goal_frames = None
+        self._goal_hz = hz
 
     def set_goals(self, positions, rotations=None):
         """Goal centres (n,3) and rotations (n,3,3; None: the rest frames), e.g. from ``GoalFit.fit``. Only the
         right side changes: no refactoring. Needs goal strengths first."""
         n = self.graph.n_particles
-        rot = None if rotations is None else as_array("rotations", rotations, (n, 3, 3))
-        self._core.set_goals(as_array("positions", positions, (n, 3)), rot)
+        rot = None if rotations is None else as_array("rotations", rotations, (n, 3, 3)).copy()
+        pos = as_array("positions", positions, (n, 3)).copy()
+        self._core.set_goals(pos, rot)
+        self._goal_frames = (pos, rot)
 
     def set_floor(self, height=0.0, friction=0.0):
         """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
-        self._core.set_floor(number("height", height), number("friction", friction))
+        floor = (number("height", height), number("friction", friction))
+        self._core.set_floor(*floor)
+        self._floor = floor
 
     def clear_floor(self):
         self._core.clear_floor()
+        self._floor = None
 
     # -- colliders (docs/contact.md) --------------------------------------------------------------------
     COLLIDER_SHAPES = ("plane", "box", "sphere", "capsule", "mesh")
@@ -207,6 +240,46 @@ class Simulation:
             idx, w = self.graph.skin_weights(p, m)
             out[k] = np.einsum("j,jab,jb->a", w, rot[idx], p - rest[idx]) + w @ x[idx]
         return out
+
+    # -- pickling ---------------------------------------------------------------------------------------
+    def __getstate__(self):
+        """Everything a step reads: graph, parameters, solver settings, floor, goals, constraints (ids, slot
+        order, targets as stored) and the state with velocities. The factorization is rebuilt; counters restart."""
+        return {"graph": self.graph, "params": self.params, "solver": self.solver, "trace_energy": self.trace_energy,
+                "floor": self._floor, "goal_hz": self._goal_hz, "goal_frames": self._goal_frames,
+                "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
+                "targets": {id: self._core.constraint_target(id) for id in self._constraints},
+                "state": (self.positions, self.rotations, self.velocities, self.angular_velocities)}
+
+    def __setstate__(self, saved):
+        self._start(saved["graph"], core_params(**saved["params"]))
+        self.set_solver(**saved["solver"])
+        self.trace_energy = saved["trace_energy"]
+        if saved["floor"] is not None:
+            self.set_floor(*saved["floor"])
+        if saved["goal_hz"] is not None:
+            self.set_goal_frequencies(saved["goal_hz"])
+        if saved["goal_frames"] is not None:
+            self.set_goals(*saved["goal_frames"])
+        self._replay(saved["ids_before"], saved["history"], saved["constraints"], saved["targets"])
+        self._core.restore_state(*saved["state"])
+
+    def _replay(self, ids_before, history, constraints, targets):
+        """The same adds and removals, so that ids and slots match; removed constraints come back as
+        placeholders, live ones as added, with their targets as stored (no renormalisation)."""
+        placeholder = [0, tuple(self.graph.centers[0]), None, 1.0]
+        for op in [op for id in range(ids_before) for op in (id, ~id)] + history:
+            if op < 0:
+                self.remove_constraint(~op)
+                continue
+            kind, point, direction, weight = constraints.get(op, placeholder)
+            target = targets.get(op, point)
+            if kind == 0:
+                self.add_position_constraint(point, target, weight)
+            else:
+                self.add_direction_constraint(point, direction, target, weight)
+        for id, target in targets.items():
+            self._core.restore_constraint_target(id, target)
 
     # -- parameters and diagnostics --------------------------------------------------------------------
     @property

@@ -17,6 +17,8 @@
 
 #include "opdeform/base.h"
 
+#include <stddef.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -176,6 +178,13 @@ void od_MpmWorld_UpdateOrientations(od_MpmWorld* world);
 void od_MpmWorld_Read(const od_MpmWorld* world, od_MpmField field, double* out);
 int od_MpmFieldWidth(od_MpmField field);
 od_MpmStats od_MpmWorld_GetStats(const od_MpmWorld* world);
+
+// The state (particles, orientations, clock, collider frames) as bytes of this build, for a checkpoint:
+// LoadState on a world made by the same calls (create, wind, colliders; particles are replaced) continues to
+// the same bits. SaveState writes StateSize bytes.
+size_t od_MpmWorld_StateSize(const od_MpmWorld* world);
+void od_MpmWorld_SaveState(const od_MpmWorld* world, void* out);
+od_Status od_MpmWorld_LoadState(od_MpmWorld* world, const void* in, size_t size);
 
 #ifdef __cplusplus
 }

@@ -46,6 +46,10 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 										const double* target, double weight, int* id);
 od_Status od_Sim_SetConstraintTarget(od_Sim* sim, int id, const double target[3]);
 od_Status od_Sim_SetConstraintWeight(od_Sim* sim, int id, double weight);
+// The target as stored (a direction constraint's normalised), and setting it back unchanged (no
+// normalisation): what a saved simulation needs to continue to the same bits.
+od_Status od_Sim_GetConstraintTarget(const od_Sim* sim, int id, double target[3]);
+od_Status od_Sim_RestoreConstraintTarget(od_Sim* sim, int id, const double target[3]);
 od_Status od_Sim_RemoveConstraint(od_Sim* sim, int id);
 int od_Sim_GetConstraintCount(const od_Sim* sim);
 
@@ -67,6 +71,9 @@ od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations);
 // velocities and angularVelocities may be NULL (zero).
 od_Status od_Sim_SetState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
 						  const double* angularVelocities);
+// SetState without orthonormalising the rotations: a saved state back to the same bits.
+od_Status od_Sim_RestoreState(od_Sim* sim, const double* positions, const double* rotations, const double* velocities,
+							  const double* angularVelocities);
 const double* od_Sim_GetPositions(const od_Sim* sim);
 const double* od_Sim_GetRotations(const od_Sim* sim);
 const double* od_Sim_GetVelocities(const od_Sim* sim);

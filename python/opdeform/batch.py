@@ -1,0 +1,110 @@
+"""Shots spread over a Dask cluster (``dask.distributed``): a LocalCluster on this machine by default, or any
+running scheduler by its address (docs/pipeline.md).
+
+Each shot is one task: the worker loads the spec (a path every worker can read), bakes it with as many
+solver threads as the worker has (unless the spec names them) and returns a ``ShotResult``; a failing shot
+comes back as a result with its error and log and never stops the others. A worker that dies mid-shot makes
+the scheduler run the task again elsewhere (up to its ``allowed-failures``), and the bake resumes from the
+shot's last checkpoint; past that the shot is reported as failed. Bits are those of ``python -m opdeform
+bake`` run with the same threads.
+"""
+
+import io as text_io
+import logging
+import os
+import time
+import traceback
+from dataclasses import dataclass, field
+
+from . import shot as shots
+
+__all__ = ["ShotResult", "bake_shot", "connect", "run", "submit", "gather"]
+
+
+@dataclass
+class ShotResult:
+    spec: str
+    ok: bool
+    seconds: float = 0.0
+    frames: int = 0
+    outputs: dict = field(default_factory=dict)
+    error: str = ""
+    log: str = ""
+
+
+def bake_shot(spec, threads=1):
+    """Loads and bakes one spec; every failure comes back inside the result (with the log of the bake)."""
+    captured = text_io.StringIO()
+    handler = logging.StreamHandler(captured)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    logger = logging.getLogger("opdeform")
+    logger.addHandler(handler)
+    logger.setLevel(logging.INFO)
+    t0 = time.perf_counter()
+    try:
+        shot = shots.load(spec)
+        logger.info("%s: baking frames %d-%d with %d threads", shot.name, shot.first, shot.last,
+                    shot.threads(threads))
+        rows = shots.bake(shot, threads)
+        outputs = {key: shot.output(key) for key in ("pc2", "frames", "report", "plot") if shot.output(key)}
+        return ShotResult(spec, True, time.perf_counter() - t0, len(rows), outputs, log=captured.getvalue())
+    except Exception as exc:  # a failed shot is a result, not the end of the batch
+        logger.error("%s", traceback.format_exc())
+        return ShotResult(spec, False, time.perf_counter() - t0, error=f"{type(exc).__name__}: {exc}",
+                          log=captured.getvalue())
+    finally:
+        logger.removeHandler(handler)
+
+
+def _bake_on_worker(spec):
+    from distributed import get_worker
+    return bake_shot(spec, get_worker().state.nthreads)
+
+
+def connect(scheduler=None, workers=2, threads_per_worker=1, timeout=10.0):
+    """A ``distributed.Client``: to the scheduler at ``scheduler`` (ConnectionError naming it when it does not
+    answer within ``timeout`` seconds), or to a new LocalCluster of ``workers`` processes."""
+    from distributed import Client, LocalCluster
+    if scheduler:
+        try:
+            return Client(scheduler, timeout=timeout)
+        except (OSError, TimeoutError) as exc:
+            raise ConnectionError(f"scheduler {scheduler}: no answer within {timeout:g} s ({exc})") from None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
+                           dashboard_address=None)
+    return Client(cluster)
+
+
+def submit(client, specs):
+    """One task per spec (absolute paths; a worker must be able to read them); returns the futures in order."""
+    paths = [os.path.abspath(os.fspath(s)) for s in specs]
+    return [client.submit(_bake_on_worker, p, pure=False, key=f"bake-{k}-{os.path.basename(p)}")
+            for k, p in enumerate(paths)]
+
+
+def gather(specs, futures, on_result=None):
+    """The ShotResult of every future, in the order of the specs; a task that could not run (its worker died
+    too often, the cluster went away) becomes a failed result naming the reason. on_result(result) as each ends."""
+    from distributed import as_completed
+    index = {f.key: k for k, f in enumerate(futures)}
+    results = [None] * len(futures)
+    for future in as_completed(futures):
+        k = index[future.key]
+        try:
+            results[k] = future.result()
+        except Exception as exc:  # KilledWorker, CommClosedError, CancelledError: the task itself never returned
+            results[k] = ShotResult(os.path.abspath(os.fspath(specs[k])), False,
+                                    error=f"{type(exc).__name__}: {exc} (the worker running it died or the "
+                                          f"cluster went away)")
+        if on_result:
+            on_result(results[k])
+    return results
+
+
+def run(specs, scheduler=None, workers=2, timeout=10.0, on_result=None):
+    """Bakes the specs over a cluster (see ``connect``); returns their ShotResults in order."""
+    with connect(scheduler, workers, timeout=timeout) as client:
+        results = gather(specs, submit(client, specs), on_result)
+        if not scheduler:
+            client.cluster.close()
+    return results

@@ -1,0 +1,103 @@
+"""``python -m opdeform``: bake one shot, bake a batch over a Dask cluster, or summarise a bake's report.
+
+    python -m opdeform bake SPEC [--threads N] [--restart]
+    python -m opdeform batch SPEC... [--scheduler ADDRESS] [--workers N] [--timeout SECONDS]
+    python -m opdeform report BAKE            (a spec, or its report CSV)
+
+Exit status 0 when everything baked, 1 when a shot failed, 2 for bad arguments or a bad spec.
+"""
+
+import argparse
+import os
+import sys
+import time
+
+from . import shot as shots
+
+__all__ = ["main"]
+
+
+def _progress_bar(stream):
+    """progress(done, total) drawing a bar on a terminal; None elsewhere (a farm's log stays quiet)."""
+    if not stream.isatty():
+        return None
+    start = time.perf_counter()
+
+    def progress(done, total):
+        width = 40
+        filled = width * done // total
+        rate = done / max(time.perf_counter() - start, 1e-9)
+        stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} frames, {rate:.1f} frames/s")
+        stream.write("\n" if done == total else "")
+        stream.flush()
+    return progress
+
+
+def bake(args):
+    shot = shots.load(args.spec)
+    t0 = time.perf_counter()
+    rows = shots.bake(shot, args.threads, _progress_bar(sys.stderr), resume=not args.restart)
+    print(f"{shot.name}: {len(rows)} frames in {time.perf_counter() - t0:.2f} s -> {shot.output('pc2')}")
+    return 0
+
+
+def batch(args):
+    from . import batch as batches
+
+    def line(result):
+        name = os.path.basename(result.spec)
+        if result.ok:
+            print(f"ok     {name}: {result.frames} frames in {result.seconds:.2f} s", flush=True)
+        else:
+            print(f"FAILED {name}: {result.error}", flush=True)
+            print("".join(f"    {row}\n" for row in result.log.splitlines()[-20:]), end="", flush=True)
+
+    results = batches.run(args.specs, args.scheduler, args.workers, args.timeout, on_result=line)
+    failed = sum(not r.ok for r in results)
+    print(f"{len(results) - failed} of {len(results)} shots baked")
+    return 1 if failed else 0
+
+
+def report(args):
+    path = args.bake
+    if path.endswith(".toml"):
+        path = shots.load(path).output("report")
+    rows = shots.read_report(path)
+    simulated = rows[1:] or rows
+    ms = sorted(1e3 * r["step_seconds"] for r in simulated)
+    over = [r["frame"] for r in rows if r["over_tolerance"]]
+    worst = max(rows, key=lambda r: r["residual"])
+    print(f"{path}: frames {rows[0]['frame']}-{rows[-1]['frame']}")
+    print(f"solver: {sum(ms):.1f} ms in all, median {ms[len(ms) // 2]:.2f} ms a frame, slowest {ms[-1]:.2f} ms")
+    print(f"residual: largest {worst['residual']:.3g} at frame {worst['frame']}; "
+          f"{len(over)} frames over the tolerance{': ' + ', '.join(map(str, over[:20])) if over else ''}")
+    print(f"fastest particle: {max(r['max_speed'] for r in rows):.3g} m/s")
+    return 0
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m opdeform", description=__doc__.split("\n")[0])
+    commands = parser.add_subparsers(dest="command", required=True)
+    p = commands.add_parser("bake", help="bake one shot")
+    p.add_argument("spec")
+    p.add_argument("--threads", type=int, default=None, help="solver threads when the spec leaves them (default 1)")
+    p.add_argument("--restart", action="store_true", help="ignore the shot's checkpoint")
+    p.set_defaults(run=bake)
+    p = commands.add_parser("batch", help="bake shots over a Dask cluster")
+    p.add_argument("specs", nargs="+")
+    p.add_argument("--scheduler", default=None, help="address of a running scheduler (default: a LocalCluster)")
+    p.add_argument("--workers", type=int, default=2, help="LocalCluster worker processes")
+    p.add_argument("--timeout", type=float, default=10.0, help="seconds to wait for the scheduler")
+    p.set_defaults(run=batch)
+    p = commands.add_parser("report", help="the per-frame error and time report of a bake")
+    p.add_argument("bake", help="a spec or its report CSV")
+    p.set_defaults(run=report)
+    args = parser.parse_args(argv)
+    try:
+        return args.run(args)
+    except shots.SpecError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except (ConnectionError, OSError, ValueError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1

@@ -1,0 +1,532 @@
+"""A shot: one mesh simulated over a frame range, described by a TOML file (docs/pipeline.md), and its bake.
+
+``load(path)`` reads and checks a spec: every key known, every value of the right kind and range, the files
+there, vertex indices in range, the output folder writable; a problem raises ``SpecError`` naming the spec,
+the key and the problem, before anything runs. ``bake(shot)`` runs it the way the Blender add-on's engine does
+(graph from the mesh, pins and handles as position and direction constraints, ``substeps`` solver steps per
+frame, the first frame the rest shape) and writes the outputs, each complete or not at all; with
+``checkpoint_every`` it pickles the simulation every so many frames and a later bake resumes from there.
+"""
+
+import hashlib
+import logging
+import os
+import pickle
+import tempfile
+import time
+import tomllib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import io, meshes
+from .goals import GoalFit, relative_deform
+from .graph import MODES, Graph
+from .mesh import Skin, add_vertex_direction, pin_vertices
+from .simulation import Simulation
+
+__all__ = ["Shot", "SpecError", "VERSION", "bake", "load", "read_report"]
+
+VERSION = 1
+log = logging.getLogger("opdeform.shot")
+REPORT_COLUMNS = ("frame", "step_seconds", "skin_seconds", "energy", "residual", "max_speed", "over_tolerance")
+
+
+class SpecError(ValueError):
+    """A shot description that cannot run: the message names the spec file, the key and the problem."""
+
+
+# -- value checks: each takes (where, value) and returns the value or raises SpecError ------------------------
+def _fail(where, problem):
+    raise SpecError(f"{where}: {problem}")
+
+
+def _number(where, value, low=None, above=None):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        _fail(where, f"must be a number, got {value!r}")
+    if (low is not None and value < low) or (above is not None and value <= above):
+        _fail(where, f"must be {'>= ' + str(low) if low is not None else '> ' + str(above)}, got {value!r}")
+    return float(value)
+
+
+def _positive(where, value):
+    return _number(where, value, above=0)
+
+
+def _fraction(where, value):
+    value = _number(where, value, low=0)
+    return value if value <= 1 else _fail(where, f"must be in [0, 1], got {value!r}")
+
+
+def _nonnegative(where, value):
+    return _number(where, value, low=0)
+
+
+def _finite(where, value):
+    return _number(where, value)
+
+
+def _integer(where, value, low=None):
+    if isinstance(value, bool) or not isinstance(value, int) or (low is not None and value < low):
+        _fail(where, f"must be an integer{'' if low is None else ' >= ' + str(low)}, got {value!r}")
+    return value
+
+
+def _count(where, value):
+    return _integer(where, value, 1)
+
+
+def _natural(where, value):
+    return _integer(where, value, 0)
+
+
+def _vector(where, value):
+    if not isinstance(value, list) or len(value) != 3:
+        _fail(where, f"must be three numbers, got {value!r}")
+    return tuple(_number(f"{where}[{k}]", x) for k, x in enumerate(value))
+
+
+def _text(where, value):
+    return value if isinstance(value, str) and value else _fail(where, f"must be a non-empty string, got {value!r}")
+
+
+def _flag(where, value):
+    return value if isinstance(value, bool) else _fail(where, f"must be true or false, got {value!r}")
+
+
+def _mode(where, value):
+    return value if value in MODES else _fail(where, f"must be one of {list(MODES)}, got {value!r}")
+
+
+ACCELERATORS = ("none", "anderson", "chebyshev")
+
+
+def _accelerator(where, value):
+    return value if value in ACCELERATORS else _fail(where, f"must be one of {list(ACCELERATORS)}, got {value!r}")
+
+
+def _frame_range(where, value):
+    if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)) or \
+            value[1] <= value[0]:
+        _fail(where, f"must be [first, last] integers with last > first, got {value!r}")
+    return tuple(value)
+
+
+def _indices(where, value):
+    if isinstance(value, str):  # a text file of indices (a vertex group written out), one or more a line
+        return value
+    if not isinstance(value, list) or not all(type(v) is int for v in value):
+        _fail(where, f"must be a list of vertex indices or the name of a file of them, got {value!r}")
+    return value
+
+
+def _keys(where, value):
+    if not isinstance(value, list) or not value:
+        _fail(where, "must be a non-empty list of {frame, offset, rotate} tables")
+    return [_table(f"{where}[{k}]", key, KEY_SCHEMA) for k, key in enumerate(value)]
+
+
+REQUIRED = object()
+KEY_SCHEMA = {"frame": (_integer, REQUIRED), "offset": (_vector, (0.0, 0.0, 0.0)), "rotate": (_vector, (0.0, 0.0, 0.0))}
+HANDLE_SCHEMA = {"vertex": (_natural, REQUIRED), "strength": (_positive, 1.0),
+                 "rotation": (_flag, False), "keys": (_keys, REQUIRED)}
+SCHEMA = {
+    "": {"version": (_count, REQUIRED), "name": (_text, None), "mesh": (_text, REQUIRED),
+         "frames": (_frame_range, REQUIRED), "fps": (_positive, 24.0), "substeps": (_count, 1)},
+    "graph": {"particles": (_count, 100), "mode": (_mode, "auto"), "neighbors": (_count, 4)},
+    "material": {"stiffness": (_positive, REQUIRED), "density": (_positive, 1000.0), "damping": (_fraction, 0.0),
+                 "gravity": (_vector, (0.0, 0.0, -9.81))},
+    "solver": {"iterations": (_count, 10), "accelerator": (_accelerator, "none"), "threads": (_natural, 0),
+               "tolerance": (_positive, None)},
+    "pins": {"vertices": (_indices, REQUIRED), "strength": (_positive, 1.0)},
+    "goals": {"animation": (_text, REQUIRED), "strength": (_fraction, REQUIRED), "neighbors": (_count, 16)},
+    "floor": {"height": (_finite, 0.0), "friction": (_nonnegative, 0.0)},
+    "output": {"folder": (_text, REQUIRED), "pc2": (_text, None), "frames": (_text, None), "report": (_text, None),
+               "plot": (_text, None), "checkpoint_every": (_natural, 0)},
+}
+OPTIONAL_SECTIONS = ("pins", "goals", "floor")
+
+
+def _table(where, table, schema):
+    """The table's values checked by the schema, defaults filled in; unknown and missing keys refused."""
+    if not isinstance(table, dict):
+        _fail(where, f"must be a table, got {table!r}")
+    unknown = sorted(set(table) - set(schema))
+    if unknown:
+        _fail(f"{where}.{unknown[0]}" if where else unknown[0], f"unknown key (known: {', '.join(schema)})")
+    out = {}
+    for key, (check, default) in schema.items():
+        name = f"{where}.{key}" if where else key
+        if key in table:
+            out[key] = check(name, table[key])
+        elif default is REQUIRED:
+            _fail(name, "missing")
+        else:
+            out[key] = default
+    return out
+
+
+# -- the shot ----------------------------------------------------------------------------------------------
+@dataclass
+class Shot:
+    """A checked shot description; ``spec`` is the file, paths are resolved, the mesh is read."""
+    spec: str
+    name: str
+    settings: dict
+    vertices: np.ndarray = field(repr=False)
+    triangles: np.ndarray = field(repr=False)
+    pins: np.ndarray = field(repr=False)
+    animation: np.ndarray = field(repr=False)
+    digest: str = ""
+
+    def section(self, name):
+        return self.settings[name]
+
+    @property
+    def first(self):
+        return self.settings[""]["frames"][0]
+
+    @property
+    def last(self):
+        return self.settings[""]["frames"][1]
+
+    def output(self, key):
+        """The full path of an output (None when the spec asks for none)."""
+        out = self.settings["output"]
+        return None if out[key] is None else os.path.join(out["folder"], out[key])
+
+    def threads(self, available):
+        """The solver threads: the spec's, or (0 there) what the runner allows."""
+        return self.settings["solver"]["threads"] or available
+
+    @property
+    def checkpoint(self):
+        return os.path.join(self.settings["output"]["folder"], f".{self.name}.checkpoint")
+
+
+def load(path):
+    """The checked ``Shot`` of a TOML spec; SpecError naming the key and the problem otherwise."""
+    path = os.path.abspath(os.fspath(path))
+    try:
+        with open(path, "rb") as f:
+            raw = f.read()
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise SpecError(f"{path}: cannot read the spec: {exc}") from None
+    try:
+        return _load(path, raw, data)
+    except SpecError as exc:
+        raise SpecError(f"{path}: {exc}") from None
+
+
+def _load(path, raw, data):
+    top = {k: v for k, v in data.items() if k not in SCHEMA and k != "handles"}
+    settings = {"": _table("", top, SCHEMA[""])}
+    if settings[""]["version"] != VERSION:
+        _fail("version", f"this opdeform reads version {VERSION}, got {settings['']['version']}")
+    for section, schema in SCHEMA.items():
+        if section and (section in data or section not in OPTIONAL_SECTIONS):
+            settings[section] = _table(section, data.get(section, {}), schema)
+        elif section:
+            settings[section] = None
+    handles = data.get("handles", [])
+    if not isinstance(handles, list):
+        _fail("handles", "must be an array of tables ([[handles]])")
+    settings["handles"] = [_table(f"handles[{k}]", h, HANDLE_SCHEMA) for k, h in enumerate(handles)]
+    folder = os.path.dirname(path)
+    vertices, triangles = _mesh(folder, settings[""]["mesh"])
+    name = settings[""]["name"] or os.path.splitext(os.path.basename(path))[0]
+    pins = _pins(folder, settings["pins"], len(vertices))
+    for k, h in enumerate(settings["handles"]):
+        _in_range(f"handles[{k}].vertex", [h["vertex"]], len(vertices))
+    animation = _animation(folder, settings["goals"], len(vertices), settings[""]["frames"])
+    out = settings["output"]
+    out["folder"] = _writable(os.path.normpath(os.path.join(folder, out["folder"])))
+    out["pc2"] = out["pc2"] or f"{name}.pc2"
+    out["report"] = out["report"] or f"{name}_report.csv"
+    if out["frames"]:
+        _frame_names(out["frames"])
+    digest = hashlib.sha256(raw + vertices.tobytes() + triangles.tobytes() + animation.tobytes()).hexdigest()
+    return Shot(path, name, settings, vertices, triangles, pins, animation, digest)
+
+
+BUILTIN = "builtin:"
+
+
+def _mesh(folder, source):
+    """An OBJ or PLY file relative to the spec, or ``builtin:NAME`` of opdeform.meshes (bar, capsule, creature,
+    sheet, strand)."""
+    if source.startswith(BUILTIN):
+        maker = source[len(BUILTIN):]
+        if maker not in ("bar", "capsule", "creature", "sheet", "strand"):
+            _fail("mesh", f"no built-in mesh {maker!r} (bar, capsule, creature, sheet, strand)")
+        return getattr(meshes, maker)()
+    path = os.path.join(folder, source)
+    if not os.path.isfile(path):
+        _fail("mesh", f"no such file: {path}")
+    try:
+        return io.read(path)
+    except ValueError as exc:
+        _fail("mesh", str(exc))
+
+
+def _in_range(where, indices, count):
+    bad = [i for i in indices if not 0 <= i < count]
+    if bad:
+        _fail(where, f"vertex index {bad[0]} is out of range: the mesh has {count} vertices")
+
+
+def _pins(folder, pins, count):
+    if pins is None:
+        return np.zeros(0, np.int64)
+    indices = pins["vertices"]
+    if isinstance(indices, str):
+        path = os.path.join(folder, indices)
+        try:
+            with open(path) as f:
+                indices = [int(x) for x in f.read().split()]
+        except (OSError, ValueError) as exc:
+            _fail("pins.vertices", f"cannot read vertex indices from {path}: {exc}")
+    _in_range("pins.vertices", indices, count)
+    return np.asarray(indices, np.int64)
+
+
+def _animation(folder, goals, count, frames):
+    """The goal animation's frames (one per shot frame from the first), from a PC2 file."""
+    if goals is None:
+        return np.zeros((0, count, 3), np.float32)
+    path = os.path.join(folder, goals["animation"])
+    if not os.path.isfile(path):
+        _fail("goals.animation", f"no such file: {path}")
+    try:
+        _, _, samples = io.read_pc2(path)
+    except ValueError as exc:
+        _fail("goals.animation", str(exc))
+    if samples.shape[1] != count:
+        _fail("goals.animation", f"{path} has {samples.shape[1]} points, the mesh {count} vertices")
+    if len(samples) < frames[1] - frames[0] + 1:
+        _fail("goals.animation", f"{path} has {len(samples)} frames, the shot needs {frames[1] - frames[0] + 1}")
+    return samples
+
+
+def _frame_names(template):
+    try:
+        name = template.format(frame=1, name="shot")
+    except (KeyError, IndexError, ValueError) as exc:
+        _fail("output.frames", f"{template!r} is not a name with {{frame}} (and {{name}}): {exc!r}")
+    if name == template.format(frame=2, name="shot"):
+        _fail("output.frames", f"{template!r} names every frame the same: put {{frame:04d}} in it")
+    if os.path.splitext(name)[1].lower() not in (".obj", ".ply"):
+        _fail("output.frames", f"must end in .obj or .ply, got {template!r}")
+
+
+def _writable(folder):
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        _fail("output.folder", f"cannot write to {folder}: {exc}")
+    return folder
+
+
+# -- the rig: what a bake simulates --------------------------------------------------------------------------
+@dataclass
+class Rig:
+    sim: Simulation
+    skin: Skin
+    handle_ids: list
+    fit: GoalFit = None
+
+
+def build(shot, threads=1):
+    """Graph, skin, simulation, pins, handles and goals of a shot (the Blender engine's recipe)."""
+    top, graph_settings, material, solver = (shot.section(k) for k in ("", "graph", "material", "solver"))
+    graph = Graph.from_mesh(shot.vertices, shot.triangles, particles=graph_settings["particles"],
+                            mode=graph_settings["mode"])
+    sim = Simulation(graph, material["stiffness"], density=material["density"],
+                     dt=1.0 / (top["fps"] * top["substeps"]), iterations=solver["iterations"],
+                     gravity=material["gravity"], damping=material["damping"],
+                     skin_neighbors=graph_settings["neighbors"])
+    sim.set_solver(solver["accelerator"], threads=threads)
+    sim.trace_energy = True
+    if shot.section("floor"):
+        sim.set_floor(shot.section("floor")["height"], shot.section("floor")["friction"])
+    if len(shot.pins):
+        pin_vertices(sim, shot.vertices, shot.pins, weight=shot.section("pins")["strength"] * sim.default_weight())
+    handle_ids = [_add_handle(sim, shot.vertices, h) for h in shot.section("handles")]
+    rig = Rig(sim, Skin(graph, shot.vertices, neighbors=graph_settings["neighbors"]), handle_ids)
+    if shot.section("goals"):
+        rig.fit = GoalFit(graph, shot.vertices, neighbors=shot.section("goals")["neighbors"])
+        sim.set_goal_strength(shot.section("goals")["strength"])
+    return rig
+
+
+def _add_handle(sim, vertices, handle):
+    weight = handle["strength"] * sim.default_weight("position")
+    ids = pin_vertices(sim, vertices, [handle["vertex"]], weight=weight)
+    if handle["rotation"]:
+        w = handle["strength"] * sim.default_weight("direction")
+        ids += [add_vertex_direction(sim, vertices, handle["vertex"], axis, weight=w) for axis in np.eye(3)]
+    return ids
+
+
+def _rotation(degrees):
+    """The rotation of Euler angles (degrees) about x, then y, then z (Blender's XYZ)."""
+    rx, ry, rz = np.radians(degrees)
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return z @ y @ x
+
+
+def _key_at(keys, frame):
+    """(offset, rotate) at a frame: linear between keys, held before the first and after the last."""
+    frames = [k["frame"] for k in keys]
+    offset = [np.interp(frame, frames, [k["offset"][a] for k in keys]) for a in range(3)]
+    rotate = [np.interp(frame, frames, [k["rotate"][a] for k in keys]) for a in range(3)]
+    return np.array(offset), np.array(rotate)
+
+
+def _apply_handles(rig, shot, frame):
+    for ids, handle in zip(rig.handle_ids, shot.section("handles")):
+        offset, rotate = _key_at(handle["keys"], frame)
+        rig.sim.set_constraint_target(ids[0], shot.vertices[handle["vertex"]] + offset)
+        for cid, axis in zip(ids[1:], _rotation(rotate).T):  # column a: the turned axis a
+            rig.sim.set_constraint_target(cid, axis)
+
+
+# -- the bake ------------------------------------------------------------------------------------------------
+@dataclass
+class Outputs:
+    """The writers of one bake: PC2 (atomic, resumable), mesh frames and the report rows."""
+    shot: Shot
+    pc2: io.PC2Writer
+    rows: list
+
+    def frame(self, frame, vertices, row):
+        self.pc2.write(vertices)
+        if self.shot.output("frames"):
+            path = self.shot.output("frames").format(frame=frame, name=self.shot.name)
+            os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+            with io.atomic_path(path) as part:
+                io.write(part, vertices, self.shot.triangles)
+        self.rows.append(row)
+
+
+def bake(shot, threads=None, progress=None, resume=True):
+    """Simulates the shot and writes its outputs; returns the report rows (one dict per frame, REPORT_COLUMNS).
+    threads: the solver's when the spec leaves them to the runner (None: 1; results are the same bits for the
+    same count); progress(done, total) after each frame; resume: continue from the shot's checkpoint
+    when it was written for this spec, mesh and animation (same digest)."""
+    threads = shot.threads(threads or 1)
+    rig = build(shot, threads)
+    start, rows = shot.first, []
+    saved = _read_checkpoint(shot) if resume else None
+    if saved:
+        start, rows = saved["frame"], saved["rows"]
+        rig.sim = saved["sim"]
+        rig.sim.set_solver(shot.section("solver")["accelerator"], threads=threads)
+        log.info("%s: resuming after frame %d", shot.name, start)
+    total = shot.last - shot.first + 1
+    writer = io.PC2Writer(shot.output("pc2"), len(shot.vertices), shot.first, 1.0, keep=len(rows))
+    with writer:
+        outputs = Outputs(shot, writer, rows)
+        if not saved:
+            _frame(rig, shot, shot.first, outputs, step=False)
+        for frame in range(start + 1, shot.last + 1):
+            _frame(rig, shot, frame, outputs)
+            if progress:
+                progress(frame - shot.first + 1, total)
+            every = shot.section("output")["checkpoint_every"]
+            if every and (frame - shot.first) % every == 0 and frame < shot.last:
+                _write_checkpoint(shot, frame, rig.sim, rows)
+    _write_report(shot, rows)
+    if os.path.exists(shot.checkpoint):
+        os.remove(shot.checkpoint)
+    return rows
+
+
+def _frame(rig, shot, frame, outputs, step=True):
+    """Targets and goals of the frame, ``substeps`` steps (none on the first frame: the rest state), the output."""
+    _apply_handles(rig, shot, frame)
+    goals = rig.fit.fit(shot.animation[frame - shot.first]) if rig.fit else None
+    if goals:
+        rig.sim.set_goals(*goals)
+    t0 = time.perf_counter()
+    if step:
+        rig.sim.step(shot.section("")["substeps"])
+    t1 = time.perf_counter()
+    if goals:
+        vertices = relative_deform(rig.skin, shot.animation[frame - shot.first], rig.sim, goals)
+    else:
+        vertices = rig.skin.deform(rig.sim.positions, rig.sim.rotations)
+    outputs.frame(frame, vertices, _row(shot, frame, rig.sim, step, t1 - t0, time.perf_counter() - t1))
+    log.debug("%s: frame %d", shot.name, frame)
+
+
+def _row(shot, frame, sim, stepped, step_seconds, skin_seconds):
+    """The report row of a frame: times, the final objective, the residual (the last local/global pair's share
+    of the last step's decrease of the objective: small when converged) and the fastest particle."""
+    trace = sim.energy_trace if stepped else np.zeros(0)
+    pair = 2 * shot.section("solver")["iterations"] + 1
+    last = trace[-pair:]
+    drop = last[0] - last[-1] if len(last) >= 3 else 0.0
+    residual = float((last[-3] - last[-1]) / drop) if drop > 0 else 0.0
+    tolerance = shot.section("solver")["tolerance"]
+    return {"frame": frame, "step_seconds": step_seconds, "skin_seconds": skin_seconds,
+            "energy": float(last[-1]) if len(last) else 0.0, "residual": residual,
+            "max_speed": float(np.linalg.norm(sim.velocities, axis=1).max()),
+            "over_tolerance": int(tolerance is not None and residual > tolerance)}
+
+
+def _read_checkpoint(shot):
+    if not os.path.exists(shot.checkpoint) or not os.path.exists(io.partial_name(shot.output("pc2"))):
+        return None
+    with open(shot.checkpoint, "rb") as f:
+        saved = pickle.load(f)
+    return saved if saved["digest"] == shot.digest else None
+
+
+def _write_checkpoint(shot, frame, sim, rows):
+    with io.atomic_path(shot.checkpoint) as part, open(part, "wb") as f:
+        pickle.dump({"digest": shot.digest, "frame": frame, "sim": sim, "rows": rows}, f)
+
+
+# -- the report ----------------------------------------------------------------------------------------------
+def _write_report(shot, rows):
+    if shot.output("report"):
+        with io.atomic_path(shot.output("report")) as part, open(part, "w") as f:
+            f.write(",".join(REPORT_COLUMNS) + "\n")
+            f.writelines(",".join(repr(row[c]) for c in REPORT_COLUMNS) + "\n" for row in rows)
+    if shot.output("plot"):
+        _plot(shot.output("plot"), rows, shot.name)
+
+
+def _plot(path, rows, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    rows = rows[1:] or rows  # the first frame is the rest shape: nothing was solved
+    frames = [r["frame"] for r in rows]
+    fig, (top, bottom) = plt.subplots(2, 1, sharex=True, figsize=(7, 5))
+    top.semilogy(frames, [max(r["residual"], 1e-17) for r in rows])
+    top.set_ylabel("residual")
+    top.set_title(title)
+    bottom.plot(frames, [1e3 * r["step_seconds"] for r in rows])
+    bottom.set_ylabel("ms per frame")
+    bottom.set_xlabel("frame")
+    with io.atomic_path(path) as part:
+        fig.savefig(part, dpi=100, format="png")
+    plt.close(fig)
+
+
+def read_report(path):
+    """The rows of a report CSV (a dict per frame, numbers as numbers)."""
+    with open(path) as f:
+        header = f.readline().strip().split(",")
+        if tuple(header) != REPORT_COLUMNS:
+            raise ValueError(f"{path}: not an opdeform report (columns {header})")
+        return [{k: (int(v) if k in ("frame", "over_tolerance") else float(v)) for k, v in
+                 zip(header, line.strip().split(","))} for line in f if line.strip()]

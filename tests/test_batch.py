@@ -1,0 +1,65 @@
+"""The Dask batch (issue 17) on a real LocalCluster of 2 worker processes: the same bits as serial bakes, a
+failing shot reported with its error and log while the others finish, a worker killed mid-shot (the shot runs
+again elsewhere and resumes from its checkpoint), and an unreachable scheduler refused in bounded time."""
+
+import os
+import shutil
+import signal
+import time
+
+import pytest
+
+distributed = pytest.importorskip("distributed")
+
+from opdeform import batch  # noqa: E402
+from opdeform import shot as shots  # noqa: E402
+from test_shot import write_spec  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def client():
+    with batch.connect(workers=2) as c:
+        yield c
+        c.cluster.close()
+
+
+def serial_copy(spec, folder):
+    """The same spec baked serially in another folder: its PC2 bytes."""
+    os.makedirs(folder)
+    copy = shutil.copy(spec, folder)
+    shots.bake(shots.load(copy), threads=1)
+    return open(os.path.join(folder, "out", os.path.basename(spec).replace(".toml", ".pc2")), "rb").read()
+
+
+def test_batch_matches_serial_bits_and_reports_a_failure(client, tmp_path):
+    specs = [write_spec(tmp_path, f"shot{k}", last=20 + 5 * k) for k in range(3)]
+    bad = write_spec(tmp_path, "bad", text=open(specs[0]).read().replace("[graph]", "[graf]"))
+    results = batch.gather(specs + [bad], batch.submit(client, specs + [bad]))
+    assert [r.ok for r in results] == [True, True, True, False]
+    assert "graf: unknown key" in results[3].error and "Traceback" in results[3].log
+    for k, (spec, result) in enumerate(zip(specs, results)):
+        assert result.frames == 20 + 5 * k and result.outputs["pc2"].endswith(f"shot{k}.pc2")
+        assert open(result.outputs["pc2"], "rb").read() == serial_copy(spec, tmp_path / f"serial{k}")
+
+
+def test_a_killed_worker_reruns_the_shot_from_its_checkpoint(client, tmp_path):
+    spec = write_spec(tmp_path, "long", last=3000, every=25)
+    (future,) = batch.submit(client, [spec])
+    checkpoint = tmp_path / "out" / ".long.checkpoint"
+    deadline = time.monotonic() + 60
+    while not checkpoint.exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert checkpoint.exists()
+    running = [w for w, keys in client.processing().items() if future.key in keys]
+    (pid,) = client.run(os.getpid, workers=running).values()
+    os.kill(pid, signal.SIGKILL)  # the worker process dies mid-shot
+    (result,) = batch.gather([spec], [future])
+    assert result.ok and "resuming after frame" in result.log, result.error
+    assert open(result.outputs["pc2"], "rb").read() == serial_copy(spec, tmp_path / "serial")
+
+
+def test_an_unreachable_scheduler_is_a_clear_error_in_bounded_time():
+    t0 = time.monotonic()
+    with pytest.raises(ConnectionError, match="tcp://127.0.0.1:9: no answer within 2 s"):
+        batch.connect("tcp://127.0.0.1:9", timeout=2)
+    assert time.monotonic() - t0 < 15
