@@ -51,16 +51,20 @@ class Simulation:
                                                    weight)
 
     def set_constraint_target(self, id, target):
+        """Moves a constraint's target (a point, or a direction); unknown ids raise IndexError."""
         self._core.set_constraint_target(integer("id", id), vector("target", target))
 
     def set_constraint_weight(self, id, weight):
+        """Changes a constraint's weight (refactors on the next step); unknown ids raise IndexError."""
         self._core.set_constraint_weight(integer("id", id), number("weight", weight))
 
     def remove_constraint(self, id):
+        """Removes a constraint; unknown ids raise IndexError."""
         self._core.remove_constraint(integer("id", id))
 
     @property
     def n_constraints(self):
+        """The number of position and direction constraints."""
         return self._core.constraint_count()
 
     # -- floor -----------------------------------------------------------------------------------------
@@ -92,6 +96,7 @@ class Simulation:
         self._core.set_floor(number("height", height), number("friction", friction))
 
     def clear_floor(self):
+        """Removes the floor."""
         self._core.clear_floor()
 
     # -- solving ---------------------------------------------------------------------------------------
@@ -110,6 +115,7 @@ class Simulation:
 
     # -- state -----------------------------------------------------------------------------------------
     def set_state(self, positions, rotations, velocities=None, angular_velocities=None):
+        """Sets positions (n, 3), rotations (n, 3, 3) and optionally (angular) velocities (n, 3)."""
         n = self.graph.n_particles
         pos = as_array("positions", positions, (n, 3))
         rot = as_array("rotations", rotations, (n, 3, 3))
@@ -124,18 +130,22 @@ class Simulation:
 
     @property
     def positions(self):
+        """(n, 3) particle positions, a copy."""
         return self._read("positions", (self.graph.n_particles, 3))
 
     @property
     def rotations(self):
+        """(n, 3, 3) particle rotations, a copy."""
         return self._read("rotations", (self.graph.n_particles, 3, 3))
 
     @property
     def velocities(self):
+        """(n, 3) particle velocities, a copy."""
         return self._read("velocities", (self.graph.n_particles, 3))
 
     @property
     def angular_velocities(self):
+        """(n, 3) particle angular velocities, a copy."""
         return self._read("angular_velocities", (self.graph.n_particles, 3))
 
     def skin_points(self, points, m=None):
@@ -152,6 +162,7 @@ class Simulation:
     # -- parameters and diagnostics --------------------------------------------------------------------
     @property
     def params(self):
+        """The parameters as a dict (stiffness, density, dt, iterations, gravity, damping, ...)."""
         return self._core.params()
 
     def set_params(self, **changes):
@@ -180,6 +191,7 @@ class Simulation:
 
     @property
     def solver(self):
+        """The solver settings of set_solver() as a dict."""
         s = self._core.solver()
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
         s["factorization"] = self.FACTORIZATIONS[s["factorization"]]
