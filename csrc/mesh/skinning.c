@@ -261,8 +261,35 @@ typedef struct od_DeformJob
 	od_Scalar restNormalType;
 } od_DeformJob;
 
-// Two doubles in one register (GCC and Clang vector extensions: SSE2 on x86-64, NEON on arm64).
+#if (defined(__GNUC__) || defined(__clang__)) && !defined(OD_NO_VECTOR_EXTENSIONS)
+// The blend's 12 accumulators as six pairs, two doubles in one register (GCC and Clang vector extensions: SSE2
+// on x86-64, NEON on arm64): a third faster than 12 scalars, which the compiler vectorizes poorly.
 typedef double od_Pair __attribute__((vector_size(16)));
+#define OD_BLEND_INLINE static inline __attribute__((always_inline))
+#define OD_BLEND_ZERO(a) od_Pair a[6] = { { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 } }
+#define OD_BLEND_ADD(a, weight, map12)                                                                 \
+	do                                                                                                 \
+	{                                                                                                  \
+		const od_Pair* pairs_ = (const od_Pair*)__builtin_assume_aligned((map12), 16);                 \
+		od_Pair w_ = { (weight), (weight) };                                                           \
+		for (int e_ = 0; e_ < 6; ++e_)                                                                 \
+		{                                                                                              \
+			(a)[e_] += w_ * pairs_[e_];                                                                \
+		}                                                                                              \
+	} while (0)
+#define OD_BLEND_LANE(a, i) ((a)[(i) / 2][(i) % 2])
+#else
+// Portable fallback (MSVC, or -DOD_NO_VECTOR_EXTENSIONS): 12 scalars, the same operations in the same order,
+// so the results are identical bit for bit.
+#define OD_BLEND_INLINE static inline
+#define OD_BLEND_ZERO(a) double a[12] = { 0 }
+#define OD_BLEND_ADD(a, weight, map12)                                                                 \
+	for (int e_ = 0; e_ < 12; ++e_)                                                                    \
+	{                                                                                                  \
+		(a)[e_] += (weight) * (map12)[e_];                                                             \
+	}
+#define OD_BLEND_LANE(a, i) ((a)[i])
+#endif
 
 // Vertices are blended in blocks into double buffers on the stack, then stored in the target's types, so
 // that the blend has no per-vertex branch on types.
@@ -270,7 +297,7 @@ typedef double od_Pair __attribute__((vector_size(16)));
 
 // Positions p and (when rn is not NULL) normals q, not yet normalized, of the count vertices from `first`,
 // as doubles; m is a compile-time constant where the caller passes one, so that the blend unrolls.
-static inline __attribute__((always_inline)) void od_BlendBlock(const od_Skin* s, const double* maps, size_t first,
+OD_BLEND_INLINE void od_BlendBlock(const od_Skin* s, const double* maps, size_t first,
 																int count, int m, const double* rn, double* p,
 																double* q)
 {
@@ -279,30 +306,24 @@ static inline __attribute__((always_inline)) void od_BlendBlock(const od_Skin* s
 	const double* rest = s->rest + 3 * first;
 	for (int v = 0; v < count; ++v)
 	{
-		// The blend as six pairs: a third faster than 12 scalars, which the compiler vectorizes poorly.
-		od_Pair a[6] = { { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 }, { 0, 0 } };
+		OD_BLEND_ZERO(a);
 		for (int k = 0; k < m; ++k)
 		{
-			const od_Pair* map = (const od_Pair*)__builtin_assume_aligned(maps + 12 * idx[m * v + k], 16);
-			od_Pair wk = { w[m * v + k], w[m * v + k] };
-			for (int e = 0; e < 6; ++e)
-			{
-				a[e] += wk * map[e];
-			}
+			OD_BLEND_ADD(a, w[m * v + k], maps + 12 * idx[m * v + k]);
 		}
 		const double* x = rest + 3 * v;
 		for (int r = 0; r < 3; ++r)
 		{
-			od_Pair lo = a[2 * r], hi = a[2 * r + 1];
-			p[3 * v + r] = lo[0] * x[0] + lo[1] * x[1] + hi[0] * x[2] + hi[1];
+			p[3 * v + r] = OD_BLEND_LANE(a, 4 * r) * x[0] + OD_BLEND_LANE(a, 4 * r + 1) * x[1] +
+						   OD_BLEND_LANE(a, 4 * r + 2) * x[2] + OD_BLEND_LANE(a, 4 * r + 3);
 		}
 		if (rn)
 		{
 			const double* n = rn + 3 * v;
 			for (int r = 0; r < 3; ++r)
 			{
-				od_Pair lo = a[2 * r], hi = a[2 * r + 1];
-				q[3 * v + r] = lo[0] * n[0] + lo[1] * n[1] + hi[0] * n[2];
+				q[3 * v + r] = OD_BLEND_LANE(a, 4 * r) * n[0] + OD_BLEND_LANE(a, 4 * r + 1) * n[1] +
+							   OD_BLEND_LANE(a, 4 * r + 2) * n[2];
 			}
 		}
 	}

@@ -39,7 +39,10 @@ static int Module_AddType(PyObject* module, PyType_Spec* spec, PyTypeObject** sl
 static int Module_exec(PyObject* module)
 {
 	ModuleState* st = Binding_State(module);
-	st->solverError = PyErr_NewException("opdeform._core.SolverError", PyExc_RuntimeError, NULL);
+	st->solverError = PyErr_NewExceptionWithDoc("opdeform._core.SolverError",
+												"A step or a static solve gave a non-finite result; the previous "
+												"state is kept.",
+												PyExc_RuntimeError, NULL);
 	if (!st->solverError || PyModule_AddObjectRef(module, "SolverError", st->solverError) < 0 ||
 		Module_AddType(module, &Graph_Spec, &st->graphType) < 0 ||
 		Module_AddType(module, &Sim_Spec, &st->simType) < 0 || Module_AddType(module, &Skin_Spec, &st->skinType) < 0 ||

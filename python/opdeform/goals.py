@@ -50,10 +50,12 @@ class GoalFit:
 
     @property
     def n_vertices(self):
+        """The number of rest vertices."""
         return self._core.n_vertices
 
     @property
     def neighbors(self):
+        """The rest vertices fitted per particle."""
         return self._core.neighbors
 
     def _read(self, name, dtype):

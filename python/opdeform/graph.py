@@ -60,10 +60,12 @@ class Graph:
 
     @property
     def n_particles(self):
+        """The number of particles."""
         return self._core.n_particles
 
     @property
     def n_edges(self):
+        """The number of edges."""
         return self._core.n_edges
 
     def _read(self, name, shape, dtype=np.float64):
@@ -73,22 +75,27 @@ class Graph:
 
     @property
     def centers(self):
+        """(n, 3) rest centres, a copy."""
         return self._read("centers", (self.n_particles, 3))
 
     @property
     def radii(self):
+        """(n, 3) ellipsoid radii along each particle's axes, a copy."""
         return self._read("radii", (self.n_particles, 3))
 
     @property
     def axes(self):
+        """(n, 3, 3) rest frames, a copy (the axes are the columns)."""
         return self._read("axes", (self.n_particles, 3, 3))
 
     @property
     def edges(self):
+        """(e, 2) int32 particle pairs, a copy."""
         return self._read("edges", (self.n_edges, 2), np.int32)
 
     @property
     def volumes(self):
+        """(n,) ellipsoid volumes, 4/3 pi r0 r1 r2."""
         r = self.radii
         return 4.0 / 3.0 * np.pi * r[:, 0] * r[:, 1] * r[:, 2]
 

@@ -78,6 +78,7 @@ class Skin:
 
     @property
     def n_vertices(self):
+        """The number of skinned vertices."""
         return self._core.n_vertices
 
     @property

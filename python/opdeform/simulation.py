@@ -69,14 +69,18 @@ class Simulation:
         return id
 
     def set_constraint_target(self, id, target):
+        """Moves a constraint's target (a point, or a direction); unknown ids raise IndexError."""
         self._core.set_constraint_target(integer("id", id), vector("target", target))
 
     def set_constraint_weight(self, id, weight):
+        """Changes a constraint's weight (a position weight refactors once, on the next step; a direction weight
+        refactors nothing); unknown ids raise IndexError."""
         weight = number("weight", weight)
         self._core.set_constraint_weight(integer("id", id), weight)
         self._constraints[id][3] = weight
 
     def remove_constraint(self, id):
+        """Removes a constraint; unknown ids raise IndexError."""
         self._core.remove_constraint(integer("id", id))
         del self._constraints[id]
         self._history.append(~id)  # ~id < 0: a removal
@@ -86,6 +90,7 @@ class Simulation:
 
     @property
     def n_constraints(self):
+        """The number of position and direction constraints."""
         return self._core.constraint_count()
 
     # -- floor -----------------------------------------------------------------------------------------
@@ -124,6 +129,7 @@ class Simulation:
         self._floor = floor
 
     def clear_floor(self):
+        """Removes the floor."""
         self._core.clear_floor()
         self._floor = None
 
@@ -162,14 +168,17 @@ class Simulation:
         self._core.update_collider_vertices(integer("id", id), as_array("vertices", vertices, (None, 3)))
 
     def set_collider_contact(self, id, friction=0.5, thickness=0.005):
+        """A collider's Coulomb friction and thickness (m, > 0); unknown ids raise IndexError."""
         self._core.set_collider_contact(integer("id", id), number("friction", friction),
                                         number("thickness", thickness))
 
     def remove_collider(self, id):
+        """Removes a collider; unknown ids raise IndexError."""
         self._core.remove_collider(integer("id", id))
 
     @property
     def n_colliders(self):
+        """How many colliders the simulation has."""
         return self._core.collider_count()
 
     def push_out(self, points):
@@ -202,6 +211,7 @@ class Simulation:
 
     # -- state -----------------------------------------------------------------------------------------
     def set_state(self, positions, rotations, velocities=None, angular_velocities=None):
+        """Sets positions (n, 3), rotations (n, 3, 3) and optionally (angular) velocities (n, 3)."""
         n = self.graph.n_particles
         pos = as_array("positions", positions, (n, 3))
         rot = as_array("rotations", rotations, (n, 3, 3))
@@ -216,18 +226,22 @@ class Simulation:
 
     @property
     def positions(self):
+        """(n, 3) particle positions, a copy."""
         return self._read("positions", (self.graph.n_particles, 3))
 
     @property
     def rotations(self):
+        """(n, 3, 3) particle rotations, a copy."""
         return self._read("rotations", (self.graph.n_particles, 3, 3))
 
     @property
     def velocities(self):
+        """(n, 3) particle velocities, a copy."""
         return self._read("velocities", (self.graph.n_particles, 3))
 
     @property
     def angular_velocities(self):
+        """(n, 3) particle angular velocities, a copy."""
         return self._read("angular_velocities", (self.graph.n_particles, 3))
 
     def skin_points(self, points, m=None):
@@ -284,6 +298,7 @@ class Simulation:
     # -- parameters and diagnostics --------------------------------------------------------------------
     @property
     def params(self):
+        """The parameters as a dict (stiffness, density, dt, iterations, gravity, damping, ...)."""
         return self._core.params()
 
     def set_params(self, **changes):
@@ -320,6 +335,7 @@ class Simulation:
 
     @property
     def solver(self):
+        """The solver settings of set_solver() as a dict."""
         """The accelerator, window, rho, threads and factorization (``tolerance`` and ``max_iterations`` apart)."""
         s = self._core.solver()
         del s["tolerance"], s["max_iterations"]

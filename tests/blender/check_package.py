@@ -3,7 +3,7 @@
     blender -b --factory-startup --python-exit-code 1 -P check_package.py -- ZIP legacy|extension ok|broken
     <python with bpy> check_package.py ZIP legacy|extension ok|broken
 
-"ok": the vendored compiled module loads (without the shape-matching baseline) and a mesh builds, plays and
+"ok": the compiled module loads (legacy: vendored in the zip; extension: from the wheel Blender installed) (without the shape-matching baseline) and a mesh builds, plays and
 bakes. "broken": the zip's compiled
 module is damaged; the add-on still registers, the panel says what is wrong and the operators report it.
 The caller points BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at an empty folder and leaves
@@ -42,10 +42,17 @@ print("loader:", loaded, where)
 bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(0, 0, 1))
 obj = bpy.context.object
 if expect == "ok":
-    assert loaded and "vendored" in where, where
-    vendored = sys.modules[module_name + ".vendor.opdeform"]
-    assert vendored.__file__.startswith(os.path.dirname(addon.__file__))
-    assert not hasattr(vendored, "ShapeMatching") and not hasattr(vendored._core, "ShapeMatching")
+    if kind == "legacy":  # the wheel's files vendored inside the add-on
+        assert loaded and "vendored" in where, where
+        module = sys.modules[module_name + ".vendor.opdeform"]
+        assert module.__file__.startswith(os.path.dirname(addon.__file__))
+    else:  # the extension's wheel, which Blender installed into the user's extension site-packages
+        assert loaded and "import opdeform" in where, where
+        module = sys.modules["opdeform"]
+        assert os.path.abspath(module.__file__).startswith(os.path.abspath(os.environ["BLENDER_USER_RESOURCES"]))
+        assert os.sep + "site-packages" + os.sep in module.__file__, module.__file__
+    print("module:", module.__file__)
+    assert not hasattr(module, "ShapeMatching") and not hasattr(module._core, "ShapeMatching")
     obj.opdeform.particles = 12
     bpy.ops.opdeform.enable()
     obj.opdeform.frame_end = 10

@@ -1,0 +1,87 @@
+"""The add-on half of scripts/package: stages the Blender extension (the add-on's files with meson.build's
+version stamped in, the wheel under wheels/ and listed in the manifest's `wheels`) for Blender's builder, and
+writes the legacy zip (the same files under opdeform_blender/, the wheel's files vendored under vendor/).
+
+    python3 scripts/package_addon.py PROJECTINFO_JSON WHEEL STAGE_DIR OUT_DIR
+    python3 scripts/package_addon.py --zip STAGE_DIR OUT_DIR   (no Blender builder: zip the staged extension)
+"""
+
+import json
+import os
+import re
+import shutil
+import sys
+import tomllib
+import zipfile
+
+ADDON = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "addon", "opdeform_blender")
+
+
+def stamped(rel, data, version, wheel_name):
+    """The file's bytes, with meson.build's version in bl_info and the manifest, and the wheel in the manifest."""
+    stamps = {"__init__.py": [(r'("version":\s*)\([^)]*\)', r"\g<1>(" + version.replace(".", ", ") + ")")],
+              "blender_manifest.toml": [(r'^(version\s*=\s*)"[^"]*"', rf'\g<1>"{version}"'),
+                                        (r"^(platforms\s*=.*)$", rf'\1\nwheels = ["./wheels/{wheel_name}"]')]}
+    text = data.decode() if rel in stamps else None
+    for pattern, repl in stamps.get(rel, []):
+        text, count = re.subn(pattern, repl, text, count=1, flags=re.M)
+        if count != 1:
+            sys.exit(f"package: no {pattern!r} to stamp in {rel}")
+    return data if text is None else text.encode()
+
+
+def addon_files(version, wheel_name):
+    for root, dirs, names in os.walk(ADDON):
+        dirs[:] = sorted(d for d in dirs if d not in ("__pycache__", "vendor"))
+        for name in sorted(names):
+            if not name.endswith((".pyc", ".pyo")):
+                path = os.path.join(root, name)
+                rel = os.path.relpath(path, ADDON)
+                yield rel, stamped(rel, open(path, "rb").read(), version, wheel_name)
+
+
+def wheel_files(wheel):
+    """The wheel's package files (opdeform/, opdeform.libs/), not its metadata."""
+    with zipfile.ZipFile(wheel) as z:
+        for name in z.namelist():
+            if not name.split("/")[0].endswith(".dist-info") and not name.endswith("/"):
+                yield name, z.read(name)
+
+
+def write_zip(path, files):
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        for rel, data in files:
+            z.writestr(rel, data)
+    print(f"package: {path} ({os.path.getsize(path) // 1024} KiB)")
+
+
+def main(info_path, wheel, stage, out):
+    version = json.load(open(info_path))["version"]
+    if not re.fullmatch(r"\d+\.\d+\.\d+", version):
+        sys.exit(f"package: meson.build's version {version!r} is not MAJOR.MINOR.PATCH (bl_info needs three numbers)")
+    wheel_name = os.path.basename(wheel)
+    shutil.rmtree(stage, ignore_errors=True)
+    for rel, data in addon_files(version, wheel_name):
+        os.makedirs(os.path.dirname(os.path.join(stage, rel)), exist_ok=True)
+        open(os.path.join(stage, rel), "wb").write(data)
+    os.makedirs(os.path.join(stage, "wheels"))
+    shutil.copy(wheel, os.path.join(stage, "wheels", wheel_name))
+    vendored = [("vendor/__init__.py", b'"""The opdeform wheel\'s files, vendored by scripts/package."""\n')]
+    vendored += [("vendor/" + name, data) for name, data in wheel_files(wheel)]
+    write_zip(os.path.join(out, f"opdeform_blender-{version}-legacy.zip"),
+              [("opdeform_blender/" + rel, data) for rel, data in [*addon_files(version, wheel_name), *vendored]])
+
+
+def zip_stage(stage, out):
+    manifest = tomllib.load(open(os.path.join(stage, "blender_manifest.toml"), "rb"))
+    files = [(os.path.relpath(os.path.join(root, n), stage), open(os.path.join(root, n), "rb").read())
+             for root, _, names in sorted(os.walk(stage)) for n in sorted(names)]
+    for platform in manifest["platforms"]:
+        write_zip(os.path.join(out, f"{manifest['id']}-{manifest['version']}-{platform.replace('-', '_')}.zip"), files)
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "--zip":
+        zip_stage(*sys.argv[2:4])
+    else:
+        main(*sys.argv[1:5])

@@ -1,0 +1,82 @@
+"""Python packaging conventions: every public name of opdeform (and each public method and property of its
+classes) has a docstring that help() shows; the type stubs (_core.pyi, py.typed) ship beside the compiled
+module and name everything it defines; the sdist leaves the fuzz corpus and the test and documentation
+artefacts out, its description stands alone (no links), and `pip install` of it builds no C tests and prints
+no warning."""
+
+import inspect
+import re
+import subprocess
+import tarfile
+from pathlib import Path
+
+import pytest
+
+import opdeform
+import opdeform._core as core
+
+ROOT = Path(__file__).resolve().parent.parent
+TOOLS = Path.home() / ".cache" / "opdeform" / "package-venv" / "bin" / "python"  # scripts/setup-package
+
+
+def public_members(cls):
+    return {n: v for n, v in vars(cls).items() if not n.startswith("_") and (callable(v) or isinstance(v, property))}
+
+
+def test_every_public_name_has_a_docstring():
+    missing = []
+    for name in opdeform.__all__:
+        obj = getattr(opdeform, name)
+        if not (obj.__doc__ or "").strip() or (inspect.isclass(obj) and obj.__doc__ == type.__doc__):
+            missing.append(name)
+        if inspect.isclass(obj):
+            missing += [f"{name}.{n}" for n, v in public_members(obj).items() if not (v.__doc__ or "").strip()]
+    assert not missing, missing
+
+
+def test_stubs_ship_and_name_the_compiled_module():
+    folder = Path(core.__file__).parent
+    assert (folder / "py.typed").exists()
+    stub = (folder / "_core.pyi").read_text()
+    for name in (n for n in dir(core) if not n.startswith("_")):
+        assert re.search(rf"^(class|def) {name}\b", stub, flags=re.M), name
+        obj = getattr(core, name)
+        if isinstance(obj, type) and not issubclass(obj, BaseException):
+            block = stub.split(f"class {name}", 1)[1].split("\nclass ", 1)[0]
+            for member in (n for n in vars(obj) if not n.startswith("_")):
+                assert f"def {member}(" in block, f"{name}.{member}"
+
+
+@pytest.fixture(scope="module")
+def sdist(tmp_path_factory):
+    if not TOOLS.exists():
+        pytest.skip("the packaging venv is missing (scripts/setup-package)")
+    out = tmp_path_factory.mktemp("sdist")
+    proc = subprocess.run([str(TOOLS), "-c", f"import mesonpy; print(mesonpy.build_sdist({str(out)!r}))"],
+                          cwd=str(ROOT), capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return out / proc.stdout.split()[-1]
+
+
+def test_sdist_leaves_artefacts_out_and_describes_itself(sdist):
+    with tarfile.open(sdist) as tar:
+        names = tar.getnames()
+        info = tar.extractfile(next(n for n in names if n.endswith("/PKG-INFO"))).read().decode()
+    assert any(n.endswith("/csrc/arap/global_solve.c") for n in names)
+    for left_out in ("/tests/fuzz/corpus/", "/tests/reference/", "/docs/images/"):
+        assert not [n for n in names if left_out in n], left_out
+    assert not [n for n in names if re.match(r"[^/]+/(build[^/]*|dist|out)/", n)]  # no build outputs
+    description = info.split("\n\n", 1)[1]
+    assert description.strip() == (ROOT / "docs" / "pypi.md").read_text().strip()
+    assert "](" not in description and "http" not in description  # no links, relative or not
+
+
+def test_pip_install_builds_no_tests_and_prints_no_warning(sdist, tmp_path):
+    build = tmp_path / "build"
+    proc = subprocess.run([str(TOOLS), "-m", "pip", "install", "--no-deps", "--no-build-isolation",
+                           "--disable-pip-version-check", "--target", str(tmp_path / "site"),
+                           f"-Cbuild-dir={build}", str(sdist)], capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert not re.search(r"warning", proc.stdout + proc.stderr, flags=re.I), proc.stdout + proc.stderr
+    assert (tmp_path / "site" / "opdeform" / "_core.abi3.so").exists()
+    assert (build / "build.ninja").exists() and not list(build.rglob("test_core*")), "the C tests were built"
