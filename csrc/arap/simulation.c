@@ -69,11 +69,7 @@ static od_Status od_CheckSolverDef(const od_SolverDef* def)
 		return od_Fail(OD_ERROR_ARGUMENT, "factorization = %d must be 0 (auto), 1 (simplicial) or 2 (supernodal)",
 					   def->factorization);
 	}
-	if (def->threads < 0 || def->threads > 64)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, 64] (0: one per core)", def->threads);
-	}
-	return OD_OK;
+	return od_Pool_CheckThreads(def->threads);
 }
 
 od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)

@@ -51,13 +51,13 @@ static od_Status od_CheckDef(const od_MpmWorldDef* d)
 		}
 	}
 	if (!od_IsFinite3(d->gravity) || !(d->cfl > 0.0 && d->cfl <= 1.0) || !(d->maxDt > 0.0) || !isfinite(d->maxDt) ||
-		!isfinite(d->spin) || !(d->wallFriction >= 0.0) || d->threads < 0 || d->walls < OD_MPM_STICKY ||
+		!isfinite(d->spin) || !(d->wallFriction >= 0.0) || d->walls < OD_MPM_STICKY ||
 		d->walls > OD_MPM_SEPARATE)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "world: need finite gravity and spin, 0 < cfl <= 1, max_dt > 0, wall "
-										  "friction >= 0, threads >= 0 and a known wall contact");
+										  "friction >= 0 and a known wall contact");
 	}
-	return OD_OK;
+	return od_Pool_CheckThreads(d->threads);
 }
 
 od_Status od_MpmWorld_Create(const od_MpmWorldDef* def, od_MpmWorld** out)

@@ -63,7 +63,7 @@ typedef struct od_SkinDef
 	const int* triangles;
 	const double* normals;  // optional rest normals (vertexCount*3); used instead of the triangles' ones
 	int neighbors;          // m (4); fewer when the graph has fewer particles
-	int threadCount;        // 0 = every core (meshes of fewer than 16384 vertices use one)
+	int threadCount;        // 0..64; 0 = the CPUs this process may use (affinity, OMP_NUM_THREADS); meshes of fewer than 16384 vertices use one
 } od_SkinDef;
 
 od_SkinDef od_DefaultSkinDef(void);
