@@ -14,6 +14,7 @@
 #include "floor.h"
 #include "global_solve.h"
 #include "goal.h"
+#include "interrupt.h"
 #include "local_step.h"
 #include "math3.h"
 #include "polar.h"
@@ -496,6 +497,7 @@ static od_Status od_Iterate(od_Sim* sim, int iterations)
 		{
 			status = od_AcceleratedIteration(sim, &accepted);
 			od_Trace(sim);
+			status = status == OD_OK ? od_CheckInterrupt() : status;
 		}
 		return status;
 	}
@@ -505,6 +507,7 @@ static od_Status od_Iterate(od_Sim* sim, int iterations)
 		od_Trace(sim);
 		status = od_GlobalStep(sim);
 		od_Trace(sim);
+		status = status == OD_OK ? od_CheckInterrupt() : status;
 	}
 	return status;
 }

@@ -99,7 +99,7 @@ class World:
                             integer("octaves", octaves), number("persistence", persistence),
                             vector("drift", drift, 2), number("drag", drag), number("ground", ground),
                             number("ref_height", ref_height), number("exponent", exponent),
-                            integer("seed", seed) & 0xFFFFFFFF)
+                            integer("seed", seed, None) & 0xFFFFFFFF)
 
     def add_collider(self, shape, contact="slip", friction=0.0, half_extents=(0.5, 0.5, 0.5), radius=None,
                      vertices=None, triangles=None, rotation=None, translation=(0.0, 0.0, 0.0)):

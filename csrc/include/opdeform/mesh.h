@@ -114,6 +114,8 @@ typedef struct od_Mesh
 
 // Polygons are fan-triangulated; other data (normals, texture coordinates, colours) is skipped. The
 // arrays are allocated by the parser; release them with od_Mesh_Free.
+// OBJ: ASCII or UTF-8 text (a BOM is skipped) with LF, CRLF or CR line ends; a NUL byte (UTF-16, binary) is
+// refused.
 od_Status od_Mesh_ParseObj(const char* data, size_t size, od_Mesh* mesh);
 // ascii, binary_little_endian and binary_big_endian PLY.
 od_Status od_Mesh_ParsePly(const char* data, size_t size, od_Mesh* mesh);
