@@ -45,7 +45,7 @@ class Skin:
 
     ``triangles`` (T,3) or ``rest_normals`` (V,3) give the rest normals that ``deform`` turns when asked for
     normals (area-weighted vertex normals of the triangles; the normals win when both are given).
-    ``threads``: 0 = every core (meshes under 16384 vertices use one thread).
+    ``threads``: 0..64, 0 = the CPUs this process may use (meshes under 16384 vertices use one thread).
     """
 
     def __init__(self, graph, rest_vertices, neighbors=4, triangles=None, rest_normals=None, threads=0):
