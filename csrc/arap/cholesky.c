@@ -16,6 +16,7 @@
 #include "cholesky.h"
 
 #include "core.h"
+#include "pool.h"
 
 #include <stdbool.h>
 #include <stdlib.h>
@@ -209,14 +210,13 @@ static double od_PackBins(const od_Tree* t, int* cut, int count, int bins, doubl
 
 #define OD_PLAN_STEPS 4096
 #define OD_PLAN_MAX_CUT 1024
-#define OD_PLAN_MAX_THREADS 64
 
 // Searches for the cut with the least estimated time (top work + heaviest bin) by splitting, again and
 // again, the heaviest subtree of the cut into its children. Returns that time, the serial time in *total
 // and the cut in best/bestCount (empty when nothing beats one thread).
 static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total)
 {
-	double load[OD_PLAN_MAX_THREADS];
+	double load[OD_POOL_MAX_THREADS];
 	int count = 0;
 	double top = 0.0;
 	*bestCount = 0;
@@ -274,7 +274,7 @@ static int od_CompareRanges(const void* a, const void* b)
 static od_Status od_LayOut(od_Cholesky* ch, const od_Tree* t, int* cut, int count, int bins)
 {
 	int n = ch->n;
-	double load[OD_PLAN_MAX_THREADS];
+	double load[OD_POOL_MAX_THREADS];
 	int* binOf = od_Alloc(sizeof(int) * (size_t)count);
 	char* covered = od_AllocZero((size_t)n, 1);
 	ch->binStart = od_AllocZero((size_t)bins + 1, sizeof(int));
@@ -296,7 +296,7 @@ static od_Status od_LayOut(od_Cholesky* ch, const od_Tree* t, int* cut, int coun
 	{
 		ch->binStart[b + 1] += ch->binStart[b];
 	}
-	int cursor[OD_PLAN_MAX_THREADS];
+	int cursor[OD_POOL_MAX_THREADS];
 	memcpy(cursor, ch->binStart, sizeof(int) * (size_t)bins);
 	for (int a = 0; a < count; ++a)
 	{
@@ -351,7 +351,7 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 	{
 		return OD_OK;
 	}
-	threads = threads < OD_PLAN_MAX_THREADS ? threads : OD_PLAN_MAX_THREADS;
+	threads = threads < OD_POOL_MAX_THREADS ? threads : OD_POOL_MAX_THREADS;
 	od_Tree t = { od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(int) * (size_t)n),
 				  od_Alloc(sizeof(double) * (size_t)n) };
 	int* cut = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);

@@ -76,7 +76,7 @@ static od_Status od_CheckVector(const char* name, const double* v, bool nonzero)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "%s must be three finite numbers", name);
 	}
-	if (nonzero && od_Length(od_V3Load(v)) < 1e-300)
+	if (nonzero && v[0] == 0.0 && v[1] == 0.0 && v[2] == 0.0) // any other finite vector is a direction (od_Unit)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "%s must not be the zero vector", name);
 	}
@@ -125,6 +125,7 @@ od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const
 									   int* id)
 {
 	od_Status status = od_CheckVector("point", point, false);
+	status = status == OD_OK ? od_Graph_CheckRestPoint(sim->graph, point, "point") : status;
 	if (status == OD_OK && target)
 	{
 		status = od_CheckVector("target", target, false);
@@ -158,6 +159,7 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 										const double* target, double weight, int* id)
 {
 	od_Status status = od_CheckVector("point", point, false);
+	status = status == OD_OK ? od_Graph_CheckRestPoint(sim->graph, point, "point") : status;
 	if (status == OD_OK)
 	{
 		status = od_CheckVector("direction", direction, true);
@@ -179,7 +181,7 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 	c.kind = OD_DIRECTION;
 	c.weight = weight;
 	memcpy(c.point, point, sizeof c.point);
-	od_V3Store(c.direction, od_Scale(1.0 / od_Length(od_V3Load(direction)), od_V3Load(direction)));
+	od_V3Store(c.direction, od_Unit(od_V3Load(direction)));
 	double length = 1.0;
 	if (target)
 	{
@@ -194,7 +196,7 @@ od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], cons
 			return od_Fail(OD_ERROR_ARGUMENT, "direction: the skinned direction at this point vanishes; give a target");
 		}
 	}
-	od_V3Store(c.target, od_Scale(1.0 / od_Length(od_V3Load(c.target)), od_V3Load(c.target)));
+	od_V3Store(c.target, od_Unit(od_V3Load(c.target)));
 	return od_AddConstraint(sim, &c, id);
 }
 
@@ -224,7 +226,7 @@ od_Status od_Sim_SetConstraintTarget(od_Sim* sim, int id, const double target[3]
 	od_Vec3 t = od_V3Load(target);
 	if (c->kind == OD_DIRECTION)
 	{
-		t = od_Scale(1.0 / od_Length(t), t);
+		t = od_Unit(t);
 	}
 	od_V3Store(c->target, t);
 	sim->constraints.targetsDirty = c->kind == OD_POSITION || sim->constraints.targetsDirty;

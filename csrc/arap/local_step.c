@@ -189,13 +189,11 @@ od_Status od_LocalStep_PreparePartition(od_Sim* sim)
 	return OD_OK;
 }
 
-#define OD_MAX_THREADS 64
-
 typedef struct od_SweepJob
 {
 	od_Sim* sim;
 	bool directions;
-	long long fallbacks[OD_MAX_THREADS];
+	long long fallbacks[OD_POOL_MAX_THREADS];
 } od_SweepJob;
 
 // Graphs smaller than this sweep on the calling thread: waking the others costs more than it saves
@@ -240,7 +238,7 @@ static void od_Sweep(od_Sim* sim)
 	int blocks = od_Pool_Threads(sim->pool);
 	od_Pool_Run(sim->pool, blocks, od_SweepTask, &job);
 	od_SweepTask(&job, blocks, 0); // the border
-	for (int t = 0; t < OD_MAX_THREADS; ++t)
+	for (int t = 0; t < blocks; ++t)
 	{
 		sim->counters.polarFallbacks += job.fallbacks[t];
 	}

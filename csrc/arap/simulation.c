@@ -17,6 +17,7 @@
 #include "floor.h"
 #include "global_solve.h"
 #include "goal.h"
+#include "interrupt.h"
 #include "local_step.h"
 #include "math3.h"
 #include "polar.h"
@@ -74,9 +75,10 @@ static od_Status od_CheckSolverDef(const od_SolverDef* def)
 		return od_Fail(OD_ERROR_ARGUMENT, "factorization = %d must be 0 (auto), 1 (simplicial) or 2 (supernodal)",
 					   def->factorization);
 	}
-	if (def->threads < 0 || def->threads > 64)
+	od_Status status = od_Pool_CheckThreads(def->threads);
+	if (status != OD_OK)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, 64] (0: one per core)", def->threads);
+		return status;
 	}
 	if (!(def->tolerance >= 0.0) || !isfinite(def->tolerance) || def->maxIterations < 1)
 	{
@@ -566,6 +568,7 @@ static od_Status od_Iterate(od_Sim* sim, int iterations)
 	{
 		status = accelerate ? od_AcceleratedIteration(sim, &accepted) : od_PlainIteration(sim);
 		od_Trace(sim);
+		status = status == OD_OK ? od_CheckInterrupt() : status;
 		++it;
 		if (tolerance && (error = od_Tolerance_Estimate(sim)) <= sim->solverDef.tolerance)
 		{

@@ -41,6 +41,8 @@ const char* od_StatusName(od_Status status)
 			return "OD_ERROR_BUSY";
 		case OD_ERROR_INTERNAL:
 			return "OD_ERROR_INTERNAL";
+		case OD_ERROR_INTERRUPTED:
+			return "OD_ERROR_INTERRUPTED";
 	}
 	return "OD_UNKNOWN";
 }

@@ -69,6 +69,15 @@ static inline double od_Length(od_Vec3 a)
 	return sqrt(od_Dot(a, a));
 }
 
+// a / |a| for any finite nonzero a: divided by its largest component first, so that the square neither
+// underflows (a direction of 3.5e-292 has a zero od_Length) nor overflows (one of 1e300 an infinite one).
+static inline od_Vec3 od_Unit(od_Vec3 a)
+{
+	double m = fmax(fabs(a.x), fmax(fabs(a.y), fabs(a.z)));
+	od_Vec3 b = { a.x / m, a.y / m, a.z / m };
+	return od_Scale(1.0 / od_Length(b), b);
+}
+
 static inline od_Mat3 od_M3Zero(void)
 {
 	return (od_Mat3){ { 0 } };

@@ -3,13 +3,23 @@
 // while (OD_POOL_SPIN pauses, some tens of microseconds) before sleeping on a condition variable: each
 // iteration of a step runs four short jobs (a local sweep, a right side, two substitution passes), and a
 // sleep-and-wake costs about as much as one. One job at a time; no allocation after creation.
+//
+// Fork: a child has only the thread that forked, so it must never wait on a worker. An atfork handler
+// counts forks; a pool made before the last fork runs its jobs on the calling thread (same tasks, same
+// results: tasks never depend on the thread that runs them) and its destruction joins nothing. Re-creating
+// workers in the child was not chosen: a forked child is usually one of several (multiprocessing.Pool),
+// where one thread each already fills the cores. The prepare handler also shuts down the OpenMP thread team
+// of the forking thread (omp_pause_resource_all, OpenMP 5.0), which CHOLMOD's supernodal factorization
+// starts: libgomp's team does not survive fork either (measured: a child refactoring hung forever).
 #include "pool.h"
 
 #include "core.h"
 
 #include <pthread.h>
+#include <sched.h>
 #include <stdbool.h>
 #include <stdatomic.h>
+#include <stdlib.h>
 #include <unistd.h>
 
 typedef struct od_PoolWorker
@@ -21,6 +31,8 @@ typedef struct od_PoolWorker
 struct od_Pool
 {
 	int threads;
+	int spin;  // pauses before sleeping: OD_POOL_SPIN, or 0 with more threads than CPUs
+	int forks; // od_forks when created
 	pthread_t* workers;
 	od_PoolWorker* args;
 	pthread_mutex_t lock;
@@ -36,6 +48,73 @@ struct od_Pool
 };
 
 #define OD_POOL_SPIN 20000
+
+// ---------------------------------------------------------------------------------------------------------
+// Fork
+
+// OpenMP 5.0's call (libgomp, brought in by CHOLMOD); weak: NULL when no OpenMP runtime is loaded.
+extern int omp_pause_resource_all(int kind) __attribute__((weak));
+#define OD_OMP_PAUSE_SOFT 1
+
+static atomic_int od_forks;
+static pthread_once_t od_atforkOnce = PTHREAD_ONCE_INIT;
+
+static void od_Pool_BeforeFork(void)
+{
+	if (omp_pause_resource_all)
+	{
+		omp_pause_resource_all(OD_OMP_PAUSE_SOFT);
+	}
+}
+
+static void od_Pool_InChild(void)
+{
+	atomic_fetch_add(&od_forks, 1);
+}
+
+static void od_Pool_RegisterAtFork(void)
+{
+	pthread_atfork(od_Pool_BeforeFork, NULL, od_Pool_InChild);
+}
+
+static bool od_Pool_Forked(const od_Pool* pool)
+{
+	return pool->forks != atomic_load(&od_forks);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Thread counts
+
+od_Status od_Pool_CheckThreads(int threads)
+{
+	if (threads < 0 || threads > OD_POOL_MAX_THREADS)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "threads = %d must be in [0, %d] (0: the CPUs this process may use)",
+					   threads, OD_POOL_MAX_THREADS);
+	}
+	return OD_OK;
+}
+
+// OMP_NUM_THREADS as a count (its first entry), or 0 when unset or not a positive number.
+static int od_OmpThreads(void)
+{
+	const char* text = getenv("OMP_NUM_THREADS");
+	char* end;
+	long count = text ? strtol(text, &end, 10) : 0;
+	return text && end != text && count > 0 ? (int)(count < OD_POOL_MAX_THREADS ? count : OD_POOL_MAX_THREADS) : 0;
+}
+
+int od_Pool_AvailableThreads(void)
+{
+	cpu_set_t set;
+	int cpus = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : (int)sysconf(_SC_NPROCESSORS_ONLN);
+	int omp = od_OmpThreads();
+	cpus = omp > 0 && omp < cpus ? omp : cpus;
+	return cpus < 1 ? 1 : cpus > OD_POOL_MAX_THREADS ? OD_POOL_MAX_THREADS : cpus;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Workers
 
 static void od_Pause(void)
 {
@@ -58,7 +137,7 @@ static bool od_JobDone(od_Pool* pool, long long seen)
 // Spins until done(pool, seen) or the spin budget is spent; true when it came true.
 static bool od_SpinUntil(bool (*done)(od_Pool*, long long), od_Pool* pool, long long seen)
 {
-	for (int k = 0; k < OD_POOL_SPIN; ++k)
+	for (int k = 0; k < pool->spin; ++k)
 	{
 		if (done(pool, seen))
 		{
@@ -113,11 +192,14 @@ static void* od_Pool_Main(void* arg)
 od_Status od_Pool_Create(int threads, od_Pool** out)
 {
 	*out = NULL;
-	if (threads <= 0)
+	od_Status status = od_Pool_CheckThreads(threads);
+	if (status != OD_OK)
 	{
-		long cores = sysconf(_SC_NPROCESSORS_ONLN);
-		threads = cores > 0 ? (int)cores : 1;
+		return status;
 	}
+	pthread_once(&od_atforkOnce, od_Pool_RegisterAtFork);
+	int available = od_Pool_AvailableThreads();
+	threads = threads == 0 ? available : threads;
 	od_Pool* pool = od_AllocZero(1, sizeof *pool);
 	if (pool)
 	{
@@ -130,6 +212,10 @@ od_Status od_Pool_Create(int threads, od_Pool** out)
 		return od_Fail(OD_ERROR_MEMORY, "thread pool: out of memory");
 	}
 	pool->threads = 1;
+	pool->forks = atomic_load(&od_forks);
+	// More threads than CPUs: a spinning waiter holds the CPU that the thread it waits for needs (measured,
+	// see docs/hardening.md), so waiters sleep at once.
+	pool->spin = threads <= available ? OD_POOL_SPIN : 0;
 	pthread_mutex_init(&pool->lock, NULL);
 	pthread_cond_init(&pool->wake, NULL);
 	pthread_cond_init(&pool->done, NULL);
@@ -152,7 +238,7 @@ void od_Pool_Destroy(od_Pool* pool)
 	{
 		return;
 	}
-	if (pool->workers && pool->args)
+	if (pool->workers && pool->args && !od_Pool_Forked(pool))
 	{
 		pthread_mutex_lock(&pool->lock);
 		atomic_store(&pool->quit, 1);
@@ -182,7 +268,7 @@ void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx)
 	{
 		return;
 	}
-	if (pool->threads == 1 || count == 1)
+	if (pool->threads == 1 || count == 1 || od_Pool_Forked(pool))
 	{
 		for (int task = 0; task < count; ++task)
 		{

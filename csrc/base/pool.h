@@ -9,7 +9,18 @@
 typedef struct od_Pool od_Pool;
 typedef void od_PoolFn(void* ctx, int task, int thread);
 
-// threads <= 0: one per online core. Creates threads - 1 workers.
+// The one thread limit of the core: every threaded object (a simulation's solver, a skin, an MPM world) takes
+// 0..OD_POOL_MAX_THREADS threads, and per-thread arrays may be sized by it.
+#define OD_POOL_MAX_THREADS 64
+
+// OD_OK for 0 <= threads <= OD_POOL_MAX_THREADS, else OD_ERROR_ARGUMENT naming `threads`.
+od_Status od_Pool_CheckThreads(int threads);
+// What threads = 0 means: the CPUs this process may run on (its affinity mask), at most OMP_NUM_THREADS when
+// that is set, clamped to [1, OD_POOL_MAX_THREADS].
+int od_Pool_AvailableThreads(void);
+// threads as od_Pool_CheckThreads accepts (0: od_Pool_AvailableThreads()). Creates threads - 1 workers.
+// After a fork the child's copy runs every job on the calling thread (its workers are the parent's) and
+// is destroyed without waiting for them.
 od_Status od_Pool_Create(int threads, od_Pool** pool);
 void od_Pool_Destroy(od_Pool* pool);
 int od_Pool_Threads(const od_Pool* pool);

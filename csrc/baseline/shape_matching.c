@@ -30,6 +30,7 @@
 
 #include "core.h"
 #include "graph.h"
+#include "interrupt.h"
 #include "math3.h"
 #include "polar.h"
 
@@ -599,10 +600,12 @@ od_Status od_ShapeMatching_Step(od_ShapeMatching* sm, int steps)
 		}
 		od_SmFinishStep(sm);
 		sm->counters.steps++;
-		if (!od_SmStateIsFinite(sm))
+		status = od_SmStateIsFinite(sm) ? od_CheckInterrupt()
+										: od_Fail(OD_ERROR_NOT_FINITE, "the step produced a non-finite state; the "
+																	   "previous state was kept");
+		if (status != OD_OK)
 		{
 			memcpy(sm->state, sm->saved, sizeof(double) * 18 * n);
-			status = od_Fail(OD_ERROR_NOT_FINITE, "the step produced a non-finite state; the previous state was kept");
 			break;
 		}
 	}

@@ -178,6 +178,44 @@ static void od_ComputeMoments(od_Graph* g)
 	}
 }
 
+static void od_ComputeBounds(od_Graph* g)
+{
+	for (int a = 0; a < 3; ++a)
+	{
+		g->lower[a] = INFINITY;
+		g->upper[a] = -INFINITY;
+	}
+	for (int i = 0; i < g->n; ++i)
+	{
+		const double* r = g->radii + 3 * i;
+		double reach = fmax(r[0], fmax(r[1], r[2]));
+		for (int a = 0; a < 3; ++a)
+		{
+			g->lower[a] = fmin(g->lower[a], g->centers[3 * i + a] - reach);
+			g->upper[a] = fmax(g->upper[a], g->centers[3 * i + a] + reach);
+		}
+	}
+}
+
+od_Status od_Graph_CheckRestPoint(const od_Graph* g, const double p[3], const char* name)
+{
+	double outside = 0.0, size = 0.0;
+	for (int a = 0; a < 3; ++a)
+	{
+		double d = fmax(g->lower[a] - p[a], p[a] - g->upper[a]);
+		outside = fmax(outside, d);
+		size = hypot(size, g->upper[a] - g->lower[a]);
+	}
+	if (outside > OD_REST_POINT_REACH * size)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "%s (%g, %g, %g) is %g m from the graph, more than %g times its size (%g m): a rest-space "
+					   "point must lie on or near the body",
+					   name, p[0], p[1], p[2], outside, OD_REST_POINT_REACH, size);
+	}
+	return OD_OK;
+}
+
 od_Status od_Graph_Create(const od_GraphDef* def, od_Graph** out)
 {
 	*out = NULL;
@@ -237,6 +275,7 @@ od_Status od_Graph_Create(const od_GraphDef* def, od_Graph** out)
 	od_LabelPieces(g, stack);
 	od_Free(stack);
 	od_ComputeMoments(g);
+	od_ComputeBounds(g);
 	*out = g;
 	return OD_OK;
 }

@@ -22,7 +22,16 @@ struct od_Graph
 	int pieceCount;
 	int* piece;       // n, connected piece of each particle
 	od_PieceMap* meshPieces; // built from a mesh: the mesh piece of each particle and point; NULL otherwise
+	double lower[3], upper[3]; // a box around the ellipsoids (centres +- their largest radius)
 };
 
 // Gives a graph built from a mesh its map of mesh pieces (mesh/mesh_graph.c); the graph keeps a copy.
 od_Status od_Graph_SetMeshPieces(od_Graph* graph, const od_PieceMapDef* def);
+
+// How far from the graph's box a rest-space point may lie (a constraint's point, skinned by its nearest
+// particles), in sizes of the graph (the box's diagonal): a point 1e20 m away made a lever that flung a 2 m
+// bar 43 km; handles and pinned vertices sit on or near the body.
+#define OD_REST_POINT_REACH 100.0
+
+// OD_OK when p lies within OD_REST_POINT_REACH sizes of the graph's box, else OD_ERROR_ARGUMENT naming `name`.
+od_Status od_Graph_CheckRestPoint(const od_Graph* g, const double p[3], const char* name);

@@ -164,17 +164,51 @@ static od_Status od_ObjFace(od_MeshReader* r, const char* p, long long line)
 	return od_EndPolygon(r, "the face on line", line);
 }
 
+// OBJ is text: a NUL byte means UTF-16 (every ASCII character has one) or binary data, which would otherwise
+// load as a silently partial mesh; a UTF-8 byte order mark is skipped.
+static od_Status od_CheckObjText(const char** data, size_t* size)
+{
+	const char* nul = memchr(*data, '\0', *size);
+	if (nul)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "byte %zu is NUL: an OBJ file is ASCII or UTF-8 text, this looks like UTF-16 text or binary "
+					   "data",
+					   (size_t)(nul - *data));
+	}
+	if (*size >= 3 && memcmp(*data, "\xEF\xBB\xBF", 3) == 0)
+	{
+		*data += 3;
+		*size -= 3;
+	}
+	return OD_OK;
+}
+
+// Old Mac OS line ends: a CR not followed by LF ends a line too.
+static void od_EndLinesAtCr(char* text)
+{
+	for (char* p = strchr(text, '\r'); p; p = strchr(p + 1, '\r'))
+	{
+		*p = p[1] == '\n' ? '\r' : '\n';
+	}
+}
+
 od_Status od_Mesh_ParseObj(const char* data, size_t size, od_Mesh* mesh)
 {
 	memset(mesh, 0, sizeof *mesh);
+	od_Status status = od_CheckObjText(&data, &size);
+	if (status != OD_OK)
+	{
+		return status;
+	}
 	char* text = od_TextCopy(data, size);
 	if (!text)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory reading an OBJ of %zu bytes", size);
 	}
+	od_EndLinesAtCr(text);
 	od_MeshReader r;
 	memset(&r, 0, sizeof r);
-	od_Status status = OD_OK;
 	long long line = 1;
 	for (const char* p = text; *p && status == OD_OK; p = od_NextLine(p), ++line)
 	{

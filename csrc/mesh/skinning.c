@@ -91,7 +91,8 @@ static od_Status od_CheckSkinDef(const od_Graph* graph, const od_SkinDef* def)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "neighbors = %d must be in [1, %d]", def->neighbors, OD_MAX_SKIN);
 	}
-	return od_CheckMesh(def->vertexCount, def->vertices, def->triangleCount, def->triangles, true);
+	od_Status status = od_Pool_CheckThreads(def->threadCount);
+	return status != OD_OK ? status : od_CheckMesh(def->vertexCount, def->vertices, def->triangleCount, def->triangles, true);
 }
 
 // Area-weighted vertex normals (unit length; zero for vertices of no triangle or only degenerate ones).

@@ -131,7 +131,9 @@ struct od_MpmWorld
 };
 
 // grid.c
+// Sizes the grid (refusing a domain of too many blocks); od_MpmGrid_Reserve allocates its block table.
 od_Status od_MpmGrid_Init(od_MpmWorld* w);
+od_Status od_MpmGrid_Reserve(od_MpmWorld* w);
 void od_MpmGrid_Destroy(od_MpmGrid* g);
 od_Status od_MpmSort_Reserve(od_MpmWorld* w, int capacity);
 void od_MpmSort_Destroy(od_MpmSort* s);

@@ -45,11 +45,18 @@ def number(name, value):
     return x
 
 
-def integer(name, value):
-    """An int (bool and float refused, numpy integers accepted)."""
+_INT32 = (-2 ** 31, 2 ** 31 - 1)
+
+
+def integer(name, value, bounds=_INT32):
+    """An int (bool and float refused, numpy integers accepted) within ``bounds`` (default: the C int the
+    core takes; None: any), else ValueError naming the argument (not OverflowError from the binding)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise ValueError(f"{name} must be an integer, got {value!r}")
-    return int(value)
+    value = int(value)
+    if bounds is not None and not bounds[0] <= value <= bounds[1]:
+        raise ValueError(f"{name} = {value} is out of range: it must be in [{bounds[0]}, {bounds[1]}]")
+    return value
 
 
 _WORDS = {2: "two", 3: "three"}

@@ -32,15 +32,29 @@ int Binding_Enter(PyObject* obj)
 	return -1;
 }
 
+// The core's interrupt handler while a call runs without the GIL (polled at most every 50 ms, base.h): takes
+// the GIL back for PyErr_CheckSignals, which runs Python's signal handlers (Ctrl-C raises KeyboardInterrupt
+// there) on the main thread; the exception stays set for Binding_Done. The object stays busy meanwhile.
+static int Binding_SignalRaised(void* unused)
+{
+	(void)unused;
+	PyGILState_STATE gil = PyGILState_Ensure();
+	int raised = PyErr_CheckSignals() < 0;
+	PyGILState_Release(gil);
+	return raised;
+}
+
 PyThreadState* Binding_Begin(PyObject* obj)
 {
 	((GuardedObject*)obj)->busy = 1;
+	od_SetInterruptHandler(Binding_SignalRaised, NULL);
 	return PyEval_SaveThread();
 }
 
 void Binding_End(PyObject* obj, PyThreadState* ts)
 {
 	PyEval_RestoreThread(ts);
+	od_SetInterruptHandler(NULL, NULL);
 	((GuardedObject*)obj)->busy = 0;
 }
 
@@ -49,6 +63,10 @@ void Binding_End(PyObject* obj, PyThreadState* ts)
 
 PyObject* RaiseStatus(PyObject* module, od_Status status)
 {
+	if (status == OD_ERROR_INTERRUPTED && PyErr_Occurred())
+	{
+		return NULL; // what the signal handler raised (KeyboardInterrupt for Ctrl-C)
+	}
 	PyObject* type;
 	switch (status)
 	{
@@ -64,6 +82,9 @@ PyObject* RaiseStatus(PyObject* module, od_Status status)
 			break;
 		case OD_ERROR_BUSY:
 			type = PyExc_RuntimeError;
+			break;
+		case OD_ERROR_INTERRUPTED:
+			type = PyExc_KeyboardInterrupt;
 			break;
 		default:
 			type = Binding_State(module)->solverError;

@@ -41,7 +41,8 @@ typedef struct
 
 // 0 when obj may be used; -1 with RuntimeError while a GIL-free call on it runs. Call first in every method.
 int Binding_Enter(PyObject* obj);
-// Marks obj busy and releases the GIL; Binding_End takes the GIL back and clears the mark.
+// Marks obj busy, sets the core's interrupt handler (signals are checked, with the GIL, at most every 50 ms
+// of the call) and releases the GIL; Binding_End takes the GIL back and clears both.
 PyThreadState* Binding_Begin(PyObject* obj);
 void Binding_End(PyObject* obj, PyThreadState* ts);
 
@@ -50,7 +51,8 @@ void Binding_End(PyObject* obj, PyThreadState* ts);
 
 // Maps a core status to an exception carrying od_GetErrorMessage(); always returns NULL.
 // ARGUMENT, SINGULAR -> ValueError; NOT_FOUND -> IndexError; MEMORY -> MemoryError; BUSY -> RuntimeError;
-// anything else -> opdeform._core.SolverError.
+// INTERRUPTED -> the exception a signal handler raised (KeyboardInterrupt); anything else ->
+// opdeform._core.SolverError.
 PyObject* RaiseStatus(PyObject* module, od_Status status);
 // None for OD_OK, else RaiseStatus for the module of obj.
 PyObject* Binding_Done(PyObject* obj, od_Status status);

@@ -154,7 +154,7 @@ static PyObject* Graph_piece_count(PyObject* obj, PyObject* unused)
 	return PyLong_FromLong(od_Graph_GetPieces(((GraphObject*)obj)->graph, NULL));
 }
 
-// Graph.skin_weights(point, m, idx_out(int32 m), w_out(float64 m)) -> count
+// Graph.skin_weights(point, m, idx_out(int32 m), w_out(float64 m)) -> count (the first count entries written)
 static PyObject* Graph_skin_weights(PyObject* obj, PyObject* args)
 {
 	double p[3];
@@ -169,13 +169,19 @@ static PyObject* Graph_skin_weights(PyObject* obj, PyObject* args)
 		PyErr_Format(PyExc_ValueError, "m = %d must be in [1, 16]", m);
 		return NULL;
 	}
-	int idx[16];
-	double w[16];
-	int count = od_Graph_SkinWeights(((GraphObject*)obj)->graph, p, m, idx, w);
-	if (CopyOut(idxOut, "idx", idx, count, 'i') < 0 || CopyOut(wOut, "w", w, count, 'd') < 0)
+	// Written in place: the count is min(m, particles), known only afterwards.
+	Py_buffer views[2];
+	if (GetArray(idxOut, "idx", 'i', m, 1, &views[0]) < 0)
 	{
 		return NULL;
 	}
+	if (GetArray(wOut, "w", 'd', m, 1, &views[1]) < 0)
+	{
+		ReleaseArray(&views[0]);
+		return NULL;
+	}
+	int count = od_Graph_SkinWeights(((GraphObject*)obj)->graph, p, m, views[0].buf, views[1].buf);
+	ReleaseArrays(views, 2);
 	return PyLong_FromLong(count);
 }
 

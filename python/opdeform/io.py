@@ -4,7 +4,9 @@
 fan-triangulated, other data (normals, texture coordinates, colours) skipped. ``write_obj`` writes text with
 17 significant digits (exact round trip), ``write_ply`` binary little-endian PLY (float64 vertices).
 ``read`` and ``write`` pick the format from the file name. Parsing and formatting run in the C core with
-the GIL released; a malformed file raises ValueError naming the file and the problem.
+the GIL released; a malformed file raises ValueError naming the file and the problem, and so does anything
+but a regular file (a FIFO, a device such as /dev/zero, a directory). OBJ is ASCII or UTF-8 text with LF,
+CRLF or old-Mac CR line ends; UTF-16 or binary data (a NUL byte) is refused.
 
 PC2 point caches (``PC2Writer``, ``read_pc2``, ``write_pc2``, ``pc2_header``) and ``atomic_path`` (a file appears
 under its name only when complete) are in the last section.
@@ -13,6 +15,7 @@ under its name only when complete) are in the last section.
 import contextlib
 import os
 import struct
+import stat
 
 import numpy as np
 
@@ -24,8 +27,16 @@ __all__ = ["read", "read_obj", "read_ply", "write", "write_obj", "write_ply",
 
 
 def _read(path, fmt):
-    with open(path, "rb") as f:
-        data = f.read()
+    # Opened without blocking (a FIFO would wait for a writer forever) and checked before reading: only a
+    # regular file has an end (/dev/zero would fill the memory).
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise ValueError(f"{os.fspath(path)}: not a regular file (a directory, FIFO, socket or device)")
+        with os.fdopen(fd, "rb", closefd=False) as f:
+            data = f.read()
+    finally:
+        os.close(fd)
     try:
         vertices, triangles = _core.parse_mesh(data, fmt)
     except ValueError as exc:

@@ -55,7 +55,7 @@ class Skin:
 
     ``triangles`` (T,3) or ``rest_normals`` (V,3) give the rest normals that ``deform`` turns when asked for
     normals (area-weighted vertex normals of the triangles; the normals win when both are given).
-    ``threads``: 0 = every core (meshes under 16384 vertices use one thread).
+    ``threads``: 0..64, 0 = the CPUs this process may use (meshes under 16384 vertices use one thread).
     """
 
     def __init__(self, graph, rest_vertices, neighbors=4, triangles=None, rest_normals=None, threads=0):
@@ -140,7 +140,7 @@ def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
     """Pins mesh vertices where they are now: one position constraint per vertex of ``indices``, of weight
     ``weight`` (default: ``sim.default_weight()``) times the vertex's entry of ``weights`` (e.g. a painted
     vertex group; default 1). A vertex of weight 0 is not pinned. Returns the ids of the constraints added,
-    in the order of ``indices``."""
+    in the order of ``indices``. All or nothing: when one vertex is refused, none stays pinned."""
     if not isinstance(sim, Simulation):
         raise TypeError("sim must be an opdeform.Simulation")
     vertices = as_array("rest_vertices", rest_vertices, (None, 3))
@@ -154,7 +154,16 @@ def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
     if bad.size:
         raise ValueError(f"weights[{bad[0]}] = {scale[bad[0]]} must be finite and >= 0")
     base = sim.default_weight("position") if weight is None else number("weight", weight)
-    return [sim.add_position_constraint(p, None, base * w) for p, w in zip(points, scale) if w > 0.0]
+    ids = []
+    try:
+        for p, w in zip(points, scale):
+            if w > 0.0:
+                ids.append(sim.add_position_constraint(p, None, base * float(w)))
+    except BaseException:  # all or nothing: a refused vertex (or Ctrl-C) takes back the pins added before it
+        for cid in ids:
+            sim.remove_constraint(cid)
+        raise
+    return ids
 
 
 def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weight=None):

@@ -59,7 +59,9 @@ class World:
     """A 3-D MLS-MPM world over the box [lower, upper] with grid spacing dx.
 
     spin: η, the factor on each particle's rotation angle (0 = plain MLS-MPM, particles keep their rest
-    orientation). walls: contact of the domain's faces ('sticky', 'slip', 'separate'). threads: 0 = all cores.
+    orientation). walls: contact of the domain's faces ('sticky', 'slip', 'separate'). threads: 0..64, 0 = the
+    CPUs this process may use (affinity mask, at most OMP_NUM_THREADS). A step is refused, before anything moves,
+    when it would take more than 100,000 substeps or 2^27 particle-substeps (colliders' speeds counted).
     """
 
     def __init__(self, lower, upper, dx, gravity=(0.0, 0.0, -9.81), cfl=0.4, max_dt=1e-3, spin=1.0, walls="slip",
@@ -109,7 +111,7 @@ class World:
                             integer("octaves", octaves), number("persistence", persistence),
                             vector("drift", drift, 2), number("drag", drag), number("ground", ground),
                             number("ref_height", ref_height), number("exponent", exponent),
-                            integer("seed", seed) & 0xFFFFFFFF)
+                            integer("seed", seed, None) & 0xFFFFFFFF)
         self._calls.append(("set_wind", (kind, velocity, amplitude, wavelength, octaves, persistence, drift, drag,
                                          ground, ref_height, exponent, seed)))
 

@@ -318,7 +318,7 @@ class Simulation:
                    max_iterations=None):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
         ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy;
-        ``threads`` (0: one per core) for the local step (a block of particles per thread, then the border),
+        ``threads`` (0..64; 0: the CPUs this process may use) for the local step (a block of particles per thread, then the border),
         the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
         run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
         flops per factor entry, else supernodal; "simplicial"; "supernodal"). ``tolerance`` > 0: each step

@@ -4,6 +4,7 @@
 int test_polar(void);
 int test_graph(void);
 int test_sim(void);
+int test_interrupt(void);
 int test_goal(void);
 int test_mpm(void);
 int test_mesh_graph(void);
@@ -19,6 +20,7 @@ int main(void)
 	RUN_TEST(test_polar);
 	RUN_TEST(test_graph);
 	RUN_TEST(test_sim);
+	RUN_TEST(test_interrupt);
 	RUN_TEST(test_goal);
 	RUN_TEST(test_mpm);
 	RUN_TEST(test_mesh_graph);

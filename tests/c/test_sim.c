@@ -223,3 +223,29 @@ int test_goal(void)
 	od_Graph_Destroy(g);
 	return failed;
 }
+
+// The interrupt handler (base.h): polled at most every 50 ms, a nonzero answer stops a long step with
+// OD_ERROR_INTERRUPTED and the state from before the call; no handler, no effect.
+static int stop_now(void* context)
+{
+	++*(int*)context;
+	return 1;
+}
+
+int test_interrupt(void)
+{
+	od_Graph* g = make_bar();
+	int tip = -1, polls = 0;
+	od_Sim* sim = g ? make_pinned(g, &tip) : NULL;
+	ENSURE(sim && od_Sim_Step(sim, 2) == OD_OK);
+	double before[3 * N];
+	memcpy(before, od_Sim_GetPositions(sim), sizeof before);
+	od_SetInterruptHandler(stop_now, &polls);
+	ENSURE(od_Sim_Step(sim, 100000000) == OD_ERROR_INTERRUPTED);
+	ENSURE(polls == 1 && memcmp(before, od_Sim_GetPositions(sim), sizeof before) == 0);
+	od_SetInterruptHandler(NULL, NULL);
+	ENSURE(od_Sim_Step(sim, 1) == OD_OK);
+	od_Sim_Destroy(sim);
+	od_Graph_Destroy(g);
+	return 0;
+}

@@ -23,6 +23,7 @@ typedef enum od_Status
 	OD_ERROR_NOT_FINITE,   // a step produced NaN or infinity; the previous state was kept
 	OD_ERROR_BUSY,         // the object is being used by another thread
 	OD_ERROR_INTERNAL,     // a library call (CHOLMOD) failed unexpectedly
+	OD_ERROR_INTERRUPTED,  // the interrupt handler asked a long call to stop (od_SetInterruptHandler)
 } od_Status;
 
 // The message of the last failure on the calling thread ("" when none).
@@ -34,6 +35,14 @@ const char* od_StatusName(od_Status status);
 // How many allocations the core has made so far (all threads): tests use it to check that a warmed-up
 // step allocates nothing.
 long long od_GetAllocationCount(void);
+
+// Interrupting long calls (a host's Ctrl-C). The handler set on a thread is polled by the long calls that
+// thread makes, at most every 50 ms of their work, between steps (od_Sim_Step), iterations (a static solve,
+// shape matching) and MPM substeps; when it returns nonzero the call stops with OD_ERROR_INTERRUPTED: ARAP
+// and shape-matching calls keep the state from before the call (as any failure), an MPM step keeps the
+// state at the last whole substep. NULL removes it. The core's own worker threads never call it.
+typedef int od_InterruptFn(void* context);
+void od_SetInterruptHandler(od_InterruptFn* handler, void* context);
 
 #ifdef __cplusplus
 }

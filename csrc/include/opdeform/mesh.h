@@ -81,7 +81,7 @@ typedef struct od_SkinDef
 	const int* triangles;
 	const double* normals;  // optional rest normals (vertexCount*3); used instead of the triangles' ones
 	int neighbors;          // m (4); fewer when the graph has fewer particles
-	int threadCount;        // 0 = every core (meshes of fewer than 16384 vertices use one)
+	int threadCount;        // 0..64; 0 = the CPUs this process may use (affinity, OMP_NUM_THREADS); meshes of fewer than 16384 vertices use one
 } od_SkinDef;
 
 od_SkinDef od_DefaultSkinDef(void);
@@ -132,6 +132,8 @@ typedef struct od_Mesh
 
 // Polygons are fan-triangulated; other data (normals, texture coordinates, colours) is skipped. The
 // arrays are allocated by the parser; release them with od_Mesh_Free.
+// OBJ: ASCII or UTF-8 text (a BOM is skipped) with LF, CRLF or CR line ends; a NUL byte (UTF-16, binary) is
+// refused.
 od_Status od_Mesh_ParseObj(const char* data, size_t size, od_Mesh* mesh);
 // ascii, binary_little_endian and binary_big_endian PLY.
 od_Status od_Mesh_ParsePly(const char* data, size_t size, od_Mesh* mesh);

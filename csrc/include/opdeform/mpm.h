@@ -65,7 +65,7 @@ typedef struct od_MpmWorldDef
 	double spin;               // η: the particle's rotation angle is scaled by it; 0 = plain MLS-MPM (no turning)
 	od_MpmContact walls;       // behaviour of the domain's faces
 	double wallFriction;
-	int threads;               // 0 = every core
+	int threads;               // 0..64; 0 = the CPUs this process may use (affinity, at most OMP_NUM_THREADS)
 } od_MpmWorldDef;
 
 od_MpmWorldDef od_DefaultMpmWorldDef(void);

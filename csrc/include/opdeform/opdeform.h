@@ -99,7 +99,7 @@ typedef struct od_SolverDef
 	od_AcceleratorKind accelerator;
 	int window;     // Anderson history (1..16)
 	double rho;     // Chebyshev spectral radius estimate in (0, 1)
-	int threads;    // 0: one per core. > 1: the local step sweeps a block of particles per thread, then the
+	int threads;    // 0..64; 0: the CPUs this process may use (affinity, at most OMP_NUM_THREADS). > 1: the local step sweeps a block of particles per thread, then the
 	                // border; the right side and the substitution split too (same bits run to run)
 	int factorization; // CHOLMOD's path: 0 auto (supernodal from 400 flops per factor entry), 1 simplicial,
 	                   // 2 supernodal; the substitution is the same for all (cholesky.c)
