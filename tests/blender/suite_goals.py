@@ -185,3 +185,26 @@ def test_shape_keys_are_followed():
         bpy.context.scene.frame_set(f)
         assert np.abs(H.positions(obj) - H.animated_positions(obj)).max() < 2e-3, f
     assert H.positions(obj)[:, 2].max() > 0.25 and not obj.opdeform.error
+
+
+def test_frame_range_follows_the_scene_until_set():
+    """Scene Range (on by default): the cache covers the scene's range and follows its changes; setting Start
+    or End stops following (the other end starts at the scene's); ticking it again follows again."""
+    obj = H.bar_object()
+    bpy.ops.opdeform.enable(object=obj.name)
+    s, scene, engine = obj.opdeform, bpy.context.scene, lambda: H.runtime().get(obj).engine
+    assert s.use_scene_range and "Frames 1 - 250 (the scene's)" in H.labels(H.draw_panels())
+    scene.frame_start, scene.frame_end = 5, 30
+    H.play(range(5, 8))
+    assert (engine().start, engine().end) == (5, 30) and not s.error, s.error
+    s.frame_end = 12  # the user sets one: the range is the object's from now on
+    assert not s.use_scene_range and (s.frame_start, s.frame_end) == (5, 12)
+    assert {"frame_start", "frame_end"} <= {e[1] for e in H.draw_panels() if e[0] == "prop"}
+    scene.frame_end = 100
+    H.play(range(5, 8))
+    assert (engine().start, engine().end) == (5, 12)
+    s.use_scene_range = True
+    H.play(range(5, 8))
+    assert (engine().start, engine().end) == (5, 100)
+    s.use_scene_range = False  # unticked: the range stays the scene's, now the object's own
+    assert (s.frame_start, s.frame_end) == (5, 100)
