@@ -208,3 +208,44 @@ def test_frame_range_follows_the_scene_until_set():
     assert (engine().start, engine().end) == (5, 100)
     s.use_scene_range = False  # unticked: the range stays the scene's, now the object's own
     assert (s.frame_start, s.frame_end) == (5, 100)
+
+
+def _modifier_settings(obj):
+    return {m.name: {p: repr(getattr(m, p)) for p in m.bl_rna.properties.keys() if p != "rna_type"}
+            for m in obj.modifiers}
+
+
+def _outputs(tail, frames):
+    """Plays the frames; per frame, what OPDeform outputs (the engine's object-space vertices)."""
+    out = {}
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        assert not tail.opdeform.error, tail.opdeform.error
+        out[f] = H.runtime().get(tail).engine.out.copy()
+    return out
+
+
+def test_subdivision_after_opdeform_plays_live():
+    """Armature -> OPDeform -> Subdivision: plays live with the very frames of the tail without the
+    Subdivision (the goal is read on the original vertices the Subdivision keeps first), the bake under the
+    Subdivision shows the same, and the user's modifier settings are untouched."""
+    frames = range(1, 25)
+    plain = _outputs(H.tail_rig(0.5), frames)
+    H.fresh()
+    tail = H.tail_rig(0.5)
+    tail.opdeform.frame_end = 24
+    sub = tail.modifiers.new("Subdivision", 'SUBSURF')
+    sub.levels = 2
+    assert [m.type for m in tail.modifiers] == ['ARMATURE', 'NODES', 'SUBSURF']
+    settings = _modifier_settings(tail)
+    live = _outputs(tail, frames)
+    for f in frames:
+        np.testing.assert_array_equal(live[f], plain[f])
+    shown = H.positions(tail)
+    assert len(shown) > 10 * len(tail.data.vertices)
+    assert np.linalg.norm(live[24] - H.animated_positions(tail), axis=1).max() > 0.05  # secondary motion
+    assert _modifier_settings(tail) == settings
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "subdivision.blend"))
+    bpy.ops.opdeform.bake(object=tail.name)
+    bpy.context.scene.frame_set(24)
+    np.testing.assert_array_equal(H.positions(tail), shown)

@@ -16,7 +16,7 @@ from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
 from ..core import loader, pc2
 from ..core.frames import BakeFrames
-from ..core.engine import Engine, EngineError
+from ..core.engine import Engine, EngineError, original_input
 from . import modifier
 
 MODIFIER_NAME = "OPDeform Cache"
@@ -337,13 +337,13 @@ def frame_input(obj, rt, depsgraph):
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    incoming = modifier.read_input(evaluated.data)
-    if incoming is None:
+    positions, index = modifier.read_input(evaluated.data)
+    if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
-    n = rt.engine.n_vertices
-    if len(incoming) != n:
-        raise AddonError(f"{obj.name}: the evaluated mesh has {len(incoming)} vertices where the mesh has {n}: a "
-                         "modifier changes the vertex count (e.g. Subdivision); move it after OPDeform")
+    try:
+        incoming = original_input(positions, index, rt.engine.n_vertices)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
     return incoming, np.array(evaluated.matrix_world, dtype=np.float64)
 
 
