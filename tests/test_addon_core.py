@@ -17,7 +17,7 @@ import opdeform
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
 from opdeform_blender.core import frames, handles, loader, pc2, tumbling  # noqa: E402
-from opdeform_blender.core.engine import Engine, EngineError  # noqa: E402
+from opdeform_blender.core.engine import Engine, EngineError, original_input  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
     hasattr(opdeform.Graph, "from_mesh")
@@ -228,3 +228,18 @@ def test_engine_goal_follows_the_input_and_rejects_bad_goals():
     assert np.array_equal(e.out, shown) and e.cache.last == 5  # nothing changed
     e.set_goal(None)
     assert e.goal_strength is None and len(e.cache) == 0
+
+
+def test_original_input_behind_later_modifiers():
+    """The goal is read on the mesh's vertices: as is, the first n behind a Subdivision (its index keeps them
+    first), a report for a count changed before OPDeform or originals that cannot be found."""
+    p = np.arange(30, dtype=np.float32).reshape(10, 3)
+    same = p[:4]
+    assert original_input(same, np.arange(4), 4) is same and original_input(same, None, 4) is same
+    behind = np.r_[np.arange(4), [0, 1, 1, 2, 3, 3]]  # the new vertices carry interpolated indices
+    np.testing.assert_array_equal(original_input(p, behind, 4), p[:4])
+    with pytest.raises(EngineError, match="before OPDeform"):
+        original_input(p, np.arange(10), 4)
+    for index in (None, np.r_[3, 2, 1, 0, np.arange(6)]):
+        with pytest.raises(EngineError, match="after OPDeform"):
+            original_input(p, index, 4)

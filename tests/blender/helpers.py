@@ -299,7 +299,8 @@ def tail_rig(strength=0.5, armature=True, frames=6 * FPS, group=None):
 def animated_positions(obj):
     """The input at the OPDeform modifier now (the animation without opdeform's effect), object space."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    return runtime().modifier.read_input(obj.evaluated_get(depsgraph).data)
+    positions, index = runtime().modifier.read_input(obj.evaluated_get(depsgraph).data)
+    return runtime().original_input(positions, index, len(obj.data.vertices))
 
 
 def tail_motion(obj, frames):

@@ -321,7 +321,7 @@ def test_panels_draw_in_every_state():
             "opdeform.handle_remove", "opdeform.disable"} <= ops, ops
     props = {e[1] for e in log if e[0] == "prop"}
     assert {"particles", "graph_mode", "stiffness", "density", "damping", "substeps", "iterations",
-            "use_floor", "floor_height", "floor_friction", "pin_group", "frame_start", "frame_end",
+            "use_floor", "floor_height", "floor_friction", "pin_group", "use_scene_range",
             "cache_directory", "show_particles", "mode"} <= props, props
     assert "20 particles" in H.labels(log) or "particles," in H.labels(log)
     obj.opdeform.particles = 30

@@ -1,11 +1,15 @@
 """opdeform's place in the modifier stack: a Geometry Nodes modifier ("OPDeform", node group "OPDeform Offset")
 that the add-on creates and the user may move (after an Armature, before a Subdivision).
 
-Its nodes do two things, read the same way in Blender 3.4 through 5.x:
+Its nodes do three things, read the same way in Blender 3.4 through 5.x:
 - Store Named Attribute ``opdeform_input``: the positions that reach the modifier (the rest mesh deformed by
   shape keys, an Armature, a Lattice, ...). The add-on reads them from the evaluated mesh each frame as the
   goal and as the base of the output. Chosen over evaluating the object again with the modifier muted: no
   second evaluation per frame, nothing toggled in the user's stack while playing or rendering.
+- Store Named Attribute ``opdeform_index``: each vertex's index at the modifier. Modifiers after OPDeform
+  carry both attributes along; a Subdivision keeps the original vertices first and copies their attributes
+  unchanged, so the index tells the add-on where they are in the evaluated mesh (and that a count differing
+  at the modifier itself comes from a modifier before it).
 - Set Position by the offset in the mesh attribute ``opdeform_offset``, which the add-on writes each frame.
   The vertex positions of the mesh are never written. Without the attribute (a saved file: the save handler
   removes it; the add-on disabled or absent) the offset is zero and the modifier passes its input through,
@@ -18,7 +22,9 @@ import numpy as np
 MODIFIER = "OPDeform"
 GROUP = "OPDeform Offset"
 INPUT = "opdeform_input"
+INDEX = "opdeform_index"
 OFFSET = "opdeform_offset"
+VERSION = 2  # the node group's layout: 1 had no index; an older group is replaced on Build
 
 
 def _socket(group, name, in_out):
@@ -28,48 +34,58 @@ def _socket(group, name, in_out):
         (group.inputs if in_out == 'INPUT' else group.outputs).new('NodeSocketGeometry', name)
 
 
-def _vector(sockets):
-    return next(s for s in sockets if s.type == 'VECTOR' and s.name in ("Value", "Attribute"))
+def _value(sockets, kind='VECTOR'):
+    return next(s for s in sockets if s.type == kind and s.name in ("Value", "Attribute"))
+
+
+def _store(nodes, links, name, data_type, kind, value_socket, geometry_socket):
+    """A Store Named Attribute node writing value_socket on the points; returns its geometry output."""
+    store = nodes.new('GeometryNodeStoreNamedAttribute')
+    store.data_type, store.domain = data_type, 'POINT'
+    store.inputs["Name"].default_value = name
+    links.new(geometry_socket, store.inputs["Geometry"])
+    links.new(value_socket, _value(store.inputs, kind))
+    return store.outputs[0]
 
 
 def _new_group():
     group = bpy.data.node_groups.new(GROUP, 'GeometryNodeTree')
-    group["opdeform"] = 1  # ours, whatever its name becomes
+    group["opdeform"] = VERSION  # ours, whatever its name becomes
     _socket(group, "Geometry", 'INPUT')
     _socket(group, "Geometry", 'OUTPUT')
     nodes, links = group.nodes, group.links
-    store = nodes.new('GeometryNodeStoreNamedAttribute')
-    store.data_type, store.domain = 'FLOAT_VECTOR', 'POINT'
-    store.inputs["Name"].default_value = INPUT
+    geometry = _store(nodes, links, INPUT, 'FLOAT_VECTOR', 'VECTOR',
+                      nodes.new('GeometryNodeInputPosition').outputs[0], nodes.new('NodeGroupInput').outputs[0])
+    geometry = _store(nodes, links, INDEX, 'INT', 'INT', nodes.new('GeometryNodeInputIndex').outputs[0], geometry)
     offset = nodes.new('GeometryNodeInputNamedAttribute')
     offset.data_type = 'FLOAT_VECTOR'
     offset.inputs["Name"].default_value = OFFSET
     move = nodes.new('GeometryNodeSetPosition')
-    links.new(nodes.new('NodeGroupInput').outputs[0], store.inputs["Geometry"])
-    links.new(nodes.new('GeometryNodeInputPosition').outputs[0], _vector(store.inputs))
-    links.new(store.outputs[0], move.inputs["Geometry"])
-    links.new(_vector(offset.outputs), move.inputs["Offset"])
+    links.new(geometry, move.inputs["Geometry"])
+    links.new(_value(offset.outputs), move.inputs["Offset"])
     links.new(move.outputs[0], nodes.new('NodeGroupOutput').inputs[0])
     return group
 
 
 def node_group():
-    return next((g for g in bpy.data.node_groups if g.get("opdeform") == 1), None) or _new_group()
+    return next((g for g in bpy.data.node_groups if g.get("opdeform") == VERSION), None) or _new_group()
 
 
 def get(obj):
     mod = obj.modifiers.get(MODIFIER)
     return mod if mod is not None and mod.type == 'NODES' and mod.node_group is not None and \
-        mod.node_group.get("opdeform") == 1 else None
+        mod.node_group.get("opdeform") else None
 
 
 def ensure(obj):
-    """The object's OPDeform modifier, added last in the stack when missing (existing modifiers stay)."""
+    """The object's OPDeform modifier, added last in the stack when missing (existing modifiers stay); an
+    older node group is replaced by the current one."""
     mod = get(obj)
     if mod is None:
         mod = obj.modifiers.new(MODIFIER, 'NODES')
-        mod.node_group = node_group()
         mod.show_in_editmode = False  # Edit Mode shows and edits the rest mesh
+    if mod.node_group is None or mod.node_group.get("opdeform") != VERSION:
+        mod.node_group = node_group()
     return mod
 
 
@@ -99,11 +115,17 @@ def clear_offset(mesh):
         mesh.update()
 
 
-def read_input(evaluated_mesh):
-    """The positions captured at the modifier (float32 (V, 3)) from the evaluated mesh, None without them."""
-    attr = evaluated_mesh.attributes.get(INPUT)
+def _read(evaluated_mesh, name, field, dtype, width):
+    attr = evaluated_mesh.attributes.get(name)
     if attr is None:
         return None
-    out = np.empty(len(attr.data) * 3, dtype=np.float32)
-    attr.data.foreach_get("vector", out)
-    return out.reshape(-1, 3)
+    out = np.empty(len(attr.data) * width, dtype=dtype)
+    attr.data.foreach_get(field, out)
+    return out.reshape(-1, width) if width > 1 else out
+
+
+def read_input(evaluated_mesh):
+    """(the positions captured at the modifier, float32 (L, 3); each one's vertex index there, int32 (L,)) from
+    the evaluated mesh, which later modifiers may have grown to L vertices; None where missing."""
+    return (_read(evaluated_mesh, INPUT, "vector", np.float32, 3),
+            _read(evaluated_mesh, INDEX, "value", np.int32, 1))

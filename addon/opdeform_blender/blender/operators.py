@@ -35,13 +35,6 @@ class _ObjectOperator:
             return {'CANCELLED'}
 
 
-def _default_range(settings, scene):
-    """The cache range starts as the scene's frame range, unless a script or the user has set it."""
-    for prop, value in (("frame_start", scene.frame_start), ("frame_end", scene.frame_end)):
-        if not settings.is_property_set(prop):
-            setattr(settings, prop, value)
-
-
 class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
     """Simulate this mesh with oriented particles (and build its particle graph)"""
     bl_idname = "opdeform.enable"
@@ -55,9 +48,7 @@ class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
         s = obj.opdeform
         if self.build:
             rt.module()
-            _default_range(s, context.scene)
             rt.build(obj, context.scene)
-        _default_range(s, context.scene)
         s.enabled = True
         return {'FINISHED'}
 
@@ -90,7 +81,6 @@ class OPDEFORM_OT_build(_ObjectOperator, bpy.types.Operator):
 
     def run(self, context, obj, rt):
         rt.check_object(obj)
-        _default_range(obj.opdeform, context.scene)
         t = rt.build(obj, context.scene)
         obj.opdeform.enabled = True
         g = t.engine.graph

@@ -59,11 +59,16 @@ def _wrapped(layout, text, icon='NONE', width=60):
         col.label(text=line, icon=icon if first else 'BLANK1')
 
 
-def _cache_settings(layout, s):
-    """The frame range and folder of a bake (deformation or tumbling settings)."""
+def _cache_settings(layout, s, scene=None):
+    """The frame range and folder of a bake (deformation settings, with the scene: Scene Range; tumbling)."""
     col = layout.column(align=True)
-    col.prop(s, "frame_start", text="Start")
-    col.prop(s, "frame_end", text="End")
+    if scene is not None:
+        col.prop(s, "use_scene_range")
+    if scene is not None and s.use_scene_range:
+        col.label(text=f"Frames {scene.frame_start} - {scene.frame_end} (the scene's)")
+    else:
+        col.prop(s, "frame_start", text="Start")
+        col.prop(s, "frame_end", text="End")
     layout.prop(s, "cache_directory")
 
 
@@ -217,7 +222,7 @@ class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
     def draw(self, context):
         from . import runtime
         layout, obj, s = _split(self.layout, context)
-        _cache_settings(layout, s)
+        _cache_settings(layout, s, context.scene)
         rt = runtime.get(obj)
         if rt is not None:
             layout.label(text=f"In memory: {len(rt.engine.cache)} frames", icon='MEMORY')

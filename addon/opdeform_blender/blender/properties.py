@@ -33,6 +33,27 @@ def _poll_handle(self, obj):
     return obj.type == 'EMPTY'
 
 
+def _scene(context):
+    return getattr(context, "scene", None) or bpy.context.scene
+
+
+def _own_range(name):
+    """The update of Start or End: setting one stops following the scene; the other starts at the scene's."""
+    def update(self, context):
+        if self.use_scene_range:
+            value = getattr(self, name)
+            self.use_scene_range = False  # copies the scene's range (_scene_range_off)
+            setattr(self, name, value)
+    return update
+
+
+def _scene_range_off(self, context):
+    """Unticking Scene Range keeps the range the cache had: the scene's now."""
+    if not self.use_scene_range:
+        scene = _scene(context)
+        self.frame_start, self.frame_end = scene.frame_start, scene.frame_end
+
+
 def _mark_discovery(self, context):
     from . import handlers
     handlers.mark_discovery()
@@ -103,8 +124,12 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     handles: CollectionProperty(type=OPDEFORM_HandleItem)
     handle_index: IntProperty(default=0)
     # cache
-    frame_start: IntProperty(name="Start", default=1, description="The state resets to rest at this frame")
-    frame_end: IntProperty(name="End", default=250)
+    use_scene_range: BoolProperty(name="Scene Range", default=True, update=_scene_range_off,
+                                  description="The cache covers the scene's frame range and follows its changes "
+                                              "(setting Start or End turns this off)")
+    frame_start: IntProperty(name="Start", default=1, update=_own_range("frame_start"),
+                             description="The state resets to rest at this frame")
+    frame_end: IntProperty(name="End", default=250, update=_own_range("frame_end"))
     cache_directory: StringProperty(name="Folder", default="//opdeform_cache", subtype='DIR_PATH',
                                     description="Where Bake writes the PC2 file ('//' = next to the .blend)")
     baked: BoolProperty(name="Baked", default=False)

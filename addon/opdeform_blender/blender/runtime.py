@@ -16,7 +16,7 @@ from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
 from ..core import loader, pc2
 from ..core.frames import BakeFrames
-from ..core.engine import Engine, EngineError
+from ..core.engine import Engine, EngineError, original_input
 from . import modifier
 
 MODIFIER_NAME = "OPDeform Cache"
@@ -206,6 +206,13 @@ def graph_key(settings):
     return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group, settings.goal_group)
 
 
+def frame_range(settings, scene):
+    """(start, end) of the cache: the scene's frame range while Scene Range is on, else the object's own."""
+    if settings.use_scene_range:
+        return scene.frame_start, scene.frame_end
+    return settings.frame_start, settings.frame_end
+
+
 def frame_rate(scene):
     return scene.render.fps / scene.render.fps_base
 
@@ -227,7 +234,7 @@ def signature(settings, scene):
     hs = tuple((h.target.name, h.vertex, h.use_rotation, round(h.strength, 9)) for h in active_handles(settings))
     p = sim_params(settings, scene)
     parts = (graph_key(settings), sorted(p.items()), settings.substeps, floor(settings), settings.pin_strength,
-             hs, settings.frame_start, settings.frame_end, settings.mode, goal_strength(settings))
+             hs, frame_range(settings, scene), settings.mode, goal_strength(settings))
     return repr(parts)
 
 
@@ -252,7 +259,7 @@ def configure(rt, obj, scene, depsgraph=None):
     s = obj.opdeform
     bind_new_handles(rt, s, depsgraph)
     e = rt.engine
-    e.configure(sim_params(s, scene), s.substeps, floor(s), s.frame_start, s.frame_end)
+    e.configure(sim_params(s, scene), s.substeps, floor(s), *frame_range(s, scene))
     pins = rt.pins or (np.zeros(0, np.int64), None)
     handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
@@ -330,13 +337,13 @@ def frame_input(obj, rt, depsgraph):
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    incoming = modifier.read_input(evaluated.data)
-    if incoming is None:
+    positions, index = modifier.read_input(evaluated.data)
+    if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
-    n = rt.engine.n_vertices
-    if len(incoming) != n:
-        raise AddonError(f"{obj.name}: the evaluated mesh has {len(incoming)} vertices where the mesh has {n}: a "
-                         "modifier changes the vertex count (e.g. Subdivision); move it after OPDeform")
+    try:
+        incoming = original_input(positions, index, rt.engine.n_vertices)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
     return incoming, np.array(evaluated.matrix_world, dtype=np.float64)
 
 
@@ -405,7 +412,7 @@ def frame_update(obj, scene, depsgraph=None):
     rt.remember(frame, out)
     t1 = time.perf_counter()
     show(obj, rt, rt.engine.offset)
-    rt.shown = ("rest" if frame <= s.frame_start else "frame", frame)
+    rt.shown = ("rest" if frame <= rt.engine.start else "frame", frame)
     t2 = time.perf_counter()
     rt.timing = dict(rt.engine.timing, total=t2 - t0, write=t2 - t1)
     return rt
@@ -458,13 +465,13 @@ class BakeJob(BakeFrames):
             raise AddonError(f"{obj.name!r}: bake needs Dynamics mode (posing mode has no frames to bake)")
         if s.error:
             raise AddonError(f"{obj.name!r}: {s.error} (press Reset)")
-        if s.frame_end < s.frame_start:
+        self.start, self.end = frame_range(s, scene)
+        if self.end < self.start:
             raise AddonError("the cache's end frame is before its start frame")
         self.path, self.stored_path = bake_path(obj)
         self.rt = ensure(obj, scene) or build(obj, scene)
         self.obj_name = obj.name
         self.scene = scene
-        self.start, self.end = s.frame_start, s.frame_end
         self.frame = self.start
         self.original_frame = scene.frame_current
         mod = cache_modifier(obj)
