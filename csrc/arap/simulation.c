@@ -663,6 +663,10 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 		memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
 		memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
 		od_Predict(sim);
+		if (sim->solverDef.tolerance > 0.0)
+		{
+			od_Tolerance_ChooseStart(sim);
+		}
 		status = od_Iterate(sim, sim->def.iterations);
 		if (sim->hasFloor)
 		{

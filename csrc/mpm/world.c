@@ -79,7 +79,7 @@ od_Status od_MpmWorld_Create(const od_MpmWorldDef* def, od_MpmWorld** out)
 	w->model.invDx = 1.0 / def->dx;
 	w->state.maxHardening = 1.0;
 	od_MpmWindDef wind = od_DefaultMpmWindDef();
-	status = od_MpmWind_Set(&w->model.wind, &wind);
+	status = od_MpmWind_Set(&w->model.wind, &wind, def->dx);
 	if (status == OD_OK)
 	{
 		status = od_MpmGrid_Init(w);
@@ -367,7 +367,7 @@ od_Status od_MpmWorld_LoadState(od_MpmWorld* w, const void* in, size_t size)
 
 od_Status od_MpmWorld_SetWind(od_MpmWorld* w, const od_MpmWindDef* def)
 {
-	return od_MpmWind_Set(&w->model.wind, def);
+	return od_MpmWind_Set(&w->model.wind, def, w->model.def.dx);
 }
 
 od_Status od_MpmWorld_AddCollider(od_MpmWorld* w, const od_MpmColliderDef* def, int* id)

@@ -52,6 +52,8 @@ typedef struct od_MpmCollider
 typedef struct od_MpmWind
 {
 	od_MpmWindDef def;
+	int octaves;       // the octaves summed: def.octaves, less those the grid does not resolve (potential)
+	double gain;       // potential: speed of its octaves matched to the noise wind's (1 for noise)
 	uint8_t perm[512]; // Perlin permutation
 } od_MpmWind;
 
@@ -168,7 +170,7 @@ double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p);
 double od_MpmMaterial_WaveSpeed(const od_MpmMaterialSlot* slot, double h);
 
 // wind.c
-od_Status od_MpmWind_Set(od_MpmWind* wind, const od_MpmWindDef* def);
+od_Status od_MpmWind_Set(od_MpmWind* wind, const od_MpmWindDef* def, double dx);
 // The wind at (x, y, z) is od_MpmWind_At(od_MpmWind_Column(x, y, time), od_MpmWind_Height(z)): the noise
 // depends on the horizontal position only and the height scaling κ on z only, so a block of nodes
 // evaluates each once per column and per level.

@@ -28,8 +28,8 @@ from .graph import Graph
 from .simulation import Simulation
 
 __all__ = ["DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE", "body_size",
-           "handle_warning", "make_simulation", "stiffness_for", "step_damping", "stretch_warning", "substeps_for",
-           "thin_part_warning"]
+           "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
+           "step_damping", "stretch_warning", "substeps_for", "thin_part_warning"]
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus
 # Residual tolerance of a step (Simulation.set_solver): measured on the Fig. 1 and 2 bars, the 2-second clip
@@ -47,17 +47,39 @@ class Material:
     density: float
     damping: float
     tolerance: float = DEFAULT_TOLERANCE
+    description: str = ""
 
 
 # Droop of the 2 m x 0.2 m tail pinned at its root (100 particles, static, docs/settings.md): Jelly ~ 45 %,
 # Flesh ~ 25 %, Rubber ~ 10 % (the default: it droops and jiggles visibly), Stiff ~ 1 %.
 PRESETS = {m.name: m for m in (
-    Material("Jelly", 1.0e6, 1050.0, 0.5),
-    Material("Flesh", 2.0e6, 1050.0, 1.0),
-    Material("Rubber", 5.0e6, 1100.0, 0.3),
-    Material("Stiff", 5.0e7, 1000.0, 0.3),
+    Material("Jelly", 1.0e6, 1050.0, 0.5, description="wobbly: the 2 m tail droops about 45 %"),
+    Material("Flesh", 2.0e6, 1050.0, 1.0, description="soft and damped: droops about 25 %, settles quickly"),
+    Material("Rubber", 5.0e6, 1100.0, 0.3, description="the default: droops about 10 % and jiggles visibly"),
+    Material("Stiff", 5.0e7, 1000.0, 0.3, description="nearly rigid: droops about 1 %"),
 )}
 DEFAULT_MATERIAL = "Rubber"
+
+
+def preset_table():
+    """The presets as plain data for a panel: a list of dicts (name, modulus, density, damping, tolerance,
+    description), in PRESETS order."""
+    return [dict(name=m.name, modulus=m.modulus, density=m.density, damping=m.damping, tolerance=m.tolerance,
+                 description=m.description) for m in PRESETS.values()]
+
+
+def simulation_settings(graph, modulus, density, damping, tolerance=DEFAULT_TOLERANCE, fps=24.0, substeps=None,
+                        size=None):
+    """The panel's artist values (modulus Pa at REFERENCE_SIZE, density kg/m^3, damping per second, tolerance,
+    frame rate, substeps per frame: default ``substeps_for(fps)``) as (Simulation keyword arguments,
+    set_solver keyword arguments, substeps per frame)."""
+    substeps = substeps_for(fps) if substeps is None else int(substeps)
+    if substeps < 1:
+        raise ValueError(f"substeps = {substeps} must be >= 1")
+    dt = 1.0 / (fps * substeps)
+    sim = dict(stiffness=stiffness_for(graph, modulus, size), density=float(density), dt=dt,
+               damping=step_damping(damping, dt))
+    return sim, dict(accelerator=DEFAULT_ACCELERATOR, tolerance=float(tolerance)), substeps
 
 
 def body_size(graph):

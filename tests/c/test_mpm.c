@@ -246,7 +246,7 @@ static int test_wind_curl(void)
 	{
 		def.kind = kind == 0 ? OD_MPM_WIND_POTENTIAL : OD_MPM_WIND_NOISE;
 		def.wavelength = 1.0;
-		ENSURE(od_MpmWind_Set(&wind, &def) == OD_OK);
+		ENSURE(od_MpmWind_Set(&wind, &def, 0.05) == OD_OK);
 		unsigned long long seed = 9;
 		double e = 1e-5;
 		for (int trial = 0; trial < 100; ++trial)
