@@ -6,6 +6,7 @@
 
 #include "acceleration.h"
 #include "collider.h"
+#include "field.h"
 #include "graph.h"
 #include "pool.h"
 
@@ -123,6 +124,7 @@ struct od_Sim
 	bool hasFloor;
 	double floorHeight, floorFriction;
 	od_Colliders colliders;
+	od_FieldSet fields; // force fields (fields/field.c), entering the prediction (energy.c)
 
 	od_State state;
 	od_State saved;    // the state at the start of the current call, restored on failure

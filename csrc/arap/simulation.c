@@ -14,6 +14,7 @@
 #include "core.h"
 #include "check.h"
 #include "energy.h"
+#include "field.h"
 #include "floor.h"
 #include "global_solve.h"
 #include "goal.h"
@@ -284,6 +285,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
+	od_FieldSet_Destroy(&sim->fields);
 	od_Goals_Destroy(&sim->goals);
 	od_Accelerator_Destroy(&sim->accelerator);
 	od_Tolerance_Destroy(&sim->tolerance);
@@ -338,6 +340,11 @@ od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)
 void od_Sim_ClearFloor(od_Sim* sim)
 {
 	sim->hasFloor = false;
+}
+
+od_FieldSet* od_Sim_GetForceFields(od_Sim* sim)
+{
+	return &sim->fields;
 }
 
 // SetState (rotations orthonormalised) or RestoreState (copied as they are).

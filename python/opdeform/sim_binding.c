@@ -372,6 +372,13 @@ static PyObject* Sim_collider_distances(PyObject* obj, PyObject* args)
 	return PointQuery(obj, args, 0);
 }
 
+// force_field(op, ...): the force fields (Binding_Field)
+static PyObject* Sim_force_field(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? Binding_Field(obj, od_Sim_GetForceFields(sim), args) : NULL;
+}
+
 // Runs step (static = 0) or solve_static (static = 1) with the GIL released.
 static PyObject* RunSolver(PyObject* obj, PyObject* args, int isStatic)
 {
@@ -599,6 +606,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "collider_count", Sim_collider_count, METH_NOARGS, NULL },
 	{ "push_out", Sim_push_out, METH_VARARGS, "push_out(points) -> moved: points rewritten in place" },
 	{ "collider_distances", Sim_collider_distances, METH_VARARGS, "collider_distances(points, out)" },
+	{ "force_field", Sim_force_field, METH_VARARGS, "force_field(op, ...): add, move, remove or count" },
 	{ "step", Sim_step, METH_VARARGS, NULL },
 	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
 	{ "set_state", Sim_set_state, METH_VARARGS, NULL },

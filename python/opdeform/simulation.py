@@ -4,13 +4,14 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, choice, integer, number, vector
+from .fields import ForceFields
 from .goals import goal_frequency
 from .graph import Graph
 
 __all__ = ["Simulation"]
 
 
-class Simulation:
+class Simulation(ForceFields):
     """ARAP dynamics of an oriented-particle graph (METHOD.md): k = stiffness, rho = density, h = dt,
     c = damping, iterations = local/global pairs after each step's first global solve, skin_neighbors = m."""
 
