@@ -20,6 +20,7 @@ typedef struct
 {
 	PyTypeObject* graphType;
 	PyTypeObject* simType;
+	PyTypeObject* groupType;
 	PyTypeObject* skinType;
 	PyTypeObject* goalFitType;
 	PyTypeObject* mpmType;
