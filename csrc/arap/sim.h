@@ -118,7 +118,6 @@ typedef struct od_PairScratch
 	int* cellStart;   // tableSize + 1
 	int* sorted;      // particles by cell
 	double* sphere;   // 4 per particle: centre of the swept path and radius
-	double* moves;    // 4 per particle: a pass's summed displacement and its count (body_contact.c)
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
 } od_PairScratch;
