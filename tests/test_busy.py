@@ -63,6 +63,9 @@ def _sim_case(scale):
         "set_collider_contact": lambda: sim.set_collider_contact(0), "remove_collider": lambda: sim.remove_collider(0),
         "n_colliders": lambda: sim.n_colliders, "push_out": lambda: sim.push_out([(0.0, 0.0, 0.0)]),
         "collider_distances": lambda: sim.collider_distances([(0.0, 0.0, 0.0)]),
+        "set_self_contact": lambda: sim.set_self_contact(), "self_contact": lambda: sim.self_contact,
+        "add_force_field": lambda: sim.add_force_field(), "move_force_field": lambda: sim.move_force_field(0, (0, 0, 0)),
+        "remove_force_field": lambda: sim.remove_force_field(0), "n_force_fields": lambda: sim.n_force_fields,
         "set_goal_strength": lambda: sim.set_goal_strength(0.5),
         "set_goal_frequencies": lambda: sim.set_goal_frequencies(np.ones(n)),
         "set_goals": lambda: sim.set_goals(sim.graph.centers),
@@ -121,6 +124,8 @@ def _world_case(scale):
         "update_orientations": lambda: w.update_orientations(), "n_particles": lambda: w.n_particles,
         "read": lambda: w.read("plastic_j"), "positions": lambda: w.positions, "velocities": lambda: w.velocities,
         "orientations": lambda: w.orientations, "rotations": lambda: w.rotations, "stats": lambda: w.stats,
+        "add_force_field": lambda: w.add_force_field(), "move_force_field": lambda: w.move_force_field(0, (0, 0, 0)),
+        "remove_force_field": lambda: w.remove_force_field(0), "n_force_fields": lambda: w.n_force_fields,
     }
 
     def snapshot():

@@ -40,8 +40,7 @@ double od_CoulombKeep(double slide, double limit)
 	return slide > limit ? 1.0 - limit / slide : 0.0;
 }
 
-// How far an ellipsoid of moment M reaches along unit n: sqrt(nᵀ M n).
-static double od_Support(const od_Mat3* M, od_Vec3 n)
+double od_Support(const od_Mat3* M, od_Vec3 n)
 {
 	return sqrt(od_Dot(n, od_M3MulV(M, n)));
 }
@@ -89,7 +88,7 @@ typedef struct od_Body
 	double reach, step, recovery;
 } od_Body;
 
-static od_Body od_BodyOf(const od_Sim* sim, int i)
+od_Mat3 od_ParticleMoment(const od_Sim* sim, int i)
 {
 	const double* r = sim->graph->radii + 3 * i;
 	od_Mat3 rot = od_M3Load(sim->state.R + 9 * i), e0 = od_M3Load(sim->graph->axes + 9 * i);
@@ -98,8 +97,25 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 	{
 		es.m[k] *= r[k % 3] * r[k % 3];
 	}
-	return (od_Body){ .M = od_M3MulNT(&es, &e), .reach = fmax(fmax(r[0], r[1]), r[2]),
-					  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = OD_RECOVERY_SPEED * sim->def.dt };
+	return od_M3MulNT(&es, &e);
+}
+
+double od_ParticleReach(const od_Sim* sim, int i)
+{
+	const double* r = sim->graph->radii + 3 * i;
+	return fmax(fmax(r[0], r[1]), r[2]);
+}
+
+double od_RecoveryLimit(const od_Sim* sim)
+{
+	return OD_RECOVERY_SPEED * sim->def.dt;
+}
+
+static od_Body od_BodyOf(const od_Sim* sim, int i)
+{
+	const double* r = sim->graph->radii + 3 * i;
+	return (od_Body){ .M = od_ParticleMoment(sim, i), .reach = od_ParticleReach(sim, i),
+					  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = od_RecoveryLimit(sim) };
 }
 
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's

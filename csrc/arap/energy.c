@@ -3,8 +3,20 @@
 #include "energy.h"
 
 #include "constraints.h"
+#include "field.h"
 #include "goal.h"
 #include "math3.h"
+
+// The predicted centre in the force fields (fields/field.c): the damped velocity gains h (g + f) and the
+// fields' drag D acts implicitly, y = x + h ((1 - c) v + h (g + f)) / (1 + h D).
+static od_Vec3 od_PredictInFields(const od_Sim* sim, od_Vec3 x, od_Vec3 v)
+{
+	double h = sim->def.dt, drag;
+	od_Vec3 f;
+	od_FieldSet_Sample(&sim->fields, x, &f, &drag);
+	od_Vec3 gained = od_MulAdd(od_Scale(1.0 - sim->def.damping, v), h, od_Add(od_V3Load(sim->def.gravity), f));
+	return od_MulAdd(x, h / (1.0 + h * drag), gained);
+}
 
 void od_Predict(od_Sim* sim)
 {
@@ -13,8 +25,9 @@ void od_Predict(od_Sim* sim)
 	od_Vec3 g = od_V3Load(sim->def.gravity);
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		od_Vec3 y = od_MulAdd(od_MulAdd(od_V3Load(s->x + 3 * i), keep, od_V3Load(s->v + 3 * i)), h * h, g);
-		od_V3Store(sim->y + 3 * i, y);
+		od_Vec3 x = od_V3Load(s->x + 3 * i), v = od_V3Load(s->v + 3 * i);
+		od_V3Store(sim->y + 3 * i, sim->fields.count ? od_PredictInFields(sim, x, v)
+													 : od_MulAdd(od_MulAdd(x, keep, v), h * h, g));
 		od_Mat3 r = od_M3Load(s->R + 9 * i);
 		od_Mat3 w = od_M3Skew(od_V3Load(s->omega + 3 * i));
 		od_Mat3 wr = od_M3Mul(&w, &r);

@@ -5,7 +5,9 @@
 #pragma once
 
 #include "acceleration.h"
+#include "opdeform/colliders.h"
 #include "collider.h"
+#include "field.h"
 #include "graph.h"
 #include "pool.h"
 
@@ -97,6 +99,29 @@ typedef struct od_Colliders
 	int count, capacity, nextId;
 } od_Colliders;
 
+// Particle pairs in contact (body_contact.c): the broad phase's uniform grid over the particles' swept
+// bounding spheres (hashed cells, counting sort) and the candidate pairs. Sized for `capacity` particles
+// when self-contact is turned on or a group made; the pair list grows in the first steps only.
+typedef struct od_ContactPair
+{
+	int a, b;       // global particle indices (body-major), a < b
+	double push;    // accumulated over the passes of a step
+	double n[3];    // the normal, a towards b
+} od_ContactPair;
+
+typedef struct od_PairScratch
+{
+	int capacity, tableSize;
+	int* body;        // per particle: which simulation (index in the call's list)
+	int* local;       // its index in that simulation
+	int* cell;        // its hashed cell
+	int* cellStart;   // tableSize + 1
+	int* sorted;      // particles by cell
+	double* sphere;   // 4 per particle: centre of the swept path and radius
+	od_ContactPair* pairs;
+	int pairCount, pairCapacity;
+} od_PairScratch;
+
 typedef enum od_Mode
 {
 	OD_DYNAMIC = 0,
@@ -123,6 +148,10 @@ struct od_Sim
 	bool hasFloor;
 	double floorHeight, floorFriction;
 	od_Colliders colliders;
+	od_FieldSet fields; // force fields (fields/field.c), entering the prediction (energy.c)
+	bool selfContact;
+	od_BodyContactDef selfDef;
+	od_PairScratch selfPairs; // body_contact.c
 
 	od_State state;
 	od_State saved;    // the state at the start of the current call, restored on failure

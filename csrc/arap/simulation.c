@@ -2,18 +2,21 @@
 //
 // A dynamic step (METHOD.md):
 //   predict y, R̃ from (x, v, R, ω) -> global solve with the previous rotations -> `iterations` pairs of
-//   (local Gauss-Seidel rotations, global solve) -> floor -> colliders (contact.c) -> v = (x - x⁽¹⁾)/h,
+//   (local Gauss-Seidel rotations, global solve) -> particle pairs (body_contact.c: self-contact, a
+//   group's bodies) -> floor -> colliders (contact.c) -> v = (x - x⁽¹⁾)/h,
 //   ω = log(R R⁽¹⁾ᵀ)/h.
 // Starting with the global solve matters: starting with a local step makes pinned particles rotate to
 // absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
 // which is what makes the stiffness depend on h and the iteration count.
 // A call that produces a non-finite state restores the state it started from and fails.
+#include "body_contact.h"
 #include "colliders.h"
 #include "constraints.h"
 #include "contact.h"
 #include "core.h"
 #include "check.h"
 #include "energy.h"
+#include "field.h"
 #include "floor.h"
 #include "global_solve.h"
 #include "goal.h"
@@ -22,6 +25,7 @@
 #include "math3.h"
 #include "polar.h"
 #include "position_constraints.h"
+#include "step.h"
 #include "sim.h"
 #include "tolerance.h"
 
@@ -286,6 +290,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
+	od_FieldSet_Destroy(&sim->fields);
+	od_PairScratch_Destroy(&sim->selfPairs);
 	od_Goals_Destroy(&sim->goals);
 	od_Accelerator_Destroy(&sim->accelerator);
 	od_Tolerance_Destroy(&sim->tolerance);
@@ -340,6 +346,11 @@ od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)
 void od_Sim_ClearFloor(od_Sim* sim)
 {
 	sim->hasFloor = false;
+}
+
+od_FieldSet* od_Sim_GetForceFields(od_Sim* sim)
+{
+	return &sim->fields;
 }
 
 // SetState (rotations orthonormalised) or RestoreState (copied as they are).
@@ -644,44 +655,72 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 	return status;
 }
 
+od_Status od_Step_Begin(od_Sim* sim, int steps)
+{
+	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	if (status == OD_OK)
+	{
+		sim->report = (od_StepReport){ .error = -1.0 };
+		od_Colliders_BeginCall(sim, steps);
+	}
+	return status;
+}
+
+od_Status od_Step_Solve(od_Sim* sim)
+{
+	int n = sim->graph->n;
+	memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
+	memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
+	od_Predict(sim);
+	if (sim->solverDef.tolerance > 0.0)
+	{
+		od_Tolerance_ChooseStart(sim);
+	}
+	return od_Iterate(sim, sim->def.iterations);
+}
+
+void od_Step_Finish(od_Sim* sim, int k, int steps)
+{
+	if (sim->hasFloor)
+	{
+		od_FloorStep(sim, &sim->previous, sim->angularScale);
+	}
+	if (sim->colliders.count)
+	{
+		od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps);
+	}
+	od_UpdateVelocities(sim, &sim->previous);
+	sim->counters.steps++;
+}
+
+od_Status od_Step_End(od_Sim* sim, od_Status status)
+{
+	status = od_End(sim, status);
+	od_Colliders_EndCall(sim, status == OD_OK);
+	return status;
+}
+
 od_Status od_Sim_Step(od_Sim* sim, int steps)
 {
 	if (steps < 1)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "steps = %d must be >= 1", steps);
 	}
-	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	od_Status status = od_Step_Begin(sim, steps);
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	int n = sim->graph->n;
-	sim->report = (od_StepReport){ .error = -1.0 };
-	od_Colliders_BeginCall(sim, steps);
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
-		memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
-		memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
-		od_Predict(sim);
-		if (sim->solverDef.tolerance > 0.0)
+		status = od_Step_Solve(sim);
+		if (status == OD_OK && sim->selfContact)
 		{
-			od_Tolerance_ChooseStart(sim);
+			status = od_BodyContact_Resolve(&sim->selfPairs, &sim, 1, &sim->selfDef);
 		}
-		status = od_Iterate(sim, sim->def.iterations);
-		if (sim->hasFloor)
-		{
-			od_FloorStep(sim, &sim->previous, sim->angularScale);
-		}
-		if (sim->colliders.count)
-		{
-			od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps);
-		}
-		od_UpdateVelocities(sim, &sim->previous);
-		sim->counters.steps++;
+		od_Step_Finish(sim, k, steps);
 	}
-	status = od_End(sim, status);
-	od_Colliders_EndCall(sim, status == OD_OK);
-	return status;
+	return od_Step_End(sim, status);
 }
 
 od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations)

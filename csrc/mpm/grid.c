@@ -399,6 +399,7 @@ static void od_UpdateTask(void* ctx, int task, int thread)
 		od_Vec3 x = od_V3(w->model.def.lower[0] + g[0] / w->model.invDx, w->model.def.lower[1] + g[1] / w->model.invDx,
 						  w->model.def.lower[2] + g[2] / w->model.invDx);
 		od_Vec3 v = od_MulAdd(od_Scale(1.0 / node[3], od_V3Load(node)), job->dt, gravity);
+		v = w->model.fields.count ? od_MpmForceFields_Node(w, x, v, job->dt) : v;
 		if (job->windBlend > 0.0)
 		{
 			int column = i & 15, level = i >> 4;

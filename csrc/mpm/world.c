@@ -113,6 +113,7 @@ void od_MpmWorld_Destroy(od_MpmWorld* w)
 		od_MpmCollider_Destroy(&w->colliders[c]);
 	}
 	od_Free(w->colliders);
+	od_FieldSet_Destroy(&w->model.fields);
 	od_Free(w->state.particles);
 	od_Free(w->spare);
 	od_Free(w->state.quat);

@@ -13,6 +13,7 @@
 #include "opdeform/mpm.h"
 
 #include "collider.h"
+#include "field.h"
 #include "math3.h"
 #include "pool.h"
 
@@ -103,6 +104,7 @@ typedef struct od_MpmModel
 	od_MpmMaterialSlot materials[OD_MPM_MAX_MATERIALS];
 	int materialCount;
 	od_MpmWind wind;
+	od_FieldSet fields; // force fields (force_fields.c)
 } od_MpmModel;
 
 // What a substep changes.
@@ -178,6 +180,9 @@ void od_MpmWind_Column(const od_MpmWind* wind, double x, double y, double time, 
 double od_MpmWind_Height(const od_MpmWind* wind, double z);
 od_Vec3 od_MpmWind_At(const od_MpmWind* wind, const double column[2], double kappa);
 od_Vec3 od_MpmWind_Velocity(const od_MpmWind* wind, od_Vec3 x, double time);
+
+// force_fields.c: a node's velocity v (gravity included) after the force fields over dt.
+od_Vec3 od_MpmForceFields_Node(const od_MpmWorld* w, od_Vec3 x, od_Vec3 v, double dt);
 
 // collider.c
 od_Status od_MpmCollider_Init(od_MpmCollider* c, const od_MpmColliderDef* def, double dx);

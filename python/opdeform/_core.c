@@ -45,7 +45,8 @@ static int Module_exec(PyObject* module)
 												PyExc_RuntimeError, NULL);
 	if (!st->solverError || PyModule_AddObjectRef(module, "SolverError", st->solverError) < 0 ||
 		Module_AddType(module, &Graph_Spec, &st->graphType) < 0 ||
-		Module_AddType(module, &Sim_Spec, &st->simType) < 0 || Module_AddType(module, &Skin_Spec, &st->skinType) < 0 ||
+		Module_AddType(module, &Sim_Spec, &st->simType) < 0 ||
+		Module_AddType(module, &Group_Spec, &st->groupType) < 0 || Module_AddType(module, &Skin_Spec, &st->skinType) < 0 ||
 		Module_AddType(module, &GoalFit_Spec, &st->goalFitType) < 0 ||
 		Module_AddType(module, &Mpm_Spec, &st->mpmType) < 0 || PyModule_AddFunctions(module, Mesh_Functions) < 0)
 	{
@@ -65,6 +66,7 @@ static int Module_traverse(PyObject* module, visitproc visit, void* arg)
 	ModuleState* st = Binding_State(module);
 	Py_VISIT(st->graphType);
 	Py_VISIT(st->simType);
+	Py_VISIT(st->groupType);
 	Py_VISIT(st->skinType);
 	Py_VISIT(st->goalFitType);
 	Py_VISIT(st->mpmType);
@@ -78,6 +80,7 @@ static int Module_clear(PyObject* module)
 	ModuleState* st = Binding_State(module);
 	Py_CLEAR(st->graphType);
 	Py_CLEAR(st->simType);
+	Py_CLEAR(st->groupType);
 	Py_CLEAR(st->skinType);
 	Py_CLEAR(st->goalFitType);
 	Py_CLEAR(st->mpmType);

@@ -263,3 +263,74 @@ int GetStateArrays(PyObject* args, Py_ssize_t n, Py_buffer views[4])
 	}
 	return GetArrays(arrays, specs, 4, views);
 }
+
+// ---------------------------------------------------------------------------------------------------------
+// Force fields (opdeform/fields.h), the same calls on a Simulation's and an MpmWorld's set
+
+// add(kind, strength, position, direction, turbulence, size, falloff, min_distance, max_distance, drag, seed)
+static PyObject* AddField(PyObject* obj, od_FieldSet* set, PyObject* args)
+{
+	od_FieldDef d = od_DefaultFieldDef();
+	int kind;
+	double* p = d.position;
+	double* a = d.direction;
+	if (!PyArg_ParseTuple(args, "id(ddd)(ddd)ddddddI", &kind, &d.strength, &p[0], &p[1], &p[2], &a[0], &a[1], &a[2],
+						  &d.turbulence, &d.size, &d.falloff, &d.minDistance, &d.maxDistance, &d.drag, &d.seed))
+	{
+		return NULL;
+	}
+	d.kind = (od_FieldKind)kind;
+	int id = -1;
+	od_Status status = od_FieldSet_Add(set, &d, &id);
+	return Binding_Id(obj, status, id);
+}
+
+// move(id, position, direction or None)
+static PyObject* MoveField(PyObject* obj, od_FieldSet* set, PyObject* args)
+{
+	int id, given;
+	double p[3], a[3];
+	PyObject* direction;
+	if (!PyArg_ParseTuple(args, "i(ddd)O", &id, &p[0], &p[1], &p[2], &direction) ||
+		GetOptionalPoint(direction, a, &given) < 0)
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_FieldSet_Move(set, id, p, given ? a : NULL));
+}
+
+PyObject* Binding_Field(PyObject* obj, od_FieldSet* set, PyObject* args)
+{
+	Py_ssize_t count = PyTuple_Size(args);
+	PyObject* rest = count >= 1 ? PyTuple_GetSlice(args, 1, count) : NULL;
+	const char* op = count >= 1 ? PyUnicode_AsUTF8AndSize(PyTuple_GetItem(args, 0), NULL) : NULL;
+	int id;
+	PyObject* result = NULL;
+	if (!rest || !op)
+	{
+		PyErr_Clear();
+		PyErr_SetString(PyExc_TypeError, "force_field(op, ...): op is 'add', 'move', 'remove' or 'count'");
+	}
+	else if (strcmp(op, "add") == 0)
+	{
+		result = AddField(obj, set, rest);
+	}
+	else if (strcmp(op, "move") == 0)
+	{
+		result = MoveField(obj, set, rest);
+	}
+	else if (strcmp(op, "remove") == 0)
+	{
+		result = PyArg_ParseTuple(rest, "i", &id) ? Binding_Done(obj, od_FieldSet_Remove(set, id)) : NULL;
+	}
+	else if (strcmp(op, "count") == 0)
+	{
+		result = PyLong_FromLong(od_FieldSet_Count(set));
+	}
+	else
+	{
+		PyErr_Format(PyExc_ValueError, "force_field: unknown op '%s'", op);
+	}
+	Py_XDECREF(rest);
+	return result;
+}

@@ -20,6 +20,7 @@ typedef struct
 {
 	PyTypeObject* graphType;
 	PyTypeObject* simType;
+	PyTypeObject* groupType;
 	PyTypeObject* skinType;
 	PyTypeObject* goalFitType;
 	PyTypeObject* mpmType;
@@ -114,3 +115,11 @@ Py_ssize_t StateArrayCount(int index, Py_ssize_t n);
 	Py_BuildValue("{sdsdsdsis(ddd)sdsi}", "stiffness", (d).stiffness, "density", (d).density, "dt", (d).dt,        \
 				  "iterations", (d).iterations, "gravity", (d).gravity[0], (d).gravity[1], (d).gravity[2],          \
 				  "damping", (d).damping, "skin_neighbors", (d).skinNeighbors)
+
+// ---------------------------------------------------------------------------------------------------------
+// Force fields (opdeform/fields.h): the methods of every type that has a field set, after its busy guard.
+
+// force_field(op, ...) of a type with a field set: ("add", kind, strength, position, direction, turbulence,
+// size, falloff, min_distance, max_distance, drag, seed) -> id, ("move", id, position, direction or None),
+// ("remove", id), ("count",) -> count.
+PyObject* Binding_Field(PyObject* obj, od_FieldSet* set, PyObject* args);

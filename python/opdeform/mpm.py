@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, choice, integer, number, vector
+from .fields import ForceFields
 
 __all__ = ["Material", "snow", "jelly", "flakes", "World", "fill_box", "fill_mesh", "flake_layer",
            "random_orientations", "quaternions_to_euler", "write_ply", "read_ply", "write_frames"]
@@ -55,7 +56,7 @@ def flakes(**changes):
     return Material(**{"kind": "flakes", "density": 100.0, "young_modulus": 1e3, **changes})
 
 
-class World:
+class World(ForceFields):
     """A 3-D MLS-MPM world over the box [lower, upper] with grid spacing dx.
 
     spin: η, the factor on each particle's rotation angle (0 = plain MLS-MPM, particles keep their rest

@@ -315,11 +315,19 @@ static PyGetSetDef Mpm_getset[] = {
 	{ NULL, NULL, NULL, NULL, NULL },
 };
 
+// force_field(op, ...): the force fields (Binding_Field)
+static PyObject* Mpm_force_field(PyObject* obj, PyObject* args)
+{
+	od_MpmWorld* world = Mpm_Enter(obj);
+	return world ? Binding_Field(obj, od_MpmWorld_GetForceFields(world), args) : NULL;
+}
+
 static PyMethodDef Mpm_methods[] = {
 	{ "add_particles", Mpm_add_particles, METH_VARARGS, NULL },
 	{ "set_wind", Mpm_set_wind, METH_VARARGS, NULL },
 	{ "add_collider", Mpm_add_collider, METH_VARARGS, NULL },
 	{ "move_collider", Mpm_move_collider, METH_VARARGS, NULL },
+	{ "force_field", Mpm_force_field, METH_VARARGS, "force_field(op, ...): add, move, remove or count" },
 	{ "step", Mpm_step, METH_VARARGS, NULL },
 	{ "substep", Mpm_substep, METH_VARARGS, NULL },
 	{ "update_orientations", Mpm_update_orientations, METH_NOARGS, NULL },

@@ -8,6 +8,7 @@
 #include "opdeform/colliders.h"
 
 #include <limits.h>
+#include <stdbool.h>
 #include <string.h>
 
 typedef struct
@@ -372,6 +373,45 @@ static PyObject* Sim_collider_distances(PyObject* obj, PyObject* args)
 	return PointQuery(obj, args, 0);
 }
 
+// force_field(op, ...): the force fields (Binding_Field)
+static PyObject* Sim_force_field(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? Binding_Field(obj, od_Sim_GetForceFields(sim), args) : NULL;
+}
+
+// set_self_contact(enabled, thickness, friction, exclusion_ring, exclusion_scale)
+static PyObject* Sim_set_self_contact(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	od_BodyContactDef d;
+	int enabled;
+	if (!sim || !PyArg_ParseTuple(args, "pddid", &enabled, &d.thickness, &d.friction, &d.exclusionRing,
+								  &d.exclusionScale))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetSelfContact(sim, enabled ? &d : NULL));
+}
+
+// self_contact() -> its settings as a dict, or None when off
+static PyObject* Sim_self_contact(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	od_BodyContactDef d;
+	if (!sim)
+	{
+		return NULL;
+	}
+	if (!od_Sim_GetSelfContact(sim, &d))
+	{
+		Py_RETURN_NONE;
+	}
+	return Py_BuildValue("{sdsdsisd}", "thickness", d.thickness, "friction", d.friction, "exclusion_ring",
+						 d.exclusionRing, "exclusion_scale", d.exclusionScale);
+}
+
 // Runs step (static = 0) or solve_static (static = 1) with the GIL released.
 static PyObject* RunSolver(PyObject* obj, PyObject* args, int isStatic)
 {
@@ -599,6 +639,9 @@ static PyMethodDef Sim_methods[] = {
 	{ "collider_count", Sim_collider_count, METH_NOARGS, NULL },
 	{ "push_out", Sim_push_out, METH_VARARGS, "push_out(points) -> moved: points rewritten in place" },
 	{ "collider_distances", Sim_collider_distances, METH_VARARGS, "collider_distances(points, out)" },
+	{ "set_self_contact", Sim_set_self_contact, METH_VARARGS, NULL },
+	{ "self_contact", Sim_self_contact, METH_NOARGS, "self_contact() -> settings or None" },
+	{ "force_field", Sim_force_field, METH_VARARGS, "force_field(op, ...): add, move, remove or count" },
 	{ "step", Sim_step, METH_VARARGS, NULL },
 	{ "solve_static", Sim_solve_static, METH_VARARGS, NULL },
 	{ "set_state", Sim_set_state, METH_VARARGS, NULL },
@@ -629,4 +672,136 @@ PyType_Spec Sim_Spec = {
 	.basicsize = sizeof(SimObject),
 	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
 	.slots = Sim_slots,
+};
+
+// ---------------------------------------------------------------------------------------------------------
+// opdeform._core.ContactGroup: simulations that collide with each other (od_ContactGroup). Its step releases
+// the GIL with every member marked busy as well as the group.
+
+typedef struct
+{
+	GuardedObject head;
+	od_ContactGroup* group;
+	PyObject* sims; // a tuple of the member Simulation objects, kept alive
+} GroupObject;
+
+// ContactGroup(sims (a sequence of _core.Simulation), thickness, friction)
+static PyObject* Group_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
+{
+	static char* keywords[] = { "sims", "thickness", "friction", NULL };
+	PyObject* seq;
+	od_BodyContactDef def = od_DefaultBodyContactDef();
+	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|dd", keywords, &seq, &def.thickness, &def.friction))
+	{
+		return NULL;
+	}
+	PyObject* module = PyType_GetModule(type);
+	PyObject* sims = PySequence_Tuple(seq);
+	if (!sims)
+	{
+		return NULL;
+	}
+	Py_ssize_t count = PyTuple_Size(sims);
+	od_Sim** list = count <= INT_MAX ? PyMem_Malloc(sizeof *list * (size_t)(count > 0 ? count : 1)) : NULL;
+	int ok = list != NULL;
+	for (Py_ssize_t b = 0; b < count && ok; ++b)
+	{
+		PyObject* item = PyTuple_GetItem(sims, b);
+		ok = PyObject_TypeCheck(item, Binding_State(module)->simType);
+		list[b] = ok ? ((SimObject*)item)->sim : NULL;
+		if (!ok)
+		{
+			PyErr_Format(PyExc_TypeError, "sims[%zd] is not an opdeform Simulation", b);
+		}
+	}
+	if (!ok)
+	{
+		PyMem_Free(list);
+		Py_DECREF(sims);
+		return list ? NULL : PyErr_NoMemory();
+	}
+	od_ContactGroup* group = NULL;
+	od_Status status = od_ContactGroup_Create(list, (int)count, &def, &group);
+	PyMem_Free(list);
+	GroupObject* self = status == OD_OK ? (GroupObject*)PyType_GenericAlloc(type, 0) : NULL;
+	if (!self)
+	{
+		od_ContactGroup_Destroy(group);
+		Py_DECREF(sims);
+		return status != OD_OK ? RaiseStatus(module, status) : NULL;
+	}
+	self->group = group;
+	self->sims = sims;
+	return (PyObject*)self;
+}
+
+static void Group_dealloc(PyObject* obj)
+{
+	GroupObject* self = (GroupObject*)obj;
+	od_ContactGroup_Destroy(self->group);
+	Py_XDECREF(self->sims);
+	Binding_Free(obj);
+}
+
+// set_contact(thickness, friction)
+static PyObject* Group_set_contact(PyObject* obj, PyObject* args)
+{
+	od_BodyContactDef d = od_DefaultBodyContactDef();
+	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "dd", &d.thickness, &d.friction))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_ContactGroup_SetContact(((GroupObject*)obj)->group, &d));
+}
+
+// step(steps): every member marked busy (refused if one is) while the GIL is released
+static PyObject* Group_step(PyObject* obj, PyObject* args)
+{
+	GroupObject* self = (GroupObject*)obj;
+	int steps;
+	Py_ssize_t count = PyTuple_Size(self->sims);
+	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "i", &steps))
+	{
+		return NULL;
+	}
+	for (Py_ssize_t b = 0; b < count; ++b)
+	{
+		if (Binding_Enter(PyTuple_GetItem(self->sims, b)) < 0)
+		{
+			return NULL;
+		}
+	}
+	for (Py_ssize_t b = 0; b < count; ++b)
+	{
+		((GuardedObject*)PyTuple_GetItem(self->sims, b))->busy = 1;
+	}
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = od_ContactGroup_Step(self->group, steps);
+	Binding_End(obj, ts);
+	for (Py_ssize_t b = 0; b < count; ++b)
+	{
+		((GuardedObject*)PyTuple_GetItem(self->sims, b))->busy = 0;
+	}
+	return Binding_Done(obj, status);
+}
+
+static PyMethodDef Group_methods[] = {
+	{ "set_contact", Group_set_contact, METH_VARARGS, "set_contact(thickness, friction)" },
+	{ "step", Group_step, METH_VARARGS, "step(steps)" },
+	{ NULL, NULL, 0, NULL },
+};
+
+static PyType_Slot Group_slots[] = {
+	{ Py_tp_doc, "Simulations that collide with each other (C core)." },
+	{ Py_tp_new, Group_new },
+	{ Py_tp_dealloc, Group_dealloc },
+	{ Py_tp_methods, Group_methods },
+	{ 0, NULL },
+};
+
+PyType_Spec Group_Spec = {
+	.name = "opdeform._core.ContactGroup",
+	.basicsize = sizeof(GroupObject),
+	.flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_IMMUTABLETYPE,
+	.slots = Group_slots,
 };

@@ -4,13 +4,14 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, choice, integer, number, vector
+from .fields import ForceFields
 from .goals import goal_frequency
 from .graph import Graph
 
 __all__ = ["Simulation"]
 
 
-class Simulation:
+class Simulation(ForceFields):
     """ARAP dynamics of an oriented-particle graph (METHOD.md): k = stiffness, rho = density, h = dt,
     c = damping, iterations = local/global pairs after each step's first global solve, skin_neighbors = m."""
 
@@ -194,6 +195,21 @@ class Simulation:
         out = np.empty(len(pts))
         self._core.collider_distances(pts, out)
         return out
+
+    # -- contact between particles (docs/contact.md) -----------------------------------------------------
+    def set_self_contact(self, enabled=True, thickness=0.005, friction=0.5, exclusion_ring=2, exclusion_scale=1.5):
+        """Contact of distant parts of this body with each other (a tail against its own body). Pairs of
+        particles at most ``exclusion_ring`` edges apart, or closer at rest than ``exclusion_scale`` times the
+        sum of their largest radii, never collide; the others keep ``thickness`` (m) apart along the line
+        between their centres, with Coulomb ``friction``. ``enabled=False`` turns it off."""
+        self._core.set_self_contact(bool(enabled), number("thickness", thickness), number("friction", friction),
+                                    integer("exclusion_ring", exclusion_ring),
+                                    number("exclusion_scale", exclusion_scale))
+
+    @property
+    def self_contact(self):
+        """The self-contact settings of ``set_self_contact`` as a dict, or None when off."""
+        return self._core.self_contact()
 
     # -- solving ---------------------------------------------------------------------------------------
     def step(self, steps=1):

@@ -61,6 +61,36 @@ od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* move
 // The signed distance of each point to the nearest collider or floor (negative inside), INFINITY with none.
 od_Status od_Sim_GetColliderDistances(const od_Sim* sim, const double* points, int count, double* distances);
 
+// Contact between particles: of two or more simulations (od_ContactGroup) and of distant parts of one
+// (self-contact). Each particle's ellipsoid reaches its support along the line between two centres; a pair
+// closer than the sum plus `thickness` is pushed apart along that line, mass weighted, with Coulomb friction,
+// after the iterations and before the floor and the colliders. A pair that was apart at the step's start
+// keeps the start's direction, so a fast pair cannot pass through (docs/contact.md).
+typedef struct od_BodyContactDef
+{
+	double thickness;      // > 0: the gap kept between ellipsoids (default 0.005 m)
+	double friction;       // Coulomb coefficient >= 0 (default 0.5)
+	int exclusionRing;     // self-contact: pairs at most this many edges apart never collide (0..2, default 2)
+	double exclusionScale; // self-contact: nor pairs closer at rest than this times the sum of their largest
+	                       // radii (>= 0, default 1.5): neighbourhoods that overlap at rest stay at rest
+} od_BodyContactDef;
+
+od_BodyContactDef od_DefaultBodyContactDef(void);
+// Self-contact of one simulation (def NULL: off); its od_Sim_Step resolves it, as does a group's step.
+od_Status od_Sim_SetSelfContact(od_Sim* sim, const od_BodyContactDef* def);
+// Whether self-contact is on, and its settings in *def (may be NULL).
+int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def);
+
+// Simulations that collide with each other. The group borrows them (keep them alive, one group's step at a
+// time): od_ContactGroup_Step steps them all together, each as its od_Sim_Step would, their particles in
+// contact after each step's iterations. They must share the time step. The exclusion fields of `def` are
+// unused (different bodies have no shared edges).
+typedef struct od_ContactGroup od_ContactGroup;
+od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyContactDef* def, od_ContactGroup** out);
+void od_ContactGroup_Destroy(od_ContactGroup* group);
+od_Status od_ContactGroup_SetContact(od_ContactGroup* group, const od_BodyContactDef* def);
+od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps);
+
 #ifdef __cplusplus
 }
 #endif

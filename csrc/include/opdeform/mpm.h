@@ -4,7 +4,7 @@
 // grid over a fixed domain box. Particles are added in batches that share a material; each particle
 // also carries a rest orientation, and its current orientation is the rotation of the polar
 // decomposition of its deformation gradient (scaled by the spin factor) applied to that rest
-// orientation. Gravity, a Perlin-noise wind and colliders act on the grid.
+// orientation. Gravity, force fields, a Perlin-noise wind and colliders act on the grid.
 //
 // Arrays are row-major doubles in the order particles were added: positions and velocities n*3,
 // quaternions n*4 as (w, x, y, z), matrices n*9 (M[3*r + c]). Every fallible call returns od_Status and
@@ -16,6 +16,7 @@
 #endif
 
 #include "opdeform/base.h"
+#include "opdeform/fields.h"
 
 #include <stddef.h>
 
@@ -163,6 +164,9 @@ od_Status od_MpmWorld_AddCollider(od_MpmWorld* world, const od_MpmColliderDef* d
 // The collider's frame at the end of the next Step or Substep; it moves there linearly (rotation along
 // the shortest arc) over that call, and the grid sees its velocity.
 od_Status od_MpmWorld_MoveCollider(od_MpmWorld* world, int id, const double rotation[9], const double translation[3]);
+// The world's force fields (opdeform/fields.h, the ARAP solver's kinds): they act on the grid velocities
+// after gravity, besides the noise wind of od_MpmWorld_SetWind.
+od_FieldSet* od_MpmWorld_GetForceFields(od_MpmWorld* world);
 
 // Advances `duration` seconds in substeps chosen by the CFL condition, then updates the orientations.
 // OD_ERROR_ARGUMENT, with nothing moved, when the duration would take more than 100,000 substeps (and if

@@ -13,6 +13,7 @@
 #error "opdeform/opdeform.h is the arap layer's header, which this layer of csrc/ may not use (docs/architecture.md)"
 #endif
 
+#include "opdeform/fields.h"
 #include "opdeform/graph.h"
 
 #ifdef __cplusplus
@@ -64,6 +65,9 @@ od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* ro
 
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction);
 void od_Sim_ClearFloor(od_Sim* sim);
+// The simulation's force fields (opdeform/fields.h): they enter each step's prediction, per particle at its
+// centre. Add, move and remove them between steps.
+od_FieldSet* od_Sim_GetForceFields(od_Sim* sim);
 
 od_Status od_Sim_Step(od_Sim* sim, int steps);
 od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations);

@@ -1,0 +1,14 @@
+// Contact between particles (body_contact.c): self-contact of a simulation and the bodies of a group.
+#pragma once
+
+#include "sim.h"
+
+// Sizes the scratch for `particles` particles (the broad phase's table and per-particle arrays).
+od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles);
+void od_PairScratch_Destroy(od_PairScratch* s);
+// Checks a contact definition (the exclusion fields too when `self`).
+od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self);
+// After the iterations of a step of each of `count` simulations (their states at the step's start in
+// ->previous): pushes the pairs in contact apart, with friction. Pairs of one simulation only where it has
+// self-contact (its selfDef), pairs of two with `between`. Fails only when the pair list cannot grow.
+od_Status od_BodyContact_Resolve(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);

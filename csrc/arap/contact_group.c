@@ -1,0 +1,134 @@
+// Simulations that collide with each other (opdeform/colliders.h, docs/contact.md): one call steps them all,
+// each through the stages of its own od_Sim_Step (step.h), with the pairs between them (body_contact.c)
+// after the iterations of every step.
+//
+// Design: a simulation stays one body with one thread at a time; the group only borrows them for its step
+// (each taken as its own step would, OD_ERROR_BUSY if one is in use) and owns nothing but the broad phase's
+// scratch. Bodies see each other's particles after each step's iterations, so the push is two-way and
+// mass weighted; stepping them one after the other against frozen copies would let the second always win.
+#include "body_contact.h"
+#include "core.h"
+#include "step.h"
+
+#include <string.h>
+
+struct od_ContactGroup
+{
+	od_Sim** sims;
+	int count;
+	od_BodyContactDef def;
+	od_PairScratch pairs;
+};
+
+od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyContactDef* def, od_ContactGroup** out)
+{
+	*out = NULL;
+	int total = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		for (int c = 0; c < b; ++c)
+		{
+			if (sims[c] == sims[b])
+			{
+				return od_Fail(OD_ERROR_ARGUMENT, "sims: simulation %d is given twice (%d)", b, c);
+			}
+		}
+		total += sims[b] ? sims[b]->graph->n : 0;
+	}
+	if (count < 1 || total == 0)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "sims: a group needs at least one simulation");
+	}
+	od_Status status = od_BodyContact_Check(def, false);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	od_ContactGroup* group = od_AllocZero(1, sizeof *group);
+	od_Sim** list = od_Alloc(sizeof *list * (size_t)count);
+	status = group && list ? od_PairScratch_Reserve(&group->pairs, total)
+						   : od_Fail(OD_ERROR_MEMORY, "out of memory for a contact group");
+	if (status != OD_OK)
+	{
+		od_Free(list);
+		od_ContactGroup_Destroy(group);
+		return status;
+	}
+	memcpy(list, sims, sizeof *list * (size_t)count);
+	*group = (od_ContactGroup){ .sims = list, .count = count, .def = *def, .pairs = group->pairs };
+	*out = group;
+	return OD_OK;
+}
+
+void od_ContactGroup_Destroy(od_ContactGroup* group)
+{
+	if (group)
+	{
+		od_PairScratch_Destroy(&group->pairs);
+		od_Free(group->sims);
+		od_Free(group);
+	}
+}
+
+od_Status od_ContactGroup_SetContact(od_ContactGroup* group, const od_BodyContactDef* def)
+{
+	od_Status status = od_BodyContact_Check(def, false);
+	if (status == OD_OK)
+	{
+		group->def = *def;
+	}
+	return status;
+}
+
+// Takes every simulation for the call, or none (those taken are given back when one is busy).
+static od_Status od_BeginAll(od_ContactGroup* group, int steps)
+{
+	double dt = group->sims[0]->def.dt;
+	for (int b = 0; b < group->count; ++b)
+	{
+		od_Status status = group->sims[b]->def.dt == dt
+							   ? od_Step_Begin(group->sims[b], steps)
+							   : od_Fail(OD_ERROR_ARGUMENT, "sims: simulation %d has dt = %g, the first %g", b,
+										 group->sims[b]->def.dt, dt);
+		if (status != OD_OK)
+		{
+			while (--b >= 0)
+			{
+				od_Step_End(group->sims[b], OD_ERROR_ARGUMENT);
+			}
+			return status;
+		}
+	}
+	return OD_OK;
+}
+
+od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
+{
+	if (steps < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "steps = %d must be >= 1", steps);
+	}
+	od_Status status = od_BeginAll(group, steps);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	for (int k = 0; k < steps && status == OD_OK; ++k)
+	{
+		for (int b = 0; b < group->count && status == OD_OK; ++b)
+		{
+			status = od_Step_Solve(group->sims[b]);
+		}
+		status = status == OD_OK ? od_BodyContact_Resolve(&group->pairs, group->sims, group->count, &group->def) : status;
+		for (int b = 0; b < group->count; ++b)
+		{
+			od_Step_Finish(group->sims[b], k, steps);
+		}
+	}
+	od_Status ended = status;
+	for (int b = 0; b < group->count; ++b)
+	{
+		ended = od_Step_End(group->sims[b], ended);
+	}
+	return ended;
+}

@@ -1,0 +1,33 @@
+"""Simulations that collide with each other (``opdeform.ContactGroup``, docs/contact.md)."""
+
+from . import _core
+from ._arguments import integer, number
+from .simulation import Simulation
+
+__all__ = ["ContactGroup"]
+
+
+class ContactGroup:
+    """Two or more simulations whose particles collide: ``step`` advances them all together (each as its own
+    ``step`` would, with its floor, colliders, fields and self-contact) and, after each step's iterations,
+    pushes apart the particles of different bodies closer than ``thickness`` (m) along the line between
+    their centres, mass weighted, with Coulomb ``friction``. The simulations must share dt; while the group
+    steps, each of them is busy."""
+
+    def __init__(self, sims, thickness=0.005, friction=0.5):
+        sims = list(sims)
+        for k, sim in enumerate(sims):
+            if not isinstance(sim, Simulation):
+                raise TypeError(f"sims[{k}] must be an opdeform.Simulation, got {type(sim).__name__}")
+        self.sims = tuple(sims)
+        self._core = _core.ContactGroup([sim._core for sim in sims], number("thickness", thickness),
+                                        number("friction", friction))
+
+    def set_contact(self, thickness=0.005, friction=0.5):
+        """The gap (m, > 0) and Coulomb friction between the bodies."""
+        self._core.set_contact(number("thickness", thickness), number("friction", friction))
+
+    def step(self, steps=1):
+        """Advances every simulation ``steps`` time steps, in contact. On a non-finite result raises
+        SolverError; each simulation keeps its state from before the call."""
+        self._core.step(integer("steps", steps))
