@@ -167,8 +167,7 @@ def bake(obj, out_dir, end):
     bpy.ops.opdeform.enable(object=obj.name)
     bpy.ops.opdeform.bake(object=obj.name)
     assert obj.opdeform.baked and not obj.opdeform.error, obj.opdeform.error
-    from opdeform_blender.core import pc2
-    return pc2.read(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
+    return H.pc2().read_pc2(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
 
 
 def read_png(path):
