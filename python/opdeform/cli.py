@@ -12,6 +12,7 @@ import os
 import sys
 import time
 
+from . import blender
 from . import shot as shots
 
 __all__ = ["main"]
@@ -98,6 +99,6 @@ def main(argv=None):
     except shots.SpecError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except (ConnectionError, OSError, ValueError) as exc:
+    except (ConnectionError, OSError, ValueError, blender.BlenderError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
