@@ -3,13 +3,14 @@ the add-on (installed into temporary user folders, memory capped, time limited);
 and ``batch`` on a 2-worker LocalCluster write the same bits; bad input is an error naming the shot, and no
 output is left behind as if complete."""
 
+import csv
 import os
 import shutil
 
 import numpy as np
 import pytest
 
-from opdeform import blender, cli, io
+from opdeform import blender, cli, io, render
 from opdeform import shot as shots
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -116,3 +117,42 @@ def test_the_blender_section_is_for_blend_meshes_only(tmp_path):
                     '[output]\nfolder = "out"\n[blender]\ntimeout = 10\n')
     with pytest.raises(shots.SpecError, match="blender: only with a .blend mesh"):
         shots.load(spec)
+
+
+def test_regression_renders_of_two_shots(scene, tmp_path):
+    """A mesh shot and a .blend shot: references written, then the same renders within tolerance, and a
+    moved reference vertex reported; report.csv and report.md list every frame with its image."""
+    from test_shot import write_spec as write_mesh_spec
+    specs = [write_mesh_spec(str(tmp_path), "bar", last=10), write_spec(tmp_path, scene, "blend", last=10)]
+    for spec in specs:
+        assert cli.main(["bake", spec]) == 0
+    references = tmp_path / "references"
+    args = ["render", *specs, "--references", str(references), "--frames", "2"]
+    assert cli.main(args + ["--out", str(tmp_path / "first"), "--update"]) == 0
+    assert sorted(p.name for p in references.iterdir()) == \
+        ["bar_0001.npy", "bar_0001.png", "bar_0010.npy", "bar_0010.png",
+         "blend_0001.npy", "blend_0001.png", "blend_0010.npy", "blend_0010.png"]
+    moved = np.load(references / "blend_0010.npy")
+    np.save(references / "blend_0010.npy", moved + np.float32(0.01))
+    assert cli.main(args + ["--out", str(tmp_path / "second")]) == 1
+    rows = list(csv.DictReader(open(tmp_path / "second" / "report.csv")))
+    assert [(r["shot"], r["frame"], r["ok"]) for r in rows] == \
+        [("bar", "1", "True"), ("bar", "10", "True"), ("blend", "1", "True"), ("blend", "10", "False")]
+    assert all(float(r["image_mean"]) <= 0.01 for r in rows) and float(rows[3]["vertex_max"]) > 0.009
+    page = (tmp_path / "second" / "report.md").read_text()
+    assert "![](blend_0010.png)" in page and "FAIL" in page
+    first = render.image_difference(plt_image(tmp_path / "first" / "bar_0010.png"),
+                                    plt_image(tmp_path / "first" / "bar_0001.png"))
+    assert first[0] > 0  # the frames differ: the renders show the bake
+
+
+def plt_image(path):
+    import matplotlib.image
+    return matplotlib.image.imread(path)
+
+
+def test_render_reports_a_shot_that_is_not_baked(tmp_path):
+    from test_shot import write_spec as write_mesh_spec
+    rows = render.render([write_mesh_spec(str(tmp_path), "raw", last=4)], tmp_path / "refs", tmp_path / "out")
+    assert len(rows) == 1 and not rows[0].ok and "not baked" in rows[0].note
+    assert (tmp_path / "out" / "report.md").exists()

@@ -76,18 +76,20 @@ def _install_addon(source, user):
         raise BlenderError(f"{source} holds no {ADDON}/__init__.py")
 
 
-def blender_env(work, addon):
-    """Blender's environment: temporary user folders; this opdeform ($OPDEFORM_PYTHONPATH) unless the add-on
-    is a zip with its own; no Python paths of this interpreter (Blender has its own Python)."""
+def blender_env(work, addon=None):
+    """Blender's environment: temporary user folders (``addon`` installed there); this opdeform
+    ($OPDEFORM_PYTHONPATH) unless the add-on is a zip with its own; no Python paths of this interpreter
+    (Blender has its own Python)."""
     user = os.path.join(work, "user")
-    _install_addon(addon, user)
+    if addon:
+        _install_addon(addon, user)
     env = {k: v for k, v in os.environ.items()
            if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV", "OPDEFORM_PYTHONPATH")}
     # Blender's Python finds its prefix through python3.x on PATH: a venv or pyenv earlier on PATH misleads it
     env["PATH"] = os.pathsep.join(p for p in env.get("PATH", "").split(os.pathsep)
                                   if not any(s in p for s in (".pyenv", "/venv", "/.venv")))
     env.update(BLENDER_USER_SCRIPTS=user, BLENDER_USER_CONFIG=os.path.join(work, "config"))
-    if not zipfile.is_zipfile(addon):
+    if not (addon and zipfile.is_zipfile(addon)):
         env["OPDEFORM_PYTHONPATH"] = PACKAGE_FOLDER
     return env
 
