@@ -18,12 +18,10 @@ import subprocess
 import tempfile
 import threading
 import zipfile
-from dataclasses import replace
 
 import numpy as np
 
 from . import io
-from . import shot as shots
 
 __all__ = ["BlenderError", "addon_source", "bake", "blender_command", "blender_env", "find_blender"]
 
@@ -146,8 +144,9 @@ def _progress_lines(progress):
     return on_line
 
 
-def bake(shot, threads=None, progress=None):
-    """Bakes a .blend shot with Blender and writes its outputs; returns the report rows (as ``shot.bake``)."""
+def bake(shot, threads=None, progress=None, place=None):
+    """Bakes a .blend shot with Blender; place(shot, pc2, triangles, rows) writes the outputs from what Blender
+    made (``shot.bake`` gives it) before the work folder goes. Returns the report rows (as ``shot.bake``)."""
     what = f"shot {shot.name} ({shot.spec})"
     settings = shot.section("blender")
     try:
@@ -164,14 +163,13 @@ def bake(shot, threads=None, progress=None):
             json.dump(job, f)
         command = blender_command(executable, shot.blend[0], SCRIPT, [job_path], settings["memory"])
         run(command, blender_env(work, addon), settings["timeout"], what, _progress_lines(progress))
-        return _place_outputs(shot, work, what)
+        return _finish(shot, work, what, place)
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
 
-def _place_outputs(shot, work, what):
-    """Checks what Blender left in ``work`` (done.json written last, the PC2 complete) and moves it into the
-    spec's outputs."""
+def _finish(shot, work, what, place):
+    """Checks what Blender left in ``work`` (done.json written last, the PC2 complete) and places it."""
     done = os.path.join(work, "done.json")
     if not os.path.isfile(done):
         raise BlenderError(f"{what}: Blender ended without finishing the bake (no done.json)")
@@ -181,11 +179,5 @@ def _place_outputs(shot, work, what):
     count = io.pc2_header(result["pc2"])[3]
     if count != expected:
         raise BlenderError(f"{what}: the bake holds {count} frames, the shot has {expected}")
-    triangles = np.load(os.path.join(work, "triangles.npy"))
-    shot = replace(shot, triangles=triangles)
-    _, _, frames = io.read_pc2(result["pc2"])
-    for k, vertices in enumerate(frames):
-        shots.write_frame(shot, shot.first + k, vertices)
-    shots.write_report(shot, result["rows"])
-    os.replace(result["pc2"], shot.output("pc2"))
+    place(shot, result["pc2"], np.load(os.path.join(work, "triangles.npy")), result["rows"])
     return result["rows"]

@@ -15,7 +15,7 @@ import pickle
 import tempfile
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -465,11 +465,11 @@ class Outputs:
 
     def frame(self, frame, vertices, row):
         self.pc2.write(vertices)
-        write_frame(self.shot, frame, vertices)
+        _write_frame(self.shot, frame, vertices)
         self.rows.append(row)
 
 
-def write_frame(shot, frame, vertices):
+def _write_frame(shot, frame, vertices):
     """The frame's mesh file (OBJ or PLY) when the spec asks for frames."""
     if shot.output("frames"):
         path = shot.output("frames").format(frame=frame, name=shot.name)
@@ -486,7 +486,7 @@ def bake(shot, threads=None, progress=None, resume=True):
     (``opdeform.blender``)."""
     if shot.blend:
         from . import blender
-        return blender.bake(shot, threads, progress)
+        return blender.bake(shot, threads, progress, _place_baked)
     threads = shot.threads(threads or 1)
     rig = build(shot, threads)
     start, rows = shot.first, []
@@ -509,10 +509,20 @@ def bake(shot, threads=None, progress=None, resume=True):
             every = shot.section("output")["checkpoint_every"]
             if every and (frame - shot.first) % every == 0 and frame < shot.last:
                 _write_checkpoint(shot, frame, rig.sim, rows)
-    write_report(shot, rows)
+    _write_report(shot, rows)
     if os.path.exists(shot.checkpoint):
         os.remove(shot.checkpoint)
     return rows
+
+
+def _place_baked(shot, pc2, triangles, rows):
+    """The outputs of a bake made by Blender: frames and report from its PC2 (the mesh's ``triangles``), then
+    the PC2 renamed into place."""
+    shot = replace(shot, triangles=triangles)
+    for k, vertices in enumerate(io.read_pc2(pc2)[2]):
+        _write_frame(shot, shot.first + k, vertices)
+    _write_report(shot, rows)
+    os.replace(pc2, shot.output("pc2"))
 
 
 def _frame(rig, shot, frame, outputs, step=True):
@@ -564,7 +574,7 @@ def _write_checkpoint(shot, frame, sim, rows):
 
 
 # -- the report ----------------------------------------------------------------------------------------------
-def write_report(shot, rows):
+def _write_report(shot, rows):
     """The report CSV (and its plot) of the spec's outputs."""
     if shot.output("report"):
         with io.atomic_path(shot.output("report")) as part, open(part, "w") as f:
