@@ -16,7 +16,7 @@ import opdeform
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import frames, handles, loader, pc2, tumbling  # noqa: E402
+from opdeform_blender.core import frames, handles, loader, tumbling  # noqa: E402
 from opdeform_blender.core.engine import Engine, EngineError, original_input  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
@@ -26,24 +26,24 @@ HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_v
 def test_pc2_round_trip_and_partial_file(tmp_path):
     path = str(tmp_path / "sub" / "a.pc2")
     data = np.random.default_rng(1).normal(size=(5, 7, 3)).astype(np.float32)
-    with pc2.PC2Writer(path, 7, start=3, rate=1) as w:
+    with opdeform.io.PC2Writer(path, 7, start=3, rate=1, atomic=False) as w:  # the add-on's bake
         for k, frame in enumerate(data):
             w.write(frame)
-            assert pc2.read_header(path) == (7, 3.0, 1.0, k + 1)  # valid after every frame (ESC keeps frames)
-    start, rate, back = pc2.read(path)
+            assert opdeform.io.pc2_header(path) == (7, 3.0, 1.0, k + 1)  # valid after every frame (ESC keeps frames)
+    start, rate, back = opdeform.io.read_pc2(path)
     assert (start, rate) == (3.0, 1.0)
     np.testing.assert_array_equal(back, data)
     assert os.path.getsize(path) == 32 + data.nbytes
 
 
 def test_pc2_rejects_bad_input(tmp_path):
-    with pc2.PC2Writer(str(tmp_path / "b.pc2"), 4) as w:
+    with opdeform.io.PC2Writer(str(tmp_path / "b.pc2"), 4, atomic=False) as w:
         with pytest.raises(ValueError, match="points"):
             w.write(np.zeros((3, 3)))
     bad = tmp_path / "c.pc2"
     bad.write_bytes(b"NOTACACHE" + bytes(40))
     with pytest.raises(ValueError, match="not a PC2"):
-        pc2.read(str(bad))
+        opdeform.io.read_pc2(str(bad))
 
 
 @pytest.mark.parametrize("frame,last,solver,expected", [

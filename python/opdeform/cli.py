@@ -3,6 +3,7 @@
     python -m opdeform bake SPEC [--threads N] [--restart]
     python -m opdeform batch SPEC... [--scheduler ADDRESS] [--workers N] [--timeout SECONDS]
     python -m opdeform report BAKE            (a spec, or its report CSV)
+    python -m opdeform render SPEC... --references DIR [--out DIR] [--frames N] [--update]
 
 Exit status 0 when everything baked, 1 when a shot failed, 2 for bad arguments or a bad spec.
 """
@@ -12,6 +13,7 @@ import os
 import sys
 import time
 
+from . import blender
 from . import shot as shots
 
 __all__ = ["main"]
@@ -75,6 +77,23 @@ def report(args):
     return 0
 
 
+def render(args):
+    from . import render as renders
+
+    def line(row):
+        if row.frame:
+            print(f"{'ok  ' if row.ok else 'FAIL'} {row.shot} frame {row.frame}: image mean {row.image_mean:.5f}, "
+                  f"pixels off {100 * row.image_fraction:.3f}%, vertices {row.vertex_max:.3g} m "
+                  f"(<= {row.vertex_limit:.3g}) {row.note}", flush=True)
+        else:
+            print(f"FAIL {row.shot}: {row.note}", flush=True)
+
+    rows = renders.render(args.specs, args.references, args.out, args.frames, args.update, on_row=line)
+    failed = sum(not r.ok for r in rows)
+    print(f"{len(rows) - failed} of {len(rows)} frames within tolerance; {os.path.join(args.out, 'report.md')}")
+    return 1 if failed else 0
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(prog="python -m opdeform", description=__doc__.split("\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -92,12 +111,19 @@ def main(argv=None):
     p = commands.add_parser("report", help="the per-frame error and time report of a bake")
     p.add_argument("bake", help="a spec or its report CSV")
     p.set_defaults(run=report)
+    p = commands.add_parser("render", help="headless regression renders of baked shots against references")
+    p.add_argument("specs", nargs="+")
+    p.add_argument("--references", required=True, help="folder of reference images and vertices")
+    p.add_argument("--out", default="render", help="folder of the renders and report.csv, report.md")
+    p.add_argument("--frames", type=int, default=3, help="frames a shot, spread from first to last")
+    p.add_argument("--update", action="store_true", help="write the references instead of comparing")
+    p.set_defaults(run=render)
     args = parser.parse_args(argv)
     try:
         return args.run(args)
     except shots.SpecError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    except (ConnectionError, OSError, ValueError) as exc:
+    except (ConnectionError, OSError, ValueError, blender.BlenderError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1

@@ -15,7 +15,7 @@ import pickle
 import tempfile
 import time
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from .graph import MODES, Graph
 from .mesh import Skin, add_vertex_direction, pin_vertices
 from .simulation import Simulation
 
-__all__ = ["Shot", "SpecError", "VERSION", "bake", "load", "read_report"]
+__all__ = ["Shot", "SpecError", "VERSION", "bake", "load", "read_report", "report_row"]
 
 VERSION = 1
 log = logging.getLogger("opdeform.shot")
@@ -143,12 +143,20 @@ SCHEMA = {
     "floor": {"height": (_finite, 0.0), "friction": (_nonnegative, 0.0)},
     "output": {"folder": (_text, REQUIRED), "pc2": (_text, None), "frames": (_text, None), "report": (_text, None),
                "plot": (_text, None), "checkpoint_every": (_natural, 0)},
+    "blender": {"executable": (_text, None), "addon": (_text, None), "timeout": (_positive, 3600.0),
+                "memory": (_positive, 8.0)},
 }
 OPTIONAL_SECTIONS = ("pins", "goals", "floor")
+# A .blend object brings its own pins, handles and goals (its opdeform settings); the spec's keys of these
+# sections override the object's settings; BLEND_ONLY is for that path alone.
+OVERRIDES = ("frames", "fps", "substeps", "graph", "material", "solver", "floor")
+BLEND_ONLY = ("blender",)
+NOT_BLEND = ("pins", "goals", "handles")
 
 
-def _table(where, table, schema):
-    """The table's values checked by the schema, defaults filled in; unknown and missing keys refused."""
+def _table(where, table, schema, required=True):
+    """The table's values checked by the schema, defaults filled in; unknown keys refused, and missing ones
+    unless not ``required`` (then None: a .blend object's setting)."""
     if not isinstance(table, dict):
         _fail(where, f"must be a table, got {table!r}")
     unknown = sorted(set(table) - set(schema))
@@ -159,8 +167,10 @@ def _table(where, table, schema):
         name = f"{where}.{key}" if where else key
         if key in table:
             out[key] = check(name, table[key])
-        elif default is REQUIRED:
+        elif default is REQUIRED and required:
             _fail(name, "missing")
+        elif default is REQUIRED:
+            out[key] = None
         else:
             out[key] = default
     return out
@@ -178,6 +188,8 @@ class Shot:
     pins: np.ndarray = field(repr=False)
     animation: np.ndarray = field(repr=False)
     digest: str = ""
+    blend: tuple = None  # (file, object) of a .blend mesh, baked by Blender
+    overrides: dict = field(default_factory=dict)  # what the spec sets of a .blend object's settings
 
     def section(self, name):
         return self.settings[name]
@@ -224,30 +236,76 @@ def _load(path, raw, data):
     settings = {"": _table("", top, SCHEMA[""])}
     if settings[""]["version"] != VERSION:
         _fail("version", f"this opdeform reads version {VERSION}, got {settings['']['version']}")
+    folder = os.path.dirname(path)
+    blend = _blend(folder, settings[""]["mesh"], data)
     for section, schema in SCHEMA.items():
         if section and (section in data or section not in OPTIONAL_SECTIONS):
-            settings[section] = _table(section, data.get(section, {}), schema)
+            settings[section] = _table(section, data.get(section, {}), schema, required=not blend)
         elif section:
             settings[section] = None
+    if blend:
+        return _blend_shot(path, raw, data, settings, blend)
     handles = data.get("handles", [])
     if not isinstance(handles, list):
         _fail("handles", "must be an array of tables ([[handles]])")
     settings["handles"] = [_table(f"handles[{k}]", h, HANDLE_SCHEMA) for k, h in enumerate(handles)]
-    folder = os.path.dirname(path)
     vertices, triangles = _mesh(folder, settings[""]["mesh"])
-    name = settings[""]["name"] or os.path.splitext(os.path.basename(path))[0]
+    name = _outputs(path, settings)
     pins = _pins(folder, settings["pins"], len(vertices))
     for k, h in enumerate(settings["handles"]):
         _in_range(f"handles[{k}].vertex", [h["vertex"]], len(vertices))
     animation = _animation(folder, settings["goals"], len(vertices), settings[""]["frames"])
+    digest = hashlib.sha256(raw + vertices.tobytes() + triangles.tobytes() + animation.tobytes()).hexdigest()
+    return Shot(path, name, settings, vertices, triangles, pins, animation, digest)
+
+
+def _outputs(path, settings):
+    """The shot's name; the output folder made absolute (and checked writable), the default file names."""
+    name = settings[""]["name"] or os.path.splitext(os.path.basename(path))[0]
     out = settings["output"]
-    out["folder"] = _writable(os.path.normpath(os.path.join(folder, out["folder"])))
+    out["folder"] = _writable(os.path.normpath(os.path.join(os.path.dirname(path), out["folder"])))
     out["pc2"] = out["pc2"] or f"{name}.pc2"
     out["report"] = out["report"] or f"{name}_report.csv"
     if out["frames"]:
         _frame_names(out["frames"])
-    digest = hashlib.sha256(raw + vertices.tobytes() + triangles.tobytes() + animation.tobytes()).hexdigest()
-    return Shot(path, name, settings, vertices, triangles, pins, animation, digest)
+    return name
+
+
+BLEND = ".blend:"
+
+
+def _blend(folder, source, data):
+    """(file, object) of a ``FILE.blend:OBJECT`` mesh (the file checked), else None; the sections that do not
+    go with the mesh's kind refused."""
+    if BLEND not in source:
+        wrong = [k for k in BLEND_ONLY if k in data]
+        if wrong:
+            _fail(wrong[0], "only with a .blend mesh (mesh = \"FILE.blend:OBJECT\")")
+        return None
+    wrong = [k for k in NOT_BLEND if k in data]
+    if wrong:
+        _fail(wrong[0], "not with a .blend mesh: the object's own opdeform settings give them")
+    file, _, obj = source.partition(BLEND)
+    path = os.path.join(folder, file + ".blend")
+    if not obj:
+        _fail("mesh", f"names no object: {source!r} (FILE.blend:OBJECT)")
+    if not os.path.isfile(path):
+        _fail("mesh", f"no such file: {path}")
+    return path, obj
+
+
+def _blend_shot(path, raw, data, settings, blend):
+    """The Shot of a .blend object: no mesh read here (Blender reads it), the spec's overriding keys kept."""
+    if settings["output"]["checkpoint_every"]:
+        _fail("output.checkpoint_every", "not with a .blend mesh: Blender bakes the shot in one go")
+    overrides = {k: settings[""][k] for k in OVERRIDES if k in SCHEMA[""] and k in data}
+    overrides.update({f"{s}.{k}": settings[s][k] for s in OVERRIDES if s in SCHEMA and s in data for k in data[s]})
+    name = _outputs(path, settings)
+    empty = np.zeros((0, 3))
+    with open(blend[0], "rb") as f:
+        digest = hashlib.sha256(raw + f.read()).hexdigest()
+    return Shot(path, name, settings, empty, empty.astype(np.int64), np.zeros(0, np.int64),
+                np.zeros((0, 0, 3), np.float32), digest, blend, overrides)
 
 
 BUILTIN = "builtin:"
@@ -407,19 +465,28 @@ class Outputs:
 
     def frame(self, frame, vertices, row):
         self.pc2.write(vertices)
-        if self.shot.output("frames"):
-            path = self.shot.output("frames").format(frame=frame, name=self.shot.name)
-            os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-            with io.atomic_path(path) as part:
-                io.write(part, vertices, self.shot.triangles)
+        _write_frame(self.shot, frame, vertices)
         self.rows.append(row)
+
+
+def _write_frame(shot, frame, vertices):
+    """The frame's mesh file (OBJ or PLY) when the spec asks for frames."""
+    if shot.output("frames"):
+        path = shot.output("frames").format(frame=frame, name=shot.name)
+        os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
+        with io.atomic_path(path) as part:
+            io.write(part, vertices, shot.triangles)
 
 
 def bake(shot, threads=None, progress=None, resume=True):
     """Simulates the shot and writes its outputs; returns the report rows (one dict per frame, REPORT_COLUMNS).
     threads: the solver's when the spec leaves them to the runner (None: 1; results are the same bits for the
     same count); progress(done, total) after each frame; resume: continue from the shot's checkpoint
-    when it was written for this spec, mesh and animation (same digest)."""
+    when it was written for this spec, mesh and animation (same digest). A .blend shot is baked by Blender
+    (``opdeform.blender``)."""
+    if shot.blend:
+        from . import blender
+        return blender.bake(shot, threads, progress, _place_baked)
     threads = shot.threads(threads or 1)
     rig = build(shot, threads)
     start, rows = shot.first, []
@@ -448,6 +515,16 @@ def bake(shot, threads=None, progress=None, resume=True):
     return rows
 
 
+def _place_baked(shot, pc2, triangles, rows):
+    """The outputs of a bake made by Blender: frames and report from its PC2 (the mesh's ``triangles``), then
+    the PC2 renamed into place."""
+    shot = replace(shot, triangles=triangles)
+    for k, vertices in enumerate(io.read_pc2(pc2)[2]):
+        _write_frame(shot, shot.first + k, vertices)
+    _write_report(shot, rows)
+    os.replace(pc2, shot.output("pc2"))
+
+
 def _frame(rig, shot, frame, outputs, step=True):
     """Targets and goals of the frame, ``substeps`` steps (none on the first frame: the rest state), the output."""
     _apply_handles(rig, shot, frame)
@@ -462,19 +539,21 @@ def _frame(rig, shot, frame, outputs, step=True):
         vertices = relative_deform(rig.skin, shot.animation[frame - shot.first], rig.sim, goals)
     else:
         vertices = rig.skin.deform(rig.sim.positions, rig.sim.rotations)
-    outputs.frame(frame, vertices, _row(shot, frame, rig.sim, step, t1 - t0, time.perf_counter() - t1))
+    solver = shot.section("solver")
+    outputs.frame(frame, vertices, report_row(frame, rig.sim, step, t1 - t0, time.perf_counter() - t1,
+                                              solver["iterations"], solver["tolerance"]))
     log.debug("%s: frame %d", shot.name, frame)
 
 
-def _row(shot, frame, sim, stepped, step_seconds, skin_seconds):
-    """The report row of a frame: times, the final objective, the residual (the last local/global pair's share
-    of the last step's decrease of the objective: small when converged) and the fastest particle."""
+def report_row(frame, sim, stepped, step_seconds, skin_seconds, iterations, tolerance=None):
+    """The report row of a frame (REPORT_COLUMNS): times, the final objective, the residual (the last
+    local/global pair's share of the last step's decrease of the objective: small when converged) and the
+    fastest particle; ``stepped``: the simulation stepped for this frame (sim.trace_energy on)."""
     trace = sim.energy_trace if stepped else np.zeros(0)
-    pair = 2 * shot.section("solver")["iterations"] + 1
+    pair = 2 * iterations + 1
     last = trace[-pair:]
     drop = last[0] - last[-1] if len(last) >= 3 else 0.0
     residual = float((last[-3] - last[-1]) / drop) if drop > 0 else 0.0
-    tolerance = shot.section("solver")["tolerance"]
     return {"frame": frame, "step_seconds": step_seconds, "skin_seconds": skin_seconds,
             "energy": float(last[-1]) if len(last) else 0.0, "residual": residual,
             "max_speed": float(np.linalg.norm(sim.velocities, axis=1).max()),
@@ -496,6 +575,7 @@ def _write_checkpoint(shot, frame, sim, rows):
 
 # -- the report ----------------------------------------------------------------------------------------------
 def _write_report(shot, rows):
+    """The report CSV (and its plot) of the spec's outputs."""
     if shot.output("report"):
         with io.atomic_path(shot.output("report")) as part, open(part, "w") as f:
             f.write(",".join(REPORT_COLUMNS) + "\n")

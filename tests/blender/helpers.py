@@ -61,6 +61,11 @@ def runtime():
     return importlib.import_module(ADDON + ".blender.runtime")
 
 
+def pc2():
+    """opdeform.io (PC2 files), as the add-on found it."""
+    return runtime().module().io
+
+
 def mesh_object(name, vertices, triangles=(), edges=(), location=(0, 0, 0)):
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(map(float, v)) for v in vertices], [tuple(map(int, e)) for e in edges],

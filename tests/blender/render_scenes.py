@@ -22,73 +22,17 @@ import numpy as np
 from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.environ["OPDEFORM_PYTHONPATH"])  # the opdeform the add-on loads (scripts/render sets it)
 import helpers as H  # noqa: E402
+# the Cycles settings, lights, camera and tolerances of every regression render: python -m opdeform render's
+from opdeform.blender_render import RESOLUTION, SAMPLES, SEED, camera, material, setup_render  # noqa: E402
+from opdeform.render import IMAGE_FRACTION, IMAGE_MEAN, PIXEL, VERTEX_TOLERANCE, image_difference  # noqa: E402
 
 REFERENCE = os.path.join(H.ROOT, "tests", "reference")
-RESOLUTION = (160, 120)
-SAMPLES = 16
-SEED = 0
-# An image passes when its mean absolute difference from the reference is at most IMAGE_MEAN (0..1 scale,
-# over all RGB values) and at most IMAGE_FRACTION of its pixels differ by more than 0.1 in any channel.
-IMAGE_MEAN = 0.01
-IMAGE_FRACTION = 0.01
-# Baked vertices pass when max |difference| <= VERTEX_TOLERANCE x the rest mesh's bounding-box diagonal.
-VERTEX_TOLERANCE = 1e-3
-
 SCENES = {
     "creature": dict(frames=(1, 20, 60), end=60),
     "bar": dict(frames=(1, 24, 48), end=48),
 }
-
-
-def material(name, color, alpha=1.0):
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    bsdf = mat.node_tree.nodes.get("Principled BSDF")
-    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
-    bsdf.inputs["Roughness"].default_value = 0.6
-    if alpha < 1.0:
-        bsdf.inputs["Alpha"].default_value = alpha
-        if hasattr(mat, "blend_method"):
-            mat.blend_method = 'BLEND'
-    return mat
-
-
-def setup_render(scene, resolution=RESOLUTION, samples=SAMPLES):
-    scene.render.engine = 'CYCLES'
-    scene.cycles.device = 'CPU'
-    scene.cycles.samples = samples
-    scene.cycles.seed = SEED
-    scene.cycles.use_denoising = False
-    if hasattr(scene.cycles, "use_adaptive_sampling"):
-        scene.cycles.use_adaptive_sampling = False
-    scene.cycles.max_bounces = 4
-    scene.render.resolution_x, scene.render.resolution_y = resolution
-    scene.render.resolution_percentage = 100
-    scene.render.image_settings.file_format = 'PNG'
-    scene.render.image_settings.color_mode = 'RGB'
-    scene.render.threads_mode = 'FIXED'
-    scene.render.threads = 2
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.55, 0.6, 0.7, 1.0)
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.6
-    scene.world = world
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN'))
-    sun.data.energy = 3.0
-    sun.data.angle = math.radians(10)
-    sun.rotation_euler = (math.radians(40), math.radians(10), math.radians(30))
-    scene.collection.objects.link(sun)
-
-
-def camera(scene, target, direction, distance, lens=35):
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = lens
-    d = Vector(direction).normalized()
-    cam.location = Vector(target) + d * distance
-    cam.rotation_euler = (-d).to_track_quat('-Z', 'Y').to_euler()
-    scene.collection.objects.link(cam)
-    scene.camera = cam
 
 
 def floor_plane(scene, size=8.0, height=0.0):
@@ -167,8 +111,7 @@ def bake(obj, out_dir, end):
     bpy.ops.opdeform.enable(object=obj.name)
     bpy.ops.opdeform.bake(object=obj.name)
     assert obj.opdeform.baked and not obj.opdeform.error, obj.opdeform.error
-    from opdeform_blender.core import pc2
-    return pc2.read(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
+    return H.pc2().read_pc2(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
 
 
 def read_png(path):
@@ -181,14 +124,12 @@ def read_png(path):
 
 
 def compare_image(path, ref):
-    a, b = read_png(path), read_png(ref)
-    if a.shape != b.shape:
-        return False, f"size {a.shape[:2]} vs reference {b.shape[:2]}"
-    diff = np.abs(a - b)
-    mean = float(diff.mean())
-    frac = float((diff.max(axis=2) > 0.1).mean())
+    try:
+        mean, frac = image_difference(read_png(path), read_png(ref))
+    except ValueError as exc:
+        return False, str(exc)
     ok = mean <= IMAGE_MEAN and frac <= IMAGE_FRACTION
-    return ok, f"mean |diff| {mean:.5f} (<= {IMAGE_MEAN}), pixels off by > 0.1: {100 * frac:.3f}% " \
+    return ok, f"mean |diff| {mean:.5f} (<= {IMAGE_MEAN}), pixels off by > {PIXEL}: {100 * frac:.3f}% " \
                f"(<= {100 * IMAGE_FRACTION}%)"
 
 

@@ -66,8 +66,7 @@ def test_build_play_bake_free_rebake():
     assert s.baked and mod is not None and mod.type == 'MESH_CACHE' and names == ["OPDeform", "OPDeform Cache"]
     path = bpy.path.abspath(mod.filepath)
     assert os.path.isfile(path), path
-    pc2 = __import__(H.ADDON + ".core.pc2", fromlist=["read"])
-    start, rate, frames = pc2.read(path)
+    start, rate, frames = H.pc2().read_pc2(path)
     assert (start, rate, frames.shape) == (1.0, 1.0, (50, len(rest), 3)), (start, rate, frames.shape)
     np.testing.assert_array_equal(H.base_positions(obj), rest)  # the base mesh keeps its rest shape
     bpy.ops.opdeform.free_bake(object=obj.name)
@@ -76,7 +75,7 @@ def test_build_play_bake_free_rebake():
     assert not np.array_equal(H.positions(obj), rest), "live playback did not resume after Free Bake"
     bpy.ops.opdeform.bake(object=obj.name)
     assert s.baked and os.path.isfile(path) and obj.modifiers.get("OPDeform Cache") is not None
-    np.testing.assert_array_equal(pc2.read(path)[2], frames)  # re-bake = bake
+    np.testing.assert_array_equal(H.pc2().read_pc2(path)[2], frames)  # re-bake = bake
 
 
 def test_bake_equals_playback():
@@ -101,8 +100,7 @@ def test_bake_equals_playback():
         np.testing.assert_array_equal(co, live[f])
     _save_blend("equal.blend")
     bpy.ops.opdeform.bake(object=obj.name)
-    pc2 = __import__(H.ADDON + ".core.pc2", fromlist=["read"])
-    frames = pc2.read(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
+    frames = H.pc2().read_pc2(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
     assert len(frames) == 40
     for f in range(1, 41):
         assert np.array_equal(frames[f - 1], live[f]), f"baked frame {f} differs from playback"

@@ -71,8 +71,7 @@ def step():
     if state["phase"] == "cancelled":
         s = obj.opdeform
         assert s.baked, "a cancelled bake must keep its frames"
-        from opdeform_blender.core import pc2
-        n, start, rate, count = pc2.read_header(bpy.path.abspath(s.bake_file))
+        n, start, rate, count = H.pc2().pc2_header(bpy.path.abspath(s.bake_file))
         assert 4 <= count < 200, count
         print(f"UI_BAKE cancelled after {count} frames")
         obj.opdeform.frame_end = 12
@@ -85,10 +84,9 @@ def step():
         s = obj.opdeform
         path = bpy.path.abspath(s.bake_file) if s.baked else ""
         if s.baked and path and H.runtime().cache_modifier(obj) is not None:
-            from opdeform_blender.core import pc2
-            count = pc2.read_header(path)[3]
+            count = H.pc2().pc2_header(path)[3]
             if count == 12:
-                frames = pc2.read(path)[2]
+                frames = H.pc2().read_pc2(path)[2]
                 assert np.abs(frames[-1] - frames[0]).max() > 1e-3
                 print("UI_BAKE_OK")
                 bpy.ops.wm.quit_blender()

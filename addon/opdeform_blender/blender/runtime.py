@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
-from ..core import loader, pc2
+from ..core import loader
 from ..core.frames import BakeFrames
 from ..core.engine import Engine, EngineError, original_input
 from . import modifier
@@ -480,7 +480,7 @@ class BakeJob(BakeFrames):
         s.baked = False
         self.rt.engine.invalidate()
         self.rt.baking = True
-        self.writer = pc2.PC2Writer(self.path, self.rt.engine.n_vertices, self.start, 1.0)
+        self.writer = module().io.PC2Writer(self.path, self.rt.engine.n_vertices, self.start, 1.0, atomic=False)
         self.started = time.perf_counter()
 
     @property
