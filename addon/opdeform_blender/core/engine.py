@@ -136,6 +136,9 @@ class Engine:
         """params: stiffness, density, dt (per substep), iterations, gravity, damping. floor: (height, friction)
         or None. solver: ``set_solver`` arguments (None: the default solver). A change clears the in-memory
         cache (it is outdated). Returns True when something changed."""
+        error = frame_logic.range_error(int(start), int(end))
+        if error:
+            raise EngineError(error)
         params = dict(params, skin_neighbors=self.neighbors)
         changed = False
         if self.sim is None:

@@ -15,6 +15,8 @@ replays from the start.
 
 from collections import namedtuple
 
+MAX_FRAMES = 100_000  # the longest cache range (a range of -2**31.. is refused, not planned)
+
 Plan = namedtuple("Plan", "kind frame restore steps")
 # kind: "rest" (before start), "reset" (the start frame), "show" (cached), "simulate"
 # frame: the frame whose state is shown (clamped to end); restore: cached frame to load into the solver first,
@@ -39,6 +41,14 @@ def plan(frame, start, end, last, solver_frame, first=None):
         return Plan("simulate", frame, "reset", range(start + 1, frame + 1))
     restore = None if solver_frame == last else last
     return Plan("simulate", frame, restore, range(last + 1, frame + 1))
+
+
+def range_error(start, end):
+    """Why a cache range cannot be simulated (None: it can)."""
+    if end - start + 1 > MAX_FRAMES:
+        return (f"the cache range {start} - {end} is {end - start + 1:,} frames: at most {MAX_FRAMES:,} "
+                "(set Start and End in the Cache panel)")
+    return None
 
 
 class BakeFrames:
