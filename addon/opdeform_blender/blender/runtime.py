@@ -471,10 +471,14 @@ def bake_path(obj):
     return os.path.join(cache_folder(folder), name), os.path.join(folder, name)
 
 
-def find_object(uid, name):
-    """The object of a session_uid (it survives a rename), else of the name."""
-    return next((o for o in bpy.data.objects if uid is not None and getattr(o, "session_uid", None) == uid),
-                bpy.data.objects.get(name))
+def identity(obj):
+    """What finds an object again after a rename: its session_uid (Blender 3.5+), else its address."""
+    return getattr(obj, "session_uid", None) or obj.as_pointer()
+
+
+def find_object(ident, name):
+    """The object of an identity(), else of the name."""
+    return next((o for o in bpy.data.objects if identity(o) == ident), None) or bpy.data.objects.get(name)
 
 
 class BakeJob(BakeFrames):
@@ -502,7 +506,7 @@ class BakeJob(BakeFrames):
             self.writer = pc2.PC2Writer(bake_files.prepare(self.path), self.rt.engine.n_vertices, self.start, 1.0)
         except OSError as exc:
             raise AddonError(f"{obj.name}: {exc}") from None
-        self.obj_name, self.obj_uid = obj.name, getattr(obj, "session_uid", None)
+        self.obj_name, self.obj_ident = obj.name, identity(obj)
         self.scene = scene
         self.frame = self.start
         self.original_frame = scene.frame_current
@@ -512,9 +516,13 @@ class BakeJob(BakeFrames):
 
     @property
     def obj(self):
-        obj = find_object(self.obj_uid, self.obj_name)
-        if obj is not None:
+        obj = find_object(self.obj_ident, self.obj_name)
+        if obj is not None and obj.name != self.obj_name:  # renamed: the runtime follows (keyed by name < 3.5)
+            _runtimes.pop(self.obj_name, None)
+            _runtimes[key(obj)] = self.rt
             self.obj_name = obj.name
+            from . import handlers
+            handlers.mark_discovery()
         return obj
 
     def step(self):
