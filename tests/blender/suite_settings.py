@@ -56,18 +56,19 @@ def test_enable_gives_the_default_preset():
 
 
 def test_default_tail_droops_about_10_percent_and_jiggles():
-    """Rubber at 100 particles: the pinned 2 m tail droops ~10 % of its length (the mean over the second
-    second) and jiggles visibly (tip travel over 5 cm)."""
+    """Rubber at 100 particles, released straight: the pinned 2 m tail droops ~10 % of its length (the tip's
+    mean over seconds 3 to 6) and jiggles visibly (the tip's travel in the first second over 5 cm, still over
+    1 cm in the third)."""
     obj = _tail()
     rest = _tip_z(obj)
     tips = []
-    for f in range(1, 49):
+    for f in range(1, 6 * 24 + 1):
         bpy.context.scene.frame_set(f)
         tips.append(_tip_z(obj))
-    droop = (rest - np.mean(tips[24:])) / 2.0
-    travel = max(tips) - min(tips)
-    print(f"tail droop={droop:.3f} travel={travel:.3f}")
-    assert 0.05 < droop < 0.2 and travel > 0.05, (droop, travel)
+    droop = (rest - np.mean(tips[72:])) / 2.0
+    travel = (np.ptp(tips[:24]), np.ptp(tips[48:72]))
+    print(f"tail droop={droop:.3f} travel={travel[0]:.3f} {travel[1]:.3f}")
+    assert 0.05 < droop < 0.2 and travel[0] > 0.05 and travel[1] > 0.01, (droop, travel)
 
 
 def test_old_file_keeps_its_raw_stiffness():
