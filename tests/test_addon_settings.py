@@ -1,19 +1,18 @@
 """Settings in the artist's units and the add-on's bounds (issues 14 and 15, items 4 and 5):
-tests/blender/suite_settings.py inside Debian's Blender and inside the bpy module, one pytest test per test there
-and per host (the runner of tests/test_addon.py)."""
+tests/blender/suite_settings.py in Debian's Blender and in the bpy module: see tests/test_addon.py for how the
+suites run."""
 
 import pytest
 
-from test_addon import HOSTS, host_missing, suite_names, suite_results
+from test_addon import HOSTS, check_suite_test, suite_names
+
+
+@pytest.fixture(scope="session")
+def settings_tmp(tmp_path_factory):
+    return tmp_path_factory.mktemp("settings")
 
 
 @pytest.mark.parametrize("host", HOSTS)
 @pytest.mark.parametrize("name", suite_names("suite_settings"))
-def test_addon_settings(host, name, tmp_path_factory):
-    if host_missing(host):
-        pytest.skip(host_missing(host))
-    proc, records, _ = suite_results(host, "suite_settings", tmp_path_factory.getbasetemp() / "settings")
-    crashed = {"ok": False, "host": host, "error": f"no report from {name}: Blender exited with {proc.returncode} "
-                                                   f"(a crash?)\n{proc.stdout[-4000:]}\n{proc.stderr[-4000:]}"}
-    rec = records.get(name, crashed)
-    assert rec["ok"], f"[{rec['host']}] {rec['error']}"
+def test_settings_in_blender(host, name, settings_tmp):
+    check_suite_test(host, "suite_settings", name, settings_tmp)

@@ -5,7 +5,6 @@ settings; far cache ranges and far jumps (bounded time and memory); bakes that f
 Free Bake of files the bake did not write, a rename during a bake, a second bake."""
 
 import importlib
-import math
 import os
 import sys
 
@@ -14,7 +13,7 @@ import numpy as np
 
 import helpers as H
 
-sys.path.insert(0, os.path.dirname(H.HERE))  # tests/: the drop check shared with tests/blender/suite_goals.py
+sys.path.insert(0, os.path.dirname(H.HERE))  # tests/: the drop check shared with the core's tests
 from suzanne_check import DropCheck  # noqa: E402
 
 
@@ -121,30 +120,12 @@ def test_warnings_stretch_thin_part_and_fast_handle():
     assert "A handle moves" in H.labels(H.draw_panels())
 
 
-def _suzanne(particles):
-    bpy.ops.mesh.primitive_monkey_add(rotation=(math.radians(15.0), 0.0, 0.0))
-    obj = bpy.context.active_object
-    mod = obj.modifiers.new("Subdivision", 'SUBSURF')
-    mod.levels = 2
-    bpy.ops.object.modifier_apply(modifier=mod.name)
-    obj.location.z = 0.3 - min((obj.matrix_world @ v.co).z for v in obj.data.vertices)
-    s = obj.opdeform
-    s.particles, s.use_floor = particles, True  # nothing else: the defaults
-    bpy.ops.opdeform.enable(object=obj.name)
-    return obj
-
-
 def test_suzanne_drop_at_defaults():
     """Suzanne (2 subdivision levels) dropped on the floor at default settings: every triangle edge under 3x
     its rest length at 100 and 1,000 particles (2 s at 24 fps)."""
     for particles in (100, 1000):
         H.fresh()
-        obj = _suzanne(particles)
-        check = DropCheck(H.base_positions(obj), H.runtime().triangles(obj.data))
-        for f in range(1, 2 * H.FPS + 1):
-            bpy.context.scene.frame_set(f)
-            check.update(H.positions(obj).astype(np.float64))
-        assert not obj.opdeform.error, obj.opdeform.error
+        _, check = H.suzanne_drop(particles)  # nothing else set: the defaults
         print(f"suzanne defaults particles={particles} stretch={check.stretch:.3f} eye={check.offset:.4f}")
         assert check.stretch < DropCheck.STRETCH and check.offset < DropCheck.EYE, (check.stretch, check.offset)
 
