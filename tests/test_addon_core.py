@@ -58,7 +58,7 @@ def test_pc2_rejects_bad_input(tmp_path):
 ])
 def test_frame_plans(frame, last, solver, expected):
     p = frames.plan(frame, 1, 20, last, solver)
-    assert (p.kind, p.restore, p.steps) == expected
+    assert (p.kind, p.restore, tuple(p.steps)) == expected
 
 
 def test_handle_targets_follow_the_empty_rigidly():

@@ -255,37 +255,17 @@ def test_subdivision_after_opdeform_plays_live():
     np.testing.assert_array_equal(H.positions(tail), shown)
 
 
-def _suzanne(particles):
-    """Blender's Suzanne with a Subdivision of 2 levels applied (a head and two loose eyeballs), tilted 15
-    degrees with its lowest point 0.3 m above the floor; oriented particles enabled as an artist would, in the
-    panel: Floor ticked, the particle count, and the set-up of tests/test_loose_parts.py: stiffness 2e7,
-    damping 0.01, 3 substeps (h = 1/72 s, near its 1/60). Measured at 24 fps: with 1 substep the landing
-    stretches the shortest edges (2 mm, a 16th of the median) 3.4x at 100 particles and 3.1x at 1,000; at the
-    default stiffness 1e5 the head is so soft that it squashes 9x where it lands; the eyes stay in their
-    sockets in every case (offset under 0.045 of the head's size)."""
-    bpy.ops.mesh.primitive_monkey_add(rotation=(math.radians(15.0), 0.0, 0.0))
-    obj = bpy.context.active_object
-    mod = obj.modifiers.new("Subdivision", 'SUBSURF')
-    mod.levels = 2
-    bpy.ops.object.modifier_apply(modifier=mod.name)
-    obj.location.z = 0.3 - min((obj.matrix_world @ v.co).z for v in obj.data.vertices)
-    s = obj.opdeform
-    s.particles, s.use_floor, s.stiffness, s.damping, s.substeps = particles, True, 2e7, 0.01, 3
-    bpy.ops.opdeform.enable(object=obj.name)
-    return obj
-
-
 def test_suzanne_dropped_keeps_its_edges_and_eyes():
     """Loose parts never tear, in Blender: at 100 and 1,000 particles every triangle edge stays under 3x its
-    rest length and the eyes stay in their sockets for 2 s on the floor (tests/suzanne_check.py)."""
+    rest length and the eyes stay in their sockets for 2 s on the floor (tests/suzanne_check.py). The set-up
+    of tests/test_loose_parts.py: stiffness 2e7, damping 0.01, 3 substeps (h = 1/72 s, near its 1/60), solver
+    units. Measured at 24 fps: with 1 substep the landing stretches the shortest edges (2 mm, a 16th of the
+    median) 3.4x at 100 particles and 3.1x at 1,000; at the old default stiffness 1e5 the head is so soft that
+    it squashes 9x where it lands; the eyes stay in their sockets in every case (offset under 0.045 of the
+    head's size). At the defaults see tests/blender/suite_settings.py."""
     for particles in (100, 1000):
         H.fresh()
-        obj = _suzanne(particles)
-        check = DropCheck(H.base_positions(obj), H.runtime().triangles(obj.data))
-        for f in range(1, 2 * H.FPS + 1):
-            bpy.context.scene.frame_set(f)
-            check.update(H.positions(obj).astype(np.float64))
-        assert not obj.opdeform.error, obj.opdeform.error
+        obj, check = H.suzanne_drop(particles, stiffness=2e7, damping=0.01, substeps=3)
         z = (H.positions(obj) @ np.array(obj.matrix_world)[:3, :3].T)[:, 2] + obj.location.z
         print(f"suzanne particles={particles} stretch={check.stretch:.3f} eye={check.offset:.4f} "
               f"lowest={z.min():.3f}")

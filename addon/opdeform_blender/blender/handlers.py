@@ -89,8 +89,9 @@ def on_depsgraph_update(scene, depsgraph=None):
 
 @persistent
 def on_load_post(*args):
-    from . import runtime
+    from . import runtime, versioning
     runtime.clear()
+    versioning.upgrade(bpy.data.objects)
     mark_discovery()
 
 

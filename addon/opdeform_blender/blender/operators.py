@@ -307,7 +307,9 @@ class OPDEFORM_OT_free_bake(_ObjectOperator, bpy.types.Operator):
     def run(self, context, obj, rt):
         if obj is None:
             raise rt.AddonError("no object")
-        rt.free_bake(obj, self.delete_file)
+        kept = rt.free_bake(obj, self.delete_file)
+        if kept:
+            self.report({'WARNING'}, f"kept {kept}: this add-on's bake did not write it")
         return {'FINISHED'}
 
 

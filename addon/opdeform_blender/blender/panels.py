@@ -106,13 +106,11 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
             box.operator("opdeform.reset", icon='LOOP_BACK')
         layout.use_property_split = True
         layout.use_property_decorate = False
+        from . import settings_panels
+        settings_panels.draw_material(layout, s, context)
+        settings_panels.draw_warnings(layout, obj, context.scene)
         col = layout.column()
-        col.prop(s, "stiffness")
-        col.prop(s, "density")
         if s.mode == 'DYNAMIC':
-            col.prop(s, "damping")
-            col.prop(s, "substeps")
-            col.prop(s, "iterations")
             g = context.scene.gravity
             col.label(text=("Gravity %.3g, %.3g, %.3g" % tuple(g)) if context.scene.use_gravity
                       else "Gravity off (scene)", icon='FORCE_FORCE')

@@ -59,6 +59,18 @@ def _mark_discovery(self, context):
     handlers.mark_discovery()
 
 
+def _enabled(self, context):
+    from . import versioning
+    _mark_discovery(self, context)
+    versioning.stamp(self)
+
+
+def _solver_units(self, context):
+    """Setting the raw k (the Advanced sub-panel, or a script written for it) switches to solver units."""
+    if not self.use_solver_units:
+        self.use_solver_units = True
+
+
 class OPDEFORM_HandleItem(bpy.types.PropertyGroup):
     target: PointerProperty(name="Handle", type=bpy.types.Object, poll=_poll_handle,
                             description="Empty whose location moves the nearest vertex and whose orientation "
@@ -75,7 +87,7 @@ class OPDEFORM_HandleItem(bpy.types.PropertyGroup):
 
 
 class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
-    enabled: BoolProperty(name="Oriented Particles", default=False, update=_mark_discovery,
+    enabled: BoolProperty(name="Oriented Particles", default=False, update=_enabled,
                           description="Simulate this mesh with oriented particles")
     built: BoolProperty(name="Built", default=False, description="A particle graph was built")
     error: StringProperty(name="Error", default="", description="The last error; the simulation is paused "
@@ -88,14 +100,39 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                            description="Particles that move each vertex (m of the skinning weights)")
     # dynamics
     mode: EnumProperty(name="Mode", items=MODE_ITEMS, default="DYNAMIC")
-    stiffness: FloatProperty(name="Stiffness", default=1e5, min=1e-6, soft_min=1.0, soft_max=1e10,
-                             description="ARAP stiffness k (Pa/m^2)")
+    stiffness: FloatProperty(name="Stiffness k", default=1e5, min=1e-6, soft_min=1.0, soft_max=1e10,
+                             update=_solver_units,
+                             description="Solver units: the ARAP stiffness k (J/m^5); setting it turns Solver "
+                                         "Units on")
     density: FloatProperty(name="Density", default=1000.0, min=1e-6, soft_max=1e5, description="kg/m^3")
-    damping: FloatProperty(name="Damping", default=0.0, min=0.0, max=1.0,
-                           description="Share of the velocity removed each step")
+    damping: FloatProperty(name="Damping per Step", default=0.0, min=0.0, max=1.0,
+                           description="Solver units: share of the velocity removed each step")
     substeps: IntProperty(name="Substeps", default=1, min=1, max=100, description="Time steps per frame")
     iterations: IntProperty(name="Iterations", default=10, min=1, max=1000,
-                            description="Local/global iterations per time step")
+                            description="Solver units: local/global iterations per time step")
+    # material units (settings version 1, docs/blender.md); Enable applies the default preset to those unset
+    settings_version: IntProperty(name="Settings Version", default=0, min=0,
+                                  description="0: made before material units (opens in solver units)")
+    use_solver_units: BoolProperty(name="Solver Units", default=False,
+                                   description="Raw k, damping per step and a fixed iteration count (files made "
+                                               "before material units); off: modulus, damping per second and "
+                                               "an error tolerance")
+    modulus: FloatProperty(name="Stiffness", default=5.0, min=1e-6, soft_min=0.01, soft_max=1000.0, precision=2,
+                           description="Young's modulus in MPa of the material at 1 m: the same value gives the "
+                                       "same relative sag and the same motion (in units of the body's size) at "
+                                       "any size and particle count")
+    damping_rate: FloatProperty(name="Damping", default=0.3, min=0.0, soft_max=20.0,
+                                description="Velocity lost per second (independent of the frame rate)")
+    tolerance: FloatProperty(name="Tolerance", default=0.002, min=1e-6, max=10.0, precision=4, step=0.1,
+                             subtype='PERCENTAGE',
+                             description="Quality: each step iterates until its error (the largest move of a "
+                                         "particle in the last iteration) is below this share of the body's "
+                                         "size; smaller is more accurate and slower")
+    max_iterations: IntProperty(name="Max Iterations", default=100, min=1, max=10000,
+                                description="The most iterations a step may take to reach the tolerance")
+    use_frame_rate_substeps: BoolProperty(name="Match Frame Rate", default=False,
+                                          description="Substeps of at most 1/240 s, so that the motion looks the "
+                                                      "same at any frame rate (10 at 24 fps, 4 at 60)")
     pose_iterations: IntProperty(name="Pose Iterations", default=30, min=1, max=10000,
                                  description="Iterations per static solve in posing mode")
     pose_gravity: BoolProperty(name="Gravity", default=False,

@@ -14,13 +14,15 @@ import numpy as np
 
 from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
-from ..core import loader
+from ..core import bake_files, loader
+from ..core import settings as core_settings
 from ..core.frames import BakeFrames
 from ..core.engine import Engine, EngineError, original_input
-from . import modifier
+from . import catch_up, modifier, presets
 
 MODIFIER_NAME = "OPDeform Cache"
 RECENT_FRAMES = 3  # outputs kept for subframes (motion blur) between the last frames shown
+CATCH_UP_SECONDS = 0.1  # simulation per frame change in the UI; a far jump goes on in blender/catch_up.py
 
 
 class AddonError(Exception):
@@ -42,6 +44,8 @@ class Runtime:
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
         self.baking = False  # a bake computes frames without writing the offset
+        # seconds of simulation per frame change (None: all the frames asked for, as scripts and renders need)
+        self.budget = None if bpy.app.background else CATCH_UP_SECONDS
         self.timing = {}
 
     def remember(self, frame, out):
@@ -217,12 +221,16 @@ def frame_rate(scene):
     return scene.render.fps / scene.render.fps_base
 
 
-def sim_params(settings, scene):
+def gravity(settings, scene):
     use = scene.use_gravity and (settings.mode == 'DYNAMIC' or settings.pose_gravity)
-    gravity = tuple(scene.gravity) if use else (0.0, 0.0, 0.0)
-    return dict(stiffness=settings.stiffness, density=settings.density,
-                dt=1.0 / (frame_rate(scene) * settings.substeps), iterations=settings.iterations,
-                gravity=gravity, damping=settings.damping)
+    return tuple(scene.gravity) if use else (0.0, 0.0, 0.0)
+
+
+def sim_settings(settings, scene, graph):
+    """(Simulation parameters, set_solver arguments) of the settings for this graph (core/settings.py)."""
+    fps = frame_rate(scene)
+    return core_settings.solver_settings(module(), graph, presets.units(settings, fps), fps,
+                                         gravity(settings, scene))
 
 
 def floor(settings):
@@ -232,8 +240,8 @@ def floor(settings):
 def signature(settings, scene):
     """Everything a bake depends on, as text: a bake whose signature differs is outdated."""
     hs = tuple((h.target.name, h.vertex, h.use_rotation, round(h.strength, 9)) for h in active_handles(settings))
-    p = sim_params(settings, scene)
-    parts = (graph_key(settings), sorted(p.items()), settings.substeps, floor(settings), settings.pin_strength,
+    parts = (graph_key(settings), presets.units(settings, frame_rate(scene)), gravity(settings, scene),
+             floor(settings), settings.pin_strength,
              hs, frame_range(settings, scene), settings.mode, goal_strength(settings))
     return repr(parts)
 
@@ -259,7 +267,11 @@ def configure(rt, obj, scene, depsgraph=None):
     s = obj.opdeform
     bind_new_handles(rt, s, depsgraph)
     e = rt.engine
-    e.configure(sim_params(s, scene), s.substeps, floor(s), *frame_range(s, scene))
+    params, solver = sim_settings(s, scene, e.graph)
+    try:
+        e.configure(params, presets.substeps(s, frame_rate(scene)), floor(s), *frame_range(s, scene), solver)
+    except EngineError as exc:
+        raise AddonError(f"{obj.name}: {exc}") from None
     pins = rt.pins or (np.zeros(0, np.int64), None)
     handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
@@ -382,8 +394,10 @@ def is_live(obj):
     modifier on)."""
     s = obj.opdeform
     mod = modifier.get(obj) if obj.type == 'MESH' else None
+    rt = get(obj)
+    baking = rt is not None and rt.baking  # a new bake replaces the old one's modifier when it finishes
     return (s.enabled and s.built and not s.error and mod is not None and mod.show_viewport
-            and obj.mode != 'EDIT' and not (s.baked and cache_modifier(obj) is not None))
+            and obj.mode != 'EDIT' and not (s.baked and cache_modifier(obj) is not None and not baking))
 
 
 # -- per frame -----------------------------------------------------------------------------------------
@@ -406,13 +420,17 @@ def frame_update(obj, scene, depsgraph=None):
         return rt
     targets = handle_targets(rt, s, depsgraph)
     try:
-        out = rt.engine.goto(frame, targets, incoming, matrix)
+        out = rt.engine.goto(frame, targets, incoming, matrix, None if rt.baking else rt.budget)
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
-    rt.remember(frame, out)
+    shown = frame - rt.engine.behind
+    if rt.engine.behind:
+        catch_up.start()  # the frames still missing are simulated in the background of the UI
+    else:
+        rt.remember(frame, out)
     t1 = time.perf_counter()
     show(obj, rt, rt.engine.offset)
-    rt.shown = ("rest" if frame <= rt.engine.start else "frame", frame)
+    rt.shown = ("rest" if frame <= rt.engine.start else "frame", shown)
     t2 = time.perf_counter()
     rt.timing = dict(rt.engine.timing, total=t2 - t0, write=t2 - t1)
     return rt
@@ -453,9 +471,21 @@ def bake_path(obj):
     return os.path.join(cache_folder(folder), name), os.path.join(folder, name)
 
 
+def identity(obj):
+    """What finds an object again after a rename: its session_uid (Blender 3.5+), else its address."""
+    return getattr(obj, "session_uid", None) or obj.as_pointer()
+
+
+def find_object(ident, name):
+    """The object of an identity(), else of the name."""
+    return next((o for o in bpy.data.objects if identity(o) == ident), None) or bpy.data.objects.get(name)
+
+
 class BakeJob(BakeFrames):
     """A bake one frame at a time: live playback's own code path (frame_set runs the frame handler) writing
-    every frame to a PC2 file. Stopping early keeps the frames written so far."""
+    every frame to a PC2 file. Stopping early keeps the frames written so far. Everything is checked and the
+    output file opened (core/bake_files.py) before the scene changes; the previous bake and its Mesh Cache
+    modifier stay until this one finishes with frames."""
 
     def __init__(self, obj, scene):
         s = obj.opdeform
@@ -470,22 +500,31 @@ class BakeJob(BakeFrames):
             raise AddonError("the cache's end frame is before its start frame")
         self.path, self.stored_path = bake_path(obj)
         self.rt = ensure(obj, scene) or build(obj, scene)
-        self.obj_name = obj.name
+        if self.rt.baking:
+            raise AddonError(f"{obj.name!r} is being baked already")
+        try:
+            self.writer = module().io.PC2Writer(bake_files.prepare(self.path), self.rt.engine.n_vertices, self.start, 1.0,
+                                                atomic=False)
+        except OSError as exc:
+            raise AddonError(f"{obj.name}: {exc}") from None
+        self.obj_name, self.obj_ident = obj.name, identity(obj)
         self.scene = scene
         self.frame = self.start
         self.original_frame = scene.frame_current
-        mod = cache_modifier(obj)
-        if mod is not None:
-            obj.modifiers.remove(mod)
-        s.baked = False
         self.rt.engine.invalidate()
         self.rt.baking = True
-        self.writer = module().io.PC2Writer(self.path, self.rt.engine.n_vertices, self.start, 1.0, atomic=False)
         self.started = time.perf_counter()
 
     @property
     def obj(self):
-        return bpy.data.objects.get(self.obj_name)
+        obj = find_object(self.obj_ident, self.obj_name)
+        if obj is not None and obj.name != self.obj_name:  # renamed: the runtime follows (keyed by name < 3.5)
+            _runtimes.pop(self.obj_name, None)
+            _runtimes[key(obj)] = self.rt
+            self.obj_name = obj.name
+            from . import handlers
+            handlers.mark_discovery()
+        return obj
 
     def step(self):
         """Bakes one frame. Raises AddonError when the simulation reported an error."""
@@ -508,8 +547,13 @@ class BakeJob(BakeFrames):
         obj = self.obj
         count = self.writer.count
         if obj is None or count == 0:
+            bake_files.discard(self.path)
             return count
+        bake_files.commit(self.path)
         s = obj.opdeform
+        old = cache_modifier(obj)
+        if old is not None:
+            obj.modifiers.remove(old)
         mod = obj.modifiers.new(MODIFIER_NAME, 'MESH_CACHE')
         mod.cache_format = 'PC2'
         mod.filepath = self.stored_path
@@ -545,20 +589,22 @@ def _move_after_opdeform(obj, mod):
 
 
 def free_bake(obj, delete_file=True):
+    """Removes the Mesh Cache modifier; deletes the PC2 file only if this add-on's bake wrote it. Returns the
+    path of a file kept because it was not (None otherwise)."""
     s = obj.opdeform
     mod = cache_modifier(obj)
     path = bpy.path.abspath(mod.filepath) if mod is not None else (bpy.path.abspath(s.bake_file)
                                                                   if s.bake_file else "")
     if mod is not None:
         obj.modifiers.remove(mod)
-    if delete_file and path and path.endswith(".pc2") and os.path.isfile(path):
-        os.remove(path)
+    kept = path if delete_file and path and os.path.isfile(path) and not bake_files.delete(path) else None
     s.baked = False
     s.bake_file = ""
     s.bake_signature = ""
     rt = get(obj)
     if rt is not None:
         rt.engine.invalidate()
+    return kept
 
 
 def bake_outdated(obj, scene):

@@ -1,18 +1,34 @@
 """In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities) and the
-handle targets and goal frames that produced them. A few kilobytes per frame for a hundred particles: the skinned vertices are
-not kept, they are recomputed from the state when a cached frame is shown."""
+handle targets and goal frames that produced them. A few kilobytes per frame for a hundred particles: the skinned
+vertices are not kept, they are recomputed from the state when a cached frame is shown.
+
+Bounded: at most ``CACHE_BYTES`` (256 MiB; about 18,000 frames of 100 particles, 1,800 of 1,000). Past it the
+oldest frames after the start are dropped (the start frame is always kept); showing a dropped frame replays
+from the start (core/frames.py). A bake writes every frame to its file as it goes, so nothing baked is lost."""
 
 import numpy as np
 
+CACHE_BYTES = 256 * 2 ** 20
+
+
+def _nbytes(entry):
+    state, targets, goals = entry
+    arrays = [*state, *(() if targets is None else (targets,)), *(() if goals is None else goals)]
+    return sum(np.asarray(a).nbytes for a in arrays)
+
 
 class StateCache:
-    def __init__(self):
+    def __init__(self, max_bytes=CACHE_BYTES):
         self.frames = {}
         self.last = None
+        self.keep = None  # the start frame: never dropped
+        self.max_bytes = max_bytes
+        self.bytes = 0
 
     def clear(self):
         self.frames.clear()
         self.last = None
+        self.bytes = 0
 
     def __contains__(self, frame):
         return frame in self.frames
@@ -20,10 +36,25 @@ class StateCache:
     def __len__(self):
         return len(self.frames)
 
+    @property
+    def first(self):
+        """The oldest frame kept after the start (None: none)."""
+        return next((f for f in self.frames if f != self.keep), None)
+
     def store(self, frame, state, targets, goals=None):
-        self.frames[frame] = (state, None if targets is None else np.array(targets, copy=True), goals)
+        self._drop(frame)
+        entry = (state, None if targets is None else np.array(targets, copy=True), goals)
+        self.frames[frame] = entry
+        self.bytes += _nbytes(entry)
         if self.last is None or frame > self.last:
             self.last = frame
+        while self.bytes > self.max_bytes and len(self.frames) > 2:
+            self._drop(self.first)
+
+    def _drop(self, frame):
+        entry = self.frames.pop(frame, None)
+        if entry is not None:
+            self.bytes -= _nbytes(entry)
 
     def state(self, frame):
         return self.frames[frame][0]
@@ -37,5 +68,5 @@ class StateCache:
     def truncate(self, keep_until):
         """Drops the frames after keep_until (what follows is outdated); keeps the rest."""
         for f in [f for f in self.frames if f > keep_until]:
-            del self.frames[f]
+            self._drop(f)
         self.last = max(self.frames) if self.frames else None

@@ -17,9 +17,11 @@ import time
 
 import numpy as np
 
+from . import checks
 from . import frames as frame_logic
 from . import handles as handle_math
 from .cache import StateCache
+from .frame_report import FrameReports, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 
@@ -116,6 +118,10 @@ class Engine:
         self._handle_ids = []
         self._pin_ids = []
         self.cache = StateCache()
+        self.reports = FrameReports()
+        self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
+        self.thin_part = checks.thin_part(od.materials, self.graph, self.rest, triangles)
+        self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
         self.timing = {"solver": 0.0, "skin": 0.0}
@@ -126,9 +132,13 @@ class Engine:
     def n_vertices(self):
         return len(self.rest)
 
-    def configure(self, params, substeps=1, floor=None, start=1, end=250):
+    def configure(self, params, substeps=1, floor=None, start=1, end=250, solver=None):
         """params: stiffness, density, dt (per substep), iterations, gravity, damping. floor: (height, friction)
-        or None. A change clears the in-memory cache (it is outdated). Returns True when something changed."""
+        or None. solver: ``set_solver`` arguments (None: the default solver). A change clears the in-memory
+        cache (it is outdated). Returns True when something changed."""
+        error = frame_logic.range_error(int(start), int(end))
+        if error:
+            raise EngineError(error)
         params = dict(params, skin_neighbors=self.neighbors)
         changed = False
         if self.sim is None:
@@ -138,6 +148,11 @@ class Engine:
             self.sim.set_params(**params)
             changed = True
         self._params = params
+        solver = solver or dict(accelerator="none", tolerance=0.0)
+        if solver != self._solver:
+            self.sim.set_solver(**solver)
+            self._solver = solver
+            changed = True
         if floor != self._floor:
             if floor is None:
                 self.sim.clear_floor()
@@ -148,6 +163,7 @@ class Engine:
         if int(substeps) != self._substeps or (int(start), int(end)) != (self.start, self.end):
             self._substeps = max(1, int(substeps))
             self.start, self.end = int(start), max(int(end), int(start))
+            self.cache.keep = self.start
             changed = True
         if changed:
             self.invalidate()
@@ -155,6 +171,7 @@ class Engine:
 
     def invalidate(self, keep_until=None):
         """Marks the cache outdated: all of it, or the frames after keep_until."""
+        self.reports.truncate(keep_until)
         if keep_until is None:
             self.cache.clear()
             self.solver_frame = None
@@ -289,18 +306,21 @@ class Engine:
         return self.out
 
     # -- frames ---------------------------------------------------------------------------------------
-    def goto(self, frame, targets=None, incoming=None, matrix=None):
+    def goto(self, frame, targets=None, incoming=None, matrix=None, budget=None):
         """The object-space vertices (float32 (V, 3), ``self.out``; ``self.offset`` is what was added to the
         input) of ``frame`` with handle targets (H, 4, 3) and the input (V, 3) and transform (4, 4) at that
         frame (None: the rest mesh and the transform at Build). Simulates what the cache lacks (see
-        core/frames.py); frames skipped by a jump get blended handle targets and goals."""
+        core/frames.py); frames skipped by a jump get blended handle targets and goals. ``budget`` (seconds,
+        None: no limit): stop simulating once it is spent and show the last frame reached; ``self.behind`` says
+        how many frames are still missing (a later call goes on from there)."""
         self.timing = {"solver": 0.0, "skin": 0.0}
+        self.behind = 0
         incoming = self.rest_local if incoming is None else incoming
         if not np.all(np.isfinite(incoming)):
             raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
         matrix = check_matrix(matrix) if self.goal_strength is not None else self.matrix_world
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
-        plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame)
+        plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame, self.cache.first)
         if plan.kind == "rest":
             return self.rest_output(incoming)
         if plan.kind == "reset":
@@ -310,12 +330,15 @@ class Engine:
             state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
             return self._emit(state[0], state[1], self._reference(cached), incoming, matrix)
         if plan.restore == "reset":
+            self.cache.truncate(self.start)
             self.reset(targets, goals)
         elif plan.restore is not None:
             self._restore(plan.restore)
         last = self.solver_frame
         before, before_goals = self.cache.targets(last), self.cache.goals(last)
         t0 = time.perf_counter()
+        fps = 1.0 / (self._params["dt"] * self._substeps)
+        shown = plan.frame
         for k in plan.steps:
             u = (k - last) / (plan.frame - last)
             tk = targets if k == plan.frame or targets is None or before is None else \
@@ -325,11 +348,18 @@ class Engine:
             self._apply_targets(tk)
             self._apply_goals(gk)
             self.sim.step(self._substeps)
+            handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
+                                   else None, tk, self._substeps, fps)
             self.solver_frame = k
             self.cache.store(k, self._state(), tk, gk)
+            self.reports.store(k, report(self.od.materials, self.sim, handle))
+            if budget is not None and k < plan.frame and time.perf_counter() - t0 > budget:
+                shown, self.behind = k, plan.frame - k
+                break
         self.timing["solver"] += time.perf_counter() - t0
-        pos, rot = self.cache.state(plan.frame)[:2]
-        return self._emit(pos, rot, self._reference(goals), incoming, matrix)
+        pos, rot = self.cache.state(shown)[:2]
+        return self._emit(pos, rot, self._reference(goals if shown == plan.frame else self.cache.goals(shown)),
+                          incoming, matrix)
 
     def pose(self, targets, iterations, incoming=None):
         """Posing mode: the static ARAP pose for the targets, warm-started from the current state."""

@@ -1,0 +1,38 @@
+"""Settings versions of ``Object.opdeform`` (core/settings.py). Version 0 (files saved before material units)
+keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
+stored or default). On a file load (handlers.on_load_post) every such object is marked so (``use_solver_units``), which the Advanced
+sub-panel shows; an object read without a load (appended, linked) is treated the same way
+(``uses_solver_units``). Enabling oriented particles on an object stamps the current version and gives the
+settings the user has not set the default preset (Rubber) and Match Frame Rate."""
+
+from ..core import settings as core_settings
+
+
+def uses_solver_units(s):
+    return s.use_solver_units or s.settings_version < core_settings.SETTINGS_VERSION
+
+
+def stamp(s):
+    """Enabled now: a new object gets the current version and, unless in solver units, the default preset for
+    the settings not set by hand or script."""
+    if not s.enabled or s.settings_version >= core_settings.SETTINGS_VERSION:
+        return
+    from . import presets, runtime
+    if not s.use_solver_units:
+        try:
+            presets.apply(s, presets.default_name(), only_unset=True)
+        except runtime.AddonError:  # opdeform did not load (the panel says so): the defaults stay
+            pass
+        if not s.is_property_set("use_frame_rate_substeps") and not s.is_property_set("substeps"):
+            s.use_frame_rate_substeps = True
+    s.settings_version = core_settings.SETTINGS_VERSION
+
+
+def upgrade(objects):
+    """Objects of an older file run in solver units from now on, visibly."""
+    for obj in objects:
+        s = getattr(obj, "opdeform", None)
+        if s is not None and obj.library is None and s.enabled and \
+                s.settings_version < core_settings.SETTINGS_VERSION:
+            s.use_solver_units = True
+            s.settings_version = core_settings.SETTINGS_VERSION

@@ -1,0 +1,64 @@
+"""The panel's settings in the artist's units (issue 14), free of bpy: the material presets, and the solver
+parameters they mean for one body (``opdeform.materials``).
+
+Two kinds of objects:
+- **material units** (objects enabled with this version): Stiffness is a modulus in MPa at 1 m
+  (``materials.stiffness_for`` turns it into the solver's k for the body's graph and size, so the same value
+  looks the same at any size and particle count), Damping a rate per second, Quality an error tolerance per
+  step (% of the body's size, Chebyshev-accelerated, at most Max Iterations pairs);
+- **solver units** (the Advanced sub-panel's toggle; every object of a file saved before settings version 1):
+  the raw k, a per-step damping share and a fixed iteration count, exactly as before. Setting ``stiffness``
+  from a script turns it on, so scripts written for k keep their meaning.
+"""
+
+from dataclasses import dataclass
+
+SETTINGS_VERSION = 1  # stamped on an object when oriented particles are enabled; 0: a file made before
+CUSTOM = "Custom"
+MPA = 1e6
+PERCENT = 100.0
+
+
+@dataclass(frozen=True)
+class Units:
+    """The dynamics settings as the panel holds them."""
+    solver_units: bool
+    modulus: float  # MPa at 1 m
+    stiffness: float  # k, solver units
+    density: float
+    damping_rate: float  # per second
+    damping: float  # per-step share, solver units
+    tolerance: float  # % of the body's size
+    max_iterations: int
+    iterations: int  # per step, solver units
+    substeps: int
+
+
+def preset_values(materials, name):
+    """The panel's values of a preset of ``materials.PRESETS``: modulus (MPa), density, damping_rate,
+    tolerance (%)."""
+    m = materials.PRESETS[name]
+    return dict(modulus=m.modulus / MPA, density=m.density, damping_rate=m.damping,
+                tolerance=m.tolerance * PERCENT)
+
+
+def matching_preset(materials, values, rel=1e-4):
+    """The name of the preset whose values these are (within ``rel``), else CUSTOM."""
+    for name in materials.PRESETS:
+        ref = preset_values(materials, name)
+        if all(abs(values[k] - v) <= rel * abs(v) for k, v in ref.items()):
+            return name
+    return CUSTOM
+
+
+def solver_settings(od, graph, u, fps, gravity):
+    """(Simulation parameters, ``set_solver`` arguments) of the settings for this graph at ``fps``."""
+    dt = 1.0 / (fps * u.substeps)
+    params = dict(density=u.density, dt=dt, iterations=u.iterations, gravity=tuple(gravity))
+    if u.solver_units:
+        return dict(params, stiffness=u.stiffness, damping=u.damping), dict(accelerator="none", tolerance=0.0)
+    m = od.materials
+    params.update(stiffness=m.stiffness_for(graph, u.modulus * MPA),
+                  damping=m.step_damping(u.damping_rate, dt))
+    return params, dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=u.tolerance / PERCENT,
+                        max_iterations=u.max_iterations)

@@ -1,0 +1,72 @@
+"""The add-on's bpy-free parts of issues 14 and 15 (items 4 and 5): material units, the frame plan with a
+bounded cache, the error plot, bake files and their ownership."""
+
+import os
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import opdeform
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
+from opdeform_blender.core import bake_files, frame_report, frames, settings  # noqa: E402
+from opdeform_blender.core.cache import StateCache  # noqa: E402
+
+
+def test_presets_and_material_units():
+    m = opdeform.materials
+    rubber = settings.preset_values(m, "Rubber")
+    assert settings.matching_preset(m, rubber) == "Rubber"
+    assert settings.matching_preset(m, dict(rubber, modulus=rubber["modulus"] * 1.01)) == settings.CUSTOM
+    g = opdeform.Graph.from_mesh(*opdeform.meshes.bar(), particles=30)
+    u = settings.Units(False, 5.0, 1e5, 1100.0, 0.3, 0.0, 0.002, 100, 10, 10)
+    params, solver = settings.solver_settings(opdeform, g, u, 24.0, (0, 0, -9.81))
+    assert params["stiffness"] == pytest.approx(m.stiffness_for(g, 5e6)) and params["dt"] == pytest.approx(1 / 240)
+    assert solver == dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=pytest.approx(2e-5), max_iterations=100)
+    raw = settings.solver_settings(opdeform, g, replace(u, solver_units=True), 24.0, (0, 0, 0))
+    assert raw[0]["stiffness"] == 1e5 and raw[0]["damping"] == 0.0 and raw[1]["tolerance"] == 0.0
+
+
+def test_far_plans_are_lazy_and_ranges_bounded():
+    p = frames.plan(2 ** 31 - 1, -2 ** 31, 2 ** 31 - 1, None, None)  # before: a 2^32-element tuple
+    assert isinstance(p.steps, range) and len(p.steps) == 2 ** 32 - 1
+    assert "at most 100,000" in frames.range_error(-2 ** 31, 1)
+    assert frames.range_error(1, 100_000) is None
+    p = frames.plan(5, 1, 100, 50, 50, first=20)  # frame 5 was dropped: replay from the start
+    assert p.restore == "reset" and tuple(p.steps) == (2, 3, 4, 5)
+
+
+def test_cache_keeps_its_size_and_the_start_frame():
+    c = StateCache(max_bytes=10_000)
+    c.keep = 1
+    state = tuple(np.zeros((10, 3)) for _ in range(4))  # 960 bytes
+    for f in range(1, 101):
+        c.store(f, state, None)
+    assert c.bytes <= 10_000 and 1 in c and c.last == 100 and c.first == 100 - len(c) + 2
+
+
+def test_error_plot_marks_the_tolerance_and_errors_above_it():
+    img = frame_report.plot([1e-5, 2e-5, 5e-5, 1e-6], 2e-5, 60, 20)
+    assert img.shape == (20, 60, 4) and img.dtype == np.float32
+    pixels = img.reshape(-1, 4)
+    for colour in (frame_report.OVER, frame_report.TOLERANCE, frame_report.LINE):
+        assert np.isclose(pixels, colour).all(axis=1).any(), colour
+
+
+def test_bake_files_and_ownership(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    with pytest.raises(bake_files.BakeFileError, match="cannot create the cache folder"):
+        bake_files.prepare(str(blocker / "sub" / "a.pc2"))
+    path = str(tmp_path / "out" / "a.pc2")
+    Path(bake_files.prepare(path)).write_bytes(b"frames")
+    bake_files.commit(path)
+    assert bake_files.owned(path) and not os.path.exists(path + bake_files.PART)
+    foreign = tmp_path / "b.pc2"
+    foreign.write_bytes(b"theirs")
+    assert not bake_files.delete(str(foreign)) and foreign.exists()
+    Path(path).write_bytes(b"replaced by hand")
+    assert not bake_files.delete(path) and os.path.exists(path)
