@@ -88,6 +88,7 @@ def _fake_package(tmp_path, body):
 
 def test_loader_messages(tmp_path, monkeypatch):
     saved = {k: v for k, v in sys.modules.items() if k == "opdeform" or k.startswith("opdeform.")}
+    monkeypatch.setattr(sys, "path", list(sys.path))  # the loader puts the fake packages' folders first
     try:
         monkeypatch.setenv(loader.ENV_VAR, str(tmp_path / "nowhere"))
         mod, error = loader.load("nopackage", str(tmp_path), force=True)
