@@ -47,8 +47,10 @@ SMOKE_HOSTS = tuple(f"bpy-{v}" for v in BPY_VERSIONS if bpy_venv(v).resolve() !=
 # playback), save and reload, every panel drawn, a goal with a Subdivision after OPDeform, a tumbling bake
 SMOKE = {"suite_addon": ("test_register_unregister_twice", "test_build_play_bake_free_rebake",
                          "test_bake_equals_playback", "test_save_reload_continues", "test_panels_draw_in_every_state"),
-         "suite_goals": ("test_subdivision_after_plays_and_bakes",),
-         "suite_tumbling": ("test_bake_writes_frames_and_point_cloud",)}
+         "suite_goals": ("test_subdivision_after_opdeform_plays_live",),
+         "suite_tumbling": ("test_bake_plays_frames_with_orientation_and_instances",)}
+# OPDEFORM_FULL_MATRIX=1 (scripts/test --long): SMOKE_HOSTS run every test of the suites instead
+FULL_MATRIX = os.environ.get("OPDEFORM_FULL_MATRIX") == "1"
 VMEM_BYTES = int(float(os.environ.get("OPDEFORM_BLENDER_VMEM_GB", "16")) * 2 ** 30)  # each Blender's ulimit -v
 
 
@@ -81,7 +83,10 @@ def host_missing(host):
 
 
 def _limit_memory():
-    resource.setrlimit(resource.RLIMIT_AS, (VMEM_BYTES, VMEM_BYTES))
+    """ulimit -v for a Blender the tests start (never above a limit already set)."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    limit = VMEM_BYTES if hard == resource.RLIM_INFINITY else min(VMEM_BYTES, hard)
+    resource.setrlimit(resource.RLIMIT_AS, (limit, hard))
 
 
 def host_env(extra=None, with_module=True):
@@ -115,7 +120,7 @@ def suite_results(host, suite, tmp_root):
     if key not in _results:
         tmp = tmp_root / f"{host}-{suite}"
         tmp.mkdir(parents=True, exist_ok=True)
-        names = list(SMOKE.get(suite, ())) if host in SMOKE_HOSTS else []
+        names = list(SMOKE.get(suite, ())) if host in SMOKE_HOSTS and not FULL_MATRIX else []
         proc = run_host(host, BLENDER_TESTS / "runner.py", [suite, *names],
                         host_env({"OPDEFORM_TEST_TMP": str(tmp)}))
         records = {}
@@ -164,8 +169,19 @@ def test_mesh_cache_without_addon(host, host_tmp):
     assert proc.returncode == 0 and "MESHCACHE_OK" in proc.stdout, proc.stdout[-3000:] + proc.stderr[-3000:]
 
 
+def _smoke_cases():
+    suites = ("suite_addon", "suite_goals", "suite_tumbling", "suite_robustness") if FULL_MATRIX else SMOKE
+    return [(suite, name) for suite in suites for name in (suite_names(suite) if FULL_MATRIX else SMOKE[suite])]
+
+
 @pytest.mark.parametrize("host", SMOKE_HOSTS)
-@pytest.mark.parametrize("suite,name", [(suite, name) for suite, names in SMOKE.items() for name in names])
+@pytest.mark.parametrize("suite,name", _smoke_cases())
 def test_addon_smoke(host, suite, name, host_tmp):
-    """The lighter matrix test: SMOKE's tests of the suites in the bpy modules that do not run them in full."""
+    """The lighter matrix test: SMOKE's tests of the suites in the bpy modules that do not run them in full
+    (every test of every suite with OPDEFORM_FULL_MATRIX=1)."""
     check_suite_test(host, suite, name, host_tmp)
+
+
+def test_smoke_names_exist():
+    for suite, names in SMOKE.items():
+        assert set(names) <= set(suite_names(suite)), (suite, sorted(set(names) - set(suite_names(suite))))

@@ -114,6 +114,10 @@ def test_wheel_needs_glibc_2_28_and_no_system_library(wheel_dir):
     assert "$ORIGIN/../opdeform.libs" in section
     symbols = subprocess.run(["objdump", "-T", str(core)], capture_output=True, text=True, check=True).stdout
     assert "cholmod_factorize" not in symbols  # linked in, hidden: neither needed from nor offered to others
+    # python/opdeform/_core.map: the module offers its init function only (not the C core's od_* functions)
+    defined = subprocess.run(["nm", "-D", "--defined-only", str(core)], capture_output=True, text=True,
+                             check=True).stdout
+    assert [line.split()[-1] for line in defined.splitlines() if line.strip()] == ["PyInit__core"], defined
 
 
 def hidden_libraries():
