@@ -114,6 +114,10 @@ def test_wheel_needs_glibc_2_28_and_no_system_library(wheel_dir):
     assert "$ORIGIN/../opdeform.libs" in section
     symbols = subprocess.run(["objdump", "-T", str(core)], capture_output=True, text=True, check=True).stdout
     assert "cholmod_factorize" not in symbols  # linked in, hidden: neither needed from nor offered to others
+    # python/opdeform/_core.map: the module offers its init function only (not the C core's od_* functions)
+    defined = subprocess.run(["nm", "-D", "--defined-only", str(core)], capture_output=True, text=True,
+                             check=True).stdout
+    assert [line.split()[-1] for line in defined.splitlines() if line.strip()] == ["PyInit__core"], defined
 
 
 def hidden_libraries():
@@ -189,9 +193,11 @@ def test_extension_lists_the_wheel(packages):
 @pytest.mark.parametrize("version", BPY_VERSIONS)
 def test_blender_validator(packages, version):
     """`blender --command extension validate` of that bpy accepts the add-on's source folder and the zip."""
+    why = host_missing(f"bpy-{version}")  # under CI, fails when the set-up installed it without saying why not
+    if why:
+        pytest.skip(why)
     ext = blender_ext(version)
-    if ext is None:
-        pytest.skip(f"bpy {version} is not installed (scripts/setup-bpy)")
+    assert ext is not None, f"bpy {version} has no blender_ext.py (bl_pkg)"
     for target in (ADDON, packages["extension"]):
         proc = subprocess.run([*ext, "validate", str(target)], capture_output=True, text=True, timeout=120)
         assert proc.returncode == 0 and "Success" in proc.stdout, proc.stdout + proc.stderr
@@ -249,10 +255,7 @@ HOSTS = [("blender", "legacy")] + [(f"bpy-{v}", "extension") for v in BPY_VERSIO
 @pytest.mark.parametrize("expect", ["ok", "broken"])
 def test_installs_and_runs(packages, host, kind, expect, tmp_path):
     """The smoke test: install the package into an empty user folder, enable, build, play, bake."""
-    if host == "blender":
-        why = host_missing(host)
-    else:
-        why = None if bpy_python(host[4:]).exists() else f"{host} is not installed (scripts/setup-bpy)"
+    why = host_missing(host)  # "blender" or "bpy-X.Y"; under CI a host the set-up installs must be there
     if why:
         pytest.skip(why)
     zip_path = packages[kind] if expect == "ok" else _broken_copy(packages[kind], tmp_path)
@@ -267,7 +270,6 @@ def test_installs_and_runs(packages, host, kind, expect, tmp_path):
         proc = subprocess.run([str(bpy_python(host[4:])), str(BLENDER_TESTS / "check_package.py"), *args],
                               capture_output=True, text=True, timeout=600, env=env, cwd=str(ROOT))
     assert f"PACKAGE_OK {kind} {expect}" in proc.stdout, proc.stdout[-4000:] + proc.stderr[-4000:]
-    # bpy 4.2 (the module, not Blender) crashes in its own exit handlers once this add-on was enabled:
-    # bpy_class_free -> PyGILState_Ensure after Python's finalization (gdb); every check above had passed.
-    exit_crash = host == "bpy-4.2" and proc.returncode == -11
-    assert proc.returncode == 0 or exit_crash, proc.stdout[-4000:] + proc.stderr[-4000:]
+    # every host exits cleanly, bpy 4.2 included (it crashed at exit before the add-on kept its modules
+    # alive for Python's finalization: __init__.py _keep_modules_alive)
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-4000:]

@@ -34,6 +34,17 @@ def test_every_public_name_has_a_docstring():
     assert not missing, missing
 
 
+def exported_symbols(path):
+    """The dynamic symbols a shared object defines (nm -D --defined-only)."""
+    out = subprocess.run(["nm", "-D", "--defined-only", str(path)], capture_output=True, text=True, check=True).stdout
+    return sorted(line.split()[-1] for line in out.splitlines() if line.strip())
+
+
+def test_compiled_module_exports_only_its_init():
+    """python/opdeform/_core.map: the C core's od_* functions, linked in from static libraries, stay local."""
+    assert exported_symbols(core.__file__) == ["PyInit__core"]
+
+
 def test_stubs_ship_and_name_the_compiled_module():
     folder = Path(core.__file__).parent
     assert (folder / "py.typed").exists()

@@ -51,7 +51,24 @@ def register():
     from .core import loader
     for m in _modules:
         m.register()
+    _keep_modules_alive()
     loader.load(ADDON_PACKAGE)  # errors are shown in the panel, never raised
+
+
+def _keep_modules_alive():
+    """Every registered class holds the add-on's module objects, so that Python's finalization wipes their
+    dicts. Without this, bpy 4.2 (the module) crashes at exit: it only shuts Blender down when the `bpy` module
+    object is freed; Python frees a module object when sys.modules is cleared but not its dict while a function
+    (a method, an update or poll callback, the overlay's draw callback) still refers to it as __globals__, and
+    Blender holds our classes (registered ones until its shutdown, PropertyGroups even after unregister in
+    4.2), so the dict kept `bpy` alive, Blender's static destructors ran after Python's end (bpy_class_free ->
+    PyGILState_Ensure: SIGSEGV). A module object still alive at finalization has its dict wiped, which ends
+    that chain (docs/packaging.md, "bpy 4.2 at exit")."""
+    names = (__name__, *(f"{__name__}.{name}" for name in MODULES))
+    alive = tuple(sys.modules[n] for n in names if n in sys.modules)
+    for m in _modules:
+        for cls in m.classes:
+            cls._opdeform_modules = alive
 
 
 def unregister():

@@ -1,10 +1,13 @@
-"""Headless regression renders (run by scripts/render inside Debian's Blender):
+"""Headless regression renders (run by scripts/render in Debian's Blender or in a bpy module):
 
     blender -b --factory-startup --python-exit-code 1 -P render_scenes.py -- --out DIR [--update] [--docs DIR]
+    <python with bpy> render_scenes.py --out DIR [--update] [--docs DIR]
 
 Builds two scenes in code with the add-on, bakes them, renders chosen frames with Cycles on the CPU (fixed
-seed and sample count, no denoiser, 160 x 120) and compares them with tests/reference/*.png; compares the baked
-vertex positions at those frames with tests/reference/*_vertices.npz. --update rewrites the references.
+seed and sample count, no denoiser, 160 x 120) and compares them with this Blender version's references,
+tests/reference/<major.minor>/*.png (Cycles renders differ between Blender versions); compares the baked
+vertex positions at those frames with tests/reference/*_vertices.npz, shared by every version (the bake is
+opdeform's, the same everywhere). --update rewrites this version's images and the shared vertices.
 --docs also renders the documentation figures (larger, the ellipsoids drawn as geometry) into DIR.
 
 Scenes: "creature" (opdeform.meshes.creature(), 100 particles, falls on a floor with friction) and "bar"
@@ -28,7 +31,9 @@ import helpers as H  # noqa: E402
 from opdeform.blender_render import RESOLUTION, SAMPLES, SEED, camera, material, setup_render  # noqa: E402
 from opdeform.render import IMAGE_FRACTION, IMAGE_MEAN, PIXEL, VERTEX_TOLERANCE, image_difference  # noqa: E402
 
-REFERENCE = os.path.join(H.ROOT, "tests", "reference")
+REFERENCE = os.path.join(H.ROOT, "tests", "reference")  # the baked vertices, shared by every version
+VERSION = "%d.%d" % tuple(bpy.app.version[:2])
+REFERENCE_IMAGES = os.path.join(REFERENCE, VERSION)  # Cycles differs between versions: one set per version
 SCENES = {
     "creature": dict(frames=(1, 20, 60), end=60),
     "bar": dict(frames=(1, 24, 48), end=48),
@@ -69,6 +74,15 @@ def build_creature(scene):
     return obj
 
 
+def action_fcurves(action):
+    """The F-curves of an action: Action.fcurves up to 4.x, the layered action's channel bags from 4.4 (the only
+    way in 5.0, where Action.fcurves is gone)."""
+    if hasattr(action, "layers") and action.layers:
+        return [fc for layer in action.layers for strip in layer.strips for bag in strip.channelbags
+                for fc in bag.fcurves]
+    return list(action.fcurves)
+
+
 def build_bar(scene):
     from opdeform import meshes
     v, t = meshes.bar()
@@ -95,7 +109,9 @@ def build_bar(scene):
         handle.rotation_euler = (angle, 0.0, 0.0)
         handle.keyframe_insert("location", frame=f)
         handle.keyframe_insert("rotation_euler", frame=f)
-    for fc in (handle.animation_data.action.fcurves if hasattr(handle.animation_data.action, "fcurves") else []):
+    fcurves = action_fcurves(handle.animation_data.action)
+    assert fcurves, "the handle's keys were not found"
+    for fc in fcurves:
         for k in fc.keyframe_points:
             k.interpolation = 'LINEAR'
     scene.frame_set(1)
@@ -189,10 +205,15 @@ def run(args):
             path = os.path.join(args.out, f"{name}_{f:03d}.png")
             scene.render.filepath = path
             bpy.ops.render.render(write_still=True)
-            ref_png = os.path.join(REFERENCE, f"{name}_{f:03d}.png")
+            ref_png = os.path.join(REFERENCE_IMAGES, f"{name}_{f:03d}.png")
             if args.update:
+                os.makedirs(REFERENCE_IMAGES, exist_ok=True)
                 shutil.copyfile(path, ref_png)
-            ok, text = compare_image(path, ref_png)
+            if not os.path.exists(ref_png):
+                ok, text = False, f"no reference for Blender {VERSION} ({ref_png}: scripts/render --update " \
+                                  "in this host makes them)"
+            else:
+                ok, text = compare_image(path, ref_png)
             lines.append(f"{name} frame {f}: {text} {'ok' if ok else 'FAIL'}")
             if not ok:
                 failures.append(lines[-1])
@@ -217,7 +238,7 @@ def run(args):
         print(f"render: {len(failures)} comparison(s) FAILED (tolerance above; scripts/render --update "
               "rewrites the references after an intended change)")
         return 1
-    print(f"render: all {len(lines)} comparisons within tolerance ({bpy.app.version_string}, Cycles CPU, "
+    print(f"render: all {len(lines)} comparisons within tolerance ({H.host()}, references {VERSION}, Cycles CPU, "
           f"{SAMPLES} samples, seed {SEED}, {RESOLUTION[0]}x{RESOLUTION[1]})")
     return 0
 
