@@ -27,9 +27,11 @@ ADDON_PACKAGE = __package__ or __name__
 # order, so that a change anywhere is picked up; tests/test_addon_core.py checks that every file is listed. Those
 # with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
 # order. A new feature (e.g. an MPM panel) adds its modules here.
-MODULES = ("core", "core.loader", "core.pc2", "core.frames", "core.cache", "core.handles", "core.engine",
-           "core.tumbling", "blender", "blender.modifier", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
-           "blender.properties", "blender.operators", "blender.panels", "blender.handlers", "blender.overlay")
+MODULES = ("core", "core.loader", "core.pc2", "core.frames", "core.cache", "core.handles", "core.tumbling",
+           "core.colliders", "core.fields", "core.engine", "blender", "blender.modifier", "blender.colliders",
+           "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
+           "blender.properties", "blender.collider_properties", "blender.operators", "blender.panels",
+           "blender.collider_panels", "blender.handlers", "blender.overlay")
 
 if "_modules" in locals():  # F8 / script reload: Blender reloads this file; reload the modules first
     for _name in MODULES:

@@ -16,8 +16,9 @@ from .. import ADDON_PACKAGE
 from ..core import handles as handle_math
 from ..core import loader, pc2
 from ..core.frames import BakeFrames
+from ..core.colliders import ColliderError
 from ..core.engine import Engine, EngineError, original_input
-from . import modifier
+from . import colliders, modifier
 
 MODIFIER_NAME = "OPDeform Cache"
 RECENT_FRAMES = 3  # outputs kept for subframes (motion blur) between the last frames shown
@@ -406,8 +407,8 @@ def frame_update(obj, scene, depsgraph=None):
         return rt
     targets = handle_targets(rt, s, depsgraph)
     try:
-        out = rt.engine.goto(frame, targets, incoming, matrix)
-    except EngineError as exc:
+        out = rt.engine.goto(frame, targets, incoming, matrix, colliders.surroundings(obj, scene, depsgraph))
+    except (EngineError, ColliderError) as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     rt.remember(frame, out)
     t1 = time.perf_counter()
