@@ -61,6 +61,8 @@ def collider_frame(name, vertices, triangles, matrix, friction, thickness, resol
         raise ColliderError(f"collider {name!r} is an open mesh with inconsistent normals (a face wound against "
                             "its neighbours): Mesh > Normals > Recalculate Outside")
     rotation, stretch, translation = split_matrix(matrix)
+    if np.allclose(stretch, np.eye(3), rtol=0.0, atol=1e-6):
+        stretch = np.eye(3)  # unscaled (to float32's precision): the vertices exactly, a flat mesh stays flat
     return ColliderFrame(name, vertices @ stretch.T, triangles, rotation, translation, float(friction),
                          float(thickness), int(resolution))
 

@@ -35,7 +35,7 @@ def field(name, kind, strength, matrix, falloff="SPHERE", power=0.0, min_distanc
     if not (np.all(np.isfinite(numbers)) and np.all(np.isfinite(m))):
         raise ColliderError(f"force field {name!r}: its strength, settings or transform are not finite (NaN)")
     axis = m[:3, 2]
-    if not np.linalg.norm(axis) > 1e-12 or not size > 0.0:
+    if not np.linalg.norm(axis) > 1e-12 or (kind == "TURBULENCE" and not size > 0.0):
         raise ColliderError(f"force field {name!r}: its axis (z) is degenerate or its size is not > 0")
     return Field(name, kind, float(strength), tuple(m[:3, 3]), tuple(axis / np.linalg.norm(axis)), falloff,
                  float(power), float(min_distance), float(max_distance), float(noise), float(flow), float(size),
@@ -109,3 +109,15 @@ def wind_velocity(fields, point, drag):
     p = np.asarray(point, dtype=np.float64).reshape(1, 3)
     steady = [f._replace(noise=0.0) for f in fields]
     return accelerations(steady, p, np.zeros_like(p), 0)[0] / drag
+
+
+def mpm_wind(wind, fields, point, drag=8.0):
+    """The tumbling world's wind settings (core/tumbling.py's ``settings_dict``; None: off) with the fields' air
+    velocity at point (the domain's centre) added to its mean velocity; without a wind of its own, a uniform
+    one relaxing at ``drag`` (the Tumbling Particles' default Air Drag)."""
+    if not fields:
+        return wind
+    wind = dict(wind or {"kind": "noise", "amplitude": 0.0, "exponent": 0.0, "drag": drag})
+    wind["velocity"] = tuple(np.add(wind.get("velocity", (0.0, 0.0, 0.0)), wind_velocity(fields, point,
+                                                                                           wind["drag"])))
+    return wind
