@@ -17,6 +17,7 @@ from ..core import fields as field_logic
 
 FRICTION_SCALE = 0.1  # Coulomb mu = Collision's Friction (0..80, Blender's default 5) / 10
 _FIELD_WEIGHTS = {"WIND": "wind", "FORCE": "force", "VORTEX": "vortex", "TURBULENCE": "turbulence"}
+_reader = core.ColliderReader()  # an unchanged collider is read without its checks, as the same record
 
 
 def _in(collection, obj):
@@ -54,8 +55,8 @@ def read_collider(obj, depsgraph):
     vertices, triangles = _mesh_arrays(evaluated)
     c = obj.collision
     resolution = core.DEFORMING_RESOLUTION if may_deform(obj) else core.STATIC_RESOLUTION
-    return core.collider_frame(obj.name, vertices, triangles, np.array(evaluated.matrix_world),
-                               FRICTION_SCALE * c.cloth_friction, c.thickness_outer, resolution)
+    return _reader.frame(obj.name, vertices, triangles, np.array(evaluated.matrix_world),
+                         FRICTION_SCALE * c.cloth_friction, c.thickness_outer, resolution)
 
 
 def _field_weight(weights, kind):

@@ -41,30 +41,57 @@ def open_mesh_wound_against(triangles):
     return len(np.unique(directed, axis=0)) < len(directed)
 
 
-def collider_frame(name, vertices, triangles, matrix, friction, thickness, resolution=STATIC_RESOLUTION):
-    """A ColliderFrame from an object's local vertices (V, 3), triangles (T, 3) and 4x4 world matrix;
-    ColliderError naming the object on bad input."""
-    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
-    triangles = np.asarray(triangles, dtype=np.int32).reshape(-1, 3)
-    matrix = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
+def check_mesh(name, vertices, triangles):
     if len(triangles) == 0:
         raise ColliderError(f"collider {name!r} has no faces: a Collision modifier needs a mesh with faces")
     if not np.all(np.isfinite(vertices)):
         raise ColliderError(f"collider {name!r} has non-finite (NaN or infinite) vertices")
+    if open_mesh_wound_against(triangles):
+        raise ColliderError(f"collider {name!r} is an open mesh with inconsistent normals (a face wound against "
+                            "its neighbours): Mesh > Normals > Recalculate Outside")
+
+
+def collider_frame(name, vertices, triangles, matrix, friction, thickness, resolution=STATIC_RESOLUTION,
+                   mesh_checked=False):
+    """A ColliderFrame from an object's local vertices (V, 3), triangles (T, 3) and 4x4 world matrix;
+    ColliderError naming the object on bad input (the mesh's checks skipped when already passed)."""
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    triangles = np.asarray(triangles, dtype=np.int32).reshape(-1, 3)
+    matrix = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
+    if not mesh_checked:
+        check_mesh(name, vertices, triangles)
     if not (np.all(np.isfinite(matrix)) and abs(np.linalg.det(matrix[:3, :3])) > 1e-12):
         raise ColliderError(f"collider {name!r}: its transform is degenerate or not finite")
     if not (np.isfinite(thickness) and thickness > 0.0):
         raise ColliderError(f"collider {name!r}: thickness {thickness} must be > 0")
     if not (np.isfinite(friction) and friction >= 0.0):
         raise ColliderError(f"collider {name!r}: friction {friction} must be >= 0")
-    if open_mesh_wound_against(triangles):
-        raise ColliderError(f"collider {name!r} is an open mesh with inconsistent normals (a face wound against "
-                            "its neighbours): Mesh > Normals > Recalculate Outside")
     rotation, stretch, translation = split_matrix(matrix)
     if np.allclose(stretch, np.eye(3), rtol=0.0, atol=1e-6):
         stretch = np.eye(3)  # unscaled (to float32's precision): the vertices exactly, a flat mesh stays flat
     return ColliderFrame(name, vertices @ stretch.T, triangles, rotation, translation, float(friction),
                          float(thickness), int(resolution))
+
+
+class ColliderReader:
+    """Each collider's last input and ColliderFrame: the same input gives the same record (its arrays the same
+    objects, so comparing frames costs nothing), a mesh seen before skips its checks."""
+
+    def __init__(self):
+        self.seen = {}
+
+    def frame(self, name, vertices, triangles, matrix, friction, thickness, resolution):
+        inputs = (np.asarray(matrix, dtype=np.float64), float(friction), float(thickness), int(resolution))
+        last = self.seen.get(name)
+        mesh_same = last is not None and np.array_equal(last[0], vertices) and np.array_equal(last[1], triangles)
+        if mesh_same and np.array_equal(last[2][0], inputs[0]) and last[2][1:] == inputs[1:]:
+            return last[3]
+        out = collider_frame(name, vertices, triangles, *inputs, mesh_checked=mesh_same)
+        if mesh_same:
+            out = out._replace(vertices=last[3].vertices, triangles=last[3].triangles) \
+                if np.array_equal(out.vertices, last[3].vertices) else out._replace(triangles=last[3].triangles)
+        self.seen[name] = (vertices, triangles, inputs, out)
+        return out
 
 
 def same_shape(a, b):
@@ -73,8 +100,12 @@ def same_shape(a, b):
             and (a.triangles is b.triangles or np.array_equal(a.triangles, b.triangles)))
 
 
+def same_vertices(a, b):
+    return a.vertices is b.vertices or np.array_equal(a.vertices, b.vertices)
+
+
 def same_frame(a, b):
-    return (same_shape(a, b) and np.array_equal(a.vertices, b.vertices) and np.array_equal(a.rotation, b.rotation)
+    return (same_shape(a, b) and same_vertices(a, b) and np.array_equal(a.rotation, b.rotation)
             and np.array_equal(a.translation, b.translation) and (a.friction, a.thickness) == (b.friction,
                                                                                                b.thickness))
 
@@ -131,7 +162,7 @@ class SceneColliders:
             self.place(colliders)
             return
         for cid, was, c in zip(self.ids, self.current, colliders):
-            if not np.array_equal(was.vertices, c.vertices):
+            if not same_vertices(was, c):
                 self._call(c, self.sim.update_collider_vertices, cid, c.vertices)
             if (was.friction, was.thickness) != (c.friction, c.thickness):
                 self._call(c, self.sim.set_collider_contact, cid, c.friction, c.thickness)
