@@ -2,7 +2,7 @@
 and Soft Body, in one Blender run.
 
 `scripts/bench colliders` starts Debian's Blender (one thread, `-t 1`) on this file. Inside it Suzanne
-(subdivided once, 1,968 vertices) falls 0.4 m onto a UV sphere (radius 1, 1,152 triangles) or a 30-degree
+(subdivided once, 1,968 vertices, stiffness 1e6) falls 0.4 m onto a UV sphere (radius 1, 1,152 triangles) or a 30-degree
 ramp (an 8 m grid, 512 triangles), each carrying a Collision modifier. Per collider, scenes of their own:
 opdeform at 100 and 1,000 particles with Scene Colliders on (contact) and off (free fall), and Soft Body
 (no goal, its default edges and collision) in the file's scene (Blender simulates Soft Body only there).
@@ -23,6 +23,7 @@ HERE = os.path.abspath(__file__)
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
 FRAMES = 48
 PARTICLES = (100, 1000)
+STIFFNESS = 1e6  # Suzanne keeps its shape when it lands (1e5 flattens it)
 SOFT_BODY = "Soft Body"
 
 
@@ -37,7 +38,7 @@ def _collider(kind, scene):
     return obj
 
 
-def _suzanne(scene, kind):
+def suzanne(scene, kind):
     import math
 
     import bpy
@@ -59,9 +60,9 @@ def _suzanne(scene, kind):
 
 def _opdeform(scene, kind, particles, contact):
     import bpy
-    obj = _suzanne(scene, kind)
+    obj = suzanne(scene, kind)
     s = obj.opdeform
-    s.particles, s.stiffness = particles, 1e5
+    s.particles, s.stiffness = particles, STIFFNESS
     obj.opdeform_contact.use_colliders = contact
     with bpy.context.temp_override(scene=scene):
         bpy.ops.opdeform.enable(object=obj.name)
@@ -70,7 +71,7 @@ def _opdeform(scene, kind, particles, contact):
 
 
 def _soft_body(scene, kind):
-    obj = _suzanne(scene, kind)
+    obj = suzanne(scene, kind)
     obj.modifiers.new("Softbody", 'SOFT_BODY')
     obj.soft_body.use_goal = False
     return obj
