@@ -13,9 +13,7 @@ and Soft Body's ms over opdeform's (the aim: >= 50x).
 
 import json
 import os
-import re
 import statistics
-import subprocess
 import sys
 import time
 
@@ -144,19 +142,10 @@ def _report(result):
 
 
 def run(args):
-    from .common import out_dir
-    data = os.path.join(out_dir("colliders"), "colliders.json")
-    module_dir = next((p for p in sys.path if os.path.isfile(os.path.join(p, "opdeform", "__init__.py"))), None)
-    env = dict(os.environ, OPDEFORM_PYTHONPATH=os.path.abspath(module_dir), OMP_NUM_THREADS="1")
-    env.pop("PYTHONPATH", None)
-    cmd = [os.path.join(ROOT, "scripts", "blender"), "-b", "--factory-startup", "-t", "1", "--python-exit-code",
-           "1", "-P", HERE, "--", "--inside", data]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1800)
-    if not re.search(r"^COLLIDERS_BENCH", proc.stdout, re.M):
-        print(f"Blender failed\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
-        return
-    with open(data) as f:
-        _report(json.load(f))
+    from .common import blender_json, out_dir
+    result = blender_json(HERE, "COLLIDERS_BENCH", os.path.join(out_dir("colliders"), "colliders.json"))
+    if result is not None:
+        _report(result)
 
 
 if __name__ == "__main__" and "--inside" in sys.argv:
