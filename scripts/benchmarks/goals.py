@@ -19,9 +19,7 @@ animation (settle). The plot of the tip angles goes to out/bench/goals/goal_tail
 import json
 import math
 import os
-import re
 import statistics
-import subprocess
 import sys
 import time
 
