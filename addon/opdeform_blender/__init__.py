@@ -28,10 +28,12 @@ ADDON_PACKAGE = __package__ or __name__
 # with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
 # order. A new feature (e.g. an MPM panel) adds its modules here.
 MODULES = ("core", "core.loader", "core.bake_files", "core.frames", "core.cache", "core.handles",
-           "core.settings", "core.checks", "core.frame_report", "core.engine", "core.tumbling", "blender",
-           "blender.modifier", "blender.versioning", "blender.presets", "blender.catch_up", "blender.runtime",
-           "blender.point_cloud", "blender.tumbling_runtime", "blender.properties", "blender.operators",
-           "blender.panels", "blender.settings_panels", "blender.error_plot", "blender.handlers", "blender.overlay")
+           "core.settings", "core.checks", "core.frame_report", "core.tumbling", "core.colliders", "core.fields",
+           "core.engine", "blender", "blender.modifier", "blender.versioning", "blender.presets", "blender.catch_up",
+           "blender.colliders", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
+           "blender.properties", "blender.collider_properties", "blender.operators", "blender.panels",
+           "blender.settings_panels", "blender.collider_panels", "blender.error_plot", "blender.handlers",
+           "blender.overlay")
 
 if "_modules" in locals():  # F8 / script reload: Blender reloads this file; reload the modules first
     for _name in MODULES:

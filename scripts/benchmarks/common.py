@@ -29,3 +29,24 @@ def table(rows, headers):
     print("-" * len(line))
     for r in rows:
         print("  ".join(str(c).ljust(w) for c, w in zip(r, widths)))
+
+
+def blender_json(script, marker, data):
+    """Runs ``script`` inside Debian's Blender (one thread, the built opdeform module) with ``--inside data``;
+    the JSON it wrote to data, or None when no line starts with ``marker`` (the end of Blender's log printed)."""
+    import json
+    import re
+    import subprocess
+    import sys
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    module_dir = next((p for p in sys.path if os.path.isfile(os.path.join(p, "opdeform", "__init__.py"))), None)
+    env = dict(os.environ, OPDEFORM_PYTHONPATH=os.path.abspath(module_dir), OMP_NUM_THREADS="1")
+    env.pop("PYTHONPATH", None)
+    cmd = [os.path.join(root, "scripts", "blender"), "-b", "--factory-startup", "-t", "1", "--python-exit-code",
+           "1", "-P", script, "--", "--inside", data]
+    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1800)
+    if not re.search(rf"^{marker}", proc.stdout, re.M):
+        print(f"Blender failed\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+        return None
+    with open(data) as f:
+        return json.load(f)

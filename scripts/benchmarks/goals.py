@@ -19,9 +19,7 @@ animation (settle). The plot of the tip angles goes to out/bench/goals/goal_tail
 import json
 import math
 import os
-import re
 import statistics
-import subprocess
 import sys
 import time
 
@@ -227,20 +225,12 @@ def _report(result):
 
 
 def run(args):
-    from .common import out_dir
+    from .common import blender_json, out_dir
     png = args[args.index("--png") + 1] if "--png" in args else os.path.join(out_dir("goals"), "goal_tail.png")
     data = os.path.join(out_dir("goals"), "goals.json")
-    module_dir = next((p for p in sys.path if os.path.isfile(os.path.join(p, "opdeform", "__init__.py"))), None)
-    env = dict(os.environ, OPDEFORM_PYTHONPATH=os.path.abspath(module_dir), OMP_NUM_THREADS="1")
-    env.pop("PYTHONPATH", None)
-    cmd = [os.path.join(ROOT, "scripts", "blender"), "-b", "--factory-startup", "-t", "1", "--python-exit-code",
-           "1", "-P", HERE, "--", "--inside", data]
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1800)
-    if not re.search(r"^GOALS_BENCH", proc.stdout, re.M):
-        print(f"Blender failed\n{proc.stdout[-3000:]}\n{proc.stderr[-3000:]}")
+    result = blender_json(HERE, "GOALS_BENCH", data)
+    if result is None:
         return
-    with open(data) as f:
-        result = json.load(f)
     _report(result)
     _plot(result, png)
     print("plot:", png)

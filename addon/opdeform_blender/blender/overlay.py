@@ -8,6 +8,8 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from ..core.colliders import contact_points
+
 SEGMENTS = 16
 _handle = {"draw": None}
 _batches = {}
@@ -58,7 +60,8 @@ def _draw():
                 continue  # hidden while baked: the Mesh Cache modifier shows frames the particles no longer hold
             e = rt.engine
             pos, rot = e.shown_state
-            stamp = (id(pos), id(rot), obj.opdeform.show_edges)
+            show_contacts = obj.opdeform_contact.show_contacts
+            stamp = (id(pos), id(rot), obj.opdeform.show_edges, show_contacts)
             cached = _batches.get(k)
             if cached is None or cached[0] != stamp:
                 g = e.graph
@@ -68,10 +71,15 @@ def _draw():
                 if obj.opdeform.show_edges and g.n_edges:
                     batches.append((batch_for_shader(shader, 'LINES', {"pos": edge_lines(pos, g.edges)}),
                                     (1.0, 0.6, 0.1, 0.9)))
+                touching = contact_points(e.sim, pos, g.radii) if show_contacts else pos[:0]
+                if len(touching):  # the particles near or inside a collider (docs/blender.md, Collisions)
+                    batches.append((batch_for_shader(shader, 'POINTS', {"pos": touching.astype(np.float32)}),
+                                    (1.0, 0.1, 0.3, 1.0)))
                 cached = (stamp, batches)
                 _batches[k] = cached
             gpu.state.depth_test_set('LESS_EQUAL')
             gpu.state.line_width_set(1.5)
+            gpu.state.point_size_set(8.0)
             shader.bind()
             with gpu.matrix.push_pop():
                 gpu.matrix.multiply_matrix(Matrix(e.overlay_matrix(np.array(obj.matrix_world)).tolist()))

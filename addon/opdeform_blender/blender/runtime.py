@@ -17,8 +17,9 @@ from ..core import handles as handle_math
 from ..core import bake_files, loader
 from ..core import settings as core_settings
 from ..core.frames import BakeFrames
+from ..core.colliders import ColliderError
 from ..core.engine import Engine, EngineError, original_input
-from . import catch_up, modifier, presets
+from . import catch_up, colliders, modifier, presets
 
 MODIFIER_NAME = "OPDeform Cache"
 RECENT_FRAMES = 3  # outputs kept for subframes (motion blur) between the last frames shown
@@ -420,8 +421,9 @@ def frame_update(obj, scene, depsgraph=None):
         return rt
     targets = handle_targets(rt, s, depsgraph)
     try:
-        out = rt.engine.goto(frame, targets, incoming, matrix, None if rt.baking else rt.budget)
-    except EngineError as exc:
+        out = rt.engine.goto(frame, targets, incoming, matrix, colliders.surroundings(obj, scene, depsgraph),
+                             None if rt.baking else rt.budget)
+    except (EngineError, ColliderError) as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     shown = frame - rt.engine.behind
     if rt.engine.behind:

@@ -12,8 +12,10 @@ import importlib
 import bpy
 import numpy as np
 
+from ..core import fields as field_logic
 from ..core import tumbling as core
 from ..core.frames import BakeFrames
+from . import colliders as scene_colliders
 from . import point_cloud, runtime
 
 _baking = {"busy": False}
@@ -36,7 +38,7 @@ def _bake_frame(scene, frame):
     try:
         scene.frame_set(frame)
         yield
-    except (ValueError, RuntimeError) as exc:
+    except (ValueError, RuntimeError) as exc:  # core's and core/colliders.py's ColliderError
         raise runtime.AddonError(str(exc)) from None
     finally:
         _baking["busy"] = False
@@ -66,13 +68,28 @@ def emitted_positions(s, lower, upper, module):
     return core.fill_volume(module, s, verts, tris, np.array(obj.matrix_world))
 
 
-def colliders(s):
+def colliders(domain, scene):
+    """The collider collection's meshes (the domain's friction) and every Collision modifier's (its own
+    friction, see blender/colliders.py), each once."""
+    s = domain.opdeform_tumbling
+    own = [o for o in (s.colliders.all_objects if s.colliders else ()) if o.type == 'MESH']
+    found = {o.name: (o, s.collider_friction) for o in own}
+    for o in scene_colliders.collider_objects(scene, domain, domain.opdeform_contact):
+        found.setdefault(o.name, (o, scene_colliders.FRICTION_SCALE * o.collision.cloth_friction))
     out = []
-    for obj in (s.colliders.all_objects if s.colliders else ()):
-        if obj.type == 'MESH':
-            verts, tris = _local_mesh(obj, "collider")
-            out.append(core.Collider(obj.name, verts, tris, np.array(obj.matrix_world), s.collider_contact,
-                                     s.collider_friction))
+    for name in sorted(found):
+        obj, friction = found[name]
+        verts, tris = _local_mesh(obj, "collider")
+        out.append(core.Collider(name, verts, tris, np.array(obj.matrix_world), s.collider_contact, friction))
+    return out
+
+
+def settings(domain, scene, lower, upper):
+    """core/tumbling.py's settings with the scene's force fields (their uniform part) in the wind."""
+    s = domain.opdeform_tumbling
+    out = core.settings_dict(s, gravity(scene), lower, upper)
+    fields = scene_colliders.fields(scene, domain.opdeform_contact, bpy.context.evaluated_depsgraph_get())
+    out["wind"] = field_logic.mpm_wind(out["wind"], fields, (np.asarray(lower) + upper) / 2)
     return out
 
 
@@ -100,9 +117,9 @@ class BakeJob(BakeFrames):
         core.free_frames(self.path)
         with _bake_frame(scene, self.start):
             lower, upper = domain_box(obj)
-            found = colliders(s)
+            found = colliders(obj, scene)
             self.collider_names = [c.name for c in found]
-            self.bake = core.Bake(module, core.settings_dict(s, gravity(scene), lower, upper),
+            self.bake = core.Bake(module, settings(obj, scene, lower, upper),
                                   emitted_positions(s, lower, upper, module), found, self.path, self.start,
                                   self.end, runtime.frame_rate(scene))
         s.baked, s.error = False, ""

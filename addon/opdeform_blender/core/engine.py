@@ -18,9 +18,11 @@ import time
 import numpy as np
 
 from . import checks
+from . import fields as field_logic
 from . import frames as frame_logic
 from . import handles as handle_math
 from .cache import StateCache
+from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
 from .frame_report import FrameReports, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
@@ -111,6 +113,7 @@ class Engine:
         self.fit = None
         self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.sim = None
+        self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
         self._params = None
         self._substeps = 1
         self._floor = None
@@ -143,6 +146,7 @@ class Engine:
         changed = False
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
+            self.colliders = SceneColliders(self.sim)
             changed = True
         elif params != self._params:
             self.sim.set_params(**params)
@@ -261,10 +265,12 @@ class Engine:
         s = self.sim
         return (s.positions, s.rotations, s.velocities, s.angular_velocities)
 
-    def reset(self, targets=None, goals=None):
-        """The start frame: the rest state, or the goal frames at rest (velocity 0) with a goal; the cache's
-        start entry is (re)written."""
+    def reset(self, targets=None, goals=None, surroundings=NOTHING):
+        """The start frame: the rest state, or the goal frames at rest (velocity 0) with a goal, the colliders
+        placed where they are at the start; the cache's start entry is (re)written."""
         state = self._rest_state if goals is None else (goals[0], goals[1], *self._rest_state[2:])
+        self.colliders.place(surroundings.colliders)
+        self.colliders.remember(self.start, surroundings)
         self.sim.set_state(*state)
         self._apply_targets(targets)
         self._apply_goals(goals)
@@ -272,6 +278,7 @@ class Engine:
         self.cache.store(self.start, state, targets, goals)
 
     def _restore(self, frame):
+        self.colliders.place(self.colliders.at(frame, NOTHING).colliders)
         self.sim.set_state(*self.cache.state(frame))
         self.solver_frame = frame
 
@@ -306,13 +313,15 @@ class Engine:
         return self.out
 
     # -- frames ---------------------------------------------------------------------------------------
-    def goto(self, frame, targets=None, incoming=None, matrix=None, budget=None):
+    def goto(self, frame, targets=None, incoming=None, matrix=None, surroundings=NOTHING, budget=None):
         """The object-space vertices (float32 (V, 3), ``self.out``; ``self.offset`` is what was added to the
         input) of ``frame`` with handle targets (H, 4, 3) and the input (V, 3) and transform (4, 4) at that
-        frame (None: the rest mesh and the transform at Build). Simulates what the cache lacks (see
-        core/frames.py); frames skipped by a jump get blended handle targets and goals. ``budget`` (seconds,
-        None: no limit): stop simulating once it is spent and show the last frame reached; ``self.behind`` says
-        how many frames are still missing (a later call goes on from there)."""
+        frame (None: the rest mesh and the transform at Build), and the scene's colliders and force fields at
+        that frame (core/colliders.py ``Surroundings``, world space). Simulates what the cache lacks (see
+        core/frames.py); frames skipped by a jump get blended handle targets, goals and colliders; a cached
+        frame whose surroundings changed since is simulated again. ``budget`` (seconds, None: no limit): stop
+        simulating once it is spent and show the last frame reached; ``self.behind`` says how many frames are
+        still missing (a later call goes on from there)."""
         self.timing = {"solver": 0.0, "skin": 0.0}
         self.behind = 0
         incoming = self.rest_local if incoming is None else incoming
@@ -320,22 +329,25 @@ class Engine:
             raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
         matrix = check_matrix(matrix) if self.goal_strength is not None else self.matrix_world
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
+        if self.colliders.outdated(min(int(frame), self.end), surroundings):
+            self.invalidate(keep_until=min(int(frame), self.end) - 1)
         plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame, self.cache.first)
         if plan.kind == "rest":
             return self.rest_output(incoming)
         if plan.kind == "reset":
-            self.reset(targets, goals)
+            self.reset(targets, goals, surroundings)
             return self.rest_output(incoming)
         if plan.kind == "show":
             state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
             return self._emit(state[0], state[1], self._reference(cached), incoming, matrix)
         if plan.restore == "reset":
             self.cache.truncate(self.start)
-            self.reset(targets, goals)
+            self.reset(targets, goals, self.colliders.at(self.start, surroundings))
         elif plan.restore is not None:
             self._restore(plan.restore)
         last = self.solver_frame
         before, before_goals = self.cache.targets(last), self.cache.goals(last)
+        before_surroundings = self.colliders.at(last, surroundings)
         t0 = time.perf_counter()
         fps = 1.0 / (self._params["dt"] * self._substeps)
         shown = plan.frame
@@ -345,13 +357,16 @@ class Engine:
                 handle_math.blend(before, targets, u)
             gk = goals if k == plan.frame or goals is None or before_goals is None else \
                 blend_goals(before_goals, goals, u)
+            sk = surroundings if k == plan.frame else blend_surroundings(before_surroundings, surroundings, u)
             self._apply_targets(tk)
             self._apply_goals(gk)
+            self._surround(k, sk)
             self.sim.step(self._substeps)
             handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
                                    else None, tk, self._substeps, fps)
             self.solver_frame = k
             self.cache.store(k, self._state(), tk, gk)
+            self.colliders.remember(k, sk)
             self.reports.store(k, report(self.od.materials, self.sim, handle))
             if budget is not None and k < plan.frame and time.perf_counter() - t0 > budget:
                 shown, self.behind = k, plan.frame - k
@@ -360,6 +375,11 @@ class Engine:
         pos, rot = self.cache.state(shown)[:2]
         return self._emit(pos, rot, self._reference(goals if shown == plan.frame else self.cache.goals(shown)),
                           incoming, matrix)
+
+    def _surround(self, frame, surroundings):
+        """The colliders' frames at the end of the next step, and the force fields' push before it."""
+        self.colliders.move(surroundings.colliders)
+        field_logic.apply(self.sim, surroundings.fields, self._substeps * self._params["dt"], frame)
 
     def pose(self, targets, iterations, incoming=None):
         """Posing mode: the static ARAP pose for the targets, warm-started from the current state."""

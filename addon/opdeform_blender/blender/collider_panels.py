@@ -1,0 +1,79 @@
+"""Sub-panels "Collisions" and "Field Weights" of the Oriented Particles and Tumbling Particles panels, laid out
+like Cloth's Collisions and Soft Body's Field Weights (``Object.opdeform_contact``)."""
+
+import bpy
+
+from .panels import _PhysicsPanel, _SubPanel
+
+WEIGHTS = ("all", "wind", "force", "vortex", "turbulence")
+
+
+def _prepared(layout):
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+    return layout
+
+
+def draw_collisions(layout, settings):
+    layout = _prepared(layout)
+    layout.active = settings.use_colliders
+    layout.prop(settings, "collision_collection")
+    layout.prop(settings, "show_contacts")
+
+
+def draw_weights(layout, weights):
+    layout = _prepared(layout)
+    layout.prop(weights, "collection")
+    col = layout.column(align=True)
+    for name in WEIGHTS:
+        col.prop(weights, name, slider=True)
+
+
+class _TumblingSubPanel(_PhysicsPanel):
+    bl_parent_id = "PHYSICS_PT_opdeform_tumbling"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return obj is not None and obj.type == 'MESH' and obj.opdeform_tumbling.enabled
+
+
+class _Collisions:
+    bl_label = "Collisions"
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.opdeform_contact, "use_colliders", text="")
+
+    def draw(self, context):
+        draw_collisions(self.layout, context.object.opdeform_contact)
+
+
+class _FieldWeights:
+    bl_label = "Field Weights"
+
+    def draw(self, context):
+        draw_weights(self.layout, context.object.opdeform_contact.effector_weights)
+
+
+class PHYSICS_PT_opdeform_collisions(_Collisions, _SubPanel, bpy.types.Panel):
+    bl_options = {'DEFAULT_CLOSED'}
+
+
+class PHYSICS_PT_opdeform_field_weights(_FieldWeights, _SubPanel, bpy.types.Panel):
+    bl_options = {'DEFAULT_CLOSED'}
+
+
+class PHYSICS_PT_opdeform_tumbling_collisions(_Collisions, _TumblingSubPanel, bpy.types.Panel):
+    pass
+
+
+class PHYSICS_PT_opdeform_tumbling_field_weights(_FieldWeights, _TumblingSubPanel, bpy.types.Panel):
+    pass
+
+
+classes = (PHYSICS_PT_opdeform_collisions, PHYSICS_PT_opdeform_field_weights, PHYSICS_PT_opdeform_tumbling_collisions,
+           PHYSICS_PT_opdeform_tumbling_field_weights)
+
+# registers in the order of `classes`, unregisters in the reverse order
+register, unregister = bpy.utils.register_classes_factory(classes)

@@ -1,0 +1,50 @@
+"""Contact and force settings stored in the .blend: ``Object.opdeform_contact`` (OPDEFORM_ContactSettings) on an
+opdeform object or a tumbling domain, with its effector weights (OPDEFORM_EffectorWeights, Soft Body's and
+Cloth's ``effector_weights`` for the fields opdeform reads). blender/colliders.py reads them."""
+
+import bpy
+from bpy.props import BoolProperty, FloatProperty, PointerProperty
+
+
+def _weight(name):
+    return FloatProperty(name=name, default=1.0, min=-200.0, max=200.0, soft_min=0.0, soft_max=1.0,
+                         description=f"How much {name} fields push this object")
+
+
+class OPDEFORM_EffectorWeights(bpy.types.PropertyGroup):
+    collection: PointerProperty(name="Effector Collection", type=bpy.types.Collection,
+                                description="Only the force fields in this collection act (empty: every field "
+                                            "of the scene)")
+    all: FloatProperty(name="All", default=1.0, min=-200.0, max=200.0, soft_min=0.0, soft_max=1.0,
+                       description="Multiplies every field's push")
+    wind: _weight("Wind")
+    force: _weight("Force")
+    vortex: _weight("Vortex")
+    turbulence: _weight("Turbulence")
+
+
+class OPDEFORM_ContactSettings(bpy.types.PropertyGroup):
+    use_colliders: BoolProperty(name="Scene Colliders", default=True,
+                                description="Collide with every object that has a Collision modifier (off: "
+                                            "ignore them all)")
+    collision_collection: PointerProperty(name="Collision Collection", type=bpy.types.Collection,
+                                          description="Only the colliders in this collection (empty: every "
+                                                      "Collision modifier of the scene)")
+    effector_weights: PointerProperty(type=OPDEFORM_EffectorWeights)
+    show_contacts: BoolProperty(name="Contact Points", default=True,
+                                description="Mark the particles near or inside a collider in the viewport")
+
+
+classes = (OPDEFORM_EffectorWeights, OPDEFORM_ContactSettings)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.Object.opdeform_contact = PointerProperty(type=OPDEFORM_ContactSettings)
+
+
+def unregister():
+    del bpy.types.Object.opdeform_contact
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

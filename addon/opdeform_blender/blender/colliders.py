@@ -1,0 +1,93 @@
+"""The scene's colliders and force fields as core/colliders.py and core/fields.py records, read from the evaluated
+depsgraph of the frame: every object with a Collision modifier (its Friction and Outer Thickness; animated by
+its transform, deforming by its evaluated mesh) and every Wind, Force, Vortex and Turbulence field, filtered by
+the simulated object's contact settings (``Object.opdeform_contact``: Scene Colliders on or off, the Collision
+Collection, the effector weights with their collection, as Cloth and Soft Body have them).
+
+A collider that is switched off (Collision > Field Absorption's panel header, ``collision.use``) is skipped;
+so is the simulated object itself. Bad input raises core's ColliderError naming the object; the caller
+reports it and changes nothing.
+"""
+
+import bpy
+import numpy as np
+
+from ..core import colliders as core
+from ..core import fields as field_logic
+
+FRICTION_SCALE = 0.1  # Coulomb mu = Collision's Friction (0..80, Blender's default 5) / 10
+_FIELD_WEIGHTS = {"WIND": "wind", "FORCE": "force", "VORTEX": "vortex", "TURBULENCE": "turbulence"}
+_reader = core.ColliderReader()  # an unchanged collider is read without its checks, as the same record
+
+
+def _in(collection, obj):
+    return collection is None or obj.name in collection.all_objects
+
+
+def collision_modifier(obj):
+    return next((m for m in obj.modifiers if m.type == 'COLLISION' and m.show_viewport), None) \
+        if obj.type == 'MESH' else None
+
+
+def collider_objects(scene, obj, settings):
+    """The objects whose Collision modifier acts on obj (none while its Scene Colliders is off), by name."""
+    if not settings.use_colliders:
+        return []
+    return sorted((o for o in scene.objects if o != obj and collision_modifier(o) is not None and o.collision.use
+                   and _in(settings.collision_collection, o)), key=lambda o: o.name)
+
+
+def may_deform(obj):
+    """Whether the evaluated mesh may change from frame to frame (modifiers other than Collision, shape keys):
+    such colliders are sampled coarser, as they re-sample each frame they change."""
+    keys = obj.data.shape_keys
+    return keys is not None or any(m.type != 'COLLISION' for m in obj.modifiers)
+
+
+def _mesh_arrays(evaluated):
+    from . import runtime
+    mesh = evaluated.data
+    return runtime.vertex_positions(mesh).astype(np.float64), runtime.triangles(mesh)
+
+
+def read_collider(obj, depsgraph):
+    evaluated = obj.evaluated_get(depsgraph)
+    vertices, triangles = _mesh_arrays(evaluated)
+    c = obj.collision
+    resolution = core.DEFORMING_RESOLUTION if may_deform(obj) else core.STATIC_RESOLUTION
+    return _reader.frame(obj.name, vertices, triangles, np.array(evaluated.matrix_world),
+                         FRICTION_SCALE * c.cloth_friction, c.thickness_outer, resolution)
+
+
+def _field_weight(weights, kind):
+    return weights.all * getattr(weights, _FIELD_WEIGHTS[kind])
+
+
+def field_objects(scene, weights):
+    return sorted((o for o in scene.objects if o.field is not None and o.field.type in _FIELD_WEIGHTS
+                   and _in(weights.collection, o)), key=lambda o: o.name)
+
+
+def read_field(obj, weights, depsgraph):
+    f = obj.field
+    if not np.isfinite(f.strength):
+        raise core.ColliderError(f"force field {obj.name!r}: its strength is not finite (NaN)")
+    return field_logic.field(obj.name, f.type, f.strength * _field_weight(weights, f.type),
+                             np.array(obj.evaluated_get(depsgraph).matrix_world), f.falloff_type, f.falloff_power,
+                             f.distance_min if f.use_min_distance else 0.0,
+                             f.distance_max if f.use_max_distance else float("inf"),
+                             f.noise, f.flow, getattr(f, "size", 1.0), f.seed)
+
+
+def fields(scene, settings, depsgraph):
+    weights = settings.effector_weights
+    return tuple(read_field(o, weights, depsgraph) for o in field_objects(scene, weights)
+                 if _field_weight(weights, o.field.type) != 0.0)
+
+
+def surroundings(obj, scene, depsgraph=None):
+    """obj's colliders and force fields at the scene's frame; ColliderError on bad input."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    settings = obj.opdeform_contact
+    colliders = tuple(read_collider(o, depsgraph) for o in collider_objects(scene, obj, settings))
+    return core.Surroundings(colliders, fields(scene, settings, depsgraph))

@@ -1,0 +1,152 @@
+"""Collision modifiers in Blender: Suzanne dropped on a sphere and on a ramp, opdeform with and without contact
+and Soft Body, in one Blender run.
+
+`scripts/bench colliders` starts Debian's Blender (one thread, `-t 1`) on this file. Inside it Suzanne
+(subdivided once, 1,968 vertices, stiffness 1e6) falls 0.4 m onto a UV sphere (radius 1, 1,152 triangles) or a 30-degree
+ramp (an 8 m grid, 512 triangles), each carrying a Collision modifier. Per collider, scenes of their own:
+opdeform at 100 and 1,000 particles with Scene Colliders on (contact) and off (free fall), and Soft Body
+(no goal, its default edges and collision) in the file's scene (Blender simulates Soft Body only there).
+Every frame steps every scene in turn (interleaved), 48 frames; ms = process time of scene.frame_set (median
+of frames 2..48), solver = the add-on's own sim.step time. Printed: ms per frame, the contact / free ratio
+and Soft Body's ms over opdeform's (the aim: >= 50x).
+"""
+
+import json
+import os
+import statistics
+import sys
+import time
+
+HERE = os.path.abspath(__file__)
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
+FRAMES = 48
+PARTICLES = (100, 1000)
+STIFFNESS = 1e6  # Suzanne keeps its shape when it lands (1e5 flattens it)
+SOFT_BODY = "Soft Body"
+
+
+# -- inside Blender ------------------------------------------------------------------------------------------
+def _collider(kind, scene):
+    import bpy
+    import suite_colliders
+    obj = suite_colliders.collider(kind, name=f"{kind}_{scene.name}")
+    for c in obj.users_collection:
+        c.objects.unlink(obj)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def suzanne(scene, kind):
+    import math
+
+    import bpy
+    import numpy as np
+    bpy.ops.mesh.primitive_monkey_add(size=0.6)
+    obj = bpy.context.active_object
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    for c in obj.users_collection:
+        c.objects.unlink(obj)
+    scene.collection.objects.link(obj)
+    if kind == "sphere":
+        obj.location = (0.0, 0.0, 1.7)
+    else:
+        normal = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))])
+        obj.location = tuple(normal * 0.7)
+    return obj
+
+
+def _opdeform(scene, kind, particles, contact):
+    import bpy
+    obj = suzanne(scene, kind)
+    s = obj.opdeform
+    s.particles, s.stiffness = particles, STIFFNESS
+    obj.opdeform_contact.use_colliders = contact
+    with bpy.context.temp_override(scene=scene):
+        bpy.ops.opdeform.enable(object=obj.name)
+    assert s.built and not s.error, s.error
+    return obj
+
+
+def _soft_body(scene, kind):
+    obj = suzanne(scene, kind)
+    obj.modifiers.new("Softbody", 'SOFT_BODY')
+    obj.soft_body.use_goal = False
+    return obj
+
+
+def _scenes(kind):
+    """{label: (scene, object)} for one collider: opdeform's variants in scenes of their own, Soft Body in
+    the window's scene."""
+    import bpy
+    sys.path.insert(0, os.path.join(ROOT, "tests", "blender"))
+    import helpers as H
+    H.fresh()
+    out = {}
+    for particles in PARTICLES:
+        for contact in (True, False):
+            scene = bpy.data.scenes.new(f"{kind} {particles} {'contact' if contact else 'free'}")
+            _collider(kind, scene)
+            out[(particles, contact)] = (scene, _opdeform(scene, kind, particles, contact))
+    scene = bpy.context.scene
+    _collider(kind, scene)
+    out[SOFT_BODY] = (scene, _soft_body(scene, kind))
+    return out
+
+
+def _play(scenes, runtime):
+    times = {label: [] for label in scenes}
+    solver = {label: [] for label in scenes}
+    for f in range(1, FRAMES + 1):
+        for label, (scene, obj) in scenes.items():
+            t = time.process_time()
+            scene.frame_set(f)
+            times[label].append(time.process_time() - t)
+            rt = runtime.get(obj)
+            if rt is not None:
+                assert not obj.opdeform.error, (label, obj.opdeform.error)
+                solver[label].append(rt.engine.timing["solver"])
+    return {str(label): dict(ms=1e3 * statistics.median(times[label][1:]),
+                             solver_ms=1e3 * statistics.median(solver[label][1:]) if solver[label] else None)
+            for label in scenes}
+
+
+def _inside_blender(out_path):
+    import bpy
+    result = {}
+    for kind in ("sphere", "ramp"):
+        scenes = _scenes(kind)
+        import helpers as H
+        result[kind] = _play(scenes, H.runtime())
+    result["host"] = f"Blender {bpy.app.version_string}"
+    with open(out_path, "w") as f:
+        json.dump(result, f)
+    print("COLLIDERS_BENCH", out_path)
+
+
+# -- outside -------------------------------------------------------------------------------------------------
+def _report(result):
+    from .common import table
+    rows = []
+    for kind in ("sphere", "ramp"):
+        r = result[kind]
+        soft = r[SOFT_BODY]["ms"]
+        for particles in PARTICLES:
+            on, off = r[str((particles, True))], r[str((particles, False))]
+            rows.append((f"Suzanne on the {kind}, {particles} particles", f"{off['ms']:.2f}", f"{on['ms']:.2f}",
+                         f"{on['ms'] / off['ms']:.2f}", f"{on['solver_ms'] / off['solver_ms']:.2f}",
+                         f"{soft:.1f}", f"{soft / on['ms']:.0f}"))
+    print(result["host"], "(one process, -t 1, frames interleaved; ms = process time of scene.frame_set)")
+    table(rows, ["scene", "ms free", "ms contact", "contact/free", "solver contact/free", "Soft Body ms",
+                 "Soft Body / opdeform"])
+
+
+def run(args):
+    from .common import blender_json, out_dir
+    result = blender_json(HERE, "COLLIDERS_BENCH", os.path.join(out_dir("colliders"), "colliders.json"))
+    if result is not None:
+        _report(result)
+
+
+if __name__ == "__main__" and "--inside" in sys.argv:
+    _inside_blender(sys.argv[sys.argv.index("--inside") + 1])

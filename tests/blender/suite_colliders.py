@@ -1,0 +1,234 @@
+"""Collision modifiers and force fields in the add-on (run by tests/blender/runner.py inside Blender; see
+tests/test_addon_colliders.py). A blob (an icosphere, 0.6 m across) falls on a UV sphere and slides down a
+30-degree ramp that carry Blender's Collision modifier; wind fields push it and the tumbling flakes."""
+
+import math
+import os
+
+import bpy
+import numpy as np
+
+import helpers as H
+
+BLOB = 0.6  # the blob's size (diameter), m
+
+
+def collider(kind="sphere", friction=5.0, name=None, wave=0.0):
+    """A UV sphere (radius 1 at the origin) or a 30-degree ramp (an 8 m plane through the origin, tilted about
+    y so that it falls toward +x) with a Collision modifier (after a Wave of this height: a deforming one)."""
+    if kind == "sphere":
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=1.0, segments=48, ring_count=24)
+    else:
+        bpy.ops.mesh.primitive_grid_add(x_subdivisions=16, y_subdivisions=16, size=8.0,
+                                        rotation=(0.0, math.radians(30.0), 0.0))
+    obj = bpy.context.active_object
+    obj.name = name or kind.title()
+    if wave:
+        obj.modifiers.new("Wave", 'WAVE').height = wave
+    obj.modifiers.new("Collision", 'COLLISION')
+    obj.collision.cloth_friction = friction
+    obj.collision.thickness_outer = 0.02
+    return obj
+
+
+def blob(location=(0.0, 0.0, 1.6), name="Blob", particles=60, **settings):
+    bpy.ops.mesh.primitive_ico_sphere_add(radius=BLOB / 2, subdivisions=3, location=location)
+    obj = bpy.context.active_object
+    obj.name = name
+    s = obj.opdeform
+    s.particles, s.stiffness = particles, 1e5
+    for k, v in settings.items():
+        setattr(s, k, v)
+    bpy.ops.opdeform.enable(object=obj.name)
+    assert s.enabled and s.built and not s.error, s.error
+    return obj
+
+
+def world(obj):
+    m = np.array(obj.matrix_world)
+    return H.positions(obj) @ m[:3, :3].T + m[:3, 3]
+
+
+def play_world(obj, frames):
+    out = {}
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        assert not obj.opdeform.error, obj.opdeform.error
+        out[f] = world(obj)
+    return out
+
+
+def test_blob_rests_on_a_collision_sphere():
+    collider("sphere")
+    obj = blob()
+    frames = play_world(obj, range(1, 49))
+    deepest = max(1.0 - np.linalg.norm(v, axis=1).min() for v in frames.values())
+    assert deepest < 0.02 * BLOB, f"the skinned mesh sank {deepest / BLOB:.1%} of its size into the sphere"
+    assert frames[48][:, 2].mean() > 1.1, "the blob does not rest on the sphere"
+    rt = H.runtime().get(obj)
+    touching = __import__(H.ADDON + ".core.colliders", fromlist=["x"]).contact_points(
+        rt.engine.sim, *rt.engine.shown_state[:1], rt.engine.graph.radii)
+    assert len(touching) > 0, "no contact points for the overlay"
+    print("OPDEFORM_RESULT sphere_penetration_percent", round(100 * max(deepest, 0.0) / BLOB, 3))
+
+
+def _slide(friction):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    H.enable_addon()
+    ramp = collider("ramp", friction)
+    normal = np.array(ramp.matrix_world)[:3, 2]
+    start = normal * (BLOB / 2 + 0.05)
+    obj = blob(tuple(start))
+    frames = play_world(obj, range(1, 25))
+    down = np.array([math.cos(math.radians(30.0)), 0.0, -math.sin(math.radians(30.0))])
+    deepest = max(-(v @ normal).min() for v in frames.values())
+    assert deepest < 0.02 * BLOB, f"the skinned mesh sank {deepest / BLOB:.1%} of its size into the ramp"
+    return float((frames[24].mean(axis=0) - frames[1].mean(axis=0)) @ down), deepest
+
+
+def test_blob_slides_down_a_ramp_slower_with_friction():
+    free, deep_free = _slide(0.0)
+    rough, deep_rough = _slide(3.0)  # mu = 0.3
+    assert 0.1 < rough < 0.8 * free, (free, rough)
+    print("OPDEFORM_RESULT ramp_slide_m", round(free, 3), round(rough, 3), "penetration_percent",
+          round(100 * max(deep_free, deep_rough, 0.0) / BLOB, 3))
+
+
+def test_bake_equals_playback_with_moving_and_deforming_colliders():
+    ball = collider("sphere")
+    ball.keyframe_insert("location", frame=1)
+    ball.location = (0.3, 0.0, 0.4)
+    ball.keyframe_insert("location", frame=20)
+    collider("ramp", wave=0.1).location = (0.0, 0.0, -1.0)
+    obj = blob(frame_end=30)
+    live = H.play(range(1, 31))[obj.name]
+    again = H.play([12, 3, 30, 25, 1])[obj.name]
+    for f, co in again.items():
+        np.testing.assert_array_equal(co, live[f])
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "colliders.blend"))
+    bpy.ops.opdeform.bake(object=obj.name)
+    frames = H.pc2().read_pc2(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))[2]
+    for f in range(1, 31):
+        assert np.array_equal(frames[f - 1], live[f]), f"baked frame {f} differs from playback"
+
+
+def _falls_through(obj):
+    frames = play_world(obj, range(1, 25))
+    bpy.context.scene.frame_set(1)
+    return frames[24][:, 2].mean() < 0.5
+
+
+def test_colliders_can_be_ignored_per_object_and_collection():
+    sphere = collider("sphere")
+    obj = blob()
+    assert not _falls_through(obj)
+    obj.opdeform_contact.use_colliders = False
+    assert _falls_through(obj)
+    obj.opdeform_contact.use_colliders = True
+    others = bpy.data.collections.new("Others")
+    obj.opdeform_contact.collision_collection = others
+    assert _falls_through(obj)
+    others.objects.link(sphere)
+    assert not _falls_through(obj)
+    sphere.collision.use = False
+    assert _falls_through(obj)
+
+
+def _expect_report(obj, *words):
+    """The object pauses with an error naming the collider; the frame it showed is kept."""
+    before = H.positions(obj)
+    bpy.context.scene.frame_set(bpy.context.scene.frame_current + 1)
+    text = obj.opdeform.error
+    for w in words:
+        assert w.lower() in text.lower(), f"{text!r} does not mention {w!r}"
+    np.testing.assert_array_equal(H.positions(obj), before)
+    bpy.ops.opdeform.reset(object=obj.name)
+
+
+def test_bad_colliders_and_fields_are_reported():
+    obj = blob()
+    H.play(range(1, 4))
+    flat = H.mesh_object("Flat", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], edges=[(0, 1), (1, 2)])
+    flat.modifiers.new("Collision", 'COLLISION')
+    _expect_report(obj, "Flat", "no faces")
+    bpy.data.objects.remove(flat)
+    nan = collider("sphere", name="NanBall")
+    nan.data.vertices[0].co = (float("nan"), 0.0, 0.0)
+    _expect_report(obj, "NanBall", "non-finite")
+    bpy.data.objects.remove(nan)
+    ramp = collider("ramp", name="Twisted")
+    ramp.data.polygons[0].flip()
+    ramp.data.update()
+    _expect_report(obj, "Twisted", "normals")
+    bpy.data.objects.remove(ramp)
+    bpy.ops.object.effector_add(type='WIND')
+    wind = bpy.context.active_object
+    wind.field.strength = float("nan")
+    if not math.isnan(wind.field.strength):
+        return  # this Blender clamps NaN: nothing to report
+    _expect_report(obj, wind.name, "not finite")
+
+
+def _wind(strength=20.0):
+    bpy.ops.object.effector_add(type='WIND', rotation=(0.0, math.radians(90.0), 0.0))  # blows toward +x
+    field = bpy.context.active_object.field
+    field.strength, field.flow = strength, 0.0
+    return bpy.context.active_object
+
+
+def test_wind_pushes_the_body():
+    bpy.context.scene.use_gravity = False
+    obj = blob(location=(0.0, 0.0, 0.0))
+    _wind()
+    moved = play_world(obj, range(1, 25))
+    dx = moved[24][:, 0].mean() - moved[1][:, 0].mean()
+    assert 0.5 * 10.0 < dx < 1.2 * 10.0, dx  # a = 20 m/s^2 for 23 frames: 0.5 a t^2 = 9.2 m
+    obj.opdeform_contact.effector_weights.wind = 0.0
+    still = play_world(obj, range(1, 25))
+    assert abs(still[24][:, 0].mean() - still[1][:, 0].mean()) < 1e-6
+    print("OPDEFORM_RESULT wind_push_m", round(float(dx), 3))
+
+
+def _flakes_drift(with_wind):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    H.enable_addon()
+    v, t = H.box_mesh((0.0, 0.0, -0.1), (2.0, 1.0, 1.0), (2, 2, 2))
+    domain = H.mesh_object("Domain", v, t)
+    bpy.ops.opdeform.tumbling_enable(object=domain.name)
+    s = domain.opdeform_tumbling
+    s.dx, s.count, s.frame_start, s.frame_end, s.wind = 0.05, 200, 1, 12, "off"
+    s.cache_directory = os.path.join(H.tmpdir(), f"flakes_{with_wind}")
+    if with_wind:
+        _wind(5.0)
+    bpy.ops.opdeform.tumbling_bake(object=domain.name)
+    tumbling = __import__(H.ADDON + ".blender.tumbling_runtime", fromlist=["x"])
+    first = tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, 1)[0]
+    last = tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, 12)[0]
+    return float(last[:, 0].mean() - first[:, 0].mean())
+
+
+def test_wind_pushes_the_tumbling_flakes():
+    calm, windy = _flakes_drift(False), _flakes_drift(True)
+    assert windy > calm + 0.05, (calm, windy)
+    print("OPDEFORM_RESULT flakes_drift_m", round(calm, 3), round(windy, 3))
+
+
+def test_flakes_land_on_a_collision_sphere():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    H.enable_addon()
+    v, t = H.box_mesh((-1.0, -1.0, -0.1), (1.0, 1.0, 1.5), (2, 2, 2))
+    domain = H.mesh_object("Domain", v, t)
+    bpy.ops.opdeform.tumbling_enable(object=domain.name)
+    s = domain.opdeform_tumbling
+    s.dx, s.count, s.frame_start, s.frame_end, s.wind = 0.05, 300, 1, 24, "off"
+    s.layer_height, s.layer_thickness = 0.9, 0.05
+    s.cache_directory = os.path.join(H.tmpdir(), "flakes_sphere")
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.0, 0.0, 0.5))
+    bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
+    bpy.ops.opdeform.tumbling_bake(object=domain.name)
+    tumbling = __import__(H.ADDON + ".blender.tumbling_runtime", fromlist=["x"])
+    frames = [tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, f)[0] for f in range(1, 25)]
+    inside = [int((np.linalg.norm(p - (0.0, 0.0, 0.5), axis=1) < 0.5 - 0.05).sum()) for p in frames]
+    assert not any(inside), f"flakes inside the sphere: {inside}"
+    landed = frames[11][np.linalg.norm(frames[11][:, :2], axis=1) < 0.2]
+    assert len(landed) and landed[:, 2].min() > 0.95, "the flakes over the sphere did not land on its top"

@@ -1,0 +1,127 @@
+"""The add-on's colliders and force fields, bpy-free (addon/opdeform_blender/core/colliders.py, fields.py) and in
+Blender (tests/blender/suite_colliders.py, both hosts, run the way test_addon.py runs suite_addon)."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import opdeform
+from test_addon import HOSTS, check_suite_test, suite_names
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
+
+from opdeform_blender.core import colliders, fields  # noqa: E402
+from opdeform_blender.core.engine import Engine  # noqa: E402
+
+
+def sphere_collider(name="Ball", radius=1.0, z=0.0, friction=0.5, thickness=0.02):
+    v, f = opdeform.meshes.icosphere(radius, 3) if hasattr(opdeform.meshes, "icosphere") else _octasphere(radius)
+    m = np.eye(4)
+    m[2, 3] = z
+    return colliders.collider_frame(name, v, f, m, friction, thickness)
+
+
+def _octasphere(radius, n=12):
+    u, w = np.meshgrid(np.linspace(0, np.pi, n + 1)[1:-1], np.linspace(0, 2 * np.pi, 2 * n, endpoint=False))
+    ring = np.stack([np.sin(u) * np.cos(w), np.sin(u) * np.sin(w), np.cos(u)], -1).reshape(-1, 3)
+    v = np.vstack([ring, [[0, 0, 1], [0, 0, -1]]]) * radius
+    idx = np.arange(len(ring)).reshape(2 * n, n - 1)
+    tris = []
+    for a in range(2 * n):
+        b = (a + 1) % (2 * n)
+        tris += [[idx[a, 0], idx[b, 0], len(ring)], [idx[b, -1], idx[a, -1], len(ring) + 1]]
+        for k in range(n - 2):
+            tris += [[idx[a, k], idx[a, k + 1], idx[b, k + 1]], [idx[a, k], idx[b, k + 1], idx[b, k]]]
+    return v, np.array(tris)
+
+
+def blob_engine(z=1.6, particles=60):
+    v, f = _octasphere(0.3, 10)
+    e = Engine(opdeform, v + (0.0, 0.0, z), f, particles=particles)
+    e.configure(dict(stiffness=1e5, density=1000.0, dt=1 / 24, iterations=10, gravity=(0, 0, -9.81), damping=0.0),
+                end=100)
+    return e, v + (0.0, 0.0, z)
+
+
+def test_bad_colliders_are_named_and_refused():
+    v, f = _octasphere(1.0)
+    with pytest.raises(colliders.ColliderError, match="'Flat'.*no faces"):
+        colliders.collider_frame("Flat", v, np.zeros((0, 3)), np.eye(4), 0.5, 0.02)
+    bad = v.copy()
+    bad[3] = np.nan
+    with pytest.raises(colliders.ColliderError, match="'Nan'.*non-finite"):
+        colliders.collider_frame("Nan", bad, f, np.eye(4), 0.5, 0.02)
+    for t in (0.0, -0.1):
+        with pytest.raises(colliders.ColliderError, match="'Thin'.*thickness"):
+            colliders.collider_frame("Thin", v, f, np.eye(4), 0.5, t)
+    ramp = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    with pytest.raises(colliders.ColliderError, match="'Ramp'.*inconsistent normals"):
+        colliders.collider_frame("Ramp", ramp, [[0, 1, 2], [0, 3, 2]], np.eye(4), 0.5, 0.02)
+    assert colliders.collider_frame("Ramp", ramp, [[0, 1, 2], [0, 2, 3]], np.eye(4), 0.5, 0.02)
+    with pytest.raises(colliders.ColliderError, match="'Wind'.*not finite"):
+        fields.field("Wind", "WIND", float("nan"), np.eye(4))
+
+
+def test_blob_rests_on_a_sphere_and_replays_bit_for_bit():
+    e, rest = blob_engine()
+    around = colliders.Surroundings((sphere_collider(),), ())
+    seq = {f: e.goto(f, surroundings=around).copy() for f in range(1, 49)}
+    deepest = max(1.0 - np.linalg.norm(out, axis=1).min() for out in seq.values())
+    assert deepest < 0.02 * 0.6, deepest  # the skinned mesh stays out of the sphere (2 % of its size)
+    assert 1.1 < seq[48][:, 2].mean() < rest[:, 2].mean() - 0.3  # it fell 0.3 m and rests on top after 2 s
+    e2, _ = blob_engine()
+    for f in range(1, 49):
+        e2.goto(f, surroundings=around)
+    assert np.array_equal(e2.out, seq[48])
+    e.invalidate(keep_until=30)  # restore a cached frame: the colliders are placed as they were then
+    assert np.array_equal(e.goto(48, surroundings=around), seq[48])
+
+
+def test_moved_collider_outdates_the_cache_and_jumps_blend():
+    e, _ = blob_engine()
+    low = colliders.Surroundings((sphere_collider(z=-0.5),), ())
+    for f in range(1, 11):
+        e.goto(f, surroundings=low)
+    moved = colliders.Surroundings((sphere_collider(z=-0.4),), ())
+    e.goto(5, surroundings=moved)
+    assert e.cache.last == 5
+    e.goto(20, surroundings=moved)  # a jump: frames 6..19 simulated with the colliders blended
+    assert e.cache.last == 20 and e.colliders.history[12].colliders[0].translation[2] == pytest.approx(-0.4)
+
+
+def test_fields_push_and_fall_off():
+    pts = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
+    wind = fields.field("W", "WIND", 10.0, np.eye(4), falloff="PLANE", power=1.0)
+    a = fields.accelerations([wind], pts, np.zeros_like(pts), 1)
+    assert np.allclose(a[:, :2], 0) and a[0, 2] == pytest.approx(5.0) and a[1, 2] == pytest.approx(2.5)
+    vortex = fields.field("V", "VORTEX", 2.0, np.eye(4))
+    assert np.allclose(fields.accelerations([vortex], np.array([[1.0, 0, 0]]), np.zeros((1, 3)), 1), [[0, 2, 0]])
+    force = fields.field("F", "FORCE", -3.0, np.eye(4))
+    assert np.allclose(fields.accelerations([force], np.array([[0, 2.0, 0]]), np.zeros((1, 3)), 1), [[0, -3, 0]])
+    turb = fields.field("T", "TURBULENCE", 1.0, np.eye(4), seed=4)
+    t = fields.accelerations([turb], pts, np.zeros_like(pts), 1)
+    assert np.all(np.abs(t) <= 1.0) and np.array_equal(t, fields.accelerations([turb], pts, np.zeros_like(pts), 9))
+    assert fields.wind_velocity([wind], (0, 0, 0), 8.0) == pytest.approx([0, 0, 10.0 / 8.0])
+
+
+def test_wind_pushes_the_blob():
+    e, rest = blob_engine(z=0.0)
+    e.configure(dict(e._params, gravity=(0, 0, 0)), end=100)
+    side = np.array([[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1]], float)  # its z axis along +x
+    around = colliders.Surroundings((), (fields.field("Wind", "WIND", 20.0, side),))
+    for f in range(1, 25):
+        e.goto(f, surroundings=around)
+    assert e.out[:, 0].mean() - rest[:, 0].mean() == pytest.approx(0.5 * 20.0 * (23 / 24) ** 2, rel=0.1)
+
+
+@pytest.fixture(scope="session")
+def colliders_tmp(tmp_path_factory):
+    return tmp_path_factory.mktemp("colliders")
+
+
+@pytest.mark.parametrize("host", HOSTS)
+@pytest.mark.parametrize("name", suite_names("suite_colliders"))
+def test_colliders_in_blender(host, name, colliders_tmp):
+    check_suite_test(host, "suite_colliders", name, colliders_tmp)
