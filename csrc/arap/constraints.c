@@ -121,28 +121,39 @@ static od_Status od_AddConstraint(od_Sim* sim, od_Constraint* c, int* id)
 	return OD_OK;
 }
 
-od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
-									   int* id)
+// The checks of a new constraint's point (finite, near the graph), target (finite; nonzero for a direction)
+// and weight.
+static od_Status od_CheckNew(const od_Sim* sim, const double point[3], const double* target, bool direction,
+							 double weight)
 {
 	od_Status status = od_CheckVector("point", point, false);
 	status = status == OD_OK ? od_Graph_CheckRestPoint(sim->graph, point, "point") : status;
 	if (status == OD_OK && target)
 	{
-		status = od_CheckVector("target", target, false);
+		status = od_CheckVector("target", target, direction);
 	}
-	if (status == OD_OK)
-	{
-		status = od_CheckWeight(weight);
-	}
+	return status == OD_OK ? od_CheckWeight(weight) : status;
+}
+
+static od_Constraint od_NewConstraint(od_ConstraintKind kind, const double point[3], double weight)
+{
+	od_Constraint c;
+	memset(&c, 0, sizeof c);
+	c.kind = kind;
+	c.weight = weight;
+	memcpy(c.point, point, sizeof c.point);
+	return c;
+}
+
+od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
+									   int* id)
+{
+	od_Status status = od_CheckNew(sim, point, target, false, weight);
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	od_Constraint c;
-	memset(&c, 0, sizeof c);
-	c.kind = OD_POSITION;
-	c.weight = weight;
-	memcpy(c.point, point, sizeof c.point);
+	od_Constraint c = od_NewConstraint(OD_POSITION, point, weight);
 	if (target)
 	{
 		memcpy(c.target, target, sizeof c.target);
@@ -158,29 +169,16 @@ od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const
 od_Status od_Sim_AddDirectionConstraint(od_Sim* sim, const double point[3], const double direction[3],
 										const double* target, double weight, int* id)
 {
-	od_Status status = od_CheckVector("point", point, false);
-	status = status == OD_OK ? od_Graph_CheckRestPoint(sim->graph, point, "point") : status;
+	od_Status status = od_CheckNew(sim, point, target, true, weight);
 	if (status == OD_OK)
 	{
 		status = od_CheckVector("direction", direction, true);
-	}
-	if (status == OD_OK && target)
-	{
-		status = od_CheckVector("target", target, true);
-	}
-	if (status == OD_OK)
-	{
-		status = od_CheckWeight(weight);
 	}
 	if (status != OD_OK)
 	{
 		return status;
 	}
-	od_Constraint c;
-	memset(&c, 0, sizeof c);
-	c.kind = OD_DIRECTION;
-	c.weight = weight;
-	memcpy(c.point, point, sizeof c.point);
+	od_Constraint c = od_NewConstraint(OD_DIRECTION, point, weight);
 	od_V3Store(c.direction, od_Unit(od_V3Load(direction)));
 	double length = 1.0;
 	if (target)

@@ -13,6 +13,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, integer
+from ._rebuild import FromArguments
 from .graph import Graph
 
 __all__ = ["GoalFit", "goal_frequency", "relative_deform", "GOAL_MIN_HZ", "GOAL_MAX_HZ"]
@@ -30,7 +31,7 @@ def goal_frequency(strength):
     return np.where(s > 0.0, GOAL_MIN_HZ * (GOAL_MAX_HZ / GOAL_MIN_HZ) ** (s * s), 0.0)
 
 
-class GoalFit:
+class GoalFit(FromArguments):
     """Goal frames of a graph's particles fitted to an animated mesh: per particle, the rigid motion that best
     carries its ``neighbors`` nearest rest vertices (Sumner-weighted) onto their animated positions."""
 
@@ -41,12 +42,6 @@ class GoalFit:
         vertices = as_array("rest_vertices", rest_vertices, (None, 3))
         self._core = _core.GoalFit(graph._core, vertices, integer("neighbors", neighbors))
         self._args = (graph, vertices.copy(), neighbors)  # a pickle fits again
-
-    def __getstate__(self):
-        return self._args
-
-    def __setstate__(self, args):
-        self.__init__(*args)
 
     @property
     def n_vertices(self):

@@ -8,6 +8,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import as_array, integer, number
+from ._rebuild import FromArguments
 from .graph import MODES, SMALL_PIECES, Graph
 from .simulation import Simulation
 
@@ -49,7 +50,7 @@ def _rest_normals(normals, n_vertices):
     return as_array("rest_normals", arr.reshape(-1, 3) if arr.ndim == 1 else arr, (n_vertices, 3))
 
 
-class Skin:
+class Skin(FromArguments):
     """A rest mesh bound to a graph: Sumner weights over the ``neighbors`` nearest particles of every vertex
     (METHOD.md, eq. 1), computed once with the GIL released.
 
@@ -69,12 +70,6 @@ class Skin:
                                 integer("threads", threads))
         arrays = tuple(None if a is None else a.copy() for a in (vertices, triangles, normals))
         self._args = (graph, arrays[0], neighbors, *arrays[1:], threads)  # a pickle binds again
-
-    def __getstate__(self):
-        return self._args
-
-    def __setstate__(self, args):
-        self.__init__(*args)
 
     @property
     def n_vertices(self):

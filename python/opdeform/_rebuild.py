@@ -1,0 +1,16 @@
+"""Pickling by the arguments an object was made from: for objects whose whole state is what their
+constructor computed (Skin, GoalFit), a pickle stores those arguments and unpickling makes the object again."""
+
+__all__ = ["FromArguments"]
+
+
+class FromArguments:
+    """Set ``self._args`` (the constructor's arguments, copied) in ``__init__``; pickling does the rest."""
+
+    _args = ()
+
+    def __getstate__(self):
+        return self._args
+
+    def __setstate__(self, args):
+        self.__init__(*args)
