@@ -1,6 +1,6 @@
 """Contact between simulated bodies (opdeform.ContactGroup) and within one body (self-contact), docs/contact.md,
 issue 13: bodies colliding head on or fast do not pass through each other and keep their momentum, a body
-dropped on another stays above it through the impact, bodies that start overlapping come apart slowly, a bar's
+dropped on another stays above it through the impact, bodies that start overlapping come apart slowly, a rod's
 far end bent onto its other end does not pass into it, a body at rest with self-contact on stays at rest to
 the bit, and bad input raises."""
 
@@ -73,37 +73,45 @@ def test_bodies_that_start_overlapping_come_apart_without_exploding(bar):
     assert b.positions[:, 2].mean() - a.positions[:, 2].mean() > 0.25
 
 
-def _bend_end_onto_end(self_contact):
-    """A 1.2 m rod, one end held, the other carried round onto it; the least distance of the far ends' particles
-    over the motion, less the sum of their largest radii."""
-    v, t = meshes.capsule(radius=0.06, length=1.2)
+def _bend_end_onto_end(self_contact, sweep):
+    """A 1.2 m rod along x, its root end held by two pins, the pin on its tip carried on a half circle about the
+    middle through `sweep` half turns (1: the target ends on the root, 1.2: past it, beyond the body). The least
+    distance of the two ends' particles over the motion, less the sum of their largest radii, and the tip's
+    last height (the root is at z = 0)."""
+    v, t = meshes.capsule(radius=0.06, length=1.2)  # its axis is x
     g = opdeform.Graph.from_mesh(v, t, particles=60)
     sim = opdeform.Simulation(g, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)
     if self_contact:
         sim.set_self_contact()
-    x = g.centers[:, 2]
+    x = g.centers[:, 0]
     lo, hi = x.min(), x.max()
-    sim.add_position_constraint((0.0, 0.0, lo))
-    tip = sim.add_position_constraint((0.0, 0.0, hi))
+    sim.add_position_constraint((lo, 0.0, 0.0))
+    sim.add_position_constraint((lo + 0.15, 0.0, 0.0))
+    tip = sim.add_position_constraint((hi, 0.0, 0.0))
     ends = (np.where(x < lo + 0.15)[0], np.where(x > hi - 0.15)[0])
     reach = g.radii.max(axis=1)
-    least = np.inf
+    r, middle, least = (hi - lo) / 2, (lo + hi) / 2, np.inf
     for k in range(120):
-        s = min(1.0, (k + 1) / 90)
-        angle = np.pi * s
-        r = (hi - lo) / 2
-        sim.set_constraint_target(tip, (r * np.sin(angle), 0.0, (lo + hi) / 2 + r * np.cos(angle)))
+        angle = np.pi * sweep * min(1.0, (k + 1) / 90)
+        sim.set_constraint_target(tip, (middle + r * np.cos(angle), 0.0, r * np.sin(angle)))
         sim.step()
         p = sim.positions
         d = np.linalg.norm(p[ends[0]][:, None] - p[ends[1]][None], axis=2)
         least = min(least, (d - reach[ends[0]][:, None] - reach[ends[1]][None]).min())
-    return least
+    return least, p[ends[1], 2].mean()
 
 
-@pytest.mark.xfail(reason="left: the tip's target lies on the other end, and the constraint wins over contact")
 def test_a_rods_end_bent_onto_its_other_end_does_not_pass_into_it():
-    assert _bend_end_onto_end(False) < -0.05  # without self-contact the ends overlap
-    assert _bend_end_onto_end(True) > -0.03   # with it they touch (support distances are below the radii)
+    assert _bend_end_onto_end(False, 1.0)[0] < -0.1  # without self-contact the ends overlap (-0.111 m)
+    assert _bend_end_onto_end(True, 1.0)[0] > -0.03  # with it they touch (-0.026: supports are below the radii)
+
+
+@pytest.mark.xfail(reason="left: a pin whose target passes through the body drags the tip through it (least "
+                   "-0.040 m, the tip ends 0.26 m beyond the root): contact comes after the iterations and "
+                   "the pin's pull re-enters every step's solve")
+def test_a_tail_pulled_past_its_body_does_not_pass_through_it():
+    least, height = _bend_end_onto_end(True, 1.2)
+    assert least > -0.03 and height > 0.0
 
 
 def test_a_body_at_rest_with_self_contact_stays_at_rest_to_the_bit(bar):

@@ -4,7 +4,9 @@ Each row times two simulations side by side in one run (features.side_by_side: a
 one thread): the creature (a Suzanne-like blob) with 100 or 1,000 particles falling freely, and the same body
 resting on a sphere or sliding down a 30-degree ramp (settled there before timing, so that every particle near
 the collider is tested and pushed). Then the push-out of a skinned mesh against the skinning alone, and the
-re-sampling of a deforming mesh collider per call. Option: --quick (3 repeats of 20 calls)."""
+re-sampling of a deforming mesh collider per call; then contact between and within bodies (docs/contact.md): a
+10,000-particle beam (scale.beam) with and without self-contact, and two 1,000-particle creatures in a
+ContactGroup, one resting on the other, against the two stepped alone. Option: --quick (3 repeats of 20 calls)."""
 
 import math
 import os
@@ -18,6 +20,7 @@ from opdeform import meshes
 
 from .common import table
 from .features import side_by_side
+from .scale import beam
 
 RAMP = (0.0, -math.sin(math.radians(30)), math.cos(math.radians(30)))
 
@@ -54,6 +57,36 @@ def resample_ms(resolution, repeats):
     return len(st), statistics.median(times)
 
 
+def stacked_pair(graph, grouped):
+    """Two creatures, the second dropped onto the first (on the floor), settled 0.5 s; a step of the group, or
+    of the two alone (the second then falls through: only the timing is compared)."""
+    lift = np.ptp(graph.centers[:, 2]) + 2.0 * graph.radii.max()
+    sims = [opdeform.Simulation(graph, 2e5, damping=0.02) for _ in range(2)]
+    for k, sim in enumerate(sims):
+        sim.set_state(graph.centers + (0.0, 0.0, k * lift), np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+        sim.set_floor(graph.centers[:, 2].min() - graph.radii.max(), 0.5)
+    if not grouped:
+        return lambda: [sim.step() for sim in sims]
+    group = opdeform.ContactGroup(sims)
+    group.step(30)
+    return group.step
+
+
+def body_rows(repeats, inner):
+    out = []
+    free, touching = beam((100, 10, 10)), beam((100, 10, 10))
+    touching.set_self_contact()
+    ms0, ms1 = side_by_side(free.step, touching.step, repeats=max(repeats // 3, 3), inner=max(inner // 20, 2))
+    out.append((f"beam, {free.graph.n_particles:,} particles", "self-contact", f"{ms0:.4f}", f"{ms1:.4f}",
+                f"{ms1 / ms0:.2f}"))
+    graph = creature(1000)[2]
+    ms0, ms1 = side_by_side(stacked_pair(graph, False), stacked_pair(graph, True), repeats=repeats,
+                            inner=max(inner // 10, 2))
+    out.append((f"two creatures, {graph.n_particles:,} particles each", "ContactGroup, stacked", f"{ms0:.4f}",
+                f"{ms1:.4f}", f"{ms1 / ms0:.2f}"))
+    return out
+
+
 def rows(repeats, inner):
     out = []
     for particles in (100, 1000):
@@ -81,4 +114,6 @@ def run(args):
     quick = "--quick" in args
     print(f"load average {os.getloadavg()[0]:.1f} at the start (CPU time of one thread; other work on the "
           "machine slows both columns alike)")
-    table(rows(3 if quick else 15, 20 if quick else 100), ["scene", "contact", "ms free fall", "ms with", "ratio"])
+    repeats, inner = (3, 20) if quick else (15, 100)
+    table(rows(repeats, inner) + body_rows(repeats, inner), ["scene", "contact", "ms free fall", "ms with", "ratio"])
+    print(f"load average {os.getloadavg()[0]:.1f} at the end")
