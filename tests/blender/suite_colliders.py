@@ -100,6 +100,13 @@ def test_bake_equals_playback_with_moving_and_deforming_colliders():
     ball.location = (0.3, 0.0, 0.4)
     ball.keyframe_insert("location", frame=20)
     collider("ramp", wave=0.1).location = (0.0, 0.0, -1.0)
+    wind = _wind(3.0)  # a turning wind with noise and a turbulence field: the core's fields, moved each frame
+    wind.field.noise, wind.field.size = 0.5, 0.4
+    wind.keyframe_insert("rotation_euler", frame=1)
+    wind.rotation_euler = (0.0, math.radians(30.0), 0.0)
+    wind.keyframe_insert("rotation_euler", frame=30)
+    bpy.ops.object.effector_add(type='TURBULENCE', location=(0.0, 0.0, 1.0))
+    bpy.context.active_object.field.strength = 2.0
     obj = blob(frame_end=30)
     live = H.play(range(1, 31))[obj.name]
     again = H.play([12, 3, 30, 25, 1])[obj.name]
@@ -189,7 +196,9 @@ def test_wind_pushes_the_body():
     print("OPDEFORM_RESULT wind_push_m", round(float(dx), 3))
 
 
-def _flakes_drift(with_wind):
+def _flakes(name, field=None):
+    """The flakes' positions at frames 1 and 12 of a bake in a 2 m x 1 m domain, with a field of (type, strength)
+    at its centre or none."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     H.enable_addon()
     v, t = H.box_mesh((0.0, 0.0, -0.1), (2.0, 1.0, 1.0), (2, 2, 2))
@@ -197,20 +206,38 @@ def _flakes_drift(with_wind):
     bpy.ops.opdeform.tumbling_enable(object=domain.name)
     s = domain.opdeform_tumbling
     s.dx, s.count, s.frame_start, s.frame_end, s.wind = 0.05, 200, 1, 12, "off"
-    s.cache_directory = os.path.join(H.tmpdir(), f"flakes_{with_wind}")
-    if with_wind:
+    s.cache_directory = os.path.join(H.tmpdir(), f"flakes_{name}")
+    if field == "WIND":
         _wind(5.0)
+    elif field is not None:
+        bpy.ops.object.effector_add(type=field[0], location=(1.0, 0.5, 0.45))
+        bpy.context.active_object.field.strength = field[1]
     bpy.ops.opdeform.tumbling_bake(object=domain.name)
     tumbling = __import__(H.ADDON + ".blender.tumbling_runtime", fromlist=["x"])
-    first = tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, 1)[0]
-    last = tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, 12)[0]
-    return float(last[:, 0].mean() - first[:, 0].mean())
+    return [tumbling.core.read_frame(tumbling.mpm(), s.baked_folder, f)[0] for f in (1, 12)]
+
+
+def _drift(frames):
+    return float(frames[1][:, 0].mean() - frames[0][:, 0].mean())
+
+
+def _spread(frames):
+    """How much farther from the domain's vertical centre line the flakes are at the end than at the start."""
+    return float(np.linalg.norm(frames[1][:, :2] - (1.0, 0.5), axis=1).mean()
+                 - np.linalg.norm(frames[0][:, :2] - (1.0, 0.5), axis=1).mean())
 
 
 def test_wind_pushes_the_tumbling_flakes():
-    calm, windy = _flakes_drift(False), _flakes_drift(True)
+    calm, windy = _drift(_flakes("calm")), _drift(_flakes("wind", "WIND"))
     assert windy > calm + 0.05, (calm, windy)
     print("OPDEFORM_RESULT flakes_drift_m", round(calm, 3), round(windy, 3))
+
+
+def test_a_force_field_gathers_the_flakes():
+    gathered = _spread(_flakes("attract", ('FORCE', -5.0)))
+    scattered = _spread(_flakes("repel", ('FORCE', 5.0)))
+    assert gathered < -0.1 and scattered > 0.1, (gathered, scattered)  # 0.012 m without a field
+    print("OPDEFORM_RESULT flakes_spread_m", round(gathered, 3), round(scattered, 3))
 
 
 def test_flakes_land_on_a_collision_sphere():

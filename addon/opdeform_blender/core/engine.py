@@ -18,11 +18,11 @@ import time
 import numpy as np
 
 from . import checks
-from . import fields as field_logic
 from . import frames as frame_logic
 from . import handles as handle_math
 from .cache import StateCache
 from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
+from .fields import SceneFields
 from .frame_report import FrameReports, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
@@ -114,6 +114,7 @@ class Engine:
         self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
+        self.fields = None  # the scene's force fields in the simulation (core/fields.py)
         self._params = None
         self._substeps = 1
         self._floor = None
@@ -147,6 +148,7 @@ class Engine:
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
             self.colliders = SceneColliders(self.sim)
+            self.fields = SceneFields(self.sim)
             changed = True
         elif params != self._params:
             self.sim.set_params(**params)
@@ -360,7 +362,7 @@ class Engine:
             sk = surroundings if k == plan.frame else blend_surroundings(before_surroundings, surroundings, u)
             self._apply_targets(tk)
             self._apply_goals(gk)
-            self._surround(k, sk)
+            self._surround(sk)
             self.sim.step(self._substeps)
             handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
                                    else None, tk, self._substeps, fps)
@@ -376,10 +378,10 @@ class Engine:
         return self._emit(pos, rot, self._reference(goals if shown == plan.frame else self.cache.goals(shown)),
                           incoming, matrix)
 
-    def _surround(self, frame, surroundings):
-        """The colliders' frames at the end of the next step, and the force fields' push before it."""
+    def _surround(self, surroundings):
+        """The colliders' frames at the end of the next step, and the force fields acting during it."""
         self.colliders.move(surroundings.colliders)
-        field_logic.apply(self.sim, surroundings.fields, self._substeps * self._params["dt"], frame)
+        self.fields.set(surroundings.fields)
 
     def pose(self, targets, iterations, incoming=None):
         """Posing mode: the static ARAP pose for the targets, warm-started from the current state."""
