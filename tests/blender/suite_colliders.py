@@ -259,3 +259,31 @@ def test_flakes_land_on_a_collision_sphere():
     assert not any(inside), f"flakes inside the sphere: {inside}"
     landed = frames[11][np.linalg.norm(frames[11][:, :2], axis=1) < 0.2]
     assert len(landed) and landed[:, 2].min() > 0.95, "the flakes over the sphere did not land on its top"
+
+
+def _gap(upper, lower, radius=0.1):
+    """How far the upper mesh's lowest vertex is above the lower one's highest near the vertical axis through
+    the lower one's centre (negative: overlapping)."""
+    axis = lower.mean(axis=0)[:2]
+    near = [m[np.linalg.norm(m[:, :2] - axis, axis=1) < radius, 2] for m in (upper, lower)]
+    return float(near[0].min() - near[1].max())
+
+
+def test_two_blobs_dropped_onto_each_other_do_not_pass_through():
+    """The impact, not stacking: the core's stacking is imperfect (a bar on a bar slides off within 3 s)."""
+    low = blob(location=(0.0, 0.0, 0.3), name="Low", use_floor=True, frame_end=30)
+    high = blob(location=(0.0, 0.0, 1.0), name="High", use_floor=True, frame_end=30)
+    live = H.play(range(1, 31))
+    gaps = []
+    for f in range(1, 25):
+        bpy.context.scene.frame_set(f)
+        assert not (low.opdeform.error or high.opdeform.error), (low.opdeform.error, high.opdeform.error)
+        gaps.append(_gap(world(high), world(low)))
+    assert min(gaps) > -0.05 * BLOB, f"the blobs overlap {-min(gaps) / BLOB:.1%} of their size"
+    assert world(high)[:, 2].mean() > world(low)[:, 2].mean() + 0.2, "the upper blob does not lie on the lower"
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "two_blobs.blend"))
+    bpy.ops.opdeform.bake(object=high.name)  # the group is simulated again: the bake is playback's frames
+    frames = H.pc2().read_pc2(bpy.path.abspath(high.modifiers["OPDeform Cache"].filepath))[2]
+    for f in range(1, 31):
+        assert np.array_equal(frames[f - 1], live[high.name][f]), f"baked frame {f} differs from playback"
+    print("OPDEFORM_RESULT blobs_overlap_percent", round(100 * max(-min(gaps), 0.0) / BLOB, 3))
