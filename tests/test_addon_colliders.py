@@ -149,7 +149,7 @@ def _drop_two(frames, bodies=None, jumps=()):
         runs = [e.begin(f) for e in (low, high)]
         groups = contact.partition(runs)
         assert len(groups) == 1
-        out[f] = [o.copy() for o in bodies.simulate(opdeform, groups[0])[1]]
+        out[f] = [o.copy() for o in bodies.simulate(opdeform, groups[0])]
     return out, (low, high)
 
 

@@ -61,19 +61,17 @@ def simulate_frame(scene, depsgraph=None):
     from . import runtime
     started = [(obj, r) for obj in live_dynamic(scene) if (r := _safely(obj, runtime.frame_run, scene, depsgraph))]
     by_run = {id(run): (obj, rt) for obj, (rt, run) in started}
-    used = set()
     for runs in contact.partition([run for _, (_, run) in started]):
         objects, runtimes = zip(*(by_run[id(r)] for r in runs))
         try:
-            key, outputs = runtime.simulate_together(objects, runtimes, runs)
+            outputs = runtime.simulate_together(objects, runtimes, runs)
         except Exception as exc:  # AddonError naming them, or a bug: report it, never raise from a handler
             for obj in objects:
                 runtime.set_error(obj, _message(exc))
             continue
-        used.add(key)
         for obj, rt, run, out in zip(objects, runtimes, runs, outputs):
             _safely(obj, runtime.frame_shown, rt, run, out)
-    runtime.forget_groups(used)
+    runtime.forget_groups()
 
 
 @persistent

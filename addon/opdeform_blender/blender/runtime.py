@@ -443,9 +443,8 @@ def frame_run(obj, scene, depsgraph=None):
 
 
 def simulate_together(objects, runtimes, runs):
-    """Live playback, the middle: the frames of objects whose runs step together (core/contact.py), in contact
-    when more than one. Returns the contact group's key (None: alone) and the outputs. AddonError naming them
-    all on a failure."""
+    """Live playback, the middle: the outputs of objects whose runs step together (core/contact.py), in
+    contact when more than one. AddonError naming them all on a failure."""
     budget = None if any(rt.baking or rt.budget is None for rt in runtimes) else runtimes[0].budget
     try:
         return _bodies.simulate(module(), runs, budget)
@@ -454,8 +453,9 @@ def simulate_together(objects, runtimes, runs):
         raise AddonError(f"{names}{' (in contact)' if len(objects) > 1 else ''}: {exc}") from None
 
 
-def forget_groups(used):
-    _bodies.forget_others(used)
+def forget_groups():
+    """Forgets the contact groups of objects rebuilt or gone (groups of other scenes stay)."""
+    _bodies.keep_only({id(rt.engine.sim) for rt in _runtimes.values()})
 
 
 def frame_shown(obj, rt, run, out):

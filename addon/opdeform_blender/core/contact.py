@@ -59,8 +59,9 @@ class Bodies:
     def clear(self):
         self.groups.clear()
 
-    def forget_others(self, used):
-        self.groups = {k: g for k, g in self.groups.items() if k in used}
+    def keep_only(self, sims):
+        """Forgets the groups with a member not among these simulations (ids): a rebuilt or removed object's."""
+        self.groups = {k: g for k, g in self.groups.items() if set(k) <= sims}
 
     def _group(self, od, engines):
         members = tuple(id(e.sim) for e in engines)
@@ -71,14 +72,14 @@ class Bodies:
         return members, contact, held[1]
 
     def simulate(self, od, runs, budget=None):
-        """The outputs of runs that step together (``partition``), in contact when more than one; returns the
-        key of the group used (None: alone). Errors as ``Engine.goto``'s, the solver's for the whole group."""
+        """The outputs of runs that step together (``partition``), in contact when more than one. Errors as
+        ``Engine.goto``'s, the solver's for the whole group."""
         if len(runs) == 1:
             join(runs, None)
             e = runs[0].engine
-            return None, simulate(runs, lambda: e.sim.step(e.timestep[1]), budget)
+            return simulate(runs, lambda: e.sim.step(e.timestep[1]), budget)
         members, contact, group = self._group(od, [r.engine for r in runs])
         join(runs, (members, contact))
         align(runs)
         substeps = runs[0].engine.timestep[1]
-        return members, simulate(runs, lambda: group.step(substeps), budget)
+        return simulate(runs, lambda: group.step(substeps), budget)

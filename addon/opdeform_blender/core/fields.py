@@ -13,7 +13,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .colliders import ColliderError
+from .colliders import ColliderError, Kept
 
 FIELD_KINDS = ("WIND", "FORCE", "VORTEX", "TURBULENCE")
 Field = namedtuple("Field", "name kind strength origin axis power min_distance max_distance noise flow size seed")
@@ -49,11 +49,13 @@ def _placed_alike(a, b):
     return len(a) == len(b) and all(p._replace(origin=q.origin, axis=q.axis) == q for p, q in zip(a, b))
 
 
-class SceneFields:
+class SceneFields(Kept):
     """A solver's force fields as the scene's: before each step ``set`` moves them to the frame's (the same set
     with other origins or axes) or places them anew (remove all, add all in order). Both give the same bits
     (the core normalises an axis the same way either way), so the fields of a step are a function of its frame
     alone and a bake equals playback."""
+
+    what = "force field"
 
     def __init__(self, solver):
         self.solver = solver
@@ -77,10 +79,3 @@ class SceneFields:
         self.ids, self.current = [], ()
         for f in fields:
             self.ids.append(self._call(f, self.solver.add_force_field, **core_arguments(f)))
-
-    def _call(self, f, fn, *args, **kw):
-        try:
-            return fn(*args, **kw)
-        except ValueError as exc:
-            self.current = None  # partly changed: placed anew next time
-            raise ColliderError(f"force field {f.name!r}: {exc}") from None
