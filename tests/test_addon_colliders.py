@@ -12,7 +12,7 @@ from test_addon import HOSTS, check_suite_test, suite_names
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import colliders, fields  # noqa: E402
+from opdeform_blender.core import colliders, contact, fields  # noqa: E402
 from opdeform_blender.core.engine import Engine  # noqa: E402
 
 
@@ -91,19 +91,40 @@ def test_moved_collider_outdates_the_cache_and_jumps_blend():
     assert e.cache.last == 20 and e.colliders.history[12].colliders[0].translation[2] == pytest.approx(-0.4)
 
 
-def test_fields_push_and_fall_off():
-    pts = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 3.0]])
-    wind = fields.field("W", "WIND", 10.0, np.eye(4), falloff="PLANE", power=1.0)
-    a = fields.accelerations([wind], pts, np.zeros_like(pts), 1)
-    assert np.allclose(a[:, :2], 0) and a[0, 2] == pytest.approx(5.0) and a[1, 2] == pytest.approx(2.5)
-    vortex = fields.field("V", "VORTEX", 2.0, np.eye(4))
-    assert np.allclose(fields.accelerations([vortex], np.array([[1.0, 0, 0]]), np.zeros((1, 3)), 1), [[0, 2, 0]])
-    force = fields.field("F", "FORCE", -3.0, np.eye(4))
-    assert np.allclose(fields.accelerations([force], np.array([[0, 2.0, 0]]), np.zeros((1, 3)), 1), [[0, -3, 0]])
-    turb = fields.field("T", "TURBULENCE", 1.0, np.eye(4), seed=4)
-    t = fields.accelerations([turb], pts, np.zeros_like(pts), 1)
-    assert np.all(np.abs(t) <= 1.0) and np.array_equal(t, fields.accelerations([turb], pts, np.zeros_like(pts), 9))
-    assert fields.wind_velocity([wind], (0, 0, 0), 8.0) == pytest.approx([0, 0, 10.0 / 8.0])
+class _Solver:
+    """Records the force-field calls a SceneFields makes."""
+
+    def __init__(self):
+        self.calls = []
+
+    def add_force_field(self, **kw):
+        self.calls.append(("add", kw["kind"], kw["position"]))
+        return len(self.calls)
+
+    def move_force_field(self, fid, position, direction):
+        self.calls.append(("move", fid, position))
+
+    def remove_force_field(self, fid):
+        self.calls.append(("remove", fid))
+
+
+def test_fields_map_to_the_core_and_move_or_place():
+    wind = fields.field("W", "WIND", 10.0, np.eye(4), power=1.0, max_distance=0.0, noise=0.5, flow=2.0, seed=4)
+    args = fields.core_arguments(wind)
+    assert args["kind"] == "wind" and args["turbulence"] == 0.5 and args["drag"] == 2.0 and args["falloff"] == 1.0
+    assert fields.core_arguments(wind._replace(kind="VORTEX"))["turbulence"] == 0.0  # noise is a wind's only
+    solver = _Solver()
+    placed = fields.SceneFields(solver)
+    placed.set((wind,))
+    placed.set((wind,))  # unchanged: nothing called
+    placed.set((wind._replace(origin=(0.0, 0.0, 1.0)),))
+    placed.set((wind._replace(strength=5.0),))
+    assert solver.calls == [("add", "wind", (0.0, 0.0, 0.0)), ("move", 1, (0.0, 0.0, 1.0)), ("remove", 1),
+                            ("add", "wind", (0.0, 0.0, 0.0))]
+    sim = opdeform.Simulation(opdeform.Graph.from_mesh(*_octasphere(0.3, 6), particles=10), 1e4)
+    with pytest.raises(colliders.ColliderError, match="'Bad'"):
+        fields.SceneFields(sim).set((wind._replace(name="Bad", flow=-1.0),))
+    assert sim.n_force_fields == 0
 
 
 def test_wind_pushes_the_blob():
@@ -114,6 +135,35 @@ def test_wind_pushes_the_blob():
     for f in range(1, 25):
         e.goto(f, surroundings=around)
     assert e.out[:, 0].mean() - rest[:, 0].mean() == pytest.approx(0.5 * 20.0 * (23 / 24) ** 2, rel=0.1)
+
+
+def _drop_two(frames, bodies=None, jumps=()):
+    """A blob dropped 0.7 m above another that rests on the floor at 0, stepped together; the frames' outputs."""
+    low, _ = blob_engine(z=0.3)
+    high, _ = blob_engine(z=1.0)
+    for e in (low, high):
+        e.configure(dict(e._params), floor=(0.0, 0.5), end=100)
+    bodies = bodies or contact.Bodies()
+    out = {}
+    for f in (*frames, *jumps):
+        runs = [e.begin(f) for e in (low, high)]
+        groups = contact.partition(runs)
+        assert len(groups) == 1
+        out[f] = [o.copy() for o in bodies.simulate(opdeform, groups[0])]
+    return out, (low, high)
+
+
+def test_two_blobs_stepped_together_do_not_pass_through():
+    frames, (low, high) = _drop_two(range(1, 25))
+    gaps = [f[1][:, 2].min() - f[0][:, 2].max() for f in frames.values()]
+    assert min(gaps) > -0.05 * 0.6, min(gaps)  # the skinned meshes overlap 2.5 % of their size at the impact
+    assert frames[24][1][:, 2].mean() > frames[24][0][:, 2].mean() + 0.2  # it lies on the lower one
+    again, _ = _drop_two(range(1, 25))
+    for f in frames:
+        assert all(np.array_equal(a, b) for a, b in zip(frames[f], again[f]))
+    low.invalidate(keep_until=10)  # one member's frames outdated: the group simulates again from there
+    jumped, _ = _drop_two(range(1, 25), jumps=(12, 24))
+    assert all(np.array_equal(a, b) for a, b in zip(jumped[24], frames[24]))
 
 
 @pytest.fixture(scope="session")

@@ -27,9 +27,9 @@ ADDON_PACKAGE = __package__ or __name__
 # order, so that a change anywhere is picked up; tests/test_addon_core.py checks that every file is listed. Those
 # with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
 # order. A new feature (e.g. an MPM panel) adds its modules here.
-MODULES = ("core", "core.loader", "core.bake_files", "core.frames", "core.cache", "core.handles",
-           "core.settings", "core.checks", "core.frame_report", "core.tumbling", "core.colliders", "core.fields",
-           "core.engine", "blender", "blender.modifier", "blender.versioning", "blender.presets", "blender.catch_up",
+MODULES = ("core", "core.loader", "core.bake_files", "core.frames", "core.cache", "core.handles", "core.settings",
+           "core.checks", "core.frame_report", "core.tumbling", "core.colliders", "core.fields", "core.engine",
+           "core.contact", "blender", "blender.modifier", "blender.versioning", "blender.presets", "blender.catch_up",
            "blender.colliders", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
            "blender.properties", "blender.collider_properties", "blender.operators", "blender.panels",
            "blender.settings_panels", "blender.collider_panels", "blender.error_plot", "blender.handlers",

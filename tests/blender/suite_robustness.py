@@ -105,7 +105,7 @@ def test_frame_handler_errors_become_reports_and_pause():
                 _calls.append(frame)
                 raise _exc
 
-            rt.engine.goto = broken
+            rt.engine.begin = broken  # an object's own failure (one of a contact group's pauses all)
             bpy.context.scene.frame_set(6)
             assert calls == [6]
             assert str(exc) in obj.opdeform.error, (exc, obj.opdeform.error)
@@ -114,7 +114,7 @@ def test_frame_handler_errors_become_reports_and_pause():
             assert calls == [6]
             np.testing.assert_array_equal(H.positions(obj), paused)
             assert not other.opdeform.error, "an error on one object paused another"
-            del rt.engine.goto  # the instance attribute goes: the class's method is back
+            del rt.engine.begin  # the instance attribute goes: the class's method is back
             bpy.ops.opdeform.reset(object=obj.name)
             assert not obj.opdeform.error
             bpy.context.scene.frame_set(1)

@@ -62,15 +62,13 @@ class OPDEFORM_OT_catch_up(bpy.types.Operator):
         self.report({'INFO'}, message)
 
     def modal(self, context, event):
-        from . import handlers, runtime
+        from . import handlers
         if event.type == 'ESC':
             self._end(context, "catch-up stopped: the last frame reached stays shown")
             return {'CANCELLED'}
         if event.type != 'TIMER':
             return {'PASS_THROUGH'}
-        pending = behind(context)
-        for obj, _ in pending:
-            handlers._safely(obj, runtime.frame_update, context.scene)
+        handlers.simulate_frame(context.scene)  # all live objects: those in contact step together
         left = max((rt.engine.behind for _, rt in behind(context)), default=0)
         if not left:
             self._end(context, "caught up")

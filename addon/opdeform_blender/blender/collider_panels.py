@@ -14,11 +14,23 @@ def _prepared(layout):
     return layout
 
 
-def draw_collisions(layout, settings):
+def draw_collisions(layout, settings, bodies=False):
+    """The Collisions sub-panel; ``bodies``: with contact between opdeform objects and self collision."""
     layout = _prepared(layout)
-    layout.active = settings.use_colliders
-    layout.prop(settings, "collision_collection")
+    col = layout.column()
+    col.active = settings.use_colliders
+    col.prop(settings, "collision_collection")
     layout.prop(settings, "show_contacts")
+    if not bodies:
+        return
+    col = layout.column(align=True)
+    col.prop(settings, "object_distance")
+    col.prop(settings, "object_friction")
+    layout.prop(settings, "use_self_collision")
+    col = layout.column(align=True)
+    col.active = settings.use_self_collision
+    col.prop(settings, "self_distance")
+    col.prop(settings, "self_friction")
 
 
 def draw_weights(layout, weights):
@@ -41,12 +53,13 @@ class _TumblingSubPanel(_PhysicsPanel):
 
 class _Collisions:
     bl_label = "Collisions"
+    bodies = False  # contact with other opdeform objects and self collision (opdeform objects only)
 
     def draw_header(self, context):
         self.layout.prop(context.object.opdeform_contact, "use_colliders", text="")
 
     def draw(self, context):
-        draw_collisions(self.layout, context.object.opdeform_contact)
+        draw_collisions(self.layout, context.object.opdeform_contact, self.bodies)
 
 
 class _FieldWeights:
@@ -58,6 +71,7 @@ class _FieldWeights:
 
 class PHYSICS_PT_opdeform_collisions(_Collisions, _SubPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
+    bodies = True
 
 
 class PHYSICS_PT_opdeform_field_weights(_FieldWeights, _SubPanel, bpy.types.Panel):

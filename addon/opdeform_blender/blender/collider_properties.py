@@ -1,5 +1,6 @@
 """Contact and force settings stored in the .blend: ``Object.opdeform_contact`` (OPDEFORM_ContactSettings) on an
-opdeform object or a tumbling domain, with its effector weights (OPDEFORM_EffectorWeights, Soft Body's and
+opdeform object or a tumbling domain (contact with other opdeform objects and self collision: opdeform objects
+only), with its effector weights (OPDEFORM_EffectorWeights, Soft Body's and
 Cloth's ``effector_weights`` for the fields opdeform reads). blender/colliders.py reads them."""
 
 import bpy
@@ -31,6 +32,20 @@ class OPDEFORM_ContactSettings(bpy.types.PropertyGroup):
                                           description="Only the colliders in this collection (empty: every "
                                                       "Collision modifier of the scene)")
     effector_weights: PointerProperty(type=OPDEFORM_EffectorWeights)
+    object_distance: FloatProperty(name="Object Distance", default=0.005, min=0.0001, max=1.0, subtype='DISTANCE',
+                                   description="Gap kept from other opdeform objects (contact between objects with "
+                                               "the same frame rate, substeps and cache range; the largest of "
+                                               "the two)")
+    object_friction: FloatProperty(name="Object Friction", default=5.0, min=0.0, max=80.0,
+                                   description="Friction with other opdeform objects (Coulomb mu = Friction / 10; "
+                                               "the mean of the two)")
+    use_self_collision: BoolProperty(name="Self Collision", default=False,
+                                     description="Distant parts of this object collide with each other (a tail "
+                                                 "against its own body); neighbouring particles never do")
+    self_distance: FloatProperty(name="Self Distance", default=0.005, min=0.0001, max=1.0, subtype='DISTANCE',
+                                 description="Gap kept between distant parts of this object")
+    self_friction: FloatProperty(name="Self Friction", default=5.0, min=0.0, max=80.0,
+                                 description="Friction between parts of this object (Coulomb mu = Friction / 10)")
     show_contacts: BoolProperty(name="Contact Points", default=True,
                                 description="Mark the particles near or inside a collider in the viewport")
 

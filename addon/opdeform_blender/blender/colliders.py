@@ -73,10 +73,9 @@ def read_field(obj, weights, depsgraph):
     if not np.isfinite(f.strength):
         raise core.ColliderError(f"force field {obj.name!r}: its strength is not finite (NaN)")
     return field_logic.field(obj.name, f.type, f.strength * _field_weight(weights, f.type),
-                             np.array(obj.evaluated_get(depsgraph).matrix_world), f.falloff_type, f.falloff_power,
+                             np.array(obj.evaluated_get(depsgraph).matrix_world), f.falloff_power,
                              f.distance_min if f.use_min_distance else 0.0,
-                             f.distance_max if f.use_max_distance else float("inf"),
-                             f.noise, f.flow, getattr(f, "size", 1.0), f.seed)
+                             f.distance_max if f.use_max_distance else 0.0, f.noise, f.flow, f.size, f.seed)
 
 
 def fields(scene, settings, depsgraph):

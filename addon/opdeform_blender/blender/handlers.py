@@ -35,27 +35,52 @@ def enabled_objects(scene):
     return out
 
 
+def _message(exc):
+    from . import runtime
+    return str(exc) if isinstance(exc, runtime.AddonError) else f"{type(exc).__name__}: {exc}"
+
+
 def _safely(obj, fn, *args, **kw):
     from . import runtime
     try:
         return fn(obj, *args, **kw)
-    except runtime.AddonError as exc:
-        runtime.set_error(obj, str(exc))
-    except Exception as exc:  # a solver failure or a bug: report it, never raise from a handler
-        runtime.set_error(obj, f"{type(exc).__name__}: {exc}")
+    except Exception as exc:  # AddonError, a solver failure or a bug: report it, never raise from a handler
+        runtime.set_error(obj, _message(exc))
     return None
+
+
+def live_dynamic(scene):
+    from . import runtime
+    return [o for o in enabled_objects(scene) if runtime.is_live(o) and o.opdeform.mode == 'DYNAMIC']
+
+
+def simulate_frame(scene, depsgraph=None):
+    """Every live object to the scene's frame: those that can step together in contact (core/contact.py), the
+    others alone. A failure pauses the objects it concerns."""
+    from ..core import contact
+    from . import runtime
+    started = [(obj, r) for obj in live_dynamic(scene) if (r := _safely(obj, runtime.frame_run, scene, depsgraph))]
+    by_run = {id(run): (obj, rt) for obj, (rt, run) in started}
+    for runs in contact.partition([run for _, (_, run) in started]):
+        objects, runtimes = zip(*(by_run[id(r)] for r in runs))
+        try:
+            outputs = runtime.simulate_together(objects, runtimes, runs)
+        except Exception as exc:  # AddonError naming them, or a bug: report it, never raise from a handler
+            for obj in objects:
+                runtime.set_error(obj, _message(exc))
+            continue
+        for obj, rt, run, out in zip(objects, runtimes, runs, outputs):
+            _safely(obj, runtime.frame_shown, rt, run, out)
+    runtime.forget_groups()
 
 
 @persistent
 def on_frame_change(scene, depsgraph=None):
     if _guard["busy"]:
         return
-    from . import runtime
     _guard["busy"] = True
     try:
-        for obj in enabled_objects(scene):
-            if runtime.is_live(obj) and obj.opdeform.mode == 'DYNAMIC':
-                _safely(obj, runtime.frame_update, scene, depsgraph)
+        simulate_frame(scene, depsgraph)
     finally:
         _guard["busy"] = False
 

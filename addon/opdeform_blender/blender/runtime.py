@@ -18,6 +18,7 @@ from ..core import bake_files, loader
 from ..core import settings as core_settings
 from ..core.frames import BakeFrames
 from ..core.colliders import ColliderError
+from ..core.contact import Bodies
 from ..core.engine import Engine, EngineError, original_input
 from . import catch_up, colliders, modifier, presets
 
@@ -31,6 +32,7 @@ class AddonError(Exception):
 
 
 _runtimes = {}
+_bodies = Bodies()  # the contact groups of the live objects (core/contact.py)
 
 
 class Runtime:
@@ -48,6 +50,7 @@ class Runtime:
         # seconds of simulation per frame change (None: all the frames asked for, as scripts and renders need)
         self.budget = None if bpy.app.background else CATCH_UP_SECONDS
         self.timing = {}
+        self.started = None  # when the frame being shown began (perf_counter)
 
     def remember(self, frame, out):
         self.recent[frame] = out.copy()
@@ -73,6 +76,7 @@ def drop(obj):
 
 def clear():
     _runtimes.clear()
+    _bodies.clear()
 
 
 def items():
@@ -238,13 +242,24 @@ def floor(settings):
     return (settings.floor_height, settings.floor_friction) if settings.use_floor else None
 
 
-def signature(settings, scene):
+def signature(settings, scene, contact):
     """Everything a bake depends on, as text: a bake whose signature differs is outdated."""
     hs = tuple((h.target.name, h.vertex, h.use_rotation, round(h.strength, 9)) for h in active_handles(settings))
     parts = (graph_key(settings), presets.units(settings, frame_rate(scene)), gravity(settings, scene),
              floor(settings), settings.pin_strength,
              hs, frame_range(settings, scene), settings.mode, goal_strength(settings))
-    return repr(parts)
+    return repr((*parts, self_contact(contact), body_contact(contact)))
+
+
+def self_contact(contact):
+    """set_self_contact's arguments from the object's contact settings (None: Self Collision off)."""
+    if not contact.use_self_collision:
+        return None
+    return dict(thickness=contact.self_distance, friction=colliders.FRICTION_SCALE * contact.self_friction)
+
+
+def body_contact(contact):
+    return contact.object_distance, colliders.FRICTION_SCALE * contact.object_friction
 
 
 def goal_strength(settings):
@@ -277,6 +292,7 @@ def configure(rt, obj, scene, depsgraph=None):
     handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
     e.set_goal(goal_strength(s), rt.goal_weights)
+    e.set_contact(self_contact(obj.opdeform_contact), body_contact(obj.opdeform_contact))
 
 
 # -- build ---------------------------------------------------------------------------------------------
@@ -402,15 +418,13 @@ def is_live(obj):
 
 
 # -- per frame -----------------------------------------------------------------------------------------
-def frame_update(obj, scene, depsgraph=None):
-    """Live playback: simulate or replay the current frame and write the mesh. Returns the runtime."""
+def frame_run(obj, scene, depsgraph=None):
+    """Live playback, first half: the object's runtime and its way to the current frame (core/engine.py
+    ``FrameRun``), or None when there is nothing to simulate (posing, a subframe: shown here)."""
     t0 = time.perf_counter()
     rt = ensure(obj, scene, depsgraph)
-    if rt is None:
+    if rt is None or obj.opdeform.mode != 'DYNAMIC':
         return None
-    s = obj.opdeform
-    if s.mode != 'DYNAMIC':
-        return rt
     configure(rt, obj, scene, depsgraph)
     incoming, matrix = frame_input(obj, rt, depsgraph)
     frame, subframe = scene.frame_current, scene.frame_subframe
@@ -418,13 +432,35 @@ def frame_update(obj, scene, depsgraph=None):
         offset = subframe_offset(rt, frame, subframe, incoming)
         if offset is not None:
             show(obj, rt, offset)
-        return rt
-    targets = handle_targets(rt, s, depsgraph)
+        return None
+    targets = handle_targets(rt, obj.opdeform, depsgraph)
     try:
-        out = rt.engine.goto(frame, targets, incoming, matrix, colliders.surroundings(obj, scene, depsgraph),
-                             None if rt.baking else rt.budget)
+        run = rt.engine.begin(frame, targets, incoming, matrix, colliders.surroundings(obj, scene, depsgraph))
     except (EngineError, ColliderError) as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
+    rt.started = t0
+    return rt, run
+
+
+def simulate_together(objects, runtimes, runs):
+    """Live playback, the middle: the outputs of objects whose runs step together (core/contact.py), in
+    contact when more than one. AddonError naming them all on a failure."""
+    budget = None if any(rt.baking or rt.budget is None for rt in runtimes) else runtimes[0].budget
+    try:
+        return _bodies.simulate(module(), runs, budget)
+    except (EngineError, ColliderError, ValueError, module().SolverError) as exc:
+        names = ", ".join(o.name for o in objects)
+        raise AddonError(f"{names}{' (in contact)' if len(objects) > 1 else ''}: {exc}") from None
+
+
+def forget_groups():
+    """Forgets the contact groups of objects rebuilt or gone (groups of other scenes stay)."""
+    _bodies.keep_only({id(rt.engine.sim) for rt in _runtimes.values()})
+
+
+def frame_shown(obj, rt, run, out):
+    """Live playback, second half: writes the frame reached (the catch-up goes on when frames are missing)."""
+    frame = run.frame
     shown = frame - rt.engine.behind
     if rt.engine.behind:
         catch_up.start()  # the frames still missing are simulated in the background of the UI
@@ -434,7 +470,7 @@ def frame_update(obj, scene, depsgraph=None):
     show(obj, rt, rt.engine.offset)
     rt.shown = ("rest" if frame <= rt.engine.start else "frame", shown)
     t2 = time.perf_counter()
-    rt.timing = dict(rt.engine.timing, total=t2 - t0, write=t2 - t1)
+    rt.timing = dict(rt.engine.timing, total=t2 - rt.started, write=t2 - t1)
     return rt
 
 
@@ -570,7 +606,7 @@ class BakeJob(BakeFrames):
         _move_after_opdeform(obj, mod)
         s.baked = True
         s.bake_file = self.stored_path
-        s.bake_signature = signature(s, self.scene)
+        s.bake_signature = signature(s, self.scene, obj.opdeform_contact)
         modifier.clear_offset(obj.data)  # the Mesh Cache modifier shows the frames
         self.scene.frame_set(self.original_frame)
         return count
@@ -611,4 +647,4 @@ def free_bake(obj, delete_file=True):
 
 def bake_outdated(obj, scene):
     s = obj.opdeform
-    return s.baked and s.bake_signature != signature(s, scene)
+    return s.baked and s.bake_signature != signature(s, scene, obj.opdeform_contact)

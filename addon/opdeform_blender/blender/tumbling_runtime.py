@@ -84,13 +84,9 @@ def colliders(domain, scene):
     return out
 
 
-def settings(domain, scene, lower, upper):
-    """core/tumbling.py's settings with the scene's force fields (their uniform part) in the wind."""
-    s = domain.opdeform_tumbling
-    out = core.settings_dict(s, gravity(scene), lower, upper)
-    fields = scene_colliders.fields(scene, domain.opdeform_contact, bpy.context.evaluated_depsgraph_get())
-    out["wind"] = field_logic.mpm_wind(out["wind"], fields, (np.asarray(lower) + upper) / 2)
-    return out
+def scene_fields(domain, scene):
+    """The force fields acting on the domain's flakes at the scene's frame, weighted (blender/colliders.py)."""
+    return scene_colliders.fields(scene, domain.opdeform_contact, bpy.context.evaluated_depsgraph_get())
 
 
 def gravity(scene):
@@ -119,14 +115,16 @@ class BakeJob(BakeFrames):
             lower, upper = domain_box(obj)
             found = colliders(obj, scene)
             self.collider_names = [c.name for c in found]
-            self.bake = core.Bake(module, settings(obj, scene, lower, upper),
+            self.bake = core.Bake(module, core.settings_dict(s, gravity(scene), lower, upper),
                                   emitted_positions(s, lower, upper, module), found, self.path, self.start,
                                   self.end, runtime.frame_rate(scene))
+            self.fields = field_logic.SceneFields(self.bake.world)
         s.baked, s.error = False, ""
         self.frame = self.start + 1
 
     def step(self):
         with _bake_frame(self.scene, self.frame):
+            self.fields.set(scene_fields(bpy.data.objects[self.obj_name], self.scene))
             self.bake.step([self._collider_matrix(name) for name in self.collider_names])
         self.frame += 1
 

@@ -133,7 +133,21 @@ def blend(a, b, u):
                               for p, q in zip(a.colliders, b.colliders)), b.fields)
 
 
-class SceneColliders:
+class Kept:
+    """What keeps a solver's colliders or fields (``current``, None: unknown) in step with the scene's: a call on
+    the solver for one of them, its ValueError a ColliderError naming it."""
+    what = "collider"
+    current = ()
+
+    def _call(self, item, fn, *args, **kw):
+        try:
+            return fn(*args, **kw)
+        except ValueError as exc:
+            self.current = None  # partly changed: placed anew next time
+            raise ColliderError(f"{self.what} {item.name!r}: {exc}") from None
+
+
+class SceneColliders(Kept):
     """The simulation's colliders as the scene's, and the surroundings each simulated frame had (what a restore
     of that frame places again)."""
 
@@ -168,13 +182,6 @@ class SceneColliders:
                 self._call(c, self.sim.set_collider_contact, cid, c.friction, c.thickness)
             self._call(c, self.sim.move_collider, cid, c.translation, c.rotation)
         self.current = tuple(colliders)
-
-    def _call(self, collider, fn, *args, **kw):
-        try:
-            return fn(*args, **kw)
-        except ValueError as exc:
-            self.current = None  # partly changed: placed anew next time
-            raise ColliderError(f"collider {collider.name!r}: {exc}") from None
 
     def remember(self, frame, surroundings):
         self.history[frame] = surroundings

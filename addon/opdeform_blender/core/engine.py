@@ -18,11 +18,11 @@ import time
 import numpy as np
 
 from . import checks
-from . import fields as field_logic
 from . import frames as frame_logic
 from . import handles as handle_math
 from .cache import StateCache
 from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
+from .fields import SceneFields
 from .frame_report import FrameReports, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
@@ -76,6 +76,39 @@ def _same(a, b):
     return a is b or (a is not None and b is not None and np.array_equal(a, b))
 
 
+class FrameRun:
+    """One engine's way to a frame (``Engine.begin``): the frame's inputs and the plan (core/frames.py)."""
+
+    def __init__(self, engine, frame, targets, incoming, matrix, goals, surroundings):
+        self.engine, self.frame, self.targets, self.incoming, self.matrix = engine, frame, targets, incoming, matrix
+        self.goals, self.surroundings = goals, surroundings
+        self.plan = engine.plan(frame)
+        self.last = self.before = self.inputs = None
+
+
+def simulate(runs, step, budget=None):
+    """The outputs of runs whose plans simulate the same frames (or of any runs with nothing to simulate):
+    before each frame every engine takes its inputs, ``step()`` advances them all (one simulation's ``step``, or
+    a contact group's), then each stores its state. With a ``budget`` (seconds) all stop at the same frame."""
+    if runs[0].plan.kind != "simulate":
+        return [r.engine._shown(r) for r in runs]
+    for r in runs:
+        r.engine._restore_for(r)
+    plan, t0 = runs[0].plan, time.perf_counter()
+    shown = plan.frame
+    for k in plan.steps:
+        for r in runs:
+            r.engine._prepare(r, k)
+        step()
+        for r in runs:
+            r.engine._stepped(r, k)
+        if budget is not None and k < plan.frame and time.perf_counter() - t0 > budget:
+            shown = k
+            break
+    seconds = time.perf_counter() - t0
+    return [r.engine._reached(r, shown, seconds) for r in runs]
+
+
 class Engine:
     def __init__(self, od, rest_local, triangles, matrix_world=None, particles=100, mode="auto",
                  neighbors=4):
@@ -114,6 +147,10 @@ class Engine:
         self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
+        self.fields = None  # the scene's force fields in the simulation (core/fields.py)
+        self.self_contact = None  # set_self_contact's arguments (None: off)
+        self.body_contact = (0.005, 0.5)  # (gap m, friction) with other engines' bodies (core/contact.py)
+        self.partners = None  # the contact group this engine's cache was simulated in (None: alone)
         self._params = None
         self._substeps = 1
         self._floor = None
@@ -135,6 +172,25 @@ class Engine:
     def n_vertices(self):
         return len(self.rest)
 
+    @property
+    def timestep(self):
+        """(dt per substep, substeps per frame): what engines stepping together must share."""
+        return self._params["dt"], self._substeps
+
+    def set_contact(self, self_contact=None, body_contact=(0.005, 0.5)):
+        """Self-contact (``Simulation.set_self_contact``'s arguments, None: off) and the (gap, friction) with
+        other bodies. A change of self-contact outdates the cache (of the bodies' contact: core/contact.py)."""
+        self.body_contact = tuple(float(v) for v in body_contact)
+        if self_contact == self.self_contact:
+            return False
+        try:
+            self.sim.set_self_contact(self_contact is not None, **(self_contact or {}))
+        except ValueError as exc:
+            raise EngineError(f"self collision: {exc}") from None
+        self.self_contact = self_contact
+        self.invalidate()
+        return True
+
     def configure(self, params, substeps=1, floor=None, start=1, end=250, solver=None):
         """params: stiffness, density, dt (per substep), iterations, gravity, damping. floor: (height, friction)
         or None. solver: ``set_solver`` arguments (None: the default solver). A change clears the in-memory
@@ -147,6 +203,7 @@ class Engine:
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
             self.colliders = SceneColliders(self.sim)
+            self.fields = SceneFields(self.sim)
             changed = True
         elif params != self._params:
             self.sim.set_params(**params)
@@ -321,7 +378,13 @@ class Engine:
         core/frames.py); frames skipped by a jump get blended handle targets, goals and colliders; a cached
         frame whose surroundings changed since is simulated again. ``budget`` (seconds, None: no limit): stop
         simulating once it is spent and show the last frame reached; ``self.behind`` says how many frames are
-        still missing (a later call goes on from there)."""
+        still missing (a later call goes on from there). ``begin`` and ``simulate`` are its two halves, which
+        core/contact.py runs for several engines stepping together."""
+        run = self.begin(frame, targets, incoming, matrix, surroundings)
+        return simulate([run], lambda: self.sim.step(self._substeps), budget)[0]
+
+    def begin(self, frame, targets=None, incoming=None, matrix=None, surroundings=NOTHING):
+        """A frame's inputs checked (EngineError on bad ones) and its plan (a ``FrameRun``); nothing simulated."""
         self.timing = {"solver": 0.0, "skin": 0.0}
         self.behind = 0
         incoming = self.rest_local if incoming is None else incoming
@@ -331,55 +394,68 @@ class Engine:
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
         if self.colliders.outdated(min(int(frame), self.end), surroundings):
             self.invalidate(keep_until=min(int(frame), self.end) - 1)
-        plan = frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame, self.cache.first)
-        if plan.kind == "rest":
-            return self.rest_output(incoming)
-        if plan.kind == "reset":
-            self.reset(targets, goals, surroundings)
-            return self.rest_output(incoming)
-        if plan.kind == "show":
-            state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
-            return self._emit(state[0], state[1], self._reference(cached), incoming, matrix)
-        if plan.restore == "reset":
-            self.cache.truncate(self.start)
-            self.reset(targets, goals, self.colliders.at(self.start, surroundings))
-        elif plan.restore is not None:
-            self._restore(plan.restore)
-        last = self.solver_frame
-        before, before_goals = self.cache.targets(last), self.cache.goals(last)
-        before_surroundings = self.colliders.at(last, surroundings)
-        t0 = time.perf_counter()
-        fps = 1.0 / (self._params["dt"] * self._substeps)
-        shown = plan.frame
-        for k in plan.steps:
-            u = (k - last) / (plan.frame - last)
-            tk = targets if k == plan.frame or targets is None or before is None else \
-                handle_math.blend(before, targets, u)
-            gk = goals if k == plan.frame or goals is None or before_goals is None else \
-                blend_goals(before_goals, goals, u)
-            sk = surroundings if k == plan.frame else blend_surroundings(before_surroundings, surroundings, u)
-            self._apply_targets(tk)
-            self._apply_goals(gk)
-            self._surround(k, sk)
-            self.sim.step(self._substeps)
-            handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
-                                   else None, tk, self._substeps, fps)
-            self.solver_frame = k
-            self.cache.store(k, self._state(), tk, gk)
-            self.colliders.remember(k, sk)
-            self.reports.store(k, report(self.od.materials, self.sim, handle))
-            if budget is not None and k < plan.frame and time.perf_counter() - t0 > budget:
-                shown, self.behind = k, plan.frame - k
-                break
-        self.timing["solver"] += time.perf_counter() - t0
-        pos, rot = self.cache.state(shown)[:2]
-        return self._emit(pos, rot, self._reference(goals if shown == plan.frame else self.cache.goals(shown)),
-                          incoming, matrix)
+        return FrameRun(self, int(frame), targets, incoming, matrix, goals, surroundings)
 
-    def _surround(self, frame, surroundings):
-        """The colliders' frames at the end of the next step, and the force fields' push before it."""
+    def plan(self, frame):
+        return frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame, self.cache.first)
+
+    def _shown(self, run):
+        """The output of a run with nothing to simulate (rest, reset or a cached frame)."""
+        plan = run.plan
+        if plan.kind == "reset":
+            self.reset(run.targets, run.goals, run.surroundings)
+        if plan.kind != "show":
+            return self.rest_output(run.incoming)
+        state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
+        return self._emit(state[0], state[1], self._reference(cached), run.incoming, run.matrix)
+
+    def _restore_for(self, run):
+        """Loads the state a run simulates from; what the frames it skips are blended from."""
+        if run.plan.restore == "reset":
+            self.cache.truncate(self.start)
+            self.reset(run.targets, run.goals, self.colliders.at(self.start, run.surroundings))
+        elif run.plan.restore is not None:
+            self._restore(run.plan.restore)
+        run.last = last = self.solver_frame
+        run.before = (self.cache.targets(last), self.cache.goals(last), self.colliders.at(last, run.surroundings))
+
+    def _prepare(self, run, k):
+        """The handle targets, goals and surroundings of step k (blended over the frames a jump skips)."""
+        before, before_goals, before_surroundings = run.before
+        u = (k - run.last) / (run.plan.frame - run.last)
+        last = k == run.plan.frame
+        tk = run.targets if last or run.targets is None or before is None else \
+            handle_math.blend(before, run.targets, u)
+        gk = run.goals if last or run.goals is None or before_goals is None else \
+            blend_goals(before_goals, run.goals, u)
+        sk = run.surroundings if last else blend_surroundings(before_surroundings, run.surroundings, u)
+        self._apply_targets(tk)
+        self._apply_goals(gk)
+        self._surround(sk)
+        run.inputs = (tk, gk, sk)
+
+    def _stepped(self, run, k):
+        """Stores step k's state (the simulation has just made it) with the inputs that made it."""
+        tk, gk, sk = run.inputs
+        fps = 1.0 / (self._params["dt"] * self._substeps)
+        handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
+                               else None, tk, self._substeps, fps)
+        self.solver_frame = k
+        self.cache.store(k, self._state(), tk, gk)
+        self.colliders.remember(k, sk)
+        self.reports.store(k, report(self.od.materials, self.sim, handle))
+
+    def _reached(self, run, shown, seconds):
+        self.timing["solver"] += seconds
+        self.behind = run.plan.frame - shown
+        pos, rot = self.cache.state(shown)[:2]
+        goals = run.goals if shown == run.plan.frame else self.cache.goals(shown)
+        return self._emit(pos, rot, self._reference(goals), run.incoming, run.matrix)
+
+    def _surround(self, surroundings):
+        """The colliders' frames at the end of the next step, and the force fields acting during it."""
         self.colliders.move(surroundings.colliders)
-        field_logic.apply(self.sim, surroundings.fields, self._substeps * self._params["dt"], frame)
+        self.fields.set(surroundings.fields)
 
     def pose(self, targets, iterations, incoming=None):
         """Posing mode: the static ARAP pose for the targets, warm-started from the current state."""

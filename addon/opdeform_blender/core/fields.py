@@ -1,123 +1,81 @@
 """Force fields acting on the particles, free of bpy: Blender's Wind, Force, Vortex and Turbulence fields as
-plain records (``Field``), the acceleration each gives a point, and the seam where they reach the solvers.
+plain records (``Field``), checked before anything changes, and kept in step with the force fields of a solver
+(``add_force_field`` and friends on an ``opdeform.Simulation`` or an ``opdeform.mpm.World``, docs/forces.md).
 
 Strength is an acceleration in m/s^2 at the field's origin (a 1 kg Soft Body point feels the same), already
-multiplied by the effector weights (All times the field's kind). Falloff as Blender's: 1 / (1 + d - min)^power
-with d the distance to the origin (Sphere), to the axis (Tube) or along it (Plane), 1 inside Min and 0 beyond
-Max. Flow > 0 adds air drag: -flow * v. Noise adds a random push of noise * |strength| per particle and frame
-(seeded by the field's seed and the frame, so replays repeat it).
-
-The seam (until the core takes external forces, issue 13): ``opdeform.Simulation`` has gravity only, global.
-``apply`` adds a frame's accelerations to the particles' velocities before the frame's step (v += a h, h the
-frame's time) through ``Simulation.set_state``; ``wind_velocity`` gives the MPM world (tumbling particles),
-whose air is a uniform velocity plus its own noise, the velocity the fields drive the air to at a point.
+multiplied by the effector weights (All times the field's kind). The core's falloff is Blender's: 1 within Min,
+(1 + r - min)^-power beyond, 0 past Max; r along the axis for Wind, from the origin for the others (the core's
+shapes: Blender's Falloff Shape is not read). Flow is the core's drag (1/s: a body in a wind tends to
+strength / flow), Noise a wind's turbulence (of feature Size, seeded by Seed).
 """
 
 from collections import namedtuple
 
 import numpy as np
 
-from .colliders import ColliderError
+from .colliders import ColliderError, Kept
 
 FIELD_KINDS = ("WIND", "FORCE", "VORTEX", "TURBULENCE")
-Field = namedtuple("Field", "name kind strength origin axis falloff power min_distance max_distance noise flow "
-                            "size seed")
+Field = namedtuple("Field", "name kind strength origin axis power min_distance max_distance noise flow size seed")
 
 
-def field(name, kind, strength, matrix, falloff="SPHERE", power=0.0, min_distance=0.0, max_distance=float("inf"),
-          noise=0.0, flow=0.0, size=1.0, seed=0):
-    """A Field from a force-field object's settings and 4x4 world matrix (its z axis is the field's axis);
-    ColliderError naming the object on non-finite or degenerate input."""
+def field(name, kind, strength, matrix, power=0.0, min_distance=0.0, max_distance=0.0, noise=0.0, flow=0.0,
+          size=1.0, seed=0):
+    """A Field from a force-field object's settings and 4x4 world matrix (its z axis is the field's axis;
+    max_distance 0: unlimited); ColliderError naming the object on non-finite or degenerate input."""
     m = np.asarray(matrix, dtype=np.float64).reshape(4, 4)
-    numbers = (strength, power, min_distance, noise, flow, size)
+    numbers = (strength, power, min_distance, max_distance, noise, flow, size)
     if kind not in FIELD_KINDS:
         raise ColliderError(f"force field {name!r}: kind {kind!r} is not one of {', '.join(FIELD_KINDS)}")
     if not (np.all(np.isfinite(numbers)) and np.all(np.isfinite(m))):
         raise ColliderError(f"force field {name!r}: its strength, settings or transform are not finite (NaN)")
     axis = m[:3, 2]
-    if not np.linalg.norm(axis) > 1e-12 or (kind == "TURBULENCE" and not size > 0.0):
-        raise ColliderError(f"force field {name!r}: its axis (z) is degenerate or its size is not > 0")
-    return Field(name, kind, float(strength), tuple(m[:3, 3]), tuple(axis / np.linalg.norm(axis)), falloff,
-                 float(power), float(min_distance), float(max_distance), float(noise), float(flow), float(size),
-                 int(seed))
+    if not np.linalg.norm(axis) > 1e-12:
+        raise ColliderError(f"force field {name!r}: its axis (z) is degenerate")
+    size = size if size > 0.0 else 1.0  # Blender's 0 (its default): unscaled noise, features of 1 m
+    return Field(name, kind, float(strength), tuple(m[:3, 3]), tuple(axis / np.linalg.norm(axis)), float(power),
+                 float(min_distance), float(max_distance), float(noise), float(flow), float(size), int(seed))
 
 
-def _distance(f, rel, axis):
-    along = rel @ axis
-    if f.falloff == "PLANE":
-        return np.abs(along)
-    if f.falloff == "TUBE":
-        return np.linalg.norm(rel - along[:, None] * axis, axis=1)
-    return np.linalg.norm(rel, axis=1)
+def core_arguments(f):
+    """``add_force_field``'s arguments for a Field."""
+    return dict(kind=f.kind.lower(), strength=f.strength, position=f.origin, direction=f.axis,
+                turbulence=f.noise if f.kind == "WIND" else 0.0, size=f.size, falloff=f.power,
+                min_distance=f.min_distance, max_distance=f.max_distance, drag=f.flow, seed=f.seed)
 
 
-def falloff(f, rel, axis):
-    d = _distance(f, rel, axis)
-    factor = np.power(1.0 + np.maximum(d - f.min_distance, 0.0), -f.power)
-    return np.where(d > f.max_distance, 0.0, factor)
+def _placed_alike(a, b):
+    """Whether two frames of fields differ at most in where they are (origin, axis): a move suffices."""
+    return len(a) == len(b) and all(p._replace(origin=q.origin, axis=q.axis) == q for p, q in zip(a, b))
 
 
-def _unit(v):
-    n = np.linalg.norm(v, axis=1, keepdims=True)
-    return np.divide(v, n, out=np.zeros_like(v), where=n > 1e-12)
+class SceneFields(Kept):
+    """A solver's force fields as the scene's: before each step ``set`` moves them to the frame's (the same set
+    with other origins or axes) or places them anew (remove all, add all in order). Both give the same bits
+    (the core normalises an axis the same way either way), so the fields of a step are a function of its frame
+    alone and a bake equals playback."""
 
+    what = "force field"
 
-def _turbulence(f, rel):
-    """A smooth, bounded vector noise of the field's size: three random plane waves per component."""
-    rng = np.random.default_rng(f.seed)
-    waves, phases = rng.normal(size=(3, 3, 3)), rng.uniform(0.0, 2.0 * np.pi, (3, 3))
-    return np.sin(np.einsum("cwd,nd->ncw", waves, rel / f.size) + phases).sum(axis=2) / 3.0
+    def __init__(self, solver):
+        self.solver = solver
+        self.ids = []
+        self.current = ()
 
+    def set(self, fields):
+        fields = tuple(fields)
+        if fields == self.current:
+            return
+        if self.current is None or not _placed_alike(self.current, fields):
+            self._place(fields)
+        else:
+            for fid, f in zip(self.ids, fields):
+                self._call(f, self.solver.move_force_field, fid, f.origin, f.axis)
+        self.current = fields
 
-def direction(f, rel, axis):
-    """The unit push of a field at points rel (relative to its origin), before strength and falloff."""
-    if f.kind == "WIND":
-        return np.broadcast_to(axis, rel.shape)
-    if f.kind == "FORCE":
-        return _unit(rel)
-    if f.kind == "VORTEX":
-        return _unit(np.cross(axis, rel))
-    return _turbulence(f, rel)
-
-
-def accelerations(fields, positions, velocities, frame):
-    """(n, 3) accelerations of points at positions moving at velocities (world space) in a frame."""
-    total = np.zeros_like(positions)
-    for f in fields:
-        rel, axis = positions - np.asarray(f.origin), np.asarray(f.axis)
-        scale = f.strength * falloff(f, rel, axis)[:, None]
-        total += scale * direction(f, rel, axis) - f.flow * velocities
-        if f.noise > 0.0:
-            rng = np.random.default_rng((f.seed, int(frame)))
-            total += f.noise * abs(f.strength) * rng.normal(size=positions.shape)
-    return total
-
-
-def apply(sim, fields, dt, frame):
-    """The seam: a frame's field accelerations reach the ARAP particles as a velocity change before its step."""
-    if not fields:
-        return
-    pos, rot, vel, ang = sim.positions, sim.rotations, sim.velocities, sim.angular_velocities
-    sim.set_state(pos, rot, vel + dt * accelerations(fields, pos, vel, frame), ang)
-
-
-def wind_velocity(fields, point, drag):
-    """The air velocity the fields drive toward at a point, for a world whose air relaxes to a uniform wind at
-    rate drag (1/s): the acceleration at rest divided by drag (the same initial push as the ARAP particles)."""
-    if not fields or not drag > 0.0:
-        return np.zeros(3)
-    p = np.asarray(point, dtype=np.float64).reshape(1, 3)
-    steady = [f._replace(noise=0.0) for f in fields]
-    return accelerations(steady, p, np.zeros_like(p), 0)[0] / drag
-
-
-def mpm_wind(wind, fields, point, drag=8.0):
-    """The tumbling world's wind settings (core/tumbling.py's ``settings_dict``; None: off) with the fields' air
-    velocity at point (the domain's centre) added to its mean velocity; without a wind of its own, a uniform
-    one relaxing at ``drag`` (the Tumbling Particles' default Air Drag)."""
-    if not fields:
-        return wind
-    wind = dict(wind or {"kind": "noise", "amplitude": 0.0, "exponent": 0.0, "drag": drag})
-    wind["velocity"] = tuple(np.add(wind.get("velocity", (0.0, 0.0, 0.0)), wind_velocity(fields, point,
-                                                                                           wind["drag"])))
-    return wind
+    def _place(self, fields):
+        for fid in self.ids:
+            self.solver.remove_force_field(fid)
+        self.ids, self.current = [], ()
+        for f in fields:
+            self.ids.append(self._call(f, self.solver.add_force_field, **core_arguments(f)))

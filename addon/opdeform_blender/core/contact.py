@@ -1,0 +1,85 @@
+"""Contact between opdeform objects, free of bpy: engines whose simulations can step together (the same dt, substeps
+and cache range) form one ``opdeform.ContactGroup`` (docs/contact.md) and go to a frame together (core/engine.py
+``simulate``); each engine's cache keeps its own states.
+
+A group's frames depend on every member, so an engine remembers the group it was simulated in (``partners``):
+joining, leaving or a change of the group's contact outdates its whole cache. Before simulating, the members'
+plans are made the same: each cache is cut back to the shortest one (a member whose colliders moved outdates the
+others' frames after it too), so a bake of one member simulates the whole group again, bit for bit as playback.
+The group's gap is the largest of its members' Distance, its friction their mean.
+"""
+
+from .engine import simulate
+
+
+def partition(runs):
+    """Runs (``Engine.begin``'s) in groups that can step together, in their order (a group of one steps alone)."""
+    groups = {}
+    for r in runs:
+        e = r.engine
+        groups.setdefault((e.timestep, e.start, e.end), []).append(r)
+    return list(groups.values())
+
+
+def _same_plans(runs):
+    return len({(r.plan.kind, r.plan.frame, tuple(r.plan.steps)) for r in runs}) == 1
+
+
+def _replan(runs, keep_until=None, clear=False):
+    for r in runs:
+        if clear or keep_until is not None:
+            r.engine.invalidate(keep_until)
+        r.plan = r.engine.plan(r.frame)
+
+
+def align(runs):
+    """Makes the runs' plans the same: the caches cut back to the shortest (all cleared if that does not do)."""
+    if _same_plans(runs):
+        return
+    lasts = [r.engine.cache.last for r in runs]
+    _replan(runs, None if None in lasts else min(lasts), clear=True)
+    if not _same_plans(runs):
+        _replan(runs, clear=True)
+
+
+def join(runs, key):
+    """Marks the group the runs' engines are simulated in (None: alone); another than before outdates a cache."""
+    for r in runs:
+        if r.engine.partners != key:
+            r.engine.partners = key
+            _replan([r], clear=True)
+
+
+class Bodies:
+    """The contact groups in use, re-made when their members or contact change."""
+
+    def __init__(self):
+        self.groups = {}  # the members' simulations (ids) -> (contact, ContactGroup)
+
+    def clear(self):
+        self.groups.clear()
+
+    def keep_only(self, sims):
+        """Forgets the groups with a member not among these simulations (ids): a rebuilt or removed object's."""
+        self.groups = {k: g for k, g in self.groups.items() if set(k) <= sims}
+
+    def _group(self, od, engines):
+        members = tuple(id(e.sim) for e in engines)
+        contact = (max(e.body_contact[0] for e in engines), sum(e.body_contact[1] for e in engines) / len(engines))
+        held = self.groups.get(members)
+        if held is None or held[0] != contact:
+            held = self.groups[members] = (contact, od.ContactGroup([e.sim for e in engines], *contact))
+        return members, contact, held[1]
+
+    def simulate(self, od, runs, budget=None):
+        """The outputs of runs that step together (``partition``), in contact when more than one. Errors as
+        ``Engine.goto``'s, the solver's for the whole group."""
+        if len(runs) == 1:
+            join(runs, None)
+            e = runs[0].engine
+            return simulate(runs, lambda: e.sim.step(e.timestep[1]), budget)
+        members, contact, group = self._group(od, [r.engine for r in runs])
+        join(runs, (members, contact))
+        align(runs)
+        substeps = runs[0].engine.timestep[1]
+        return simulate(runs, lambda: group.step(substeps), budget)
