@@ -1,6 +1,6 @@
 """Contact between simulated bodies (opdeform.ContactGroup) and within one body (self-contact), docs/contact.md,
 issue 13: bodies colliding head on or fast do not pass through each other and keep their momentum, a body
-dropped on another stays above it through the impact, bodies that start overlapping come apart slowly, a rod's
+dropped on another stays above it through the impact (not yet at rest on it: xfail), bodies that start overlapping come apart slowly, a rod's
 far end bent onto its other end does not pass into it, a body at rest with self-contact on stays at rest to
 the bit, and bad input raises."""
 
@@ -48,16 +48,44 @@ def test_bodies_colliding_head_on_do_not_pass_through(bar, speed):
     assert b.positions[:, 2].mean() < a.positions[:, 2].mean()
 
 
-def test_a_body_dropped_on_another_stays_above_it_through_the_impact(bar):
-    g = bar[2]
-    a, b = _body(g, (0.0, 0.0, 0.0), gravity=(0, 0, -9.81)), _body(g, (0.0, 0.0, 0.45), gravity=(0, 0, -9.81))
+def _stack(graph):
+    """Two bars on a floor (friction 0.5), the upper one 0.15 m above the lower one, under gravity."""
+    a, b = _body(graph, (0.0, 0.0, 0.0), gravity=(0, 0, -9.81)), _body(graph, (0.0, 0.0, 0.45), gravity=(0, 0, -9.81))
     for sim in (a, b):
         sim.set_floor(-0.15, 0.5)
+    return a, b
+
+
+def test_a_body_dropped_on_another_stays_above_it_through_the_impact(bar):
+    g = bar[2]
+    a, b = _stack(g)
     group = opdeform.ContactGroup([a, b])
     for _ in range(40):
         group.step()
         assert b.positions[:, 2].mean() - a.positions[:, 2].mean() > 0.22
     assert np.abs(a.positions[:, :2].mean(axis=0)).max() < 0.02  # A stays where it was
+
+
+def _skinned_overlap(graph, vertices, triangles, lower, upper):
+    """How deep the upper body's skinned vertices lie inside the lower body's skinned mesh (m, >= 0)."""
+    shown = [opdeform.Skin(graph, vertices).deform_sim(sim, push_out=False) for sim in (lower, upper)]
+    probe = opdeform.Simulation(graph, 1e6)
+    probe.add_collider("mesh", vertices=shown[0], triangles=triangles, resolution=64)
+    return max(-probe.collider_distances(shown[1]).min(), 0.0)
+
+
+@pytest.mark.xfail(reason="left: with per-pair friction both bars shear about their long axis and the upper one "
+                   "rolls off at 4-5 s (docs/contact.md, stacking)")
+def test_a_bar_dropped_on_another_comes_to_rest_on_it(bar):
+    v, t, g = bar
+    a, b = _stack(g)
+    group = opdeform.ContactGroup([a, b], friction=0.5)
+    for _ in range(360):  # 6 s
+        group.step()
+    assert b.positions[:, 2].mean() - a.positions[:, 2].mean() > 0.25  # on it: bars 0.3 thick
+    assert np.abs(b.positions[:, :2].mean(axis=0) - a.positions[:, :2].mean(axis=0)).max() < 0.05
+    assert np.abs(b.velocities).max() < 0.05  # at rest
+    assert _skinned_overlap(g, v, t, a, b) < 0.02 * 0.6  # issue 13: < 2 % of the size
 
 
 @pytest.mark.xfail(reason="left: the fastest particle reaches 3.0 m/s (the 1 m/s recovery plus the elastic rebound)")
