@@ -18,7 +18,7 @@ import numpy as np
 import opdeform
 from opdeform import meshes
 
-from .common import table
+from .common import print_aims, table
 
 VERTICES = 1_000_000
 NEIGHBORS = 4
@@ -101,7 +101,7 @@ def run(args):
              ("positions only, float32", "all", out32, None, 4),
              ("positions + normals, float64", "all", out64, nrm64, 8),
              ("positions + normals, float32", "one", out32, nrm32, 4)]
-    rows = []
+    rows, fractions = [], []
     for name, threads, out, nrm, size in cases:
         skin = skins[threads]
         skin.deform(positions, rotations, out, nrm)
@@ -110,12 +110,15 @@ def run(args):
         bound = moved / (bandwidth * 1e9)
         rows.append((name, f"{cores if threads == 'all' else 1}", f"{seconds * 1e3:.2f}", f"{cpu * 1e3:.2f}",
                      f"{moved / 1e6:.0f}", f"{bound * 1e3:.2f}", f"{bound / seconds:.2f}"))
+        fractions.append(bound / seconds)
     after = copy_bandwidth(cores)
     table(rows, ["skinning 1M vertices", "threads", "ms/frame", "cpu ms", "MB moved", "bandwidth ms", "fraction"])
     print("cpu ms: processor time of all threads per frame; wall time near it with several threads means the "
           "other cores were busy (load average above)")
     print(f"memory bandwidth (a 512 MB copy, bytes read + written): {every_core:.1f} GB/s on {cores} threads "
           f"({after:.1f} after the skinning), {one_core:.1f} GB/s on one; the fractions use {bandwidth:.1f} GB/s")
+    print_aims([(f"1M vertices, positions + normals, float32, {cores} threads", f"{fractions[0]:.2f} of the copy "
+                 f"bandwidth ({rows[0][2]} ms)", ">= 0.5", fractions[0] >= 0.5)])
     print(f"binding {VERTICES:,} vertices (grid search, all cores): {bind_s:.3f} s")
 
     big_v, big_t = meshes.subdivide(*meshes.creature(130))
