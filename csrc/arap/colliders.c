@@ -7,6 +7,7 @@
 // a deforming 3,744-triangle sphere re-samples in 94 ms at 64 and 33 ms at 32 (docs/contact.md, measured).
 #include "colliders.h"
 
+#include "buffer.h"
 #include "core.h"
 #include "sim.h"
 
@@ -85,29 +86,13 @@ static od_SimCollider* od_Find(const od_Sim* sim, int id)
 	return NULL;
 }
 
-static od_Status od_Reserve(od_Colliders* set)
-{
-	if (set->count < set->capacity)
-	{
-		return OD_OK;
-	}
-	int capacity = set->capacity ? 2 * set->capacity : 4;
-	od_SimCollider* grown = od_Realloc(set->items, sizeof *grown * (size_t)capacity);
-	if (!grown)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "out of memory for colliders");
-	}
-	set->items = grown;
-	set->capacity = capacity;
-	return OD_OK;
-}
-
 od_Status od_Sim_AddCollider(od_Sim* sim, const od_ColliderDef* def, int* id)
 {
 	od_ShapeDef shape;
 	od_Status status = od_CheckContact(def->friction, def->thickness);
 	status = status == OD_OK ? od_ShapeOf(def, &shape) : status;
-	status = status == OD_OK ? od_Reserve(&sim->colliders) : status;
+	status = status == OD_OK ? od_Grow((void**)&sim->colliders.items, &sim->colliders.capacity, sim->colliders.count + 1,
+									   sizeof(od_SimCollider), "colliders") : status;
 	if (status != OD_OK)
 	{
 		return status;

@@ -19,27 +19,6 @@
 #include <math.h>
 #include <string.h>
 
-static od_Status od_Grow(void** p, int* capacity, int needed, size_t item)
-{
-	if (needed <= *capacity)
-	{
-		return OD_OK;
-	}
-	int cap = *capacity ? *capacity : 8;
-	while (cap < needed)
-	{
-		cap *= 2;
-	}
-	void* q = od_Realloc(*p, (size_t)cap * item);
-	if (!q)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "out of memory growing the constraint set");
-	}
-	*p = q;
-	*capacity = cap;
-	return OD_OK;
-}
-
 void od_Constraints_Destroy(od_ConstraintSet* set)
 {
 	od_Free(set->items);
@@ -95,10 +74,10 @@ static od_Status od_CheckWeight(double weight)
 static od_Status od_AddConstraint(od_Sim* sim, od_Constraint* c, int* id)
 {
 	od_ConstraintSet* set = &sim->constraints;
-	od_Status status = od_Grow((void**)&set->items, &set->capacity, set->count + 1, sizeof(od_Constraint));
+	od_Status status = od_Grow((void**)&set->items, &set->capacity, set->count + 1, sizeof(od_Constraint), "constraint set");
 	if (status == OD_OK)
 	{
-		status = od_Grow((void**)&set->slotOfId, &set->idCapacity, set->nextId + 1, sizeof(int));
+		status = od_Grow((void**)&set->slotOfId, &set->idCapacity, set->nextId + 1, sizeof(int), "constraint set");
 	}
 	if (status != OD_OK)
 	{

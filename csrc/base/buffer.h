@@ -56,3 +56,26 @@ static inline od_Status od_Resize(void** p, size_t bytes, const char* what)
 	*p = q;
 	return OD_OK;
 }
+
+// Makes room for `needed` items of `item` bytes in *p (the capacity doubles from 8); on failure *p is kept and
+// the message names `what`.
+static inline od_Status od_Grow(void** p, int* capacity, int needed, size_t item, const char* what)
+{
+	if (needed <= *capacity)
+	{
+		return OD_OK;
+	}
+	int cap = *capacity ? *capacity : 8;
+	while (cap < needed)
+	{
+		cap *= 2;
+	}
+	void* q = od_Realloc(*p, (size_t)cap * item);
+	if (!q)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory growing the %s", what);
+	}
+	*p = q;
+	*capacity = cap;
+	return OD_OK;
+}

@@ -13,6 +13,7 @@
 // v' = v + h (f - D v) overshoots for D h > 2), and the speed settles at f / D, the wind's own speed.
 #include "field.h"
 
+#include "buffer.h"
 #include "core.h"
 
 #include <math.h>
@@ -81,20 +82,12 @@ od_Status od_FieldSet_Add(od_FieldSet* set, const od_FieldDef* def, int* id)
 	od_Field f = { .id = set->nextId, .def = *def };
 	od_Status status = od_CheckField(def);
 	status = status == OD_OK ? od_UnitAxis(def->direction, f.def.direction) : status;
+	status = status == OD_OK ? od_Grow((void**)&set->items, &set->capacity, set->count + 1, sizeof(od_Field),
+									   "force fields")
+							 : status;
 	if (status != OD_OK)
 	{
 		return status;
-	}
-	if (set->count == set->capacity)
-	{
-		int capacity = set->capacity ? 2 * set->capacity : 4;
-		od_Field* grown = od_Realloc(set->items, sizeof *grown * (size_t)capacity);
-		if (!grown)
-		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for force fields");
-		}
-		set->items = grown;
-		set->capacity = capacity;
 	}
 	set->items[set->count++] = f;
 	*id = set->nextId++;
