@@ -209,6 +209,17 @@ static inline od_Mat3 od_M3Skew(od_Vec3 w)
 	return (od_Mat3){ { 0, -w.z, w.y, w.z, 0, -w.x, -w.y, w.x, 0 } };
 }
 
+// I + a [w]x + b [w]x², the form of the rotations made from a vector (od_M3ExpSkew; polar.c's Cayley step).
+static inline od_Mat3 od_M3SkewSeries(od_Vec3 w, double a, double b)
+{
+	od_Mat3 k = od_M3Skew(w);
+	od_Mat3 k2 = od_M3Mul(&k, &k);
+	od_Mat3 r = od_M3Identity();
+	od_M3AddScaled(&r, a, &k);
+	od_M3AddScaled(&r, b, &k2);
+	return r;
+}
+
 // exp([w]x) by Rodrigues' formula, accurate for small angles.
 static inline od_Mat3 od_M3ExpSkew(od_Vec3 w)
 {
@@ -225,12 +236,7 @@ static inline od_Mat3 od_M3ExpSkew(od_Vec3 w)
 		a = sin(t) / t;
 		b = (1.0 - cos(t)) / t2;
 	}
-	od_Mat3 k = od_M3Skew(w);
-	od_Mat3 k2 = od_M3Mul(&k, &k);
-	od_Mat3 r = od_M3Identity();
-	od_M3AddScaled(&r, a, &k);
-	od_M3AddScaled(&r, b, &k2);
-	return r;
+	return od_M3SkewSeries(w, a, b);
 }
 
 // The axis-angle vector of a rotation (inverse of od_M3ExpSkew), robust near 0 and pi.

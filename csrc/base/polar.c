@@ -170,12 +170,7 @@ static od_Mat3 od_Cayley(od_Vec3 w)
 {
 	od_Vec3 a = od_Scale(0.5, w);
 	double f = 2.0 / (1.0 + od_Dot(a, a));
-	od_Mat3 k = od_M3Skew(a);
-	od_Mat3 k2 = od_M3Mul(&k, &k);
-	od_Mat3 r = od_M3Identity();
-	od_M3AddScaled(&r, f, &k);
-	od_M3AddScaled(&r, f, &k2);
-	return r;
+	return od_M3SkewSeries(a, f, f);
 }
 
 int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
