@@ -105,9 +105,11 @@ def partial_name(path):
 
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yields the temporary name to write ``path`` under; renames it to ``path`` when the block completes,
-    removes it when the block raises."""
-    part = partial_name(path)
+    """Yields the temporary name to write ``path`` under (``partial_name`` with this process's id, so that
+    two processes writing the same file never rename each other's part); renames it to ``path`` when the
+    block completes, removes it when the block raises."""
+    root, ext = os.path.splitext(partial_name(path))
+    part = f"{root}{os.getpid()}{ext}"
     try:
         yield part
     except BaseException:
