@@ -31,3 +31,5 @@ class ContactGroup:
         """Advances every simulation ``steps`` time steps, in contact. On a non-finite result raises
         SolverError; each simulation keeps its state from before the call."""
         self._core.step(integer("steps", steps))
+        for sim in self.sims:
+            sim._colliders_arrived()

@@ -7,6 +7,8 @@ iteration count and the step size; ``opdeform.Simulation``'s does not. The core 
 Simulation's state protocol, so the state accessors below are the Simulation's own.
 """
 
+from types import MappingProxyType
+
 import numpy as np
 
 from . import _core
@@ -49,6 +51,8 @@ class ShapeMatching:
     set_floor = Simulation.set_floor
     clear_floor = Simulation.clear_floor
     step = Simulation.step
+    _colliders = MappingProxyType({})  # no colliders: none arrives at the end of a step
+    _colliders_arrived = Simulation._colliders_arrived
     set_state = Simulation.set_state
     _read = Simulation._read
     positions = Simulation.positions

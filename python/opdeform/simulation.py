@@ -37,6 +37,11 @@ class Simulation(ForceFields):
         self._floor = None
         self._goal_hz = None
         self._goal_frames = None
+        # The scene, for pickling too: the force-field calls as made (ForceFields records them in _calls),
+        # each live collider's arguments with its frame now and the frame the next step call takes it to.
+        self._calls = []
+        self._colliders = {}
+        self._collider_ids = 0
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind="position"):
@@ -149,33 +154,44 @@ class Simulation(ForceFields):
         index = choice("shape", shape, self.COLLIDER_SHAPES)
         verts = tris = None
         if index == 4:
-            verts = as_array("vertices", vertices, (None, 3))
-            tris = as_array("triangles", triangles, (None, 3), np.int32)
+            verts = as_array("vertices", vertices, (None, 3)).copy()
+            tris = as_array("triangles", triangles, (None, 3), np.int32).copy()
         if normal is not None:
             rotation = frame_from_normal(vector("normal", normal))
-        return self._core.add_collider(index, vector("half_extents", half_extents), number("radius", radius),
-                                       number("half_length", half_length), verts, tris,
-                                       integer("resolution", resolution), number("friction", friction),
-                                       number("thickness", thickness), _rotation(rotation),
-                                       vector("translation", translation))
+        frame = (_rotation(rotation).copy(), vector("translation", translation))
+        args = {"shape": shape, "half_extents": vector("half_extents", half_extents),
+                "radius": number("radius", radius), "half_length": number("half_length", half_length),
+                "vertices": verts, "triangles": tris, "friction": number("friction", friction),
+                "thickness": number("thickness", thickness), "resolution": integer("resolution", resolution)}
+        id = self._core.add_collider(index, args["half_extents"], args["radius"], args["half_length"], verts, tris,
+                                     args["resolution"], args["friction"], args["thickness"], *frame)
+        self._colliders[id] = {"args": args, "frame": frame, "target": None}
+        self._collider_ids = id + 1
+        return id
 
     def move_collider(self, id, translation, rotation=None):
         """The collider's frame at the end of the next ``step`` call (reached at constant velocity over its
         steps; contact follows the swept motion)."""
-        self._core.move_collider(integer("id", id), _rotation(rotation), vector("translation", translation))
+        target = (_rotation(rotation).copy(), vector("translation", translation))
+        self._core.move_collider(integer("id", id), *target)
+        self._colliders[id]["target"] = target
 
     def update_collider_vertices(self, id, vertices):
         """New vertices (V,3) of a mesh collider, in its frame (a deforming collider): re-sampled now."""
-        self._core.update_collider_vertices(integer("id", id), as_array("vertices", vertices, (None, 3)))
+        verts = as_array("vertices", vertices, (None, 3))
+        self._core.update_collider_vertices(integer("id", id), verts)
+        self._colliders[id]["args"]["vertices"] = verts.copy()
 
     def set_collider_contact(self, id, friction=0.5, thickness=0.005):
         """A collider's Coulomb friction and thickness (m, > 0); unknown ids raise IndexError."""
-        self._core.set_collider_contact(integer("id", id), number("friction", friction),
-                                        number("thickness", thickness))
+        contact = {"friction": number("friction", friction), "thickness": number("thickness", thickness)}
+        self._core.set_collider_contact(integer("id", id), *contact.values())
+        self._colliders[id]["args"].update(contact)
 
     def remove_collider(self, id):
         """Removes a collider; unknown ids raise IndexError."""
         self._core.remove_collider(integer("id", id))
+        del self._colliders[id]
 
     @property
     def n_colliders(self):
@@ -215,6 +231,13 @@ class Simulation(ForceFields):
     def step(self, steps=1):
         """Advances ``steps`` time steps. On a non-finite result raises SolverError and keeps the state."""
         self._core.step(integer("steps", steps))
+        self._colliders_arrived()
+
+    def _colliders_arrived(self):
+        """After a step call: each moved collider is at its target."""
+        for c in self._colliders.values():
+            if c["target"] is not None:
+                c["frame"], c["target"] = c["target"], None
 
     def solve_static(self, iterations):
         """The static pose (no inertia, gravity included) from the current state; needs a position
@@ -274,12 +297,15 @@ class Simulation(ForceFields):
     # -- pickling ---------------------------------------------------------------------------------------
     def __getstate__(self):
         """Everything a step reads: graph, parameters, solver settings, floor, goals, constraints (ids, slot
-        order, targets as stored) and the state with velocities. The factorization is rebuilt; counters restart."""
+        order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact
+        and the state with velocities. The factorization is rebuilt; counters restart."""
         return {"graph": self.graph, "params": self.params, "solver": self.solver, "trace_energy": self.trace_energy,
                 "floor": self._floor, "goal_hz": self._goal_hz, "goal_frames": self._goal_frames,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
-                "state": (self.positions, self.rotations, self.velocities, self.angular_velocities)}
+                "state": (self.positions, self.rotations, self.velocities, self.angular_velocities),
+                "fields": self._calls, "colliders": self._colliders, "collider_ids": self._collider_ids,
+                "self_contact": self.self_contact}
 
     def __setstate__(self, saved):
         self._start(saved["graph"], core_params(**saved["params"]))
@@ -292,6 +318,11 @@ class Simulation(ForceFields):
         if saved["goal_frames"] is not None:
             self.set_goals(*saved["goal_frames"])
         self._replay(saved["ids_before"], saved["history"], saved["constraints"], saved["targets"])
+        for name, args in saved["fields"]:
+            getattr(self, name)(*args)
+        self._replay_colliders(saved["collider_ids"], saved["colliders"])
+        if saved["self_contact"] is not None:
+            self.set_self_contact(True, **saved["self_contact"])
         self._core.restore_state(*saved["state"])
 
     def _replay(self, ids_before, history, constraints, targets):
@@ -310,6 +341,18 @@ class Simulation(ForceFields):
                 self.add_direction_constraint(point, direction, target, weight)
         for id, target in targets.items():
             self._core.restore_constraint_target(id, target)
+
+    def _replay_colliders(self, ids, colliders):
+        """Each live collider added again at its frame now (ids in order, removed ones as placeholders, so that
+        ids and the order contact takes them in match), then sent on to its target."""
+        for id in range(ids):
+            c = colliders.get(id)
+            if c is None:
+                self.remove_collider(self.add_collider("plane"))
+                continue
+            self.add_collider(**c["args"], rotation=c["frame"][0], translation=c["frame"][1])
+            if c["target"] is not None:
+                self.move_collider(id, c["target"][1], c["target"][0])
 
     # -- parameters and diagnostics --------------------------------------------------------------------
     @property
