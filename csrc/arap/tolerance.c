@@ -17,6 +17,22 @@
 // 0.071 -> 0.134 % of the bar's length); on the sagging bar, which swings, the predicted start put the
 // iterate 2.6x further from the solution, and the energy keeps the previous rotations there (0.158 % and
 // 0.070 ms before, 0.155 % and 0.072 ms after). Always predicting cost the sagging bar 3.3x.
+//
+// The auto accelerator (od_Tolerance_Plan, od_Tolerance_Check): each step's first two pairs are plain, and
+// q = r_2 / r_1 says how they contract. Fast (q < OD_AUTO_SLOW): plain pairs to OD_AUTO_SHARE of the
+// tolerance. Slow: Chebyshev for the rest of the step, its history seeded with the two plain pairs (as if
+// they had been its first), the probe's own estimate being r_2 q / (1 - q). Measured on the 2-second clips
+// (docs/settings.md, interleaved processor time): the twisted bar's probes contract at q = 0.5 (the twist,
+// seen by the moment term), the sagging bar's at 0.84-0.89 (its swing), so the split is clean at 0.7.
+// Why not the start choice: the predicted rotations win on 102 of 120 sagging-bar steps too, and plain
+// pairs there put its clip at 0.46 %. Why the share: plain pairs slow down once the twist is resolved
+// (q -> 0.9) and their residual understates the error; at 1e-5 (half the default) the twisted bar's clip is
+// 0.17 %, at 1.5e-5 0.19 %. Why the corrected estimate at a slow probe: the raw r_2 stopped 1 step in 5 of
+// the sagging bar after its probe (clip 0.23 %). Why the seed: it saves Chebyshev's own plain first pair
+// (sagging bar 0.156 % -> 0.072 %, same cost within the noise). Rejected: the contraction-corrected estimate
+// for every plain pair (twisted bar 0.26 %: after a switch Chebyshev's first residual is plain and raw), and
+// keeping Chebyshev for the next steps after a slow probe (clip error 0.13-0.29 % as the period changed,
+// no steady saving).
 #include "tolerance.h"
 
 #include "core.h"
@@ -27,6 +43,9 @@
 
 #include <math.h>
 #include <string.h>
+
+#define OD_AUTO_SLOW 0.7  // a probe contracting at this rate or slower turns Chebyshev on
+#define OD_AUTO_SHARE 0.5 // a fast step's plain pairs stop at this share of the tolerance
 
 static double od_BodySize(const od_Graph* g)
 {
@@ -124,4 +143,42 @@ double od_Tolerance_Estimate(od_Sim* sim)
 	double residual = sqrt(od_LargestMove2(sim)) / tol->size;
 	od_Tolerance_Start(sim);
 	return residual;
+}
+
+od_StepPlan od_Tolerance_Plan(const od_Sim* sim)
+{
+	od_AcceleratorKind kind = sim->solverDef.accelerator;
+	bool dynamic = sim->mode == OD_DYNAMIC;
+	double tolerance = dynamic && sim->solverDef.tolerance > 0.0 ? sim->solverDef.tolerance : 0.0;
+	bool probing = kind == OD_ACCELERATE_AUTO && tolerance > 0.0;
+	bool accelerate = kind != OD_ACCELERATE_NONE && !probing; // auto at a fixed count: Chebyshev
+	return (od_StepPlan){ .accelerate = accelerate, .probing = probing, .tolerance = tolerance, .last = -1.0 };
+}
+
+// The probe's second residual decides the rest of the step (the design note above).
+static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
+{
+	plan->probing = false;
+	double q = residual / plan->last;
+	if (q < OD_AUTO_SLOW)
+	{
+		plan->tolerance *= OD_AUTO_SHARE;
+		return residual;
+	}
+	plan->accelerate = true;
+	od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
+	return q < 1.0 ? residual * q / (1.0 - q) : INFINITY; // slow: the residual understates the error
+}
+
+double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
+{
+	od_Tolerance* tol = &sim->tolerance;
+	double residual = sqrt(od_LargestMove2(sim)) / tol->size, estimate = residual;
+	if (plan->probing && residual > 0.0)
+	{
+		estimate = plan->last < 0.0 ? INFINITY : od_Probe(sim, plan, residual); // one residual: no rate yet
+		plan->last = residual;
+	}
+	od_Tolerance_Start(sim);
+	return estimate;
 }

@@ -13,3 +13,19 @@ void od_Tolerance_Start(od_Sim* sim);
 void od_Tolerance_ChooseStart(od_Sim* sim);
 // The residual of the current iterate against the one remembered, which it then replaces (tolerance.c).
 double od_Tolerance_Estimate(od_Sim* sim);
+
+// How the current call's iteration runs: accelerated or plain pairs, and the error estimate it stops at (0: a
+// fixed count: no tolerance, or a static solve). The auto accelerator's step probes with two plain pairs,
+// then goes on plain (to a share of the tolerance) or turns Chebyshev on (tolerance.c).
+typedef struct od_StepPlan
+{
+	bool accelerate; // the next pair is accelerated
+	bool probing;    // auto's first two pairs: plain, their contraction decides
+	double tolerance;
+	double last; // the probe's first residual (< 0: none yet)
+} od_StepPlan;
+od_StepPlan od_Tolerance_Plan(const od_Sim* sim);
+// After a pair under a tolerance: the step's error estimate, to compare with plan->tolerance (the residual; at
+// a probe that turns Chebyshev on, the contraction-corrected residual), and the plan's next pair. Replaces
+// the remembered iterate like od_Tolerance_Estimate.
+double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan);

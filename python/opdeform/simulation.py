@@ -326,7 +326,7 @@ class Simulation(ForceFields):
         p.update(changes)
         self._core.set_params(*core_params(**p))
 
-    ACCELERATORS = ("none", "anderson", "chebyshev")
+    ACCELERATORS = ("none", "anderson", "chebyshev", "auto")
 
     FACTORIZATIONS = ("auto", "simplicial", "supernodal")
 

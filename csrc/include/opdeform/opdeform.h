@@ -95,7 +95,10 @@ typedef enum od_AcceleratorKind
 {
 	OD_ACCELERATE_NONE = 0,     // plain alternation of local and global steps
 	OD_ACCELERATE_ANDERSON = 1, // Anderson acceleration of the centres, energy safeguarded
-	OD_ACCELERATE_CHEBYSHEV = 2 // Chebyshev semi-iterative acceleration, energy safeguarded
+	OD_ACCELERATE_CHEBYSHEV = 2, // Chebyshev semi-iterative acceleration, energy safeguarded
+	OD_ACCELERATE_AUTO = 3       // under a tolerance, chosen per step (tolerance.c): two plain pairs, then plain
+	                             // to half the tolerance if they contracted fast, else Chebyshev; without a
+	                             // tolerance (and in static solves), Chebyshev
 } od_AcceleratorKind;
 
 typedef struct od_SolverDef
