@@ -333,7 +333,10 @@ class Simulation(ForceFields):
     def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto", tolerance=None,
                    max_iterations=None):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
-        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy;
+        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy, or
+        "auto": under a tolerance each step makes two plain pairs and goes on plain (to half the tolerance)
+        when they contracted fast, else turns Chebyshev on (the measured fastest variant that meets the error
+        goal on both of docs/settings.md's bars); without a tolerance "auto" is Chebyshev;
         ``threads`` (0..64; 0: the CPUs this process may use) for the local step (a block of particles per thread, then the border),
         the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
         run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
