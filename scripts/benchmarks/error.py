@@ -202,23 +202,32 @@ def clip_error(iteration_counts, rounds=3):
     return rows
 
 
-def aim(clip):
+def aim(clip, rounds=15):
     """Issue 14's aim for the default setting against plain 10 pairs a step, per bar: lines to print and
-    whether it is met on both."""
-    default = (materials.DEFAULT_ACCELERATOR, f"tol {materials.DEFAULT_TOLERANCE:g}")
-    by = {(c, v, k): (ms, e) for c, v, k, ms, e, _ in clip}
+    whether it is met on both. The errors are the clip table's; the cost is measured again, the two runs
+    interleaved ``rounds`` times (processor time, medians), as the table's 3 rounds move by 10-20 % on a
+    shared machine."""
+    default = (materials.DEFAULT_ACCELERATOR, materials.DEFAULT_TOLERANCE)
+    label = f"tol {default[1]:g}"
+    errors = {(c, v, k): e for c, v, k, _, e, _ in clip}
     lines, met = [], True
-    for bar in ("sagging bar", "twisted bar"):
-        ms, err = by[(bar,) + default]
-        cost = ms / by[(bar, "none", 10)][0]
+    for bar, make in (("sagging bar", sagging_clip), ("twisted bar", twisted_clip)):
+        plain, chosen = [], []
+        for _ in range(rounds):
+            plain.append(_clip(make, 10, "none")[1])
+            chosen.append(_clip(make, default[1], default[0])[1])
+        cost = statistics.median(chosen) / statistics.median(plain)
+        ratios = sorted(c / p for c, p in zip(chosen, plain))
+        err = errors[(bar, default[0], label)]
         ok = cost <= AIM_COST and err <= AIM_ERROR
         met = met and ok
-        lines.append(f"  {bar}: {100 * err:.3f} % at {cost:.2f}x plain 10 ({ms:.3f} ms/step): "
+        lines.append(f"  {bar}: {100 * err:.3f} % at {cost:.2f}x plain 10 ({statistics.median(chosen):.3f} against "
+                     f"{statistics.median(plain):.3f} ms/step; per round {ratios[0]:.2f}-{ratios[-1]:.2f}x): "
                      f"{'met' if ok else 'NOT met'}")
-    head = (f"Aim (issue 14): the default ({default[0]}, {default[1]}) at most {AIM_COST:g}x the processor time "
-            f"of plain 10 pairs a step and a clip error of at most {100 * AIM_ERROR:g} % on both bars")
+    head = (f"Aim (issue 14): the default ({default[0]}, {label}) at most {AIM_COST:g}x the processor time of "
+            f"plain 10 pairs a step and a clip error of at most {100 * AIM_ERROR:g} % on both bars "
+            f"({rounds} interleaved rounds, load average {os.getloadavg()[0]:.2f})")
     return [head] + lines + [f"  met on both bars: {'yes' if met else 'NO'}"], met
-
 
 
 def plot(scene, rows, path):
