@@ -19,20 +19,23 @@
 // 0.070 ms before, 0.155 % and 0.072 ms after). Always predicting cost the sagging bar 3.3x.
 //
 // The auto accelerator (od_Tolerance_Plan, od_Tolerance_Check): each step's first two pairs are plain, and
-// q = r_2 / r_1 says how they contract. Fast (q < OD_AUTO_SLOW): plain pairs to OD_AUTO_SHARE of the
-// tolerance. Slow: Chebyshev for the rest of the step, its history seeded with the two plain pairs (as if
-// they had been its first), the probe's own estimate being r_2 q / (1 - q). Measured on the 2-second clips
-// (docs/settings.md, interleaved processor time): the twisted bar's probes contract at q = 0.5 (the twist,
-// seen by the moment term), the sagging bar's at 0.84-0.89 (its swing), so the split is clean at 0.7.
-// Why not the start choice: the predicted rotations win on 102 of 120 sagging-bar steps too, and plain
-// pairs there put its clip at 0.46 %. Why the share: plain pairs slow down once the twist is resolved
-// (q -> 0.9) and their residual understates the error; at 1e-5 (half the default) the twisted bar's clip is
-// 0.17 %, at 1.5e-5 0.19 %. Why the corrected estimate at a slow probe: the raw r_2 stopped 1 step in 5 of
-// the sagging bar after its probe (clip 0.23 %). Why the seed: it saves Chebyshev's own plain first pair
-// (sagging bar 0.156 % -> 0.072 %, same cost within the noise). Rejected: the contraction-corrected estimate
-// for every plain pair (twisted bar 0.26 %: after a switch Chebyshev's first residual is plain and raw), and
-// keeping Chebyshev for the next steps after a slow probe (clip error 0.13-0.29 % as the period changed,
-// no steady saving).
+// q = r_2 / r_1 says how they contract. Fast (q < OD_AUTO_SLOW): plain pairs for the rest of the step. Slow:
+// Chebyshev, its history seeded with the two plain pairs (as if they had been its first, so the next iterate
+// is already extrapolated). A plain pair's estimate is its residual over OD_AUTO_SHARE (doubled): a plain
+// residual understates the error where the iteration slows down; Chebyshev's is its residual. Measured on the
+// 2-second clips (docs/settings.md, interleaved processor time, medians):
+// - the split: the twisted bar's probes contract at q = 0.5 (the twist, seen by the moment term, goes first),
+//   the sagging bar's at 0.84-0.89 (its swing); at 0.7 the twisted bar runs plain (4 of 1,074 pairs
+//   accelerated), the sagging bar Chebyshev. Deciding by the start instead (plain where the predicted
+//   rotations won) failed: they win on 102 of 120 sagging-bar steps too, and plain pairs put its clip at 0.46 %.
+// - the doubled plain residual: twisted bar 0.173 % at 1.0x plain 10 (its raw residual at 2e-5: 0.23 %);
+//   at a slow probe the raw r_2 stopped 1 sagging-bar step in 5 after two pairs (clip 0.23 %) and the
+//   contraction-corrected r_2 q / (1 - q) cost 1,026 pairs against 856; doubled, the sagging bar's clip stays at
+//   0.09-0.13 % for tolerances from 1.5e-5 to 3e-5 (the "chebyshev" variant: 0.155-0.29 %).
+// - the seed: without it Chebyshev's first pair after the probe is plain again (sagging bar 0.156 %, same cost).
+// Rejected: switching to Chebyshev wherever a plain pair turns slow (twisted bar 4.0x plain 10: Chebyshev
+// overshoots from a nearly converged iterate), keeping Chebyshev for the next steps after a slow probe (clip
+// 0.13-0.29 % as the re-probe period went 2-10, no steady saving), stopping at the first pair (no saving).
 #include "tolerance.h"
 
 #include "core.h"
@@ -45,7 +48,7 @@
 #include <string.h>
 
 #define OD_AUTO_SLOW 0.7  // a probe contracting at this rate or slower turns Chebyshev on
-#define OD_AUTO_SHARE 0.5 // a fast step's plain pairs stop at this share of the tolerance
+#define OD_AUTO_SHARE 0.5 // auto's plain pairs stop at this share of the tolerance (their estimate: r / share)
 
 static double od_BodySize(const od_Graph* g)
 {
@@ -159,15 +162,16 @@ od_StepPlan od_Tolerance_Plan(const od_Sim* sim)
 static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
 {
 	plan->probing = false;
-	double q = residual / plan->last;
-	if (q < OD_AUTO_SLOW)
+	if (!(residual < OD_AUTO_SLOW * plan->last))
 	{
-		plan->tolerance *= OD_AUTO_SHARE;
-		return residual;
+		plan->accelerate = true;
+		od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
 	}
-	plan->accelerate = true;
-	od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
-	return q < 1.0 ? residual * q / (1.0 - q) : INFINITY; // slow: the residual understates the error
+	else
+	{
+		plan->plain = true;
+	}
+	return residual / OD_AUTO_SHARE; // both: the estimate of the probe's last plain pair
 }
 
 double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
@@ -178,6 +182,10 @@ double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
 	{
 		estimate = plan->last < 0.0 ? INFINITY : od_Probe(sim, plan, residual); // one residual: no rate yet
 		plan->last = residual;
+	}
+	else if (plan->plain)
+	{
+		estimate = residual / OD_AUTO_SHARE;
 	}
 	od_Tolerance_Start(sim);
 	return estimate;

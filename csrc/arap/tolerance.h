@@ -16,16 +16,17 @@ double od_Tolerance_Estimate(od_Sim* sim);
 
 // How the current call's iteration runs: accelerated or plain pairs, and the error estimate it stops at (0: a
 // fixed count: no tolerance, or a static solve). The auto accelerator's step probes with two plain pairs,
-// then goes on plain (to a share of the tolerance) or turns Chebyshev on (tolerance.c).
+// then goes on plain or turns Chebyshev on (tolerance.c).
 typedef struct od_StepPlan
 {
 	bool accelerate; // the next pair is accelerated
 	bool probing;    // auto's first two pairs: plain, their contraction decides
+	bool plain;      // auto after a fast probe: plain pairs
 	double tolerance;
 	double last; // the probe's first residual (< 0: none yet)
 } od_StepPlan;
 od_StepPlan od_Tolerance_Plan(const od_Sim* sim);
-// After a pair under a tolerance: the step's error estimate, to compare with plan->tolerance (the residual; at
-// a probe that turns Chebyshev on, the contraction-corrected residual), and the plan's next pair. Replaces
-// the remembered iterate like od_Tolerance_Estimate.
+// After a pair under a tolerance: the step's error estimate, to compare with plan->tolerance (the residual;
+// auto's plain pairs: the residual doubled), and the plan's next pair. Replaces the remembered iterate like
+// od_Tolerance_Estimate.
 double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan);
