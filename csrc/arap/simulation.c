@@ -544,16 +544,15 @@ static od_Status od_PlainIteration(od_Sim* sim)
 	return od_GlobalStep(sim);
 }
 
-// Records a dynamic step's iterations and estimated error (-1: none, no tolerance) in the call's report;
-// unconverged: the step stopped at the cap above the tolerance it aimed at (the plan's).
-static void od_Report(od_Sim* sim, int iterations, double error, double aim)
+// Records a dynamic step's iterations and estimated error (-1: none, no tolerance) in the call's report.
+static void od_Report(od_Sim* sim, int iterations, double error)
 {
 	od_StepReport* r = &sim->report;
 	r->steps++;
 	r->iterations += iterations;
 	r->mostIterations = iterations > r->mostIterations ? iterations : r->mostIterations;
 	r->error = fmax(r->error, error);
-	r->unconverged += error > aim;
+	r->unconverged += error > sim->solverDef.tolerance;
 }
 
 // The shared iteration: a global solve with the current rotations, then local/global pairs: `iterations`
@@ -596,7 +595,7 @@ static od_Status od_Iterate(od_Sim* sim, int iterations)
 	}
 	if (sim->mode == OD_DYNAMIC)
 	{
-		od_Report(sim, it, error, plan.tolerance);
+		od_Report(sim, it, error);
 	}
 	return status;
 }

@@ -140,14 +140,6 @@ static double od_LargestMove2(od_Sim* sim)
 	return largest;
 }
 
-double od_Tolerance_Estimate(od_Sim* sim)
-{
-	od_Tolerance* tol = &sim->tolerance;
-	double residual = sqrt(od_LargestMove2(sim)) / tol->size;
-	od_Tolerance_Start(sim);
-	return residual;
-}
-
 od_StepPlan od_Tolerance_Plan(const od_Sim* sim)
 {
 	od_AcceleratorKind kind = sim->solverDef.accelerator;

@@ -381,7 +381,8 @@ class Simulation(ForceFields):
     def step_report(self):
         """What the last ``step`` call did: steps, iterations (all steps), most_iterations (in one step), error
         (the largest error estimate at the end of a step: the residual, a fraction of the body's size, doubled
-        for "auto"'s plain pairs; -1 without a tolerance) and unconverged (steps that stopped at max_iterations above the tolerance)."""
+        for "auto"'s plain pairs; -1 without a tolerance) and unconverged (steps that stopped at
+        max_iterations above the tolerance)."""
         return self._core.step_report()
 
     @property
