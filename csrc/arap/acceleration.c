@@ -47,6 +47,16 @@ void od_Accelerator_Restart(od_Accelerator* acc)
 	acc->restarts++;
 }
 
+void od_Accelerator_Continue(od_Accelerator* acc, const double* before)
+{
+	od_Accelerator_Restart(acc);
+	if (acc->kind == OD_ACCELERATE_CHEBYSHEV)
+	{
+		acc->count = 1;
+		memcpy(acc->previous, before, sizeof(double) * acc->dim);
+	}
+}
+
 void od_Accelerator_Destroy(od_Accelerator* acc)
 {
 	od_Free(acc->buffer);

@@ -61,9 +61,9 @@ od_SolverDef od_DefaultSolverDef(void)
 
 static od_Status od_CheckSolverDef(const od_SolverDef* def)
 {
-	if (def->accelerator < OD_ACCELERATE_NONE || def->accelerator > OD_ACCELERATE_CHEBYSHEV)
+	if (def->accelerator < OD_ACCELERATE_NONE || def->accelerator > OD_ACCELERATE_AUTO)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "accelerator = %d is not one of none, anderson, chebyshev",
+		return od_Fail(OD_ERROR_ARGUMENT, "accelerator = %d is not one of none, anderson, chebyshev, auto",
 					   (int)def->accelerator);
 	}
 	if (def->window < 1 || def->window > 16)
@@ -109,7 +109,8 @@ od_Status od_Sim_SetSolver(od_Sim* sim, const od_SolverDef* def)
 			return od_Fail(OD_ERROR_MEMORY, "out of memory for the accelerator");
 		}
 	}
-	status = od_Accelerator_Reset(&sim->accelerator, def->accelerator, 3 * n3, def->window, def->rho);
+	od_AcceleratorKind kind = def->accelerator == OD_ACCELERATE_AUTO ? OD_ACCELERATE_CHEBYSHEV : def->accelerator;
+	status = od_Accelerator_Reset(&sim->accelerator, kind, 3 * n3, def->window, def->rho);
 	if (status == OD_OK && def->tolerance > 0.0)
 	{
 		status = od_Tolerance_Prepare(sim);
@@ -555,21 +556,22 @@ static void od_Report(od_Sim* sim, int iterations, double error)
 }
 
 // The shared iteration: a global solve with the current rotations, then local/global pairs: `iterations`
-// of them, or under a tolerance (dynamic steps only) until the estimate is below it, at most maxIterations.
+// of them, or under a tolerance (dynamic steps only) until the plan's error estimate is at most the
+// tolerance, at most maxIterations. The plan (tolerance.c) says whether the pairs are accelerated; the auto
+// accelerator's plan may turn acceleration on during a step.
 static od_Status od_Iterate(od_Sim* sim, int iterations)
 {
 	sim->traceCount = 0;
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
-	bool accelerate = sim->solverDef.accelerator != OD_ACCELERATE_NONE;
-	bool tolerance = sim->solverDef.tolerance > 0.0 && sim->mode == OD_DYNAMIC;
+	od_StepPlan plan = od_Tolerance_Plan(sim);
 	double accepted = 0.0, error = -1.0;
-	if (accelerate && status == OD_OK)
+	if (plan.accelerate && status == OD_OK)
 	{
 		od_Accelerator_Restart(&sim->accelerator);
 		accepted = od_Energy(sim);
 	}
-	if (tolerance)
+	if (plan.tolerance > 0.0)
 	{
 		od_Tolerance_Start(sim);
 		iterations = sim->solverDef.maxIterations;
@@ -577,13 +579,18 @@ static od_Status od_Iterate(od_Sim* sim, int iterations)
 	int it = 0;
 	while (it < iterations && status == OD_OK)
 	{
-		status = accelerate ? od_AcceleratedIteration(sim, &accepted) : od_PlainIteration(sim);
+		bool accelerated = plan.accelerate;
+		status = accelerated ? od_AcceleratedIteration(sim, &accepted) : od_PlainIteration(sim);
 		od_Trace(sim);
 		status = status == OD_OK ? od_CheckInterrupt() : status;
 		++it;
-		if (tolerance && (error = od_Tolerance_Estimate(sim)) <= sim->solverDef.tolerance)
+		if (plan.tolerance > 0.0 && (error = od_Tolerance_Check(sim, &plan)) <= plan.tolerance)
 		{
 			break;
+		}
+		if (plan.accelerate && !accelerated && status == OD_OK)
+		{
+			accepted = od_Energy(sim); // auto turned Chebyshev on; od_Tolerance_Check seeded its history
 		}
 	}
 	if (sim->mode == OD_DYNAMIC)

@@ -17,6 +17,25 @@
 // 0.071 -> 0.134 % of the bar's length); on the sagging bar, which swings, the predicted start put the
 // iterate 2.6x further from the solution, and the energy keeps the previous rotations there (0.158 % and
 // 0.070 ms before, 0.155 % and 0.072 ms after). Always predicting cost the sagging bar 3.3x.
+//
+// The auto accelerator (od_Tolerance_Plan, od_Tolerance_Check): each step's first two pairs are plain, and
+// q = r_2 / r_1 says how they contract. Fast (q < OD_AUTO_SLOW): plain pairs for the rest of the step. Slow:
+// Chebyshev, its history seeded with the two plain pairs (as if they had been its first, so the next iterate
+// is already extrapolated). A plain pair's estimate is its residual over OD_AUTO_SHARE (doubled): a plain
+// residual understates the error where the iteration slows down; Chebyshev's is its residual. Measured on the
+// 2-second clips (docs/settings.md, interleaved processor time, medians):
+// - the split: the twisted bar's probes contract at q = 0.5 (the twist, seen by the moment term, goes first),
+//   the sagging bar's at 0.84-0.89 (its swing); at 0.7 the twisted bar runs plain (4 of 1,074 pairs
+//   accelerated), the sagging bar Chebyshev. Deciding by the start instead (plain where the predicted
+//   rotations won) failed: they win on 102 of 120 sagging-bar steps too, and plain pairs put its clip at 0.46 %.
+// - the doubled plain residual: twisted bar 0.173 % at 1.0x plain 10 (its raw residual at 2e-5: 0.23 %);
+//   at a slow probe the raw r_2 stopped 1 sagging-bar step in 5 after two pairs (clip 0.23 %) and the
+//   contraction-corrected r_2 q / (1 - q) cost 1,026 pairs against 856; doubled, the sagging bar's clip stays at
+//   0.09-0.13 % for tolerances from 1.5e-5 to 3e-5 (the "chebyshev" variant: 0.155-0.29 %).
+// - the seed: without it Chebyshev's first pair after the probe is plain again (sagging bar 0.156 %, same cost).
+// Rejected: switching to Chebyshev wherever a plain pair turns slow (twisted bar 4.0x plain 10: Chebyshev
+// overshoots from a nearly converged iterate), keeping Chebyshev for the next steps after a slow probe (clip
+// 0.13-0.29 % as the re-probe period went 2-10, no steady saving), stopping at the first pair (no saving).
 #include "tolerance.h"
 
 #include "core.h"
@@ -27,6 +46,9 @@
 
 #include <math.h>
 #include <string.h>
+
+#define OD_AUTO_SLOW 0.7  // a probe contracting at this rate or slower turns Chebyshev on
+#define OD_AUTO_SHARE 0.5 // auto's plain pairs stop at this share of the tolerance (their estimate: r / share)
 
 static double od_BodySize(const od_Graph* g)
 {
@@ -118,10 +140,45 @@ static double od_LargestMove2(od_Sim* sim)
 	return largest;
 }
 
-double od_Tolerance_Estimate(od_Sim* sim)
+od_StepPlan od_Tolerance_Plan(const od_Sim* sim)
+{
+	od_AcceleratorKind kind = sim->solverDef.accelerator;
+	bool dynamic = sim->mode == OD_DYNAMIC;
+	double tolerance = dynamic && sim->solverDef.tolerance > 0.0 ? sim->solverDef.tolerance : 0.0;
+	bool probing = kind == OD_ACCELERATE_AUTO && tolerance > 0.0;
+	bool accelerate = kind != OD_ACCELERATE_NONE && !probing; // auto at a fixed count: Chebyshev
+	return (od_StepPlan){ .accelerate = accelerate, .probing = probing, .tolerance = tolerance, .last = -1.0 };
+}
+
+// The probe's second residual decides the rest of the step (the design note above).
+static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
+{
+	plan->probing = false;
+	if (!(residual < OD_AUTO_SLOW * plan->last))
+	{
+		plan->accelerate = true;
+		od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
+	}
+	else
+	{
+		plan->plain = true;
+	}
+	return residual / OD_AUTO_SHARE; // both: the estimate of the probe's last plain pair
+}
+
+double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
 {
 	od_Tolerance* tol = &sim->tolerance;
-	double residual = sqrt(od_LargestMove2(sim)) / tol->size;
+	double residual = sqrt(od_LargestMove2(sim)) / tol->size, estimate = residual;
+	if (plan->probing && residual > 0.0)
+	{
+		estimate = plan->last < 0.0 ? INFINITY : od_Probe(sim, plan, residual); // one residual: no rate yet
+		plan->last = residual;
+	}
+	else if (plan->plain)
+	{
+		estimate = residual / OD_AUTO_SHARE;
+	}
 	od_Tolerance_Start(sim);
-	return residual;
+	return estimate;
 }

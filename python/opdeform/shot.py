@@ -98,7 +98,7 @@ def _mode(where, value):
     return value if value in MODES else _fail(where, f"must be one of {list(MODES)}, got {value!r}")
 
 
-ACCELERATORS = ("none", "anderson", "chebyshev")
+ACCELERATORS = ("none", "anderson", "chebyshev", "auto")
 
 
 def _accelerator(where, value):

@@ -569,7 +569,7 @@ static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
 						 c.globalSeconds);
 }
 
-// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev, window, rho, threads, factorization, tolerance,
+// set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev | 3 auto, window, rho, threads, factorization, tolerance,
 // max_iterations)
 static PyObject* Sim_set_solver(PyObject* obj, PyObject* args)
 {

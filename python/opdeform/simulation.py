@@ -369,14 +369,17 @@ class Simulation(ForceFields):
         p.update(changes)
         self._core.set_params(*core_params(**p))
 
-    ACCELERATORS = ("none", "anderson", "chebyshev")
+    ACCELERATORS = ("none", "anderson", "chebyshev", "auto")
 
     FACTORIZATIONS = ("auto", "simplicial", "supernodal")
 
     def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto", tolerance=None,
                    max_iterations=None):
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
-        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy;
+        ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy, or
+        "auto": under a tolerance each step makes two plain pairs and goes on plain (to half the tolerance)
+        when they contracted fast, else turns Chebyshev on (the variant that meets the error and cost goals
+        on both of docs/settings.md's bars); without a tolerance "auto" is Chebyshev;
         ``threads`` (0..64; 0: the CPUs this process may use) for the local step (a block of particles per thread, then the border),
         the right side and the substitution (subtrees of a METIS-ordered factor); results are the same bits
         run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
@@ -420,8 +423,9 @@ class Simulation(ForceFields):
     @property
     def step_report(self):
         """What the last ``step`` call did: steps, iterations (all steps), most_iterations (in one step), error
-        (the largest residual at the end of a step, a fraction of the body's size; -1 without a
-        tolerance) and unconverged (steps that stopped at max_iterations above the tolerance)."""
+        (the largest error estimate at the end of a step: the residual, a fraction of the body's size, doubled
+        for "auto"'s plain pairs; -1 without a tolerance) and unconverged (steps that stopped at
+        max_iterations above the tolerance)."""
         return self._core.step_report()
 
     @property

@@ -6,6 +6,7 @@ int test_graph(void);
 int test_sim(void);
 int test_interrupt(void);
 int test_goal(void);
+int test_auto(void);
 int test_mpm(void);
 int test_mesh_graph(void);
 int test_loose_parts(void);
@@ -22,6 +23,7 @@ int main(void)
 	RUN_TEST(test_sim);
 	RUN_TEST(test_interrupt);
 	RUN_TEST(test_goal);
+	RUN_TEST(test_auto);
 	RUN_TEST(test_mpm);
 	RUN_TEST(test_mesh_graph);
 	RUN_TEST(test_loose_parts);

@@ -138,6 +138,61 @@ int test_sim(void)
 	return 0;
 }
 
+// Steps of the pinned bar with its tip target moved, under `solver`; the positions after `steps` steps.
+static int run_moved(const od_Graph* g, const od_SolverDef* solver, int steps, double* positions)
+{
+	int tip;
+	od_Sim* sim = make_pinned(g, &tip);
+	ENSURE(sim != NULL && od_Sim_SetSolver(sim, solver) == OD_OK);
+	for (int k = 0; k < steps; ++k)
+	{
+		double t[3] = { 2.0, 0.0, 0.02 * k };
+		ENSURE(od_Sim_SetConstraintTarget(sim, tip, t) == OD_OK && od_Sim_Step(sim, 1) == OD_OK);
+	}
+	memcpy(positions, od_Sim_GetPositions(sim), sizeof(double) * 3 * N);
+	od_Sim_Destroy(sim);
+	return 0;
+}
+
+// The auto accelerator: under a tolerance every step reaches it (plain or Chebyshev, tolerance.c) with no
+// allocation per step; without one it is Chebyshev bit for bit; an unknown accelerator is refused.
+int test_auto(void)
+{
+	od_Graph* g = make_bar();
+	ENSURE(g != NULL);
+	int tip;
+	od_Sim* sim = make_pinned(g, &tip);
+	ENSURE(sim != NULL);
+	od_SolverDef solver = od_DefaultSolverDef();
+	solver.accelerator = OD_ACCELERATE_AUTO;
+	solver.tolerance = 2e-5;
+	ENSURE(od_Sim_SetSolver(sim, &solver) == OD_OK);
+	ENSURE(od_Sim_Step(sim, 2) == OD_OK);
+	long long allocations = od_GetAllocationCount();
+	for (int k = 0; k < 60; ++k)
+	{
+		double t[3] = { 2.0, 0.0, 0.02 * k };
+		ENSURE(od_Sim_SetConstraintTarget(sim, tip, t) == OD_OK && od_Sim_Step(sim, 1) == OD_OK);
+		od_StepReport r = od_Sim_GetStepReport(sim);
+		ENSURE(r.unconverged == 0 && r.iterations >= 1 && r.error >= 0.0 && r.error <= solver.tolerance);
+	}
+	ENSURE(od_GetAllocationCount() == allocations);
+	ENSURE(od_Sim_GetSolver(sim).accelerator == OD_ACCELERATE_AUTO);
+	solver.accelerator = (od_AcceleratorKind)4;
+	ENSURE(od_Sim_SetSolver(sim, &solver) == OD_ERROR_ARGUMENT && strstr(od_GetErrorMessage(), "auto"));
+	od_Sim_Destroy(sim);
+
+	double autoX[3 * N], chebyshevX[3 * N];
+	od_SolverDef fixed = od_DefaultSolverDef();
+	fixed.accelerator = OD_ACCELERATE_AUTO;
+	ENSURE(run_moved(g, &fixed, 10, autoX) == 0);
+	fixed.accelerator = OD_ACCELERATE_CHEBYSHEV;
+	ENSURE(run_moved(g, &fixed, 10, chebyshevX) == 0);
+	ENSURE(memcmp(autoX, chebyshevX, sizeof autoX) == 0);
+	od_Graph_Destroy(g);
+	return 0;
+}
+
 // Goals: a static pose on goals moved rigidly is the moved bar; a moving goal per step never refactors
 // and the energy of every step still decreases; a change of frequencies refactors once; bad goals fail
 // and change nothing.

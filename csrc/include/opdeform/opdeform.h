@@ -95,7 +95,10 @@ typedef enum od_AcceleratorKind
 {
 	OD_ACCELERATE_NONE = 0,     // plain alternation of local and global steps
 	OD_ACCELERATE_ANDERSON = 1, // Anderson acceleration of the centres, energy safeguarded
-	OD_ACCELERATE_CHEBYSHEV = 2 // Chebyshev semi-iterative acceleration, energy safeguarded
+	OD_ACCELERATE_CHEBYSHEV = 2, // Chebyshev semi-iterative acceleration, energy safeguarded
+	OD_ACCELERATE_AUTO = 3       // under a tolerance, chosen per step (tolerance.c): two plain pairs, then plain
+	                             // pairs (their residual doubled is the estimate) if they contracted fast,
+	                             // else Chebyshev; without a tolerance (and in static solves), Chebyshev
 } od_AcceleratorKind;
 
 typedef struct od_SolverDef
@@ -109,7 +112,8 @@ typedef struct od_SolverDef
 	                   // 2 supernodal; the substitution is the same for all (cholesky.c)
 	double tolerance;  // 0: od_SimDef.iterations pairs per step. > 0: iterate each step until the residual
 	                   // (tolerance.c: the largest displacement of a particle's material in the last pair, as a
-	                   // fraction of the body's size) is at most this, or maxIterations pairs were made
+	                   // fraction of the body's size; doubled for auto's plain pairs) is at most this, or
+	                   // maxIterations pairs were made
 	int maxIterations; // the cap of a step under a tolerance (>= 1)
 } od_SolverDef;
 
@@ -138,8 +142,8 @@ typedef struct od_StepReport
 	int steps;
 	int iterations;     // local/global pairs, all steps
 	int mostIterations; // the most in one step
-	double error;       // the largest residual at the end of a step (fraction of the body's size);
-	                    // measured only under a tolerance, else -1
+	double error;       // the largest error estimate at the end of a step (the residual, a fraction of the
+	                    // body's size; doubled for auto's plain pairs); measured only under a tolerance, else -1
 	int unconverged;    // steps that stopped at maxIterations above the tolerance
 } od_StepReport;
 
