@@ -46,8 +46,8 @@ def test_enable_gives_the_default_preset():
     assert presets.current_name(s) == "Rubber" and s.density == 1100.0
     assert s.use_frame_rate_substeps and presets.substeps(s, 24.0) == 10 and presets.substeps(s, 60.0) == 4
     bpy.ops.opdeform.apply_preset(object=obj.name, preset="Jelly")
-    assert presets.current_name(s) == "Jelly" and abs(s.modulus - 1.0) < 1e-9
-    s.modulus = 3.0
+    assert presets.current_name(s) == "Jelly" and abs(s.modulus - 3.0) < 1e-9
+    s.modulus = 4.0
     assert presets.current_name(s) == "Custom"
     H.expect_error(lambda: bpy.ops.opdeform.apply_preset(object=obj.name, preset="Steel"), "no preset")
     s.stiffness = 2e7  # a script written for k: solver units
@@ -112,7 +112,7 @@ def test_warnings_stretch_thin_part_and_fast_handle():
         bpy.context.scene.frame_set(f)
     text = H.labels(H.draw_panels())
     assert "Stretched" in text and "Thinnest part" in text, text
-    s.modulus = 5.0
+    s.modulus = 15.0
     bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
     handle = s.handles[0].target
     bpy.ops.opdeform.build(object=obj.name)
