@@ -26,6 +26,8 @@ def test_presets_and_material_units():
     params, solver = settings.solver_settings(opdeform, g, u, 24.0, (0, 0, -9.81))
     assert params["stiffness"] == pytest.approx(m.stiffness_for(g, 5e6)) and params["dt"] == pytest.approx(1 / 240)
     assert solver == dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=pytest.approx(2e-5), max_iterations=100)
+    # settings version 1 (k from a uniform strain, presets a third of today's): tripled, its Rubber is Rubber
+    assert settings.modulus_now(5.0, 1) == pytest.approx(rubber["modulus"]) and settings.modulus_now(5.0, 2) == 5.0
     raw = settings.solver_settings(opdeform, g, replace(u, solver_units=True), 24.0, (0, 0, 0))
     assert raw[0]["stiffness"] == 1e5 and raw[0]["damping"] == 0.0 and raw[1]["tolerance"] == 0.0
 

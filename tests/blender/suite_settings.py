@@ -42,8 +42,8 @@ def _tip_z(obj):
 def test_enable_gives_the_default_preset():
     obj = _tail()
     s, presets = obj.opdeform, _module("blender.presets")
-    assert s.settings_version == 1 and not s.use_solver_units
-    assert presets.current_name(s) == "Rubber" and s.density == 1100.0
+    assert s.settings_version == 2 and not s.use_solver_units
+    assert presets.current_name(s) == "Rubber" and s.density == 1100.0 and s.modulus == 15.0
     assert s.use_frame_rate_substeps and presets.substeps(s, 24.0) == 10 and presets.substeps(s, 60.0) == 4
     bpy.ops.opdeform.apply_preset(object=obj.name, preset="Jelly")
     assert presets.current_name(s) == "Jelly" and abs(s.modulus - 3.0) < 1e-9
@@ -82,11 +82,26 @@ def test_old_file_keeps_its_raw_stiffness():
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Tail"]
     s = obj.opdeform
-    assert s.use_solver_units and s.settings_version == 1 and s.stiffness == 2e7
+    assert s.use_solver_units and s.settings_version == 2 and s.stiffness == 2e7
     bpy.context.scene.frame_set(2)
     rt = H.runtime().get(obj)
     assert rt.engine.sim.params["stiffness"] == 2e7 and abs(rt.engine.sim.params["damping"] - 0.01) < 1e-8
     assert rt.engine.sim.tolerance == 0.0
+
+
+def test_version_1_file_keeps_its_look():
+    """A file saved in material units before the bending calibration (settings version 1): its modulus is
+    tripled on load, so its Rubber (5 MPa then) is Rubber (15 MPa) now; appended without a load, it is read so."""
+    obj = _tail()
+    s, presets = obj.opdeform, _module("blender.presets")
+    s.modulus, s.settings_version = 5.0, 1  # version 1's Rubber
+    assert presets.current_name(s) == "Rubber" and presets.units(s, 24.0).modulus == 15.0
+    path = os.path.join(H.tmpdir(), "v1.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    s = bpy.data.objects["Tail"].opdeform
+    assert s.settings_version == 2 and not s.use_solver_units and s.modulus == 15.0
+    assert presets.current_name(s) == "Rubber"
 
 
 def test_quality_report_plot_and_panel():

@@ -112,7 +112,8 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                             description="Solver units: local/global iterations per time step")
     # material units (settings version 1, docs/blender.md); Enable applies the default preset to those unset
     settings_version: IntProperty(name="Settings Version", default=0, min=0,
-                                  description="0: made before material units (opens in solver units)")
+                                  description="0: made before material units (opens in solver units); 1: before the "
+                                              "bending calibration (its modulus is tripled on load)")
     use_solver_units: BoolProperty(name="Solver Units", default=False,
                                    description="Raw k, damping per step and a fixed iteration count (files made "
                                                "before material units); off: modulus, damping per second and "
