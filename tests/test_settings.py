@@ -42,7 +42,7 @@ def test_the_same_modulus_droops_about_the_same_at_any_particle_count():
 
 @pytest.mark.xfail(strict=True, reason="open: 9.9 / 11.3 / 9.2 / 10.3 % at 50 / 100 / 200 / 400 particles "
                    "(1.23x): the graph's bending rigidity varies +-12 % along the tail with the irregular "
-                   "particle layout (8.9-10.5 % at 190-210 particles), which no single k removes; needs per-edge "
+                   "particle layout (8.9-10.4 % at 190-210 particles), which no single k removes; needs per-edge "
                    "stiffness or a regular layout (docs/settings.md)")
 def test_the_same_modulus_droops_the_same_at_any_particle_count():
     d = [droop("Rubber", 1.0, n) for n in (50, 100, 200, 400)]

@@ -40,8 +40,8 @@ import numpy as np
 from .graph import Graph
 from .simulation import Simulation
 
-__all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE", "body_size",
-           "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
+__all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE",
+           "body_size", "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
            "step_damping", "stretch_warning", "substeps_for", "thin_part_warning"]
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus

@@ -1,10 +1,10 @@
 """Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
 (a version-1 modulus is tripled on load, keeping the look). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
-stored or default). On a file load (handlers.on_load_post) every such object is marked so (``use_solver_units``), which the Advanced
-sub-panel shows; an object read without a load (appended, linked) is treated the same way
-(``uses_solver_units``). Enabling oriented particles on an object stamps the current version and gives the
-settings the user has not set the default preset (Rubber) and Match Frame Rate."""
+stored or default). On a file load (handlers.on_load_post) every such object is marked so
+(``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
+is treated the same way (``uses_solver_units``). Enabling oriented particles on an object stamps the current
+version and gives the settings the user has not set the default preset (Rubber) and Match Frame Rate."""
 
 from ..core import settings as core_settings
 
