@@ -1,19 +1,32 @@
 """Settings an artist can use (issue 14): a stiffness in Pa that looks the same at any size and particle count,
 presets, an error tolerance, substeps for a frame rate, and the checks a panel warns with. See docs/settings.md.
 
-**Stiffness.** The solver's k (J/m^5) is not a material constant: the elastic energy k sum v_j |R d - d'|^2
-of a uniform strain e is k e^2 sum_edges (v_i + v_j) |d|^2 / 3 (averaged over directions), which a continuum
-of Young's modulus E stores as E e^2 V / 2 (V the body's volume), so
+**Stiffness.** The solver's k (J/m^5) is not a material constant. ``stiffness_for`` takes it from **bending**,
+the deformation an artist sees (a tail drooping and jiggling): bend the rest body to a small curvature kappa
+(fibres along its longest principal axis stretched by -kappa t, t the distance from the neutral axis, each
+particle turned with the material), and the graph stores
 
-    k = 3 E V / sum_edges (v_i + v_j) |d_ij|^2          (``stiffness_for``)
+    k/2 kappa^2 G,   G = sum_i sum_(j in N_i) [ v_j (d_a^2 (t_j - t_0)^2 + d_a^4 / 4) + d_a^2 (A_j,aa + A_j,bb) ]
 
-and k falls as 1/spacing^2 as particles are added. E itself is not scale-free: a body of size L under
-gravity sags by a fraction proportional to rho g L / E (and its frequencies scale as sqrt(E / rho) / L), so a
-real material looks ten times softer ten times larger. The artist's ``modulus`` is therefore the modulus the
-material has at REFERENCE_SIZE (1 m); a body of size L acts with E = modulus * L / 1 m. Then rho g L / E is the
-same at every size: the same relative sag, and periods that scale as sqrt(L / g), the Froude scaling of
-miniatures (a ten times larger tail sways sqrt(10) times slower, as a real one would). Measured in
-docs/settings.md.
+(d = X_j - X_i, a the fibre axis, b the bending direction, A_j the rest moment; t_0 the neutral axis that
+minimises it), where a continuum of Young's modulus E stores E/2 kappa^2 J with J the body's second moment
+of area integrated along it (of the closed mesh the graph was built from, scaled to the particles' volume,
+which is the body's mass: else of the particles themselves). Summed over the two bending directions,
+
+    k = E (J_ab + J_ac) / (G_ab + G_ac)          (``stiffness_for``)
+
+The d_a^4 and moment terms are the graph's own bending stiffness: they vanish against the fibres' term as
+particles get small (k then tends to the uniform-strain k = E V / sum_edges (v_i + v_j) d_a^2), but with one to
+three particles across a body they are half or more of G, which is why a uniform-strain k
+(``calibration="uniform"``, 3 E V / sum_edges (v_i + v_j) |d|^2) made a tail droop 7 % at 50 particles and
+18 % at 300. Measured in docs/settings.md.
+
+E itself is not scale-free: a body of size L under gravity sags by a fraction proportional to rho g L / E (and
+its frequencies scale as sqrt(E / rho) / L), so a real material looks ten times softer ten times larger. The
+artist's ``modulus`` is therefore the modulus the material has at REFERENCE_SIZE (1 m); a body of size L acts
+with E = modulus * L / 1 m. Then rho g L / E is the same at every size: the same relative sag, and periods
+that scale as sqrt(L / g), the Froude scaling of miniatures (a ten times larger tail sways sqrt(10) times
+slower, as a real one would).
 
 **Damping** is a rate per second (``step_damping`` turns it into the solver's per-step c for a dt), so it
 does not change with the frame rate.
@@ -27,8 +40,8 @@ import numpy as np
 from .graph import Graph
 from .simulation import Simulation
 
-__all__ = ["DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE", "body_size",
-           "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
+__all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE",
+           "body_size", "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
            "step_damping", "stretch_warning", "substeps_for", "thin_part_warning"]
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus
@@ -55,10 +68,10 @@ class Material:
 # Droop of the 2 m x 0.2 m tail pinned at its root (100 particles, static, docs/settings.md): Jelly ~ 45 %,
 # Flesh ~ 25 %, Rubber ~ 10 % (the default: it droops and jiggles visibly), Stiff ~ 1 %.
 PRESETS = {m.name: m for m in (
-    Material("Jelly", 1.0e6, 1050.0, 0.5, description="wobbly: the 2 m tail droops about 45 %"),
-    Material("Flesh", 2.0e6, 1050.0, 1.0, description="soft and damped: droops about 25 %, settles quickly"),
-    Material("Rubber", 5.0e6, 1100.0, 0.3, description="the default: droops about 10 % and jiggles visibly"),
-    Material("Stiff", 5.0e7, 1000.0, 0.3, description="nearly rigid: droops about 1 %"),
+    Material("Jelly", 3.0e6, 1050.0, 0.5, description="wobbly: the 2 m tail droops about 45 %"),
+    Material("Flesh", 6.0e6, 1050.0, 1.0, description="soft and damped: droops about 25 %, settles quickly"),
+    Material("Rubber", 1.5e7, 1100.0, 0.3, description="the default: droops about 10 % and jiggles visibly"),
+    Material("Stiff", 1.5e8, 1000.0, 0.3, description="nearly rigid: droops about 1 %"),
 )}
 DEFAULT_MATERIAL = "Rubber"
 
@@ -91,19 +104,107 @@ def body_size(graph):
     return float(((c + reach).max(axis=0) - (c - reach).min(axis=0)).max())
 
 
-def stiffness_for(graph, modulus, size=None):
+CALIBRATIONS = ("bending", "uniform")
+
+
+def stiffness_for(graph, modulus, size=None, mesh=None, calibration="bending"):
     """The solver's k for a material of ``modulus`` Pa at REFERENCE_SIZE on this graph; ``size`` (m) is the
-    body's size (default ``body_size(graph)``)."""
+    body's size (default ``body_size(graph)``). ``mesh`` (vertices, triangles): the closed body whose second
+    moment a continuum would have (default: the mesh ``Graph.from_mesh`` was given, when it is closed; else
+    the particles' own). ``calibration``: "bending" (the module's docstring) or "uniform" (the uniform-strain
+    k used before, for comparison)."""
     if not isinstance(graph, Graph):
         raise TypeError("graph must be an opdeform.Graph")
     if not (modulus > 0.0 and math.isfinite(modulus)):
         raise ValueError(f"modulus = {modulus} must be finite and > 0")
+    if calibration not in CALIBRATIONS:
+        raise ValueError(f"calibration must be one of {CALIBRATIONS}, got {calibration!r}")
     size = body_size(graph) if size is None else float(size)
+    modulus = modulus * (size / REFERENCE_SIZE)
     c, v, e = graph.centers, graph.volumes, graph.edges
     if len(e) == 0:
         raise ValueError("the graph has no edges: a stiffness needs at least one")
     arm = ((v[e[:, 0]] + v[e[:, 1]]) * ((c[e[:, 0]] - c[e[:, 1]]) ** 2).sum(axis=1)).sum()
-    return 3.0 * modulus * (size / REFERENCE_SIZE) * v.sum() / arm
+    uniform = 3.0 * modulus * v.sum() / arm
+    if calibration == "uniform":
+        return uniform
+    centre, frame, moments = _principal_frame(graph)
+    bend = _bending_energy(graph, centre, frame, moments, 1) + _bending_energy(graph, centre, frame, moments, 2)
+    if not (bend > 0.0):  # no edge has a length along the longest axis: nothing bends, keep the uniform k
+        return uniform
+    second = _body_second_moment(graph, centre, frame, moments, mesh)
+    return modulus * (second[1, 1] + second[2, 2]) / bend
+
+
+def _moments(graph):
+    """(n, 3, 3) rest moments in rest space, Ē A Ēᵀ with A = 0.2 v diag(r^2) (METHOD.md)."""
+    v, r, axes = graph.volumes, graph.radii, graph.axes
+    return np.einsum("nij,nj,nkj->nik", axes, 0.2 * v[:, None] * r ** 2, axes)
+
+
+def _principal_frame(graph):
+    """(centroid, frame whose columns are the principal axes, longest first, moments) of the particles'
+    volume (centres and ellipsoids)."""
+    v, x = graph.volumes, graph.centers
+    moments = _moments(graph)
+    centre = (v[:, None] * x).sum(axis=0) / v.sum()
+    y = x - centre
+    covariance = np.einsum("n,ni,nj->ij", v, y, y) + moments.sum(axis=0)
+    _, frame = np.linalg.eigh(covariance)
+    return centre, frame[:, ::-1], moments
+
+
+def _bending_energy(graph, centre, frame, moments, b):
+    """G of the module's docstring for fibres along frame[:, 0] bending towards frame[:, b]."""
+    x = (graph.centers - centre) @ frame
+    v, e = graph.volumes, graph.edges
+    i = np.concatenate([e[:, 0], e[:, 1]])
+    j = np.concatenate([e[:, 1], e[:, 0]])
+    da2 = (x[j, 0] - x[i, 0]) ** 2
+    fibre = v[j] * da2
+    t = x[j, b]
+    t0 = (fibre * t).sum() / fibre.sum() if fibre.sum() > 0.0 else 0.0
+    ea, eb = frame[:, 0], frame[:, b]
+    turn = np.einsum("i,nij,j->n", ea, moments, ea) + np.einsum("i,nij,j->n", eb, moments, eb)
+    return float((fibre * (t - t0) ** 2).sum() + (v[j] * da2 ** 2).sum() / 4.0 + (da2 * turn[j]).sum())
+
+
+def _body_second_moment(graph, centre, frame, moments, mesh):
+    """The continuum's second moment (3, 3) about its centroid in ``frame``: of the closed mesh scaled to the
+    particles' volume (their mass), else of the particles (centres and ellipsoids)."""
+    if mesh is None and graph._made[0] == "from_mesh":
+        mesh = graph._made[1][:2]
+    if mesh is not None:
+        vertices = np.asarray(mesh[0], dtype=np.float64)
+        triangles = np.asarray(mesh[1], dtype=np.int64)
+        found = _closed_mesh_moments(vertices, triangles)
+        if found is not None:
+            volume, second = found
+            return frame.T @ second @ frame * (graph.volumes.sum() / volume)
+    v = graph.volumes
+    y = (graph.centers - centre) @ frame
+    return np.einsum("n,ni,nj->ij", v, y, y) + frame.T @ moments.sum(axis=0) @ frame
+
+
+def _closed_mesh_moments(vertices, triangles):
+    """(volume, second moment about the centroid) of a closed, consistently outward-oriented triangle mesh
+    (every edge once in each direction, positive volume; the divergence theorem over the tetrahedra from the
+    vertices' mean), else None (an open mesh, or faces turned both ways, whose signed volume means nothing)."""
+    if len(triangles) == 0:
+        return None
+    directed = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    forward = np.unique(directed, axis=0)
+    if len(forward) != len(directed) or len(np.unique(np.sort(directed, axis=1), axis=0)) * 2 != len(directed):
+        return None
+    p = vertices[triangles] - vertices.mean(axis=0)
+    det = np.einsum("ti,ti->t", p[:, 0], np.cross(p[:, 1], p[:, 2]))
+    volume = det.sum() / 6.0
+    if not (volume > 0.0):
+        return None
+    s = p.sum(axis=1)
+    centroid = (det[:, None] * s).sum(axis=0) / (24.0 * volume)
+    second = np.einsum("t,tij->ij", det / 120.0, np.einsum("tki,tkj->tij", p, p) + s[:, :, None] * s[:, None, :])
+    return volume, second - volume * np.outer(centroid, centroid)
 
 
 def step_damping(rate, dt):

@@ -42,12 +42,12 @@ def _tip_z(obj):
 def test_enable_gives_the_default_preset():
     obj = _tail()
     s, presets = obj.opdeform, _module("blender.presets")
-    assert s.settings_version == 1 and not s.use_solver_units
-    assert presets.current_name(s) == "Rubber" and s.density == 1100.0
+    assert s.settings_version == 2 and not s.use_solver_units
+    assert presets.current_name(s) == "Rubber" and s.density == 1100.0 and s.modulus == 15.0
     assert s.use_frame_rate_substeps and presets.substeps(s, 24.0) == 10 and presets.substeps(s, 60.0) == 4
     bpy.ops.opdeform.apply_preset(object=obj.name, preset="Jelly")
-    assert presets.current_name(s) == "Jelly" and abs(s.modulus - 1.0) < 1e-9
-    s.modulus = 3.0
+    assert presets.current_name(s) == "Jelly" and abs(s.modulus - 3.0) < 1e-9
+    s.modulus = 4.0
     assert presets.current_name(s) == "Custom"
     H.expect_error(lambda: bpy.ops.opdeform.apply_preset(object=obj.name, preset="Steel"), "no preset")
     s.stiffness = 2e7  # a script written for k: solver units
@@ -67,7 +67,9 @@ def test_default_tail_droops_about_10_percent_and_jiggles():
     droop = (rest - np.mean(tips[72:])) / 2.0
     travel = (np.ptp(tips[:24]), np.ptp(tips[48:72]))
     print(f"tail droop={droop:.3f} travel={travel[0]:.3f} {travel[1]:.3f}")
-    assert 0.05 < droop < 0.2 and travel[0] > 0.05 and travel[1] > 0.01, (droop, travel)
+    # 9.4 % (the core's static droop of this mesh at 100 particles: 9.7 %); 17.7 % when the pins kept the
+    # weight of the solver units the object is built in (test_addon_settings_core.py)
+    assert 0.07 < droop < 0.14 and travel[0] > 0.05 and travel[1] > 0.01, (droop, travel)
 
 
 def test_old_file_keeps_its_raw_stiffness():
@@ -80,11 +82,26 @@ def test_old_file_keeps_its_raw_stiffness():
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Tail"]
     s = obj.opdeform
-    assert s.use_solver_units and s.settings_version == 1 and s.stiffness == 2e7
+    assert s.use_solver_units and s.settings_version == 2 and s.stiffness == 2e7
     bpy.context.scene.frame_set(2)
     rt = H.runtime().get(obj)
     assert rt.engine.sim.params["stiffness"] == 2e7 and abs(rt.engine.sim.params["damping"] - 0.01) < 1e-8
     assert rt.engine.sim.tolerance == 0.0
+
+
+def test_version_1_file_keeps_its_look():
+    """A file saved in material units before the bending calibration (settings version 1): its modulus is
+    tripled on load, so its Rubber (5 MPa then) is Rubber (15 MPa) now; appended without a load, it is read so."""
+    obj = _tail()
+    s, presets = obj.opdeform, _module("blender.presets")
+    s.modulus, s.settings_version = 5.0, 1  # version 1's Rubber
+    assert presets.current_name(s) == "Rubber" and presets.units(s, 24.0).modulus == 15.0
+    path = os.path.join(H.tmpdir(), "v1.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    s = bpy.data.objects["Tail"].opdeform
+    assert s.settings_version == 2 and not s.use_solver_units and s.modulus == 15.0
+    assert presets.current_name(s) == "Rubber"
 
 
 def test_quality_report_plot_and_panel():
@@ -110,7 +127,7 @@ def test_warnings_stretch_thin_part_and_fast_handle():
         bpy.context.scene.frame_set(f)
     text = H.labels(H.draw_panels())
     assert "Stretched" in text and "Thinnest part" in text, text
-    s.modulus = 5.0
+    s.modulus = 15.0
     bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
     handle = s.handles[0].target
     bpy.ops.opdeform.build(object=obj.name)

@@ -29,12 +29,15 @@ def apply(s, name, only_unset=False):
             setattr(s, key, value)
     if not only_unset:
         s.use_solver_units = False
+        if s.settings_version == core_settings.MATERIAL_UNITS_VERSION:  # today's values: no version-1 factor
+            s.settings_version = core_settings.SETTINGS_VERSION
 
 
 def current_name(s):
     if versioning.uses_solver_units(s):
         return "Solver Units"
-    values = {k: getattr(s, k) for k in ("modulus", "density", "damping_rate", "tolerance")}
+    values = {k: getattr(s, k) for k in ("density", "damping_rate", "tolerance")}
+    values["modulus"] = versioning.modulus(s)
     return core_settings.matching_preset(_materials(), values)
 
 
@@ -45,8 +48,9 @@ def substeps(s, fps):
 
 
 def units(s, fps):
-    return core_settings.Units(versioning.uses_solver_units(s), s.modulus, s.stiffness, s.density, s.damping_rate,
-                               s.damping, s.tolerance, s.max_iterations, s.iterations, substeps(s, fps))
+    return core_settings.Units(versioning.uses_solver_units(s), versioning.modulus(s), s.stiffness, s.density,
+                               s.damping_rate, s.damping, s.tolerance, s.max_iterations, s.iterations,
+                               substeps(s, fps))
 
 
 class OPDEFORM_OT_apply_preset(bpy.types.Operator):

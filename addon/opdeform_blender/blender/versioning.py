@@ -1,21 +1,32 @@
-"""Settings versions of ``Object.opdeform`` (core/settings.py). Version 0 (files saved before material units)
+"""Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
+(a version-1 modulus is tripled on load, keeping the look). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
-stored or default). On a file load (handlers.on_load_post) every such object is marked so (``use_solver_units``), which the Advanced
-sub-panel shows; an object read without a load (appended, linked) is treated the same way
-(``uses_solver_units``). Enabling oriented particles on an object stamps the current version and gives the
-settings the user has not set the default preset (Rubber) and Match Frame Rate."""
+stored or default). On a file load (handlers.on_load_post) every such object is marked so
+(``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
+is treated the same way (``uses_solver_units``). Enabling oriented particles on an object stamps the current
+version and gives the settings the user has not set the default preset (Rubber) and Match Frame Rate."""
 
 from ..core import settings as core_settings
 
 
 def uses_solver_units(s):
-    return s.use_solver_units or s.settings_version < core_settings.SETTINGS_VERSION
+    return s.use_solver_units or s.settings_version < core_settings.MATERIAL_UNITS_VERSION
+
+
+def modulus(s):
+    """The modulus (MPa) in use: an object read from a version-1 file without a load (appended, linked) means
+    V1_MODULUS_FACTOR times its stored value, as ``upgrade`` makes it on a load."""
+    return core_settings.modulus_now(s.modulus, s.settings_version)
 
 
 def stamp(s):
     """Enabled now: a new object gets the current version and, unless in solver units, the default preset for
     the settings not set by hand or script."""
     if not s.enabled or s.settings_version >= core_settings.SETTINGS_VERSION:
+        return
+    if s.settings_version >= core_settings.MATERIAL_UNITS_VERSION:  # set up before: only the modulus moves
+        s.modulus = modulus(s)
+        s.settings_version = core_settings.SETTINGS_VERSION
         return
     from . import presets, runtime
     if not s.use_solver_units:
@@ -29,10 +40,15 @@ def stamp(s):
 
 
 def upgrade(objects):
-    """Objects of an older file run in solver units from now on, visibly."""
+    """Objects of a file from before material units run in solver units from now on, visibly; version-1
+    objects (k from a uniform strain) get the modulus that keeps their look (V1_MODULUS_FACTOR times, so a
+    version-1 Rubber is Rubber)."""
     for obj in objects:
         s = getattr(obj, "opdeform", None)
         if s is not None and obj.library is None and s.enabled and \
                 s.settings_version < core_settings.SETTINGS_VERSION:
-            s.use_solver_units = True
+            if s.settings_version < core_settings.MATERIAL_UNITS_VERSION:
+                s.use_solver_units = True
+            else:
+                s.modulus = modulus(s)
             s.settings_version = core_settings.SETTINGS_VERSION

@@ -155,6 +155,7 @@ class Engine:
         self._substeps = 1
         self._floor = None
         self._constraint_key = None
+        self._constraint_args = None  # set_constraints' last arguments, re-applied when the stiffness changes
         self._handle_ids = []
         self._pin_ids = []
         self.cache = StateCache()
@@ -208,6 +209,8 @@ class Engine:
         elif params != self._params:
             self.sim.set_params(**params)
             changed = True
+            if self._constraint_args is not None:  # weights relative to the new stiffness
+                self.set_constraints(*self._constraint_args)
         self._params = params
         solver = solver or dict(accelerator="none", tolerance=0.0)
         if solver != self._solver:
@@ -244,12 +247,17 @@ class Engine:
     def set_constraints(self, pin_indices=(), pin_weights=None, pin_strength=1.0, handles=()):
         """Pins (vertex indices and weights, as a vertex group gives them; strength scales the solver's default
         weight) and handles (sequence of (vertex index, use_rotation, strength)). Re-adds the constraints only
-        when they changed; then the cache is outdated."""
+        when they changed or the default weights did (``configure`` with another stiffness re-adds them);
+        then the cache is outdated."""
         pin_indices = np.asarray(pin_indices, dtype=np.int64).ravel()
         pin_weights = (np.ones(len(pin_indices)) if pin_weights is None
                        else np.asarray(pin_weights, dtype=np.float64).ravel())
         handles = tuple((int(v), bool(r), float(s)) for v, r, s in handles)
-        key = (pin_indices.tobytes(), pin_weights.tobytes(), float(pin_strength), handles)
+        # the default weights follow the stiffness (1000 k v): constraints added under another k (the solver
+        # units an object is built with before its material applies) would hold 4000x too loosely
+        key = (pin_indices.tobytes(), pin_weights.tobytes(), float(pin_strength), handles,
+               self.sim.default_weight("position"), self.sim.default_weight("direction"))
+        self._constraint_args = (pin_indices, pin_weights, pin_strength, handles)
         if key == self._constraint_key:
             return False
         for h in self._handle_ids:

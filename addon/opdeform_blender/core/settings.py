@@ -13,7 +13,11 @@ Two kinds of objects:
 
 from dataclasses import dataclass
 
-SETTINGS_VERSION = 1  # stamped on an object when oriented particles are enabled; 0: a file made before
+SETTINGS_VERSION = 2  # stamped on an object when oriented particles are enabled; 0: a file made before
+MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
+# Version 2: stiffness_for calibrates k in bending, not under a uniform strain, and the presets' moduli were
+# tripled to keep their droops; a version-1 modulus means about this times more now (exact for the presets).
+V1_MODULUS_FACTOR = 3.0
 CUSTOM = "Custom"
 MPA = 1e6
 PERCENT = 100.0
@@ -49,6 +53,12 @@ def matching_preset(materials, values, rel=1e-4):
         if all(abs(values[k] - v) <= rel * abs(v) for k, v in ref.items()):
             return name
     return CUSTOM
+
+
+def modulus_now(modulus, version):
+    """The modulus (MPa) an object of settings ``version`` means today: a version-1 value times
+    V1_MODULUS_FACTOR (its k came from a uniform strain), else as it is."""
+    return modulus * V1_MODULUS_FACTOR if version == MATERIAL_UNITS_VERSION else modulus
 
 
 def solver_settings(od, graph, u, fps, gravity):
