@@ -148,6 +148,37 @@ def test_substeps_give_one_step_size_at_every_frame_rate():
                                                              - materials.step_damping(1.0, 0.25) ** 2)
 
 
+def jiggle(fps, substeps, seconds=3.0):
+    """The default tail released from rest: its tip's frequency (zero crossings about the static pose) and
+    RMS offset from that pose over the first and second halves, frames sampled at ``fps``."""
+    v, t, g = tail()
+    root, tip = np.flatnonzero(v[:, 0] <= 1e-9), np.flatnonzero(v[:, 0] >= v[:, 0].max() - 1e-9)
+    sims = [materials.make_simulation(g, dt=1.0 / (fps * substeps)) for _ in range(2)]
+    for sim in sims:
+        opdeform.pin_vertices(sim, v, root)
+    sims[1].set_solver("chebyshev")
+    sims[1].solve_static(4000)
+    rest = sims[1].skin_points(v[tip])[:, 2].mean()
+    z = []
+    for _ in range(int(seconds * fps)):
+        sims[0].step(substeps)
+        z.append(sims[0].skin_points(v[tip])[:, 2].mean() - rest)
+    z, time = np.array(z), np.arange(1, len(z) + 1) / fps
+    k = np.flatnonzero(z[:-1] * z[1:] < 0)
+    crossings = time[k] - z[k] * (time[k + 1] - time[k]) / (z[k + 1] - z[k])
+    half = time <= seconds / 2
+    return ((len(crossings) - 1) / (2 * (crossings[-1] - crossings[0])), np.sqrt((z[half] ** 2).mean()),
+            np.sqrt((z[~half] ** 2).mean()))
+
+
+def test_substeps_for_give_the_same_jiggle_at_24_and_60_fps():
+    """docs/settings.md's frame-rate table: with substeps_for the look agrees (the issue asks 20 %)."""
+    slow, fast = jiggle(24, materials.substeps_for(24)), jiggle(60, materials.substeps_for(60))
+    assert slow[0] > 0.5 and slow[2] > 0.01  # it jiggles, and still does in the second half
+    for a, b in zip(slow, fast):
+        assert abs(a / b - 1.0) < 0.05, (slow, fast)
+
+
 def test_scale_keeps_the_stiffness_formula():
     v, t, g = tail()
     small = opdeform.Graph(g.centers, g.radii, g.edges, g.axes)  # no mesh: the particles' second moment
