@@ -27,6 +27,7 @@
 #include "contact.h"
 #include "core.h"
 #include "math3.h"
+#include "step.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -68,7 +69,9 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->cellStart);
 	od_Free(s->sorted);
 	od_Free(s->sphere);
+	od_Free(s->active);
 	od_Free(s->pairs);
+	od_Free(s->previous);
 	*s = (od_PairScratch){ 0 };
 }
 
@@ -90,7 +93,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->sorted = od_Alloc(sizeof(int) * (size_t)particles);
 	s->cellStart = od_Alloc(sizeof(int) * ((size_t)table + 1));
 	s->sphere = od_Alloc(sizeof(double) * 4 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere)
+	s->active = od_Alloc(sizeof(int) * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -106,18 +110,35 @@ static int od_Hash(const od_PairScratch* s, int64_t i, int64_t j, int64_t k)
 	return (int)(h & (uint64_t)(s->tableSize - 1));
 }
 
-// Fills the per-particle arrays and sorts the particles into the hashed cells; returns the cell size.
-static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, int* total)
+od_Status od_BodyContact_ReserveForces(od_Sim* sim)
+{
+	if (!sim->contactForce)
+	{
+		sim->contactForce = od_AllocZero((size_t)3 * sim->graph->n, sizeof(double));
+	}
+	return sim->contactForce ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory for the contact forces");
+}
+
+// How much farther than its predicted end (y) a particle's solved end may lie, beyond the reach of its
+// path's sphere, before the step's pairs are sought again (od_PairsStillCover): a quarter of its reach.
+#define OD_PATH_SLACK 0.25
+
+// Fills the per-particle arrays and sorts the particles into the hashed cells; returns the cell size. The
+// path of a particle runs from its start to its predicted end (`predicted`, before the iterations, with
+// OD_PATH_SLACK) or its solved end.
+static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, bool predicted, int* total)
 {
 	int g = 0;
 	double largest = 0.0;
 	for (int b = 0; b < count; ++b)
 	{
 		const od_Sim* sim = sims[b];
+		const double* end = predicted ? sim->y : sim->state.x;
 		for (int i = 0; i < sim->graph->n; ++i, ++g)
 		{
-			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
-			double r = od_ParticleReach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
+			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(end + 3 * i);
+			double reach = od_ParticleReach(sim, i);
+			double r = reach * (predicted ? 1.0 + OD_PATH_SLACK : 1.0) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
 			od_V3Store(s->sphere + 4 * g, od_Scale(0.5, od_Add(x0, x1)));
 			s->sphere[4 * g + 3] = r;
 			s->body[g] = b;
@@ -319,27 +340,44 @@ static od_Vec3 od_PushDirection(const od_End* a, const od_End* b, od_Vec3 c)
 	return length > 0.0 && od_Dot(m, c) > 0.5 * length ? od_Scale(1.0 / length, m) : c;
 }
 
-// One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
-static void od_ResolvePair(od_ContactPair* pair, od_End* a, od_End* b, const od_BodyContactDef* d)
+// Where a pair stands (see the top of the file): the centre line c along which it is measured, how deep it
+// is within reach (> 0: in contact), how deep it may stay (a pair that began overlapping leaves at the
+// recovery speed), and whether its path never came within reach (a pair apart at the start that passed by).
+typedef struct od_PairState
+{
+	od_Vec3 c;
+	double depth, allowed;
+	bool passed;
+} od_PairState;
+
+static od_PairState od_Measure(const od_End* a, const od_End* b, const od_BodyContactDef* d)
 {
 	od_Mat3 ma = od_ParticleMoment(a->sim, a->i), mb = od_ParticleMoment(b->sim, b->i);
 	od_Vec3 d0 = od_Sub(b->x0, a->x0), d1 = od_Sub(b->x1, a->x1);
 	double l0 = od_Length(d0), l1 = od_Length(d1);
-	od_Vec3 c = l0 > 0.0 ? od_Scale(1.0 / l0, d0) : od_V3(0, 0, 1);
-	bool apart = l0 > 0.0 && l0 >= od_Support(&ma, c) + od_Support(&mb, c);
+	od_PairState p = { .c = l0 > 0.0 ? od_Scale(1.0 / l0, d0) : od_V3(0, 0, 1) };
+	bool apart = l0 > 0.0 && l0 >= od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	if (!apart && l1 > 0.0)
 	{
-		c = od_Scale(1.0 / l1, d1);
+		p.c = od_Scale(1.0 / l1, d1);
 	}
-	double reach = od_Support(&ma, c) + od_Support(&mb, c) + d->thickness;
-	double depth = reach - od_Dot(c, d1);
-	if (depth <= 0.0 || (apart && od_ClosestApproach(d0, d1) >= reach))
+	double reach = od_Support(&ma, p.c) + od_Support(&mb, p.c) + d->thickness;
+	p.depth = reach - od_Dot(p.c, d1);
+	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
+	p.allowed = apart ? 0.0 : fmax(reach - l0 - od_RecoveryLimit(a->sim), 0.0);
+	return p;
+}
+
+// One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
+static void od_ResolvePair(od_ContactPair* pair, od_End* a, od_End* b, const od_BodyContactDef* d)
+{
+	od_PairState p = od_Measure(a, b, d);
+	if (p.depth <= 0.0 || p.passed)
 	{
 		return;
 	}
-	double allowed = apart ? 0.0 : fmax(reach - l0 - od_RecoveryLimit(a->sim), 0.0);
-	double push = fmax(depth - allowed, 0.0);
-	od_Vec3 n = od_PushDirection(a, b, c);
+	double push = fmax(p.depth - p.allowed, 0.0);
+	od_Vec3 n = od_PushDirection(a, b, p.c);
 	od_Separate(a, b, n, push);
 	pair->push += push;
 	od_V3Store(pair->n, n);
@@ -358,23 +396,188 @@ static void od_PairFriction(const od_ContactPair* pair, od_End* a, od_End* b, do
 	}
 }
 
-od_Status od_BodyContact_Resolve(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+static const od_BodyContactDef* od_DefOf(const od_End* a, const od_End* b, const od_BodyContactDef* between)
+{
+	return a->sim == b->sim ? &a->sim->selfDef : between;
+}
+
+static double od_Thickness(od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	double thickness = between->thickness;
 	for (int b = 0; b < count; ++b)
 	{
 		thickness = sims[b]->selfContact ? fmax(thickness, sims[b]->selfDef.thickness) : thickness;
 	}
+	return thickness;
+}
+
+// Sorts the pairs by (a, b): od_FindPairs gives them by a already, each a's by cell.
+static void od_SortPairs(od_PairScratch* s)
+{
+	for (int k = 1; k < s->pairCount; ++k)
+	{
+		od_ContactPair p = s->pairs[k];
+		int m = k;
+		for (; m > 0 && (s->pairs[m - 1].a > p.a || (s->pairs[m - 1].a == p.a && s->pairs[m - 1].b > p.b)); --m)
+		{
+			s->pairs[m] = s->pairs[m - 1];
+		}
+		s->pairs[m] = p;
+	}
+}
+
+// The forces of the pairs found again start where `previous` left them (warm start); new pairs at zero.
+static void od_CarryForces(od_PairScratch* s, const od_ContactPair* previous, int count)
+{
+	int m = 0;
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		od_ContactPair* p = &s->pairs[k];
+		while (m < count && (previous[m].a < p->a || (previous[m].a == p->a && previous[m].b < p->b)))
+		{
+			++m;
+		}
+		bool same = m < count && previous[m].a == p->a && previous[m].b == p->b;
+		p->force = same ? previous[m].force : 0.0;
+		memcpy(p->tangent, same ? previous[m].tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
+		memcpy(p->n, same ? previous[m].n : (double[3]){ 0, 0, 1 }, sizeof p->n);
+	}
+}
+
+// Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over.
+static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, bool predicted)
+{
+	od_ContactPair* list = s->previous;
+	int capacity = s->previousCapacity;
+	s->previous = s->pairs;
+	s->previousCapacity = s->pairCapacity;
+	s->previousCount = s->pairCount;
+	s->pairs = list;
+	s->pairCapacity = capacity;
 	int total;
-	double size = od_Bin(s, sims, count, thickness, &total);
+	double size = od_Bin(s, sims, count, thickness, predicted, &total);
 	od_Status status = od_FindPairs(s, sims, total, size);
+	od_SortPairs(s);
+	od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0);
+	return status;
+}
+
+// Whether every particle's path (start to solved end) still lies in the sphere its pairs were found with
+// (od_Bin: the path's sphere holds the particle's reach and half the thickness about each point of it).
+static bool od_PairsStillCover(const od_PairScratch* s, od_Sim* const* sims, int count, double thickness)
+{
+	for (int b = 0, g = 0; b < count; ++b)
+	{
+		const od_Sim* sim = sims[b];
+		for (int i = 0; i < sim->graph->n; ++i, ++g)
+		{
+			const double* c = s->sphere + 4 * g;
+			double room = c[3] - od_ParticleReach(sim, i) - 0.5 * thickness;
+			if (od_Length(od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(c))) > room)
+			{
+				return false;
+			}
+		}
+	}
+	return true;
+}
+
+// Writes the pairs' forces onto their particles' right sides (each sim's contactForce).
+static void od_ApplyForces(const od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int b = 0; b < count; ++b)
+	{
+		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
+	}
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		od_Vec3 f = od_MulAdd(od_V3Load(pair->tangent), pair->force, od_V3Load(pair->n));
+		double* fa = sims[s->body[pair->a]]->contactForce + 3 * s->local[pair->a];
+		double* fb = sims[s->body[pair->b]]->contactForce + 3 * s->local[pair->b];
+		od_V3Store(fa, od_Sub(od_V3Load(fa), f));
+		od_V3Store(fb, od_Add(od_V3Load(fb), f));
+	}
+}
+
+// Measures every pair at the current centres (gap, touching, normal) and counts the pairs pressing each
+// particle.
+static void od_MeasureAll(od_PairScratch* s, od_Sim* const* sims, int total, const od_BodyContactDef* between)
+{
+	memset(s->active, 0, sizeof(int) * (size_t)total);
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_PairState p = od_Measure(&a, &b, od_DefOf(&a, &b, between));
+		pair->touching = !p.passed;
+		pair->gap = p.allowed - p.depth;
+		if (pair->touching && (pair->gap < 0.0 || pair->force > 0.0))
+		{
+			s->active[pair->a]++;
+			s->active[pair->b]++;
+			od_V3Store(pair->n, od_PushDirection(&a, &b, p.c));
+		}
+	}
+}
+
+// One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
+// is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
+// relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
+// stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
+// particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
+static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate)
+{
+	if (!pair->touching)
+	{
+		pair->force = 0.0;
+		memset(pair->tangent, 0, sizeof pair->tangent);
+		return;
+	}
+	pair->force = fmax(pair->force - rate * pair->gap, 0.0);
+	od_Vec3 n = od_V3Load(pair->n), rel = od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
+	od_Vec3 t = od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
+	t = od_MulAdd(t, -od_Dot(t, n), n);
+	double length = od_Length(t), limit = mu * pair->force;
+	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
+}
+
+// After each solve of a step's iterations: measures the pairs, updates their forces and puts them on the
+// particles' right sides for the next solve.
+static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+{
+	int total = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		total += sims[b]->graph->n;
+	}
+	od_MeasureAll(s, sims, total, between);
+	double h2 = sims[0]->def.dt * sims[0]->def.dt;
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
+		double rate = 1.0 / (h2 * (ca / a.mass + cb / b.mass));
+		od_UpdatePair(pair, &a, &b, od_DefOf(&a, &b, between)->friction, rate);
+	}
+	od_ApplyForces(s, sims, count);
+}
+
+// After the iterations: the positions the forces left in contact are pushed apart (Gauss-Seidel passes) with
+// friction on the push, as before the forces existed; at rest the forces hold the pairs and this pushes
+// nothing. The pairs are sought again if a particle left the sphere they were found in.
+static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+{
+	double thickness = od_Thickness(sims, count, between);
+	od_Status status = od_PairsStillCover(s, sims, count, thickness) ? OD_OK : od_NewPairs(s, sims, count, thickness, false);
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
 		for (int k = 0; k < s->pairCount; ++k)
 		{
 			od_ContactPair* pair = &s->pairs[k];
 			od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-			const od_BodyContactDef* d = a.sim == b.sim ? &a.sim->selfDef : between;
+			const od_BodyContactDef* d = od_DefOf(&a, &b, between);
 			pair->push = pass == 0 ? 0.0 : pair->push;
 			if (pass < OD_PAIR_PASSES)
 			{
@@ -389,10 +592,45 @@ od_Status od_BodyContact_Resolve(od_PairScratch* s, od_Sim* const* sims, int cou
 	return status;
 }
 
+od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+{
+	for (int b = 0; b < count; ++b)
+	{
+		od_Step_Start(sims[b]);
+	}
+	od_Status status = od_NewPairs(s, sims, count, od_Thickness(sims, count, between), true);
+	bool more = status == OD_OK;
+	if (more)
+	{
+		od_ApplyForces(s, sims, count);
+	}
+	while (more && status == OD_OK)
+	{
+		more = false;
+		for (int b = 0; b < count && status == OD_OK; ++b)
+		{
+			bool again = false;
+			od_Iteration* it = &sims[b]->iteration;
+			status = !it->started || !it->finished ? od_Step_Advance(sims[b], &again) : OD_OK;
+			more = more || again;
+		}
+		if (status == OD_OK)
+		{
+			od_UpdateForces(s, sims, count, between);
+		}
+	}
+	for (int b = 0; b < count; ++b)
+	{
+		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
+	}
+	return status == OD_OK ? od_ProjectPairs(s, sims, count, between) : status;
+}
+
 od_Status od_Sim_SetSelfContact(od_Sim* sim, const od_BodyContactDef* def)
 {
 	od_Status status = def ? od_BodyContact_Check(def, true) : OD_OK;
 	status = status == OD_OK && def ? od_PairScratch_Reserve(&sim->selfPairs, sim->graph->n) : status;
+	status = status == OD_OK && def ? od_BodyContact_ReserveForces(sim) : status;
 	if (status != OD_OK)
 	{
 		return status;

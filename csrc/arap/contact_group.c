@@ -54,6 +54,16 @@ od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyCo
 		od_ContactGroup_Destroy(group);
 		return status;
 	}
+	for (int b = 0; b < count && status == OD_OK; ++b)
+	{
+		status = sims[b] ? od_BodyContact_ReserveForces(sims[b]) : status;
+	}
+	if (status != OD_OK)
+	{
+		od_Free(list);
+		od_ContactGroup_Destroy(group);
+		return status;
+	}
 	memcpy(list, sims, sizeof *list * (size_t)count);
 	*group = (od_ContactGroup){ .sims = list, .count = count, .def = *def, .pairs = group->pairs };
 	*out = group;
@@ -115,11 +125,7 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
 	}
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
-		for (int b = 0; b < group->count && status == OD_OK; ++b)
-		{
-			status = od_Step_Solve(group->sims[b]);
-		}
-		status = status == OD_OK ? od_BodyContact_Resolve(&group->pairs, group->sims, group->count, &group->def) : status;
+		status = od_BodyContact_Step(&group->pairs, group->sims, group->count, &group->def);
 		for (int b = 0; b < group->count; ++b)
 		{
 			od_Step_Finish(group->sims[b], k, steps);

@@ -104,9 +104,13 @@ typedef struct od_Colliders
 // when self-contact is turned on or a group made; the pair list grows in the first steps only.
 typedef struct od_ContactPair
 {
-	int a, b;       // global particle indices (body-major), a < b
-	double push;    // accumulated over the passes of a step
-	double n[3];    // the normal, a towards b
+	int a, b;         // global particle indices (body-major), a < b
+	double push;      // accumulated over the passes of a step
+	double n[3];      // the normal, a towards b
+	double force;     // the normal force on b (N, >= 0; -force on a), inside the iterations, kept step to step
+	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
+	double gap;       // of the last update: how far apart beyond contact (m, < 0: in), at most 0 when touching
+	bool touching;
 } od_ContactPair;
 
 typedef struct od_PairScratch
@@ -118,8 +122,11 @@ typedef struct od_PairScratch
 	int* cellStart;   // tableSize + 1
 	int* sorted;      // particles by cell
 	double* sphere;   // 4 per particle: centre of the swept path and radius
+	int* active;      // per particle: how many pairs press it (their forces share its response)
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
+	od_ContactPair* previous; // the last step's pairs, sorted: their forces start this step's (warm start)
+	int previousCount, previousCapacity;
 } od_PairScratch;
 
 typedef enum od_Mode
@@ -137,6 +144,14 @@ typedef struct od_Tolerance
 	double* R;     // n*9, its rotations
 	double size;   // the rest body's largest extent (m)
 } od_Tolerance;
+
+// The iteration of the current solve, in stages (simulation.c: od_IterateStart, od_IterateNext).
+typedef struct od_Iteration
+{
+	int done, limit;
+	bool started, finished, accelerate, tolerance;
+	double accepted, error;
+} od_Iteration;
 
 struct od_Sim
 {
@@ -164,6 +179,9 @@ struct od_Sim
 	double* Rtilde;       // n*9 predicted rotations
 	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
 	double* angularScale; // n, friction's scaling of the angular velocity of touching particles (floor, colliders)
+	double* contactForce; // n*3, forces of particle contact on the right side during a step (body_contact.c); NULL
+						  // until self-contact or a group needs it, zero outside a step's iterations
+	od_Iteration iteration;
 
 	bool traceEnabled;
 	double* trace;
