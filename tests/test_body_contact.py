@@ -1,6 +1,6 @@
 """Contact between simulated bodies (opdeform.ContactGroup) and within one body (self-contact), docs/contact.md,
 issue 13: bodies colliding head on or fast do not pass through each other and keep their momentum, a body
-dropped on another stays above it through the impact (not yet at rest on it: xfail), bodies that start overlapping come apart slowly, a rod's
+dropped on another stays above it through the impact and comes to rest on it, bodies that start overlapping come apart slowly, a rod's
 far end bent onto its other end does not pass into it, a body at rest with self-contact on stays at rest to
 the bit, and bad input raises."""
 
@@ -74,8 +74,6 @@ def _skinned_overlap(graph, vertices, triangles, lower, upper):
     return max(-probe.collider_distances(shown[1]).min(), 0.0)
 
 
-@pytest.mark.xfail(reason="left: with per-pair friction both bars shear about their long axis and the upper one "
-                   "rolls off at 4-5 s (docs/contact.md, stacking)")
 def test_a_bar_dropped_on_another_comes_to_rest_on_it(bar):
     v, t, g = bar
     a, b = _stack(g)
