@@ -448,7 +448,8 @@ static void od_CarryForces(od_PairScratch* s, const od_ContactPair* previous, in
 	}
 }
 
-// Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over.
+// Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over
+// (sorted) where they have forces (`predicted`: before a group's iterations; count > 1).
 static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, bool predicted)
 {
 	od_ContactPair* list = s->previous;
@@ -461,8 +462,11 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 	int total;
 	double size = od_Bin(s, sims, count, thickness, predicted, &total);
 	od_Status status = od_FindPairs(s, sims, total, size);
-	od_SortPairs(s);
-	od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0);
+	if (count > 1)
+	{
+		od_SortPairs(s);
+		od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0);
+	}
 	return status;
 }
 
