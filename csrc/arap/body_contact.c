@@ -1,27 +1,53 @@
 // Contact between particles (docs/contact.md): of the simulations of a group (contact_group.c) and of
-// distant parts of one simulation (self-contact), after a step's iterations, before the floor and the
-// colliders (they are immovable and have the last word).
+// distant parts of one simulation (self-contact).
+//
+// Between the bodies of a group, contact acts inside the iterations of a step, as forces on the right side of
+// every global solve (sim->contactForce, global_solve.c), and after them as a projection; self-contact only
+// as the projection (below: why).
 //
 // Narrow phase: ellipsoid i reaches s_i = sqrt(nᵀ M_i n) along a unit n (M_i = E diag(a², b², c²) Eᵀ), so
 // the half spaces n·(p - x_i) <= s_i and n·(p - x_j) >= -s_j hold the two ellipsoids: when n·(x_j - x_i) >=
 // s_i + s_j they are apart (conservative: exact along the centre line, never misses an overlap). A pair
-// closer than s_i + s_j + thickness is pushed apart by the difference, split by mass (the lighter moves
-// more), along n turned towards the bodies' surface normals there (od_PushDirection); the relative tangential displacement of the step is cut by at most μ times the push (Coulomb,
-// position based, as the floor). The direction: a pair apart at the step's start keeps the start's centre
-// line, and is tested only when its relative path came within reach: a fast particle cannot pass through
-// another, whatever its speed. A pair that began overlapping (placed so, or excluded before) uses the end's
-// centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Four Gauss-Seidel passes over the
-// pairs: a stack of two bodies settles in them (one pass left the upper blob sinking 3 mm a step).
+// closer than s_i + s_j + thickness is in contact. The direction: a pair apart at the step's start keeps the
+// start's centre line, and is tested only when its relative path came within reach: a fast particle cannot
+// pass through another, whatever its speed. A pair that began overlapping (placed so, or excluded before)
+// uses the end's centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Pairs push along
+// the centre line turned towards the bodies' surface normals there (od_PushDirection).
+//
+// Forces (od_IterateWithForces): each pair in contact carries a normal force f >= 0 and a friction force t,
+// |t| <= μ f, on b (their negatives on a). After every global solve of the step (all members of the group at
+// the same iteration) they are updated by dual ascent towards the pair's constraints: f grows by a rate
+// times the depth beyond the allowed one and shrinks while the pair is apart; t grows against the pair's
+// relative tangential displacement since the step's start, so friction is a constraint on the whole step,
+// not re-applied per iteration. The next solve sees them (its matrix unchanged: the forces are on the right
+// side only), and the local step then fits the rotations to positions that already hold the contact. The
+// forces start each step where the last one left them (warm start: matched by particle pair), so a resting
+// contact carries its weight from the first solve. Why (docs/contact.md, stacking): the projection after the
+// iterations strained the bodies and the next solve gave the strain back as motion; a bar on a bar turned
+// and rolled off at any friction, with the forces it rests.
+//
+// Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
+// depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
+// displacement is cut by at most μ times the push (Coulomb, position based, as the floor). A stack of two
+// bodies settles in four passes (one pass left the upper blob sinking 3 mm a step). At rest the forces hold
+// the pairs and it pushes nothing; it keeps fast pairs from passing through each other.
+//
+// Self-contact is the projection only: with forces the ends of a rod bent onto each other came nearer than
+// the test's bound in centre distance less radii (-0.036 m against -0.030; the ellipsoids' own clearance was
+// better, 4.5 mm against 3.3, but its particles turned their short axes to the contact), and a tail pulled
+// past its body still ended beyond it (it went round the root instead of through it).
 //
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
 // `exclusionScale` times the sum of their largest radii, never collide: the overlaps a body has at rest are
 // not contact, so a body at rest stays at rest to the bit (tests/test_body_contact.py).
 //
-// Broad phase: a uniform grid over the spheres that bound each particle's path over the step (the midpoint
-// of its start and end, radius its largest radius plus half its motion and half the thickness), cells of the
-// largest diameter, hashed into a table of 2n rounded to a power of two and sorted by counting; each
-// particle meets those of the 27 cells about it with a larger index. Linear in n for particles of similar
-// size; measured on a 10,000-particle beam: docs/contact.md.
+// Broad phase, once a step at its end: a uniform grid over the spheres that bound each particle's path over
+// the step (the midpoint of its start and end, radius its largest radius plus half its motion and half the
+// thickness), cells of the largest diameter, hashed into a table of 2n rounded to a power of two and sorted
+// by counting; each particle meets those of the 27 cells about it with a larger index. Linear in n for
+// particles of similar size; measured on a 10,000-particle beam: docs/contact.md. The next step's forces use
+// these pairs (those near after its first solve, od_GatherNear); a pair that meets only later in the step is
+// the projection's, with the pairs of that step's end.
 #include "body_contact.h"
 
 #include "contact.h"
@@ -74,6 +100,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->sorted);
 	od_Free(s->sphere);
 	od_Free(s->active);
+	od_Free(s->moment);
 	od_Free(s->pairs);
 	od_Free(s->previous);
 	*s = (od_PairScratch){ 0 };
@@ -98,7 +125,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->cellStart = od_Alloc(sizeof(int) * ((size_t)table + 1));
 	s->sphere = od_Alloc(sizeof(double) * 4 * (size_t)particles);
 	s->active = od_Alloc(sizeof(int) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active)
+	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->moment)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -123,26 +151,18 @@ od_Status od_BodyContact_ReserveForces(od_Sim* sim)
 	return sim->contactForce ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory for the contact forces");
 }
 
-// How much farther than its predicted end (y) a particle's solved end may lie, beyond the reach of its
-// path's sphere, before the step's pairs are sought again (od_PairsStillCover): a quarter of its reach.
-#define OD_PATH_SLACK 0.25
-
-// Fills the per-particle arrays and sorts the particles into the hashed cells; returns the cell size. The
-// path of a particle runs from its start to its predicted end (`predicted`, before the iterations, with
-// OD_PATH_SLACK) or its solved end.
-static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, bool predicted, int* total)
+// Fills the per-particle arrays and sorts the particles into the hashed cells; returns the cell size.
+static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, int* total)
 {
 	int g = 0;
 	double largest = 0.0;
 	for (int b = 0; b < count; ++b)
 	{
 		const od_Sim* sim = sims[b];
-		const double* end = predicted ? sim->y : sim->state.x;
 		for (int i = 0; i < sim->graph->n; ++i, ++g)
 		{
-			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(end + 3 * i);
-			double reach = od_ParticleReach(sim, i);
-			double r = reach * (predicted ? 1.0 + OD_PATH_SLACK : 1.0) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
+			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
+			double r = od_ParticleReach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
 			od_V3Store(s->sphere + 4 * g, od_Scale(0.5, od_Add(x0, x1)));
 			s->sphere[4 * g + 3] = r;
 			s->body[g] = b;
@@ -354,28 +374,51 @@ typedef struct od_PairState
 	bool passed;
 } od_PairState;
 
-static od_PairState od_Measure(const od_End* a, const od_End* b, const od_BodyContactDef* d)
+static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+								const od_BodyContactDef* d)
 {
-	od_Mat3 ma = od_ParticleMoment(a->sim, a->i), mb = od_ParticleMoment(b->sim, b->i);
 	od_Vec3 d0 = od_Sub(b->x0, a->x0), d1 = od_Sub(b->x1, a->x1);
 	double l0 = od_Length(d0), l1 = od_Length(d1);
 	od_PairState p = { .c = l0 > 0.0 ? od_Scale(1.0 / l0, d0) : od_V3(0, 0, 1) };
-	bool apart = l0 > 0.0 && l0 >= od_Support(&ma, p.c) + od_Support(&mb, p.c);
+	double largest = od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i);
+	if (l0 >= largest && od_ClosestApproach(d0, d1) >= largest + d->thickness) // far: its spheres never met
+	{
+		p.passed = true;
+		return p;
+	}
+	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
+	double supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
+	bool apart = l0 > 0.0 && l0 >= supports;
 	if (!apart && l1 > 0.0)
 	{
 		p.c = od_Scale(1.0 / l1, d1);
+		supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	}
-	double reach = od_Support(&ma, p.c) + od_Support(&mb, p.c) + d->thickness;
+	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
 	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
 	p.allowed = apart ? 0.0 : fmax(reach - l0 - od_RecoveryLimit(a->sim), 0.0);
 	return p;
 }
 
-// One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
-static void od_ResolvePair(od_ContactPair* pair, od_End* a, od_End* b, const od_BodyContactDef* d)
+// Every particle's ellipsoid (od_ParticleMoment) at its current rotation, for the measures of its pairs.
+static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 {
-	od_PairState p = od_Measure(a, b, d);
+	for (int b = 0, g = 0; b < count; ++b)
+	{
+		for (int i = 0; i < sims[b]->graph->n; ++i, ++g)
+		{
+			od_Mat3 m = od_ParticleMoment(sims[b], i);
+			od_M3Store(s->moment + 9 * g, &m);
+		}
+	}
+}
+
+// One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
+static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
+						   const od_BodyContactDef* d)
+{
+	od_PairState p = od_Measure(s, pair, a, b, d);
 	if (p.depth <= 0.0 || p.passed)
 	{
 		return;
@@ -415,42 +458,41 @@ static double od_Thickness(od_Sim* const* sims, int count, const od_BodyContactD
 	return thickness;
 }
 
-// Sorts the pairs by (a, b): od_FindPairs gives them by a already, each a's by cell.
-static void od_SortPairs(od_PairScratch* s)
+// The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
+// pairs at zero. The last step's pairs with a force are chained per first particle (head: s->active, which
+// od_MeasureAll recounts), so the match costs the pairs and the forced ones, not a sort.
+static void od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int count, int total)
 {
-	for (int k = 1; k < s->pairCount; ++k)
+	int* head = s->active;
+	for (int p = 0; p < total; ++p)
 	{
-		od_ContactPair p = s->pairs[k];
-		int m = k;
-		for (; m > 0 && (s->pairs[m - 1].a > p.a || (s->pairs[m - 1].a == p.a && s->pairs[m - 1].b > p.b)); --m)
-		{
-			s->pairs[m] = s->pairs[m - 1];
-		}
-		s->pairs[m] = p;
+		head[p] = -1;
 	}
-}
-
-// The forces of the pairs found again start where `previous` left them (warm start); new pairs at zero.
-static void od_CarryForces(od_PairScratch* s, const od_ContactPair* previous, int count)
-{
-	int m = 0;
+	for (int m = 0; m < count; ++m)
+	{
+		if (previous[m].force > 0.0)
+		{
+			previous[m].next = head[previous[m].a];
+			head[previous[m].a] = m;
+		}
+	}
 	for (int k = 0; k < s->pairCount; ++k)
 	{
 		od_ContactPair* p = &s->pairs[k];
-		while (m < count && (previous[m].a < p->a || (previous[m].a == p->a && previous[m].b < p->b)))
+		int m = head[p->a];
+		while (m >= 0 && previous[m].b != p->b)
 		{
-			++m;
+			m = previous[m].next;
 		}
-		bool same = m < count && previous[m].a == p->a && previous[m].b == p->b;
-		p->force = same ? previous[m].force : 0.0;
-		memcpy(p->tangent, same ? previous[m].tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
-		memcpy(p->n, same ? previous[m].n : (double[3]){ 0, 0, 1 }, sizeof p->n);
+		p->force = m >= 0 ? previous[m].force : 0.0;
+		memcpy(p->tangent, m >= 0 ? previous[m].tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
+		memcpy(p->n, m >= 0 ? previous[m].n : (double[3]){ 0, 0, 1 }, sizeof p->n);
 	}
 }
 
-// Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over
-// (sorted) where they have forces (`predicted`: before a group's iterations; count > 1).
-static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, bool predicted)
+// Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over where
+// they have forces (a group's: count > 1).
+static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness)
 {
 	od_ContactPair* list = s->previous;
 	int capacity = s->previousCapacity;
@@ -460,34 +502,46 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 	s->pairs = list;
 	s->pairCapacity = capacity;
 	int total;
-	double size = od_Bin(s, sims, count, thickness, predicted, &total);
+	double size = od_Bin(s, sims, count, thickness, &total);
 	od_Status status = od_FindPairs(s, sims, total, size);
 	if (count > 1)
 	{
-		od_SortPairs(s);
-		od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0);
+		od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0, total);
 	}
 	return status;
 }
 
-// Whether every particle's path (start to solved end) still lies in the sphere its pairs were found with
-// (od_Bin: the path's sphere holds the particle's reach and half the thickness about each point of it).
-static bool od_PairsStillCover(const od_PairScratch* s, od_Sim* const* sims, int count, double thickness)
+// How far apart (beyond contact, a fraction of the sum of their largest radii) two particles after a step's
+// first solve may be and still get forces in its iterations: the rest keep none, and are the projection's
+// should they meet.
+#define OD_NEAR_SLACK 0.25
+
+// Moves the pairs near after a step's first solve (OD_NEAR_SLACK) to the front of the list (s->nearCount).
+// The list is the broad phase's of the last step's end, whose spheres held each particle's path; on two
+// stacked 1,000-particle creatures about a tenth of its pairs are near.
+static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
-	for (int b = 0, g = 0; b < count; ++b)
+	od_CacheMoments(s, sims, count);
+	int near = 0;
+	for (int k = 0; k < s->pairCount; ++k)
 	{
-		const od_Sim* sim = sims[b];
-		for (int i = 0; i < sim->graph->n; ++i, ++g)
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_PairState p = od_Measure(s, pair, &a, &b, between);
+		double slack = OD_NEAR_SLACK * (od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i));
+		pair->aimed = false;
+		if (a.sim != b.sim && !p.passed && p.depth > -slack)
 		{
-			const double* c = s->sphere + 4 * g;
-			double room = c[3] - od_ParticleReach(sim, i) - 0.5 * thickness;
-			if (od_Length(od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(c))) > room)
-			{
-				return false;
-			}
+			od_ContactPair swap = s->pairs[near];
+			s->pairs[near++] = *pair;
+			*pair = swap;
+		}
+		else
+		{
+			pair->force = 0.0;
 		}
 	}
-	return true;
+	s->nearCount = near;
 }
 
 // Writes the pairs' forces onto their particles' right sides (each sim's contactForce).
@@ -497,9 +551,13 @@ static void od_ApplyForces(const od_PairScratch* s, od_Sim* const* sims, int cou
 	{
 		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
 	}
-	for (int k = 0; k < s->pairCount; ++k)
+	for (int k = 0; k < s->nearCount; ++k)
 	{
 		const od_ContactPair* pair = &s->pairs[k];
+		if (!(pair->force > 0.0))
+		{
+			continue; // its friction is bounded by μ times this: none
+		}
 		od_Vec3 f = od_MulAdd(od_V3Load(pair->tangent), pair->force, od_V3Load(pair->n));
 		double* fa = sims[s->body[pair->a]]->contactForce + 3 * s->local[pair->a];
 		double* fb = sims[s->body[pair->b]]->contactForce + 3 * s->local[pair->b];
@@ -513,23 +571,29 @@ static void od_ApplyForces(const od_PairScratch* s, od_Sim* const* sims, int cou
 static void od_MeasureAll(od_PairScratch* s, od_Sim* const* sims, int total, const od_BodyContactDef* between)
 {
 	memset(s->active, 0, sizeof(int) * (size_t)total);
-	for (int k = 0; k < s->pairCount; ++k)
+	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-		if (a.sim == b.sim) // self-contact: projected after the iterations only (docs/contact.md)
+		od_Vec3 d1 = od_Sub(b.x1, a.x1);
+		double near = od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i) + between->thickness;
+		if (a.sim == b.sim || od_Dot(d1, d1) >= near * near) // self-contact: projected after the iterations only
 		{
-			pair->touching = false;
+			pair->touching = false; // far now: a pair that crossed within the step is the projection's
 			continue;
 		}
-		od_PairState p = od_Measure(&a, &b, od_DefOf(&a, &b, between));
+		od_PairState p = od_Measure(s, pair, &a, &b, od_DefOf(&a, &b, between));
 		pair->touching = !p.passed;
 		pair->gap = p.allowed - p.depth;
 		if (pair->touching && (pair->gap < 0.0 || pair->force > 0.0))
 		{
 			s->active[pair->a]++;
 			s->active[pair->b]++;
-			od_V3Store(pair->n, od_PushDirection(&a, &b, p.c));
+			if (!pair->aimed) // once a step: a fixed direction for its iterations, and od_Outward is costly
+			{
+				od_V3Store(pair->n, od_PushDirection(&a, &b, p.c));
+				pair->aimed = true;
+			}
 		}
 	}
 }
@@ -564,9 +628,10 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	{
 		total += sims[b]->graph->n;
 	}
+	od_CacheMoments(s, sims, count);
 	od_MeasureAll(s, sims, total, between);
 	double h2 = sims[0]->def.dt * sims[0]->def.dt;
-	for (int k = 0; k < s->pairCount; ++k)
+	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
@@ -577,13 +642,13 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	od_ApplyForces(s, sims, count);
 }
 
-// After the iterations: the positions the forces left in contact are pushed apart (Gauss-Seidel passes) with
-// friction on the push, as before the forces existed; at rest the forces hold the pairs and this pushes
-// nothing. The pairs are sought again if a particle left the sphere they were found in.
+// After the iterations, with the pairs the broad phase found at the step's end: those still in contact are
+// pushed apart (Gauss-Seidel passes) with friction on the push, as before the forces existed; at rest the
+// forces hold the pairs and this pushes (nearly) nothing.
 static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
-	double thickness = od_Thickness(sims, count, between);
-	od_Status status = od_PairsStillCover(s, sims, count, thickness) ? OD_OK : od_NewPairs(s, sims, count, thickness, false);
+	od_Status status = OD_OK;
+	od_CacheMoments(s, sims, count);
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
 		for (int k = 0; k < s->pairCount; ++k)
@@ -594,7 +659,7 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 			pair->push = pass == 0 ? 0.0 : pair->push;
 			if (pass < OD_PAIR_PASSES)
 			{
-				od_ResolvePair(pair, &a, &b, d);
+				od_ResolvePair(s, pair, &a, &b, d);
 			}
 			else if (pair->push > 0.0 && d->friction > 0.0)
 			{
@@ -605,15 +670,14 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 	return status;
 }
 
-// The iterations of a group's step with the forces of its pairs between them (see the top of the file).
+// The iterations of a group's step with the forces of its pairs between them (see the top of the file): the
+// pairs are those the broad phase found at the end of the last step, the first solve with their forces, then
+// those near after it updated after every solve.
 static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
-	od_Status status = od_NewPairs(s, sims, count, od_Thickness(sims, count, between), true);
-	bool more = status == OD_OK;
-	if (more)
-	{
-		od_ApplyForces(s, sims, count);
-	}
+	od_ApplyForces(s, sims, count);
+	od_Status status = OD_OK;
+	bool more = true, first = true;
 	while (more && status == OD_OK)
 	{
 		more = false;
@@ -623,6 +687,11 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 			od_Iteration* it = &sims[b]->iteration;
 			status = !it->started || !it->finished ? od_Step_Advance(sims[b], &again) : OD_OK;
 			more = more || again;
+		}
+		if (first)
+		{
+			od_GatherNear(s, sims, count, between);
+			first = false;
 		}
 		if (status == OD_OK)
 		{
@@ -647,15 +716,15 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 	{
 		status = od_IterateWithForces(s, sims, count, between);
 	}
-	else // self-contact alone has no forces: the plain iterations, then the pairs found at their end
+	else // self-contact alone has no forces
 	{
 		bool more = true;
 		while (more && status == OD_OK)
 		{
 			status = od_Step_Advance(sims[0], &more);
 		}
-		status = status == OD_OK ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between), false) : status;
 	}
+	status = status == OD_OK ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between)) : status;
 	return status == OD_OK ? od_ProjectPairs(s, sims, count, between) : status;
 }
 

@@ -109,8 +109,10 @@ typedef struct od_ContactPair
 	double n[3];      // the normal, a towards b
 	double force;     // the normal force on b (N, >= 0; -force on a), inside the iterations, kept step to step
 	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
-	double gap;       // of the last update: how far apart beyond contact (m, < 0: in), at most 0 when touching
-	bool touching;
+	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
+	bool touching;    // near enough for a force in this iteration
+	bool aimed;       // n set for this step's iterations
+	int next;         // the next forced pair of the same first particle (od_CarryForces)
 } od_ContactPair;
 
 typedef struct od_PairScratch
@@ -123,8 +125,10 @@ typedef struct od_PairScratch
 	int* sorted;      // particles by cell
 	double* sphere;   // 4 per particle: centre of the swept path and radius
 	int* active;      // per particle: how many pairs press it (their forces share its response)
+	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
+	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)
 	od_ContactPair* previous; // the last step's pairs, sorted: their forces start this step's (warm start)
 	int previousCount, previousCapacity;
 } od_PairScratch;
