@@ -100,6 +100,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->sorted);
 	od_Free(s->sphere);
 	od_Free(s->active);
+	od_Free(s->pressing);
 	od_Free(s->moment);
 	od_Free(s->pairs);
 	od_Free(s->previous);
@@ -125,8 +126,9 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->cellStart = od_Alloc(sizeof(int) * ((size_t)table + 1));
 	s->sphere = od_Alloc(sizeof(double) * 4 * (size_t)particles);
 	s->active = od_Alloc(sizeof(int) * (size_t)particles);
+	s->pressing = od_Alloc(sizeof(int) * (size_t)particles);
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->moment)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -460,7 +462,7 @@ static double od_Thickness(od_Sim* const* sims, int count, const od_BodyContactD
 
 // The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
 // pairs at zero. The last step's pairs with a force are chained per first particle (head: s->active, which
-// od_MeasureAll recounts), so the match costs the pairs and the forced ones, not a sort.
+// od_GatherNear clears), so the match costs the pairs and the forced ones, not a sort.
 static void od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int count, int total)
 {
 	int* head = s->active;
@@ -542,6 +544,7 @@ static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, con
 		}
 	}
 	s->nearCount = near;
+	memset(s->active, 0, sizeof(int) * (size_t)s->capacity);
 }
 
 // Writes the pairs' forces onto their particles' right sides (each sim's contactForce).
@@ -566,38 +569,6 @@ static void od_ApplyForces(const od_PairScratch* s, od_Sim* const* sims, int cou
 	}
 }
 
-// Measures every pair at the current centres (gap, touching, normal) and counts the pairs pressing each
-// particle.
-static void od_MeasureAll(od_PairScratch* s, od_Sim* const* sims, int total, const od_BodyContactDef* between)
-{
-	memset(s->active, 0, sizeof(int) * (size_t)total);
-	for (int k = 0; k < s->nearCount; ++k)
-	{
-		od_ContactPair* pair = &s->pairs[k];
-		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-		od_Vec3 d1 = od_Sub(b.x1, a.x1);
-		double near = od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i) + between->thickness;
-		if (a.sim == b.sim || od_Dot(d1, d1) >= near * near) // self-contact: projected after the iterations only
-		{
-			pair->touching = false; // far now: a pair that crossed within the step is the projection's
-			continue;
-		}
-		od_PairState p = od_Measure(s, pair, &a, &b, od_DefOf(&a, &b, between));
-		pair->touching = !p.passed;
-		pair->gap = p.allowed - p.depth;
-		if (pair->touching && (pair->gap < 0.0 || pair->force > 0.0))
-		{
-			s->active[pair->a]++;
-			s->active[pair->b]++;
-			if (!pair->aimed) // once a step: a fixed direction for its iterations, and od_Outward is costly
-			{
-				od_V3Store(pair->n, od_PushDirection(&a, &b, p.c));
-				pair->aimed = true;
-			}
-		}
-	}
-}
-
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
 // relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
@@ -619,8 +590,36 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
 }
 
-// After each solve of a step's iterations: measures the pairs, updates their forces and puts them on the
-// particles' right sides for the next solve.
+// Measures a near pair at the current centres (gap, touching; its normal once a step) and counts it on its
+// particles (s->pressing) when it presses them.
+static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
+						   const od_BodyContactDef* d)
+{
+	od_Vec3 d1 = od_Sub(b->x1, a->x1);
+	double near = od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i) + d->thickness;
+	pair->touching = false; // far now: a pair that crossed within the step is the projection's
+	if (od_Dot(d1, d1) >= near * near)
+	{
+		return;
+	}
+	od_PairState p = od_Measure(s, pair, a, b, d);
+	pair->touching = !p.passed;
+	pair->gap = p.allowed - p.depth;
+	if (pair->touching && (pair->gap < 0.0 || pair->force > 0.0))
+	{
+		s->pressing[pair->a]++;
+		s->pressing[pair->b]++;
+		if (!pair->aimed) // once a step: a fixed direction for its iterations, and od_Outward is costly
+		{
+			od_V3Store(pair->n, od_PushDirection(a, b, p.c));
+			pair->aimed = true;
+		}
+	}
+}
+
+// After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
+// the particles' right sides for the next solve. The pairs pressing a particle are those counted at the
+// last update (s->active; none at the first), so that one pass does it.
 static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	int total = 0;
@@ -629,16 +628,20 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		total += sims[b]->graph->n;
 	}
 	od_CacheMoments(s, sims, count);
-	od_MeasureAll(s, sims, total, between);
+	memset(s->pressing, 0, sizeof(int) * (size_t)total);
 	double h2 = sims[0]->def.dt * sims[0]->def.dt;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_MeasurePair(s, pair, &a, &b, between);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
-		od_UpdatePair(pair, &a, &b, od_DefOf(&a, &b, between)->friction, rate);
+		od_UpdatePair(pair, &a, &b, between->friction, rate);
 	}
+	int* swap = s->active;
+	s->active = s->pressing;
+	s->pressing = swap;
 	od_ApplyForces(s, sims, count);
 }
 

@@ -124,7 +124,8 @@ typedef struct od_PairScratch
 	int* cellStart;   // tableSize + 1
 	int* sorted;      // particles by cell
 	double* sphere;   // 4 per particle: centre of the swept path and radius
-	int* active;      // per particle: how many pairs press it (their forces share its response)
+	int* active;      // per particle: how many pairs pressed it at the last update (their forces share its response)
+	int* pressing;    // the same, counted in this update
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
