@@ -61,8 +61,8 @@
 
 #define OD_PAIR_PASSES 4
 // The forces' rate over that of two free particles (od_UpdatePair). Measured on the stack of two bars
-// (docs/contact.md): 1, 2 and 3 all keep it; the upper bar's fastest particle at 6 s is 0.020, 0.0005 and
-// 0.0006 m/s; 0.3 leaves it at 0.05 m/s and 0.1 lets it roll off.
+// (docs/contact.md): 0.3, 1, 2 and 3 all keep it; the upper bar's fastest particle at 6 s is 0.062, 0.018,
+// 0.0027 and 0.0025 m/s.
 #define OD_FORCE_RATE 2.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
