@@ -1,11 +1,13 @@
 // Simulations that collide with each other (opdeform/colliders.h, docs/contact.md): one call steps them all,
-// each through the stages of its own od_Sim_Step (step.h), with the pairs between them (body_contact.c)
-// after the iterations of every step.
+// each through the stages of its own od_Sim_Step (step.h), their solves side by side with the forces of the
+// pairs between them updated after every solve, and the pairs still in contact projected after the
+// iterations (body_contact.c).
 //
 // Design: a simulation stays one body with one thread at a time; the group only borrows them for its step
 // (each taken as its own step would, OD_ERROR_BUSY if one is in use) and owns nothing but the broad phase's
-// scratch. Bodies see each other's particles after each step's iterations, so the push is two-way and
-// mass weighted; stepping them one after the other against frozen copies would let the second always win.
+// scratch and the pairs' forces (kept step to step). Bodies see each other's particles after every solve, so
+// the push is two-way and mass weighted; stepping them one after the other against frozen copies would let
+// the second always win.
 #include "body_contact.h"
 #include "core.h"
 #include "step.h"

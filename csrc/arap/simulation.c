@@ -5,6 +5,8 @@
 //   (local Gauss-Seidel rotations, global solve) -> particle pairs (body_contact.c: self-contact, a
 //   group's bodies) -> floor -> colliders (contact.c) -> v = (x - x⁽¹⁾)/h,
 //   ω = log(R R⁽¹⁾ᵀ)/h.
+// The solves are stages (od_Step_Start, od_Step_Advance: step.h) so that a contact group can put the forces
+// of its pairs on the right side between them (body_contact.c).
 // Starting with the global solve matters: starting with a local step makes pinned particles rotate to
 // absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
 // which is what makes the stiffness depend on h and the iteration count.
