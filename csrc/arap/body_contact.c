@@ -102,6 +102,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->active);
 	od_Free(s->pressing);
 	od_Free(s->moment);
+	od_Free(s->outward);
 	od_Free(s->pairs);
 	od_Free(s->previous);
 	*s = (od_PairScratch){ 0 };
@@ -128,7 +129,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->active = od_Alloc(sizeof(int) * (size_t)particles);
 	s->pressing = od_Alloc(sizeof(int) * (size_t)particles);
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment)
+	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -359,9 +361,9 @@ static od_Vec3 od_Outward(const od_Sim* sim, int i)
 // normals there (a's outward minus b's), so that two flat faces push each other straight apart. Along c
 // alone, the particles of a face are bumps: a body on another rolled off them sideways (a 0.6 m bar dropped
 // on a like one slid 0.5 m off it at any friction).
-static od_Vec3 od_PushDirection(const od_End* a, const od_End* b, od_Vec3 c)
+static od_Vec3 od_PushDirection(const od_PairScratch* s, const od_ContactPair* pair, od_Vec3 c)
 {
-	od_Vec3 m = od_Add(c, od_Sub(od_Outward(a->sim, a->i), od_Outward(b->sim, b->i)));
+	od_Vec3 m = od_Add(c, od_Sub(od_V3Load(s->outward + 3 * pair->a), od_V3Load(s->outward + 3 * pair->b)));
 	double length = od_Length(m);
 	return length > 0.0 && od_Dot(m, c) > 0.5 * length ? od_Scale(1.0 / length, m) : c;
 }
@@ -398,7 +400,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		// make the same for the pairs of a face; along each pair's own line, a particle sandwiched between
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
 		// 3.0 m/s, 1.2 m/s along the push direction).
-		p.c = a->sim != b->sim ? od_PushDirection(a, b, p.c) : p.c;
+		p.c = a->sim != b->sim ? od_PushDirection(s, pair, p.c) : p.c;
 		supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	}
 	double reach = supports + d->thickness;
@@ -408,7 +410,8 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	return p;
 }
 
-// Every particle's ellipsoid (od_ParticleMoment) at its current rotation, for the measures of its pairs.
+// Every particle's ellipsoid (od_ParticleMoment) and outward direction (od_Outward) at its current rotation,
+// for the measures of its pairs: once per particle, not per pair.
 static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0, g = 0; b < count; ++b)
@@ -417,6 +420,7 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 		{
 			od_Mat3 m = od_ParticleMoment(sims[b], i);
 			od_M3Store(s->moment + 9 * g, &m);
+			od_V3Store(s->outward + 3 * g, od_Outward(sims[b], i));
 		}
 	}
 }
@@ -431,7 +435,7 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 		return;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
-	od_Vec3 n = od_PushDirection(a, b, p.c);
+	od_Vec3 n = od_PushDirection(s, pair, p.c);
 	od_Separate(a, b, n, push);
 	pair->push += push;
 	od_V3Store(pair->n, n);
@@ -614,9 +618,9 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 	{
 		s->pressing[pair->a]++;
 		s->pressing[pair->b]++;
-		if (!pair->aimed) // once a step: a fixed direction for its iterations, and od_Outward is costly
+		if (!pair->aimed) // once a step: a fixed direction for its iterations
 		{
-			od_V3Store(pair->n, od_PushDirection(a, b, p.c));
+			od_V3Store(pair->n, od_PushDirection(s, pair, p.c));
 			pair->aimed = true;
 		}
 	}
@@ -656,7 +660,10 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_Status status = OD_OK;
-	od_CacheMoments(s, sims, count);
+	if (s->pairCount > 0) // a body alone with self-contact and nothing near pays nothing
+	{
+		od_CacheMoments(s, sims, count);
+	}
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
 		for (int k = 0; k < s->pairCount; ++k)

@@ -127,6 +127,7 @@ typedef struct od_PairScratch
 	int* active;      // per particle: how many pairs pressed it at the last update (their forces share its response)
 	int* pressing;    // the same, counted in this update
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
+	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
 	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)

@@ -9,10 +9,12 @@ __all__ = ["ContactGroup"]
 
 class ContactGroup:
     """Two or more simulations whose particles collide: ``step`` advances them all together (each as its own
-    ``step`` would, with its floor, colliders, fields and self-contact) and, after each step's iterations,
-    pushes apart the particles of different bodies closer than ``thickness`` (m) along the line between
-    their centres, mass weighted, with Coulomb ``friction``. The simulations must share dt; while the group
-    steps, each of them is busy."""
+    ``step`` would, with its floor, colliders, fields and self-contact), their iterations side by side:
+    particles of different bodies closer than ``thickness`` (m) push each other apart with forces inside
+    every solve, with Coulomb ``friction`` against the step's start, and what is still in contact after the
+    iterations is pushed apart along the line between their centres, mass weighted. A body dropped on
+    another comes to rest on it. The simulations must share dt; while the group steps, each of them is
+    busy."""
 
     def __init__(self, sims, thickness=0.005, friction=0.5):
         sims = list(sims)
