@@ -67,7 +67,9 @@
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
-	return (od_BodyContactDef){ .thickness = 0.005, .friction = 0.5, .exclusionRing = 2, .exclusionScale = 1.5 };
+	return (od_BodyContactDef){
+		.thickness = 0.005, .friction = 0.5, .exclusionRing = 2, .exclusionScale = 1.5, .inIterations = 1
+	};
 }
 
 od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self)
@@ -79,6 +81,10 @@ od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self)
 	if (!(def->friction >= 0.0) || !isfinite(def->friction))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "friction = %g must be finite and >= 0", def->friction);
+	}
+	if (!self && def->inIterations != 0 && def->inIterations != 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "in_iterations = %d must be 0 or 1", def->inIterations);
 	}
 	if (self && (def->exclusionRing < 0 || def->exclusionRing > 2))
 	{
@@ -400,13 +406,15 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		// make the same for the pairs of a face; along each pair's own line, a particle sandwiched between
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
 		// 3.0 m/s, 1.2 m/s along the push direction).
-		p.c = a->sim != b->sim ? od_PushDirection(s, pair, p.c) : p.c;
+		p.c = a->sim != b->sim && d->inIterations ? od_PushDirection(s, pair, p.c) : p.c;
 		supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	}
 	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
 	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
-	p.allowed = apart ? 0.0 : fmax(reach - (a->sim != b->sim ? od_Dot(p.c, d0) : l0) - od_RecoveryLimit(a->sim), 0.0);
+	p.allowed = apart ? 0.0
+					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_RecoveryLimit(a->sim),
+							 0.0);
 	return p;
 }
 
@@ -727,16 +735,19 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 		od_Step_Start(sims[b]);
 	}
 	od_Status status = OD_OK;
-	if (count > 1)
+	if (count > 1 && between->inIterations)
 	{
 		status = od_IterateWithForces(s, sims, count, between);
 	}
-	else // self-contact alone has no forces
+	else // self-contact alone, or a group with contact after the iterations only: no forces
 	{
-		bool more = true;
-		while (more && status == OD_OK)
+		for (int b = 0; b < count && status == OD_OK; ++b)
 		{
-			status = od_Step_Advance(sims[0], &more);
+			bool more = true;
+			while (more && status == OD_OK)
+			{
+				status = od_Step_Advance(sims[b], &more);
+			}
 		}
 	}
 	status = status == OD_OK ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between)) : status;

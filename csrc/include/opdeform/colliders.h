@@ -76,6 +76,8 @@ typedef struct od_BodyContactDef
 	int exclusionRing;     // self-contact: pairs at most this many edges apart never collide (0..2, default 2)
 	double exclusionScale; // self-contact: nor pairs closer at rest than this times the sum of their largest
 	                       // radii (>= 0, default 1.5): neighbourhoods that overlap at rest stay at rest
+	int inIterations;      // a group: 1 (default) contact forces inside the iterations, then the projection;
+	                       // 0 the projection after them only (the step then depends on the state alone)
 } od_BodyContactDef;
 
 od_BodyContactDef od_DefaultBodyContactDef(void);
