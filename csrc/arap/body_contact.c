@@ -758,7 +758,6 @@ od_Status od_Sim_SetSelfContact(od_Sim* sim, const od_BodyContactDef* def)
 {
 	od_Status status = def ? od_BodyContact_Check(def, true) : OD_OK;
 	status = status == OD_OK && def ? od_PairScratch_Reserve(&sim->selfPairs, sim->graph->n) : status;
-	status = status == OD_OK && def ? od_BodyContact_ReserveForces(sim) : status;
 	if (status != OD_OK)
 	{
 		return status;
