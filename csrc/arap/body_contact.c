@@ -32,6 +32,9 @@
 // bodies settles in four passes (one pass left the upper blob sinking 3 mm a step). At rest the forces hold
 // the pairs and it pushes nothing; it keeps fast pairs from passing through each other.
 //
+// A group with inIterations = 0 has no forces: the projection alone, as before them, its step a function of
+// its members' states (the Blender add-on's groups: their caches replay frames from the states alone).
+//
 // Self-contact is the projection only: with forces the ends of a rod bent onto each other came nearer than
 // the test's bound in centre distance less radii (-0.036 m against -0.030; the ellipsoids' own clearance was
 // better, 4.5 mm against 3.3, but its particles turned their short axes to the contact), and a tail pulled
