@@ -8,7 +8,11 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles);
 void od_PairScratch_Destroy(od_PairScratch* s);
 // Checks a contact definition (the exclusion fields too when `self`).
 od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self);
-// After the iterations of a step of each of `count` simulations (their states at the step's start in
-// ->previous): pushes the pairs in contact apart, with friction. Pairs of one simulation only where it has
-// self-contact (its selfDef), pairs of two with `between`. Fails only when the pair list cannot grow.
-od_Status od_BodyContact_Resolve(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);
+// Sizes sim's contact forces (the right side's share of particle contact, body_contact.c).
+od_Status od_BodyContact_ReserveForces(od_Sim* sim);
+// The iterations of one step of each of `count` simulations (od_Step_Start, od_Step_Advance; their states at
+// the step's start in ->previous) with the pairs in contact between them: forces inside the iterations, then
+// the pairs still in contact pushed apart, with friction. Pairs of one simulation only where it has
+// self-contact (its selfDef), pairs of two with `between`. Fails when a solve fails or the pair list cannot
+// grow.
+od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);

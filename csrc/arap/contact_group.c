@@ -1,11 +1,13 @@
 // Simulations that collide with each other (opdeform/colliders.h, docs/contact.md): one call steps them all,
-// each through the stages of its own od_Sim_Step (step.h), with the pairs between them (body_contact.c)
-// after the iterations of every step.
+// each through the stages of its own od_Sim_Step (step.h), their solves side by side with the forces of the
+// pairs between them updated after every solve, and the pairs still in contact projected after the
+// iterations (body_contact.c).
 //
 // Design: a simulation stays one body with one thread at a time; the group only borrows them for its step
 // (each taken as its own step would, OD_ERROR_BUSY if one is in use) and owns nothing but the broad phase's
-// scratch. Bodies see each other's particles after each step's iterations, so the push is two-way and
-// mass weighted; stepping them one after the other against frozen copies would let the second always win.
+// scratch and the pairs' forces (kept step to step). Bodies see each other's particles after every solve, so
+// the push is two-way and mass weighted; stepping them one after the other against frozen copies would let
+// the second always win.
 #include "body_contact.h"
 #include "core.h"
 #include "step.h"
@@ -48,6 +50,16 @@ od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyCo
 	od_Sim** list = od_Alloc(sizeof *list * (size_t)count);
 	status = group && list ? od_PairScratch_Reserve(&group->pairs, total)
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory for a contact group");
+	if (status != OD_OK)
+	{
+		od_Free(list);
+		od_ContactGroup_Destroy(group);
+		return status;
+	}
+	for (int b = 0; b < count && status == OD_OK; ++b)
+	{
+		status = sims[b] ? od_BodyContact_ReserveForces(sims[b]) : status;
+	}
 	if (status != OD_OK)
 	{
 		od_Free(list);
@@ -115,11 +127,7 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
 	}
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
-		for (int b = 0; b < group->count && status == OD_OK; ++b)
-		{
-			status = od_Step_Solve(group->sims[b]);
-		}
-		status = status == OD_OK ? od_BodyContact_Resolve(&group->pairs, group->sims, group->count, &group->def) : status;
+		status = od_BodyContact_Step(&group->pairs, group->sims, group->count, &group->def);
 		for (int b = 0; b < group->count; ++b)
 		{
 			od_Step_Finish(group->sims[b], k, steps);

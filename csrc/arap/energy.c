@@ -99,8 +99,19 @@ static double od_GravityEnergy(const od_Sim* sim)
 	return e;
 }
 
+// The potential of the contact forces held during a step's iterations (body_contact.c): -Σ f_i·x_i.
+static double od_ContactEnergy(const od_Sim* sim)
+{
+	double e = 0.0;
+	for (int k = 0; sim->contactForce && k < 3 * sim->graph->n; ++k)
+	{
+		e -= sim->contactForce[k] * sim->state.x[k];
+	}
+	return e;
+}
+
 double od_Energy(const od_Sim* sim)
 {
 	double e = od_ElasticEnergy(sim) + od_Constraints_Energy(sim) + od_Goals_Energy(sim);
-	return e + (sim->mode == OD_DYNAMIC ? od_InertiaEnergy(sim) : od_GravityEnergy(sim));
+	return e + (sim->mode == OD_DYNAMIC ? od_InertiaEnergy(sim) + od_ContactEnergy(sim) : od_GravityEnergy(sim));
 }

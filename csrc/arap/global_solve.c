@@ -303,6 +303,10 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	{
 		f = od_Add(f, od_Goals_RhsRow(sim, i, residual));
 	}
+	if (sim->contactForce && sim->mode == OD_DYNAMIC) // particle contact inside the iterations (body_contact.c)
+	{
+		f = od_Add(f, od_V3Load(sim->contactForce + 3 * i));
+	}
 	return residual ? f : od_Add(f, od_Positions_RhsRow(sim, i));
 }
 

@@ -104,9 +104,15 @@ typedef struct od_Colliders
 // when self-contact is turned on or a group made; the pair list grows in the first steps only.
 typedef struct od_ContactPair
 {
-	int a, b;       // global particle indices (body-major), a < b
-	double push;    // accumulated over the passes of a step
-	double n[3];    // the normal, a towards b
+	int a, b;         // global particle indices (body-major), a < b
+	double push;      // accumulated over the passes of a step
+	double n[3];      // the normal, a towards b
+	double force;     // the normal force on b (N, >= 0; -force on a), inside the iterations, kept step to step
+	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
+	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
+	bool touching;    // near enough for a force in this iteration
+	bool aimed;       // n set for this step's iterations
+	int next;         // the next forced pair of the same first particle (od_CarryForces)
 } od_ContactPair;
 
 typedef struct od_PairScratch
@@ -118,8 +124,15 @@ typedef struct od_PairScratch
 	int* cellStart;   // tableSize + 1
 	int* sorted;      // particles by cell
 	double* sphere;   // 4 per particle: centre of the swept path and radius
+	int* active;      // per particle: how many pairs pressed it at the last update (their forces share its response)
+	int* pressing;    // the same, counted in this update
+	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
+	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
+	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)
+	od_ContactPair* previous; // the last step's pairs, sorted: their forces start this step's (warm start)
+	int previousCount, previousCapacity;
 } od_PairScratch;
 
 typedef enum od_Mode
@@ -137,6 +150,25 @@ typedef struct od_Tolerance
 	double* R;     // n*9, its rotations
 	double size;   // the rest body's largest extent (m)
 } od_Tolerance;
+
+// How the current call's iteration runs (tolerance.c: od_Tolerance_Plan, od_Tolerance_Check).
+typedef struct od_StepPlan
+{
+	bool accelerate; // the next pair is accelerated
+	bool probing;    // auto's first two pairs: plain, their contraction decides
+	bool plain;      // auto after a fast probe: plain pairs
+	double tolerance;
+	double last; // the probe's first residual (< 0: none yet)
+} od_StepPlan;
+
+// The iteration of the current solve, in stages (simulation.c: od_IterateStart, od_IterateNext).
+typedef struct od_Iteration
+{
+	int done, limit;
+	bool started, finished;
+	od_StepPlan plan;
+	double accepted, error;
+} od_Iteration;
 
 struct od_Sim
 {
@@ -164,6 +196,9 @@ struct od_Sim
 	double* Rtilde;       // n*9 predicted rotations
 	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
 	double* angularScale; // n, friction's scaling of the angular velocity of touching particles (floor, colliders)
+	double* contactForce; // n*3, forces of particle contact on the right side during a step (body_contact.c); NULL
+						  // until self-contact or a group needs it, zero outside a step's iterations
+	od_Iteration iteration;
 
 	bool traceEnabled;
 	double* trace;

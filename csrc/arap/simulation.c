@@ -5,6 +5,8 @@
 //   (local Gauss-Seidel rotations, global solve) -> particle pairs (body_contact.c: self-contact, a
 //   group's bodies) -> floor -> colliders (contact.c) -> v = (x - x⁽¹⁾)/h,
 //   ω = log(R R⁽¹⁾ᵀ)/h.
+// The solves are stages (od_Step_Start, od_Step_Advance: step.h) so that a contact group can put the forces
+// of its pairs on the right side between them (body_contact.c).
 // Starting with the global solve matters: starting with a local step makes pinned particles rotate to
 // absorb the h²g offset of the prediction and the truncated iteration settles elsewhere (measured fact 2),
 // which is what makes the stiffness depend on h and the iteration count.
@@ -285,6 +287,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->Rtilde);
 	od_Free(sim->inertiaTerm);
 	od_Free(sim->angularScale);
+	od_Free(sim->contactForce);
 	od_Free(sim->edgeMoment);
 	od_Free(sim->edgeArm);
 	od_Free(sim->rowArm);
@@ -555,48 +558,69 @@ static void od_Report(od_Sim* sim, int iterations, double error)
 	r->unconverged += error > sim->solverDef.tolerance;
 }
 
-// The shared iteration: a global solve with the current rotations, then local/global pairs: `iterations`
-// of them, or under a tolerance (dynamic steps only) until the plan's error estimate is at most the
-// tolerance, at most maxIterations. The plan (tolerance.c) says whether the pairs are accelerated; the auto
-// accelerator's plan may turn acceleration on during a step.
-static od_Status od_Iterate(od_Sim* sim, int iterations)
+// The shared iteration, in stages so that a contact group can act between the iterations of its members
+// (contact_group.c, body_contact.c): a global solve with the current rotations (od_IterateStart), then
+// local/global pairs (od_IterateNext): `iterations` of them, or under a tolerance (dynamic steps only) until
+// the plan's error estimate is at most the tolerance, at most maxIterations; the last one records the step
+// (od_Report). The plan (tolerance.c) says whether the pairs are accelerated; the auto accelerator's plan may
+// turn acceleration on during a step.
+static od_Status od_IterateStart(od_Sim* sim, int iterations)
 {
+	od_Iteration* r = &sim->iteration;
 	sim->traceCount = 0;
 	od_Status status = od_GlobalStep(sim);
 	od_Trace(sim);
-	od_StepPlan plan = od_Tolerance_Plan(sim);
-	double accepted = 0.0, error = -1.0;
-	if (plan.accelerate && status == OD_OK)
+	*r = (od_Iteration){ .limit = iterations, .error = -1.0, .plan = od_Tolerance_Plan(sim) };
+	if (r->plan.accelerate && status == OD_OK)
 	{
 		od_Accelerator_Restart(&sim->accelerator);
-		accepted = od_Energy(sim);
+		r->accepted = od_Energy(sim);
 	}
-	if (plan.tolerance > 0.0)
+	if (r->plan.tolerance > 0.0)
 	{
 		od_Tolerance_Start(sim);
-		iterations = sim->solverDef.maxIterations;
+		r->limit = sim->solverDef.maxIterations;
 	}
-	int it = 0;
-	while (it < iterations && status == OD_OK)
+	r->finished = status != OD_OK || r->limit <= 0;
+	return status;
+}
+
+static od_Status od_IterateNext(od_Sim* sim)
+{
+	od_Iteration* r = &sim->iteration;
+	bool accelerated = r->plan.accelerate;
+	od_Status status = accelerated ? od_AcceleratedIteration(sim, &r->accepted) : od_PlainIteration(sim);
+	od_Trace(sim);
+	status = status == OD_OK ? od_CheckInterrupt() : status;
+	++r->done;
+	if (r->plan.tolerance > 0.0 && (r->error = od_Tolerance_Check(sim, &r->plan)) <= r->plan.tolerance)
 	{
-		bool accelerated = plan.accelerate;
-		status = accelerated ? od_AcceleratedIteration(sim, &accepted) : od_PlainIteration(sim);
-		od_Trace(sim);
-		status = status == OD_OK ? od_CheckInterrupt() : status;
-		++it;
-		if (plan.tolerance > 0.0 && (error = od_Tolerance_Check(sim, &plan)) <= plan.tolerance)
-		{
-			break;
-		}
-		if (plan.accelerate && !accelerated && status == OD_OK)
-		{
-			accepted = od_Energy(sim); // auto turned Chebyshev on; od_Tolerance_Check seeded its history
-		}
+		r->finished = true;
 	}
+	else if (r->plan.accelerate && !accelerated && status == OD_OK)
+	{
+		r->accepted = od_Energy(sim); // auto turned Chebyshev on; od_Tolerance_Check seeded its history
+	}
+	r->finished = r->finished || status != OD_OK || r->done >= r->limit;
+	return status;
+}
+
+static void od_IterateEnd(od_Sim* sim)
+{
 	if (sim->mode == OD_DYNAMIC)
 	{
-		od_Report(sim, it, error);
+		od_Report(sim, sim->iteration.done, sim->iteration.error);
 	}
+}
+
+static od_Status od_Iterate(od_Sim* sim, int iterations)
+{
+	od_Status status = od_IterateStart(sim, iterations);
+	while (!sim->iteration.finished && status == OD_OK)
+	{
+		status = od_IterateNext(sim);
+	}
+	od_IterateEnd(sim);
 	return status;
 }
 
@@ -673,7 +697,7 @@ od_Status od_Step_Begin(od_Sim* sim, int steps)
 	return status;
 }
 
-od_Status od_Step_Solve(od_Sim* sim)
+void od_Step_Start(od_Sim* sim)
 {
 	int n = sim->graph->n;
 	memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
@@ -683,7 +707,39 @@ od_Status od_Step_Solve(od_Sim* sim)
 	{
 		od_Tolerance_ChooseStart(sim);
 	}
-	return od_Iterate(sim, sim->def.iterations);
+	sim->iteration = (od_Iteration){ .started = false };
+}
+
+od_Status od_Step_Advance(od_Sim* sim, bool* more)
+{
+	od_Status status;
+	if (!sim->iteration.started)
+	{
+		status = od_IterateStart(sim, sim->def.iterations);
+		sim->iteration.started = true;
+	}
+	else
+	{
+		status = od_IterateNext(sim);
+	}
+	*more = !sim->iteration.finished;
+	if (!*more)
+	{
+		od_IterateEnd(sim);
+	}
+	return status;
+}
+
+od_Status od_Step_Solve(od_Sim* sim)
+{
+	od_Step_Start(sim);
+	bool more = true;
+	od_Status status = OD_OK;
+	while (more && status == OD_OK)
+	{
+		status = od_Step_Advance(sim, &more);
+	}
+	return status;
 }
 
 void od_Step_Finish(od_Sim* sim, int k, int steps)
@@ -720,11 +776,7 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 	}
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
-		status = od_Step_Solve(sim);
-		if (status == OD_OK && sim->selfContact)
-		{
-			status = od_BodyContact_Resolve(&sim->selfPairs, &sim, 1, &sim->selfDef);
-		}
+		status = sim->selfContact ? od_BodyContact_Step(&sim->selfPairs, &sim, 1, &sim->selfDef) : od_Step_Solve(sim);
 		od_Step_Finish(sim, k, steps);
 	}
 	return od_Step_End(sim, status);

@@ -1,12 +1,17 @@
 // The stages of a dynamic step (simulation.c), for a caller that steps several simulations together
-// (contact_group.c): Begin, then per step Solve on each, the pairs between them, Finish on each, and End.
+// (contact_group.c, body_contact.c): Begin, then per step Start on each, Advance on each with the pairs
+// between them in between, Finish on each, and End.
 #pragma once
 
 #include "sim.h"
 
 // Takes the simulation (OD_ERROR_BUSY if another thread has it) for a call of `steps` steps.
 od_Status od_Step_Begin(od_Sim* sim, int steps);
-// The prediction and the iterations of one step (the state at its start kept in sim->previous).
+// The prediction and the iterations of one step (the state at its start kept in sim->previous): Start, then
+// Advance until *more is false (the first call is the global solve, each later one a local/global pair),
+// or Solve for all of them.
+void od_Step_Start(od_Sim* sim);
+od_Status od_Step_Advance(od_Sim* sim, bool* more);
 od_Status od_Step_Solve(od_Sim* sim);
 // Floor, colliders and velocities of step k of `steps`.
 void od_Step_Finish(od_Sim* sim, int k, int steps);

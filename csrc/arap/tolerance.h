@@ -15,14 +15,6 @@ void od_Tolerance_ChooseStart(od_Sim* sim);
 // How the current call's iteration runs: accelerated or plain pairs, and the tolerance its error estimate is
 // held to (0: a fixed count: no tolerance, or a static solve). The auto accelerator's step probes with two
 // plain pairs, then goes on plain or turns Chebyshev on (tolerance.c).
-typedef struct od_StepPlan
-{
-	bool accelerate; // the next pair is accelerated
-	bool probing;    // auto's first two pairs: plain, their contraction decides
-	bool plain;      // auto after a fast probe: plain pairs
-	double tolerance;
-	double last; // the probe's first residual (< 0: none yet)
-} od_StepPlan;
 od_StepPlan od_Tolerance_Plan(const od_Sim* sim);
 // After a pair under a tolerance: the step's error estimate, to compare with plan->tolerance, and the plan's
 // next pair. The estimate is the residual of the current iterate against the one remembered, which it then

@@ -9,23 +9,28 @@ __all__ = ["ContactGroup"]
 
 class ContactGroup:
     """Two or more simulations whose particles collide: ``step`` advances them all together (each as its own
-    ``step`` would, with its floor, colliders, fields and self-contact) and, after each step's iterations,
-    pushes apart the particles of different bodies closer than ``thickness`` (m) along the line between
-    their centres, mass weighted, with Coulomb ``friction``. The simulations must share dt; while the group
-    steps, each of them is busy."""
+    ``step`` would, with its floor, colliders, fields and self-contact), their iterations side by side:
+    particles of different bodies closer than ``thickness`` (m) push each other apart with forces inside
+    every solve, with Coulomb ``friction`` against the step's start, and what is still in contact after the
+    iterations is pushed apart along the line between their centres, mass weighted. A body dropped on
+    another comes to rest on it. ``in_iterations=False``: the push after the iterations only (the earlier
+    model: a stack does not stay, but a step depends on the simulations' states alone, not on the forces the
+    group kept from its last step). The simulations must share dt; while the group steps, each of them is
+    busy."""
 
-    def __init__(self, sims, thickness=0.005, friction=0.5):
+    def __init__(self, sims, thickness=0.005, friction=0.5, in_iterations=True):
         sims = list(sims)
         for k, sim in enumerate(sims):
             if not isinstance(sim, Simulation):
                 raise TypeError(f"sims[{k}] must be an opdeform.Simulation, got {type(sim).__name__}")
         self.sims = tuple(sims)
         self._core = _core.ContactGroup([sim._core for sim in sims], number("thickness", thickness),
-                                        number("friction", friction))
+                                        number("friction", friction), bool(in_iterations))
 
-    def set_contact(self, thickness=0.005, friction=0.5):
-        """The gap (m, > 0) and Coulomb friction between the bodies."""
-        self._core.set_contact(number("thickness", thickness), number("friction", friction))
+    def set_contact(self, thickness=0.005, friction=0.5, in_iterations=True):
+        """The gap (m, > 0) and Coulomb friction between the bodies, and whether contact acts inside the
+        iterations (docs/contact.md)."""
+        self._core.set_contact(number("thickness", thickness), number("friction", friction), bool(in_iterations))
 
     def step(self, steps=1):
         """Advances every simulation ``steps`` time steps, in contact. On a non-finite result raises

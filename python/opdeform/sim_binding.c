@@ -384,7 +384,7 @@ static PyObject* Sim_force_field(PyObject* obj, PyObject* args)
 static PyObject* Sim_set_self_contact(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
-	od_BodyContactDef d;
+	od_BodyContactDef d = od_DefaultBodyContactDef();
 	int enabled;
 	if (!sim || !PyArg_ParseTuple(args, "pddid", &enabled, &d.thickness, &d.friction, &d.exclusionRing,
 								  &d.exclusionScale))
@@ -685,13 +685,14 @@ typedef struct
 	PyObject* sims; // a tuple of the member Simulation objects, kept alive
 } GroupObject;
 
-// ContactGroup(sims (a sequence of _core.Simulation), thickness, friction)
+// ContactGroup(sims (a sequence of _core.Simulation), thickness, friction, in_iterations)
 static PyObject* Group_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 {
-	static char* keywords[] = { "sims", "thickness", "friction", NULL };
+	static char* keywords[] = { "sims", "thickness", "friction", "in_iterations", NULL };
 	PyObject* seq;
 	od_BodyContactDef def = od_DefaultBodyContactDef();
-	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|dd", keywords, &seq, &def.thickness, &def.friction))
+	if (!PyArg_ParseTupleAndKeywords(args, kwargs, "O|ddp", keywords, &seq, &def.thickness, &def.friction,
+									 &def.inIterations))
 	{
 		return NULL;
 	}
@@ -743,11 +744,11 @@ static void Group_dealloc(PyObject* obj)
 	Binding_Free(obj);
 }
 
-// set_contact(thickness, friction)
+// set_contact(thickness, friction, in_iterations=True)
 static PyObject* Group_set_contact(PyObject* obj, PyObject* args)
 {
 	od_BodyContactDef d = od_DefaultBodyContactDef();
-	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "dd", &d.thickness, &d.friction))
+	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "dd|p", &d.thickness, &d.friction, &d.inIterations))
 	{
 		return NULL;
 	}

@@ -68,7 +68,10 @@ class Bodies:
         contact = (max(e.body_contact[0] for e in engines), sum(e.body_contact[1] for e in engines) / len(engines))
         held = self.groups.get(members)
         if held is None or held[0] != contact:
-            held = self.groups[members] = (contact, od.ContactGroup([e.sim for e in engines], *contact))
+            # contact after the iterations only: a cached frame must replay bit for bit from the members'
+            # states alone, and the forces inside the iterations are warm started from the group's last step
+            held = self.groups[members] = (contact, od.ContactGroup([e.sim for e in engines], *contact,
+                                                                    in_iterations=False))
         return members, contact, held[1]
 
     def simulate(self, od, runs, budget=None):

@@ -63,9 +63,12 @@ od_Status od_Sim_GetColliderDistances(const od_Sim* sim, const double* points, i
 
 // Contact between particles: of two or more simulations (od_ContactGroup) and of distant parts of one
 // (self-contact). Each particle's ellipsoid reaches its support along the line between two centres; a pair
-// closer than the sum plus `thickness` is pushed apart along that line, mass weighted, with Coulomb friction,
-// after the iterations and before the floor and the colliders. A pair that was apart at the step's start
-// keeps the start's direction, so a fast pair cannot pass through (docs/contact.md).
+// closer than the sum plus `thickness` is in contact. Between the simulations of a group, contact forces
+// (normal, and Coulomb friction against the step's start) act inside the iterations, on the right side of
+// every global solve; after the iterations (and before the floor and the colliders) the pairs still in
+// contact, and those of self-contact, are pushed apart along that line, mass weighted, with Coulomb friction.
+// A pair that was apart at the step's start keeps the start's direction, so a fast pair cannot pass through
+// (docs/contact.md).
 typedef struct od_BodyContactDef
 {
 	double thickness;      // > 0: the gap kept between ellipsoids (default 0.005 m)
@@ -73,6 +76,8 @@ typedef struct od_BodyContactDef
 	int exclusionRing;     // self-contact: pairs at most this many edges apart never collide (0..2, default 2)
 	double exclusionScale; // self-contact: nor pairs closer at rest than this times the sum of their largest
 	                       // radii (>= 0, default 1.5): neighbourhoods that overlap at rest stay at rest
+	int inIterations;      // a group: 1 (default) contact forces inside the iterations, then the projection;
+	                       // 0 the projection after them only (the step then depends on the state alone)
 } od_BodyContactDef;
 
 od_BodyContactDef od_DefaultBodyContactDef(void);
@@ -82,8 +87,8 @@ od_Status od_Sim_SetSelfContact(od_Sim* sim, const od_BodyContactDef* def);
 int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def);
 
 // Simulations that collide with each other. The group borrows them (keep them alive, one group's step at a
-// time): od_ContactGroup_Step steps them all together, each as its od_Sim_Step would, their particles in
-// contact after each step's iterations. They must share the time step. The exclusion fields of `def` are
+// time): od_ContactGroup_Step steps them all together, each as its od_Sim_Step would, their solves side by
+// side with the contact forces between them. They must share the time step. The exclusion fields of `def` are
 // unused (different bodies have no shared edges).
 typedef struct od_ContactGroup od_ContactGroup;
 od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyContactDef* def, od_ContactGroup** out);
