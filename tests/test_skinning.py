@@ -212,3 +212,27 @@ def test_vertex_direction_turns_the_end():
     assert np.dot(turned / np.linalg.norm(turned), target) > 0.99
     with pytest.raises(ValueError, match="out of range"):
         opdeform.add_vertex_direction(sim, v, len(v), [0, 0, 1])
+
+
+def test_the_baseline_blend_gives_the_same_mesh():
+    """x86-64: the AVX2 + FMA blend (where the processor has it) and the SSE2 one (OPDEFORM_NO_AVX2=1) agree to
+    rounding; each is checked exactly against the rest and rigid poses above."""
+    import os
+    import subprocess
+    import sys
+    code = ("import numpy as np, opdeform, sys; from opdeform import meshes\n"
+            "v, t = meshes.subdivide(*meshes.creature(64), levels=1)\n"
+            "g = opdeform.Graph.from_mesh(v, t, particles=80)\n"
+            "rng = np.random.default_rng(3)\n"
+            "q, _ = np.linalg.qr(rng.normal(size=(g.n_particles, 3, 3)))\n"
+            "q *= np.sign(np.linalg.det(q))[:, None, None]\n"
+            "n = np.empty((len(v), 3))\n"
+            "out = opdeform.Skin(g, v, triangles=t).deform(g.centers + rng.normal(0, 0.05, g.centers.shape), q,"
+            " normals_out=n)\n"
+            "sys.stdout.buffer.write(out.tobytes() + n.tobytes())\n")
+    runs = []
+    for off in ("1", "0"):
+        env = dict(os.environ, OPDEFORM_NO_AVX2=off)
+        runs.append(np.frombuffer(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                                 check=True).stdout).reshape(2, -1, 3))
+    np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-13)

@@ -53,23 +53,28 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 	const od_Graph* g = sim->graph;
 	const double* x = sim->state.x;
 	const double* rot = sim->state.R;
-	double c[9] = { 0 };
 	double xi0 = x[3 * i], xi1 = x[3 * i + 1], xi2 = x[3 * i + 2];
+	// The sum in nine scalars, copied to c after the loop: c's address goes to the goals and constraints below,
+	// and summed in c itself the compiler stored it to memory every edge (measured 1.1x slower, Fig. 4 body).
+	double s0 = 0, s1 = 0, s2 = 0, s3 = 0, s4 = 0, s5 = 0, s6 = 0, s7 = 0, s8 = 0;
 	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 	{
 		int j = g->adj[e];
 		const double* rj = rot + 9 * j;
 		const double* m = sim->edgeMoment + 9 * e;
 		const double* a = sim->edgeArm + 3 * e;
-		double d[3] = { x[3 * j] - xi0, x[3 * j + 1] - xi1, x[3 * j + 2] - xi2 };
-		for (int r = 0; r < 3; ++r)
-		{
-			for (int k = 0; k < 3; ++k)
-			{
-				c[3 * r + k] += rj[3 * r] * m[k] + rj[3 * r + 1] * m[3 + k] + rj[3 * r + 2] * m[6 + k] + d[r] * a[k];
-			}
-		}
+		double d0 = x[3 * j] - xi0, d1 = x[3 * j + 1] - xi1, d2 = x[3 * j + 2] - xi2;
+		s0 += rj[0] * m[0] + rj[1] * m[3] + rj[2] * m[6] + d0 * a[0];
+		s1 += rj[0] * m[1] + rj[1] * m[4] + rj[2] * m[7] + d0 * a[1];
+		s2 += rj[0] * m[2] + rj[1] * m[5] + rj[2] * m[8] + d0 * a[2];
+		s3 += rj[3] * m[0] + rj[4] * m[3] + rj[5] * m[6] + d1 * a[0];
+		s4 += rj[3] * m[1] + rj[4] * m[4] + rj[5] * m[7] + d1 * a[1];
+		s5 += rj[3] * m[2] + rj[4] * m[5] + rj[5] * m[8] + d1 * a[2];
+		s6 += rj[6] * m[0] + rj[7] * m[3] + rj[8] * m[6] + d2 * a[0];
+		s7 += rj[6] * m[1] + rj[7] * m[4] + rj[8] * m[7] + d2 * a[1];
+		s8 += rj[6] * m[2] + rj[7] * m[5] + rj[8] * m[8] + d2 * a[2];
 	}
+	double c[9] = { s0, s1, s2, s3, s4, s5, s6, s7, s8 };
 	if (sim->mode == OD_DYNAMIC)
 	{
 		const double* t = sim->inertiaTerm + 9 * i;

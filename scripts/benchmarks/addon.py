@@ -5,6 +5,10 @@ same file; inside Blender it builds a ~100k-vertex sphere with 100 particles fal
 and reads the add-on's own per-frame timings: handler total, solver (sim.step), skinning (skin.deform) and
 the mesh write (foreach_set of a float32 buffer). Overhead = handler total - solver - skinning. The wall time
 of scene.frame_set (which adds Blender's own re-evaluation of the 100k-vertex mesh) is shown for context.
+
+Then, in one more Blender run (benchmarks/_suzanne.py), Suzanne subdivided twice (7,958 vertices, 60 frames)
+against Blender's Soft Body and Cloth, goals and a Collision sphere on, at 100 and 1,000 particles; issue 18's
+aim: opdeform at least 50x faster per frame than Soft Body at 100 particles.
 """
 
 import os
@@ -70,11 +74,13 @@ def _hosts():
 
 
 def run(args):
-    from .common import table
+    from .common import blender_json, out_dir, print_aims, table
+    from . import _suzanne
     module_dir = next((p for p in sys.path if os.path.isfile(os.path.join(p, "opdeform", "__init__.py"))), None)
     env = dict(os.environ, OPDEFORM_PYTHONPATH=os.path.abspath(module_dir), OMP_NUM_THREADS="1")
     env.pop("PYTHONPATH", None)
-    rows = []
+    env.update(_user_folders())
+    rows, aims = [], []
     for host, cmd in _hosts():
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
         line = next((l for l in proc.stdout.splitlines() if l.startswith("ADDON_BENCH")), None)
@@ -90,6 +96,20 @@ def run(args):
                  "frame_set ms", f"<{AIM_MS:g} ms"])
     print("overhead = add-on handler time per frame minus solver and skinning (includes the mesh write); "
           "frame_set adds Blender's own evaluation of the mesh. Medians over", FRAMES, "frames.")
+    print("-- Suzanne against Soft Body and Cloth (goals and a collider on)")
+    result = blender_json(_suzanne.HERE, "SUZANNE_BENCH", os.path.join(out_dir("addon"), "suzanne.json"))
+    if result is None:
+        aims.append(("Suzanne, 100 particles, goals + a collider, Soft Body / opdeform", "failed", ">= 50x", False))
+    else:
+        aims += _suzanne.report(result)
+    print_aims(aims)
+
+
+def _user_folders():
+    """Fresh, empty Blender user folders: no preference or add-on of the machine enters the run."""
+    import tempfile
+    user = tempfile.mkdtemp(prefix="opdeform-bench-user-")
+    return {"BLENDER_USER_CONFIG": user, "BLENDER_USER_SCRIPTS": user}
 
 
 if __name__ == "__main__" and "--inside" in sys.argv:

@@ -42,6 +42,10 @@ def blender_json(script, marker, data):
     module_dir = next((p for p in sys.path if os.path.isfile(os.path.join(p, "opdeform", "__init__.py"))), None)
     env = dict(os.environ, OPDEFORM_PYTHONPATH=os.path.abspath(module_dir), OMP_NUM_THREADS="1")
     env.pop("PYTHONPATH", None)
+    if "BLENDER_USER_CONFIG" not in os.environ:  # fresh user folders: no preference or add-on of the machine
+        import tempfile
+        user = tempfile.mkdtemp(prefix="opdeform-bench-user-")
+        env.update(BLENDER_USER_CONFIG=user, BLENDER_USER_SCRIPTS=user)
     cmd = [os.path.join(root, "scripts", "blender"), "-b", "--factory-startup", "-t", "1", "--python-exit-code",
            "1", "-P", script, "--", "--inside", data]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=1800)
