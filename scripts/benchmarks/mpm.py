@@ -3,13 +3,15 @@ Taichi's MLS-MPM on the CPU (same particles, grid, material, dt and steps), and 
 against the memory bandwidth measured in the same run.
 
 Options: --particles 100000,1000000 (cube sizes, rounded to a cube), --steps N (default: about 3e6
-particle-steps per run), --no-taichi. Taichi is installed with pip on first use (bench only); when it
+particle-steps per run), --rounds N (default 3: every column run once a round, the columns interleaved, medians
+of the rates and of each round's ratio to Taichi, so a load that comes and goes moves both sides), --no-taichi. Taichi is installed with pip on first use (bench only); when it
 cannot be installed or imported the reason is printed instead of its columns.
 """
 
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import time
@@ -83,10 +85,27 @@ def _grid_for(per_axis):
     return 32 * -(-per_axis // 26)
 
 
+def _interleaved(per_axis, n_grid, steps, cores, with_taichi, rounds):
+    """Every column's runs, the columns interleaved round by round: {(solver, threads): [runner results]}."""
+    columns = [("opdeform", 1, ()), ("opdeform", cores, ())]
+    if with_taichi:
+        columns += [("taichi f64", 1, ("f64",)), ("taichi f64", cores, ("f64",)), ("taichi f32", cores, ("f32",))]
+    runs = {(name, t): [] for name, t, _ in columns}
+    for _ in range(rounds):
+        for name, t, extra in columns:
+            try:
+                runs[name, t].append(_run(name.split()[0], per_axis, n_grid, 2e-4, steps, t, *extra))
+            except (RuntimeError, subprocess.TimeoutExpired) as exc:
+                print(f"{name} on {t} threads failed: {exc}")
+                runs[name, t].append({"seconds": float("nan"), "blocks": 0})
+    return runs
+
+
 def run(args):
     parser = argparse.ArgumentParser(prog="scripts/bench mpm")
     parser.add_argument("--particles", default="100000,1000000")
     parser.add_argument("--steps", type=int, default=0)
+    parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--no-taichi", action="store_true")
     opts = parser.parse_args(args)
     cores = os.cpu_count() or 1
@@ -103,24 +122,19 @@ def run(args):
         n_grid = _grid_for(per_axis)
         n = per_axis ** 3
         steps = opts.steps or max(5, int(3e6 / n))
-        mine = {t: _run("opdeform", per_axis, n_grid, 2e-4, steps, t) for t in (1, cores)}
-        rate = {t: n * steps / r["seconds"] / 1e6 for t, r in mine.items()}
-        per_step = _bytes_per_step(n, mine[cores]["blocks"])
-        row = [n, f"{n_grid}^3", steps, f"{rate[1]:.2f}", f"{rate[cores]:.2f}"]
+        runs = _interleaved(per_axis, n_grid, steps, cores, taichi is None, max(1, opts.rounds))
+        rate = {key: statistics.median(n * steps / r["seconds"] / 1e6 for r in rs) for key, rs in runs.items()}
+        per_step = _bytes_per_step(n, runs[("opdeform", cores)][0]["blocks"])
+        row = [n, f"{n_grid}^3", steps, f"{rate['opdeform', 1]:.2f}", f"{rate['opdeform', cores]:.2f}"]
         if taichi is None:
-            theirs = {}
-            for key, t, fp in (("f64 1", 1, "f64"), ("f64 all", cores, "f64"), ("f32 all", cores, "f32")):
-                try:
-                    r = _run("taichi", per_axis, n_grid, 2e-4, steps, t, fp)
-                    theirs[key] = n * steps / r["seconds"] / 1e6
-                except (RuntimeError, subprocess.TimeoutExpired) as exc:
-                    print(f"taichi {key} failed: {exc}")
-                    theirs[key] = float("nan")
-            row += [f"{theirs['f64 1']:.2f}", f"{theirs['f64 all']:.2f}", f"{theirs['f32 all']:.2f}",
-                    f"{rate[cores] / theirs['f64 all']:.1f}x", f"{rate[cores] / theirs['f32 all']:.1f}x"]
-            ratio = rate[cores] / theirs["f32 all"]
+            ratios = [b["seconds"] / a["seconds"]
+                      for a, b in zip(runs[("opdeform", cores)], runs[("taichi f32", cores)])]
+            ratio = statistics.median(ratios)
+            row += [f"{rate['taichi f64', 1]:.2f}", f"{rate['taichi f64', cores]:.2f}",
+                    f"{rate['taichi f32', cores]:.2f}", f"{rate['opdeform', cores] / rate['taichi f64', cores]:.1f}x",
+                    f"{ratio:.1f}x ({min(ratios):.1f}-{max(ratios):.1f})"]
             aims.append((f"{n:,} particles, {cores} threads, against Taichi f32", f"{ratio:.1f}x", ">= 3x", ratio >= 3))
-        gbs = per_step * rate[cores] * 1e6 / 1e9
+        gbs = per_step * rate["opdeform", cores] * 1e6 / 1e9
         row += [f"{per_step:.0f}", f"{gbs:.2f}", f"{100 * gbs / bandwidth:.0f}%"]
         rows.append(row)
     headers = ["particles", "grid", "steps", "ours 1 core", f"ours {cores} cores"]
@@ -128,7 +142,8 @@ def run(args):
         headers += ["taichi f64 1", f"taichi f64 {cores}", f"taichi f32 {cores}", "ours/taichi f64",
                     "ours/taichi f32"]
     headers += ["bytes/p-step", "GB/s", "of bandwidth"]
-    print("million particle-steps per second (one timed run each, after a warm-up substep)")
+    print(f"million particle-steps per second (medians of {max(1, opts.rounds)} interleaved rounds, each run after a "
+          "warm-up substep; ours/taichi f32: the median of each round's ratio, with its range)")
     table(rows, headers)
     print_aims(aims[:1])  # the aim is set on the ~100k-particle block
     if taichi is not None:
