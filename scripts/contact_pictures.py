@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from matplotlib.collections import PolyCollection  # noqa: E402
 
 import opdeform  # noqa: E402
-from opdeform import meshes  # noqa: E402
+from opdeform import meshes, scenes  # noqa: E402
 
 LIGHT = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
 
@@ -98,24 +98,14 @@ def stack(out):
 def tail(out):
     """A 1.2 m rod held at its root, the pin on its tip carried round onto the root, with and without
     self-contact (tests/test_body_contact.py)."""
-    v, t = meshes.capsule(radius=0.06, length=1.2)
-    g = opdeform.Graph.from_mesh(v, t, particles=60)
     camera = view(0, 10)
     fig, axes = plt.subplots(1, 2, figsize=(8, 3.6))
     for ax, self_contact in zip(axes, (False, True)):
-        sim = opdeform.Simulation(g, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)
-        if self_contact:
-            sim.set_self_contact()
-        x = g.centers[:, 0]
-        lo, hi = x.min(), x.max()
-        sim.add_position_constraint((lo, 0.0, 0.0))
-        sim.add_position_constraint((lo + 0.15, 0.0, 0.0))
-        tip = sim.add_position_constraint((hi, 0.0, 0.0))
-        r, middle = (hi - lo) / 2, (lo + hi) / 2
-        for k in range(120):
-            angle = math.pi * min(1.0, (k + 1) / 90)
-            sim.set_constraint_target(tip, (middle + r * math.cos(angle), 0.0, r * math.sin(angle)))
+        sim, v, t, tip, targets = scenes.bent_rod(self_contact)
+        for target in targets:
+            sim.set_constraint_target(tip, target)
             sim.step()
+        g = sim.graph
         shown = opdeform.Skin(g, v).deform_sim(sim)
         draw_mesh(ax, shown, t, (0.55, 0.75, 0.5) if self_contact else (0.8, 0.5, 0.5), camera, alpha=0.85)
         finish(ax, "self-contact on: the tip rests on the root" if self_contact else

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import opdeform
-from opdeform import meshes
+from opdeform import meshes, scenes
 
 
 @pytest.fixture(scope="module")
@@ -121,22 +121,13 @@ def _bend_end_onto_end(self_contact, sweep):
     middle through `sweep` half turns (1: the target ends on the root, 1.2: past it, beyond the body). The least
     distance of the two ends' particles over the motion, less the sum of their largest radii, and the tip's
     last height (the root is at z = 0)."""
-    v, t = meshes.capsule(radius=0.06, length=1.2)  # its axis is x
-    g = opdeform.Graph.from_mesh(v, t, particles=60)
-    sim = opdeform.Simulation(g, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)
-    if self_contact:
-        sim.set_self_contact()
-    x = g.centers[:, 0]
-    lo, hi = x.min(), x.max()
-    sim.add_position_constraint((lo, 0.0, 0.0))
-    sim.add_position_constraint((lo + 0.15, 0.0, 0.0))
-    tip = sim.add_position_constraint((hi, 0.0, 0.0))
-    ends = (np.where(x < lo + 0.15)[0], np.where(x > hi - 0.15)[0])
-    reach = g.radii.max(axis=1)
-    r, middle, least = (hi - lo) / 2, (lo + hi) / 2, np.inf
-    for k in range(120):
-        angle = np.pi * sweep * min(1.0, (k + 1) / 90)
-        sim.set_constraint_target(tip, (middle + r * np.cos(angle), 0.0, r * np.sin(angle)))
+    sim, _, _, tip, targets = scenes.bent_rod(self_contact, sweep)  # its axis is x
+    x = sim.graph.centers[:, 0]
+    ends = (np.where(x < x.min() + 0.15)[0], np.where(x > x.max() - 0.15)[0])
+    reach = sim.graph.radii.max(axis=1)
+    least = np.inf
+    for target in targets:
+        sim.set_constraint_target(tip, target)
         sim.step()
         p = sim.positions
         d = np.linalg.norm(p[ends[0]][:, None] - p[ends[1]][None], axis=2)

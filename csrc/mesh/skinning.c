@@ -499,6 +499,20 @@ __attribute__((target("avx2,fma"))) static inline void od_StreamFloats(void* bas
 }
 #endif
 
+// A block of outputs, 3 values a vertex from vertex `first`: streamed where asked (float32 only), else stored.
+OD_BLEND_INLINE void od_WriteBlock(void* base, od_Scalar type, bool stream, int first, const double* src, int count)
+{
+#ifdef OD_SKIN_AVX2
+	if (stream && type == OD_FLOAT32)
+	{
+		od_StreamFloats(base, 3 * (size_t)first, src, 3 * count);
+		return;
+	}
+#endif
+	(void)stream;
+	od_StoreBlock(base, type, 3 * (size_t)first, src, 3 * count);
+}
+
 // The vertex loop; avx (a constant where inlined) picks the AVX2 blend. Inlined twice: into od_DeformRange
 // (the baseline) and od_DeformRangeAvx2, where the compiler vectorizes the conversions, the normalization
 // (square roots and divisions, exact in IEEE arithmetic: the same normals from the same q) and the float32
@@ -541,29 +555,11 @@ OD_BLEND_INLINE void od_DeformRangeBody(void* context, int begin, int end, bool 
 			od_BlendBlock(s, job->maps, (size_t)first, count, s->m, rn, p, q);
 		}
 		bool stream = avx && s->vertexCount >= OD_STREAM_VERTICES;
-		if (stream && t->positionType == OD_FLOAT32)
-		{
-#ifdef OD_SKIN_AVX2
-			od_StreamFloats(t->positions, 3 * (size_t)first, p, 3 * count);
-#endif
-		}
-		else
-		{
-			od_StoreBlock(t->positions, t->positionType, 3 * (size_t)first, p, 3 * count);
-		}
+		od_WriteBlock(t->positions, t->positionType, stream, first, p, count);
 		if (rn)
 		{
 			od_NormalizeBlock(q, count);
-			if (stream && t->normalType == OD_FLOAT32)
-			{
-#ifdef OD_SKIN_AVX2
-				od_StreamFloats(t->normals, 3 * (size_t)first, q, 3 * count);
-#endif
-			}
-			else
-			{
-				od_StoreBlock(t->normals, t->normalType, 3 * (size_t)first, q, 3 * count);
-			}
+			od_WriteBlock(t->normals, t->normalType, stream, first, q, count);
 		}
 	}
 #ifdef OD_SKIN_AVX2

@@ -108,3 +108,25 @@ def lowest_point(sim):
     frames = sim.rotations @ g.axes
     s = np.sqrt(((g.radii * frames[:, 2, :]) ** 2).sum(axis=1))
     return float((sim.positions[:, 2] - s).min())
+
+
+def bent_rod(self_contact, sweep=1.0, steps=120):
+    """A 1.2 m rod along x (a capsule mesh, 60 particles) held at its root end by two pins, and the targets
+    of the pin on its tip, one a step: a half circle about the middle through ``sweep`` half turns in 90 of
+    ``steps`` steps (1: onto the root; more: past it). Returns (sim, vertices, triangles, tip's constraint id,
+    targets). Used by tests/test_body_contact.py and scripts/contact_pictures.py."""
+    from . import meshes
+
+    vertices, triangles = meshes.capsule(radius=0.06, length=1.2)
+    graph = Graph.from_mesh(vertices, triangles, particles=60)
+    sim = Simulation(graph, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)
+    if self_contact:
+        sim.set_self_contact()
+    x = graph.centers[:, 0]
+    lo, hi = x.min(), x.max()
+    sim.add_position_constraint((lo, 0.0, 0.0))
+    sim.add_position_constraint((lo + 0.15, 0.0, 0.0))
+    tip = sim.add_position_constraint((hi, 0.0, 0.0))
+    r, middle = (hi - lo) / 2, (lo + hi) / 2
+    angles = [math.pi * sweep * min(1.0, (k + 1) / 90) for k in range(steps)]
+    return sim, vertices, triangles, tip, [(middle + r * math.cos(a), 0.0, r * math.sin(a)) for a in angles]

@@ -21,9 +21,7 @@ solver ms = the add-on's own sim.step time per frame. The ratios are taken insid
 
 import json
 import os
-import statistics
 import sys
-import time
 
 HERE = os.path.abspath(__file__)
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
@@ -109,24 +107,14 @@ def _scenes(blender_kind):
     return out, H
 
 
-def _play(scenes, runtime):
-    times = {label: [] for label in scenes}
-    solver = {label: [] for label in scenes}
-    for f in range(1, FRAMES + 1):
-        for label, (scene, obj) in scenes.items():
-            t = time.process_time()
-            scene.frame_set(f)
-            times[label].append(time.process_time() - t)
-            rt = runtime.get(obj)
-            if rt is not None:
-                assert not obj.opdeform.error, (label, obj.opdeform.error)
-                solver[label].append(rt.engine.timing["solver"])
-    return {label: dict(ms=1e3 * statistics.median(times[label][1:]),
-                        solver_ms=1e3 * statistics.median(solver[label][1:]) if solver[label] else None,
-                        vertices=len(scenes[label][1].data.vertices),
-                        particles=runtime.get(scenes[label][1]).engine.graph.n_particles
-                        if runtime.get(scenes[label][1]) is not None else None)
-            for label in scenes}
+def _play(scenes, H):
+    """The interleaved frames (helpers.play_interleaved) and each scene's vertex and particle counts."""
+    out = H.play_interleaved(scenes, FRAMES)
+    for label, (scene, obj) in scenes.items():
+        engine = H.runtime().get(obj)
+        out[label].update(vertices=len(obj.data.vertices),
+                          particles=engine.engine.graph.n_particles if engine is not None else None)
+    return out
 
 
 def inside(out_path):
@@ -134,7 +122,7 @@ def inside(out_path):
     result = {"host": f"Blender {bpy.app.version_string}", "frames": FRAMES}
     for kind in ("Soft Body", "Cloth"):
         scenes, H = _scenes(kind)
-        result[kind] = _play(scenes, H.runtime())
+        result[kind] = _play(scenes, H)
         print(kind, json.dumps(result[kind]), flush=True)
     with open(out_path, "w") as f:
         json.dump(result, f)

@@ -13,9 +13,7 @@ and Soft Body's ms over opdeform's (the aim: >= 50x).
 
 import json
 import os
-import statistics
 import sys
-import time
 
 HERE = os.path.abspath(__file__)
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
@@ -94,30 +92,13 @@ def _scenes(kind):
     return out
 
 
-def _play(scenes, runtime):
-    times = {label: [] for label in scenes}
-    solver = {label: [] for label in scenes}
-    for f in range(1, FRAMES + 1):
-        for label, (scene, obj) in scenes.items():
-            t = time.process_time()
-            scene.frame_set(f)
-            times[label].append(time.process_time() - t)
-            rt = runtime.get(obj)
-            if rt is not None:
-                assert not obj.opdeform.error, (label, obj.opdeform.error)
-                solver[label].append(rt.engine.timing["solver"])
-    return {str(label): dict(ms=1e3 * statistics.median(times[label][1:]),
-                             solver_ms=1e3 * statistics.median(solver[label][1:]) if solver[label] else None)
-            for label in scenes}
-
-
 def _inside_blender(out_path):
     import bpy
     result = {}
     for kind in ("sphere", "ramp"):
         scenes = _scenes(kind)
         import helpers as H
-        result[kind] = _play(scenes, H.runtime())
+        result[kind] = {str(label): r for label, r in H.play_interleaved(scenes, FRAMES).items()}
     result["host"] = f"Blender {bpy.app.version_string}"
     with open(out_path, "w") as f:
         json.dump(result, f)
