@@ -33,7 +33,8 @@
 // the pairs and it pushes nothing; it keeps fast pairs from passing through each other.
 //
 // A group with inIterations = 0 has no forces: the projection alone, as before them, its step a function of
-// its members' states (the Blender add-on's groups: their caches replay frames from the states alone).
+// its members' states. With forces, the group's pairs and forces are its state (od_ContactGroup_GetPairs /
+// SetPairs, contact_group.c): the Blender add-on caches them with each frame.
 //
 // Self-contact is the projection only: with forces the ends of a rod bent onto each other came nearer than
 // the test's bound in centre distance less radii (-0.036 m against -0.030; the ellipsoids' own clearance was
@@ -66,10 +67,10 @@
 // The forces' rate over that of two free particles (od_UpdatePair). Measured on the stack of two bars
 // (docs/contact.md): 0.3, 1, 2 and 3 all kept it; the upper bar's fastest particle at 6 s was 0.062, 0.018,
 // 0.0027 and 0.0025 m/s, and 2 was chosen, while the first solve saw a part of the warm start only
-// (od_NewPairs). With all of it (docs/contact.md, fourth round): 1 keeps the bars (0.013 m/s) and the add-on's blob dropped on a blob at
-// 1/24 s (skinned overlap -0.018 m, with the normal re-aimed every update); 2 overshot there (-0.104 m, the
-// upper blob kicked 0.16 m aside within 1 s): 1 is the Newton step of two free particles, more overshoots
-// a particle loosely bound to its body (soft, or a long step).
+// (od_NewPairs). With all of it (docs/contact.md, fourth round): 1 keeps the bars (0.013 m/s) and the
+// add-on's blob dropped on a blob at 1/24 s (skinned overlap -0.018 m, with the normal re-aimed every
+// update); 2 overshot there (-0.104 m, the upper blob kicked 0.16 m aside within 1 s): 1 is the Newton step
+// of two free particles, more overshoots a particle loosely bound to its body (soft, or a long step).
 #define OD_FORCE_RATE 1.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)

@@ -5,9 +5,9 @@
 //
 // Design: a simulation stays one body with one thread at a time; the group only borrows them for its step
 // (each taken as its own step would, OD_ERROR_BUSY if one is in use) and owns nothing but the broad phase's
-// scratch and the pairs' forces (kept step to step). Bodies see each other's particles after every solve, so
-// the push is two-way and mass weighted; stepping them one after the other against frozen copies would let
-// the second always win.
+// scratch and the pairs' forces (kept step to step: its state, od_ContactGroup_GetPairs / SetPairs). Bodies
+// see each other's particles after every solve, so the push is two-way and mass weighted; stepping them one
+// after the other against frozen copies would let the second always win.
 #include "body_contact.h"
 #include "core.h"
 #include "step.h"
