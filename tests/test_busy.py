@@ -162,7 +162,8 @@ def _skin_case(big_mesh):
 
 
 def _group_case(scale):
-    graph = opdeform.Graph.from_mesh(*meshes.bar(length=0.6, width=0.3, segments=12, cross=4), particles=100)
+    bar = meshes.bar(length=0.6, width=0.3, segments=12, cross=4)
+    graph = opdeform.Graph.from_mesh(*bar, particles=100)
     sims = [opdeform.Simulation(graph, 1e6, dt=1 / 60, gravity=(0.0, 0.0, -9.81)) for _ in range(2)]
     for sim, z in zip(sims, (0.15, 0.5)):
         sim.set_state(graph.centers + (0.0, 0.0, z), np.tile(np.eye(3), (graph.n_particles, 1, 1)))

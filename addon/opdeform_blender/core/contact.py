@@ -1,8 +1,9 @@
 """Contact between opdeform objects, free of bpy: engines whose simulations can step together (the same dt, substeps
 and cache range) form one ``opdeform.ContactGroup`` (docs/contact.md) and go to a frame together (core/engine.py
-``simulate``); each engine's cache keeps its own states, and the group's state after each frame (the pairs and forces its next
-step starts from, ``ContactGroup.save_state``): a group continues from a cached frame with the forces it had
-there, and from the start frame with none, so a bake simulates the frames playback showed, bit for bit.
+``simulate``); each engine's cache keeps its own states, and the group's state after each frame (the pairs and
+forces its next step starts from, ``ContactGroup.save_state``): a group continues from a cached frame with the
+forces it had there, and from the start frame with none, so a bake simulates the frames playback showed, bit for
+bit.
 
 A group's frames depend on every member, so an engine remembers the group it was simulated in (``partners``):
 joining, leaving or a change of the group's contact outdates its whole cache. Before simulating, the members'
