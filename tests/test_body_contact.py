@@ -5,6 +5,8 @@ come apart slowly, a rod's far end bent onto its other end does not pass into it
 self-contact on stays at rest to the bit, contact after the iterations only stays an option, and bad input
 raises."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -159,6 +161,26 @@ def test_a_body_at_rest_with_self_contact_stays_at_rest_to_the_bit(bar):
     assert touching.self_contact["exclusion_ring"] == 0
 
 
+def test_a_group_saved_and_restored_with_its_members_steps_on_bit_for_bit(bar):
+    """The forces a group keeps between steps (their warm start) are its state: restored with the members'
+    states (here by pickling them), the next steps are those that followed the save."""
+    a, b = _stack(bar[2])
+    group = opdeform.ContactGroup([a, b])
+    group.step(40)  # the upper bar rests on the lower one
+    saved, members = group.save_state(), pickle.dumps((a, b))
+    assert saved[0].shape[1] == 2 and saved[1].shape == (len(saved[0]), 7) and (saved[1][:, 0] > 0).any()
+    group.step(5)
+    again = opdeform.ContactGroup(pickle.loads(members))
+    again.restore_state(saved)
+    again.step(5)
+    assert all(np.array_equal(x.positions, y.positions) for x, y in zip((a, b), again.sims))
+    fresh = opdeform.ContactGroup(pickle.loads(members))  # a new group has no forces: not the same steps
+    fresh.step(5)
+    assert not np.array_equal(b.positions, fresh.sims[1].positions)
+    fresh.restore_state(None)
+    assert fresh.save_state()[0].shape == (0, 2)
+
+
 def test_bad_input(bar):
     g = bar[2]
     a = _body(g, (0, 0, 0))
@@ -174,3 +196,11 @@ def test_bad_input(bar):
     other = opdeform.Simulation(g, 1e6, dt=1 / 30)
     with pytest.raises(ValueError, match="dt"):
         opdeform.ContactGroup([a, other]).step()
+    group = opdeform.ContactGroup([a, _body(g, (0, 0, 1))])
+    n = 2 * g.n_particles
+    for pairs, forces, match in (([[0, n]], np.zeros((1, 7)), "pairs"), ([[3, 2]], np.zeros((1, 7)), "pairs"),
+                                 ([[0, 1]], [[np.nan] + [0] * 6], "finite"), ([[0, 1]], [[-1.0] + [0] * 6], ">= 0"),
+                                 ([[0, 1]], np.zeros((2, 7)), "forces")):
+        with pytest.raises(ValueError, match=match):
+            group.restore_state((pairs, forces))
+        assert group.save_state()[0].shape == (0, 2)

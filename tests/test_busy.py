@@ -161,7 +161,28 @@ def _skin_case(big_mesh):
     return Case(skin, lambda: skin.deform(x, r, normals_out=normals), probes, snapshot, "n_vertices")
 
 
-CASES = {"Simulation": _sim_case, "MpmWorld": _world_case}
+def _group_case(scale):
+    bar = meshes.bar(length=0.6, width=0.3, segments=12, cross=4)
+    graph = opdeform.Graph.from_mesh(*bar, particles=100)
+    sims = [opdeform.Simulation(graph, 1e6, dt=1 / 60, gravity=(0.0, 0.0, -9.81)) for _ in range(2)]
+    for sim, z in zip(sims, (0.15, 0.5)):
+        sim.set_state(graph.centers + (0.0, 0.0, z), np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+        sim.set_floor(0.0)
+    group = opdeform.ContactGroup(sims)
+    group.step(20)  # the bars touch: the group keeps forces
+    kept = group.save_state()
+    probes = {
+        "set_contact": lambda: group.set_contact(0.01, 0.2), "step": lambda: group.step(1),
+        "save_state": lambda: group.save_state(), "restore_state": lambda: group.restore_state(None),
+    }
+
+    def snapshot():
+        return [s.positions for s in sims] + [s.velocities for s in sims] + list(group.save_state()) + list(kept)
+
+    return Case(group, lambda: group.step(20 * scale), probes, snapshot, "save_state")
+
+
+CASES = {"Simulation": _sim_case, "MpmWorld": _world_case, "ContactGroup": _group_case}
 if hasattr(_core, "ShapeMatching"):
     CASES["ShapeMatching"] = _shape_matching_case
 

@@ -33,7 +33,8 @@
 // the pairs and it pushes nothing; it keeps fast pairs from passing through each other.
 //
 // A group with inIterations = 0 has no forces: the projection alone, as before them, its step a function of
-// its members' states (the Blender add-on's groups: their caches replay frames from the states alone).
+// its members' states. With forces, the group's pairs and forces are its state (od_ContactGroup_GetPairs /
+// SetPairs, contact_group.c): the Blender add-on caches them with each frame.
 //
 // Self-contact is the projection only: with forces the ends of a rod bent onto each other came nearer than
 // the test's bound in centre distance less radii (-0.036 m against -0.030; the ellipsoids' own clearance was
@@ -64,9 +65,13 @@
 
 #define OD_PAIR_PASSES 4
 // The forces' rate over that of two free particles (od_UpdatePair). Measured on the stack of two bars
-// (docs/contact.md): 0.3, 1, 2 and 3 all keep it; the upper bar's fastest particle at 6 s is 0.062, 0.018,
-// 0.0027 and 0.0025 m/s.
-#define OD_FORCE_RATE 2.0
+// (docs/contact.md): 0.3, 1, 2 and 3 all kept it; the upper bar's fastest particle at 6 s was 0.062, 0.018,
+// 0.0027 and 0.0025 m/s, and 2 was chosen, while the first solve saw a part of the warm start only
+// (od_NewPairs). With all of it (docs/contact.md, fourth round): 1 keeps the bars (0.013 m/s) and the
+// add-on's blob dropped on a blob at 1/24 s (skinned overlap -0.018 m, with the normal re-aimed every
+// update); 2 overshot there (-0.104 m, the upper blob kicked 0.16 m aside within 1 s): 1 is the Newton step
+// of two free particles, more overshoots a particle loosely bound to its body (soft, or a long step).
+#define OD_FORCE_RATE 1.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -529,6 +534,11 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 	if (count > 1)
 	{
 		od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0, total);
+		// The next step's first solve sees every carried force (od_IterateWithForces), then od_GatherNear keeps
+		// the near ones. (It saw the first nearCount pairs of this new list, nearCount left by the last step's
+		// gather: an arbitrary part of the warm start. A blob dropped on a blob overlapped -0.319 m, -0.104 m
+		// with all of it; the upper bar of the stack 0.0027 m/s at 6 s, 0.0014 m/s.)
+		s->nearCount = s->pairCount;
 	}
 	return status;
 }
@@ -551,7 +561,6 @@ static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, con
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_PairState p = od_Measure(s, pair, &a, &b, between);
 		double slack = OD_NEAR_SLACK * (od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i));
-		pair->aimed = false;
 		if (a.sim != b.sim && !p.passed && p.depth > -slack)
 		{
 			od_ContactPair swap = s->pairs[near];
@@ -610,7 +619,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
 }
 
-// Measures a near pair at the current centres (gap, touching; its normal once a step) and counts it on its
+// Measures a near pair at the current centres (gap, touching, its normal) and counts it on its
 // particles (s->pressing) when it presses them.
 static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
 						   const od_BodyContactDef* d)
@@ -629,11 +638,9 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 	{
 		s->pressing[pair->a]++;
 		s->pressing[pair->b]++;
-		if (!pair->aimed) // once a step: a fixed direction for its iterations
-		{
-			od_V3Store(pair->n, od_PushDirection(s, pair, p.c));
-			pair->aimed = true;
-		}
+		// Re-aimed at every update: round bodies' pairs turn within a step (a blob on a blob: skinned
+		// overlap -0.026 m with the normal set once a step, -0.018 m re-aimed; the bars alike).
+		od_V3Store(pair->n, od_PushDirection(s, pair, p.c));
 	}
 }
 

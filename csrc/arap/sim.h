@@ -111,7 +111,6 @@ typedef struct od_ContactPair
 	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
 	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
 	bool touching;    // near enough for a force in this iteration
-	bool aimed;       // n set for this step's iterations
 	int next;         // the next forced pair of the same first particle (od_CarryForces)
 } od_ContactPair;
 

@@ -1,5 +1,7 @@
 """Simulations that collide with each other (``opdeform.ContactGroup``, docs/contact.md)."""
 
+import numpy as np
+
 from . import _core
 from ._arguments import integer, number
 from .simulation import Simulation
@@ -16,7 +18,8 @@ class ContactGroup:
     another comes to rest on it. ``in_iterations=False``: the push after the iterations only (the earlier
     model: a stack does not stay, but a step depends on the simulations' states alone, not on the forces the
     group kept from its last step). The simulations must share dt; while the group steps, each of them is
-    busy."""
+    busy. The forces the group keeps between steps are part of its state: ``save_state`` and ``restore_state``
+    with the members' states (``Simulation.set_state``) make a step again bit for bit."""
 
     def __init__(self, sims, thickness=0.005, friction=0.5, in_iterations=True):
         sims = list(sims)
@@ -38,3 +41,27 @@ class ContactGroup:
         self._core.step(integer("steps", steps))
         for sim in self.sims:
             sim._colliders_arrived()
+
+    def save_state(self):
+        """What the group keeps from one step to the next besides its members' states: its pairs of particles
+        ((m, 2) int32, indices over the members' particles in order) and their forces ((m, 7) float64: the
+        normal force, the friction force and the normal), the warm start of the next step's forces. Restored
+        together with the members' states, the next step is the one that followed the save, bit for bit."""
+        m = self._core.pair_count()
+        pairs, forces = np.empty((m, 2), np.int32), np.empty((m, 7))
+        self._core.read_pairs(pairs, forces)
+        return pairs, forces
+
+    def restore_state(self, state):
+        """Sets what ``save_state`` returned (of this group or one of the same members); ``None``: a new group's
+        (no forces). ValueError on pairs out of range or non-finite forces, nothing changed."""
+        if state is None:
+            pairs, forces = np.empty((0, 2), np.int32), np.empty((0, 7))
+        else:
+            pairs, forces = state
+            pairs = np.ascontiguousarray(pairs, np.int32)
+            forces = np.ascontiguousarray(forces, np.float64)
+            if pairs.ndim != 2 or pairs.shape[1] != 2 or forces.shape != (len(pairs), 7):
+                raise ValueError(f"state: pairs (m, 2) and forces (m, 7) expected, got {pairs.shape} and "
+                                 f"{forces.shape}")
+        self._core.write_pairs(pairs, forces)

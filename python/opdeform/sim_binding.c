@@ -786,9 +786,68 @@ static PyObject* Group_step(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// pair_count(): how many pairs the group keeps between steps (od_ContactGroup_GetPairCount)
+static PyObject* Group_pair_count(PyObject* obj, PyObject* args)
+{
+	(void)args;
+	if (Binding_Enter(obj) < 0)
+	{
+		return NULL;
+	}
+	return PyLong_FromLong(od_ContactGroup_GetPairCount(((GroupObject*)obj)->group));
+}
+
+// read_pairs(pairs, forces): writable int32 (pair_count * 2) and float64 (pair_count * 7) buffers
+static PyObject* Group_read_pairs(PyObject* obj, PyObject* args)
+{
+	PyObject *pairs, *forces;
+	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "OO", &pairs, &forces))
+	{
+		return NULL;
+	}
+	od_ContactGroup* group = ((GroupObject*)obj)->group;
+	Py_ssize_t m = od_ContactGroup_GetPairCount(group);
+	Py_buffer views[2] = { { 0 }, { 0 } };
+	if (GetArray(pairs, "pairs", 'i', 2 * m, 1, &views[0]) < 0 || GetArray(forces, "forces", 'd', 7 * m, 1, &views[1]) < 0)
+	{
+		ReleaseArrays(views, 2);
+		return NULL;
+	}
+	od_ContactGroup_GetPairs(group, views[0].buf, views[1].buf);
+	ReleaseArrays(views, 2);
+	Py_RETURN_NONE;
+}
+
+// write_pairs(pairs, forces): int32 (m * 2) and float64 (m * 7) buffers (od_ContactGroup_SetPairs)
+static PyObject* Group_write_pairs(PyObject* obj, PyObject* args)
+{
+	PyObject *pairs, *forces;
+	if (Binding_Enter(obj) < 0 || !PyArg_ParseTuple(args, "OO", &pairs, &forces))
+	{
+		return NULL;
+	}
+	Py_ssize_t m = ItemCount(pairs, "pairs", 8);
+	if (m < 0 || m > INT_MAX)
+	{
+		return m < 0 ? NULL : PyErr_Format(PyExc_ValueError, "pairs: too many (%zd)", m);
+	}
+	Py_buffer views[2] = { { 0 }, { 0 } };
+	if (GetArray(pairs, "pairs", 'i', 2 * m, 0, &views[0]) < 0 || GetArray(forces, "forces", 'd', 7 * m, 0, &views[1]) < 0)
+	{
+		ReleaseArrays(views, 2);
+		return NULL;
+	}
+	od_Status status = od_ContactGroup_SetPairs(((GroupObject*)obj)->group, (int)m, views[0].buf, views[1].buf);
+	ReleaseArrays(views, 2);
+	return Binding_Done(obj, status);
+}
+
 static PyMethodDef Group_methods[] = {
 	{ "set_contact", Group_set_contact, METH_VARARGS, "set_contact(thickness, friction)" },
 	{ "step", Group_step, METH_VARARGS, "step(steps)" },
+	{ "pair_count", Group_pair_count, METH_NOARGS, "pair_count()" },
+	{ "read_pairs", Group_read_pairs, METH_VARARGS, "read_pairs(pairs, forces)" },
+	{ "write_pairs", Group_write_pairs, METH_VARARGS, "write_pairs(pairs, forces)" },
 	{ NULL, NULL, 0, NULL },
 };
 

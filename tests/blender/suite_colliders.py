@@ -270,7 +270,8 @@ def _gap(upper, lower, radius=0.1):
 
 
 def test_two_blobs_dropped_onto_each_other_do_not_pass_through():
-    """The impact, not stacking: the core's stacking is imperfect (a bar on a bar slides off within 3 s)."""
+    """The impact, not stacking: soft blobs (k = 1e5) roll off the round lower one within 2-4 s with or without
+    contact forces inside the iterations (docs/contact.md); firm ones rest stacked (the next test)."""
     low = blob(location=(0.0, 0.0, 0.3), name="Low", use_floor=True, frame_end=30)
     high = blob(location=(0.0, 0.0, 1.0), name="High", use_floor=True, frame_end=30)
     live = H.play(range(1, 31))
@@ -287,6 +288,41 @@ def test_two_blobs_dropped_onto_each_other_do_not_pass_through():
     for f in range(1, 31):
         assert np.array_equal(frames[f - 1], live[high.name][f]), f"baked frame {f} differs from playback"
     print("OPDEFORM_RESULT blobs_overlap_percent", round(100 * max(-min(gaps), 0.0) / BLOB, 3))
+
+
+def test_two_firm_blobs_dropped_onto_each_other_come_to_rest_stacked():
+    """Contact forces inside the iterations (docs/contact.md): firm blobs (k = 1e7) rest stacked after 4 s, their
+    skinned meshes apart; a bake of the upper one (the group simulated again) equals playback bit for bit."""
+    import opdeform
+
+    low = blob(location=(0.0, 0.0, 0.3), name="Low", use_floor=True, frame_end=100, stiffness=1e7)
+    high = blob(location=(0.0, 0.0, 1.0), name="High", use_floor=True, frame_end=100, stiffness=1e7)
+    live = H.play(range(1, 98))
+    shown = {}
+    for f in range(1, 98):
+        bpy.context.scene.frame_set(f)
+        assert not (low.opdeform.error or high.opdeform.error), (low.opdeform.error, high.opdeform.error)
+        shown[f] = (world(low), world(high))
+    lower, upper = shown[97]
+    assert upper[:, 2].mean() > lower[:, 2].mean() + 0.5, "the upper blob does not lie on the lower"
+    aside = float(np.linalg.norm(upper[:, :2].mean(axis=0) - lower[:, :2].mean(axis=0)))
+    assert aside < 0.05, f"the upper blob is {aside:.3f} m aside"
+    speed = max(np.abs(a - b).max() for a, b in zip(shown[97], shown[96])) * bpy.context.scene.render.fps
+    assert speed < 0.05, f"the blobs still move at {speed:.3f} m/s"
+    triangles = np.array([p.vertices[:] for p in low.data.polygons], np.int32)
+    worst = 0.0
+    for f in range(1, 98, 4):
+        probe = opdeform.Simulation(opdeform.Graph.from_mesh(shown[f][0], triangles, particles=20), 1e6)
+        probe.add_collider("mesh", vertices=shown[f][0], triangles=triangles, resolution=64)
+        worst = max(worst, -float(probe.collider_distances(shown[f][1]).min()))
+    assert worst < 0.02 * BLOB, f"the skinned meshes overlap {worst / BLOB:.1%} of their size"
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "firm_blobs.blend"))
+    bpy.ops.opdeform.bake(object=high.name)
+    frames = H.pc2().read_pc2(bpy.path.abspath(high.modifiers["OPDeform Cache"].filepath))[2]
+    for f in range(1, 98):
+        assert np.array_equal(frames[f - 1], live[high.name][f]), f"baked frame {f} differs from playback"
+    print("OPDEFORM_RESULT firm_blobs_aside_m", round(aside, 4), "speed_m_s", round(speed, 4),
+          "overlap_percent", round(100 * max(worst, 0.0) / BLOB, 3))
 
 
 def hook_mesh(step=0.1, half=0.1, neck=0.7, body=2.0, tail=1.6):

@@ -1,6 +1,9 @@
 """Contact between opdeform objects, free of bpy: engines whose simulations can step together (the same dt, substeps
 and cache range) form one ``opdeform.ContactGroup`` (docs/contact.md) and go to a frame together (core/engine.py
-``simulate``); each engine's cache keeps its own states.
+``simulate``); each engine's cache keeps its own states, and the group's state after each frame (the pairs and
+forces its next step starts from, ``ContactGroup.save_state``): a group continues from a cached frame with the
+forces it had there, and from the start frame with none, so a bake simulates the frames playback showed, bit for
+bit.
 
 A group's frames depend on every member, so an engine remembers the group it was simulated in (``partners``):
 joining, leaving or a change of the group's contact outdates its whole cache. Before simulating, the members'
@@ -68,10 +71,9 @@ class Bodies:
         contact = (max(e.body_contact[0] for e in engines), sum(e.body_contact[1] for e in engines) / len(engines))
         held = self.groups.get(members)
         if held is None or held[0] != contact:
-            # contact after the iterations only: a cached frame must replay bit for bit from the members'
-            # states alone, and the forces inside the iterations are warm started from the group's last step
-            held = self.groups[members] = (contact, od.ContactGroup([e.sim for e in engines], *contact,
-                                                                    in_iterations=False))
+            # contact forces inside the iterations (docs/contact.md): their warm start is the group's state,
+            # cached with the members' (simulate)
+            held = self.groups[members] = (contact, od.ContactGroup([e.sim for e in engines], *contact))
         return members, contact, held[1]
 
     def simulate(self, od, runs, budget=None):
@@ -84,5 +86,19 @@ class Bodies:
         members, contact, group = self._group(od, [r.engine for r in runs])
         join(runs, (members, contact))
         align(runs)
-        substeps = runs[0].engine.timestep[1]
-        return simulate(runs, lambda: group.step(substeps), budget)
+        substeps, first = runs[0].engine.timestep[1], runs[0].engine
+        frames, kept = iter(runs[0].plan.steps), []
+
+        def step():
+            if not kept:  # the frame simulate restored the members to: the group's state there
+                group.restore_state(first.cache.contact(first.solver_frame))
+                kept.append(None)
+            group.step(substeps)
+            kept.append((next(frames), group.save_state()))
+
+        try:
+            return simulate(runs, step, budget)
+        finally:
+            for k, state in kept[1:]:
+                for r in runs:
+                    r.engine.cache.store_contact(k, state)

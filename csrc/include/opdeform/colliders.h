@@ -95,6 +95,16 @@ od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyCo
 void od_ContactGroup_Destroy(od_ContactGroup* group);
 od_Status od_ContactGroup_SetContact(od_ContactGroup* group, const od_BodyContactDef* def);
 od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps);
+// What a group keeps from one step to the next besides its members' states: its pairs (global particle
+// indices a < b, body-major in the members' order) with their forces (7 each: the normal force, the friction
+// force (3) and the normal (3)), the warm start of the next step's forces. Saved with the members' states and
+// set back with them, the next step is the one that followed the save, bit for bit (an empty list: a new
+// group's). GetPairs writes od_ContactGroup_GetPairCount pairs; SetPairs checks everything before it changes
+// anything (indices in range, a < b, finite values, force >= 0, |friction| <= friction coefficient × force
+// is not checked: the next update bounds it).
+int od_ContactGroup_GetPairCount(const od_ContactGroup* group);
+void od_ContactGroup_GetPairs(const od_ContactGroup* group, int* pairs, double* forces);
+od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int* pairs, const double* forces);
 
 #ifdef __cplusplus
 }
