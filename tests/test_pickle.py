@@ -72,7 +72,7 @@ def test_simulation_continues_to_the_same_bits_with_id_gaps(tail):
 def test_simulation_with_goals_and_solver_settings(tail):
     v, _, graph = tail
     sim = opdeform.Simulation(graph, 1e6, dt=1 / 24, gravity=(0, 0, 0))
-    sim.set_solver("anderson", window=3)
+    sim.set_solver("anderson", window=3, tolerance=3e-5, max_iterations=37)
     fit = opdeform.GoalFit(graph, v)
     sim.set_goal_strength(0.5)
     swing = [v @ np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]]).T
@@ -81,7 +81,7 @@ def test_simulation_with_goals_and_solver_settings(tail):
         sim.set_goals(*fit.fit(frame))
         sim.step()
     back, fit_back = copy(sim), copy(fit)
-    assert back.solver == sim.solver
+    assert (back.solver, back.tolerance, back.max_iterations) == (sim.solver, 3e-5, 37)
     for frame in swing[10:]:
         sim.set_goals(*fit.fit(frame))
         back.set_goals(*fit_back.fit(frame))

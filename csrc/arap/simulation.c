@@ -697,13 +697,13 @@ od_Status od_Step_Begin(od_Sim* sim, int steps)
 	return status;
 }
 
-void od_Step_Start(od_Sim* sim)
+void od_Step_Start(od_Sim* sim, bool chooseStart)
 {
 	int n = sim->graph->n;
 	memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
 	memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
 	od_Predict(sim);
-	if (sim->solverDef.tolerance > 0.0)
+	if (chooseStart && sim->solverDef.tolerance > 0.0)
 	{
 		od_Tolerance_ChooseStart(sim);
 	}
@@ -713,6 +713,7 @@ void od_Step_Start(od_Sim* sim)
 od_Status od_Step_Advance(od_Sim* sim, bool* more)
 {
 	od_Status status;
+	bool finished = sim->iteration.started && sim->iteration.finished; // a group's extra pair: reported already
 	if (!sim->iteration.started)
 	{
 		status = od_IterateStart(sim, sim->def.iterations);
@@ -723,7 +724,7 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 		status = od_IterateNext(sim);
 	}
 	*more = !sim->iteration.finished;
-	if (!*more)
+	if (!*more && !finished)
 	{
 		od_IterateEnd(sim);
 	}
@@ -732,7 +733,7 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 
 od_Status od_Step_Solve(od_Sim* sim)
 {
-	od_Step_Start(sim);
+	od_Step_Start(sim, true);
 	bool more = true;
 	od_Status status = OD_OK;
 	while (more && status == OD_OK)

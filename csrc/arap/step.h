@@ -8,9 +8,10 @@
 // Takes the simulation (OD_ERROR_BUSY if another thread has it) for a call of `steps` steps.
 od_Status od_Step_Begin(od_Sim* sim, int steps);
 // The prediction and the iterations of one step (the state at its start kept in sim->previous): Start, then
-// Advance until *more is false (the first call is the global solve, each later one a local/global pair),
-// or Solve for all of them.
-void od_Step_Start(od_Sim* sim);
+// Advance until *more is false (the first call is the global solve, each later one a local/global pair; a
+// contact group may advance a finished member further, reported once), or Solve for all of them.
+// chooseStart: under a tolerance, start from the rotations od_Tolerance_ChooseStart picks (else the previous).
+void od_Step_Start(od_Sim* sim, bool chooseStart);
 od_Status od_Step_Advance(od_Sim* sim, bool* more);
 od_Status od_Step_Solve(od_Sim* sim);
 // Floor, colliders and velocities of step k of `steps`.

@@ -150,6 +150,12 @@ od_StepPlan od_Tolerance_Plan(const od_Sim* sim)
 	return (od_StepPlan){ .accelerate = accelerate, .probing = probing, .tolerance = tolerance, .last = -1.0 };
 }
 
+void od_Tolerance_PlainPlan(od_StepPlan* plan)
+{
+	plan->accelerate = plan->probing = false;
+	plan->plain = plan->tolerance > 0.0;
+}
+
 // The probe's second residual decides the rest of the step (the design note above).
 static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
 {

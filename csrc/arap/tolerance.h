@@ -16,6 +16,9 @@ void od_Tolerance_ChooseStart(od_Sim* sim);
 // held to (0: a fixed count: no tolerance, or a static solve). The auto accelerator's step probes with two
 // plain pairs, then goes on plain or turns Chebyshev on (tolerance.c).
 od_StepPlan od_Tolerance_Plan(const od_Sim* sim);
+// Plain pairs for the rest of the step, estimated as auto's plain pairs under a tolerance (a contact group's
+// forces change between pairs, and an accelerator's extrapolation feeds their changes back: body_contact.c).
+void od_Tolerance_PlainPlan(od_StepPlan* plan);
 // After a pair under a tolerance: the step's error estimate, to compare with plan->tolerance, and the plan's
 // next pair. The estimate is the residual of the current iterate against the one remembered, which it then
 // replaces; auto's plain pairs double it; auto's first pair gives INFINITY (no contraction measured yet: a

@@ -299,7 +299,8 @@ class Simulation(ForceFields):
         """Everything a step reads: graph, parameters, solver settings, floor, goals, constraints (ids, slot
         order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact
         and the state with velocities. The factorization is rebuilt; counters restart."""
-        return {"graph": self.graph, "params": self.params, "solver": self.solver, "trace_energy": self.trace_energy,
+        solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
+        return {"graph": self.graph, "params": self.params, "solver": solver, "trace_energy": self.trace_energy,
                 "floor": self._floor, "goal_hz": self._goal_hz, "goal_frames": self._goal_frames,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
@@ -397,8 +398,8 @@ class Simulation(ForceFields):
 
     @property
     def solver(self):
-        """The solver settings of set_solver() as a dict."""
-        """The accelerator, window, rho, threads and factorization (``tolerance`` and ``max_iterations`` apart)."""
+        """The solver settings of set_solver() as a dict: the accelerator, window, rho, threads and
+        factorization (``tolerance`` and ``max_iterations`` apart)."""
         s = self._core.solver()
         del s["tolerance"], s["max_iterations"]
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
