@@ -33,14 +33,8 @@ AIM = 50.0  # Soft Body / opdeform at 100 particles, goals and colliders on
 
 
 def _suzanne(scene):
-    import bpy
-    bpy.ops.mesh.primitive_monkey_add(size=0.6)
-    obj = bpy.context.active_object
-    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 2
-    bpy.ops.object.modifier_apply(modifier="Subdivision")
-    for c in obj.users_collection:
-        c.objects.unlink(obj)
-    scene.collection.objects.link(obj)
+    import helpers as H
+    obj = H.monkey_in(scene, 2)
     obj.location = (0.0, 0.0, 1.7)
     obj.keyframe_insert("location", frame=1)
     obj.location = (0.0, 0.0, 1.25)
@@ -49,11 +43,9 @@ def _suzanne(scene):
 
 
 def _collider(scene):
+    import helpers as H
     import suite_colliders
-    obj = suite_colliders.collider("sphere", name=f"Sphere {scene.name}")
-    for c in obj.users_collection:
-        c.objects.unlink(obj)
-    scene.collection.objects.link(obj)
+    H.move_to(suite_colliders.collider("sphere", name=f"Sphere {scene.name}"), scene)
 
 
 def _opdeform(scene, particles, features):

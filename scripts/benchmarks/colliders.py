@@ -25,27 +25,17 @@ SOFT_BODY = "Soft Body"
 
 # -- inside Blender ------------------------------------------------------------------------------------------
 def _collider(kind, scene):
-    import bpy
+    import helpers as H
     import suite_colliders
-    obj = suite_colliders.collider(kind, name=f"{kind}_{scene.name}")
-    for c in obj.users_collection:
-        c.objects.unlink(obj)
-    scene.collection.objects.link(obj)
-    return obj
+    return H.move_to(suite_colliders.collider(kind, name=f"{kind}_{scene.name}"), scene)
 
 
 def suzanne(scene, kind):
     import math
 
-    import bpy
+    import helpers as H
     import numpy as np
-    bpy.ops.mesh.primitive_monkey_add(size=0.6)
-    obj = bpy.context.active_object
-    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
-    bpy.ops.object.modifier_apply(modifier="Subdivision")
-    for c in obj.users_collection:
-        c.objects.unlink(obj)
-    scene.collection.objects.link(obj)
+    obj = H.monkey_in(scene, 1)
     if kind == "sphere":
         obj.location = (0.0, 0.0, 1.7)
     else:

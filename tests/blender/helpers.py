@@ -153,6 +153,23 @@ def play(frames):
     return out
 
 
+def monkey_in(scene, levels):
+    """Benchmarks: Suzanne of size 0.6 with a Subdivision of ``levels`` applied, in ``scene`` only."""
+    bpy.ops.mesh.primitive_monkey_add(size=0.6)
+    obj = bpy.context.active_object
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = levels
+    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    return move_to(obj, scene)
+
+
+def move_to(obj, scene):
+    """The object in ``scene``'s own collection only (benchmarks keep one scene per variant)."""
+    for c in obj.users_collection:
+        c.objects.unlink(obj)
+    scene.collection.objects.link(obj)
+    return obj
+
+
 def play_interleaved(scenes, frames):
     """Benchmarks: each scene ({label: (scene, object)}) set to frames 1..frames, the scenes interleaved frame
     by frame; per label the median process time of scene.frame_set and of opdeform's solver (None for other
