@@ -7,12 +7,7 @@
 
 static od_Status build(const test_Mesh* m, int particles, od_MeshGraphMode mode, bool join, od_Graph** g)
 {
-	od_MeshGraphDef def = od_DefaultMeshGraphDef();
-	def.vertexCount = m->vertexCount;
-	def.vertices = m->vertices;
-	def.triangleCount = m->triangleCount;
-	def.triangles = m->triangles;
-	def.particleCount = particles;
+	od_MeshGraphDef def = test_graph_def(m, particles);
 	def.mode = mode;
 	def.joinPieces = join;
 	return od_Graph_CreateFromMesh(&def, g);
