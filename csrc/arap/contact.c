@@ -48,15 +48,17 @@ double od_Support(const od_Mat3* M, od_Vec3 n)
 // How deep an ellipsoid (centre l, moment M, both in the collider's frame) is within `thickness` of the
 // collider's surface (<= 0: clear of it), with the normal along which to push it out. From the centre's
 // distance and normal; a centre outside is refined at the deepest point, unless the normal there turns away
-// (the far side of a thin collider).
+// (the far side of a thin collider). The normal of a particle clear of the collider only when `clearNormal`
+// (a sampled mesh's normal is six more lookups of its grid: most particles are clear).
 static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, double thickness, double reach,
-					   od_Vec3* n)
+					   od_Vec3* n, bool clearNormal)
 {
-	double phi = od_Collider_LocalDistance(body, l, n);
+	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
 	if (phi >= reach + thickness)
 	{
 		return thickness + reach - phi;
 	}
+	phi = clearNormal ? phi : od_Collider_LocalDistance(body, l, n);
 	double depth = thickness + od_Support(M, *n) - phi;
 	od_Vec3 centre = *n, m;
 	for (int pass = 0; pass < 2 && phi > 0.0; ++pass)
@@ -132,7 +134,7 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, od_Vec
 		od_Mat3 R = od_M3Mul(&turn, &c->Ra), M = od_InFrame(&b->M, &R);
 		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
 		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
-		if (od_Depth(&c->body, &M, l, c->thickness, b->reach, &n) > 0.0)
+		if (od_Depth(&c->body, &M, l, c->thickness, b->reach, &n, false) > 0.0)
 		{
 			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, l), n), 0.0), n);
 		}
@@ -147,15 +149,15 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	od_Vec3 n, lb = od_M3MulTV(&c->Rb, od_Sub(*x, c->tb));
 	double travel = od_Length(od_Sub(*x, start)) + od_Length(od_Sub(c->tb, c->ta)) +
 					od_Length(c->turn) * (od_Length(od_Sub(*x, c->tb)) + od_Length(od_Sub(*x, start)));
-	if (od_Collider_LocalDistance(&c->body, lb, &n) >= b->reach + c->thickness + travel)
+	if (od_Collider_LocalDistance(&c->body, lb, NULL) >= b->reach + c->thickness + travel)
 	{
 		return;
 	}
 	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
-	double left = od_Depth(&c->body, &Ma, la, c->thickness, b->reach, &n) - b->recovery; // began inside
+	double left = od_Depth(&c->body, &Ma, la, c->thickness, b->reach, &n, false) - b->recovery; // began inside
 	od_Vec3 l = od_FirstContact(c, b, start, *x, la, lb);
-	double depth = od_Depth(&c->body, &Mb, l, c->thickness, b->reach, &n);
+	double depth = od_Depth(&c->body, &Mb, l, c->thickness, b->reach, &n, true);
 	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
 	{
 		return;

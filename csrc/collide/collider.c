@@ -619,7 +619,12 @@ double od_Collider_Distance(const od_Collider* c, od_Vec3 x, od_Vec3* n)
 
 double od_Collider_LocalDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n)
 {
-	return od_ShapeDistance(c, p, n, true);
+	if (n == NULL && (c->kind == OD_SHAPE_MESH || c->kind == OD_SHAPE_OPEN_MESH))
+	{
+		return od_MeshDistance(c, p); // one lookup, not seven
+	}
+	od_Vec3 unused;
+	return od_ShapeDistance(c, p, n ? n : &unused, true);
 }
 
 od_Vec3 od_Collider_Velocity(const od_Collider* c, od_Vec3 x)
