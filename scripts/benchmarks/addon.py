@@ -4,7 +4,9 @@
 same file; inside Blender it builds a ~100k-vertex sphere with 100 particles falling on a floor, plays frames,
 and reads the add-on's own per-frame timings: handler total, solver (sim.step), skinning (skin.deform) and
 the mesh write (foreach_set of a float32 buffer). Overhead = handler total - solver - skinning. The wall time
-of scene.frame_set (which adds Blender's own re-evaluation of the 100k-vertex mesh) is shown for context.
+of scene.frame_set (which adds Blender's own re-evaluation of the 100k-vertex mesh) is shown for context. Two
+settings: solver units (k = 2e5, one step a frame) and the panel's defaults (Rubber, steps matched to the
+frame rate), whose k comes from the material (the path that once sorted the mesh's edges every frame).
 
 Then, in one more Blender run (benchmarks/_suzanne.py), Suzanne subdivided twice (7,958 vertices, 60 frames)
 against Blender's Soft Body and Cloth, goals and a Collision sphere on, at 100 and 1,000 particles; issue 18's
@@ -24,7 +26,7 @@ FRAMES = 60
 AIM_MS = 2.0
 
 
-def _inside_blender():
+def _inside_blender(units):
     import bpy
     sys.path.insert(0, os.path.join(ROOT, "addon"))
     import addon_utils
@@ -36,7 +38,8 @@ def _inside_blender():
     s = obj.opdeform
     s.particles = 100
     s.use_floor = True
-    s.stiffness = 2e5
+    if units == "solver":
+        s.stiffness = 2e5
     t = time.perf_counter()
     bpy.ops.opdeform.enable(object=obj.name)
     build_s = time.perf_counter() - t
@@ -59,18 +62,19 @@ def _inside_blender():
         rows["frame_set"].append(wall)
     med = {k: 1e3 * statistics.median(v) for k, v in rows.items()}
     n = len(obj.data.vertices)
-    print(f"ADDON_BENCH host=Blender {bpy.app.version_string} vertices={n} particles="
+    print(f"ADDON_BENCH host=Blender {bpy.app.version_string} units={units} vertices={n} particles="
           f"{runtime.get(obj).engine.graph.n_particles} frames={FRAMES} build_s={build_s:.2f} " +
           " ".join(f"{k}_ms={v:.3f}" for k, v in med.items()))
 
 
 def _hosts():
-    yield "blender", [os.path.join(ROOT, "scripts", "blender"), "-b", "--factory-startup", "--python-exit-code",
-                      "1", "-P", HERE, "--", "--inside"]
     venv = os.environ.get("OPDEFORM_BPY_VENV", os.path.expanduser("~/.cache/opdeform/bpy-venv"))
     py = os.path.join(venv, "bin", "python")
-    if os.path.exists(py):
-        yield "bpy module", [py, HERE, "--inside"]
+    for units in ("solver", "material"):
+        yield "blender", [os.path.join(ROOT, "scripts", "blender"), "-b", "--factory-startup", "--python-exit-code",
+                          "1", "-P", HERE, "--", "--inside", units]
+        if os.path.exists(py):
+            yield "bpy module", [py, HERE, "--inside", units]
 
 
 def run(args):
@@ -88,11 +92,11 @@ def run(args):
             print(f"{host}: failed\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
             continue
         kv = dict(re.findall(r"(\w+)=(\S+)", line))
-        version = line.split("host=")[1].split(" vertices")[0]
+        version = line.split("host=")[1].split(" units")[0]
         over = float(kv["overhead_ms"])
-        rows.append((version, kv["vertices"], kv["build_s"], kv["solver_ms"], kv["skin_ms"], kv["write_ms"],
+        rows.append((version, kv["units"], kv["vertices"], kv["build_s"], kv["solver_ms"], kv["skin_ms"], kv["write_ms"],
                      kv["overhead_ms"], kv["frame_set_ms"], "yes" if over < AIM_MS else "NO"))
-    table(rows, ["host", "vertices", "build s", "solver ms", "skin ms", "write ms", "overhead ms",
+    table(rows, ["host", "units", "vertices", "build s", "solver ms", "skin ms", "write ms", "overhead ms",
                  "frame_set ms", f"<{AIM_MS:g} ms"])
     print("overhead = add-on handler time per frame minus solver and skinning (includes the mesh write); "
           "frame_set adds Blender's own evaluation of the mesh. Medians over", FRAMES, "frames.")
@@ -113,4 +117,4 @@ def _user_folders():
 
 
 if __name__ == "__main__" and "--inside" in sys.argv:
-    _inside_blender()
+    _inside_blender(sys.argv[sys.argv.index("--inside") + 1])
