@@ -108,6 +108,27 @@ def test_a_30_kmh_collider_does_not_tunnel_through_a_10_cm_limb():
     assert _board_through_limb(teleported)[0] == sim.graph.n_particles  # what the sweep prevents
 
 
+@pytest.mark.parametrize("degrees", [20, 60, 90])
+def test_friction_keeps_a_particle_on_a_collider_that_turns_in_one_step(degrees):
+    """A particle 5 cm off a 2 cm board turned about its middle in one step: caught by the board's face, it
+    ends on that face, carried round with it when friction holds it (the friction's correction was taken in the
+    board's start frame: at 60 degrees the particle ended behind the board)."""
+    a = math.radians(degrees)
+    turn = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    ends = {}
+    for mu in (0.0, 0.5, 2.0):
+        sim = opdeform.Simulation(opdeform.Graph([[0.3, 0.05, 0.0]], [[0.03] * 3], np.zeros((0, 2), int)), 1e5,
+                                  dt=1 / 24, gravity=(0, 0, 0))
+        cid = sim.add_collider("box", half_extents=(0.6, 0.01, 0.2), friction=mu)
+        sim.move_collider(cid, (0, 0, 0), rotation=turn)
+        sim.step()
+        ends[mu] = turn.T @ sim.positions[0]  # in the board's frame
+    for mu, end in ends.items():
+        assert end[1] == pytest.approx(0.01 + 0.03 + 0.005, abs=1e-6), (mu, end)  # on its face, not through
+    assert ends[2.0][0] == pytest.approx(0.3, abs=1e-6)  # held where it was caught: carried round
+    assert ends[0.0][0] < ends[2.0][0] - 1e-4  # frictionless: it slides along the face (1 mm at 20 degrees)
+
+
 def test_a_deforming_mesh_collider_lifts_the_blob(blob):
     g = blob[2]
     sv, st = meshes.capsule(radius=0.5, length=0.0, segments=24, rings=8)
@@ -177,6 +198,7 @@ BAD = {
     "zero radius": (dict(shape="sphere", radius=0.0), "radius"),
     "improper rotation": (dict(shape="box", rotation=-np.eye(3)), "rotation"),
     "unknown shape": (dict(shape="torus"), "shape"),
+    "mesh at one point": (dict(shape="mesh", vertices=np.zeros((3, 3)), triangles=[[0, 1, 2]]), "extent"),
     "nan translation": (dict(shape="box", translation=(0, np.nan, 0)), "translation"),
     "bad resolution": (dict(shape="mesh", vertices=meshes.sheet()[0], triangles=meshes.sheet()[1], resolution=2),
                        "resolution"),

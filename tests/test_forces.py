@@ -88,7 +88,8 @@ def test_fields_move_and_remove(graph):
 
 @pytest.mark.parametrize("bad, name", [({"strength": float("nan")}, "strength"), ({"size": 0.0}, "size"),
                                        ({"drag": -1.0}, "drag"), ({"direction": (0, 0, 0)}, "direction"),
-                                       ({"kind": "gust"}, "kind"), ({"falloff": float("inf")}, "falloff")])
+                                       ({"kind": "gust"}, "kind"), ({"falloff": float("inf")}, "falloff"),
+                                       ({"min_distance": 2.0, "max_distance": 1.0}, "max_distance")])
 def test_bad_fields_raise_naming_the_value_and_change_nothing(graph, bad, name):
     for owner in (_free(graph), mpm.World((0, 0, 0), (1, 1, 1), 1 / 16)):
         with pytest.raises(ValueError, match=name):

@@ -164,11 +164,15 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	}
 	l = od_MulAdd(l, fmax(depth - fmax(left, 0.0), 0.0), n);
 	od_Vec3 moved = od_Add(od_M3MulV(&c->Rb, l), c->tb);
-	double push = od_Dot(od_Sub(moved, *x), od_M3MulV(&c->Rb, n));
+	od_Vec3 nb = od_M3MulV(&c->Rb, n);
+	double push = od_Dot(od_Sub(moved, *x), nb);
 	if (c->friction > 0.0 && push > 0.0)
 	{
-		od_Vec3 slip = od_Sub(od_Add(od_M3MulV(&c->Ra, l), c->ta), start), na = od_M3MulV(&c->Ra, n);
-		slip = od_MulAdd(slip, -od_Dot(slip, na), na);
+		// The motion relative to the surface, in the collider's end frame: measured in its start frame (Ra), a
+		// collider turned 60 degrees in a step put the friction's correction across it and the particle through
+		// a 2 cm box (an outside review, 2026-11-24).
+		od_Vec3 slip = od_M3MulV(&c->Rb, od_Sub(l, la));
+		slip = od_MulAdd(slip, -od_Dot(slip, nb), nb);
 		double k = od_CoulombKeep(od_Length(slip), c->friction * push);
 		moved = od_MulAdd(moved, k - 1.0, slip);
 		*keep *= k;

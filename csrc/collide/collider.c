@@ -387,6 +387,10 @@ static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexC
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh spans %g, too large a range", extent);
 	}
+	if (!(extent > 0.0)) // every vertex at one point: no spacing, the sampling grid's size was NaN
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "collider: the mesh has no extent (all its vertices at one point)");
+	}
 	c->spacing = fmax(c->minSpacing, extent / (OD_MESH_MAX_DIM - 2 * OD_MESH_BAND - 2));
 	c->spacing = c->resolution > 0 ? fmax(c->spacing, extent / c->resolution) : c->spacing;
 	size_t total = 1;

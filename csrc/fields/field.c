@@ -44,6 +44,11 @@ static od_Status od_CheckField(const od_FieldDef* d)
 						   k == 0 ? "" : k == 2 ? " and > 0" : " and >= 0");
 		}
 	}
+	if (d->maxDistance > 0.0 && d->maxDistance < d->minDistance) // else the min distance hid the max
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "force field: max_distance = %g must be 0 (none) or >= min_distance = %g",
+					   d->maxDistance, d->minDistance);
+	}
 	if (!od_IsFinite3(d->position))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "force field: position must be three finite numbers");
