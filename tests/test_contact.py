@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import opdeform
-from opdeform import meshes
+from opdeform import materials, meshes
 from opdeform.simulation import frame_from_normal
 
 RAMP = math.radians(30.0)
@@ -91,6 +91,46 @@ def _board_through_limb(move):
         sim.step()
         behind = max(behind, int(np.sum(sim.positions[:, 1] < y - half[1])))
     return behind, sim
+
+
+@pytest.fixture(scope="module")
+def cube():
+    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
+    return opdeform.Graph.from_mesh(v - v.mean(axis=0), t, particles=64)
+
+
+def _cube_on_a_ramp(graph, mu, fps, seconds=2.0):
+    """A 0.3 m Rubber cube set 1 cm above a 30-degree plane (it lands flat): (distance travelled, degrees turned)."""
+    theta = math.radians(30.0)
+    normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
+    frame = frame_from_normal(normal)
+    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
+    lowest = (graph.centers[:, 2] - np.sqrt(((graph.radii * graph.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+    start = (graph.centers + (0.0, 0.0, 0.01 - lowest)) @ frame.T
+    sim.set_state(start, np.tile(frame, (graph.n_particles, 1, 1)))
+    sim.add_collider("plane", normal=normal, friction=mu)
+    sim.step(int(seconds * fps))
+    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
+    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
+    return float(np.linalg.norm(sim.positions.mean(axis=0) - start.mean(axis=0))), turned
+
+
+def test_a_box_slides_down_a_ramp_below_tan_theta_and_sticks_above_it(cube):
+    """At the add-on's steps (1/240 s): with mu = 0.3 it slides as g (sin - mu cos) with the preset's damping
+    of 0.3/s predicts (3.90 m in 2 s; measured 3.91) without turning; with mu = 1 (> tan 30) it stays."""
+    a, c = 9.81 * (0.5 - 0.3 * math.cos(math.radians(30.0))), materials.PRESETS["Rubber"].damping
+    slid, turned = _cube_on_a_ramp(cube, 0.3, 240)
+    assert slid == pytest.approx(a / c * (2.0 - (1.0 - math.exp(-2.0 * c)) / c), rel=0.03) and turned < 3.0
+    held, turned = _cube_on_a_ramp(cube, 1.0, 240)
+    assert held < 0.03 and turned < 3.0
+
+
+@pytest.mark.xfail(strict=True, reason="left: with one step per frame the friction (applied after the iterations) "
+                   "lags the body: at 60 Hz the mu = 1 cube travels 2.5 m and turns 145 degrees, at 24 Hz 1.5 m and "
+                   "86 degrees; 120 Hz and up hold it (docs/contact.md)")
+def test_a_box_sticks_on_a_ramp_at_60_hz(cube):
+    held, turned = _cube_on_a_ramp(cube, 1.0, 60)
+    assert held < 0.03 and turned < 3.0
 
 
 def test_a_30_kmh_collider_does_not_tunnel_through_a_10_cm_limb():

@@ -244,7 +244,8 @@ def make_simulation(graph, material=DEFAULT_MATERIAL, dt=1 / 24, gravity=(0.0, 0
 def substeps_for(fps, max_dt=1 / 240):
     """Substeps per frame so that a step is at most ``max_dt``: implicit Euler takes out energy at a rate
     proportional to dt, so equal steps give the same jiggle: 1/240 s is a whole number of steps at 24, 30, 48
-    and 60 fps (measured: frequency within 0.1 %, amplitude within 1 %, docs/settings.md); at rates it does not
+    and 60 fps (measured: frequency within 0.1 %, amplitude within 1 % on the 2 m tail, 1.7 % on a capsule tail;
+    docs/settings.md); at rates it does not
     divide (25, 50, 100 fps) the steps are shorter and the amplitude drifts 3-9 %."""
     if not (fps > 0.0):
         raise ValueError(f"fps = {fps} must be > 0")
