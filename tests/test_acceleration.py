@@ -85,6 +85,10 @@ def test_bad_solver_settings_raise():
         sim.set_solver(threads=-1)
     with pytest.raises(ValueError, match="factorization"):
         sim.set_solver(factorization="dense")
+    with pytest.raises(ValueError, match="^max_iterations = 0 must be >= 1$"):  # names only what is wrong
+        sim.set_solver(tolerance=2e-5, max_iterations=0)
+    with pytest.raises(ValueError, match="^tolerance = -1 must be finite and >= 0$"):
+        sim.set_solver(tolerance=-1.0)
     assert sim.solver["accelerator"] == "none"
 
 

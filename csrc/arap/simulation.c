@@ -86,10 +86,13 @@ static od_Status od_CheckSolverDef(const od_SolverDef* def)
 	{
 		return status;
 	}
-	if (!(def->tolerance >= 0.0) || !isfinite(def->tolerance) || def->maxIterations < 1)
+	if (!(def->tolerance >= 0.0) || !isfinite(def->tolerance))
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "tolerance = %g must be finite and >= 0, max_iterations = %d >= 1",
-					   def->tolerance, def->maxIterations);
+		return od_Fail(OD_ERROR_ARGUMENT, "tolerance = %g must be finite and >= 0", def->tolerance);
+	}
+	if (def->maxIterations < 1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "max_iterations = %d must be >= 1", def->maxIterations);
 	}
 	return OD_OK;
 }
