@@ -31,8 +31,8 @@ would, its particles' stiffness is raised, and the loads are solved again; the g
 as a continuum of rigidity c I(s), and k = E J / (c J_particles) makes that the material's (J the closed
 mesh's second moment, as above). The tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness
 per particle (``Simulation(graph, stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight
-static solves of the graph, once per graph (about 2 s at 400 particles, 3.5 s at 1,000). A blob, or a chain
-whose end particle cannot be held by a face, keeps the "bending" k on every particle.
+static solves of the graph, once per graph (about 2 s at 400 particles, 3.5 s at 1,000). A blob, a curved
+body, or a chain whose end particle cannot be held by a face keeps the "bending" k on every particle.
 
 E itself is not scale-free: a body of size L under gravity sags by a fraction proportional to rho g L / E (and
 its frequencies scale as sqrt(E / rho) / L), so a real material looks ten times softer ten times larger. The
@@ -191,6 +191,11 @@ def _bending_energy(graph, centre, frame, moments, b):
 # and compare how much each part of it bends with what a continuum of its cross-sections would; then the
 # other end. Each part's stiffness is scaled by that ratio, and the loads are solved again with the scale.
 _ELONGATED = 3.0  # length over thickness from which a body is calibrated as a beam (a blob keeps "bending")
+# A curved body's bending moments do not follow its principal axis, so it must be nearly straight: about its
+# local neutral axis it holds this share of its second moment about the axis (_Kernel.straightness). The tail
+# bent along an arc of 20 / 40 / 90 / 120 degrees: 0.86 / 0.62 / 0.33 / 0.27, and measured anyway its mean k
+# came out 1.01 / 1.03 / 1.34 / 1.98 times the bending k
+_STRAIGHT = 0.7
 _END = 0.01  # the held end face: the points within this share of the length of an end
 _SAG = 1e-3  # the load's tip deflection (beam theory, the "bending" rigidity) as a share of the length: linear
 _ITERATIONS = (1500, 500)  # of each static solve, from rest and then from the last round's pose (on the
@@ -202,8 +207,9 @@ _CALIBRATED = weakref.WeakKeyDictionary()  # graph -> k per Pa of its own mesh (
 
 
 def _measured_bending(graph, centre, frame, moments, second, mesh):
-    """The measured k per Pa of each particle, or None where the body is no beam (length under _ELONGATED
-    thicknesses) or cannot be held by an end face (an end's points on a line: a chain's end particle)."""
+    """The measured k per Pa of each particle, or None where the body is no straight beam (length under
+    _ELONGATED thicknesses, or curved) or cannot be held by an end face (an end's points on a line: a chain's
+    end particle)."""
     if mesh is None and graph in _CALIBRATED:
         return _CALIBRATED[graph]
     points = _clamp_points(graph, mesh)
@@ -217,6 +223,8 @@ def _measured_bending(graph, centre, frame, moments, second, mesh):
     v = graph.volumes
     s = (graph.centers - centre) @ frame[:, 0]
     kernel = _Kernel(s, lo, hi, _SMOOTHING * float(np.cbrt(v.mean())))
+    if kernel.straightness(graph, centre, frame, moments) < _STRAIGHT:
+        return None
     sections = [kernel.section_moment(graph, frame, moments, b) for b in (1, 2)]
     turning = _turning(s, v)
     both = turning[0] ** 2 + turning[1] ** 2
@@ -300,6 +308,18 @@ class _Kernel:
         s = self.s
         w, ws, wy = self.sum(v), self.sum(v * s), self.sum(v * y)
         return (self.sum(v * s * y) - ws * wy / w) / (self.sum(v * s * s) - ws * ws / w)
+
+    def straightness(self, graph, centre, frame, moments):
+        """The least, over the cross axes, of the particles' second moment about the local neutral axis (their
+        mean across the body near each) over that about the body's axis: 1 for a straight body."""
+        v = graph.volumes
+        ratios = []
+        for b in (1, 2):
+            t = (graph.centers - centre) @ frame[:, b]
+            own = (frame[:, b] @ moments @ frame[:, b]).sum()
+            near = self.sum(v * t) / self.sum(v)
+            ratios.append(((v * (t - near) ** 2).sum() + own) / ((v * t * t).sum() + own))
+        return float(min(ratios))
 
     def section_moment(self, graph, frame, moments, b):
         """The particles' second moment of area for bending towards frame[:, b] about the local neutral axis:
