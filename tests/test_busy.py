@@ -69,6 +69,8 @@ def _sim_case(scale):
         "set_goal_strength": lambda: sim.set_goal_strength(0.5),
         "set_goal_frequencies": lambda: sim.set_goal_frequencies(np.ones(n)),
         "set_goals": lambda: sim.set_goals(sim.graph.centers),
+        "set_stiffness_scale": lambda: sim.set_stiffness_scale(np.ones(n)),
+        "stiffness_scale": lambda: sim.stiffness_scale,
         "step": lambda: sim.step(1), "solve_static": lambda: sim.solve_static(1), "energy": lambda: sim.energy(),
         "set_state": lambda: sim.set_state(np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1))),
         "positions": lambda: sim.positions, "rotations": lambda: sim.rotations,

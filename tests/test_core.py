@@ -115,6 +115,58 @@ def test_stiffness_independent_of_step_size_and_iterations(dt, iterations):
     assert scenes.tip_sag(sim) == pytest.approx(reference, rel=0.01)
 
 
+def test_stiffness_scale_of_ones_is_the_same_bits_and_of_twos_doubles_k():
+    """A per-particle stiffness scale s_i weights every elastic term integrated over ellipsoid i (energy, the
+    local step's C_i, the global matrix and its right side): all 1 gives the bits of none, all 2 the
+    simulation of 2k, and a mixed scale keeps every half step from raising the energy (the terms agree)."""
+    def bar(k=scenes.BAR_STIFFNESS):  # pinned as fig1_bar, at the weight of k's pins
+        sim = opdeform.Simulation(scenes.bar_graph(), k)
+        for p in scenes.end_face_points(0.0):
+            sim.add_position_constraint(p, weight=1e3 * scenes.BAR_STIFFNESS * sim.graph.volumes.mean())
+        return sim
+
+    plain, ones, twos, double = bar(), bar(), bar(), bar(2 * scenes.BAR_STIFFNESS)
+    n = plain.graph.n_particles
+    ones.set_stiffness_scale(np.ones(n))
+    twos.set_stiffness_scale(np.full(n, 2.0))
+    for sim in (plain, ones, twos, double):
+        sim.step(10)
+    assert np.array_equal(plain.positions, ones.positions) and np.array_equal(plain.rotations, ones.rotations)
+    assert np.allclose(twos.positions, double.positions, rtol=0, atol=1e-12)
+    assert twos.energy() == pytest.approx(double.energy(), rel=1e-12)
+    assert ones.stiffness_scale.tolist() == [1.0] * n
+    ones.set_stiffness_scale(None)
+    assert ones.stiffness_scale is None
+    mixed = scenes.fig1_bar()
+    mixed.set_stiffness_scale(np.random.default_rng(1).uniform(0.2, 5.0, n))
+    mixed.trace_energy = True
+    mixed.solve_static(100)
+    assert_monotone(mixed.energy_trace)
+    for _ in range(10):
+        mixed.step()
+        assert_monotone(mixed.energy_trace)
+    for bad in (np.zeros(n), np.full(n, np.nan), np.ones(n + 1)):
+        with pytest.raises(ValueError):
+            mixed.set_stiffness_scale(bad)
+
+
+def test_a_stiffness_per_particle_is_k_and_a_scale():
+    """Simulation(graph, one stiffness per particle): k their mean, the scale their ratios; set_params with a
+    number makes the stiffness uniform again, other parameters keep the scale."""
+    graph = scenes.bar_graph()
+    k = np.linspace(1e8, 3e8, graph.n_particles)
+    sim = opdeform.Simulation(graph, k)
+    assert sim.params["stiffness"] == pytest.approx(2e8) and sim.stiffness_scale * 2e8 == pytest.approx(k)
+    sim.set_params(density=500.0)
+    assert sim.stiffness_scale * 2e8 == pytest.approx(k)
+    sim.set_params(stiffness=1e8)
+    assert sim.params["stiffness"] == 1e8 and sim.stiffness_scale is None
+    sim.set_params(stiffness=k)
+    assert sim.stiffness_scale * 2e8 == pytest.approx(k)
+    with pytest.raises(ValueError):
+        opdeform.Simulation(graph, k[1:])
+
+
 def test_fig3_collapsed_start_recovers_rest_shape():
     g = lattice_graph()
     rng = np.random.default_rng(3)

@@ -90,6 +90,20 @@ def test_simulation_with_goals_and_solver_settings(tail):
     assert_same_state(back, sim)
 
 
+def test_simulation_with_a_stiffness_per_particle(tail):
+    v, _, graph = tail
+    k = 1e6 * np.random.default_rng(3).uniform(0.5, 2.0, graph.n_particles)
+    sim = opdeform.Simulation(graph, k, dt=1 / 48)
+    opdeform.pin_vertices(sim, v, np.flatnonzero(v[:, 0] < 1e-9))
+    sim.step(10)
+    back = copy(sim)
+    np.testing.assert_array_equal(back.stiffness_scale, sim.stiffness_scale)
+    assert back.params == sim.params
+    sim.step(20)
+    back.step(20)
+    assert_same_state(back, sim)
+
+
 def test_a_removed_set_and_static_solve(tail):
     v, _, graph = tail
     sim, pins, direction, handle = rigged(v, graph)

@@ -34,34 +34,29 @@ def test_the_same_modulus_droops_the_same_at_any_scale():
     assert max(d) / min(d) < 1.1, d
 
 
-def test_the_same_modulus_droops_about_the_same_at_any_particle_count():
-    """The bending calibration: 9.1-11.3 % from 50 to 400 particles (the uniform-strain k gave 7.0-18.3 %)."""
-    d = [droop("Rubber", 1.0, n) for n in (50, 100, 150, 200, 300, 400)]
-    assert max(d) / min(d) < 1.3 and 0.08 < min(d) and max(d) < 0.13, d
-
-
-@pytest.mark.xfail(strict=True, reason="open: 9.9 / 11.3 / 9.2 / 10.3 % at 50 / 100 / 200 / 400 particles "
-                   "(1.23x): the graph's bending rigidity varies +-12 % along the tail with the irregular "
-                   "particle layout (8.9-10.4 % at 190-210 particles), which no single k removes; needs per-edge "
-                   "stiffness or a regular layout (docs/settings.md)")
 def test_the_same_modulus_droops_the_same_at_any_particle_count():
-    d = [droop("Rubber", 1.0, n) for n in (50, 100, 200, 400)]
-    assert max(d) / min(d) < 1.1, d
+    """The measured calibration: 9.5-10.3 % from 50 to 400 particles (1.08x; one bending k gave 9.1-11.3 %,
+    1.25x, and the uniform-strain k 7.0-18.3 %)."""
+    d = [droop("Rubber", 1.0, n) for n in (50, 100, 150, 200, 300, 400)]
+    assert max(d) / min(d) < 1.1 and 0.08 < min(d) and max(d) < 0.13, d
 
 
 def test_a_graphs_bending_calibration_is_computed_once(monkeypatch):
-    """The add-on asks for k on every frame: the graph's own calibration (its mesh's moments: sorting the
-    mesh's edges, 12.6 ms for a 2,012-vertex Suzanne) is kept with the graph; k stays linear in the modulus."""
+    """The add-on asks for k on every frame: the graph's own calibrations (its mesh's moments, sorting the
+    mesh's edges: 12.6 ms for a 2,012-vertex Suzanne; the measured one's static solves) are kept with the graph;
+    k stays linear in the modulus."""
     _, _, g = tail(particles=50)
     calls = []
     moments = materials._body_second_moment
     monkeypatch.setattr(materials, "_body_second_moment", lambda *a: calls.append(1) or moments(*a))
-    k = [materials.stiffness_for(g, m) for m in (1e7, 2e7, 1e7)]
-    assert len(calls) == 1 and k[0] == k[2] and k[1] == pytest.approx(2 * k[0], rel=1e-15)
+    for calibration in ("measured", "bending"):
+        k = [materials.stiffness_for(g, m, calibration=calibration) for m in (1e7, 2e7, 1e7)]
+        assert np.array_equal(k[0], k[2]) and np.allclose(k[1], 2 * k[0], rtol=1e-15, atol=0)
+    assert len(calls) == 2  # once for each calibration
     v, t = meshes.bar(length=2.0, width=0.2, segments=80, cross=4)
-    materials.stiffness_for(g, 1e7, mesh=(v, t))  # another mesh than its own: computed, not kept
-    materials.stiffness_for(g, 1e7, mesh=(v, t))
-    assert len(calls) == 3
+    materials.stiffness_for(g, 1e7, mesh=(v, t), calibration="bending")  # another mesh: computed, not kept
+    materials.stiffness_for(g, 1e7, mesh=(v, t), calibration="bending")
+    assert len(calls) == 4
 
 
 def test_presets_droop_as_documented():
@@ -198,14 +193,15 @@ def test_scale_keeps_the_stiffness_formula():
     v, t, g = tail()
     small = opdeform.Graph(g.centers, g.radii, g.edges, g.axes)  # no mesh: the particles' second moment
     big = opdeform.Graph(g.centers * 10, g.radii * 10, g.edges, g.axes)
-    # k ~ modulus * size / spacing^2: ten times larger, a tenth of k
-    for calibration in materials.CALIBRATIONS:
+    # k ~ modulus * size / spacing^2: ten times larger, a tenth of k (the measured k comes from static solves
+    # stopped after a fixed number of iterations: round-off moves it by up to 7e-6)
+    for calibration, rel in zip(materials.CALIBRATIONS, (1e-4, 1e-9, 1e-9)):
         k = materials.stiffness_for(small, 1e6, calibration=calibration)
-        assert materials.stiffness_for(big, 1e6, calibration=calibration) == pytest.approx(k / 10, rel=1e-9)
+        assert materials.stiffness_for(big, 1e6, calibration=calibration) == pytest.approx(k / 10, rel=rel)
     # from a mesh: its second moment (the same with the mesh given or remembered by from_mesh)
     k = materials.stiffness_for(g, 1e6)
-    assert materials.stiffness_for(small, 1e6, mesh=(v, t)) == pytest.approx(k, rel=1e-12)
-    assert materials.stiffness_for(big, 1e6, mesh=(v * 10, t)) == pytest.approx(k / 10, rel=1e-9)
+    assert materials.stiffness_for(small, 1e6, mesh=(v, t)) == pytest.approx(k, rel=1e-4)
+    assert materials.stiffness_for(big, 1e6, mesh=(v * 10, t)) == pytest.approx(k / 10, rel=1e-4)
     with pytest.raises(ValueError):
         materials.stiffness_for(g, -1.0)
     with pytest.raises(ValueError):
@@ -220,7 +216,7 @@ def test_bending_calibration_matches_a_continuum_beam():
     assert volume == pytest.approx(0.08, rel=1e-12)
     assert np.diag(second) == pytest.approx([0.08 * 4 / 12, 0.08 * 0.04 / 12, 0.08 * 0.04 / 12], rel=1e-9)
     assert materials._closed_mesh_moments(v, t[1:]) is None
-    k_mesh, k_open = (materials.stiffness_for(g, 1e6, mesh=m) for m in ((v, t), (v, t[1:])))
+    k_mesh, k_open = (materials.stiffness_for(g, 1e6, mesh=m, calibration="bending") for m in ((v, t), (v, t[1:])))
     assert 0.8 < k_open / k_mesh < 1.2
 
 

@@ -67,7 +67,7 @@ static double od_ElasticEnergy(const od_Sim* sim)
 			od_Mat3 rj = od_M3Load(s->R + 9 * j), aj = od_M3Load(g->moments + 9 * j);
 			od_Vec3 dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
 			od_Vec3 r = od_Sub(od_M3MulV(&ri, dbar), od_Sub(od_V3Load(s->x + 3 * j), xi));
-			e += od_MomentNorm(&ri, &rj, &aj) + g->volumes[j] * od_Dot(r, r);
+			e += od_ElasticScale(sim, j) * (od_MomentNorm(&ri, &rj, &aj) + g->volumes[j] * od_Dot(r, r));
 		}
 	}
 	return 0.5 * sim->def.stiffness * e;

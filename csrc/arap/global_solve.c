@@ -2,9 +2,10 @@
 //
 // ∂E/∂x = 0 is one n x n sparse SPD system with three right-hand sides (x, y, z share the matrix):
 //   Σ_j k (v_i + v_j)(x_i - x_j) + (m_i/h²) x_i + Σ_c w_c w_a (Σ_b w_b x_b)
-//     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)).
+//     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)),
+// with each elastic v_i taken as s_i v_i under a stiffness scale s (od_ElasticScale).
 // Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
-// rest graph, k, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
+// rest graph, k, its scale, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
 // of those (counted in od_SimCounters: the solver keeps the inputs it factored, od_MatrixKey, and compares
 // them with the simulation's before each solve; nothing else invalidates it) and every iteration only assembles the right side and substitutes
 // (cholesky.c, which keeps the factor in its own layout and may split the substitution over threads).
@@ -13,6 +14,7 @@
 #include "cholesky.h"
 #include "clock.h"
 #include "core.h"
+#include "energy.h"
 #include "goal.h"
 #include "math3.h"
 #include "position_constraints.h"
@@ -27,6 +29,7 @@ typedef struct od_MatrixKey
 {
 	unsigned constraints; // od_ConstraintSet.matrixVersion
 	unsigned goals;       // od_Goals.version
+	unsigned scale;       // od_Sim.stiffnessVersion
 	double stiffness, density, dt; // density and dt 0 for static poses (no mass term)
 	int factorization, threads;
 } od_MatrixKey;
@@ -87,6 +90,7 @@ static od_MatrixKey od_KeyOf(const od_Sim* sim)
 	return (od_MatrixKey){
 		.constraints = sim->constraints.matrixVersion,
 		.goals = sim->goals.version,
+		.scale = sim->stiffnessVersion,
 		.stiffness = sim->def.stiffness,
 		.density = dynamic ? sim->def.density : 0.0,
 		.dt = dynamic ? sim->def.dt : 0.0,
@@ -97,8 +101,9 @@ static od_MatrixKey od_KeyOf(const od_Sim* sim)
 
 static bool od_SameKey(const od_MatrixKey* a, const od_MatrixKey* b)
 {
-	return a->constraints == b->constraints && a->goals == b->goals && a->stiffness == b->stiffness && a->density == b->density &&
-		   a->dt == b->dt && a->factorization == b->factorization && a->threads == b->threads;
+	return a->constraints == b->constraints && a->goals == b->goals && a->scale == b->scale &&
+		   a->stiffness == b->stiffness && a->density == b->density && a->dt == b->dt &&
+		   a->factorization == b->factorization && a->threads == b->threads;
 }
 
 static size_t od_EntryCount(const od_Sim* sim)
@@ -121,6 +126,7 @@ static void od_PushEntry(void* context, int row, int col, double value)
 static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 {
 	const od_Graph* g = sim->graph;
+	const double* u = od_ElasticVolumes(sim);
 	double k = sim->def.stiffness, rho = sim->def.density, h = sim->def.dt;
 	for (int i = 0; i < g->n; ++i)
 	{
@@ -130,7 +136,7 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 	for (int e = 0; e < g->edgeCount; ++e)
 	{
 		int a = g->edges[2 * e], b = g->edges[2 * e + 1];
-		double kab = k * (g->volumes[a] + g->volumes[b]);
+		double kab = k * (u[a] + u[b]);
 		od_PushEntry(t, a, a, kab);
 		od_PushEntry(t, b, b, kab);
 		od_PushEntry(t, a, b, -kab);
@@ -157,13 +163,14 @@ static bool od_NeedsCorrection(const od_Sim* sim)
 {
 	const od_Graph* g = sim->graph;
 	const od_SimDef* d = &sim->def;
+	const double* u = od_ElasticVolumes(sim);
 	double volume = 0.0;
 	for (int i = 0; i < g->n; ++i)
 	{
 		double elastic = 0.0;
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
-			elastic += g->volumes[i] + g->volumes[g->adj[e]];
+			elastic += u[i] + u[g->adj[e]];
 		}
 		double inertia = d->density * g->volumes[i] / (d->dt * d->dt);
 		if (sim->mode == OD_DYNAMIC && d->stiffness * elastic > OD_STIFF_STEP * inertia)
@@ -256,17 +263,18 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 }
 
 // Row i of the right side b: the inertia (m/h²) y_i or gravity m_i g, the constraints' row
-// (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j, k v_j R_i d + k v_i R_j d, gathered as
-// R_i (k Σ_j v_j d) + k v_i Σ_j R_j d, the first sum kept per particle (rowArm, local_step.c). With
-// `residual`, row i of b - A x instead, each term taken against the
+// (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j and u = s v the scaled volumes,
+// k u_j R_i d + k u_i R_j d, gathered as R_i (k Σ_j u_j d) + k u_i Σ_j R_j d, the first sum kept per particle
+// (rowArm, local_step.c). With `residual`, row i of b - A x instead, each term taken against the
 // current centres before it is summed so that nothing large cancels: (m/h²)(y_i - x_i) and
-// k v_j (R_i d - (x_i - x_j)) + k v_i (R_j d - (x_i - x_j)); the constraints' part is added apart
+// k u_j (R_i d - (x_i - x_j)) + k u_i (R_j d - (x_i - x_j)); the constraints' part is added apart
 // (od_FillResidual). Rows are independent, so threads split them.
 static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 {
 	const od_Graph* g = sim->graph;
 	const od_State* st = &sim->state;
-	double k = sim->def.stiffness, h = sim->def.dt, vi = g->volumes[i];
+	const double* u = od_ElasticVolumes(sim);
+	double k = sim->def.stiffness, h = sim->def.dt, vi = g->volumes[i], ui = u[i];
 	od_Vec3 xi = od_V3Load(st->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
 	od_Mat3 ri = od_M3Load(st->R + 9 * i);
 	od_Vec3 arm = od_V3(0, 0, 0), turned = arm;
@@ -277,18 +285,18 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
 			int j = g->adj[e];
-			double vj = g->volumes[j];
+			double uj = u[j];
 			const double* cj = g->centers + 3 * j;
 			const double* rj = st->R + 9 * j;
 			const double* xj = st->x + 3 * j;
 			double d0 = ci.x - cj[0], d1 = ci.y - cj[1], d2 = ci.z - cj[2];
 			double x0 = xi.x - xj[0], x1 = xi.y - xj[1], x2 = xi.z - xj[2];
-			a0 = a0 + vj * ((r[0] * d0 + r[1] * d1 + r[2] * d2) - x0);
-			a1 = a1 + vj * ((r[3] * d0 + r[4] * d1 + r[5] * d2) - x1);
-			a2 = a2 + vj * ((r[6] * d0 + r[7] * d1 + r[8] * d2) - x2);
-			t0 = t0 + vi * ((rj[0] * d0 + rj[1] * d1 + rj[2] * d2) - x0);
-			t1 = t1 + vi * ((rj[3] * d0 + rj[4] * d1 + rj[5] * d2) - x1);
-			t2 = t2 + vi * ((rj[6] * d0 + rj[7] * d1 + rj[8] * d2) - x2);
+			a0 = a0 + uj * ((r[0] * d0 + r[1] * d1 + r[2] * d2) - x0);
+			a1 = a1 + uj * ((r[3] * d0 + r[4] * d1 + r[5] * d2) - x1);
+			a2 = a2 + uj * ((r[6] * d0 + r[7] * d1 + r[8] * d2) - x2);
+			t0 = t0 + ui * ((rj[0] * d0 + rj[1] * d1 + rj[2] * d2) - x0);
+			t1 = t1 + ui * ((rj[3] * d0 + rj[4] * d1 + rj[5] * d2) - x1);
+			t2 = t2 + ui * ((rj[6] * d0 + rj[7] * d1 + rj[8] * d2) - x2);
 		}
 		arm = od_V3(a0, a1, a2);
 		turned = od_V3(t0, t1, t2);
@@ -309,7 +317,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 		turned = od_V3(t0, t1, t2);
 	}
 	od_Vec3 f = residual ? od_Scale(k, od_Add(arm, turned))
-						 : od_MulAdd(od_M3MulV(&ri, od_V3Load(sim->rowArm + 3 * i)), k * vi, turned);
+						 : od_MulAdd(od_M3MulV(&ri, od_V3Load(sim->rowArm + 3 * i)), k * ui, turned);
 	double m = sim->def.density * vi;
 	if (sim->mode == OD_DYNAMIC)
 	{

@@ -1,7 +1,8 @@
 // The local step: each particle's rotation, the others held fixed (eqs. 4 and 13, METHOD.md).
 //
 // R_i maximizes tr(R_iᵀ C_i) with
-//   C_i = k Σ_j [R_j (Ā_j + Ā_i) + v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ] + (ρ/h²) R̃_i Ā_i + constraint terms.
+//   C_i = k Σ_j [R_j (s_j Ā_j + s_i Ā_i) + s_j v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ] + (ρ/h²) R̃_i Ā_i + constraint terms
+// (s the stiffness scale, od_ElasticScale: 1 without one).
 // The energy is exactly -tr(R_iᵀ C_i) + const in R_i, so each update is an exact block-coordinate
 // minimization. Updates are Gauss-Seidel (each particle sees its neighbours' new rotations): with
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
@@ -11,6 +12,7 @@
 #include "constraints.h"
 #include "core.h"
 #include "direction_constraints.h"
+#include "energy.h"
 #include "goal.h"
 #include "math3.h"
 #include "polar.h"
@@ -30,16 +32,19 @@ void od_LocalStep_PrepareEdges(od_Sim* sim)
 	{
 		od_Mat3 ai = od_M3Load(g->moments + 9 * i);
 		od_Vec3 ci = od_V3Load(g->centers + 3 * i), row = od_V3(0, 0, 0);
+		double si = od_ElasticScale(sim, i);
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
 			int j = g->adj[e];
-			od_Mat3 sum = od_M3Load(g->moments + 9 * j);
-			od_M3AddScaled(&sum, 1.0, &ai);
+			double sj = od_ElasticScale(sim, j);
+			od_Mat3 aj = od_M3Load(g->moments + 9 * j), sum = od_M3Zero();
+			od_M3AddScaled(&sum, sj, &aj);
+			od_M3AddScaled(&sum, si, &ai);
 			for (int c = 0; c < 9; ++c)
 			{
 				sim->edgeMoment[9 * e + c] = k * sum.m[c];
 			}
-			od_Vec3 arm = od_Scale(k * g->volumes[j], od_Sub(od_V3Load(g->centers + 3 * j), ci));
+			od_Vec3 arm = od_Scale(k * (sj * g->volumes[j]), od_Sub(od_V3Load(g->centers + 3 * j), ci));
 			od_V3Store(sim->edgeArm + 3 * e, arm);
 			row = od_Sub(row, arm);
 		}

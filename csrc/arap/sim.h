@@ -203,12 +203,18 @@ struct od_Sim
 	double* trace;
 	int traceCount, traceCapacity;
 
-	// Per directed edge (CSR order of graph->adj), scaled by k; rebuilt when k changes:
-	// k (Ā_j + Ā_i) and k v_j (X̄_j - X̄_i) of the local step, k v_j (X̄_i - X̄_j) of the right side.
+	// Per particle i, the scale s_i of its ellipsoid's elastic integral (od_Sim_SetStiffnessScale): every
+	// term of the elastic energy integrated over ellipsoid j (v_j and Ā_j) is weighted by s_j. NULL: all 1.
+	double* stiffnessScale;
+	double* elasticVolumes;    // s_i v_i with a scale (the right side's weights, od_ElasticVolumes), else NULL
+	unsigned stiffnessVersion; // advances with every change of the scale (it enters the global matrix)
+
+	// Per directed edge (CSR order of graph->adj), scaled by k and the scale; rebuilt when either changes:
+	// k (s_j Ā_j + s_i Ā_i) and k s_j v_j (X̄_j - X̄_i) of the local step, k s_j v_j (X̄_i - X̄_j) of the right side.
 	double* edgeMoment; // 9 per directed edge
 	double* edgeArm;    // 3 per directed edge
-	double* rowArm;     // 3 per particle: k Σ_j v_j (X̄_i - X̄_j), the right side's R_i term (global_solve.c)
-	double edgeStiffness;
+	double* rowArm;     // 3 per particle: k Σ_j s_j v_j (X̄_i - X̄_j), the right side's R_i term (global_solve.c)
+	double edgeStiffness; // the k they were made with; 0 when the scale changed (k > 0)
 
 	od_SolverDef solverDef;
 	od_Accelerator accelerator;

@@ -294,6 +294,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->edgeMoment);
 	od_Free(sim->edgeArm);
 	od_Free(sim->rowArm);
+	od_Free(sim->stiffnessScale);
+	od_Free(sim->elasticVolumes);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
@@ -332,6 +334,57 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	}
 	sim->predictionValid = false;
 	return OD_OK;
+}
+
+od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
+{
+	int n = sim->graph->n;
+	for (int i = 0; scale && i < n; ++i)
+	{
+		if (!(scale[i] > 0.0) || !isfinite(scale[i]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "stiffness scale[%d] = %g must be finite and > 0", i, scale[i]);
+		}
+	}
+	if (scale ? sim->stiffnessScale && !memcmp(scale, sim->stiffnessScale, sizeof(double) * (size_t)n)
+			  : !sim->stiffnessScale)
+	{
+		return OD_OK; // unchanged: keep the factor
+	}
+	if (scale && !sim->stiffnessScale)
+	{
+		sim->stiffnessScale = od_Alloc(sizeof(double) * (size_t)n);
+		sim->elasticVolumes = od_Alloc(sizeof(double) * (size_t)n);
+		if (!sim->stiffnessScale || !sim->elasticVolumes)
+		{
+			od_Free(sim->stiffnessScale);
+			od_Free(sim->elasticVolumes);
+			sim->stiffnessScale = sim->elasticVolumes = NULL;
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the stiffness scale of %d particles", n);
+		}
+	}
+	if (scale)
+	{
+		memcpy(sim->stiffnessScale, scale, sizeof(double) * (size_t)n);
+		for (int i = 0; i < n; ++i)
+		{
+			sim->elasticVolumes[i] = scale[i] * sim->graph->volumes[i];
+		}
+	}
+	else
+	{
+		od_Free(sim->stiffnessScale);
+		od_Free(sim->elasticVolumes);
+		sim->stiffnessScale = sim->elasticVolumes = NULL;
+	}
+	sim->stiffnessVersion++;
+	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
+	return OD_OK;
+}
+
+const double* od_Sim_GetStiffnessScale(const od_Sim* sim)
+{
+	return sim->stiffnessScale;
 }
 
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)

@@ -19,7 +19,20 @@ The d_a^4 and moment terms are the graph's own bending stiffness: they vanish ag
 particles get small (k then tends to the uniform-strain k = E V / sum_edges (v_i + v_j) d_a^2), but with one to
 three particles across a body they are half or more of G, which is why a uniform-strain k
 (``calibration="uniform"``, 3 E V / sum_edges (v_i + v_j) |d|^2) made a tail droop 7 % at 50 particles and
-18 % at 300. Measured in docs/settings.md.
+18 % at 300. That k (``calibration="bending"``) is one number for the whole body, and the irregular layout of
+``Graph.from_mesh`` makes some parts of a body bend more than others under it: a pinned tail drooped 9.1 to
+11.3 % from 50 to 400 particles.
+
+**Measured, per particle** (the default, ``calibration="measured"``, for bodies at least three times longer
+than thick): hold one end face of the graph and load it across by its own weight (a static solve in each cross
+direction), then the other end. Where a part bends more per bending moment than a continuum of its
+cross-sections (the particles' second moment of area along the body, smoothed over two particle spacings)
+would, its particles' stiffness is raised, and the loads are solved again; the graph then bends everywhere
+as a continuum of rigidity c I(s), and k = E J / (c J_particles) makes that the material's (J the closed
+mesh's second moment, as above). The tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness
+per particle (``Simulation(graph, stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight
+static solves of the graph, once per graph (about 2 s at 400 particles, 3.5 s at 1,000). A blob, a curved
+body, or a chain whose end particle cannot be held by a face keeps the "bending" k on every particle.
 
 E itself is not scale-free: a body of size L under gravity sags by a fraction proportional to rho g L / E (and
 its frequencies scale as sqrt(E / rho) / L), so a real material looks ten times softer ten times larger. The
@@ -66,11 +79,11 @@ class Material:
     description: str = ""
 
 
-# Droop of the 2 m x 0.2 m tail pinned at its root (100 particles, static, docs/settings.md): Jelly ~ 45 %,
-# Flesh ~ 25 %, Rubber ~ 10 % (the default: it droops and jiggles visibly), Stiff ~ 1 %.
+# Droop of the 2 m x 0.2 m tail pinned at its root (100 particles, static, docs/settings.md): Jelly ~ 40 %,
+# Flesh ~ 22 %, Rubber ~ 10 % (the default: it droops and jiggles visibly), Stiff ~ 1 %.
 PRESETS = {m.name: m for m in (
-    Material("Jelly", 3.0e6, 1050.0, 0.5, description="wobbly: the 2 m tail droops about 45 %"),
-    Material("Flesh", 6.0e6, 1050.0, 1.0, description="soft and damped: droops about 25 %, settles quickly"),
+    Material("Jelly", 3.0e6, 1050.0, 0.5, description="wobbly: the 2 m tail droops about 40 %"),
+    Material("Flesh", 6.0e6, 1050.0, 1.0, description="soft and damped: droops about 22 %, settles quickly"),
     Material("Rubber", 1.5e7, 1100.0, 0.3, description="the default: droops about 10 % and jiggles visibly"),
     Material("Stiff", 1.5e8, 1000.0, 0.3, description="nearly rigid: droops about 1 %"),
 )}
@@ -105,15 +118,16 @@ def body_size(graph):
     return float(((c + reach).max(axis=0) - (c - reach).min(axis=0)).max())
 
 
-CALIBRATIONS = ("bending", "uniform")
+CALIBRATIONS = ("measured", "bending", "uniform")
 
 
-def stiffness_for(graph, modulus, size=None, mesh=None, calibration="bending"):
-    """The solver's k for a material of ``modulus`` Pa at REFERENCE_SIZE on this graph; ``size`` (m) is the
-    body's size (default ``body_size(graph)``). ``mesh`` (vertices, triangles): the closed body whose second
-    moment a continuum would have (default: the mesh ``Graph.from_mesh`` was given, when it is closed; else
-    the particles' own). ``calibration``: "bending" (the module's docstring) or "uniform" (the uniform-strain
-    k used before, for comparison)."""
+def stiffness_for(graph, modulus, size=None, mesh=None, calibration="measured"):
+    """The solver's stiffness for a material of ``modulus`` Pa at REFERENCE_SIZE on this graph; ``size`` (m) is
+    the body's size (default ``body_size(graph)``). ``mesh`` (vertices, triangles): the closed body whose
+    second moment a continuum would have (default: the mesh ``Graph.from_mesh`` was given, when it is closed;
+    else the particles' own). ``calibration``: "measured" (the default: one k per particle, an (n,) array for
+    ``Simulation``, from the graph's measured bending; the module's docstring), "bending" (one k from the
+    rest graph's bending energy) or "uniform" (the uniform-strain k used before, for comparison)."""
     if not isinstance(graph, Graph):
         raise TypeError("graph must be an opdeform.Graph")
     if not (modulus > 0.0 and math.isfinite(modulus)):
@@ -127,30 +141,31 @@ def stiffness_for(graph, modulus, size=None, mesh=None, calibration="bending"):
         raise ValueError("the graph has no edges: a stiffness needs at least one")
     arm = ((v[e[:, 0]] + v[e[:, 1]]) * ((c[e[:, 0]] - c[e[:, 1]]) ** 2).sum(axis=1)).sum()
     uniform = 3.0 * modulus * v.sum() / arm
-    ratio = _bending_ratio(graph, mesh) if calibration == "bending" else None
-    return uniform if ratio is None else modulus * ratio
+    ratio = None if calibration == "uniform" else _calibrated_ratio(graph, mesh, calibration)
+    k = uniform if ratio is None else modulus * ratio
+    return np.full(graph.n_particles, k) if calibration == "measured" and np.ndim(k) == 0 else k
 
 
-# (J_ab + J_ac) / (G_ab + G_ac) of a graph for the mesh it was built from: the add-on asks for k on every frame
-# (its settings may change), and the closed-mesh test sorts the mesh's edges (12.6 ms a frame for Suzanne
-# subdivided once, 2,012 vertices, about ten times the frame's simulation). A Graph does not change.
+# k / E of a graph for the mesh it was built from, by calibration: the add-on asks for k on every frame (its
+# settings may change), and the closed-mesh test alone sorts the mesh's edges (12.6 ms a frame for Suzanne
+# subdivided once, 2,012 vertices, about ten times the frame's simulation); the measured one solves. A Graph
+# does not change.
 _OWN_MESH_RATIOS = weakref.WeakKeyDictionary()
 
 
-def _bending_ratio(graph, mesh):
-    """k / E of the bending calibration (the module's docstring), None where nothing bends (no edge has a
-    length along the longest axis: the uniform k then)."""
-    if mesh is None and graph in _OWN_MESH_RATIOS:
-        return _OWN_MESH_RATIOS[graph]
-    centre, frame, moments = _principal_frame(graph)
-    bend = _bending_energy(graph, centre, frame, moments, 1) + _bending_energy(graph, centre, frame, moments, 2)
-    ratio = None
-    if bend > 0.0:
+def _calibrated_ratio(graph, mesh, calibration):
+    """k / E: one per particle (measured, a beam-like body), one for the body (bending; measured elsewhere), or
+    None where nothing bends (no edge has a length along the longest axis: the uniform k then)."""
+    known = _OWN_MESH_RATIOS.setdefault(graph, {}) if mesh is None else {}
+    if calibration not in known:
+        centre, frame, moments = _principal_frame(graph)
         second = _body_second_moment(graph, centre, frame, moments, mesh)
-        ratio = (second[1, 1] + second[2, 2]) / bend
-    if mesh is None:
-        _OWN_MESH_RATIOS[graph] = ratio
-    return ratio
+        found = _measured_bending(graph, centre, frame, moments, second, mesh) if calibration == "measured" else None
+        if found is None:
+            bend = _bending_energy(graph, centre, frame, moments, 1) + _bending_energy(graph, centre, frame, moments, 2)
+            found = (second[1, 1] + second[2, 2]) / bend if bend > 0.0 else None
+        known[calibration] = found
+    return known[calibration]
 
 
 def _moments(graph):
@@ -186,6 +201,144 @@ def _bending_energy(graph, centre, frame, moments, b):
     return float((fibre * (t - t0) ** 2).sum() + (v[j] * da2 ** 2).sum() / 4.0 + (da2 * turn[j]).sum())
 
 
+# The measured calibration (docs/settings.md): hold one end face of the body, load it across (its own weight),
+# and compare how much each part of it bends with what a continuum of its cross-sections would; then the
+# other end. Each part's stiffness is scaled by that ratio, and the loads are solved again with the scale.
+_ELONGATED = 3.0  # length over thickness from which a body is calibrated as a beam (a blob keeps "bending")
+# A curved body's bending moments do not follow its principal axis, so it must be nearly straight: about its
+# local neutral axis it holds this share of its second moment about the axis (_Kernel.straightness). The tail
+# bent along an arc of 20 / 40 / 90 / 120 degrees: 0.86 / 0.62 / 0.33 / 0.27, and measured anyway its mean k
+# came out 1.01 / 1.03 / 1.34 / 1.98 times the bending k
+_STRAIGHT = 0.7
+_END = 0.01  # the held end face: the points within this share of the length of an end
+_SAG = 1e-3  # the load's tip deflection (beam theory, the "bending" rigidity) as a share of the length: linear
+_ITERATIONS = (1500, 500)  # of each static solve, from rest and then from the last round's pose (on the
+# tail, 800 and 300 give the same droops to 4 digits)
+_ROUNDS = 1  # corrections of the scale before the solves that measure the level (2: 1.080x against 1.082x)
+_SMOOTHING = 2.0  # the kernel along the body, in particle spacings (1 and 3 spread the tail's droops the same)
+_LIMIT = 4.0  # the scale stays within [1/_LIMIT, _LIMIT] (a guard: 0.52-1.75 on the bodies of docs/settings.md)
+
+
+def _measured_bending(graph, centre, frame, moments, second, mesh):
+    """The measured k per Pa of each particle, or None where the body is no straight beam (length under
+    _ELONGATED thicknesses, or curved) or cannot be held by an end face (an end's points on a line: a chain's
+    end particle)."""
+    points = _clamp_points(graph, mesh)
+    along = (points - centre) @ frame[:, 0]
+    lo, hi = along.min(), along.max()
+    ends = (along <= lo + _END * (hi - lo), along >= hi - _END * (hi - lo))
+    rigidity = 0.5 * sum(_bending_energy(graph, centre, frame, moments, b) for b in (1, 2)) / (hi - lo)
+    if not (rigidity > 0.0) or second[0, 0] < _ELONGATED ** 2 * second[1, 1] or any(
+            np.linalg.matrix_rank(points[e] - points[e].mean(axis=0), tol=1e-9 * (hi - lo)) < 2 for e in ends):
+        return None
+    v = graph.volumes
+    s = (graph.centers - centre) @ frame[:, 0]
+    kernel = _Kernel(s, lo, hi, _SMOOTHING * float(np.cbrt(v.mean())))
+    if kernel.straightness(graph, centre, frame, moments) < _STRAIGHT:
+        return None
+    sections = [kernel.section_moment(graph, frame, moments, b) for b in (1, 2)]
+    turning = _turning(s, v)
+    both = turning[0] ** 2 + turning[1] ** 2
+    load = _SAG * 8.0 * rigidity / (v.sum() * (hi - lo) ** 2)  # g of a tip deflection _SAG (hi - lo) at k = 1
+    scale, poses = np.ones(graph.n_particles), {}
+    for r in range(_ROUNDS + 1):
+        curvature = [[None, None], [None, None]]  # [direction][end]
+        for e, held in enumerate(ends):
+            for d in (0, 1):  # a load across each direction apart: one diagonal load gave 1.10x, not 1.08x
+                sim = Simulation(graph, scale, density=1.0, gravity=load * frame[:, d + 1])
+                for p in points[held]:
+                    sim.add_position_constraint(p)
+                if (e, d) in poses:
+                    sim.set_state(*poses[e, d])
+                sim.set_solver("chebyshev")
+                sim.solve_static(_ITERATIONS[r > 0])
+                poses[e, d] = sim.positions, sim.rotations
+                fibre = sim.rotations @ frame[:, 0]
+                turn = np.arctan2(fibre @ frame[:, d + 1], fibre @ frame[:, 0])
+                curvature[d][e] = np.abs(kernel.slope(v, turn)) / load
+        # per direction: compliance (curvature per moment, least squares over both ends), its level c (the graph
+        # bends as a continuum of rigidity c I) and the ratio to it (> 1: softer than the rest)
+        ratio, level = 0.0, []
+        for d, section in enumerate(sections):
+            compliance = (turning[0] * curvature[d][0] + turning[1] * curvature[d][1]) / both
+            level.append((both * v).sum() / (both * v * compliance * section).sum())
+            ratio = ratio + 0.5 * level[-1] * compliance * section
+        if r == _ROUNDS:
+            break
+        scale = np.clip(scale * ratio, 1.0 / _LIMIT, _LIMIT)
+        scale /= (v * scale).sum() / v.sum()
+    # rigidity k c I(s) against the continuum's E I(s) J / J_particles (the body's second moment, of the mesh)
+    own = _particle_second_moment(graph, centre, frame, moments)
+    return scale * 0.5 * sum(second[b, b] / (own[b, b] * level[b - 1]) for b in (1, 2))
+
+
+def _turning(s, v):
+    """The bending moment at each particle's section under a unit weight per volume, the body held at its low
+    end (sum over s_j > s_i of v_j (s_j - s_i)) and at its high end: cumulative sums in the order of s."""
+    order = np.argsort(s)
+    s, v = s[order], v[order]
+    low, high = np.empty_like(s), np.empty_like(s)
+    low[order] = np.cumsum((v * s)[::-1])[::-1] - s * np.cumsum(v[::-1])[::-1]
+    high[order] = s * np.cumsum(v) - np.cumsum(v * s)
+    return low, high
+
+
+def _clamp_points(graph, mesh):
+    """Rest points on the body: the mesh's vertices (given or remembered), else each ellipsoid's centre and
+    the ends of its axes."""
+    if mesh is None and graph._made[0] == "from_mesh":
+        mesh = graph._made[1][:2]
+    if mesh is not None:
+        return np.asarray(mesh[0], dtype=np.float64)
+    tips = np.einsum("nij,nj->nji", graph.axes, graph.radii)
+    c = graph.centers[:, None, :]
+    return np.concatenate([c, c + tips, c - tips], axis=1).reshape(-1, 3)
+
+
+class _Kernel:
+    """Gaussian sums along the body: sum_j K(s_j - s_i) f_j at every particle, K of width sigma, the f binned
+    on a grid of sigma / 4 over [lo, hi] (bins x bins, not particles x particles)."""
+
+    def __init__(self, s, lo, hi, sigma):
+        bins = max(1, int(np.ceil(4.0 * (hi - lo) / sigma)))
+        self.width = (hi - lo) / bins
+        self.s, self.bins = s, bins
+        self.bin = np.clip(((s - lo) / self.width).astype(np.int64), 0, bins - 1)
+        middle = lo + (np.arange(bins) + 0.5) * self.width
+        self.weights = np.exp(-0.5 * ((middle[:, None] - middle[None, :]) / sigma) ** 2)
+        self.cover = self.weights.sum(axis=1)[self.bin] * self.width  # the kernel's length on the body
+
+    def sum(self, f):
+        return (self.weights @ np.bincount(self.bin, f, self.bins))[self.bin]
+
+    def slope(self, v, y):
+        """The local least-squares slope of y along s, the particles weighted by volume v."""
+        s = self.s
+        w, ws, wy = self.sum(v), self.sum(v * s), self.sum(v * y)
+        return (self.sum(v * s * y) - ws * wy / w) / (self.sum(v * s * s) - ws * ws / w)
+
+    def straightness(self, graph, centre, frame, moments):
+        """The least, over the cross axes, of the particles' second moment about the local neutral axis (their
+        mean across the body near each) over that about the body's axis: 1 for a straight body."""
+        v = graph.volumes
+        ratios = []
+        for b in (1, 2):
+            t = (graph.centers - centre) @ frame[:, b]
+            own = (frame[:, b] @ moments @ frame[:, b]).sum()
+            near = self.sum(v * t) / self.sum(v)
+            ratios.append(((v * (t - near) ** 2).sum() + own) / ((v * t * t).sum() + own))
+        return float(min(ratios))
+
+    def section_moment(self, graph, frame, moments, b):
+        """The particles' second moment of area for bending towards frame[:, b] about the local neutral axis:
+        per unit length, so that its integral along the body is theirs."""
+        v = graph.volumes
+        t = graph.centers @ frame[:, b]
+        own = np.einsum("i,nij,j->n", frame[:, b], moments, frame[:, b])
+        w, wt = self.sum(v), self.sum(v * t)
+        return (self.sum(v * t * t) - wt * wt / w + self.sum(own)) / self.cover
+
+
 def _body_second_moment(graph, centre, frame, moments, mesh):
     """The continuum's second moment (3, 3) about its centroid in ``frame``: of the closed mesh scaled to the
     particles' volume (their mass), else of the particles (centres and ellipsoids)."""
@@ -198,9 +351,13 @@ def _body_second_moment(graph, centre, frame, moments, mesh):
         if found is not None:
             volume, second = found
             return frame.T @ second @ frame * (graph.volumes.sum() / volume)
-    v = graph.volumes
+    return _particle_second_moment(graph, centre, frame, moments)
+
+
+def _particle_second_moment(graph, centre, frame, moments):
+    """The particles' second moment (3, 3) about the centre in ``frame`` (centres and ellipsoids)."""
     y = (graph.centers - centre) @ frame
-    return np.einsum("n,ni,nj->ij", v, y, y) + frame.T @ moments.sum(axis=0) @ frame
+    return np.einsum("n,ni,nj->ij", graph.volumes, y, y) + frame.T @ moments.sum(axis=0) @ frame
 
 
 def _closed_mesh_moments(vertices, triangles):

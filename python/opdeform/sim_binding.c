@@ -199,6 +199,21 @@ static PyObject* Sim_set_goal_frequencies(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// set_stiffness_scale(scale or None): n values > 0
+static PyObject* Sim_set_stiffness_scale(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* arg;
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "O", &arg) || GetOptionalArray(arg, "scale", 'd', ((SimObject*)obj)->n, &view) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_SetStiffnessScale(sim, ArrayData(&view));
+	ReleaseArray(&view);
+	return Binding_Done(obj, status);
+}
+
 // set_goals(positions, rotations or None)
 static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
 {
@@ -477,13 +492,20 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 	const double* fields[4] = { od_Sim_GetPositions(sim), od_Sim_GetRotations(sim), od_Sim_GetVelocities(sim),
 								od_Sim_GetAngularVelocities(sim) };
 	int index = StateArrayIndex(name), traceCount = 0;
-	if (index < 0 && strcmp(name, "energy_trace") != 0)
+	bool scale = strcmp(name, "stiffness_scale") == 0; // n values, or none (0) when all 1
+	if (index < 0 && !scale && strcmp(name, "energy_trace") != 0)
 	{
 		PyErr_Format(PyExc_ValueError, "unknown state array '%s'", name);
 		return NULL;
 	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
 	const double* data = index >= 0 ? fields[index] : od_Sim_GetEnergyTrace(sim, &traceCount);
-	Py_ssize_t count = index >= 0 ? StateArrayCount(index, ((SimObject*)obj)->n) : traceCount;
+	Py_ssize_t count = index >= 0 ? StateArrayCount(index, n) : traceCount;
+	if (scale)
+	{
+		data = od_Sim_GetStiffnessScale(sim);
+		count = data ? n : 0;
+	}
 	if (count > 0 && CopyOut(out, "out", data, count, 'd') < 0)
 	{
 		return NULL;
@@ -631,6 +653,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "clear_floor", Sim_clear_floor, METH_NOARGS, NULL },
 	{ "set_goal_frequencies", Sim_set_goal_frequencies, METH_VARARGS, "set_goal_frequencies(frequencies or None)" },
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
+	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "add_collider", Sim_add_collider, METH_VARARGS, NULL },
 	{ "move_collider", Sim_move_collider, METH_VARARGS, NULL },
 	{ "update_collider_vertices", Sim_update_collider_vertices, METH_VARARGS, NULL },

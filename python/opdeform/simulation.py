@@ -13,13 +13,18 @@ __all__ = ["Simulation"]
 
 class Simulation(ForceFields):
     """ARAP dynamics of an oriented-particle graph (METHOD.md): k = stiffness, rho = density, h = dt,
-    c = damping, iterations = local/global pairs after each step's first global solve, skin_neighbors = m."""
+    c = damping, iterations = local/global pairs after each step's first global solve, skin_neighbors = m.
+    ``stiffness`` is a number or one per particle (as ``materials.stiffness_for`` gives it): then k is their
+    mean and ``stiffness_scale`` their ratios to it (``set_stiffness_scale``)."""
 
     def __init__(self, graph, stiffness, density=1000.0, dt=1 / 60, iterations=10, gravity=(0.0, 0.0, -9.81),
                  damping=0.0, skin_neighbors=4):
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
-        self._start(graph, core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors))
+        k, scale = split_stiffness(stiffness, graph.n_particles)
+        self._start(graph, core_params(k, density, dt, iterations, gravity, damping, skin_neighbors))
+        if scale is not None:
+            self.set_stiffness_scale(scale)
 
     def _start(self, graph, params):
         self.graph = graph
@@ -100,6 +105,20 @@ class Simulation(ForceFields):
         return self._core.constraint_count()
 
     # -- floor -----------------------------------------------------------------------------------------
+    # -- stiffness per particle ---------------------------------------------------------------------------
+    def set_stiffness_scale(self, scale):
+        """A stiffness per particle: particle i's ellipsoid stores scale[i] times the stiffness (every elastic
+        term integrated over it, METHOD.md eq. 3), one value > 0 per particle, or None for all 1 (the same
+        bits as never set). A change refactors the global matrix once, on the next step."""
+        n = self.graph.n_particles
+        self._core.set_stiffness_scale(None if scale is None else as_array("scale", scale, (n,)))
+
+    @property
+    def stiffness_scale(self):
+        """The stiffness per particle (set_stiffness_scale), a copy; None when all 1."""
+        out = np.empty(self.graph.n_particles)
+        return out if self._core.read("stiffness_scale", out) else None
+
     # -- goals ----------------------------------------------------------------------------------------
     def set_goal_strength(self, strength):
         """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
@@ -296,12 +315,13 @@ class Simulation(ForceFields):
 
     # -- pickling ---------------------------------------------------------------------------------------
     def __getstate__(self):
-        """Everything a step reads: graph, parameters, solver settings, floor, goals, constraints (ids, slot
-        order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact
-        and the state with velocities. The factorization is rebuilt; counters restart."""
+        """Everything a step reads: graph, parameters, stiffness scale, solver settings, floor, goals, constraints
+        (ids, slot order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices),
+        self-contact and the state with velocities. The factorization is rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
-        return {"graph": self.graph, "params": self.params, "solver": solver, "trace_energy": self.trace_energy,
-                "floor": self._floor, "goal_hz": self._goal_hz, "goal_frames": self._goal_frames,
+        return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale, "solver": solver,
+                "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
+                "goal_frames": self._goal_frames,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
                 "state": (self.positions, self.rotations, self.velocities, self.angular_velocities),
@@ -314,6 +334,8 @@ class Simulation(ForceFields):
         self.trace_energy = saved["trace_energy"]
         if saved["floor"] is not None:
             self.set_floor(*saved["floor"])
+        if saved["stiffness_scale"] is not None:
+            self.set_stiffness_scale(saved["stiffness_scale"])
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
         if saved["goal_frames"] is not None:
@@ -362,13 +384,17 @@ class Simulation(ForceFields):
         return self._core.params()
 
     def set_params(self, **changes):
-        """Changes parameters (same names as the constructor); the state is kept."""
+        """Changes parameters (same names as the constructor); the state is kept. A stiffness replaces the
+        stiffness scale too: one per particle sets it, a number makes it uniform."""
         p = self.params
         unknown = set(changes) - set(p)
         if unknown:
             raise ValueError(f"unknown parameters: {sorted(unknown)}")
         p.update(changes)
+        p["stiffness"], scale = split_stiffness(p["stiffness"], self.graph.n_particles)
         self._core.set_params(*core_params(**p))
+        if "stiffness" in changes:
+            self.set_stiffness_scale(scale)
 
     ACCELERATORS = ("none", "anderson", "chebyshev", "auto")
 
@@ -460,6 +486,15 @@ def frame_from_normal(normal):
 
 def _rotation(rotation):
     return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
+
+
+def split_stiffness(stiffness, n):
+    """(k, scale) of a stiffness: a number (scale None), or one per particle (k their mean, scale k_i / k)."""
+    if np.ndim(stiffness) == 0:
+        return stiffness, None
+    per_particle = as_array("stiffness", stiffness, (n,))
+    k = float(per_particle.mean())
+    return k, per_particle / k
 
 
 def core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors):

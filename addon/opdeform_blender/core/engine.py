@@ -76,6 +76,11 @@ def _same(a, b):
     return a is b or (a is not None and b is not None and np.array_equal(a, b))
 
 
+def _same_params(a, b):
+    """Whether two Simulation parameter dicts are equal (a stiffness may be one per particle)."""
+    return b is not None and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+
+
 class FrameRun:
     """One engine's way to a frame (``Engine.begin``): the frame's inputs and the plan (core/frames.py)."""
 
@@ -206,7 +211,7 @@ class Engine:
             self.colliders = SceneColliders(self.sim)
             self.fields = SceneFields(self.sim)
             changed = True
-        elif params != self._params:
+        elif not _same_params(params, self._params):
             self.sim.set_params(**params)
             changed = True
             if self._constraint_args is not None:  # weights relative to the new stiffness

@@ -39,6 +39,11 @@ void od_Sim_Destroy(od_Sim* sim);
 od_SimDef od_Sim_GetDef(const od_Sim* sim);
 // Changes parameters; the state is kept. The factorization is redone lazily if needed.
 od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def);
+// A stiffness per particle: particle i's ellipsoid stores s_i k instead of k (every elastic term integrated
+// over it, its volume's and its moment's, METHOD.md eq. 3), n values > 0; NULL = all 1 (the same bits as
+// never set). The global matrix is refactored once, on the next solve. Get: NULL when all 1.
+od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale);
+const double* od_Sim_GetStiffnessScale(const od_Sim* sim);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
 od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
