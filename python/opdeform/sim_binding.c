@@ -184,34 +184,32 @@ static PyObject* Sim_set_floor(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, od_Sim_SetFloor(sim, height, friction));
 }
 
-// set_goal_frequencies(frequencies or None): n values in Hz
-static PyObject* Sim_set_goal_frequencies(PyObject* obj, PyObject* args)
+// A setter of one optional value per particle (None: cleared): its argument named `name`.
+static PyObject* Sim_SetPerParticle(PyObject* obj, PyObject* args, const char* name,
+									od_Status (*set)(od_Sim*, const double*))
 {
 	od_Sim* sim = Sim_Enter(obj);
 	PyObject* arg;
 	Py_buffer view;
-	if (!sim || !PyArg_ParseTuple(args, "O", &arg) || GetOptionalArray(arg, "frequencies", 'd', ((SimObject*)obj)->n, &view) < 0)
+	if (!sim || !PyArg_ParseTuple(args, "O", &arg) || GetOptionalArray(arg, name, 'd', ((SimObject*)obj)->n, &view) < 0)
 	{
 		return NULL;
 	}
-	od_Status status = od_Sim_SetGoalFrequencies(sim, ArrayData(&view));
+	od_Status status = set(sim, ArrayData(&view));
 	ReleaseArray(&view);
 	return Binding_Done(obj, status);
+}
+
+// set_goal_frequencies(frequencies or None): n values in Hz
+static PyObject* Sim_set_goal_frequencies(PyObject* obj, PyObject* args)
+{
+	return Sim_SetPerParticle(obj, args, "frequencies", od_Sim_SetGoalFrequencies);
 }
 
 // set_stiffness_scale(scale or None): n values > 0
 static PyObject* Sim_set_stiffness_scale(PyObject* obj, PyObject* args)
 {
-	od_Sim* sim = Sim_Enter(obj);
-	PyObject* arg;
-	Py_buffer view;
-	if (!sim || !PyArg_ParseTuple(args, "O", &arg) || GetOptionalArray(arg, "scale", 'd', ((SimObject*)obj)->n, &view) < 0)
-	{
-		return NULL;
-	}
-	od_Status status = od_Sim_SetStiffnessScale(sim, ArrayData(&view));
-	ReleaseArray(&view);
-	return Binding_Done(obj, status);
+	return Sim_SetPerParticle(obj, args, "scale", od_Sim_SetStiffnessScale);
 }
 
 // set_goals(positions, rotations or None)
