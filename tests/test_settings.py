@@ -59,6 +59,15 @@ def test_a_graphs_bending_calibration_is_computed_once(monkeypatch):
     assert len(calls) == 4
 
 
+def test_above_the_measured_calibrations_particle_count_the_bending_k_stands_in(monkeypatch):
+    """The measured k costs about 2.5 ms a particle (26 s an artist would wait at 10,000): above
+    materials._MEASURED_MAX particles every particle gets the bending k."""
+    _, _, g = tail(particles=50)
+    monkeypatch.setattr(materials, "_MEASURED_MAX", 49)
+    k = materials.stiffness_for(g, 1.5e7)
+    assert k.shape == (50,) and np.all(k == materials.stiffness_for(g, 1.5e7, calibration="bending"))
+
+
 def test_a_closed_mesh_with_faces_turned_both_ways_has_the_same_moments():
     """A closed mesh whose faces are wound either way (the add-on's test tail) is turned outward piece by piece
     before its volume and second moment are taken (it fell back to the particles' own J: the tail's droop then
