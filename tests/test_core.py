@@ -165,6 +165,11 @@ def test_a_stiffness_per_particle_is_k_and_a_scale():
     assert sim.stiffness_scale * 2e8 == pytest.approx(k)
     with pytest.raises(ValueError):
         opdeform.Simulation(graph, k[1:])
+    before = (sim.params, sim.stiffness_scale)
+    for bad in (0.0, -1.0, np.nan, np.inf):  # named by index; nothing changed (k was set before the scale failed)
+        with pytest.raises(ValueError, match=r"^stiffness\[3\] = .* must be finite and > 0$"):
+            sim.set_params(stiffness=np.where(np.arange(graph.n_particles) == 3, bad, k))
+        assert sim.params == before[0] and np.array_equal(sim.stiffness_scale, before[1])
 
 
 def test_fig3_collapsed_start_recovers_rest_shape():

@@ -493,6 +493,9 @@ def split_stiffness(stiffness, n):
     if np.ndim(stiffness) == 0:
         return stiffness, None
     per_particle = as_array("stiffness", stiffness, (n,))
+    bad = np.flatnonzero(~(np.isfinite(per_particle) & (per_particle > 0.0)))
+    if len(bad):  # named here: the mean (nan, 0) and the scale it divides would hide which one
+        raise ValueError(f"stiffness[{bad[0]}] = {per_particle[bad[0]]} must be finite and > 0")
     k = float(per_particle.mean())
     return k, per_particle / k
 
