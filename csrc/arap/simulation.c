@@ -336,6 +336,13 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	return OD_OK;
 }
 
+static void od_DropStiffnessScale(od_Sim* sim)
+{
+	od_Free(sim->stiffnessScale);
+	od_Free(sim->elasticVolumes);
+	sim->stiffnessScale = sim->elasticVolumes = NULL;
+}
+
 od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
 {
 	int n = sim->graph->n;
@@ -357,9 +364,7 @@ od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
 		sim->elasticVolumes = od_Alloc(sizeof(double) * (size_t)n);
 		if (!sim->stiffnessScale || !sim->elasticVolumes)
 		{
-			od_Free(sim->stiffnessScale);
-			od_Free(sim->elasticVolumes);
-			sim->stiffnessScale = sim->elasticVolumes = NULL;
+			od_DropStiffnessScale(sim);
 			return od_Fail(OD_ERROR_MEMORY, "out of memory for the stiffness scale of %d particles", n);
 		}
 	}
@@ -373,9 +378,7 @@ od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
 	}
 	else
 	{
-		od_Free(sim->stiffnessScale);
-		od_Free(sim->elasticVolumes);
-		sim->stiffnessScale = sim->elasticVolumes = NULL;
+		od_DropStiffnessScale(sim);
 	}
 	sim->stiffnessVersion++;
 	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
