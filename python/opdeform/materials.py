@@ -135,16 +135,21 @@ def stiffness_for(graph, modulus, size=None, mesh=None, calibration="measured"):
         raise ValueError(f"modulus = {modulus} must be finite and > 0")
     if calibration not in CALIBRATIONS:
         raise ValueError(f"calibration must be one of {CALIBRATIONS}, got {calibration!r}")
+    if graph.n_edges == 0:
+        raise ValueError("the graph has no edges: a stiffness needs at least one")
     size = body_size(graph) if size is None else float(size)
     modulus = modulus * (size / REFERENCE_SIZE)
-    c, v, e = graph.centers, graph.volumes, graph.edges
-    if len(e) == 0:
-        raise ValueError("the graph has no edges: a stiffness needs at least one")
-    arm = ((v[e[:, 0]] + v[e[:, 1]]) * ((c[e[:, 0]] - c[e[:, 1]]) ** 2).sum(axis=1)).sum()
-    uniform = 3.0 * modulus * v.sum() / arm
     ratio = None if calibration == "uniform" else _calibrated_ratio(graph, mesh, calibration)
-    k = uniform if ratio is None else modulus * ratio
+    k = _uniform_stiffness(graph, modulus) if ratio is None else modulus * ratio
     return np.full(graph.n_particles, k) if calibration == "measured" and np.ndim(k) == 0 else k
+
+
+def _uniform_stiffness(graph, modulus):
+    """The uniform-strain k, 3 E V / sum_edges (v_i + v_j) |d|^2 (only where no calibration applies: the add-on
+    asks for k every frame)."""
+    c, v, e = graph.centers, graph.volumes, graph.edges
+    arm = ((v[e[:, 0]] + v[e[:, 1]]) * ((c[e[:, 0]] - c[e[:, 1]]) ** 2).sum(axis=1)).sum()
+    return 3.0 * modulus * v.sum() / arm
 
 
 # k / E of a graph for the mesh it was built from, by calibration: the add-on asks for k on every frame (its
