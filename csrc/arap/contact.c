@@ -123,15 +123,22 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
 // end: lb, less the part of its motion after its first contact that went into the surface along the normal
 // there (the motion along the surface stays, so that sliding is not slowed).
-static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3 x, od_Vec3 la,
-							   od_Vec3 lb)
+// Ma: the particle's moment in the start frame, the moment all along when the collider does not turn.
+static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const od_Mat3* Ma, od_Vec3 start, od_Vec3 x,
+							   od_Vec3 la, od_Vec3 lb)
 {
 	int samples = (int)fmin(ceil(od_Length(od_Sub(lb, la)) / b->step), OD_SWEEP_MAX);
+	bool turns = c->turn.x != 0.0 || c->turn.y != 0.0 || c->turn.z != 0.0;
 	for (int k = 1; k < samples; ++k)
 	{
 		double s = (double)k / samples;
-		od_Mat3 turn = od_M3ExpSkew(od_Scale(s, c->turn));
-		od_Mat3 R = od_M3Mul(&turn, &c->Ra), M = od_InFrame(&b->M, &R);
+		od_Mat3 R = c->Ra, M = *Ma;
+		if (turns)
+		{
+			od_Mat3 turn = od_M3ExpSkew(od_Scale(s, c->turn));
+			R = od_M3Mul(&turn, &c->Ra);
+			M = od_InFrame(&b->M, &R);
+		}
 		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
 		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
 		if (od_Depth(&c->body, &M, l, c->thickness, b->reach, &n, false) > 0.0)
@@ -156,7 +163,7 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
 	double left = od_Depth(&c->body, &Ma, la, c->thickness, b->reach, &n, false) - b->recovery; // began inside
-	od_Vec3 l = od_FirstContact(c, b, start, *x, la, lb);
+	od_Vec3 l = od_FirstContact(c, b, &Ma, start, *x, la, lb);
 	double depth = od_Depth(&c->body, &Mb, l, c->thickness, b->reach, &n, true);
 	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
 	{
