@@ -48,8 +48,19 @@ def wheel_files(wheel):
                 yield name, z.read(name)
 
 
+def folders(names):
+    """Every folder above the names, parents first: the zip's folder entries."""
+    return sorted({"/".join(name.split("/")[:k]) + "/" for name in names for k in range(1, name.count("/") + 1)})
+
+
 def write_zip(path, files):
+    """The zip with a folder entry for every folder: Blender's Install (and Install again, to update) removes
+    an installed add-on's folder only when the zip names it, and without one extracted over the loaded module
+    (Blender 3.4: a bus error, the compiled module truncated under the running process)."""
+    files = list(files)
     with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+        for folder in folders(rel for rel, _ in files):
+            z.mkdir(folder.rstrip("/"))
         for rel, data in files:
             z.writestr(rel, data)
     print(f"package: {path} ({os.path.getsize(path) // 1024} KiB)")

@@ -178,6 +178,18 @@ def test_legacy_zip_vendors_the_wheel(packages):
                 assert z.read("opdeform_blender/vendor/" + name) == w.read(name), name
 
 
+def test_legacy_zip_names_its_folders(packages):
+    """Blender's Install removes an installed add-on's folder before extracting only when the zip has an entry
+    for it (bl_operators/userpref.py: root names, found without a path separator); without one it extracted the
+    files over the loaded compiled module (Blender 3.4: a bus error on Install again)."""
+    with zipfile.ZipFile(packages["legacy"]) as z:
+        names = z.namelist()
+    assert [n for n in names if os.sep not in os.path.normpath(n)] == ["opdeform_blender/"]
+    for name in names:
+        parent = name.rstrip("/").rpartition("/")[0]
+        assert not parent or parent + "/" in names, name
+
+
 def test_extension_lists_the_wheel(packages):
     wheel = packages["wheel"].name
     with zipfile.ZipFile(packages["extension"]) as z:

@@ -76,3 +76,14 @@ def _keep_modules_alive():
 def unregister():
     for m in reversed(_modules):
         m.unregister()
+    _retire_modules()
+
+
+def _retire_modules():
+    """Keeps this copy's modules in sys.modules under a private name, so that Python's finalization still wipes
+    their dicts after Blender replaced them (Install again over the enabled add-on, an extension's update):
+    otherwise the classes Blender keeps hold a module that is no longer listed, its dict keeps `bpy`, and bpy
+    4.2 crashes at exit as _keep_modules_alive describes (measured: a segmentation fault after a reinstall)."""
+    for n in (__name__, *(f"{__name__}.{name}" for name in MODULES)):
+        if n in sys.modules:
+            sys.modules[f"_opdeform_retired_{id(sys.modules[n]):x}"] = sys.modules[n]

@@ -4,7 +4,7 @@
 // A mesh is closed when every edge joins two triangles (inside by the parity of crossings, its winding
 // irrelevant) and open otherwise (inside is behind the nearest triangle, so a face wound against its
 // neighbours is refused). A mesh is sampled at `resolution` samples along its longest side: 64 by default;
-// a deforming 3,744-triangle sphere re-samples in 94 ms at 64 and 33 ms at 32 (docs/contact.md, measured).
+// a deforming 3,744-triangle sphere re-samples in 71 ms at 64 and 32 ms at 32 (docs/contact.md, measured).
 #include "colliders.h"
 
 #include "buffer.h"

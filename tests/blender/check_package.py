@@ -3,8 +3,9 @@
     blender -b --factory-startup --python-exit-code 1 -P check_package.py -- ZIP legacy|extension ok|broken
     <python with bpy> check_package.py ZIP legacy|extension ok|broken
 
-"ok": the compiled module loads (legacy: vendored in the zip; extension: from the wheel Blender installed) (without the shape-matching baseline) and a mesh builds, plays and
-bakes. "broken": the zip's compiled
+"ok": the compiled module loads (legacy: vendored in the zip; extension: from the wheel Blender installed) (without
+the shape-matching baseline), a mesh builds, plays and bakes, and after the same zip is installed again over the
+enabled add-on (an update) another mesh plays. "broken": the zip's compiled
 module is damaged; the add-on still registers, the panel says what is wrong and the operators report it.
 The caller points BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at an empty folder and leaves
 OPDEFORM_PYTHONPATH unset.
@@ -23,14 +24,28 @@ import helpers as H  # noqa: E402  (paths, fake panel layout; the repo's addon/ 
 sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(H.ADDON_DIR)]
 assert "OPDEFORM_PYTHONPATH" not in os.environ
 
-if kind == "legacy":
-    bpy.ops.preferences.addon_install(filepath=zip_path)
-    import addon_utils
-    module_name = "opdeform_blender"
-    assert addon_utils.enable(module_name, default_set=True, handle_error=None) is not None
-else:
+
+
+def install():
+    if kind == "legacy":
+        bpy.ops.preferences.addon_install(filepath=zip_path)
+        import addon_utils
+        assert addon_utils.enable("opdeform_blender", default_set=True, handle_error=None) is not None
+        return "opdeform_blender"
     bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
-    module_name = "bl_ext.user_default.opdeform_blender"
+    return "bl_ext.user_default.opdeform_blender"
+
+
+def play(obj, frames=10):
+    obj.opdeform.particles = 12
+    bpy.ops.opdeform.enable(object=obj.name)
+    obj.opdeform.frame_end = frames
+    for f in range(1, frames + 1):
+        bpy.context.scene.frame_set(f)
+    assert not obj.opdeform.error, obj.opdeform.error
+
+
+module_name = install()
 addon = sys.modules[module_name]
 assert os.path.abspath(addon.__file__).startswith(os.path.abspath(os.environ.get("BLENDER_USER_RESOURCES") or
                                                                   os.environ["BLENDER_USER_SCRIPTS"]))
@@ -53,15 +68,16 @@ if expect == "ok":
         assert os.sep + "site-packages" + os.sep in module.__file__, module.__file__
     print("module:", module.__file__)
     assert not hasattr(module, "ShapeMatching") and not hasattr(module._core, "ShapeMatching")
-    obj.opdeform.particles = 12
-    bpy.ops.opdeform.enable()
-    obj.opdeform.frame_end = 10
-    for f in range(1, 11):
-        bpy.context.scene.frame_set(f)
-    assert not obj.opdeform.error, obj.opdeform.error
+    play(obj)
     obj.opdeform.cache_directory = os.path.join(os.path.dirname(zip_path), "cache-" + kind)
     bpy.ops.opdeform.bake()
     assert obj.opdeform.baked
+    # Installed again over the enabled add-on, as an update is: Blender 3.4 extracted the legacy zip over the
+    # loaded compiled module (a bus error) while the zip named no folder, and bpy 4.2 crashed at exit after it
+    install()
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(3, 0, 1))
+    play(bpy.context.object)
+    print("installed again: plays")
 else:
     assert not loaded and "could not be loaded" in where, where
     text = H.labels(H.draw_panels())
