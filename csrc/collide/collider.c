@@ -113,10 +113,14 @@ static void od_SdfBand(od_Collider* c, const od_MeshView* m)
 		double area = od_Length(normal);
 		normal = area > 0.0 ? od_Scale(1.0 / area, normal) : normal;
 		int lo[3], hi[3];
+		double va[3], vb[3], vc[3]; // by index: (&a.x)[1] reads past a.x, which clang's optimizer exploited
+		od_V3Store(va, a);
+		od_V3Store(vb, b);
+		od_V3Store(vc, cc);
 		for (int ax = 0; ax < 3; ++ax)
 		{
-			double mn = fmin(fmin((&a.x)[ax], (&b.x)[ax]), (&cc.x)[ax]);
-			double mx = fmax(fmax((&a.x)[ax], (&b.x)[ax]), (&cc.x)[ax]);
+			double mn = fmin(fmin(va[ax], vb[ax]), vc[ax]);
+			double mx = fmax(fmax(va[ax], vb[ax]), vc[ax]);
 			lo[ax] = (int)floor((mn - c->origin[ax]) / c->spacing) - OD_MESH_BAND;
 			hi[ax] = (int)ceil((mx - c->origin[ax]) / c->spacing) + OD_MESH_BAND;
 			lo[ax] = lo[ax] < 0 ? 0 : lo[ax];

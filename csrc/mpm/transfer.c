@@ -108,7 +108,8 @@ void od_MpmP2G(od_MpmWorld* w, double dt)
 static void od_KeepInside(const od_MpmWorld* w, od_Vec3* x, od_Vec3* v)
 {
 	double dx = 1.0 / w->model.invDx;
-	double* xs = &x->x;
+	double xs[3]; // by index through an array: x->x's address indexed past x is undefined
+	od_V3Store(xs, *x);
 	for (int a = 0; a < 3; ++a)
 	{
 		double lo = w->model.def.lower[a] + dx, hi = w->model.def.lower[a] + (w->grid.cells[a] - 1) * dx;
@@ -120,6 +121,7 @@ static void od_KeepInside(const od_MpmWorld* w, od_Vec3* x, od_Vec3* v)
 			*v = od_MpmContactResponse(w->model.def.walls, w->model.def.wallFriction, *v, od_V3Load(n));
 		}
 	}
+	*x = od_V3Load(xs);
 }
 
 static void od_G2PTask(void* ctx, int ob, int thread)
