@@ -1,7 +1,8 @@
 """In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities) and the
 handle targets and goal frames that produced them, and for a member of a contact group the group's state after
 that frame (``opdeform.ContactGroup.save_state``: the pairs and forces its next step starts from; 170-310 kB a
-frame for two stacked 1,000-particle bodies, shared by the members' caches). A few kilobytes per frame for a
+frame for two stacked 1,000-particle bodies, shared by the members' caches), and the skinned vertices that the
+frame's colliders and floor pushed out (indices and positions: only those). A few kilobytes per frame for a
 hundred particles: the skinned vertices are not kept, they are recomputed from the state when a cached frame is
 shown.
 
@@ -15,9 +16,9 @@ CACHE_BYTES = 256 * 2 ** 20
 
 
 def _nbytes(entry):
-    state, targets, goals, contact = entry
+    state, targets, goals, contact, pushed = entry
     arrays = [*state, *(() if targets is None else (targets,)), *(() if goals is None else goals),
-              *(() if contact is None else contact)]
+              *(() if contact is None else contact), *(() if pushed is None else pushed)]
     return sum(np.asarray(a).nbytes for a in arrays)
 
 
@@ -47,7 +48,7 @@ class StateCache:
 
     def store(self, frame, state, targets, goals=None):
         self._drop(frame)
-        entry = (state, None if targets is None else np.array(targets, copy=True), goals, None)
+        entry = (state, None if targets is None else np.array(targets, copy=True), goals, None, None)
         self.frames[frame] = entry
         self.bytes += _nbytes(entry)
         if self.last is None or frame > self.last:
@@ -60,17 +61,28 @@ class StateCache:
         if entry is not None:
             self.bytes -= _nbytes(entry)
 
-    def store_contact(self, frame, contact):
-        """The contact group's state after a cached frame (None: none, a new group's)."""
+    def _store_part(self, frame, k, value):
         entry = self.frames.get(frame)
         if entry is not None:
             self.bytes -= _nbytes(entry)
-            self.frames[frame] = entry = (*entry[:3], contact)
+            self.frames[frame] = entry = (*entry[:k], value, *entry[k + 1:])
             self.bytes += _nbytes(entry)
+
+    def store_contact(self, frame, contact):
+        """The contact group's state after a cached frame (None: none, a new group's)."""
+        self._store_part(frame, 3, contact)
+
+    def store_pushed(self, frame, pushed):
+        """The skinned vertices a cached frame's colliders and floor pushed out: (indices, world positions)."""
+        self._store_part(frame, 4, pushed)
 
     def contact(self, frame):
         entry = self.frames.get(frame)
         return None if entry is None else entry[3]
+
+    def pushed(self, frame):
+        entry = self.frames.get(frame)
+        return None if entry is None else entry[4]
 
     def state(self, frame):
         return self.frames[frame][0]

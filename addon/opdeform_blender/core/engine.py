@@ -172,6 +172,7 @@ class Engine:
         self.start, self.end = 1, 250
         self.timing = {"solver": 0.0, "skin": 0.0}
         self.shown_state = self._rest_state[:2]
+        self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
 
     # -- configuration ---------------------------------------------------------------------------------
     @property
@@ -346,6 +347,7 @@ class Engine:
         self._apply_goals(goals)
         self.solver_frame = self.start
         self.cache.store(self.start, state, targets, goals)
+        self._push_out(self.start)
 
     def _restore(self, frame):
         self.colliders.place(self.colliders.at(frame, NOTHING).colliders)
@@ -357,10 +359,38 @@ class Engine:
             self.sim.set_goals(*goals)
 
     # -- output ---------------------------------------------------------------------------------------
-    def _emit(self, positions, rotations, reference, incoming, matrix):
-        """offset = skin(state) - reference (world), in object space; out = incoming + offset."""
+    def _push_out(self, frame):
+        """Keeps with the cached frame the simulation has just reached its skinned vertices that its colliders
+        and floor (placed for this frame only now) push out to their surface: the frame shows them so whenever
+        it is shown (docs/contact.md, "What the mesh shows"). The whole skin is kept for the frame's own
+        showing, which usually follows."""
+        if self.sim.n_colliders == 0 and self._floor is None:
+            return
         t = time.perf_counter()
+        state = self.cache.state(frame)
+        skinned = self.skin.deform(state[0], state[1])
+        out = self.sim.push_out(skinned)
+        moved = np.flatnonzero(np.any(out != skinned, axis=1))
+        self.cache.store_pushed(frame, (moved, out[moved]))
+        self._last_pushed = (frame, state[0], out)
+        self.timing["skin"] += time.perf_counter() - t
+
+    def _skinned(self, positions, rotations, frame):
+        """The world skin of a state (a new array); of a cached frame, with the vertices its colliders pushed out."""
+        last = self._last_pushed
+        if frame is not None and last is not None and last[0] == frame and last[1] is positions:
+            return last[2].copy()
         moved = self.skin.deform(positions, rotations)
+        pushed = None if frame is None else self.cache.pushed(frame)
+        if pushed is not None:
+            moved[pushed[0]] = pushed[1]
+        return moved
+
+    def _emit(self, positions, rotations, reference, incoming, matrix, frame=None):
+        """offset = skin(state) - reference (world), in object space; out = incoming + offset. ``frame``: the
+        cached frame whose state it is (its pushed-out vertices shown)."""
+        t = time.perf_counter()
+        moved = self._skinned(positions, rotations, frame)
         moved -= reference
         self.offset[:] = moved @ np.linalg.inv(matrix[:3, :3]).T
         np.add(incoming, self.offset, out=self.out)
@@ -420,7 +450,7 @@ class Engine:
         if plan.kind != "show":
             return self.rest_output(run.incoming)
         state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
-        return self._emit(state[0], state[1], self._reference(cached), run.incoming, run.matrix)
+        return self._emit(state[0], state[1], self._reference(cached), run.incoming, run.matrix, plan.frame)
 
     def _restore_for(self, run):
         """Loads the state a run simulates from; what the frames it skips are blended from."""
@@ -455,6 +485,7 @@ class Engine:
                                else None, tk, self._substeps, fps)
         self.solver_frame = k
         self.cache.store(k, self._state(), tk, gk)
+        self._push_out(k)
         self.colliders.remember(k, sk)
         self.reports.store(k, report(self.od.materials, self.sim, handle))
 
@@ -463,7 +494,7 @@ class Engine:
         self.behind = run.plan.frame - shown
         pos, rot = self.cache.state(shown)[:2]
         goals = run.goals if shown == run.plan.frame else self.cache.goals(shown)
-        return self._emit(pos, rot, self._reference(goals), run.incoming, run.matrix)
+        return self._emit(pos, rot, self._reference(goals), run.incoming, run.matrix, shown)
 
     def _surround(self, surroundings):
         """The colliders' frames at the end of the next step, and the force fields acting during it."""
