@@ -210,6 +210,14 @@ def test_capsule_and_mesh_distances_and_removal():
     np.testing.assert_allclose(d, [0.3, -0.3], atol=0.01)
     np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.3)]), [(0.1, 0.2, 0.0)], atol=0.01)
     assert sim.n_colliders == 1
+    points = np.array([(0.1, 0.2, -0.3), (0.1, 0.2, 0.3)])
+    out = np.empty_like(points)
+    assert sim.push_out(points, out=out) is out and np.array_equal(out, sim.push_out(points))
+    assert points[0, 2] == -0.3  # the input left as it was
+    assert sim.push_out(points, out=points) is points and np.array_equal(points, out)  # in place
+    for bad in (np.empty((2, 3), np.float32), np.empty((3, 3)), np.empty((3, 2))[:2, :].T[:2]):
+        with pytest.raises(ValueError, match="out must be"):
+            sim.push_out(points, out=bad)
 
 
 def _flipped_sheet():

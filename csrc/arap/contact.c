@@ -212,11 +212,12 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1)
 	}
 }
 
-// The signed distance of world point p to collider c at its placed frame, the normal and the local point.
-static double od_PlacedDistance(const od_SimCollider* c, od_Vec3 p, od_Vec3* local, od_Vec3* n)
+// The signed distance of world point p to collider c at its placed frame and the local point (the normal is
+// the caller's to ask for: a sampled mesh's is one more read of its cell, and most points are clear of it).
+static double od_PlacedDistance(const od_SimCollider* c, od_Vec3 p, od_Vec3* local)
 {
 	*local = od_M3MulTV(&c->body.R, od_Sub(p, c->body.t));
-	return od_Collider_LocalDistance(&c->body, *local, n);
+	return od_Collider_LocalDistance(&c->body, *local, NULL);
 }
 
 od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* moved)
@@ -233,11 +234,12 @@ od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* move
 		for (int k = 0; k < sim->colliders.count; ++k)
 		{
 			const od_SimCollider* c = &sim->colliders.items[k];
-			double phi = od_PlacedDistance(c, p, &l, &n);
+			double phi = od_PlacedDistance(c, p, &l);
 			if (!(phi < 0.0))
 			{
 				continue;
 			}
+			phi = od_Collider_LocalDistance(&c->body, l, &n);
 			for (int pass = 0; pass < 2 && phi < 0.0; ++pass) // a sampled mesh's surface: twice
 			{
 				l = od_MulAdd(l, -phi, n);
@@ -265,11 +267,11 @@ od_Status od_Sim_GetColliderDistances(const od_Sim* sim, const double* points, i
 	}
 	for (int i = 0; i < count; ++i)
 	{
-		od_Vec3 p = od_V3Load(points + 3 * i), l, n;
+		od_Vec3 p = od_V3Load(points + 3 * i), l;
 		double d = sim->hasFloor ? p.z - sim->floorHeight : INFINITY;
 		for (int k = 0; k < sim->colliders.count; ++k)
 		{
-			d = fmin(d, od_PlacedDistance(&sim->colliders.items[k], p, &l, &n));
+			d = fmin(d, od_PlacedDistance(&sim->colliders.items[k], p, &l));
 		}
 		distances[i] = d;
 	}

@@ -217,10 +217,18 @@ class Simulation(ForceFields):
         """How many colliders the simulation has."""
         return self._core.collider_count()
 
-    def push_out(self, points):
-        """A copy of ``points`` (n,3) with those inside a collider or below the floor moved to the surface:
-        what a skinned mesh shows (``Skin.deform_sim`` does it)."""
-        out = as_array("points", points, (None, 3)).copy()
+    def push_out(self, points, out=None):
+        """``points`` (n,3) with those inside a collider or below the floor moved to the surface, written into
+        ``out`` (float64 (n,3), C-contiguous, writable; ``points`` itself to push in place) and returned, or into
+        a new array: what a skinned mesh shows (``Skin.deform_sim`` does it)."""
+        pts = as_array("points", points, (None, 3))
+        if out is None:
+            out = pts.copy()
+        else:
+            if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.shape == pts.shape
+                    and out.flags.c_contiguous and out.flags.writeable):
+                raise ValueError(f"out must be a C-contiguous, writable float64 array of shape {pts.shape}")
+            np.copyto(out, pts)
         self._core.push_out(out)
         return out
 

@@ -344,8 +344,9 @@ def tail_rig(strength=0.5, armature=True, frames=6 * FPS, group=None):
 def animated_positions(obj):
     """The input at the OPDeform modifier now (the animation without opdeform's effect), object space."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    positions, index = runtime().modifier.read_input(obj.evaluated_get(depsgraph).data)
-    return runtime().original_input(positions, index, len(obj.data.vertices))
+    n = len(obj.data.vertices)
+    positions, index = runtime().modifier.read_input(obj.evaluated_get(depsgraph).data, n)
+    return runtime().original_input(positions, index, n)
 
 
 def tail_motion(obj, frames):

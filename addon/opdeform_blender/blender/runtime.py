@@ -366,7 +366,7 @@ def frame_input(obj, rt, depsgraph):
     if depsgraph is None:
         depsgraph = bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    positions, index = modifier.read_input(evaluated.data)
+    positions, index = modifier.read_input(evaluated.data, rt.engine.n_vertices)
     if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
     try:
