@@ -141,6 +141,36 @@ def test_colliders_can_be_ignored_per_object_and_collection():
     assert _falls_through(obj)
 
 
+def _table_faces(mesh, first):
+    """The table's 8 vertices (two tetrahedra with a flat 2 m top at z = 0, A at x -3..-1, B at x 1..3) with the
+    4 faces of the one whose vertices start at ``first`` (0: A, 4: B); the other's vertices stay loose."""
+    corners = [p for x0 in (-3.0, 1.0) for p in ((x0, -1.0, 0.0), (x0 + 2, -1.0, 0.0), (x0 + 1, 1.0, 0.0),
+                                                (x0 + 1, -1 / 3, -1.0))]
+    faces = [tuple(first + k for k in f) for f in ((0, 2, 1), (0, 1, 3), (1, 2, 3), (2, 0, 3))]
+    mesh.clear_geometry()
+    mesh.from_pydata(corners, [], faces)
+    mesh.update()
+    bpy.context.view_layer.update()
+
+
+def test_an_edited_static_collider_is_read_again():
+    """A collider whose mesh does not deform keeps its triangles between frames (Blender triangulates on every
+    read); an edit that keeps the counts (the table's faces moved from tetrahedron A to B) drops them."""
+    table = H.mesh_object("Table", [(0, 0, 0)] * 8)
+    _table_faces(table.data, 0)
+    table.modifiers.new("Collision", 'COLLISION')
+    obj = blob(location=(2.0, -0.2, 0.6))  # above tetrahedron B's top
+
+    def height():  # the blob's mean height after 1 s
+        z = play_world(obj, range(1, 25))[24][:, 2].mean()
+        bpy.context.scene.frame_set(1)
+        return z
+
+    assert height() < -1.0  # nothing under it: it falls
+    _table_faces(table.data, 4)
+    assert 0.05 < height() < 0.5  # it rests on B's top (squashed: 0.16 m)
+
+
 def _expect_report(obj, *words):
     """The object pauses with an error naming the collider; the frame it showed is kept."""
     before = H.positions(obj)

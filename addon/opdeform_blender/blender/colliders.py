@@ -18,6 +18,10 @@ from ..core import fields as field_logic
 FRICTION_SCALE = 0.1  # Coulomb mu = Collision's Friction (0..80, Blender's default 5) / 10
 _FIELD_WEIGHTS = {"WIND": "wind", "FORCE": "force", "VORTEX": "vortex", "TURBULENCE": "turbulence"}
 _reader = core.ColliderReader()  # an unchanged collider is read without its checks, as the same record
+# collider name -> ((its mesh's name and vertex, corner and face counts), its triangles): kept for a collider whose
+# mesh does not deform until an edit updates its geometry (forget_triangles): Blender triangulates anew on every
+# read: 0.06 ms a frame for a 512-triangle ramp, 6.7 ms for 51,200 triangles (measured in Blender 3.4)
+_triangles = {}
 
 
 def _in(collection, obj):
@@ -44,17 +48,35 @@ def may_deform(obj):
     return keys is not None or any(m.type != 'COLLISION' for m in obj.modifiers)
 
 
-def _mesh_arrays(evaluated):
+def forget_triangles(names=None):
+    """Drops the kept triangles of the colliders or meshes named (all when None): their geometry was edited."""
+    if names is None:
+        _triangles.clear()
+        return
+    names = set(names)
+    for collider in [c for c, (key, _) in _triangles.items() if c in names or key[0] in names]:
+        del _triangles[collider]
+
+
+def _triangles_of(obj, mesh, deforms):
     from . import runtime
-    mesh = evaluated.data
-    return runtime.vertex_positions(mesh).astype(np.float64), runtime.triangles(mesh)
+    if deforms:
+        return runtime.triangles(mesh)
+    key = (obj.data.name, len(mesh.vertices), len(mesh.loops), len(mesh.polygons))
+    kept = _triangles.get(obj.name)
+    if kept is None or kept[0] != key:
+        kept = _triangles[obj.name] = (key, runtime.triangles(mesh))
+    return kept[1]
 
 
 def read_collider(obj, depsgraph):
+    from . import runtime
     evaluated = obj.evaluated_get(depsgraph)
-    vertices, triangles = _mesh_arrays(evaluated)
+    deforms = may_deform(obj)
+    vertices = runtime.vertex_positions(evaluated.data).astype(np.float64)
+    triangles = _triangles_of(obj, evaluated.data, deforms)
     c = obj.collision
-    resolution = core.DEFORMING_RESOLUTION if may_deform(obj) else core.STATIC_RESOLUTION
+    resolution = core.DEFORMING_RESOLUTION if deforms else core.STATIC_RESOLUTION
     return _reader.frame(obj.name, vertices, triangles, np.array(evaluated.matrix_world),
                          FRICTION_SCALE * c.cloth_friction, c.thickness_outer, resolution)
 

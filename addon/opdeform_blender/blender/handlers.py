@@ -88,11 +88,11 @@ def on_frame_change(scene, depsgraph=None):
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
     """Posing mode: a moved handle re-solves the pose. Dynamics: a handle moved by hand outdates the cached
-    frames after the current one."""
-    if _guard["busy"]:
-        return
-    from . import runtime
-    if depsgraph is not None and not depsgraph.id_type_updated('OBJECT'):
+    frames after the current one. Any: an edited mesh's kept collider triangles are dropped."""
+    from . import colliders, runtime
+    if depsgraph is not None:
+        colliders.forget_triangles(u.id.name for u in depsgraph.updates if u.is_updated_geometry)
+    if _guard["busy"] or depsgraph is not None and not depsgraph.id_type_updated('OBJECT'):
         return
     _guard["busy"] = True
     try:
@@ -114,16 +114,19 @@ def on_depsgraph_update(scene, depsgraph=None):
 
 @persistent
 def on_load_post(*args):
-    from . import runtime, versioning
+    from . import colliders, runtime, versioning
     runtime.clear()
+    colliders.forget_triangles()
     versioning.upgrade(bpy.data.objects)
     mark_discovery()
 
 
 @persistent
 def on_undo_post(*args):
-    """Undo and redo replace the data: forget runtimes of objects that are gone or changed shape."""
-    from . import runtime
+    """Undo and redo replace the data: forget runtimes of objects that are gone or changed shape, and every
+    collider's kept triangles."""
+    from . import colliders, runtime
+    colliders.forget_triangles()
     valid = set()
     for obj in bpy.data.objects:
         rt = runtime.get(obj)
