@@ -168,11 +168,17 @@ def test_wheel_runs_with_the_system_cholmod_hidden(wheel_dir):
     assert "hidden:" in proc.stdout
 
 
-# The core's physics tests, run again on the wheel's module: it is compiled by another compiler (zig's clang, for
-# glibc 2.28) than the build tree's (gcc), which read undefined behaviour otherwise: every mesh collider's
-# distances were wrong in the shipped add-on, one axis of its samples cut to the mesh's origin (2026-11-24).
-WHEEL_TESTS = ("test_core.py", "test_contact.py", "test_body_contact.py", "test_forces.py", "test_mpm.py",
-               "test_stability.py", "test_skinning.py", "test_mesh_graph.py", "test_goals.py", "test_loose_parts.py")
+# The core's tests, run again on the wheel's module: it is compiled by another compiler (zig's clang, for glibc
+# 2.28) than the build tree's (gcc), which read undefined behaviour otherwise: every mesh collider's distances
+# were wrong in the shipped add-on, one axis of its samples cut to the mesh's origin (2026-11-24; docs/packaging.md).
+# Every test that needs neither Blender nor the build tree; the wheel leaves the shape-matching baseline out.
+WHEEL_TESTS = ("test_acceleration.py", "test_api_edges.py", "test_arguments.py", "test_batch.py",
+               "test_body_contact.py", "test_busy.py", "test_contact.py", "test_core.py", "test_features.py",
+               "test_forces.py", "test_fork.py", "test_goals.py", "test_interrupt.py", "test_io.py",
+               "test_loose_parts.py", "test_mesh_graph.py", "test_mpm.py", "test_pickle.py", "test_properties.py",
+               "test_settings.py", "test_shot.py", "test_skinning.py", "test_soak.py", "test_stability.py",
+               "test_threads.py")
+WHEEL_LEAVES_OUT = "test_interrupt.py::test_ctrl_c_stops_shape_matching"
 
 
 def test_the_wheel_passes_the_core_physics_tests(wheel_dir):
@@ -181,8 +187,8 @@ def test_the_wheel_passes_the_core_physics_tests(wheel_dir):
     where = subprocess.run([sys.executable, "-c", "import opdeform; print(opdeform.__file__)"], capture_output=True,
                            text=True, env=env, timeout=60)
     assert where.stdout.startswith(str(wheel_dir)), where.stdout + where.stderr
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                           *(str(ROOT / "tests" / name) for name in WHEEL_TESTS)],
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--deselect",
+                           "tests/" + WHEEL_LEAVES_OUT, *(str(ROOT / "tests" / name) for name in WHEEL_TESTS)],
                           capture_output=True, text=True, env=env, timeout=900, cwd=str(ROOT))
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
 
