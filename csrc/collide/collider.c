@@ -525,14 +525,13 @@ od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int ve
 	return status == OD_OK ? od_MeshSample(c, &m, vertexCount) : status;
 }
 
-// Trilinear sample of the mesh distance at local point p (clamped to the sample box, then the distance to it:
-// beyond the box is outside a closed mesh and, behind an open one, inside).
-static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
+// The sample cell of local point p clamped into the sample box: its first sample i and fractions f; returns the
+// squared distance beyond the box, in samples (0 inside it).
+static double od_MeshCell(const od_Collider* c, od_Vec3 p, int i[3], double f[3])
 {
 	double g[3] = { (p.x - c->origin[0]) / c->spacing, (p.y - c->origin[1]) / c->spacing,
 					(p.z - c->origin[2]) / c->spacing };
-	int i[3];
-	double f[3], outside = 0.0;
+	double outside = 0.0;
 	for (int a = 0; a < 3; ++a)
 	{
 		double lim = c->dims[a] - 1.000001;
@@ -541,13 +540,30 @@ static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 		i[a] = (int)clamped;
 		f[a] = clamped - i[a];
 	}
+	return outside;
+}
+
+// The cell's 8 samples into v (corner bit 0: +x, 1: +y, 2: +z) and their trilinear blend at f.
+static double od_CellBlend(const od_Collider* c, const int i[3], const double f[3], double v[8])
+{
 	double d = 0.0;
 	for (int corner = 0; corner < 8; ++corner)
 	{
 		int a = corner & 1, b = (corner >> 1) & 1, e = corner >> 2;
 		double w = (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]);
-		d += w * c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
+		v[corner] = c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
+		d += w * v[corner];
 	}
+	return d;
+}
+
+// Trilinear sample of the mesh distance at local point p (clamped to the sample box, then the distance to it:
+// beyond the box is outside a closed mesh and, behind an open one, inside).
+static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
+{
+	int i[3];
+	double f[3], v[8];
+	double outside = od_MeshCell(c, p, i, f), d = od_CellBlend(c, i, f, v);
 	return d < 0.0 ? d - sqrt(outside) * c->spacing : d + sqrt(outside) * c->spacing; // < 0: behind an open mesh
 }
 
@@ -556,26 +572,13 @@ static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 // frame sliding down a ramp, measured). False beyond the box, where the distance to it is added.
 static bool od_MeshGradient(const od_Collider* c, od_Vec3 p, double* d, od_Vec3* grad)
 {
-	double g[3] = { (p.x - c->origin[0]) / c->spacing, (p.y - c->origin[1]) / c->spacing,
-					(p.z - c->origin[2]) / c->spacing };
 	int i[3];
-	double f[3];
-	for (int a = 0; a < 3; ++a)
+	double f[3], v[8];
+	if (!(od_MeshCell(c, p, i, f) == 0.0))
 	{
-		if (!(g[a] >= 0.0 && g[a] <= c->dims[a] - 1.000001))
-		{
-			return false;
-		}
-		i[a] = (int)g[a];
-		f[a] = g[a] - i[a];
+		return false;
 	}
-	double v[8], sum = 0.0;
-	for (int corner = 0; corner < 8; ++corner)
-	{
-		int a = corner & 1, b = (corner >> 1) & 1, e = corner >> 2;
-		v[corner] = c->sdf[od_SdfIndex(c->dims, i[0] + a, i[1] + b, i[2] + e)];
-		sum += (a ? f[0] : 1 - f[0]) * (b ? f[1] : 1 - f[1]) * (e ? f[2] : 1 - f[2]) * v[corner];
-	}
+	*d = od_CellBlend(c, i, f, v);
 	double dx = 0.0, dy = 0.0, dz = 0.0;
 	for (int k = 0; k < 4; ++k) // the 4 cell edges along each axis, weighted by the other two fractions
 	{
@@ -584,7 +587,6 @@ static bool od_MeshGradient(const od_Collider* c, od_Vec3 p, double* d, od_Vec3*
 		dy += (b ? f[0] : 1 - f[0]) * (e ? f[2] : 1 - f[2]) * (v[b | 2 | e << 2] - v[b | e << 2]);
 		dz += (b ? f[0] : 1 - f[0]) * (e ? f[1] : 1 - f[1]) * (v[b | e << 1 | 4] - v[b | e << 1]);
 	}
-	*d = sum;
 	*grad = od_V3(dx, dy, dz);
 	return true;
 }
@@ -635,10 +637,10 @@ static double od_ShapeDistance(const od_Collider* c, od_Vec3 p, od_Vec3* n, bool
 		case OD_SHAPE_MESH:
 		case OD_SHAPE_OPEN_MESH:
 		{
-			double e = 0.5 * c->spacing, d = outside ? -1.0 : od_MeshDistance(c, p);
-			if (d >= 0.0)
+			double e = 0.5 * c->spacing, d = outside ? 0.0 : od_MeshDistance(c, p);
+			if (!outside && d >= 0.0)
 			{
-				*n = od_V3(0, 0, 1); // outside: no caller needs the normal
+				*n = od_V3(0, 0, 1); // outside the mesh: no caller needs the normal
 				return d;
 			}
 			od_Vec3 g;
