@@ -104,7 +104,6 @@ class Simulation(ForceFields):
         """The number of position and direction constraints."""
         return self._core.constraint_count()
 
-    # -- floor -----------------------------------------------------------------------------------------
     # -- stiffness per particle ---------------------------------------------------------------------------
     def set_stiffness_scale(self, scale):
         """A stiffness per particle: particle i's ellipsoid stores scale[i] times the stiffness (every elastic
@@ -147,6 +146,7 @@ class Simulation(ForceFields):
         self._core.set_goals(pos, rot)
         self._goal_frames = (pos, rot)
 
+    # -- floor -----------------------------------------------------------------------------------------
     def set_floor(self, height=0.0, friction=0.0):
         """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
         floor = (number("height", height), number("friction", friction))
