@@ -7,12 +7,14 @@ with outward-facing (counter-clockwise) triangles.
 - ``strand``: an open ribbon, long and narrow, along +x (a strand of hair or a rope of triangles).
 - ``creature``: a closed four-legged body with neck, head and tail standing on z = 0 (the paper's dinosaur,
   Figs. 3-4), the smooth union of capsules meshed by surface nets.
+- ``character``: a closed upright body with belly, head, ears, tail and feet, 2.43 m tall (issue 24's rigged
+  hopping shot, tests/blender/character_scene.py), meshed the same way.
 - ``subdivide``: four triangles for each, to make large meshes (benchmarks).
 """
 
 import numpy as np
 
-__all__ = ["bar", "capsule", "creature", "sheet", "strand", "subdivide"]
+__all__ = ["bar", "capsule", "character", "creature", "sheet", "strand", "subdivide"]
 
 
 def _grid_triangles(rows, cols, offset=0):
@@ -130,10 +132,26 @@ _CREATURE_PARTS = [
 ]
 
 
-def _creature_distance(p, blend=0.06):
-    """Signed distance (approximate) of points p (..., 3) to the creature: a smooth union of tapered capsules."""
+# The character's capsules by name (metres, facing -y; the feet reach z = -0.005 before it is stood on z = 0).
+CHARACTER_PARTS = {
+    "body": ((0.0, 0.05, 0.55), (0.0, 0.05, 1.2), 0.42, 0.33),
+    "belly": ((0.0, -0.2, 0.78), (0.0, -0.2, 0.8), 0.36, 0.36),
+    "head": ((0.0, 0.0, 1.62), (0.0, -0.06, 1.74), 0.28, 0.26),
+    "ear.L": ((0.12, 0.02, 1.88), (0.26, 0.08, 2.38), 0.085, 0.05),
+    "ear.R": ((-0.12, 0.02, 1.88), (-0.26, 0.08, 2.38), 0.085, 0.05),
+    "tail": ((0.0, 0.38, 0.62), (0.0, 1.08, 0.9), 0.09, 0.05),
+    "leg.L": ((0.2, 0.08, 0.45), (0.22, 0.0, 0.14), 0.14, 0.11),
+    "leg.R": ((-0.2, 0.08, 0.45), (-0.22, 0.0, 0.14), 0.14, 0.11),
+    "foot.L": ((0.22, 0.05, 0.08), (0.24, -0.2, 0.08), 0.085, 0.085),
+    "foot.R": ((-0.22, 0.05, 0.08), (-0.24, -0.2, 0.08), 0.085, 0.085),
+}
+
+
+def _capsules_distance(p, parts, blend=0.06):
+    """Signed distance (approximate) of points p (..., 3) to a smooth union of tapered capsules
+    ``(start, end, radius at start, radius at end)``."""
     d = None
-    for a, b, ra, rb in _CREATURE_PARTS:
+    for a, b, ra, rb in parts:
         a, b = np.array(a), np.array(b)
         ab = b - a
         t = np.clip(((p - a) @ ab) / (ab @ ab), 0.0, 1.0)
@@ -206,22 +224,38 @@ def _is_closed_manifold(triangles):
     return bool(np.all(forward[1:] != forward[:-1]) and np.array_equal(forward, backward))
 
 
-def creature(resolution=48):
-    """The creature: about 1.9 m long, standing on z = 0, facing +x; ``resolution`` grid cells along its
-    length (48 gives about 4,000 triangles, 130 about 28,000; ``subdivide`` for more)."""
-    lo = np.array([-1.05, -0.4, -0.1])
-    hi = np.array([0.95, 0.4, 1.1])
-    h = (hi[0] - lo[0]) / resolution
+def _closed_surface(distance, lo, hi, h):
+    """Surface nets of the zero level of ``distance`` (points -> signed distance) over the box lo..hi at spacing
+    h, standing on z = 0."""
     # A saddle of the level set on a cell face makes an edge of four triangles; a shifted grid avoids it.
     for shift in (0.0, 0.31, 0.57, 0.83):
         start = lo - shift * h
         axes = [start[k] + h * np.arange(int(np.ceil((hi[k] - start[k]) / h)) + 1) for k in range(3)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
-        vertices, triangles = _surface_nets(_creature_distance(grid), start, h)
+        vertices, triangles = _surface_nets(distance(grid), start, h)
         if _is_closed_manifold(triangles):
             break
     vertices[:, 2] -= vertices[:, 2].min()
     return vertices, triangles
+
+
+def creature(resolution=48):
+    """The creature: about 1.9 m long, standing on z = 0, facing +x; ``resolution`` grid cells along its
+    length (48 gives about 4,000 triangles, 130 about 28,000; ``subdivide`` for more)."""
+    lo = np.array([-1.05, -0.4, -0.1])
+    hi = np.array([0.95, 0.4, 1.1])
+    return _closed_surface(lambda p: _capsules_distance(p, _CREATURE_PARTS), lo, hi, (hi[0] - lo[0]) / resolution)
+
+
+def character(resolution=70):
+    """The hopping character of issue 24: one closed shell 2.43 m tall standing on z = 0, facing -y (Blender's
+    front view): a body with a forward belly, a head, two 0.5 m ears, a 0.75 m tail and two feet;
+    ``resolution`` grid cells along its height (70 gives about 5,800 vertices). ``CHARACTER_PARTS`` names
+    its capsules (tests/blender/character_scene.py rigs it)."""
+    lo = np.array([-0.6, -0.7, -0.1])
+    hi = np.array([0.6, 1.2, 2.5])
+    return _closed_surface(lambda p: _capsules_distance(p, CHARACTER_PARTS.values(), blend=0.08), lo, hi,
+                           (hi[2] - lo[2]) / resolution)
 
 
 def subdivide(vertices, triangles, levels=1):
