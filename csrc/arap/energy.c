@@ -1,37 +1,57 @@
 // The objective of a step (METHOD.md): elastic energy integrated over the ellipsoids, the inertia of
-// variational implicit Euler (or the potential of gravity for a static pose) and the constraints.
+// variational implicit Euler (or the potential of gravity for a static pose) and the constraints; the prediction
+// with its damping per particle.
 #include "energy.h"
 
 #include "constraints.h"
+#include "core.h"
 #include "field.h"
 #include "goal.h"
 #include "math3.h"
 
-// The predicted centre in the force fields (fields/field.c): the damped velocity gains h (g + f) and the
-// fields' drag D acts implicitly, y = x + h ((1 - c) v + h (g + f)) / (1 + h D).
-static od_Vec3 od_PredictInFields(const od_Sim* sim, od_Vec3 x, od_Vec3 v)
+// The predicted centre in the force fields (fields/field.c): the damped velocity `kept` gains h (g + f) and the
+// fields' drag D acts implicitly, y = x + h (kept + h (g + f)) / (1 + h D).
+static od_Vec3 od_PredictInFields(const od_Sim* sim, od_Vec3 x, od_Vec3 kept)
 {
 	double h = sim->def.dt, drag;
 	od_Vec3 f;
 	od_FieldSet_Sample(&sim->fields, x, &f, &drag);
-	od_Vec3 gained = od_MulAdd(od_Scale(1.0 - sim->def.damping, v), h, od_Add(od_V3Load(sim->def.gravity), f));
+	od_Vec3 gained = od_MulAdd(kept, h, od_Add(od_V3Load(sim->def.gravity), f));
 	return od_MulAdd(x, h / (1.0 + h * drag), gained);
 }
 
+// The prediction y = x + h (1 - c) v + h² g, R̃ = R + h (1 - c) [ω]× R with c = c_i (od_Damping). With goals
+// carrying the rest only the motion relative to the goals is damped, so that a body riding a moving goal is
+// not held back: y = x + h (u + (1 - c)(v - u)) + h² g and R̃ = R + h [Ω + (1 - c)(ω - Ω)]× R with the goal's
+// velocity u and angular velocity Ω (goal.c).
 void od_Predict(od_Sim* sim)
 {
 	const od_State* s = &sim->state;
-	double h = sim->def.dt, keep = (1.0 - sim->def.damping) * h, inertia = sim->def.density / (h * h);
+	const od_Goals* goals = &sim->goals;
+	bool relative = od_Goals_CarryRest(sim);
+	double h = sim->def.dt, inertia = sim->def.density / (h * h);
 	od_Vec3 g = od_V3Load(sim->def.gravity);
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		od_Vec3 x = od_V3Load(s->x + 3 * i), v = od_V3Load(s->v + 3 * i);
-		od_V3Store(sim->y + 3 * i, sim->fields.count ? od_PredictInFields(sim, x, v)
-													 : od_MulAdd(od_MulAdd(x, keep, v), h * h, g));
+		double c = od_Damping(sim, i), keep = (1.0 - c) * h, turn = keep;
+		od_Vec3 x = od_V3Load(s->x + 3 * i), v = od_V3Load(s->v + 3 * i), w = od_V3Load(s->omega + 3 * i);
+		od_Vec3 u = od_V3(0, 0, 0), from = x;
+		if (relative)
+		{
+			od_Vec3 spin = od_V3Load(goals->spin + 3 * i);
+			u = od_V3Load(goals->velocity + 3 * i);
+			from = od_MulAdd(x, h, u);
+			v = od_Sub(v, u);
+			w = od_MulAdd(od_Scale(h, spin), keep, od_Sub(w, spin)); // the whole turn of the step
+			turn = 1.0;
+		}
+		od_Vec3 kept = relative ? od_MulAdd(u, 1.0 - c, v) : od_Scale(1.0 - c, v); // for the fields
+		od_V3Store(sim->y + 3 * i, sim->fields.count ? od_PredictInFields(sim, x, kept)
+													 : od_MulAdd(od_MulAdd(from, keep, v), h * h, g));
 		od_Mat3 r = od_M3Load(s->R + 9 * i);
-		od_Mat3 w = od_M3Skew(od_V3Load(s->omega + 3 * i));
-		od_Mat3 wr = od_M3Mul(&w, &r);
-		od_M3AddScaled(&r, keep, &wr);
+		od_Mat3 wx = od_M3Skew(w);
+		od_Mat3 wr = od_M3Mul(&wx, &r);
+		od_M3AddScaled(&r, turn, &wr);
 		od_M3Store(sim->Rtilde + 9 * i, &r);
 		od_Mat3 a = od_M3Load(sim->graph->moments + 9 * i);
 		od_Mat3 ra = od_M3Mul(&r, &a);
@@ -41,6 +61,35 @@ void od_Predict(od_Sim* sim)
 		}
 	}
 	sim->predictionValid = true;
+}
+
+od_Status od_Sim_SetParticleDamping(od_Sim* sim, const double* damping)
+{
+	int n = sim->graph->n;
+	for (int i = 0; damping && i < n; ++i)
+	{
+		if (!(damping[i] >= 0.0 && damping[i] <= 1.0))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "damping[%d] = %g must be in [0, 1]", i, damping[i]);
+		}
+	}
+	if (!damping)
+	{
+		od_Free(sim->damping);
+		sim->damping = NULL;
+		return OD_OK;
+	}
+	if (!sim->damping && !(sim->damping = od_Alloc(sizeof(double) * (size_t)n)))
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the damping of %d particles", n);
+	}
+	memcpy(sim->damping, damping, sizeof(double) * (size_t)n);
+	return OD_OK;
+}
+
+const double* od_Sim_GetParticleDamping(const od_Sim* sim)
+{
+	return sim->damping;
 }
 
 // tr(D Ā Dᵀ) = ‖D Ē √A‖F² for D = a - b.
@@ -64,10 +113,20 @@ static double od_ElasticEnergy(const od_Sim* sim)
 		for (int k = g->adjStart[i]; k < g->adjStart[i + 1]; ++k)
 		{
 			int j = g->adj[k];
-			od_Mat3 rj = od_M3Load(s->R + 9 * j), aj = od_M3Load(g->moments + 9 * j);
-			od_Vec3 dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
+			od_Mat3 rj = od_M3Load(s->R + 9 * j), aj = od_M3Load(g->moments + 9 * j), turned = ri;
+			od_Vec3 dbar;
+			if (od_Goals_CarryRest(sim)) // R_i Q_ij and d_ij of the goal shape (goal.c)
+			{
+				od_Mat3 q;
+				od_Goals_EdgeRest(sim, i, j, &dbar, &q);
+				turned = od_M3MulNT(&ri, &q);
+			}
+			else
+			{
+				dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
+			}
 			od_Vec3 r = od_Sub(od_M3MulV(&ri, dbar), od_Sub(od_V3Load(s->x + 3 * j), xi));
-			e += od_ElasticScale(sim, j) * (od_MomentNorm(&ri, &rj, &aj) + g->volumes[j] * od_Dot(r, r));
+			e += od_ElasticScale(sim, j) * (od_MomentNorm(&turned, &rj, &aj) + g->volumes[j] * od_Dot(r, r));
 		}
 	}
 	return 0.5 * sim->def.stiffness * e;

@@ -19,3 +19,9 @@ static inline const double* od_ElasticVolumes(const od_Sim* sim)
 {
 	return sim->elasticVolumes ? sim->elasticVolumes : sim->graph->volumes;
 }
+
+// c_i of particle i, the damping of its prediction (od_Sim_SetParticleDamping): def.damping without one.
+static inline double od_Damping(const od_Sim* sim, int i)
+{
+	return sim->damping ? sim->damping[i] : sim->def.damping;
+}

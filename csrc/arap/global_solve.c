@@ -4,6 +4,8 @@
 //   Σ_j k (v_i + v_j)(x_i - x_j) + (m_i/h²) x_i + Σ_c w_c w_a (Σ_b w_b x_b)
 //     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)),
 // with each elastic v_i taken as s_i v_i under a stiffness scale s (od_ElasticScale).
+// With goals carrying the rest, X̄_i - X̄_j is the goal shape's, seen from i's goal frame in the R_i term and from
+// j's in the R_j term (goal.c); the matrix is the same.
 // Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
 // rest graph, k, its scale, ρ, h and the constraint weights, so it is analysed and factored by CHOLMOD once per change
 // of those (counted in od_SimCounters: the solver keeps the inputs it factored, od_MatrixKey, and compares
@@ -262,6 +264,23 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	return OD_OK;
 }
 
+// X̄_i - X̄_j of directed edge e = (i, j), as particle i's term of the right side sees it (from) and as j's
+// (to): the rest centres' difference for both, or with goals carrying the rest the goal shape's, in i's goal
+// frame and in j's (goal.c).
+static inline void od_EdgeOffsets(const double* rest, int e, const od_Vec3* ci, const double* cj, double from[3],
+								  double to[3])
+{
+	if (rest)
+	{
+		memcpy(from, rest + 6 * e, sizeof(double) * 3);
+		memcpy(to, rest + 6 * e + 3, sizeof(double) * 3);
+		return;
+	}
+	from[0] = to[0] = ci->x - cj[0];
+	from[1] = to[1] = ci->y - cj[1];
+	from[2] = to[2] = ci->z - cj[2];
+}
+
 // Row i of the right side b: the inertia (m/h²) y_i or gravity m_i g, the constraints' row
 // (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j and u = s v the scaled volumes,
 // k u_j R_i d + k u_i R_j d, gathered as R_i (k Σ_j u_j d) + k u_i Σ_j R_j d, the first sum kept per particle
@@ -277,6 +296,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	double k = sim->def.stiffness, h = sim->def.dt, vi = g->volumes[i], ui = u[i];
 	od_Vec3 xi = od_V3Load(st->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
 	od_Mat3 ri = od_M3Load(st->R + 9 * i);
+	const double* rest = sim->goals.edgeRest; // NULL unless the goals carry the rest
 	od_Vec3 arm = od_V3(0, 0, 0), turned = arm;
 	if (residual) // read in place like the branch below, the same operations as od_MulAdd(.., od_M3MulV(..))
 	{
@@ -286,17 +306,17 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 		{
 			int j = g->adj[e];
 			double uj = u[j];
-			const double* cj = g->centers + 3 * j;
 			const double* rj = st->R + 9 * j;
 			const double* xj = st->x + 3 * j;
-			double d0 = ci.x - cj[0], d1 = ci.y - cj[1], d2 = ci.z - cj[2];
+			double b[3], d[3]; // X̄_i - X̄_j in i's frame and in j's
+			od_EdgeOffsets(rest, e, &ci, g->centers + 3 * j, b, d);
 			double x0 = xi.x - xj[0], x1 = xi.y - xj[1], x2 = xi.z - xj[2];
-			a0 = a0 + uj * ((r[0] * d0 + r[1] * d1 + r[2] * d2) - x0);
-			a1 = a1 + uj * ((r[3] * d0 + r[4] * d1 + r[5] * d2) - x1);
-			a2 = a2 + uj * ((r[6] * d0 + r[7] * d1 + r[8] * d2) - x2);
-			t0 = t0 + ui * ((rj[0] * d0 + rj[1] * d1 + rj[2] * d2) - x0);
-			t1 = t1 + ui * ((rj[3] * d0 + rj[4] * d1 + rj[5] * d2) - x1);
-			t2 = t2 + ui * ((rj[6] * d0 + rj[7] * d1 + rj[8] * d2) - x2);
+			a0 = a0 + uj * ((r[0] * b[0] + r[1] * b[1] + r[2] * b[2]) - x0);
+			a1 = a1 + uj * ((r[3] * b[0] + r[4] * b[1] + r[5] * b[2]) - x1);
+			a2 = a2 + uj * ((r[6] * b[0] + r[7] * b[1] + r[8] * b[2]) - x2);
+			t0 = t0 + ui * ((rj[0] * d[0] + rj[1] * d[1] + rj[2] * d[2]) - x0);
+			t1 = t1 + ui * ((rj[3] * d[0] + rj[4] * d[1] + rj[5] * d[2]) - x1);
+			t2 = t2 + ui * ((rj[6] * d[0] + rj[7] * d[1] + rj[8] * d[2]) - x2);
 		}
 		arm = od_V3(a0, a1, a2);
 		turned = od_V3(t0, t1, t2);
@@ -307,9 +327,10 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
 			int j = g->adj[e];
-			const double* cj = g->centers + 3 * j;
 			const double* rj = st->R + 9 * j;
-			double d0 = ci.x - cj[0], d1 = ci.y - cj[1], d2 = ci.z - cj[2];
+			double b[3], d[3];
+			od_EdgeOffsets(rest, e, &ci, g->centers + 3 * j, b, d);
+			double d0 = d[0], d1 = d[1], d2 = d[2];
 			t0 = t0 + (rj[0] * d0 + rj[1] * d1 + rj[2] * d2);
 			t1 = t1 + (rj[3] * d0 + rj[4] * d1 + rj[5] * d2);
 			t2 = t2 + (rj[6] * d0 + rj[7] * d1 + rj[8] * d2);

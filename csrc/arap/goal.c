@@ -9,16 +9,40 @@
 // goals.version), ρ v_i ω_i² g_i to the right side and ρ ω_i² G_i Ā_i to C_i of the local step; a new
 // goal frame per frame changes only the right side and that term. Without goals (frequencies NULL)
 // nothing here runs.
+//
+// Goals carrying the rest (od_Sim_SetGoalRest, docs/goals.md): the elastic energy is measured against the
+// animated shape instead of the rest shape, so the animation is the equilibrium and only its acceleration
+// drives the body. Ellipsoid j seen from particle i's frame follows the rigid map y -> x_i + R_i G_iᵀ (y - g_i)
+// of the goal shape (the rest point X̄_j + u sits at g_j + G_j u there), so its term of eq. 3 becomes
+//   s_j (v_j |x_j - x_i - R_i d_ij|² + tr((R_j - R_i Q_ij) Ā_j (R_j - R_i Q_ij)ᵀ)),  d_ij = G_iᵀ (g_j - g_i),
+//   Q_ij = G_iᵀ G_j,
+// zero at x = g, R = G, and today's term when G = I, g = X̄ (or the goal is one rigid motion). Positions enter
+// as before (v_j |x_j - x_i - ..|²): the global matrix is unchanged, its right side takes R_i d_ij for
+// R_i (X̄_j - X̄_i). R_i enters C_i linearly (the quadratic part is tr(Q Ā Qᵀ), constant), through
+// k Σ_j [R_j (s_j Ā_j Q_ji + s_i Q_ji Ā_i) + s_j v_j (x_j - x_i) d_ijᵀ]: the local step stays an exact
+// block minimization. The edges' terms are made again from each new goal frame (O(edges), no refactor).
+// The goals' velocity u_i and angular velocity Ω_i, measured between successive frames over the steps taken
+// between them, let the prediction damp only the motion relative to the goals (energy.c).
 #include "goal.h"
 
 #include "check.h"
 #include "core.h"
 #include "math3.h"
 
+#include <limits.h>
 #include <math.h>
 #include <string.h>
 
 #define OD_TWO_PI 6.283185307179586
+
+// The arrays of goals carrying the rest; the setting stays.
+static void od_FreeMotion(od_Goals* goals)
+{
+	od_Free(goals->edgeRest);
+	od_Free(goals->velocity);
+	od_Free(goals->spin);
+	goals->edgeRest = goals->velocity = goals->spin = NULL;
+}
 
 void od_Goals_Destroy(od_Goals* goals)
 {
@@ -27,6 +51,29 @@ void od_Goals_Destroy(od_Goals* goals)
 	od_Free(goals->R);
 	od_Free(goals->term);
 	goals->omega2 = goals->x = goals->R = goals->term = NULL; // the version stays: it keys the factor
+	od_FreeMotion(goals);
+}
+
+// The arrays of goals carrying the rest, when the setting is on and goals exist; the goals start at rest.
+static od_Status od_AllocateMotion(od_Sim* sim)
+{
+	od_Goals* goals = &sim->goals;
+	if (!goals->carryRest || !goals->omega2 || goals->edgeRest)
+	{
+		return OD_OK;
+	}
+	size_t n = (size_t)sim->graph->n;
+	goals->edgeRest = od_Alloc(sizeof(double) * 12 * (size_t)sim->graph->edgeCount);
+	goals->velocity = od_AllocZero(3 * n, sizeof(double));
+	goals->spin = od_AllocZero(3 * n, sizeof(double));
+	if (!goals->edgeRest || !goals->velocity || !goals->spin)
+	{
+		od_FreeMotion(goals);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the goal shape of %zu particles", n);
+	}
+	goals->mark = -1;
+	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
+	return OD_OK;
 }
 
 // ρ ω_i² G_i Ā_i for every particle.
@@ -65,7 +112,12 @@ static od_Status od_Allocate(od_Sim* sim)
 		od_Mat3 eye = od_M3Identity();
 		od_M3Store(goals->R + 9 * i, &eye);
 	}
-	return OD_OK;
+	od_Status status = od_AllocateMotion(sim);
+	if (status != OD_OK)
+	{
+		od_Goals_Destroy(goals);
+	}
+	return status;
 }
 
 od_Status od_Sim_SetGoalFrequencies(od_Sim* sim, const double* frequencies)
@@ -101,6 +153,25 @@ od_Status od_Sim_SetGoalFrequencies(od_Sim* sim, const double* frequencies)
 	return OD_OK;
 }
 
+// The goals' velocities from the frame they are leaving to the new one, over the steps taken since it was set;
+// none taken: the new frame replaces it and the velocities stay. The edges' terms are made again.
+static void od_TrackMotion(od_Sim* sim, const double* positions, const double* rotations)
+{
+	od_Goals* goals = &sim->goals;
+	long long steps = sim->counters.steps - goals->mark;
+	double rate = goals->mark >= 0 && steps > 0 ? 1.0 / (sim->def.dt * (double)steps) : 0.0;
+	for (int i = 0; rate > 0.0 && i < sim->graph->n; ++i)
+	{
+		od_Vec3 moved = od_Sub(od_V3Load(positions + 3 * i), od_V3Load(goals->x + 3 * i));
+		od_V3Store(goals->velocity + 3 * i, od_Scale(rate, moved));
+		od_Mat3 to = rotations ? od_M3Load(rotations + 9 * i) : od_M3Identity(), from = od_M3Load(goals->R + 9 * i);
+		od_Mat3 turn = od_M3MulNT(&to, &from);
+		od_V3Store(goals->spin + 3 * i, od_Scale(rate, od_M3LogRotation(&turn)));
+	}
+	goals->mark = sim->counters.steps;
+	sim->edgeStiffness = 0.0;
+}
+
 od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* rotations)
 {
 	int n = sim->graph->n;
@@ -120,6 +191,10 @@ od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* ro
 	if (status != OD_OK)
 	{
 		return status;
+	}
+	if (od_Goals_CarryRest(sim))
+	{
+		od_TrackMotion(sim, positions, rotations);
 	}
 	memcpy(sim->goals.x, positions, sizeof(double) * 3 * n);
 	for (int i = 0; i < n; ++i)
@@ -174,4 +249,95 @@ double od_Goals_Energy(const od_Sim* sim)
 		e += goals->omega2[i] * (od_M3Inner(&da, &r) + g->volumes[i] * od_Dot(d, d));
 	}
 	return 0.5 * sim->def.density * e;
+}
+
+od_Status od_Sim_SetGoalRest(od_Sim* sim, bool enabled)
+{
+	od_Goals* goals = &sim->goals;
+	if (enabled == goals->carryRest)
+	{
+		return OD_OK;
+	}
+	goals->carryRest = enabled;
+	sim->edgeStiffness = 0.0; // the edges' terms are made again, from the goal shape or the rest shape
+	if (!enabled)
+	{
+		od_FreeMotion(goals);
+		return OD_OK;
+	}
+	od_Status status = od_AllocateMotion(sim);
+	goals->carryRest = status == OD_OK;
+	return status;
+}
+
+bool od_Sim_GetGoalRest(const od_Sim* sim)
+{
+	return sim->goals.carryRest;
+}
+
+od_Status od_Sim_GetGoalMotion(const od_Sim* sim, double* velocities, double* angularVelocities, int* steps)
+{
+	const od_Goals* goals = &sim->goals;
+	if (!od_Goals_CarryRest(sim))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "goal motion: the goals do not carry the rest (or there are none)");
+	}
+	size_t bytes = sizeof(double) * 3 * (size_t)sim->graph->n;
+	memcpy(velocities, goals->velocity, bytes);
+	memcpy(angularVelocities, goals->spin, bytes);
+	long long since = sim->counters.steps - goals->mark;
+	*steps = goals->mark < 0 ? -1 : (int)(since < INT_MAX ? since : INT_MAX);
+	return OD_OK;
+}
+
+od_Status od_Sim_RestoreGoalMotion(od_Sim* sim, const double* velocities, const double* angularVelocities, int steps)
+{
+	od_Goals* goals = &sim->goals;
+	int n = sim->graph->n;
+	if (!od_Goals_CarryRest(sim))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "goal motion: the goals do not carry the rest (or there are none)");
+	}
+	if (!velocities || !angularVelocities || steps < -1)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "goal motion: velocities, angular velocities and steps >= -1 are required");
+	}
+	od_Status status = od_CheckFinite("goal velocities", velocities, 3 * n);
+	if (status == OD_OK)
+	{
+		status = od_CheckFinite("goal angular velocities", angularVelocities, 3 * n);
+	}
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	memcpy(goals->velocity, velocities, sizeof(double) * 3 * (size_t)n);
+	memcpy(goals->spin, angularVelocities, sizeof(double) * 3 * (size_t)n);
+	goals->mark = steps < 0 ? -1 : sim->counters.steps - steps;
+	return OD_OK;
+}
+
+void od_Goals_EdgeRest(const od_Sim* sim, int i, int j, od_Vec3* arm, od_Mat3* turn)
+{
+	const od_Goals* goals = &sim->goals;
+	od_Mat3 gi = od_M3Load(goals->R + 9 * i), gj = od_M3Load(goals->R + 9 * j);
+	*arm = od_M3MulTV(&gi, od_Sub(od_V3Load(goals->x + 3 * j), od_V3Load(goals->x + 3 * i)));
+	*turn = od_M3MulTN(&gj, &gi);
+}
+
+void od_Goals_PrepareEdge(const od_Sim* sim, int i, int e, double si, double sj, od_Mat3* moment, od_Vec3* arm)
+{
+	const od_Graph* g = sim->graph;
+	int j = g->adj[e];
+	od_Mat3 q, ai = od_M3Load(g->moments + 9 * i), aj = od_M3Load(g->moments + 9 * j);
+	od_Goals_EdgeRest(sim, i, j, arm, &q);
+	od_Mat3 left = od_M3Mul(&aj, &q), right = od_M3Mul(&q, &ai);
+	*moment = od_M3Zero();
+	od_M3AddScaled(moment, sj, &left);
+	od_M3AddScaled(moment, si, &right);
+	od_Mat3 gj = od_M3Load(sim->goals.R + 9 * j);
+	od_Vec3 back = od_Scale(-1.0, *arm); // g_i - g_j in i's goal frame, exactly
+	od_V3Store(sim->goals.edgeRest + 6 * e, back);
+	od_V3Store(sim->goals.edgeRest + 6 * e + 3,
+			   od_M3MulTV(&gj, od_Sub(od_V3Load(sim->goals.x + 3 * i), od_V3Load(sim->goals.x + 3 * j))));
 }

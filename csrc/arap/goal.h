@@ -15,3 +15,13 @@ void od_Goals_AddLocal(const od_Sim* sim, int i, double c[9]);
 // Whether particle i has a goal of nonzero frequency (it then pins its piece in a static pose).
 bool od_Goals_Hold(const od_Sim* sim, int i);
 double od_Goals_Energy(const od_Sim* sim);
+// Whether the goals carry the rest (od_Sim_SetGoalRest) and exist: the edges' terms then come from the goal shape.
+static inline bool od_Goals_CarryRest(const od_Sim* sim)
+{
+	return sim->goals.edgeRest != NULL;
+}
+// d_ij = G_iᵀ (g_j - g_i) and Q_ji = G_jᵀ G_i of the goal shape (call only when od_Goals_CarryRest).
+void od_Goals_EdgeRest(const od_Sim* sim, int i, int j, od_Vec3* arm, od_Mat3* turn);
+// Directed edge e = (i, j) from the goal shape: its moment s_j Ā_j Q_ji + s_i Q_ji Ā_i and arm d_ij of the local
+// step (without k and s_j v_j), and goals.edgeRest's six numbers for the right side (global_solve.c).
+void od_Goals_PrepareEdge(const od_Sim* sim, int i, int e, double si, double sj, od_Mat3* moment, od_Vec3* arm);

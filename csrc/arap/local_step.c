@@ -2,7 +2,8 @@
 //
 // R_i maximizes tr(R_iᵀ C_i) with
 //   C_i = k Σ_j [R_j (s_j Ā_j + s_i Ā_i) + s_j v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ] + (ρ/h²) R̃_i Ā_i + constraint terms
-// (s the stiffness scale, od_ElasticScale: 1 without one).
+// (s the stiffness scale, od_ElasticScale: 1 without one; with goals carrying the rest, the edges' terms of
+// goal.c's note).
 // The energy is exactly -tr(R_iᵀ C_i) + const in R_i, so each update is an exact block-coordinate
 // minimization. Updates are Gauss-Seidel (each particle sees its neighbours' new rotations): with
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
@@ -37,14 +38,24 @@ void od_LocalStep_PrepareEdges(od_Sim* sim)
 		{
 			int j = g->adj[e];
 			double sj = od_ElasticScale(sim, j);
-			od_Mat3 aj = od_M3Load(g->moments + 9 * j), sum = od_M3Zero();
-			od_M3AddScaled(&sum, sj, &aj);
-			od_M3AddScaled(&sum, si, &ai);
+			od_Mat3 sum = od_M3Zero();
+			od_Vec3 rest;
+			if (od_Goals_CarryRest(sim)) // measured against the goal shape (goal.c)
+			{
+				od_Goals_PrepareEdge(sim, i, e, si, sj, &sum, &rest);
+			}
+			else
+			{
+				od_Mat3 aj = od_M3Load(g->moments + 9 * j);
+				od_M3AddScaled(&sum, sj, &aj);
+				od_M3AddScaled(&sum, si, &ai);
+				rest = od_Sub(od_V3Load(g->centers + 3 * j), ci);
+			}
 			for (int c = 0; c < 9; ++c)
 			{
 				sim->edgeMoment[9 * e + c] = k * sum.m[c];
 			}
-			od_Vec3 arm = od_Scale(k * (sj * g->volumes[j]), od_Sub(od_V3Load(g->centers + 3 * j), ci));
+			od_Vec3 arm = od_Scale(k * (sj * g->volumes[j]), rest);
 			od_V3Store(sim->edgeArm + 3 * e, arm);
 			row = od_Sub(row, arm);
 		}

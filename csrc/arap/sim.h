@@ -78,6 +78,13 @@ typedef struct od_Goals
 	double* R;        // n*9 goal rotations G_i
 	double* term;     // n*9, ρ ω_i² G_i Ā_i: the goal's term of C_i
 	unsigned version; // advances with every change of the frequencies (they enter the global matrix)
+	// Goals carrying the rest (od_Sim_SetGoalRest): the elastic energy is measured against the goal shape.
+	// The arrays exist while carryRest and the goals do (NULL otherwise).
+	bool carryRest;
+	double* edgeRest; // 6 per directed edge (i, j): X̄_i - X̄_j of the goal shape in i's goal frame, then in j's
+	double* velocity; // n*3, u_i: each goal centre's velocity between the last two frames (0 before the second)
+	double* spin;     // n*3, Ω_i: each goal frame's angular velocity, the same
+	long long mark;   // counters.steps at the last od_Sim_SetGoals; -1: no frame since the motion was reset
 } od_Goals;
 
 // A scene collider (colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the
@@ -195,6 +202,7 @@ struct od_Sim
 	double* Rtilde;       // n*9 predicted rotations
 	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
 	double* angularScale; // n, friction's scaling of the angular velocity of touching particles (floor, colliders)
+	double* damping;      // n, c_i per particle (od_Sim_SetParticleDamping); NULL: def.damping for all
 	double* contactForce; // n*3, forces of particle contact on the right side during a step (body_contact.c); NULL
 						  // until self-contact or a group needs it, zero outside a step's iterations
 	od_Iteration iteration;

@@ -290,6 +290,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->Rtilde);
 	od_Free(sim->inertiaTerm);
 	od_Free(sim->angularScale);
+	od_Free(sim->damping);
 	od_Free(sim->contactForce);
 	od_Free(sim->edgeMoment);
 	od_Free(sim->edgeArm);

@@ -233,6 +233,79 @@ static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// set_goal_rest(enabled)
+static PyObject* Sim_set_goal_rest(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	int enabled;
+	if (!sim || !PyArg_ParseTuple(args, "p", &enabled))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetGoalRest(sim, enabled != 0));
+}
+
+static PyObject* Sim_goal_rest(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyBool_FromLong(od_Sim_GetGoalRest(sim)) : NULL;
+}
+
+// set_particle_damping(damping or None): n values in [0, 1]
+static PyObject* Sim_set_particle_damping(PyObject* obj, PyObject* args)
+{
+	return Sim_SetPerParticle(obj, args, "damping", od_Sim_SetParticleDamping);
+}
+
+// goal_motion(velocities_out, angular_velocities_out) -> steps since the last set_goals (-1: none)
+static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	Py_buffer views[2];
+	if (GetArray(objs[0], "velocities", 'd', 3 * n, 1, &views[0]) < 0)
+	{
+		return NULL;
+	}
+	if (GetArray(objs[1], "angular_velocities", 'd', 3 * n, 1, &views[1]) < 0)
+	{
+		ReleaseArray(&views[0]);
+		return NULL;
+	}
+	int steps = 0;
+	od_Status status = od_Sim_GetGoalMotion(sim, views[0].buf, views[1].buf, &steps);
+	ReleaseArrays(views, 2);
+	return Binding_Id(obj, status, steps);
+}
+
+// restore_goal_motion(velocities, angular_velocities, steps)
+static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
+	int steps;
+	if (!sim || !PyArg_ParseTuple(args, "OOi", &objs[0], &objs[1], &steps))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	const ArraySpec specs[2] = { { "velocities", 'd', 3 * n, 0 }, { "angular_velocities", 'd', 3 * n, 0 } };
+	Py_buffer views[2];
+	if (GetArrays(objs, specs, 2, views) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_RestoreGoalMotion(sim, views[0].buf, views[1].buf, steps);
+	ReleaseArrays(views, 2);
+	return Binding_Done(obj, status);
+}
+
 static PyObject* Sim_clear_floor(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
@@ -477,7 +550,8 @@ static PyObject* Sim_restore_state(PyObject* obj, PyObject* args)
 	return PutState(obj, args, 1);
 }
 
-// read(name, out) -> count: "positions", "rotations", "velocities", "angular_velocities" or "energy_trace".
+// read(name, out) -> count: "positions", "rotations", "velocities", "angular_velocities", "energy_trace",
+// "stiffness_scale" or "particle_damping" (the last two: 0 when not set).
 static PyObject* Sim_read(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
@@ -491,7 +565,8 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 								od_Sim_GetAngularVelocities(sim) };
 	int index = StateArrayIndex(name), traceCount = 0;
 	bool scale = strcmp(name, "stiffness_scale") == 0; // n values, or none (0) when all 1
-	if (index < 0 && !scale && strcmp(name, "energy_trace") != 0)
+	bool damping = strcmp(name, "particle_damping") == 0; // n values, or none (0) when def.damping for all
+	if (index < 0 && !scale && !damping && strcmp(name, "energy_trace") != 0)
 	{
 		PyErr_Format(PyExc_ValueError, "unknown state array '%s'", name);
 		return NULL;
@@ -499,9 +574,9 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 	Py_ssize_t n = ((SimObject*)obj)->n;
 	const double* data = index >= 0 ? fields[index] : od_Sim_GetEnergyTrace(sim, &traceCount);
 	Py_ssize_t count = index >= 0 ? StateArrayCount(index, n) : traceCount;
-	if (scale)
+	if (scale || damping)
 	{
-		data = od_Sim_GetStiffnessScale(sim);
+		data = scale ? od_Sim_GetStiffnessScale(sim) : od_Sim_GetParticleDamping(sim);
 		count = data ? n : 0;
 	}
 	if (count > 0 && CopyOut(out, "out", data, count, 'd') < 0)
@@ -652,6 +727,12 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goal_frequencies", Sim_set_goal_frequencies, METH_VARARGS, "set_goal_frequencies(frequencies or None)" },
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
+	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
+	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },
+	{ "goal_motion", Sim_goal_motion, METH_VARARGS, "goal_motion(velocities_out, angular_velocities_out) -> steps" },
+	{ "restore_goal_motion", Sim_restore_goal_motion, METH_VARARGS,
+	  "restore_goal_motion(velocities, angular_velocities, steps)" },
+	{ "set_particle_damping", Sim_set_particle_damping, METH_VARARGS, "set_particle_damping(damping or None)" },
 	{ "add_collider", Sim_add_collider, METH_VARARGS, NULL },
 	{ "move_collider", Sim_move_collider, METH_VARARGS, NULL },
 	{ "update_collider_vertices", Sim_update_collider_vertices, METH_VARARGS, NULL },

@@ -146,6 +146,52 @@ class Simulation(ForceFields):
         self._core.set_goals(pos, rot)
         self._goal_frames = (pos, rot)
 
+    def set_goals_carry_rest(self, enabled=True):
+        """Secondary motion that rides the animation (docs/goals.md): with ``enabled`` the elastic energy is
+        measured against the goal shape (the particles where ``set_goals`` puts them) instead of the rest shape,
+        so the animated shape is the body's equilibrium. A region left alone settles back onto the animation;
+        what moves it off is the animation's acceleration (through the inertia) and gravity, which stays a
+        separate setting: zero or small gravity for jiggle (a goal spring of f Hz sags g / (2π f)²). Damping
+        then acts only on the motion relative to the goals (``set_particle_damping``, the ``damping``
+        parameter): it never drags a moving body behind its animation. The goal velocities are measured between
+        successive ``set_goals`` over the steps taken between them (0 until the second frame after enabling).
+        Each ``set_goals`` remakes the edges' rest terms, without refactoring. Acts while goals exist; off (the
+        default) gives the same bits as never set."""
+        self._core.set_goal_rest(bool(enabled))
+
+    @property
+    def goals_carry_rest(self):
+        """Whether the goals carry the rest shape (``set_goals_carry_rest``)."""
+        return self._core.goal_rest()
+
+    def _goal_motion(self):
+        """(velocities, angular_velocities, steps since the last set_goals or -1) of goals carrying the rest, or
+        None: what a pickle needs to continue to the same bits."""
+        if not self.goals_carry_rest or self._goal_hz is None:
+            return None
+        n = self.graph.n_particles
+        velocities, angular = np.empty((n, 3)), np.empty((n, 3))
+        steps = self._core.goal_motion(velocities, angular)
+        return velocities, angular, steps
+
+    # -- damping per particle ---------------------------------------------------------------------------
+    def set_particle_damping(self, damping):
+        """Velocity damping per step per particle, a number or one value per particle in [0, 1], in place of the
+        ``damping`` parameter (relative to the goals when they carry the rest: ``set_goals_carry_rest``); None:
+        the ``damping`` parameter for all, the same bits as never set."""
+        n = self.graph.n_particles
+        if damping is not None:
+            damping = np.full(n, number("damping", damping)) if np.ndim(damping) == 0 else as_array("damping", damping,
+                                                                                                  (n,))
+        self._core.set_particle_damping(damping)
+
+    @property
+    def particle_damping(self):
+        """The damping per particle (``set_particle_damping``), a copy; None when the ``damping`` parameter
+        applies to all."""
+        out = np.empty(self.graph.n_particles)
+        return out if self._core.read("particle_damping", out) else None
+
     # -- floor -----------------------------------------------------------------------------------------
     def set_floor(self, height=0.0, friction=0.0):
         """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
@@ -323,13 +369,15 @@ class Simulation(ForceFields):
 
     # -- pickling ---------------------------------------------------------------------------------------
     def __getstate__(self):
-        """Everything a step reads: graph, parameters, stiffness scale, solver settings, floor, goals, constraints
+        """Everything a step reads: graph, parameters, stiffness scale, damping per particle, solver settings,
+        floor, goals (with their rest setting and motion), constraints
         (ids, slot order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices),
         self-contact and the state with velocities. The factorization is rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
-                "goal_frames": self._goal_frames,
+                "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self._goal_motion(),
+                "particle_damping": self.particle_damping,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
                 "state": (self.positions, self.rotations, self.velocities, self.angular_velocities),
@@ -346,8 +394,12 @@ class Simulation(ForceFields):
             self.set_stiffness_scale(saved["stiffness_scale"])
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
+        self.set_goals_carry_rest(saved.get("goal_rest", False))
         if saved["goal_frames"] is not None:
             self.set_goals(*saved["goal_frames"])
+        if saved.get("goal_motion") is not None:
+            self._core.restore_goal_motion(*saved["goal_motion"])
+        self.set_particle_damping(saved.get("particle_damping"))
         self._replay(saved["ids_before"], saved["history"], saved["constraints"], saved["targets"])
         for name, args in saved["fields"]:
             getattr(self, name)(*args)

@@ -16,6 +16,8 @@
 #include "opdeform/fields.h"
 #include "opdeform/graph.h"
 
+#include <stdbool.h>
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -67,6 +69,25 @@ int od_Sim_GetConstraintCount(const od_Sim* sim);
 od_Status od_Sim_SetGoalFrequencies(od_Sim* sim, const double* frequencies); // n values >= 0
 // positions n*3; rotations n*9 proper rotations, NULL = the rest frames. Frames start at the rest frames.
 od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* rotations);
+// Goals carrying the rest (docs/goals.md): when enabled, the elastic energy is measured against the goal shape
+// (each particle's neighbours as the goal frames place them) instead of the rest shape, so that the animated
+// shape is the equilibrium and only the animation's acceleration (through the inertia) moves the body off it;
+// gravity still pulls. Each od_Sim_SetGoals then remakes the edges' terms (O(edges), no refactor), and the
+// prediction damps only the motion relative to the goals: c_i applies to v - u and ω - Ω, u and Ω the goal
+// frame's velocity and angular velocity between the last two od_Sim_SetGoals calls over the steps taken
+// between them (0 until the second frame after enabling or after the goals were made). Off by default: the
+// same bits as never set. It acts while goals exist (od_Sim_SetGoalFrequencies) and stays set without them.
+od_Status od_Sim_SetGoalRest(od_Sim* sim, bool enabled);
+bool od_Sim_GetGoalRest(const od_Sim* sim);
+// The goals' motion while they carry the rest: velocities and angular velocities (n*3 each) and the steps taken
+// since the last od_Sim_SetGoals (-1: none set since the motion started at 0). A saved simulation sets them back
+// (after its goal frames) to continue to the same bits. OD_ERROR_ARGUMENT while the goals do not carry the rest.
+od_Status od_Sim_GetGoalMotion(const od_Sim* sim, double* velocities, double* angularVelocities, int* steps);
+od_Status od_Sim_RestoreGoalMotion(od_Sim* sim, const double* velocities, const double* angularVelocities, int steps);
+// A damping per particle: c_i in [0, 1] per step replaces def.damping for particle i (relative to the goals when
+// they carry the rest); NULL = def.damping for all (the same bits as never set). Get: NULL when none.
+od_Status od_Sim_SetParticleDamping(od_Sim* sim, const double* damping);
+const double* od_Sim_GetParticleDamping(const od_Sim* sim);
 
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction);
 void od_Sim_ClearFloor(od_Sim* sim);
