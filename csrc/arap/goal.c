@@ -71,7 +71,7 @@ static od_Status od_AllocateMotion(od_Sim* sim)
 		od_FreeMotion(goals);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the goal shape of %zu particles", n);
 	}
-	goals->mark = -1;
+	goals->framed = false;
 	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
 	return OD_OK;
 }
@@ -159,7 +159,7 @@ static void od_TrackMotion(od_Sim* sim, const double* positions, const double* r
 {
 	od_Goals* goals = &sim->goals;
 	long long steps = sim->counters.steps - goals->mark;
-	double rate = goals->mark >= 0 && steps > 0 ? 1.0 / (sim->def.dt * (double)steps) : 0.0;
+	double rate = goals->framed && steps > 0 ? 1.0 / (sim->def.dt * (double)steps) : 0.0;
 	for (int i = 0; rate > 0.0 && i < sim->graph->n; ++i)
 	{
 		od_Vec3 moved = od_Sub(od_V3Load(positions + 3 * i), od_V3Load(goals->x + 3 * i));
@@ -169,6 +169,7 @@ static void od_TrackMotion(od_Sim* sim, const double* positions, const double* r
 		od_V3Store(goals->spin + 3 * i, od_Scale(rate, od_M3LogRotation(&turn)));
 	}
 	goals->mark = sim->counters.steps;
+	goals->framed = true;
 	sim->edgeStiffness = 0.0;
 }
 
@@ -286,7 +287,7 @@ od_Status od_Sim_GetGoalMotion(const od_Sim* sim, double* velocities, double* an
 	memcpy(velocities, goals->velocity, bytes);
 	memcpy(angularVelocities, goals->spin, bytes);
 	long long since = sim->counters.steps - goals->mark;
-	*steps = goals->mark < 0 ? -1 : (int)(since < INT_MAX ? since : INT_MAX);
+	*steps = !goals->framed ? -1 : (int)(since < INT_MAX ? since : INT_MAX);
 	return OD_OK;
 }
 
@@ -313,7 +314,8 @@ od_Status od_Sim_RestoreGoalMotion(od_Sim* sim, const double* velocities, const 
 	}
 	memcpy(goals->velocity, velocities, sizeof(double) * 3 * (size_t)n);
 	memcpy(goals->spin, angularVelocities, sizeof(double) * 3 * (size_t)n);
-	goals->mark = steps < 0 ? -1 : sim->counters.steps - steps;
+	goals->framed = steps >= 0;
+	goals->mark = sim->counters.steps - steps;
 	return OD_OK;
 }
 

@@ -84,7 +84,8 @@ typedef struct od_Goals
 	double* edgeRest; // 6 per directed edge (i, j): X̄_i - X̄_j of the goal shape in i's goal frame, then in j's
 	double* velocity; // n*3, u_i: each goal centre's velocity between the last two frames (0 before the second)
 	double* spin;     // n*3, Ω_i: each goal frame's angular velocity, the same
-	long long mark;   // counters.steps at the last od_Sim_SetGoals; -1: no frame since the motion was reset
+	bool framed;      // a frame was set since the motion was reset (else the next one's velocity is 0)
+	long long mark;   // counters.steps at the last od_Sim_SetGoals (framed)
 } od_Goals;
 
 // A scene collider (colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the
