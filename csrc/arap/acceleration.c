@@ -1,5 +1,5 @@
 // Acceleration of a fixed-point iteration x -> G(x) on a vector (the local/global iteration applies it to
-// the particles' rotation matrices; see simulation.c).
+// the particles' rotation matrices; see step.c).
 //
 // Anderson (type II, window m): with g_k = G(x_k) the plain iterate and f_k = g_k - x_k its residual,
 // x_{k+1} = g_k - ΔG γ where γ minimizes |f_k - ΔF γ| over the last m differences (normal equations with

@@ -88,7 +88,7 @@ typedef struct od_Goals
 	long long mark;   // counters.steps at the last od_Sim_SetGoals (framed)
 } od_Goals;
 
-// A scene collider (colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the
+// A scene collider (scene_colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the
 // turn between them (contact.c).
 typedef struct od_SimCollider
 {
@@ -168,7 +168,7 @@ typedef struct od_StepPlan
 	double last; // the probe's first residual (< 0: none yet)
 } od_StepPlan;
 
-// The iteration of the current solve, in stages (simulation.c: od_IterateStart, od_IterateNext).
+// The iteration of the current solve, in stages (step.c: od_IterateStart, od_IterateNext).
 typedef struct od_Iteration
 {
 	int done, limit;

@@ -1,6 +1,6 @@
-// The stages of a dynamic step (simulation.c), for a caller that steps several simulations together
-// (contact_group.c, body_contact.c): Begin, then per step Start on each, Advance on each with the pairs
-// between them in between, Finish on each, and End.
+// The stages of a dynamic step (step.c), for od_Sim_Step (simulation.c) and for a caller that steps several
+// simulations together (contact_group.c, body_contact.c): Begin, then per step Start on each, Advance on each
+// with the pairs between them in between, Finish on each, and End.
 #pragma once
 
 #include "sim.h"

@@ -5,7 +5,7 @@
 // irrelevant) and open otherwise (inside is behind the nearest triangle, so a face wound against its
 // neighbours is refused). A mesh is sampled at `resolution` samples along its longest side: 64 by default;
 // a deforming 3,744-triangle sphere re-samples in 71 ms at 64 and 32 ms at 32 (docs/contact.md, measured).
-#include "colliders.h"
+#include "scene_colliders.h"
 
 #include "buffer.h"
 #include "core.h"

@@ -1,4 +1,4 @@
-// Scene colliders (colliders.c): the set's life and the frames over a call of od_Sim_Step.
+// Scene colliders of a simulation (scene_colliders.c): the set's life and the frames over a call of od_Sim_Step.
 #pragma once
 
 #include "opdeform/colliders.h"
