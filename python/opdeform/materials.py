@@ -163,18 +163,69 @@ def _calibrated_ratio(graph, mesh, calibration):
     """k / E: one per particle (measured, a beam-like body), one for the body (bending; measured elsewhere), or
     None where nothing bends (no edge has a length along the longest axis: the uniform k then)."""
     known = _OWN_MESH_RATIOS.setdefault(graph, {}) if mesh is None else {}
+    if calibration not in known and graph.pieces()[0] > 1:
+        known[calibration] = _piece_ratios(graph, mesh, calibration)
     if calibration not in known:
         centre, frame, moments = _principal_frame(graph)
         second = _body_second_moment(graph, centre, frame, moments, mesh)
         measured = _measured_bending(graph, centre, frame, moments, second, mesh) if calibration == "measured" \
             else None
-        bend = _bending_energy(graph, centre, frame, moments, 1) + _bending_energy(graph, centre, frame, moments, 2)
-        found = (second[1, 1] + second[2, 2]) / bend if bend > 0.0 else None
+        found = _compliant_ratio(graph, centre, frame, moments, second)
         if measured is not None:
             w = _beam_weight(second)
             found = measured if found is None else w * measured + (1.0 - w) * found
         known[calibration] = found
     return known[calibration]
+
+
+def _piece_ratios(graph, mesh, calibration):
+    """k / E per particle of a graph in several connected pieces, each calibrated as a body of its own with its
+    part of the mesh (the vertices a piece's particles skin, and the triangles of those). Held as one body, a
+    piece the end faces missed had no constraint and the static solve raised (issue 24: two boxes joined into
+    one object); and two parallel bars drooped half as much as one. A piece with no edge has no elastic term:
+    it takes the pieces' mean k (by volume); one with no bending edge the uniform-strain k."""
+    count, label = graph.pieces()
+    if mesh is None and graph._made[0] == "from_mesh":
+        mesh = graph._made[1][:2]
+    vertices = triangles = None
+    if mesh is not None:
+        vertices = np.asarray(mesh[0], dtype=np.float64)
+        triangles = np.asarray(mesh[1], dtype=np.int64)
+        owner = label[[graph.skin_weights(p, 1)[0][0] for p in vertices]]
+    c, r, a, e = graph.centers, graph.radii, graph.axes, graph.edges
+    ratio = np.full(graph.n_particles, np.nan)
+    for piece in range(count):
+        chosen = np.flatnonzero(label == piece)
+        index = np.full(graph.n_particles, -1)
+        index[chosen] = np.arange(len(chosen))
+        edges = index[e[label[e[:, 0]] == piece]]
+        if len(edges) == 0:
+            continue
+        part = Graph(c[chosen], r[chosen], edges, a[chosen])
+        own = None
+        if vertices is not None:
+            mine = np.flatnonzero(owner == piece)
+            number = np.full(len(vertices), -1)
+            number[mine] = np.arange(len(mine))
+            faces = number[triangles[(owner[triangles] == piece).all(axis=1)]]
+            own = (vertices[mine], faces) if len(faces) else None
+        found = _calibrated_ratio(part, own, calibration)
+        ratio[chosen] = _uniform_stiffness(part, 1.0) if found is None else found
+    v, known = graph.volumes, np.isfinite(ratio)
+    ratio[~known] = (v * ratio)[known].sum() / v[known].sum()
+    return ratio
+
+
+def _compliant_ratio(graph, centre, frame, moments, second):
+    """The bending k / E that gives the graph the continuum's compliance summed over the two cross axes,
+    (1 / G_ab + 1 / G_ac) / (1 / J_ab + 1 / J_ac), or None where nothing bends. The softer direction rules, as it
+    does the look: k = (J_ab + J_ac) / (G_ab + G_ac), the stiffer one's, left a 1 x 0.5 x 0.08 m plate clamped
+    at a short end 2.6-8 times stiffer than beam theory over 50-400 particles (3.16x between them); this k
+    1.29x (scripts/bench calibration, docs/settings.md). A square section: the same k within 3 %."""
+    bend = [_bending_energy(graph, centre, frame, moments, b) for b in (1, 2)]
+    if not all(g > 0.0 for g in bend) or not all(second[b, b] > 0.0 for b in (1, 2)):
+        return (second[1, 1] + second[2, 2]) / sum(bend) if sum(bend) > 0.0 else None
+    return (1.0 / bend[0] + 1.0 / bend[1]) / (1.0 / second[1, 1] + 1.0 / second[2, 2])
 
 
 def _moments(graph):
@@ -248,7 +299,8 @@ def _measured_bending(graph, centre, frame, moments, second, mesh):
     lo, hi = along.min(), along.max()
     ends = (along <= lo + _END * (hi - lo), along >= hi - _END * (hi - lo))
     rigidity = 0.5 * sum(_bending_energy(graph, centre, frame, moments, b) for b in (1, 2)) / (hi - lo)
-    if not (rigidity > 0.0) or second[0, 0] < _ELONGATED ** 2 * second[1, 1] or any(
+    across = [d for d in (0, 1) if second[0, 0] >= _ELONGATED ** 2 * second[d + 1, d + 1]]  # beam-like this way
+    if not (rigidity > 0.0) or not across or any(
             np.linalg.matrix_rank(points[e] - points[e].mean(axis=0), tol=1e-9 * (hi - lo)) < 2 for e in ends):
         return None
     v = graph.volumes
@@ -256,15 +308,15 @@ def _measured_bending(graph, centre, frame, moments, second, mesh):
     kernel = _Kernel(s, lo, hi, _SMOOTHING * float(np.cbrt(v.mean())))
     if kernel.straightness(graph, centre, frame, moments) < _STRAIGHT:
         return None
-    sections = [kernel.section_moment(graph, frame, moments, b) for b in (1, 2)]
+    sections = {d: kernel.section_moment(graph, frame, moments, d + 1) for d in across}
     turning = _turning(s, v)
     both = turning[0] ** 2 + turning[1] ** 2
     load = _SAG * 8.0 * rigidity / (v.sum() * (hi - lo) ** 2)  # g of a tip deflection _SAG (hi - lo) at k = 1
     scale, poses = np.ones(graph.n_particles), {}
     for r in range(_ROUNDS + 1):
-        curvature = [[None, None], [None, None]]  # [direction][end]
+        curvature = {d: [None, None] for d in across}  # [direction][end]
         for e, held in enumerate(ends):
-            for d in (0, 1):  # a load across each direction apart: one diagonal load gave 1.10x, not 1.08x
+            for d in across:  # a load across each direction apart: one diagonal load gave 1.10x, not 1.08x
                 sim = Simulation(graph, scale, density=1.0, gravity=load * frame[:, d + 1])
                 for p in points[held]:
                     sim.add_position_constraint(p)
@@ -278,24 +330,24 @@ def _measured_bending(graph, centre, frame, moments, second, mesh):
                 curvature[d][e] = np.abs(kernel.slope(v, turn)) / load
         # per direction: compliance (curvature per moment, least squares over both ends), its level c (the graph
         # bends as a continuum of rigidity c I) and the ratio to it (> 1: softer than the rest)
-        ratio, level = 0.0, []
-        for d, section in enumerate(sections):
+        ratio, level = 0.0, {}
+        for d, section in sections.items():
             compliance = (turning[0] * curvature[d][0] + turning[1] * curvature[d][1]) / both
-            level.append((both * v).sum() / (both * v * compliance * section).sum())
-            ratio = ratio + 0.5 * level[-1] * compliance * section
+            level[d] = (both * v).sum() / (both * v * compliance * section).sum()
+            ratio = ratio + level[d] * compliance * section / len(across)
         if r == _ROUNDS:
             break
         scale = np.clip(scale * ratio, 1.0 / _LIMIT, _LIMIT)
         scale /= (v * scale).sum() / v.sum()
     # rigidity k c I(s) against the continuum's E I(s) J / J_particles (the body's second moment, of the mesh)
     own = _particle_second_moment(graph, centre, frame, moments)
-    return scale * 0.5 * sum(second[b, b] / (own[b, b] * level[b - 1]) for b in (1, 2))
+    return scale * sum(second[d + 1, d + 1] / (own[d + 1, d + 1] * level[d]) for d in across) / len(across)
 
 
 def _beam_weight(second):
     """How much of the measured k a body takes (0 to 1): by its length over thickness, sqrt(J_aa / J_bb) of its
     second moments, from _ELONGATED (none) to _BEAM (all)."""
-    elongation = math.sqrt(second[0, 0] / second[1, 1]) if second[1, 1] > 0.0 else math.inf
+    elongation = math.sqrt(second[0, 0] / second[2, 2]) if second[2, 2] > 0.0 else math.inf
     return min(max((elongation - _ELONGATED) / (_BEAM - _ELONGATED), 0.0), 1.0)
 
 

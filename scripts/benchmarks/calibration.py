@@ -1,0 +1,131 @@
+"""Calibration for any body: static droop under the same modulus at 50-400 particles (issue 24).
+
+Each body is built with Graph.from_mesh at every particle count, given ``materials.stiffness_for(graph, Rubber)``
+(Rubber's density), held where it is clamped (every mesh vertex of that region pinned) and solved static under
+gravity; the droop is the mean drop of its tip region over a length. Bodies: a plate 1 x 0.5 x 0.08 m clamped
+at a short end, an L-shaped bracket (arms of 1.0 and 0.6 m, section 0.2 x 0.1 m, lying flat, clamped at the end
+of its long arm), the 2 x 0.2 m tail, the creature (``meshes.creature()``) standing on its pinned feet (the tail
+tip's drop), and a two-box body (two 1 x 0.1 x 0.1 m bars 0.3 m apart, one object, each clamped at x = 0).
+Prints the droops, max/min across counts per body, the plate against Euler-Bernoulli and Kirchhoff
+(cylindrical bending, nu = 0.3) theory at the body's effective E, and the calibration's cost (processor time).
+Options: --counts 50,100,200,400, --bodies plate,bracket, --calibration measured|bending|uniform,
+--cost (the calibration's processor time at 100 and 1,000 particles of the plate and the tail).
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+import opdeform
+from opdeform import materials, meshes
+
+from .common import table
+
+RUBBER = materials.PRESETS["Rubber"]
+G = 9.81
+
+
+def _box(lo, hi, segments=(40, 20, 4)):
+    """A closed box mesh from lo to hi (``meshes.bar`` scaled), ``segments`` divisions along x, y, z (y and
+    z take the larger)."""
+    v, t = meshes.bar(length=1.0, width=1.0, segments=segments[0], cross=max(segments[1:]))
+    v = v + np.array([0.0, 0.5, 0.5])
+    return v * (np.asarray(hi) - np.asarray(lo)) + np.asarray(lo), t
+
+
+def plate():
+    v, t = _box((0.0, -0.25, -0.04), (1.0, 0.25, 0.04), (40, 20, 20))
+    return v, t, v[:, 0] <= 1e-9, v[:, 0] >= 1.0 - 1e-9, 1.0
+
+
+def bracket():
+    """An L lying flat: the long arm along x (0..1), the short arm along y at its far end (x 0.8..1, y 0..0.6);
+    surface nets of the union of the two boxes."""
+    arms = [((0.0, -0.1, 0.0), (1.0, 0.1, 0.1)), ((0.8, -0.1, 0.0), (1.0, 0.6, 0.1))]
+
+    def distance(p):
+        d = None
+        for lo, hi in arms:
+            c, h = (np.array(lo) + hi) / 2, (np.array(hi) - lo) / 2
+            q = np.abs(p - c) - h
+            box = np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0)
+            d = box if d is None else np.minimum(d, box)
+        return d
+    v, t = meshes._closed_surface(distance, np.array([-0.05, -0.15, -0.05]), np.array([1.05, 0.65, 0.15]), 0.02)
+    return v, t, v[:, 0] <= v[:, 0].min() + 1e-3, v[:, 1] >= v[:, 1].max() - 0.02, 1.0 + 0.6
+
+
+def tail():
+    v, t = meshes.bar(length=2.0, width=0.2, segments=80, cross=4)
+    return v, t, v[:, 0] <= 1e-9, v[:, 0] >= 2.0 - 1e-9, 2.0
+
+
+def creature():
+    v, t = meshes.creature()
+    return v, t, v[:, 2] <= 0.03, v[:, 0] <= v[:, 0].min() + 0.05, 1.0
+
+
+def two_boxes():
+    a, ta = _box((0.0, -0.2, 0.0), (1.0, -0.1, 0.1), (60, 4, 4))
+    b, tb = _box((0.0, 0.1, 0.0), (1.0, 0.2, 0.1), (60, 4, 4))
+    v, t = np.concatenate([a, b]), np.concatenate([ta, tb + len(a)]).astype(np.int32)
+    return v, t, v[:, 0] <= 1e-9, v[:, 0] >= 1.0 - 1e-9, 1.0
+
+
+BODIES = {"plate": plate, "bracket": bracket, "tail": tail, "creature": creature, "two_boxes": two_boxes}
+
+
+def droop(body, particles, calibration="measured", iterations=4000):
+    """(droop of the tip region / the body's length, the graph's size used for E, calibration seconds)."""
+    v, t, held, tip, length = BODIES[body]()
+    g = opdeform.Graph.from_mesh(v, t, particles=particles)
+    start = time.process_time()
+    k = materials.stiffness_for(g, RUBBER.modulus, calibration=calibration)
+    cost = time.process_time() - start
+    sim = opdeform.Simulation(g, k, density=RUBBER.density)
+    opdeform.pin_vertices(sim, v, np.flatnonzero(held))
+    sim.set_solver("chebyshev")
+    sim.solve_static(iterations)
+    drop = -(sim.skin_points(v[tip])[:, 2] - v[tip, 2]).mean()
+    return float(drop / length), materials.body_size(g), cost
+
+
+def plate_theory(size):
+    """(Euler-Bernoulli, Kirchhoff cylindrical) droop of the plate's free end over its length at the E that
+    stiffness_for gives a body of ``size``: w = q L^4 / (8 E I), I = b h^3 / 12 (Kirchhoff: E / (1 - nu^2))."""
+    e = RUBBER.modulus * size / materials.REFERENCE_SIZE
+    beam = RUBBER.density * G * 1.0 ** 4 * 12.0 / (8.0 * e * 0.08 ** 2)
+    return beam, beam * (1.0 - 0.3 ** 2)
+
+
+def cost(body, particles, calibration="measured"):
+    v, t = BODIES[body]()[:2]
+    g = opdeform.Graph.from_mesh(v, t, particles=particles)
+    start = time.process_time()
+    materials.stiffness_for(g, RUBBER.modulus, calibration=calibration)
+    return time.process_time() - start
+
+
+def run(args):
+    p = argparse.ArgumentParser(prog="scripts/bench calibration")
+    p.add_argument("--counts", default="50,100,200,400")
+    p.add_argument("--bodies", default=",".join(BODIES))
+    p.add_argument("--calibration", default="measured", choices=materials.CALIBRATIONS)
+    p.add_argument("--cost", action="store_true")
+    a = p.parse_args(args)
+    counts = [int(c) for c in a.counts.split(",")]
+    rows = []
+    for body in a.bodies.split(","):
+        found = [droop(body, n, a.calibration) for n in counts]
+        d = [f[0] for f in found]
+        row = [body] + [f"{100 * x:.2f} %" for x in d] + [f"{max(d) / min(d):.2f}"]
+        row.append(" / ".join(f"{x / plate_theory(f[1])[0]:.2f}, {x / plate_theory(f[1])[1]:.2f}"
+                              for x, f in zip(d, found)) if body == "plate" else "")
+        rows.append(row + [f"{max(f[2] for f in found):.2f} s"])
+        print(*rows[-1], flush=True)
+    table(rows, ["body"] + [f"{n}" for n in counts] + ["max/min", "plate / EB, / Kirchhoff", "calib. s"])
+    if a.cost:
+        for body in ("plate", "tail"):
+            for n in (100, 1000):
+                print(f"cost {body} {n} particles: {cost(body, n, a.calibration):.2f} s", flush=True)

@@ -1,0 +1,84 @@
+"""Calibration for any body (issue 24): a plate and an L-shaped bracket droop alike at two particle counts,
+and a body in separate pieces is calibrated piece by piece without an exception. The sweep over 50-400
+particles and other bodies: scripts/bench calibration (docs/settings.md)."""
+import numpy as np
+
+import opdeform
+from opdeform import materials, meshes
+
+RUBBER = materials.PRESETS["Rubber"]
+
+
+def droop(vertices, triangles, particles, held, tip, length):
+    """Static drop of the tip vertices over ``length`` under Rubber, the held vertices pinned."""
+    g = opdeform.Graph.from_mesh(vertices, triangles, particles=particles)
+    sim = opdeform.Simulation(g, materials.stiffness_for(g, RUBBER.modulus), density=RUBBER.density)
+    opdeform.pin_vertices(sim, vertices, np.flatnonzero(held))
+    sim.set_solver("chebyshev")
+    sim.solve_static(2000)
+    return -float((sim.skin_points(vertices[tip])[:, 2] - vertices[tip, 2]).mean()) / length
+
+
+def box(lo, hi, segments, cross):
+    v, t = meshes.bar(length=1.0, width=1.0, segments=segments, cross=cross)
+    return (v + [0.0, 0.5, 0.5]) * (np.asarray(hi) - lo) + lo, t
+
+
+def test_a_plate_droops_alike_at_100_and_200_particles_and_as_beam_theory_says():
+    """1 x 0.5 x 0.08 m, clamped at a short end: 14.8 and 14.9 % (before: 2.9 and 3.9 %, 1.35x, 0.2 of beam
+    theory: the k of the plate's stiff in-plane bending)."""
+    v, t = box((0.0, -0.25, -0.04), (1.0, 0.25, 0.04), 40, 20)
+    d = [droop(v, t, n, v[:, 0] <= 1e-9, v[:, 0] >= 1.0 - 1e-9, 1.0) for n in (100, 200)]
+    theory = 1.5 * RUBBER.density * 9.81 / (RUBBER.modulus * 0.08 ** 2)  # q L^4 / (8 E I), E at 1 m
+    assert max(d) / min(d) < 1.15 and 0.8 < min(d) / theory and max(d) / theory < 1.2, (d, theory)
+
+
+def bracket():
+    """The L of scripts/bench calibration: surface nets of the union of two boxes."""
+    def distance(p):
+        boxes = []
+        for lo, hi in (((0.0, -0.1, 0.0), (1.0, 0.1, 0.1)), ((0.8, -0.1, 0.0), (1.0, 0.6, 0.1))):
+            q = np.abs(p - (np.add(lo, hi) / 2)) - np.subtract(hi, lo) / 2
+            boxes.append(np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0))
+        return np.minimum(*boxes)
+    return meshes._closed_surface(distance, np.array([-0.05, -0.15, -0.05]), np.array([1.05, 0.65, 0.15]), 0.02)
+
+
+def test_an_l_bracket_droops_alike_at_100_and_200_particles():
+    """Arms of 1.0 and 0.6 m, section 0.2 x 0.1 m, lying flat, clamped at the long arm's end: 11.2 and 13.3 %
+    (before: 3.9 and 6.3 %, 1.62x). Over 50-400 particles it spreads 1.68x: not the 1.15x of a plate (see
+    docs/settings.md)."""
+    v, t = bracket()
+    d = [droop(v, t, n, v[:, 0] <= v[:, 0].min() + 1e-3, v[:, 1] >= v[:, 1].max() - 0.02, 1.6) for n in (100, 200)]
+    assert max(d) / min(d) < 1.25, d
+
+
+def two_bars():
+    """Two 1 x 0.1 m bars on one line, 0.3 m apart: one object of two pieces."""
+    (a, ta), (b, tb) = (box((x, -0.05, -0.05), (x + 1.0, 0.05, 0.05), 40, 4) for x in (0.0, 1.3))
+    return np.concatenate([a, b]), np.concatenate([ta, tb + len(a)]).astype(np.int32)
+
+
+def test_a_body_in_two_pieces_is_calibrated_piece_by_piece():
+    """Before, the measured calibration held the body's end faces, which missed one piece: solve_static raised
+    "connected piece 0 of the graph has no position constraint". Each piece now droops as it does alone."""
+    v, t = two_bars()
+    g = opdeform.Graph.from_mesh(v, t, particles=60)
+    count, label = g.pieces()
+    k = materials.stiffness_for(g, RUBBER.modulus)
+    assert count == 2 and k.shape == (60,) and np.all(np.isfinite(k) & (k > 0))
+    sim = opdeform.Simulation(g, k, density=RUBBER.density)
+    ends = np.flatnonzero(np.isin(np.round(v[:, 0], 9), (0.0, 1.3)))
+    opdeform.pin_vertices(sim, v, ends)
+    sim.set_solver("chebyshev")
+    sim.solve_static(2000)
+    tips = [np.flatnonzero(np.round(v[:, 0], 9) == x) for x in (1.0, 2.3)]
+    d = [-(sim.skin_points(v[tip])[:, 2] - v[tip, 2]).mean() for tip in tips]
+    assert 0.005 < min(d) and max(d) / min(d) < 1.15, d
+
+
+def test_a_piece_with_no_edge_takes_the_other_pieces_mean_k():
+    centers = [[0.0, 0, 0], [0.2, 0, 0], [0.4, 0, 0], [0.6, 0, 0], [3.0, 0, 0]]
+    g = opdeform.Graph(centers, np.full((5, 3), 0.1), [[0, 1], [1, 2], [2, 3]])
+    k = materials.stiffness_for(g, 1e6, calibration="bending")
+    assert g.pieces()[0] == 2 and k.shape == (5,) and np.all(k > 0) and k[4] == k[:4].mean()
