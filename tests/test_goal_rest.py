@@ -136,6 +136,17 @@ def test_energy_decreases_every_iteration(bar, stiffness):
     assert np.all(np.diff(e) <= 1e-12 * np.abs(e).max())
 
 
+def test_gravity_sags_by_g_over_omega_squared(bar):
+    """Gravity is the only force off still goals: every particle of a goal spring of ω hangs g / ω² low."""
+    _, g, _ = bar
+    sim = simulation(g, True, strength=0.5, damping=0.1, gravity=(0, 0, -9.81))
+    sim.set_goals(g.centers)
+    sim.step(600)
+    omega = 2 * np.pi * opdeform.goal_frequency(0.5)
+    np.testing.assert_allclose(sim.positions - g.centers, np.broadcast_to([0, 0, -9.81 / omega**2], (g.n_particles, 3)),
+                               rtol=1e-4, atol=1e-9)
+
+
 def test_full_strength_is_the_animation(bar):
     v, g, fit = bar
     sim = simulation(g, True, strength=1.0, gravity=(0, 0, -9.81))
