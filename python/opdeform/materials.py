@@ -29,7 +29,9 @@ direction), then the other end. Where a part bends more per bending moment than 
 cross-sections (the particles' second moment of area along the body, smoothed over two particle spacings)
 would, its particles' stiffness is raised, and the loads are solved again; the graph then bends everywhere
 as a continuum of rigidity c I(s), and k = E J / (c J_particles) makes that the material's (J the closed
-mesh's second moment, as above). The tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness
+mesh's second moment, as above). Only the cross directions in which the body is a beam are measured (a
+plate across its thickness); a body in several connected pieces is calibrated piece by piece (issue 24,
+docs/settings.md). The tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness
 per particle (``Simulation(graph, stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight
 static solves of the graph, once per graph (0.19 s at 100 particles, 2.0 s at 1,000; above 1,000 particles the
 "bending" k). A blob, a curved body, or a chain whose end particle cannot be held by a face keeps the "bending"
@@ -345,8 +347,8 @@ def _measured_bending(graph, centre, frame, moments, second, mesh):
 
 
 def _beam_weight(second):
-    """How much of the measured k a body takes (0 to 1): by its length over thickness, sqrt(J_aa / J_bb) of its
-    second moments, from _ELONGATED (none) to _BEAM (all)."""
+    """How much of the measured k a body takes (0 to 1): by its length over its least thickness, sqrt(J_aa /
+    J_cc) of its second moments, from _ELONGATED (none) to _BEAM (all)."""
     elongation = math.sqrt(second[0, 0] / second[2, 2]) if second[2, 2] > 0.0 else math.inf
     return min(max((elongation - _ELONGATED) / (_BEAM - _ELONGATED), 0.0), 1.0)
 
