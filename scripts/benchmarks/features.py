@@ -97,11 +97,12 @@ def handle_moves(sim):
     return move, reweigh
 
 
-def goal_steps(graph, vertices, goals, fitted):
+def goal_steps(graph, vertices, goals, fitted, carry=False):
     """Step functions of the creature on the floor; with goals, each step first sets goal frames of an
     animated copy of the mesh (a sway of 0.1 rad about z), fitted to its vertices each step when `fitted`
-    (else fitted once: the solver's own cost)."""
+    (else fitted once: the solver's own cost); `carry`: the goals carry the rest (docs/goals.md)."""
     sim = opdeform.Simulation(graph, 2e5)
+    sim.set_goals_carry_rest(carry)
     sim.set_floor(0.0, 0.5)
     fit = opdeform.GoalFit(graph, vertices)
     sways = [vertices @ np.array([[math.cos(a), -math.sin(a), 0.0], [math.sin(a), math.cos(a), 0.0], [0, 0, 1.0]]).T
@@ -165,6 +166,8 @@ def rows(repeats, inner):
                                                                        goal_steps(graph, v, True, False)))
     row("goals", scene, "costs: the same, frames fitted each step", (goal_steps(graph, v, False, False),
                                                                       goal_steps(graph, v, True, True)))
+    row("goals carrying the rest", scene, "costs: against goals alone, new frames each step",
+        (goal_steps(graph, v, True, False), goal_steps(graph, v, True, False, carry=True)))
 
     # Normals: skinned only when an output for them is given.
     skin = opdeform.Skin(graph, v, triangles=t, threads=1)
