@@ -56,7 +56,7 @@ def _edges(mesh):
 
 
 class Measure:
-    """Frame by frame, one simulated character against its armature-only twin (both already in a scene)."""
+    """Frame by frame, one simulated character against its armature-only twin."""
 
     def __init__(self, obj, twin, floor_z=0.0):
         self.obj, self.twin, self.floor_z = obj, twin, floor_z
@@ -69,9 +69,8 @@ class Measure:
         self.size = float((self.base.max(0) - self.base.min(0)).max())
         self.frames, self.rows, self.offsets = [], [], []
 
-    def record(self, frame, depsgraph):
-        """Reads both meshes of the frame now shown."""
-        shown, animated = world_positions(self.obj, depsgraph), world_positions(self.twin, depsgraph)
+    def record(self, frame, shown, animated):
+        """One frame: the character's and the twin's world positions (world_positions)."""
         d = np.linalg.norm(shown - animated, axis=1)
         a, b = self.edges.T
         stretch = np.linalg.norm(shown[a] - shown[b], axis=1) / np.linalg.norm(animated[a] - animated[b], axis=1)
@@ -125,7 +124,8 @@ def play(measure, frames=range(1, C.FRAMES + 1)):
     for f in frames:
         scene.frame_set(f)
         assert not measure.obj.opdeform.error, measure.obj.opdeform.error
-        measure.record(f, bpy.context.evaluated_depsgraph_get())
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        measure.record(f, world_positions(measure.obj, depsgraph), world_positions(measure.twin, depsgraph))
     return measure.summary()
 
 

@@ -17,9 +17,15 @@ module (5.2): the scene that the character suite (suite_character.py), its measu
   "region_belly_front", "region_tail_tip" (weight 1) name the vertices that the measurement reports.
 - Floor "Floor": an 8 m grid at z = 0 with a Collision modifier (Blender's default settings).
 - OPDeform (``enable``) goes after the Armature, with Goal on and the "follow" group picked.
+
+For comparisons, each in a scene of its own sharing the rig and the floor (``variant_scene``): Blender's Soft
+Body after the Armature with its goal from "follow" (``soft_body``), and in Blender 5.x the bundled Cloth
+Dynamics node group (``cloth_dynamics``, from the essentials' geometry_nodes_dynamics_assets.blend; absent in
+3.4) pinned by "follow". Blender simulates Soft Body and simulation zones only in the window's scene.
 """
 
 import math
+import os
 
 import bpy
 import numpy as np
@@ -33,6 +39,7 @@ FRAMES = 96
 HOP_HEIGHT, HOP_FORWARD = 0.6, 0.5
 FOLLOW_FLOOR = {"ear": 0.1, "belly": 0.15, "tail": 0.15}  # follow at the tips of the loose parts
 REGIONS = ("ear_tips", "belly_front", "tail_tip")
+CLOTH_DYNAMICS = "Cloth Dynamics (Experimental)"
 
 
 def _bones(parts):
@@ -204,4 +211,51 @@ def enable(obj, **settings):
         bpy.ops.opdeform.enable(object=obj.name)
     assert s.built and not s.error, s.error
     assert [m.type for m in obj.modifiers][:1] == ['ARMATURE'], [m.type for m in obj.modifiers]
+    return obj
+
+
+def variant_scene(name, obj):
+    """A new scene (the same frames and rate) with the character's rig and floor and a copy of the character
+    (its own mesh, no modifier but the Armature); (scene, copy)."""
+    scene = bpy.data.scenes.new(name)
+    source = obj.users_scene[0]
+    scene.render.fps, scene.frame_start, scene.frame_end = source.render.fps, source.frame_start, source.frame_end
+    for other in (obj.parent, bpy.data.objects["Floor"]):
+        scene.collection.objects.link(other)
+    copy = armature_only(obj, scene)
+    copy.name, copy.hide_render = name, False
+    return scene, copy
+
+
+def soft_body(obj):
+    """Blender's Soft Body after the Armature as an artist adds it: its defaults, Goal from "follow"."""
+    obj.modifiers.new("Softbody", 'SOFT_BODY')
+    obj.soft_body.use_goal, obj.soft_body.vertex_group_goal = True, "follow"
+    return obj
+
+
+def cloth_dynamics_group():
+    """Blender 5.x's bundled Cloth Dynamics node group, appended once; None where the host has none (3.4)."""
+    if CLOTH_DYNAMICS in bpy.data.node_groups:
+        return bpy.data.node_groups[CLOTH_DYNAMICS]
+    path = os.path.join(bpy.utils.system_resource('DATAFILES'), "assets", "nodes",
+                        "geometry_nodes_dynamics_assets.blend")
+    if not os.path.exists(path):
+        return None
+    with bpy.data.libraries.load(path) as (src, dst):
+        if CLOTH_DYNAMICS not in src.node_groups:
+            return None
+        dst.node_groups = [CLOTH_DYNAMICS]
+    return bpy.data.node_groups[CLOTH_DYNAMICS]
+
+
+def cloth_dynamics(obj):
+    """The Cloth Dynamics node group after the Armature, its defaults, "Pin Group" read from "follow"."""
+    group = cloth_dynamics_group()
+    mod = obj.modifiers.new("Cloth Dynamics", 'NODES')
+    mod.node_group = group
+    pin = next(i.identifier for i in group.interface.items_tree
+               if i.item_type == 'SOCKET' and i.in_out == 'INPUT' and i.name == "Pin Group")
+    field = getattr(mod.properties.inputs, pin)  # Blender 5's modifier interface (4.x: ID properties)
+    field.type, field.attribute_name = 'ATTRIBUTE', "follow"
     return obj
