@@ -3,8 +3,8 @@
 Physics tab > Oriented Particles. Loads as a legacy add-on (bl_info, Blender 3.4+) and as an extension
 (blender_manifest.toml, Blender 4.2+). The compiled opdeform module is vendored by scripts/package, or found
 through $OPDEFORM_PYTHONPATH (development), see core/loader.py. Layout follows glTF-Blender-IO: core/ is
-bpy-free, blender/ holds properties, operators, panels, handlers, the overlay, and the glue to Blender data
-(runtime, tumbling_runtime, point_cloud).
+bpy-free, blender/ holds the bpy code in layers (blender/__init__.py): settings, per-object state, Blender
+data read and written, the engines driven, and on top what Blender calls (operators, panels, handlers, overlay).
 """
 
 bl_info = {
@@ -21,19 +21,19 @@ bl_info = {
 import importlib
 import sys
 
+from .blender import LAYERS
+
 ADDON_PACKAGE = __package__ or __name__
 
-# Every module of the add-on, each after the modules it imports. A script reload (F8) reloads them all, in this
-# order, so that a change anywhere is picked up; tests/test_addon_core.py checks that every file is listed. Those
-# with register() (each with one `classes` tuple) are registered in this order and unregistered in the reverse
-# order. A new feature (e.g. an MPM panel) adds its modules here.
-MODULES = ("core", "core.loader", "core.bake_files", "core.frames", "core.cache", "core.handles", "core.settings",
-           "core.checks", "core.frame_report", "core.tumbling", "core.colliders", "core.fields", "core.engine",
-           "core.contact", "blender", "blender.modifier", "blender.versioning", "blender.presets", "blender.catch_up",
-           "blender.colliders", "blender.runtime", "blender.point_cloud", "blender.tumbling_runtime",
-           "blender.properties", "blender.collider_properties", "blender.operators", "blender.panels",
-           "blender.settings_panels", "blender.collider_panels", "blender.error_plot", "blender.handlers",
-           "blender.overlay")
+# Every module of the add-on, each after the modules it imports: core/ (bpy-free), then blender/ layer by layer
+# (blender/__init__.py, LAYERS: a module imports only what is listed before it). A script reload (F8) reloads
+# them all, in this order, so that a change anywhere is picked up; tests/test_addon_core.py checks that every
+# file is listed. Those with register() (each with one `classes` tuple) are registered in this order and
+# unregistered in the reverse order. A new module goes in its layer in blender/__init__.py.
+CORE_MODULES = ("core", "core.loader", "core.bake_files", "core.frames", "core.cache", "core.handles",
+                "core.settings", "core.checks", "core.frame_report", "core.tumbling", "core.colliders",
+                "core.fields", "core.engine", "core.contact")
+MODULES = (*CORE_MODULES, "blender", *(f"blender.{name}" for _, names in LAYERS for name in names))
 
 if "_modules" in locals():  # F8 / script reload: Blender reloads this file; reload the modules first
     for _name in MODULES:

@@ -1,38 +1,25 @@
 """Far jumps on the timeline in the UI (issue 15, item 4). A frame change simulates at most
-``runtime.CATCH_UP_SECONDS`` and shows the last frame reached; when frames are still missing, the modal
+``state.CATCH_UP_SECONDS`` and shows the last frame reached; when frames are still missing, the modal
 ``opdeform.catch_up`` goes on a slice at a time between events, with a progress bar and a status line, until
 every live object has reached the current frame. Esc stops it: the objects keep showing their last good frame
 until the next frame change. Scripts and renders (background mode) never need it: there a frame change
-simulates every frame it needs (at most core/frames.MAX_FRAMES)."""
+simulates every frame it needs (at most core/frames.MAX_FRAMES). playback.start_catch_up invokes it.
+"""
 
 import bpy
 
-_state = {"running": False}
+from . import playback, state
+from .discovery import enabled_objects
 
 
 def behind(context):
     """(object, its runtime) of the live objects still short of the current frame."""
-    from . import handlers, runtime
     out = []
-    for obj in handlers.enabled_objects(context.scene):
-        rt = runtime.get(obj)
-        if rt is not None and rt.engine.behind and runtime.is_live(obj):
+    for obj in enabled_objects(context.scene):
+        rt = state.get(obj)
+        if rt is not None and rt.engine.behind and playback.is_live(obj):
             out.append((obj, rt))
     return out
-
-
-def _invoke():
-    wm = bpy.context.window_manager
-    if not _state["running"] and wm.windows:
-        with bpy.context.temp_override(window=wm.windows[0]):
-            bpy.ops.opdeform.catch_up('INVOKE_DEFAULT')
-    return None
-
-
-def start():
-    """Starts the catch-up after this handler returns (operators cannot run inside a frame handler)."""
-    if not bpy.app.background and not _state["running"] and not bpy.app.timers.is_registered(_invoke):
-        bpy.app.timers.register(_invoke, first_interval=0.0)
 
 
 class OPDEFORM_OT_catch_up(bpy.types.Operator):
@@ -44,7 +31,7 @@ class OPDEFORM_OT_catch_up(bpy.types.Operator):
     _timer = None
 
     def invoke(self, context, event):
-        _state["running"] = True
+        playback.catch_up_running(True)
         self._total = max((rt.engine.behind for _, rt in behind(context)), default=0)
         wm = context.window_manager
         wm.progress_begin(0, max(1, self._total))
@@ -58,17 +45,16 @@ class OPDEFORM_OT_catch_up(bpy.types.Operator):
         wm.progress_end()
         if context.workspace is not None:
             context.workspace.status_text_set(None)
-        _state["running"] = False
+        playback.catch_up_running(False)
         self.report({'INFO'}, message)
 
     def modal(self, context, event):
-        from . import handlers
         if event.type == 'ESC':
             self._end(context, "catch-up stopped: the last frame reached stays shown")
             return {'CANCELLED'}
         if event.type != 'TIMER':
             return {'PASS_THROUGH'}
-        handlers.simulate_frame(context.scene)  # all live objects: those in contact step together
+        playback.simulate_frame(context.scene)  # all live objects: those in contact step together
         left = max((rt.engine.behind for _, rt in behind(context)), default=0)
         if not left:
             self._end(context, "caught up")

@@ -3,20 +3,14 @@ like Cloth's Collisions and Soft Body's Field Weights (``Object.opdeform_contact
 
 import bpy
 
-from .panels import _PhysicsPanel, _SubPanel
+from .panel_base import PhysicsPanel, SubPanel, prepared
 
 WEIGHTS = ("all", "wind", "force", "vortex", "turbulence")
 
 
-def _prepared(layout):
-    layout.use_property_split = True
-    layout.use_property_decorate = False
-    return layout
-
-
 def draw_collisions(layout, settings, bodies=False):
     """The Collisions sub-panel; ``bodies``: with contact between opdeform objects and self collision."""
-    layout = _prepared(layout)
+    layout = prepared(layout)
     col = layout.column()
     col.active = settings.use_colliders
     col.prop(settings, "collision_collection")
@@ -34,14 +28,14 @@ def draw_collisions(layout, settings, bodies=False):
 
 
 def draw_weights(layout, weights):
-    layout = _prepared(layout)
+    layout = prepared(layout)
     layout.prop(weights, "collection")
     col = layout.column(align=True)
     for name in WEIGHTS:
         col.prop(weights, name, slider=True)
 
 
-class _TumblingSubPanel(_PhysicsPanel):
+class _TumblingSubPanel(PhysicsPanel):
     bl_parent_id = "PHYSICS_PT_opdeform_tumbling"
     bl_options = {'DEFAULT_CLOSED'}
 
@@ -69,12 +63,12 @@ class _FieldWeights:
         draw_weights(self.layout, context.object.opdeform_contact.effector_weights)
 
 
-class PHYSICS_PT_opdeform_collisions(_Collisions, _SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_collisions(_Collisions, SubPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
     bodies = True
 
 
-class PHYSICS_PT_opdeform_field_weights(_FieldWeights, _SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_field_weights(_FieldWeights, SubPanel, bpy.types.Panel):
     bl_options = {'DEFAULT_CLOSED'}
 
 

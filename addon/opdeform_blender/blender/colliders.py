@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core import colliders as core
 from ..core import fields as field_logic
+from . import mesh_data
 
 FRICTION_SCALE = 0.1  # Coulomb mu = Collision's Friction (0..80, Blender's default 5) / 10
 _FIELD_WEIGHTS = {"WIND": "wind", "FORCE": "force", "VORTEX": "vortex", "TURBULENCE": "turbulence"}
@@ -59,21 +60,19 @@ def forget_triangles(names=None):
 
 
 def _triangles_of(obj, mesh, deforms):
-    from . import runtime
     if deforms:
-        return runtime.triangles(mesh)
+        return mesh_data.triangles(mesh)
     key = (obj.data.name, len(mesh.vertices), len(mesh.loops), len(mesh.polygons))
     kept = _triangles.get(obj.name)
     if kept is None or kept[0] != key:
-        kept = _triangles[obj.name] = (key, runtime.triangles(mesh))
+        kept = _triangles[obj.name] = (key, mesh_data.triangles(mesh))
     return kept[1]
 
 
 def read_collider(obj, depsgraph):
-    from . import runtime
     evaluated = obj.evaluated_get(depsgraph)
     deforms = may_deform(obj)
-    vertices = runtime.vertex_positions(evaluated.data).astype(np.float64)
+    vertices = mesh_data.vertex_positions(evaluated.data).astype(np.float64)
     triangles = _triangles_of(obj, evaluated.data, deforms)
     c = obj.collision
     resolution = core.DEFORMING_RESOLUTION if deforms else core.STATIC_RESOLUTION

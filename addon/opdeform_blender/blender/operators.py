@@ -4,14 +4,15 @@ Every operator takes ``object`` (a name; empty = the active object). Bad input g
 changes nothing (from a script, bpy.ops raises RuntimeError carrying the report)."""
 
 import bpy
+import numpy as np
 from bpy.props import BoolProperty, FloatVectorProperty, IntProperty, StringProperty
 
 from ..core import loader
-
-
-def _runtime():
-    from . import runtime
-    return runtime
+from . import modifier, playback, presets, runtime, state, tumbling_runtime
+from .compiled import ADDON_PACKAGE, AddonError, module
+from .handle_data import bind_handle
+from .mesh_data import check_object
+from .modal_bake import ModalBake
 
 
 class _ObjectOperator:
@@ -22,15 +23,14 @@ class _ObjectOperator:
         if self.object:
             obj = bpy.data.objects.get(self.object)
             if obj is None:
-                raise _runtime().AddonError(f"no object named {self.object!r}")
+                raise AddonError(f"no object named {self.object!r}")
             return obj
         return context.object
 
     def execute(self, context):
-        rt = _runtime()
         try:
-            return self.run(context, self.target(context), rt)
-        except rt.AddonError as exc:
+            return self.run(context, self.target(context))
+        except AddonError as exc:
             self.report({'ERROR'}, str(exc))
             return {'CANCELLED'}
 
@@ -43,15 +43,15 @@ class OPDEFORM_OT_enable(_ObjectOperator, bpy.types.Operator):
 
     build: BoolProperty(name="Build", default=True, description="Build the particle graph now")
 
-    def run(self, context, obj, rt):
-        rt.check_object(obj)
+    def run(self, context, obj):
+        check_object(obj)
         s = obj.opdeform
         if self.build:
-            rt.module()
-            rt.build(obj, context.scene)
-        s.enabled = True  # stamps the settings version: the material's units from here on (versioning.stamp)
+            module()
+            runtime.build(obj, context.scene)
+        s.enabled = True  # stamps the settings version: the material's units from here on (presets.stamp)
         if self.build:  # its k now, not on the first frame (a beam's measured k: 0.2 s at 100 particles, 2 s at 1,000)
-            rt.configure(rt.get(obj), obj, context.scene)
+            runtime.configure(state.get(obj), obj, context.scene)
         return {'FINISHED'}
 
 
@@ -62,13 +62,13 @@ class OPDEFORM_OT_disable(_ObjectOperator, bpy.types.Operator):
     bl_label = "Disable Oriented Particles"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None:
-            raise rt.AddonError("no object")
+            raise AddonError("no object")
         s = obj.opdeform
         if obj.type == 'MESH':
-            rt.modifier.remove(obj)
-        rt.drop(obj)
+            modifier.remove(obj)
+        state.drop(obj)
         s.enabled = False
         s.built = False
         s.error = ""
@@ -81,9 +81,9 @@ class OPDEFORM_OT_build(_ObjectOperator, bpy.types.Operator):
     bl_label = "Build"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
-        rt.check_object(obj)
-        t = rt.build(obj, context.scene)
+    def run(self, context, obj):
+        check_object(obj)
+        t = runtime.build(obj, context.scene)
         obj.opdeform.enabled = True
         g = t.engine.graph
         clamped = " (the mesh has too few vertices for more)" if t.engine.particles_clamped else ""
@@ -98,15 +98,15 @@ class OPDEFORM_OT_reset(_ObjectOperator, bpy.types.Operator):
     bl_label = "Reset"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None or obj.type != 'MESH':
-            raise rt.AddonError("select a mesh object")
+            raise AddonError("select a mesh object")
         obj.opdeform.error = ""
-        t = rt.get(obj)
+        t = state.get(obj)
         if t is not None:
             t.engine.invalidate()
             t.engine.sim.set_state(*t.engine._rest_state)
-            rt.show_rest(obj, t)
+            runtime.show_rest(obj, t)
         return {'FINISHED'}
 
 
@@ -119,16 +119,16 @@ class OPDEFORM_OT_solve_pose(_ObjectOperator, bpy.types.Operator):
     iterations: IntProperty(name="Iterations", default=0, min=0,
                             description="0: the object's Pose Iterations setting")
 
-    def run(self, context, obj, rt):
-        rt.check_object(obj)
+    def run(self, context, obj):
+        check_object(obj)
         s = obj.opdeform
         if not s.enabled:
-            raise rt.AddonError(f"{obj.name!r}: enable oriented particles first")
+            raise AddonError(f"{obj.name!r}: enable oriented particles first")
         saved = s.pose_iterations
         try:
             if self.iterations:
                 s.pose_iterations = self.iterations
-            rt.pose_update(obj, context.scene, context.evaluated_depsgraph_get(), force=True)
+            playback.pose_update(obj, context.scene, context.evaluated_depsgraph_get(), force=True)
         finally:
             s.pose_iterations = saved
         return {'FINISHED'}
@@ -148,19 +148,18 @@ class OPDEFORM_OT_handle_add(_ObjectOperator, bpy.types.Operator):
                              description="Put a new empty at the 3D cursor (unless Location is given)")
     use_rotation: BoolProperty(name="Rotation", default=True)
 
-    def run(self, context, obj, rt):
-        import numpy as np
-        rt.check_object(obj)
+    def run(self, context, obj):
+        check_object(obj)
         if self.handle:
             empty = bpy.data.objects.get(self.handle)
             if empty is None or empty.type != 'EMPTY':
-                raise rt.AddonError(f"{self.handle!r} is not an empty")
+                raise AddonError(f"{self.handle!r} is not an empty")
         else:
             loc = tuple(self.location)
             if not self.properties.is_property_set("location") and self.use_cursor:
                 loc = tuple(context.scene.cursor.location)
             if not np.all(np.isfinite(loc)):
-                raise rt.AddonError("the handle location is not finite")
+                raise AddonError("the handle location is not finite")
             empty = bpy.data.objects.new(f"{obj.name} Handle", None)
             empty.empty_display_type = 'ARROWS'
             empty.empty_display_size = max(0.1, 0.25 * max(obj.dimensions))
@@ -171,14 +170,14 @@ class OPDEFORM_OT_handle_add(_ObjectOperator, bpy.types.Operator):
         item.target = empty
         item.use_rotation = self.use_rotation
         s.handle_index = len(s.handles) - 1
-        t = rt.get(obj)
+        t = state.get(obj)
         if t is not None:
             try:
                 context.view_layer.update()
-                rt.bind_handle(item, t.engine.rest)
+                bind_handle(item, t.engine.rest)
             except ValueError as exc:
                 s.handles.remove(len(s.handles) - 1)
-                raise rt.AddonError(str(exc)) from None
+                raise AddonError(str(exc)) from None
         return {'FINISHED'}
 
 
@@ -190,101 +189,19 @@ class OPDEFORM_OT_handle_remove(_ObjectOperator, bpy.types.Operator):
 
     index: IntProperty(name="Index", default=-1, description="-1: the selected handle")
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None:
-            raise rt.AddonError("no object")
+            raise AddonError("no object")
         s = obj.opdeform
         index = s.handle_index if self.index < 0 else self.index
         if not 0 <= index < len(s.handles):
-            raise rt.AddonError("no such handle")
+            raise AddonError("no such handle")
         s.handles.remove(index)
         s.handle_index = max(0, min(s.handle_index, len(s.handles) - 1))
         return {'FINISHED'}
 
 
-class _ModalBake:
-    """What both Bake buttons share: a bake job (``step()``, ``done``, ``frame``, ``start``, ``total``,
-    ``obj_name``, ``path``, ``finish()``) run blocking from scripts and in background mode, else modal with a
-    progress bar and Esc, which keeps the frames baked so far. The operator gives ``_begin(context)``, which
-    makes the job. A mixin, never registered itself: Blender loses the Python class of a registered operator
-    that another one subclasses."""
-
-    _job = None
-    _timer = None
-
-    def execute(self, context):
-        """Blocking (background mode, scripts)."""
-        rt = _runtime()
-        try:
-            job = self._begin(context)
-        except rt.AddonError as exc:
-            self.report({'ERROR'}, str(exc))
-            return {'CANCELLED'}
-        try:
-            while not job.done:
-                job.step()
-                if job.frame % 10 == 0 or job.done:
-                    print(f"opdeform: baking {job.obj_name}: frame {job.frame - 1} "
-                          f"({job.frame - job.start}/{job.total})")
-        except rt.AddonError as exc:
-            job.finish()
-            self.report({'ERROR'}, f"bake stopped at frame {job.frame}: {exc}")
-            return {'CANCELLED'}
-        count = job.finish()
-        self.report({'INFO'}, f"baked {count} frames of {job.obj_name} to {job.path}")
-        return {'FINISHED'}
-
-    def invoke(self, context, event):
-        if bpy.app.background:
-            return self.execute(context)
-        rt = _runtime()
-        try:
-            self._job = self._begin(context)
-        except rt.AddonError as exc:
-            self.report({'ERROR'}, str(exc))
-            return {'CANCELLED'}
-        wm = context.window_manager
-        wm.progress_begin(0, self._job.total)
-        self._timer = wm.event_timer_add(0.001, window=context.window)
-        wm.modal_handler_add(self)
-        return {'RUNNING_MODAL'}
-
-    def _end(self, context, message, level):
-        wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-        self.report({level}, message)
-
-    def modal(self, context, event):
-        rt = _runtime()
-        job = self._job
-        if event.type == 'ESC':
-            count = job.finish()
-            self._end(context, f"bake cancelled: kept {count} frames", 'WARNING')
-            return {'CANCELLED'}
-        if event.type != 'TIMER':
-            return {'RUNNING_MODAL'}
-        try:
-            job.step()
-        except rt.AddonError as exc:
-            job.finish()
-            self._end(context, f"bake stopped at frame {job.frame}: {exc}", 'ERROR')
-            return {'CANCELLED'}
-        done = job.frame - job.start
-        context.window_manager.progress_update(done)
-        if context.workspace is not None:
-            context.workspace.status_text_set(f"Baking {job.obj_name}: frame {job.frame - 1} "
-                                              f"({done}/{job.total}), Esc to cancel")
-        if job.done:
-            count = job.finish()
-            self._end(context, f"baked {count} frames to {job.path}", 'INFO')
-            return {'FINISHED'}
-        return {'RUNNING_MODAL'}
-
-
-class OPDEFORM_OT_bake(_ModalBake, _ObjectOperator, bpy.types.Operator):
+class OPDEFORM_OT_bake(ModalBake, _ObjectOperator, bpy.types.Operator):
     """Bake the simulation to a PC2 file and add a Mesh Cache modifier: renders then need neither the add-on
     nor Python. Esc cancels and keeps the frames baked so far"""
     bl_idname = "opdeform.bake"
@@ -292,10 +209,9 @@ class OPDEFORM_OT_bake(_ModalBake, _ObjectOperator, bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     def _begin(self, context):
-        rt = _runtime()
         obj = self.target(context)
-        rt.check_object(obj)
-        return rt.BakeJob(obj, context.scene)
+        check_object(obj)
+        return runtime.BakeJob(obj, context.scene)
 
 
 class OPDEFORM_OT_free_bake(_ObjectOperator, bpy.types.Operator):
@@ -306,10 +222,10 @@ class OPDEFORM_OT_free_bake(_ObjectOperator, bpy.types.Operator):
 
     delete_file: BoolProperty(name="Delete File", default=True)
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None:
-            raise rt.AddonError("no object")
-        kept = rt.free_bake(obj, self.delete_file)
+            raise AddonError("no object")
+        kept = runtime.free_bake(obj, self.delete_file)
         if kept:
             self.report({'WARNING'}, f"kept {kept}: this add-on's bake did not write it")
         return {'FINISHED'}
@@ -321,12 +237,35 @@ class OPDEFORM_OT_retry_load(bpy.types.Operator):
     bl_label = "Retry Loading opdeform"
 
     def execute(self, context):
-        from .. import ADDON_PACKAGE
         od, error = loader.load(ADDON_PACKAGE, force=True)
         if od is None:
             self.report({'ERROR'}, error)
             return {'CANCELLED'}
         self.report({'INFO'}, f"opdeform {od.__version__} loaded")
+        return {'FINISHED'}
+
+
+class OPDEFORM_OT_apply_preset(bpy.types.Operator):
+    """Set stiffness, density, damping and quality from a material preset"""
+    bl_idname = "opdeform.apply_preset"
+    bl_label = "Apply Material Preset"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    preset: StringProperty(name="Preset", default=presets.DEFAULT_PRESET)
+    object: StringProperty(name="Object", default="", options={'SKIP_SAVE'},
+                           description="Object name; empty: the active object")
+
+    def execute(self, context):
+        obj = bpy.data.objects.get(self.object) if self.object else context.object
+        try:
+            if obj is None or obj.type != 'MESH':
+                raise AddonError("select a mesh object")
+            if self.preset not in presets.materials().PRESETS:
+                raise AddonError(f"no preset {self.preset!r}: one of {', '.join(presets.materials().PRESETS)}")
+            presets.apply(obj.opdeform, self.preset)
+        except AddonError as exc:
+            self.report({'ERROR'}, str(exc))
+            return {'CANCELLED'}
         return {'FINISHED'}
 
 
@@ -337,9 +276,9 @@ class OPDEFORM_OT_tumbling_enable(_ObjectOperator, bpy.types.Operator):
     bl_label = "Enable Tumbling Particles"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None or obj.type != 'MESH':
-            raise rt.AddonError("select a mesh object: its bounding box becomes the domain")
+            raise AddonError("select a mesh object: its bounding box becomes the domain")
         s = obj.opdeform_tumbling
         s.enabled = True
         s.frame_start, s.frame_end = context.scene.frame_start, context.scene.frame_end
@@ -353,14 +292,14 @@ class OPDEFORM_OT_tumbling_disable(_ObjectOperator, bpy.types.Operator):
     bl_label = "Disable Tumbling Particles"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
+    def run(self, context, obj):
         if obj is None:
-            raise rt.AddonError("no object")
+            raise AddonError("no object")
         obj.opdeform_tumbling.enabled = False
         return {'FINISHED'}
 
 
-class OPDEFORM_OT_tumbling_bake(_ModalBake, _ObjectOperator, bpy.types.Operator):
+class OPDEFORM_OT_tumbling_bake(ModalBake, _ObjectOperator, bpy.types.Operator):
     """Bake the tumbling particles to one PLY file per frame and show them as instanced flakes. Esc cancels
     and keeps the frames baked so far"""
     bl_idname = "opdeform.tumbling_bake"
@@ -368,7 +307,6 @@ class OPDEFORM_OT_tumbling_bake(_ModalBake, _ObjectOperator, bpy.types.Operator)
     bl_options = {'REGISTER', 'UNDO'}
 
     def _begin(self, context):
-        from . import tumbling_runtime
         return tumbling_runtime.BakeJob(self.target(context), context.scene)
 
 
@@ -378,17 +316,17 @@ class OPDEFORM_OT_tumbling_free_bake(_ObjectOperator, bpy.types.Operator):
     bl_label = "Free Bake"
     bl_options = {'REGISTER', 'UNDO'}
 
-    def run(self, context, obj, rt):
-        from . import tumbling_runtime
+    def run(self, context, obj):
         if obj is None:
-            raise rt.AddonError("no object")
+            raise AddonError("no object")
         tumbling_runtime.free_bake(obj)
         return {'FINISHED'}
 
 
 classes = (OPDEFORM_OT_enable, OPDEFORM_OT_disable, OPDEFORM_OT_build, OPDEFORM_OT_reset,
            OPDEFORM_OT_solve_pose, OPDEFORM_OT_handle_add, OPDEFORM_OT_handle_remove, OPDEFORM_OT_bake,
-           OPDEFORM_OT_free_bake, OPDEFORM_OT_retry_load, OPDEFORM_OT_tumbling_enable, OPDEFORM_OT_tumbling_disable,
+           OPDEFORM_OT_free_bake, OPDEFORM_OT_retry_load, OPDEFORM_OT_apply_preset,
+           OPDEFORM_OT_tumbling_enable, OPDEFORM_OT_tumbling_disable,
            OPDEFORM_OT_tumbling_bake, OPDEFORM_OT_tumbling_free_bake)
 
 # registers in the order of `classes`, unregisters in the reverse order

@@ -9,6 +9,7 @@ import numpy as np
 from mathutils import Matrix
 
 from ..core.colliders import contact_points
+from . import playback, state
 
 SEGMENTS = 16
 _handle = {"draw": None}
@@ -45,7 +46,6 @@ def _shader():
 
 
 def _draw():
-    from . import runtime
     try:
         import gpu
         from gpu_extras.batch import batch_for_shader
@@ -54,9 +54,9 @@ def _draw():
             return
         context = bpy.context
         view_layer = context.view_layer
-        for k, rt in runtime.items():
-            obj = next((o for o in view_layer.objects if runtime.key(o) == k), None)
-            if obj is None or not obj.opdeform.show_particles or not obj.visible_get() or not runtime.is_live(obj):
+        for k, rt in state.items():
+            obj = next((o for o in view_layer.objects if state.key(o) == k), None)
+            if obj is None or not obj.opdeform.show_particles or not obj.visible_get() or not playback.is_live(obj):
                 continue  # hidden while baked: the Mesh Cache modifier shows frames the particles no longer hold
             e = rt.engine
             pos, rot = e.shown_state

@@ -1,62 +1,71 @@
-"""The Physics tab panels "Oriented Particles" (with its sub-panels) and "Tumbling Particles", laid out like
-Blender's Soft Body and Cloth panels."""
+"""The Physics tab panels "Oriented Particles" (the material in the artist's units and the warnings, then its
+sub-panels) and "Tumbling Particles", laid out like Blender's Soft Body and Cloth panels. More sub-panels of
+"Oriented Particles": settings_panels.py (Quality, Advanced) and collider_panels.py (Collisions, Field
+Weights), registered after this module (a sub-panel needs its parent)."""
 
 import bpy
 
-from ..core import loader
+from ..core import frame_report, loader
+from . import modifier, presets, runtime, state, versioning
+from .compiled import ADDON_PACKAGE
+from .panel_base import PhysicsPanel, SubPanel, ToggledSubPanel, split, wrapped
+from .parameters import frame_rate, graph_key
 
 
-class _PhysicsPanel:
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "physics"
-
-    @classmethod
-    def poll(cls, context):
-        obj = context.object
-        return obj is not None and obj.type == 'MESH'
-
-
-class _SubPanel(_PhysicsPanel):
-    bl_parent_id = "PHYSICS_PT_opdeform"
-
-    @classmethod
-    def poll(cls, context):
-        obj = context.object
-        return obj is not None and obj.type == 'MESH' and obj.opdeform.enabled
-
-
-class _ToggledSubPanel(_SubPanel):
-    """A sub-panel whose header holds an on/off setting (``toggle``) that greys out its body when off."""
-    toggle = ""
-
-    def draw_header(self, context):
-        self.layout.prop(context.object.opdeform, self.toggle, text="")
-
-    def body(self, context):
-        layout, obj, s = _split(self.layout, context)
-        layout.active = getattr(s, self.toggle)
-        return layout, obj, s
+def draw_material(layout, s, context):
+    """The preset menu and the material settings of the main panel (material or solver units)."""
+    row = layout.row(align=True)
+    row.menu("OPDEFORM_MT_material_presets", text=presets.current_name(s))
+    col = layout.column()
+    if versioning.uses_solver_units(s):
+        col.prop(s, "stiffness")
+        col.prop(s, "density")
+        if s.mode == 'DYNAMIC':
+            col.prop(s, "damping")
+            col.prop(s, "iterations")
+    else:
+        col.prop(s, "modulus", text="Stiffness (MPa)")
+        col.prop(s, "density")
+        if s.mode == 'DYNAMIC':
+            col.prop(s, "damping_rate", text="Damping (/s)")
+            col.prop(s, "tolerance", text="Quality Tolerance")
+            col.prop(s, "max_iterations")
+    if s.mode == 'DYNAMIC':
+        _draw_substeps(layout.column(), s, context.scene)
 
 
-def _split(layout, context):
-    """(the layout with property split, the object, its settings)."""
-    layout.use_property_split = True
-    layout.use_property_decorate = False
-    return layout, context.object, context.object.opdeform
+def _draw_substeps(col, s, scene):
+    col.prop(s, "use_frame_rate_substeps")
+    if s.use_frame_rate_substeps:
+        fps = frame_rate(scene)
+        col.label(text=f"{presets.substeps(s, fps)} substeps at {fps:g} fps", icon='TIME')
+    else:
+        col.prop(s, "substeps")
 
 
-def _wrapped(layout, text, icon='NONE', width=60):
-    col = layout.column(align=True)
-    words, line, first = text.split(), "", True
-    for w in words:
-        if len(line) + len(w) + 1 > width:
-            col.label(text=line, icon=icon if first else 'BLANK1')
-            line, first = w, False
-        else:
-            line = f"{line} {w}".strip()
-    if line:
-        col.label(text=line, icon=icon if first else 'BLANK1')
+def warnings(rt, frame):
+    """The panel's warnings for the frame shown (texts)."""
+    out = []
+    rep = rt.engine.reports.get(frame)
+    if rep is not None and rep.stretch > frame_report.STRETCH_LIMIT:
+        out.append(f"Stretched {rep.stretch:.1f}x the rest length: raise Stiffness or Substeps")
+    if rep is not None and rep.handle_fast:
+        out.append(f"A handle moves {100 * rep.handle_step:.0f} % of the body a step: raise Substeps")
+    thin = rt.engine.thin_part
+    if thin is not None and thin[2]:
+        out.append(f"Thinnest part {thin[0]:.3g} m, particles {thin[1]:.3g} m apart: fewer than two across; "
+                   "raise Particles")
+    if rt.engine.behind:
+        out.append(f"Catching up: {rt.engine.behind:,} frames to go (Esc stops)")
+    return out
+
+
+def draw_warnings(layout, obj, scene):
+    rt = state.get(obj)
+    if rt is None:
+        return
+    for text in warnings(rt, scene.frame_current):
+        wrapped(layout, text, 'ERROR')
 
 
 def _cache_settings(layout, s, scene=None):
@@ -78,11 +87,10 @@ def _bake_buttons(layout, bake, free):
     row.operator(free, icon='TRASH')
 
 
-class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform(PhysicsPanel, bpy.types.Panel):
     bl_label = "Oriented Particles"
 
     def draw(self, context):
-        from .. import ADDON_PACKAGE
         layout = self.layout
         obj = context.object
         s = obj.opdeform
@@ -90,7 +98,7 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
         if od is None:
             box = layout.box()
             box.alert = True
-            _wrapped(box, error, 'ERROR')
+            wrapped(box, error, 'ERROR')
             box.operator("opdeform.retry_load", icon='FILE_REFRESH')
             return
         if not s.enabled:
@@ -102,13 +110,12 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
         if s.error:
             box = layout.box()
             box.alert = True
-            _wrapped(box, s.error, 'ERROR')
+            wrapped(box, s.error, 'ERROR')
             box.operator("opdeform.reset", icon='LOOP_BACK')
         layout.use_property_split = True
         layout.use_property_decorate = False
-        from . import settings_panels
-        settings_panels.draw_material(layout, s, context)
-        settings_panels.draw_warnings(layout, obj, context.scene)
+        draw_material(layout, s, context)
+        draw_warnings(layout, obj, context.scene)
         col = layout.column()
         if s.mode == 'DYNAMIC':
             g = context.scene.gravity
@@ -120,19 +127,18 @@ class PHYSICS_PT_opdeform(_PhysicsPanel, bpy.types.Panel):
             col.operator("opdeform.solve_pose", icon='ARMATURE_DATA')
 
 
-class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_graph(SubPanel, bpy.types.Panel):
     bl_label = "Particles"
 
     def draw(self, context):
-        from . import runtime
-        layout, obj, s = _split(self.layout, context)
+        layout, obj, s = split(self.layout, context)
         col = layout.column()
         col.prop(s, "particles")
         col.prop(s, "graph_mode")
         col.prop(s, "neighbors")
-        rt = runtime.get(obj)
+        rt = state.get(obj)
         row = layout.row()
-        if rt is not None and rt.graph_key != runtime.graph_key(s):
+        if rt is not None and rt.graph_key != graph_key(s):
             row.alert = True
             row.operator("opdeform.build", text="Build (settings changed)", icon='FILE_REFRESH')
         else:
@@ -151,7 +157,7 @@ class PHYSICS_PT_opdeform_graph(_SubPanel, bpy.types.Panel):
         sub.prop(s, "show_edges")
 
 
-class PHYSICS_PT_opdeform_floor(_ToggledSubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_floor(ToggledSubPanel, bpy.types.Panel):
     bl_label = "Floor"
     bl_options = {'DEFAULT_CLOSED'}
     toggle = "use_floor"
@@ -162,22 +168,21 @@ class PHYSICS_PT_opdeform_floor(_ToggledSubPanel, bpy.types.Panel):
         layout.prop(s, "floor_friction")
 
 
-class PHYSICS_PT_opdeform_pins(_SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_pins(SubPanel, bpy.types.Panel):
     bl_label = "Pins"
 
     def draw(self, context):
-        layout, obj, s = _split(self.layout, context)
+        layout, obj, s = split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
         layout.label(text="Pins hold firmly at any weight; for a soft hold paint a Goal group", icon='INFO')
 
 
-class PHYSICS_PT_opdeform_goal(_ToggledSubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_goal(ToggledSubPanel, bpy.types.Panel):
     bl_label = "Goal"
     toggle = "use_goal"
 
     def draw(self, context):
-        from . import modifier
         layout, obj, s = self.body(context)
         layout.prop(s, "goal_strength")
         layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Weight Group")
@@ -197,7 +202,7 @@ class OPDEFORM_UL_handles(bpy.types.UIList):
         row.prop(item, "strength", text="")
 
 
-class PHYSICS_PT_opdeform_handles(_SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_handles(SubPanel, bpy.types.Panel):
     bl_label = "Handles"
 
     def draw(self, context):
@@ -214,14 +219,13 @@ class PHYSICS_PT_opdeform_handles(_SubPanel, bpy.types.Panel):
                 self.layout.label(text=f"Bound to vertex {h.vertex}", icon='VERTEXSEL')
 
 
-class PHYSICS_PT_opdeform_cache(_SubPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_cache(SubPanel, bpy.types.Panel):
     bl_label = "Cache"
 
     def draw(self, context):
-        from . import runtime
-        layout, obj, s = _split(self.layout, context)
+        layout, obj, s = split(self.layout, context)
         _cache_settings(layout, s, context.scene)
-        rt = runtime.get(obj)
+        rt = state.get(obj)
         if rt is not None:
             layout.label(text=f"In memory: {len(rt.engine.cache)} frames", icon='MEMORY')
         _bake_buttons(layout, "opdeform.bake", "opdeform.free_bake")
@@ -251,7 +255,7 @@ def _tumbling_columns(s):
             ("Display", ("instance_object", "flake_size")))
 
 
-class PHYSICS_PT_opdeform_tumbling(_PhysicsPanel, bpy.types.Panel):
+class PHYSICS_PT_opdeform_tumbling(PhysicsPanel, bpy.types.Panel):
     bl_label = "Tumbling Particles"
     bl_options = {'DEFAULT_CLOSED'}
 
@@ -267,7 +271,7 @@ class PHYSICS_PT_opdeform_tumbling(_PhysicsPanel, bpy.types.Panel):
         if s.error:
             box = layout.box()
             box.alert = True
-            _wrapped(box, s.error, 'ERROR')
+            wrapped(box, s.error, 'ERROR')
         layout.use_property_split = True
         layout.use_property_decorate = False
         for heading, names in _tumbling_columns(s):

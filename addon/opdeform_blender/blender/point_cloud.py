@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 
 from ..core import tumbling as core
-from . import runtime
+from .compiled import module
 
 ATTRIBUTE = "orientation"
 MODIFIER_NAME = "Tumbling Instances"
@@ -70,7 +70,7 @@ def show_particles(points, mpm, positions, quaternions):
 
 def snowflake_object():
     """The add-on's snowflake: a six-armed star of radius 1 in the xy plane (not linked to any scene)."""
-    scenes = importlib.import_module(runtime.module().__name__ + ".mpm_scenes")
+    scenes = importlib.import_module(module().__name__ + ".mpm_scenes")
     name = "OPDeform Snowflake"
     obj = bpy.data.objects.get(name)
     if obj is None:
@@ -117,4 +117,3 @@ def instance_nodes(points, instance, scale=1.0):
     mod = points.modifiers.get(MODIFIER_NAME) or points.modifiers.new(MODIFIER_NAME, 'NODES')
     mod.node_group = group
     return mod
-

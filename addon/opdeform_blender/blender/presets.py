@@ -1,30 +1,27 @@
-"""Material presets (Jelly, Flesh, Rubber, Stiff from ``opdeform.materials.PRESETS``) as a menu in the panel,
-like Cloth's presets: each entry runs ``opdeform.apply_preset``. No preset is stored: the menu's label is the
-preset whose values the settings hold, or "Custom". Also what the runtime reads from the settings: the Units
-(core/settings.py) and the substeps in use."""
-
-import bpy
-from bpy.props import StringProperty
+"""Material presets (Jelly, Flesh, Rubber, Stiff from ``opdeform.materials.PRESETS``): applying one, and which
+one the settings hold ("Custom" when none: no preset is stored). Their menu and operator are in
+settings_panels.py and operators.py. Also what the engine reads from the settings: the Units
+(core/settings.py) and the substeps in use; and the stamp that Enable gives an object (versioning.py)."""
 
 from ..core import settings as core_settings
 from . import versioning
+from .compiled import AddonError, module
 
 DEFAULT_PRESET = "Rubber"
 
 
-def _materials():
-    from . import runtime
-    return runtime.module().materials
+def materials():
+    return module().materials
 
 
 def default_name():
-    return _materials().DEFAULT_MATERIAL
+    return materials().DEFAULT_MATERIAL
 
 
 def apply(s, name, only_unset=False):
     """Sets the preset's stiffness, density, damping and tolerance (material units; only_unset: only the
     settings never set)."""
-    for key, value in core_settings.preset_values(_materials(), name).items():
+    for key, value in core_settings.preset_values(materials(), name).items():
         if not (only_unset and s.is_property_set(key)):
             setattr(s, key, value)
     if not only_unset:
@@ -38,13 +35,13 @@ def current_name(s):
         return "Solver Units"
     values = {k: getattr(s, k) for k in ("density", "damping_rate", "tolerance")}
     values["modulus"] = versioning.modulus(s)
-    return core_settings.matching_preset(_materials(), values)
+    return core_settings.matching_preset(materials(), values)
 
 
 def substeps(s, fps):
     """The substeps in use: substeps_for(fps) (steps of at most 1/240 s) with Match Frame Rate, else the
     setting."""
-    return _materials().substeps_for(fps) if s.use_frame_rate_substeps else s.substeps
+    return materials().substeps_for(fps) if s.use_frame_rate_substeps else s.substeps
 
 
 def units(s, fps):
@@ -53,38 +50,20 @@ def units(s, fps):
                                substeps(s, fps))
 
 
-class OPDEFORM_OT_apply_preset(bpy.types.Operator):
-    """Set stiffness, density, damping and quality from a material preset"""
-    bl_idname = "opdeform.apply_preset"
-    bl_label = "Apply Material Preset"
-    bl_options = {'REGISTER', 'UNDO'}
-
-    preset: StringProperty(name="Preset", default=DEFAULT_PRESET)
-    object: StringProperty(name="Object", default="", options={'SKIP_SAVE'},
-                           description="Object name; empty: the active object")
-
-    def execute(self, context):
-        from . import runtime
-        obj = bpy.data.objects.get(self.object) if self.object else context.object
+def stamp(s):
+    """Enabled now: a new object gets the current version and, unless in solver units, the default preset for
+    the settings not set by hand or script."""
+    if not s.enabled or s.settings_version >= core_settings.SETTINGS_VERSION:
+        return
+    if s.settings_version >= core_settings.MATERIAL_UNITS_VERSION:  # set up before: only the modulus moves
+        s.modulus = versioning.modulus(s)
+        s.settings_version = core_settings.SETTINGS_VERSION
+        return
+    if not s.use_solver_units:
         try:
-            if obj is None or obj.type != 'MESH':
-                raise runtime.AddonError("select a mesh object")
-            if self.preset not in _materials().PRESETS:
-                raise runtime.AddonError(f"no preset {self.preset!r}: one of {', '.join(_materials().PRESETS)}")
-            apply(obj.opdeform, self.preset)
-        except runtime.AddonError as exc:
-            self.report({'ERROR'}, str(exc))
-            return {'CANCELLED'}
-        return {'FINISHED'}
-
-
-class OPDEFORM_MT_material_presets(bpy.types.Menu):
-    bl_label = "Material Presets"
-
-    def draw(self, context):
-        for name in _materials().PRESETS:
-            self.layout.operator("opdeform.apply_preset", text=name).preset = name
-
-
-classes = (OPDEFORM_OT_apply_preset, OPDEFORM_MT_material_presets)
-register, unregister = bpy.utils.register_classes_factory(classes)
+            apply(s, default_name(), only_unset=True)
+        except AddonError:  # opdeform did not load (the panel says so): the defaults stay
+            pass
+        if not s.is_property_set("use_frame_rate_substeps") and not s.is_property_set("substeps"):
+            s.use_frame_rate_substeps = True
+    s.settings_version = core_settings.SETTINGS_VERSION

@@ -6,6 +6,9 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        IntProperty, PointerProperty, StringProperty)
 
 from ..core import tumbling
+from . import presets
+from .compiled import AddonError, mpm
+from .discovery import mark_discovery
 
 GRAPH_MODE_ITEMS = (
     ("auto", "Auto", "Volume for closed meshes, surface for open or thin ones"),
@@ -54,15 +57,9 @@ def _scene_range_off(self, context):
         self.frame_start, self.frame_end = scene.frame_start, scene.frame_end
 
 
-def _mark_discovery(self, context):
-    from . import handlers
-    handlers.mark_discovery()
-
-
 def _enabled(self, context):
-    from . import versioning
-    _mark_discovery(self, context)
-    versioning.stamp(self)
+    mark_discovery()
+    presets.stamp(self)
 
 
 def _solver_units(self, context):
@@ -180,10 +177,9 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
 
 
 def _material_preset(self, context):
-    from . import runtime, tumbling_runtime
     try:
-        preset = getattr(tumbling_runtime.mpm(), self.material)()
-    except runtime.AddonError:
+        preset = getattr(mpm(), self.material)()
+    except AddonError:
         return  # the module is missing: the panel says so; keep the values
     self.density, self.young_modulus, self.poisson_ratio = preset.density, preset.young_modulus, \
         preset.poisson_ratio

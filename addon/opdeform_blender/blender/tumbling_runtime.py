@@ -7,7 +7,6 @@ writes one PLY per frame; the frames then play on the point cloud of blender/poi
 """
 
 import contextlib
-import importlib
 
 import bpy
 import numpy as np
@@ -16,14 +15,12 @@ from ..core import fields as field_logic
 from ..core import tumbling as core
 from ..core.frames import BakeFrames
 from . import colliders as scene_colliders
-from . import point_cloud, runtime
+from . import point_cloud
+from .compiled import AddonError, mpm
+from .mesh_data import triangles, vertex_positions
+from .parameters import cache_folder, frame_rate
 
 _baking = {"busy": False}
-
-
-def mpm():
-    """The loaded opdeform's mpm module; AddonError when none loaded."""
-    return importlib.import_module(runtime.module().__name__ + ".mpm")
 
 
 def baking():
@@ -39,7 +36,7 @@ def _bake_frame(scene, frame):
         scene.frame_set(frame)
         yield
     except (ValueError, RuntimeError) as exc:  # core's and core/colliders.py's ColliderError
-        raise runtime.AddonError(str(exc)) from None
+        raise AddonError(str(exc)) from None
     finally:
         _baking["busy"] = False
 
@@ -52,9 +49,9 @@ def domain_box(obj):
 
 
 def _local_mesh(obj, role):
-    verts, tris = runtime.vertex_positions(obj.data).astype(float), runtime.triangles(obj.data)
+    verts, tris = vertex_positions(obj.data).astype(float), triangles(obj.data)
     if len(tris) == 0:
-        raise runtime.AddonError(f"{role} {obj.name!r} has no faces: it needs a closed mesh")
+        raise AddonError(f"{role} {obj.name!r} has no faces: it needs a closed mesh")
     return verts, tris
 
 
@@ -63,7 +60,7 @@ def emitted_positions(s, lower, upper, module):
         return core.flake_layer(module, s, lower, upper)
     obj = s.emitter_object
     if obj is None:
-        raise runtime.AddonError("choose an emitter object (or the Flake Layer emitter)")
+        raise AddonError("choose an emitter object (or the Flake Layer emitter)")
     verts, tris = _local_mesh(obj, "emitter")
     return core.fill_volume(module, s, verts, tris, np.array(obj.matrix_world))
 
@@ -99,15 +96,15 @@ class BakeJob(BakeFrames):
 
     def __init__(self, obj, scene):
         if obj is None or obj.type != 'MESH':
-            raise runtime.AddonError("select the domain: a mesh object with Tumbling Particles enabled")
+            raise AddonError("select the domain: a mesh object with Tumbling Particles enabled")
         s = obj.opdeform_tumbling
         if not s.enabled:
-            raise runtime.AddonError(f"{obj.name!r}: enable Tumbling Particles first")
+            raise AddonError(f"{obj.name!r}: enable Tumbling Particles first")
         if s.frame_end <= s.frame_start:
-            raise runtime.AddonError("the cache's end frame must be after its start frame")
+            raise AddonError("the cache's end frame must be after its start frame")
         module = mpm()
         self.obj_name, self.scene, self.mpm = obj.name, scene, module
-        self.path = runtime.cache_folder(s.cache_directory or core.DEFAULT_FOLDER)
+        self.path = cache_folder(s.cache_directory or core.DEFAULT_FOLDER)
         self.start, self.end = s.frame_start, s.frame_end
         self.original_frame = scene.frame_current
         core.free_frames(self.path)
@@ -117,7 +114,7 @@ class BakeJob(BakeFrames):
             self.collider_names = [c.name for c in found]
             self.bake = core.Bake(module, core.settings_dict(s, gravity(scene), lower, upper),
                                   emitted_positions(s, lower, upper, module), found, self.path, self.start,
-                                  self.end, runtime.frame_rate(scene))
+                                  self.end, frame_rate(scene))
             self.fields = field_logic.SceneFields(self.bake.world)
         s.baked, s.error = False, ""
         self.frame = self.start + 1
@@ -132,7 +129,7 @@ class BakeJob(BakeFrames):
     def _collider_matrix(name):
         obj = bpy.data.objects.get(name)
         if obj is None:
-            raise runtime.AddonError(f"collider {name!r} disappeared during the bake")
+            raise AddonError(f"collider {name!r} disappeared during the bake")
         return np.array(obj.matrix_world)
 
     def finish(self):
@@ -173,4 +170,4 @@ def show_baked(obj, scene):
         return
     frame = core.shown_frame(scene.frame_current, s.frame_start, s.frame_end)
     if not point_cloud.show_frame(points, mpm(), s.baked_folder, frame):
-        raise runtime.AddonError(f"baked frame {frame} is missing from {s.baked_folder}")
+        raise AddonError(f"baked frame {frame} is missing from {s.baked_folder}")

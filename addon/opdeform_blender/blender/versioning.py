@@ -4,7 +4,8 @@ keeps its meaning: such an object runs in solver units (its raw k, damping per s
 stored or default). On a file load (handlers.on_load_post) every such object is marked so
 (``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
 is treated the same way (``uses_solver_units``). Enabling oriented particles on an object stamps the current
-version and gives the settings the user has not set the default preset (Rubber) and Match Frame Rate."""
+version and gives the settings the user has not set the default preset (Rubber) and Match Frame Rate
+(``presets.stamp``, above this module: it needs the presets)."""
 
 from ..core import settings as core_settings
 
@@ -17,26 +18,6 @@ def modulus(s):
     """The modulus (MPa) in use: an object read from a version-1 file without a load (appended, linked) means
     V1_MODULUS_FACTOR times its stored value, as ``upgrade`` makes it on a load."""
     return core_settings.modulus_now(s.modulus, s.settings_version)
-
-
-def stamp(s):
-    """Enabled now: a new object gets the current version and, unless in solver units, the default preset for
-    the settings not set by hand or script."""
-    if not s.enabled or s.settings_version >= core_settings.SETTINGS_VERSION:
-        return
-    if s.settings_version >= core_settings.MATERIAL_UNITS_VERSION:  # set up before: only the modulus moves
-        s.modulus = modulus(s)
-        s.settings_version = core_settings.SETTINGS_VERSION
-        return
-    from . import presets, runtime
-    if not s.use_solver_units:
-        try:
-            presets.apply(s, presets.default_name(), only_unset=True)
-        except runtime.AddonError:  # opdeform did not load (the panel says so): the defaults stay
-            pass
-        if not s.is_property_set("use_frame_rate_substeps") and not s.is_property_set("substeps"):
-            s.use_frame_rate_substeps = True
-    s.settings_version = core_settings.SETTINGS_VERSION
 
 
 def upgrade(objects):

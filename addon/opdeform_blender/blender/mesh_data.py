@@ -1,0 +1,69 @@
+"""Reading a mesh object for the engine: its checks, vertex positions, triangles and vertex groups (pins, the
+goal's weights). Bad input raises AddonError naming the object or group."""
+
+import numpy as np
+
+from .compiled import AddonError
+
+
+def check_object(obj):
+    if obj is None:
+        raise AddonError("no object: select a mesh object or pass object=NAME")
+    if obj.type != 'MESH':
+        kind = obj.type.lower()
+        article = "an" if kind[0] in "aeiou" else "a"
+        raise AddonError(f"{obj.name!r} is {article} {kind} object, not a mesh: oriented particles simulate "
+                         "meshes")
+    mesh = obj.data
+    if len(mesh.vertices) == 0:
+        raise AddonError(f"mesh {mesh.name!r} has no vertices")
+    if len(mesh.polygons) == 0:
+        raise AddonError(f"mesh {mesh.name!r} has no faces: oriented particles need a surface or a volume")
+    if obj.mode == 'EDIT':
+        raise AddonError(f"{obj.name!r} is in Edit Mode: leave it first")
+
+
+def vertex_positions(mesh):
+    buf = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    attr = mesh.attributes.get("position")
+    if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+        attr.data.foreach_get("vector", buf)
+    else:
+        mesh.vertices.foreach_get("co", buf)
+    return buf.reshape(-1, 3)
+
+
+def triangles(mesh):
+    mesh.calc_loop_triangles()
+    tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tri)
+    return tri.reshape(-1, 3)
+
+
+def read_vertex_group(obj, name, what):
+    """(indices, weights) of the group's vertices with a weight above zero; None without a group name."""
+    if not name:
+        return None
+    group = obj.vertex_groups.get(name)
+    if group is None:
+        raise AddonError(f"{what} group {name!r} is not a vertex group of {obj.name!r}")
+    gi = group.index
+    idx, w = [], []
+    for v in obj.data.vertices:
+        for g in v.groups:
+            if g.group == gi and g.weight > 0.0:
+                idx.append(v.index)
+                w.append(g.weight)
+    if not idx:
+        raise AddonError(f"{what} group {name!r} of {obj.name!r} has no vertices (or only zero weights)")
+    return np.array(idx, dtype=np.int64), np.array(w, dtype=np.float64)
+
+
+def read_goal_weights(obj, settings):
+    """The goal group as one weight per vertex (0 outside the group); None without a group."""
+    group = read_vertex_group(obj, settings.goal_group, "goal")
+    if group is None:
+        return None
+    weights = np.zeros(len(obj.data.vertices))
+    weights[group[0]] = group[1]
+    return weights

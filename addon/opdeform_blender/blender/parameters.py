@@ -1,0 +1,64 @@
+"""What the engine is given, read from an object's settings and its scene: the graph's key, the cache's frame
+range, the frame rate, gravity, the solver's parameters (core/settings.py), the floor, contact and goal; and
+the folder of a bake. A new setting that reaches the engine is read here."""
+
+import bpy
+
+from ..core import settings as core_settings
+from . import presets
+from .colliders import FRICTION_SCALE
+from .compiled import AddonError, module
+
+
+def graph_key(settings):
+    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group, settings.goal_group)
+
+
+def frame_range(settings, scene):
+    """(start, end) of the cache: the scene's frame range while Scene Range is on, else the object's own."""
+    if settings.use_scene_range:
+        return scene.frame_start, scene.frame_end
+    return settings.frame_start, settings.frame_end
+
+
+def frame_rate(scene):
+    return scene.render.fps / scene.render.fps_base
+
+
+def gravity(settings, scene):
+    use = scene.use_gravity and (settings.mode == 'DYNAMIC' or settings.pose_gravity)
+    return tuple(scene.gravity) if use else (0.0, 0.0, 0.0)
+
+
+def sim_settings(settings, scene, graph):
+    """(Simulation parameters, set_solver arguments) of the settings for this graph (core/settings.py)."""
+    fps = frame_rate(scene)
+    return core_settings.solver_settings(module(), graph, presets.units(settings, fps), fps,
+                                         gravity(settings, scene))
+
+
+def floor(settings):
+    return (settings.floor_height, settings.floor_friction) if settings.use_floor else None
+
+
+def self_contact(contact):
+    """set_self_contact's arguments from the object's contact settings (None: Self Collision off)."""
+    if not contact.use_self_collision:
+        return None
+    return dict(thickness=contact.self_distance, friction=FRICTION_SCALE * contact.self_friction)
+
+
+def body_contact(contact):
+    return contact.object_distance, FRICTION_SCALE * contact.object_friction
+
+
+def goal_strength(settings):
+    """The goal strength in use: None when off (and in posing mode, which has no animation to follow)."""
+    return settings.goal_strength if settings.use_goal and settings.mode == 'DYNAMIC' else None
+
+
+def cache_folder(folder):
+    """The absolute path of a cache folder setting ('//': next to the .blend, which must be saved then)."""
+    if folder.startswith("//") and not bpy.data.filepath:
+        raise AddonError("save the .blend file first, or choose an absolute cache folder")
+    return bpy.path.abspath(folder)

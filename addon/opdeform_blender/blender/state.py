@@ -1,0 +1,86 @@
+"""What the add-on keeps in memory per object between frames: its Runtime (the Engine and what the frames
+shown need), and the contact groups of the live objects (core/contact.py). A new per-object field goes in
+Runtime.__init__.
+
+Nothing here keeps a bpy pointer across calls: runtimes are keyed by the object's session_uid (its name before
+Blender 3.5), so undo and file loads cannot leave dangling references.
+"""
+
+import bpy
+
+from ..core.contact import Bodies
+
+RECENT_FRAMES = 3  # outputs kept for subframes (motion blur) between the last frames shown
+CATCH_UP_SECONDS = 0.1  # simulation per frame change in the UI; a far jump goes on in blender/catch_up.py
+
+_runtimes = {}
+bodies = Bodies()  # the contact groups of the live objects (core/contact.py)
+
+
+class Runtime:
+    """What the add-on holds for one object between frames."""
+
+    def __init__(self, engine, graph_key, pins, goal_weights):
+        self.engine = engine
+        self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
+        self.pins = pins  # (indices, weights) read from the pin group at Build
+        self.goal_weights = goal_weights  # per-vertex weights of the goal group (None: 1 everywhere)
+        self.handle_matrices = None  # bytes of the handle transforms last used
+        self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
+        self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
+        self.baking = False  # a bake computes frames without writing the offset
+        # seconds of simulation per frame change (None: all the frames asked for, as scripts and renders need)
+        self.budget = None if bpy.app.background else CATCH_UP_SECONDS
+        self.timing = {}
+        self.started = None  # when the frame being shown began (perf_counter)
+
+    def remember(self, frame, out):
+        self.recent[frame] = out.copy()
+        for f in sorted(self.recent)[:-RECENT_FRAMES]:
+            del self.recent[f]
+
+    @property
+    def deformed(self):
+        return self.shown is not None and self.shown[0] != "rest"
+
+
+def key(obj):
+    return getattr(obj, "session_uid", None) or obj.name
+
+
+def get(obj):
+    return _runtimes.get(key(obj))
+
+
+def put(obj, rt):
+    _runtimes[key(obj)] = rt
+
+
+def drop(obj):
+    _runtimes.pop(key(obj), None)
+
+
+def renamed(old_name, obj, rt):
+    """obj, renamed from old_name, keeps rt (keyed by name before Blender 3.5)."""
+    _runtimes.pop(old_name, None)
+    put(obj, rt)
+
+
+def clear():
+    _runtimes.clear()
+    bodies.clear()
+
+
+def items():
+    return list(_runtimes.items())
+
+
+def prune(valid_keys):
+    """Forgets the runtimes of objects that are gone (after undo or a file load)."""
+    for k in [k for k in _runtimes if k not in valid_keys]:
+        del _runtimes[k]
+
+
+def forget_groups():
+    """Forgets the contact groups of objects rebuilt or gone (groups of other scenes stay)."""
+    bodies.keep_only({id(rt.engine.sim) for rt in _runtimes.values()})
