@@ -1,5 +1,5 @@
-"""The layers of csrc/: a wrong-way include fails the build, and the module graph has no cycle
-(docs/architecture.md)."""
+"""The layers of csrc/: a wrong-way include fails the build, and the module graphs of includes and calls have no
+cycle (docs/architecture.md; planted faults: tests/test_architecture.py)."""
 import json
 import os
 import runpy
@@ -70,16 +70,22 @@ def test_wrong_way_include_fails_the_build(source, include, expect, tmp_path):
 
 
 def test_layers_respected_no_cycle_docs_current():
-    run = subprocess.run([sys.executable, SCRIPT, "--check"], capture_output=True, text=True)
+    run = subprocess.run([sys.executable, SCRIPT, "--check", "--part", "csrc"], capture_output=True, text=True)
     assert run.returncode == 0, run.stdout + run.stderr
-    result = json.loads(subprocess.run([sys.executable, SCRIPT, "--json"], capture_output=True, text=True).stdout)
-    assert result["cycles"] == [] and result["wrong_way"] == []
+    out = subprocess.run([sys.executable, SCRIPT, "--json", "--part", "csrc"], capture_output=True, text=True).stdout
+    result = json.loads(out)["csrc"]
+    assert result["cycles"] == [] and result["problems"] == []
     edges = {tuple(e) for e in result["edges"]}
     # the analysis sees the graph (not vacuous): the solver uses the position terms, which never use it back
     assert ("arap/global_solve", "arap/position_constraints") in edges
     assert not any(a == "arap/position_constraints" and b == "arap/global_solve" for a, b in edges)
     assert ("arap/constraints", "arap/global_solve") not in edges  # the set does not reach into the solver
     assert [name for name, _ in result["layers"]][:2] == ["base", "graph"]
+    # the calls: the driver and the bodies' contact both drive the stages of a step, which call neither back
+    calls = {(a, b): names for a, b, names in result["calls"]}
+    assert "od_BodyContact_Step" in calls["arap/simulation", "arap/body_contact"]
+    assert {"od_Step_Start", "od_Step_Advance"} <= set(calls["arap/body_contact", "arap/step"])
+    assert not any(a == "arap/step" and b in ("arap/simulation", "arap/body_contact") for a, b in calls)
 
 
 def test_cycle_finder_finds_cycles():
