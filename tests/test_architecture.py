@@ -104,6 +104,18 @@ def test_addon_module_in_no_layer_and_core_importing_blender_fail(tmp_path):
     assert "core.frames imports blender.planted: core/ is below blender/" in out, out
 
 
+def test_addon_module_in_two_layers_and_a_layer_of_a_missing_module_fail(tmp_path):
+    root = copy(tmp_path, "addon")
+    layers = analysis("addon", root)["layers"]
+    lowest = layers[0][1][0]
+    planted = tuple((name, tuple(members)) for name, members in layers) + (("extra", (lowest, "ghost")),)
+    (root / FOLDERS["addon"] / "blender" / "__init__.py").write_text(f'"""Planted layers."""\nLAYERS = {planted!r}\n')
+    rc, out = check("--root", str(root), "--part", "addon")
+    assert rc == 1
+    assert f"blender.{lowest} is in two layers ({layers[0][0]} and extra)" in out, out
+    assert "layer extra lists blender.ghost, which is not a module" in out, out
+
+
 def test_package_cycle_and_more_than_reexports_fail(tmp_path):
     root = copy(tmp_path, "package")
     package = root / FOLDERS["package"]
