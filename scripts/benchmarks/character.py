@@ -16,16 +16,15 @@ own sharing the rig and the floor:
 
 Every frame steps every scene in turn (interleaved) and times `scene.frame_set` in process time and in wall
 time; medians of frames 2..N. For OPDeform the add-on's own per-frame timings (wall clock, perf_counter) split
-the wall time: solve
-(sim.step), skin (skinning), write (the offset written back), read + other (the handler's total minus those:
-reading the input, goal frames, bookkeeping) and Blender's evaluation (frame_set minus the handler's total:
-the depsgraph, the Armature, the modifier that shows the offset, in wall time). "handler-solve" = the
+the wall time: solve (sim.step), skin (skinning), write (the offset written back), read + other (the handler's
+total minus those: reading the input, goal frames, bookkeeping) and Blender's evaluation (frame_set minus the
+handler's total: the depsgraph, the Armature, the modifier that shows the offset). "handler-solve" = the
 handler's total minus the solve; "added-solve" = OPDeform's frame_set minus the armature-only frame_set minus
 the solve (wall): everything OPDeform adds beyond its solver, what the aim is checked on. Wall times count
-what other processes take from this one: read them beside the load average. Each variant's figures against the armature-only pose (tests/blender/character_measure.py) follow:
-core, ear, belly, tail, stretch, lowest, settle. Aims (issue 24), printed with the load average: OPDeform's
-part beyond its solver <= 1 ms a frame; >= 60 frames a second (<= 16.7 ms per frame_set) at 1,000
-particles. Results: out/bench/character/<host>.json.
+what other processes take from this one: read them beside the load average. Each variant's figures against
+the armature-only pose (tests/blender/character_measure.py) follow: core, ear, belly, tail, stretch, lowest,
+settle. Aims (issue 24), printed with the load average: what OPDeform adds beyond its solver <= 1 ms a frame;
+>= 60 frames a second (<= 16.7 ms per frame_set) at 1,000 particles. Results: out/bench/character/<host>.json.
 
 `scripts/bench character --picture [--out PNG]` instead renders the frame strip (armature only / OPDeform /
 Soft Body / Cloth Dynamics at a mid-hop frame, tests/blender/render_character.py) in bpy 5.2, by default to
@@ -197,7 +196,8 @@ def report(result):
           "wall clock, as the add-on times (blender = frame_set's wall time minus the handler's; added-solve = "
           "wall ms minus the armature-only wall ms minus the solve)")
     table(rows, ["variant", "ms/frame", "x arm.", "fps", "wall ms", "blender", "read+other", "solve", "skin", "write",
-                 "handler-solve", "added-solve", "core mm", "ear mm", "belly mm", "tail mm", "stretch", "lowest mm", "settle s"])
+                 "handler-solve", "added-solve", "core mm", "ear mm", "belly mm", "tail mm", "stretch", "lowest mm",
+                 "settle s"])
     return aims
 
 

@@ -17,7 +17,8 @@ The largest over the clip's frames except where said. As a script, one row per s
     <python with bpy> tests/blender/character_measure.py [OPTIONS]
 
 OPTIONS: --strengths 0.5 0.7 (goal strengths, each a row; default 0.5 0.7 0.9 1.0), --no-group (the follow
-group not picked), --no-collision (the floor without its Collision modifier), --set NAME=VALUE (any obj.opdeform property, e.g. --set particles=200; repeatable).
+group not picked), --no-collision (the floor without its Collision modifier), --set NAME=VALUE (any
+obj.opdeform property, e.g. --set particles=200; repeatable).
 $OPDEFORM_PYTHONPATH names the built module's folder (tests/test_addon*.py and scripts/bench set it).
 """
 
