@@ -211,12 +211,12 @@ def test_goal_velocity_spans_the_steps_between_frames(bar):
     for steps in (1, 2, 3):
         sim = simulation(g, True, dt=1 / (steps * FPS))
         sim.set_goals(g.centers)
-        assert sim._goal_motion()[2] == 0 and not sim._goal_motion()[0].any()
+        assert sim.goal_motion[2] == 0 and not sim.goal_motion[0].any()
         for f in range(3):
             sim.step(steps)
             sim.set_goals(g.centers + velocity * (f + 1) / FPS)
         sim.set_goals(g.centers + velocity * 3 / FPS)  # again, no step between
-        u, spin, since = sim._goal_motion()
+        u, spin, since = sim.goal_motion
         np.testing.assert_allclose(u, np.broadcast_to(velocity, u.shape), rtol=1e-12)
         assert not spin.any() and since == 0
 
@@ -233,9 +233,9 @@ def test_bad_input_raises_naming_the_entry(bar):
     assert sim.particle_damping is None
     free = simulation(g, True, strength=None)  # no goals: no motion to restore
     with pytest.raises(ValueError, match="do not carry the rest"):
-        free._core.restore_goal_motion(np.zeros((n, 3)), np.zeros((n, 3)), 0)
+        free.set_goal_motion((np.zeros((n, 3)), np.zeros((n, 3)), 0))
     with pytest.raises(ValueError, match="goal angular velocities"):
-        sim._core.restore_goal_motion(np.zeros((n, 3)), np.full((n, 3), np.inf), 0)
+        sim.set_goal_motion((np.zeros((n, 3)), np.full((n, 3), np.inf), 0))
 
 
 @pytest.mark.parametrize("between", [False, True])  # pickled after a step, or after set_goals before its step

@@ -164,15 +164,22 @@ class Simulation(ForceFields):
         """Whether the goals carry the rest shape (``set_goals_carry_rest``)."""
         return self._core.goal_rest()
 
-    def _goal_motion(self):
+    @property
+    def goal_motion(self):
         """(velocities, angular_velocities, steps since the last set_goals or -1) of goals carrying the rest, or
-        None: what a pickle needs to continue to the same bits."""
+        None: what a step's damping reads besides the state, so a saved state continues to the same bits only
+        with it (``set_goal_motion``; the add-on's frame cache keeps it per frame, pickles carry it)."""
         if not self.goals_carry_rest or self._goal_hz is None:
             return None
         n = self.graph.n_particles
         velocities, angular = np.empty((n, 3)), np.empty((n, 3))
         steps = self._core.goal_motion(velocities, angular)
         return velocities, angular, steps
+
+    def set_goal_motion(self, motion):
+        """Puts back a ``goal_motion`` (None: nothing to put back)."""
+        if motion is not None:
+            self._core.restore_goal_motion(*motion)
 
     # -- damping per particle ---------------------------------------------------------------------------
     def set_particle_damping(self, damping):
@@ -376,7 +383,7 @@ class Simulation(ForceFields):
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
-                "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self._goal_motion(),
+                "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self.goal_motion,
                 "particle_damping": self.particle_damping,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
@@ -397,8 +404,7 @@ class Simulation(ForceFields):
         self.set_goals_carry_rest(saved.get("goal_rest", False))
         if saved["goal_frames"] is not None:
             self.set_goals(*saved["goal_frames"])
-        if saved.get("goal_motion") is not None:
-            self._core.restore_goal_motion(*saved["goal_motion"])
+        self.set_goal_motion(saved.get("goal_motion"))
         self.set_particle_damping(saved.get("particle_damping"))
         self._replay(saved["ids_before"], saved["history"], saved["constraints"], saved["targets"])
         for name, args in saved["fields"]:

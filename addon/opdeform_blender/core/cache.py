@@ -1,10 +1,10 @@
-"""In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities) and the
-handle targets and goal frames that produced them, and for a member of a contact group the group's state after
-that frame (``opdeform.ContactGroup.save_state``: the pairs and forces its next step starts from; 170-310 kB a
-frame for two stacked 1,000-particle bodies, shared by the members' caches), and the skinned vertices that the
-frame's colliders and floor pushed out (indices and positions: only those). A few kilobytes per frame for a
-hundred particles: the skinned vertices are not kept, they are recomputed from the state when a cached frame is
-shown.
+"""In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities, and the
+goals' motion while they carry the rest) and the handle targets and goal frames that produced them, and for a
+member of a contact group the group's state after that frame (``opdeform.ContactGroup.save_state``: the pairs
+and forces its next step starts from; 170-310 kB a frame for two stacked 1,000-particle bodies, shared by the
+members' caches), and the skinned vertices that the frame's colliders and floor pushed out (indices and
+positions: only those). A few kilobytes per frame for a hundred particles: the skinned vertices are not kept,
+they are recomputed from the state when a cached frame is shown.
 
 Bounded: at most ``CACHE_BYTES`` (256 MiB; about 18,000 frames of 100 particles, 1,800 of 1,000). Past it the
 oldest frames after the start are dropped (the start frame is always kept); showing a dropped frame replays
@@ -17,7 +17,8 @@ CACHE_BYTES = 256 * 2 ** 20
 
 def _nbytes(entry):
     state, targets, goals, contact, pushed = entry
-    arrays = [*state, *(() if targets is None else (targets,)), *(() if goals is None else goals),
+    motion = state[4] if len(state) > 4 and state[4] is not None else ()  # the goals' (velocities, spins, steps)
+    arrays = [*state[:4], *motion, *(() if targets is None else (targets,)), *(() if goals is None else goals),
               *(() if contact is None else contact), *(() if pushed is None else pushed)]
     return sum(np.asarray(a).nbytes for a in arrays)
 

@@ -9,8 +9,10 @@ playback both go through ``goto``, so a bake equals playback bit for bit.
 
 The simulation runs in world space. Without a goal the world is the one of the object's transform at Build
 and offset = skin(state) - skin(rest frames). With a goal each frame's input, placed by the object's current
-transform, is fitted to per-particle goal frames (``GoalFit``) that pull the particles with the goal strength,
-and offset = skin(state) - skin(goal frames): secondary motion layered on the animation, none at strength 1.
+transform, is fitted to per-particle goal frames (``GoalFit``) that pull the particles with the goal strength
+and carry the rest shape (the animated shape is the equilibrium, docs/goals.md), and offset = skin(state) -
+skin(goal frames), times each vertex's lock (0 where it follows fully): secondary motion layered on the
+animation, none where the follow value is 1.
 """
 
 import time
@@ -26,6 +28,10 @@ from .fields import SceneFields
 from .frame_report import FrameReports, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
+# A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
+# particle's strength is a mean over its vertices, so a core vertex near a soft region would otherwise take
+# that region's lag), follow 0.9 and below the whole offset.
+LOCK_RAMP = 10.0
 
 
 class EngineError(ValueError):
@@ -150,6 +156,9 @@ class Engine:
         self._rest_skin = self.skin.deform(*self._rest_state[:2])
         self.fit = None
         self.goal_strength = None  # per-particle goal strengths, None: no goal
+        self.follow = None  # per-vertex follow values of the goal, None: no goal
+        self._lock = None  # (V, 1) share of the simulated offset each vertex shows: 0 where follow is 1
+        self._regions = (None, None)  # set_regions' per-particle stiffness scale and damping
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
         self.fields = None  # the scene's force fields in the simulation (core/fields.py)
@@ -306,25 +315,57 @@ class Engine:
             for cid, direction in zip(ids[1:], t[1:]):
                 self.sim.set_constraint_target(cid, direction)
 
-    def set_goal(self, strength, vertex_weights=None):
-        """The goal: None (off), or a strength in [0, 1] times a per-vertex weight in [0, 1] (a painted goal
-        group; None: 1 everywhere), turned into per-particle strengths. A change outdates the cache."""
-        values = None
+    def set_goal(self, strength, vertex_weights=None, follow_range=(0.0, 1.0)):
+        """The goal (docs/goals.md): None (off), or how closely each vertex follows the animated input, in [0, 1]:
+        ``strength`` everywhere, or with a painted group's per-vertex weights w the value lo + w (hi - lo) of
+        ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself). 1 locks a vertex to the
+        animation, 0 leaves it free, values between are springs (``opdeform.goal_frequency``). The goals carry
+        the rest shape: the animated shape is the equilibrium. A change outdates the cache."""
+        follow = None
         if strength is not None:
-            if not (np.isfinite(strength) and 0.0 <= strength <= 1.0):
-                raise EngineError(f"the goal strength must be in 0..1, got {strength}")
+            follow = self._follow(strength, vertex_weights, follow_range)
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
-            values = np.full(self.graph.n_particles, float(strength))
-            if vertex_weights is not None:
-                w = np.asarray(vertex_weights, dtype=np.float64)
-                if len(w) != self.n_vertices or not np.all((w >= 0.0) & (w <= 1.0)):
-                    raise EngineError("goal weights must be one per vertex, in 0..1")
-                values *= np.clip(self.fit.particle_values(w), 0.0, 1.0)  # a mean may round past 1
-        if _same(values, self.goal_strength):
+        values = None if follow is None else np.clip(self.fit.particle_values(follow), 0.0, 1.0)  # a mean may round past 1
+        if _same(values, self.goal_strength) and _same(follow, self.follow):
             return False
         self.sim.set_goal_strength(values)
-        self.goal_strength = values
+        self.sim.set_goals_carry_rest(values is not None)
+        self.goal_strength, self.follow = values, follow
+        self._lock = None if follow is None else np.clip(LOCK_RAMP * (1.0 - follow), 0.0, 1.0)[:, None]
+        self.invalidate()
+        return True
+
+    def _follow(self, strength, vertex_weights, follow_range):
+        """The per-vertex follow values of ``set_goal``; EngineError naming a value out of [0, 1]."""
+        values = (strength, *follow_range)
+        if not all(np.isfinite(v) and 0.0 <= v <= 1.0 for v in values):
+            raise EngineError(f"the goal strength and its range must be in 0..1, got {strength}, {follow_range}")
+        if vertex_weights is None:
+            return np.full(self.n_vertices, float(strength))
+        w = np.asarray(vertex_weights, dtype=np.float64)
+        if len(w) != self.n_vertices or not np.all((w >= 0.0) & (w <= 1.0)):
+            raise EngineError("goal weights must be one per vertex, in 0..1")
+        lo, hi = follow_range
+        return lo + w * (hi - lo)
+
+    def set_regions(self, stiffness_scale=None, damping=None):
+        """Per-vertex maps (a painted softness and damping; None: uniform) as per-particle values: the stiffness
+        of each particle times ``stiffness_scale`` (> 0), and its damping per step in [0, 1] in place of the
+        body's (relative to the goals' motion while a goal is on). A change outdates the cache; a new
+        stiffness scale refactors once."""
+        if self.fit is None:
+            self.fit = self.od.GoalFit(self.graph, self.rest)
+        scale = None if stiffness_scale is None else self.fit.particle_values(stiffness_scale)
+        per_particle = None if damping is None else np.clip(self.fit.particle_values(damping), 0.0, 1.0)
+        if _same(scale, self._regions[0]) and _same(per_particle, self._regions[1]):
+            return False
+        try:
+            self.sim.set_stiffness_scale(scale)
+            self.sim.set_particle_damping(per_particle)
+        except ValueError as exc:
+            raise EngineError(f"painted regions: {exc}") from None
+        self._regions = (scale, per_particle)
         self.invalidate()
         return True
 
@@ -334,8 +375,10 @@ class Engine:
 
     # -- state ----------------------------------------------------------------------------------------
     def _state(self):
+        """What a cached frame continues from: the state, and the goals' motion while they carry the rest (their
+        velocities damp the step: a frame simulated again after a jump back needs them for the same bits)."""
         s = self.sim
-        return (s.positions, s.rotations, s.velocities, s.angular_velocities)
+        return (s.positions, s.rotations, s.velocities, s.angular_velocities, s.goal_motion)
 
     def reset(self, targets=None, goals=None, surroundings=NOTHING):
         """The start frame: the rest state, or the goal frames at rest (velocity 0) with a goal, the colliders
@@ -346,13 +389,20 @@ class Engine:
         self.sim.set_state(*state)
         self._apply_targets(targets)
         self._apply_goals(goals)
+        if goals is not None:  # the goals start still, whatever was simulated before
+            n = self.graph.n_particles
+            self.sim.set_goal_motion((np.zeros((n, 3)), np.zeros((n, 3)), -1))
+        state = (*state, self.sim.goal_motion)
         self.solver_frame = self.start
         self.cache.store(self.start, state, targets, goals)
         self._push_out(self.start)
 
     def _restore(self, frame):
         self.colliders.place(self.colliders.at(frame, NOTHING).colliders)
-        self.sim.set_state(*self.cache.state(frame))
+        state = self.cache.state(frame)
+        self.sim.set_state(*state[:4])
+        self._apply_goals(self.cache.goals(frame))
+        self.sim.set_goal_motion(state[4])
         self.solver_frame = frame
 
     def _apply_goals(self, goals):
@@ -384,17 +434,20 @@ class Engine:
         return self._buffers[name]
 
     def _world_offset(self, positions, rotations, reference, frame):
-        """skin(state) - reference (world), in a kept buffer; of a cached frame, with the vertices its colliders
-        and floor pushed out."""
+        """skin(state) - reference (world), in a kept buffer, times the goal's lock; of a cached frame, with the
+        vertices its colliders and floor pushed out."""
         out = self._buffer("offset")
         last = self._last_pushed
         if frame is not None and last is not None and last[0] == frame and last[1] is positions:
-            return np.subtract(last[2], reference, out=out)
-        self.skin.deform(positions, rotations, out=out)
-        pushed = None if frame is None else self.cache.pushed(frame)
-        if pushed is not None:
-            out[pushed[0]] = pushed[1]
-        out -= reference
+            np.subtract(last[2], reference, out=out)
+        else:
+            self.skin.deform(positions, rotations, out=out)
+            pushed = None if frame is None else self.cache.pushed(frame)
+            if pushed is not None:
+                out[pushed[0]] = pushed[1]
+            out -= reference
+        if self._lock is not None:
+            out *= self._lock
         return out
 
     def _emit(self, positions, rotations, reference, incoming, matrix, frame=None):
