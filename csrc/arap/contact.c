@@ -21,6 +21,11 @@
 // (tests/test_contact.py). Far particles cost one distance query: φ at the end, less the farthest the
 // relative path can stray, still beyond the particle's reach.
 //
+// With goals carrying the rest (docs/goals.md, "Contact with goals") contact acts on the deviation from the
+// animation: a particle whose ellipsoid at its goal frame (g_i, G_i) is already p_i deep in a collider (at its
+// end frame) meets that collider with the thickness less p_i, so it is pushed only by what it is deeper than
+// its goal, friction only on that excess, and a body on its animation is left where it is.
+//
 // A particle that begins a step inside (placed there, or a collider that appeared over it) leaves at 1 m/s
 // at most, as PhysX's depenetration velocity: pushed out, never shot out. Measured on the blob of
 // tests/test_contact.py placed half inside a box: its fastest particle moves at 1.0 m/s while it comes out
@@ -28,6 +33,7 @@
 #include "contact.h"
 
 #include "check.h"
+#include "goal.h"
 #include "math3.h"
 
 #include <math.h>
@@ -82,24 +88,34 @@ static od_Mat3 od_InFrame(const od_Mat3* M, const od_Mat3* R)
 	return od_M3MulTN(R, &mr);
 }
 
-// A particle: its moment M (world), reach (largest radius), sampling step (half its smallest radius) and how
-// far it may leave a collider it began the step inside.
+// A particle: its moment M (world), reach (largest radius), sampling step (half its smallest radius), how
+// far it may leave a collider it began the step inside and, with goals carrying the rest, its ellipsoid at
+// its goal frame (moment goalM, centre goalX).
 typedef struct od_Body
 {
 	od_Mat3 M;
 	double reach, step, recovery;
+	bool goal;
+	od_Mat3 goalM;
+	od_Vec3 goalX;
 } od_Body;
 
-od_Mat3 od_ParticleMoment(const od_Sim* sim, int i)
+// Particle i's ellipsoid turned by `rotation`: (rotation Ē) diag(a², b², c²) (rotation Ē)ᵀ.
+static od_Mat3 od_EllipsoidMoment(const od_Sim* sim, int i, const double* rotation)
 {
 	const double* r = sim->graph->radii + 3 * i;
-	od_Mat3 rot = od_M3Load(sim->state.R + 9 * i), e0 = od_M3Load(sim->graph->axes + 9 * i);
+	od_Mat3 rot = od_M3Load(rotation), e0 = od_M3Load(sim->graph->axes + 9 * i);
 	od_Mat3 e = od_M3Mul(&rot, &e0), es = e;
 	for (int k = 0; k < 9; ++k)
 	{
 		es.m[k] *= r[k % 3] * r[k % 3];
 	}
 	return od_M3MulNT(&es, &e);
+}
+
+od_Mat3 od_ParticleMoment(const od_Sim* sim, int i)
+{
+	return od_EllipsoidMoment(sim, i, sim->state.R + 9 * i);
 }
 
 double od_ParticleReach(const od_Sim* sim, int i)
@@ -116,16 +132,36 @@ double od_RecoveryLimit(const od_Sim* sim)
 static od_Body od_BodyOf(const od_Sim* sim, int i)
 {
 	const double* r = sim->graph->radii + 3 * i;
-	return (od_Body){ .M = od_ParticleMoment(sim, i), .reach = od_ParticleReach(sim, i),
-					  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = od_RecoveryLimit(sim) };
+	od_Body b = { .M = od_ParticleMoment(sim, i), .reach = od_ParticleReach(sim, i),
+				  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = od_RecoveryLimit(sim),
+				  .goal = od_Goals_CarryRest(sim) };
+	if (b.goal)
+	{
+		b.goalM = od_EllipsoidMoment(sim, i, sim->goals.R + 9 * i);
+		b.goalX = od_V3Load(sim->goals.x + 3 * i);
+	}
+	return b;
+}
+
+// How deep the particle's ellipsoid at its goal frame is in collider c at its end frame, thickness included
+// (0: clear of it, or no goals carrying the rest): the part of a contact that the animation itself makes.
+static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
+{
+	if (!b->goal)
+	{
+		return 0.0;
+	}
+	od_Mat3 M = od_InFrame(&b->goalM, &c->Rb);
+	od_Vec3 n, l = od_M3MulTV(&c->Rb, od_Sub(b->goalX, c->tb));
+	return fmax(od_Depth(&c->body, &M, l, c->thickness, b->reach, &n, false), 0.0);
 }
 
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
 // end: lb, less the part of its motion after its first contact that went into the surface along the normal
 // there (the motion along the surface stays, so that sliding is not slowed).
 // Ma: the particle's moment in the start frame, the moment all along when the collider does not turn.
-static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const od_Mat3* Ma, od_Vec3 start, od_Vec3 x,
-							   od_Vec3 la, od_Vec3 lb)
+static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const od_Mat3* Ma, double thickness,
+							   od_Vec3 start, od_Vec3 x, od_Vec3 la, od_Vec3 lb)
 {
 	int samples = (int)fmin(ceil(od_Length(od_Sub(lb, la)) / b->step), OD_SWEEP_MAX);
 	bool turns = c->turn.x != 0.0 || c->turn.y != 0.0 || c->turn.z != 0.0;
@@ -141,7 +177,7 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const 
 		}
 		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
 		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
-		if (od_Depth(&c->body, &M, l, c->thickness, b->reach, &n, false) > 0.0)
+		if (od_Depth(&c->body, &M, l, thickness, b->reach, &n, false) > 0.0)
 		{
 			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, l), n), 0.0), n);
 		}
@@ -150,7 +186,8 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const 
 }
 
 // One particle against one collider over the step: *x caught, pushed out (if it began inside, by at most
-// its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio.
+// its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio. The
+// collider's thickness less the goal's depth in it (od_GoalDepth) is where the contact begins.
 static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3* x, double* keep)
 {
 	od_Vec3 n, lb = od_M3MulTV(&c->Rb, od_Sub(*x, c->tb));
@@ -160,11 +197,12 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	{
 		return;
 	}
+	double thickness = c->thickness - od_GoalDepth(c, b);
 	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
-	double left = od_Depth(&c->body, &Ma, la, c->thickness, b->reach, &n, false) - b->recovery; // began inside
-	od_Vec3 l = od_FirstContact(c, b, &Ma, start, *x, la, lb);
-	double depth = od_Depth(&c->body, &Mb, l, c->thickness, b->reach, &n, true);
+	double left = od_Depth(&c->body, &Ma, la, thickness, b->reach, &n, false) - b->recovery; // began inside
+	od_Vec3 l = od_FirstContact(c, b, &Ma, thickness, start, *x, la, lb);
+	double depth = od_Depth(&c->body, &Mb, l, thickness, b->reach, &n, true);
 	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
 	{
 		return;

@@ -4,28 +4,46 @@
 // A particle below that is lifted by the difference. Friction is Coulomb-like and position based: the
 // tangential displacement of this step is cut by at most μ times the lift (the normal impulse of the
 // contact times h), and the angular velocity of the touching particle is scaled by the same ratio.
+//
+// With goals carrying the rest (docs/goals.md, "Contact with goals") the lift is only what the particle is
+// deeper than its ellipsoid placed at its goal frame (g_i, G_i): a particle on its animation is never
+// lifted, one that swings below it stops at the floor (or at its goal's depth, where the goal is below the
+// floor itself), and friction acts on that excess lift alone.
 #include "floor.h"
 
 #include "contact.h"
+#include "goal.h"
 #include "math3.h"
+
+// How far particle i's ellipsoid at frame (rotation, centre) reaches below the floor (<= 0: clear of it).
+static double od_FloorLift(const od_Sim* sim, int i, const double* rotation, const double* centre)
+{
+	const od_Graph* g = sim->graph;
+	od_Mat3 r = od_M3Load(rotation), e0 = od_M3Load(g->axes + 9 * i);
+	od_Mat3 e = od_M3Mul(&r, &e0);
+	const double* rad = g->radii + 3 * i;
+	double s2 = 0.0;
+	for (int a = 0; a < 3; ++a)
+	{
+		double d = rad[a] * e.m[6 + a];
+		s2 += d * d;
+	}
+	return sqrt(s2) - (centre[2] - sim->floorHeight);
+}
 
 void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 {
 	const od_Graph* g = sim->graph;
 	double* x = sim->state.x;
 	double mu = sim->floorFriction;
+	bool goals = od_Goals_CarryRest(sim);
 	for (int i = 0; i < g->n; ++i)
 	{
-		od_Mat3 r = od_M3Load(sim->state.R + 9 * i), e0 = od_M3Load(g->axes + 9 * i);
-		od_Mat3 e = od_M3Mul(&r, &e0);
-		const double* rad = g->radii + 3 * i;
-		double s2 = 0.0;
-		for (int a = 0; a < 3; ++a)
+		double lift = od_FloorLift(sim, i, sim->state.R + 9 * i, x + 3 * i);
+		if (goals)
 		{
-			double d = rad[a] * e.m[6 + a];
-			s2 += d * d;
+			lift -= fmax(od_FloorLift(sim, i, sim->goals.R + 9 * i, sim->goals.x + 3 * i), 0.0);
 		}
-		double lift = sqrt(s2) - (x[3 * i + 2] - sim->floorHeight);
 		angularScale[i] = 1.0;
 		if (!(lift > 0.0))
 		{
