@@ -302,8 +302,9 @@ def test_save_reload_continues():
     path = _save_blend("reload.blend")
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Bar"]
-    assert H.runtime().get(obj) is None
-    again = H.play(range(1, 16))["Bar"]  # rebuilt from the stored rest shape on the first frame
+    assert H.runtime().get(obj) is not None  # rebuilt from the stored rest shape and simulated again on load
+    np.testing.assert_array_equal(H.positions(obj), live[15])  # the saved frame's simulated pose
+    again = H.play(range(1, 16))["Bar"]
     np.testing.assert_array_equal(again[15], live[15])
 
 

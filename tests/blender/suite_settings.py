@@ -42,7 +42,7 @@ def _tip_z(obj):
 def test_enable_gives_the_default_preset():
     obj = _tail()
     s, presets = obj.opdeform, _module("blender.presets")
-    assert s.settings_version == 2 and not s.use_solver_units
+    assert s.settings_version == 3 and not s.use_solver_units
     assert presets.current_name(s) == "Rubber" and s.density == 1100.0 and s.modulus == 15.0
     assert s.use_frame_rate_substeps and presets.substeps(s, 24.0) == 10 and presets.substeps(s, 60.0) == 4
     bpy.ops.opdeform.apply_preset(object=obj.name, preset="Jelly")
@@ -118,7 +118,7 @@ def test_old_file_keeps_its_raw_stiffness():
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Tail"]
     s = obj.opdeform
-    assert s.use_solver_units and s.settings_version == 2 and s.stiffness == 2e7
+    assert s.use_solver_units and s.settings_version == 3 and s.stiffness == 2e7
     bpy.context.scene.frame_set(2)
     rt = H.runtime().get(obj)
     assert rt.engine.sim.params["stiffness"] == 2e7 and abs(rt.engine.sim.params["damping"] - 0.01) < 1e-8
@@ -136,7 +136,7 @@ def test_version_1_file_keeps_its_look():
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.open_mainfile(filepath=path)
     s = bpy.data.objects["Tail"].opdeform
-    assert s.settings_version == 2 and not s.use_solver_units and s.modulus == 15.0
+    assert s.settings_version == 3 and not s.use_solver_units and s.modulus == 15.0
     assert presets.current_name(s) == "Rubber"
 
 

@@ -56,10 +56,13 @@ def on_depsgraph_update(scene, depsgraph=None):
 
 @persistent
 def on_load_post(*args):
+    """A loaded file shows the simulated pose of its current frame, not the input (the offset is not saved:
+    on_save_pre): its objects are simulated up to it again, frame by frame."""
     state.clear()
     colliders.forget_triangles()
     versioning.upgrade(bpy.data.objects)
     mark_discovery()
+    playback.replay_to_current(bpy.context.scene)
 
 
 @persistent

@@ -1,5 +1,5 @@
 """Reading a mesh object for the engine: its checks, vertex positions, triangles and vertex groups (pins, the
-goal's weights). Bad input raises AddonError naming the object or group."""
+painted maps). Bad input raises AddonError naming the object or group."""
 
 import numpy as np
 
@@ -59,9 +59,9 @@ def read_vertex_group(obj, name, what):
     return np.array(idx, dtype=np.int64), np.array(w, dtype=np.float64)
 
 
-def read_goal_weights(obj, settings):
-    """The goal group as one weight per vertex (0 outside the group); None without a group."""
-    group = read_vertex_group(obj, settings.goal_group, "goal")
+def read_weights(obj, name, what):
+    """A vertex group as one weight per vertex (0 outside the group); None without a group name."""
+    group = read_vertex_group(obj, name, what)
     if group is None:
         return None
     weights = np.zeros(len(obj.data.vertices))

@@ -246,7 +246,8 @@ class OPDEFORM_OT_retry_load(bpy.types.Operator):
 
 
 class OPDEFORM_OT_apply_preset(bpy.types.Operator):
-    """Set stiffness, density, damping and quality from a material preset"""
+    """Set stiffness, density, damping and quality from a material preset, or the material and the painted
+    regions' softness and damping from a jiggle look"""
     bl_idname = "opdeform.apply_preset"
     bl_label = "Apply Material Preset"
     bl_options = {'REGISTER', 'UNDO'}
@@ -260,9 +261,7 @@ class OPDEFORM_OT_apply_preset(bpy.types.Operator):
         try:
             if obj is None or obj.type != 'MESH':
                 raise AddonError("select a mesh object")
-            if self.preset not in presets.materials().PRESETS:
-                raise AddonError(f"no preset {self.preset!r}: one of {', '.join(presets.materials().PRESETS)}")
-            presets.apply(obj.opdeform, self.preset)
+            presets.apply_named(obj.opdeform, self.preset)
         except AddonError as exc:
             self.report({'ERROR'}, str(exc))
             return {'CANCELLED'}

@@ -6,6 +6,7 @@ Weights), registered after this module (a sub-panel needs its parent)."""
 import bpy
 
 from ..core import frame_report, loader
+from ..core.settings import LOOKS
 from . import modifier, presets, runtime, state, versioning
 from .compiled import ADDON_PACKAGE
 from .panel_base import PhysicsPanel, SubPanel, ToggledSubPanel, split, wrapped
@@ -178,20 +179,51 @@ class PHYSICS_PT_opdeform_pins(SubPanel, bpy.types.Panel):
         layout.label(text="Pins hold firmly at any weight; for a soft hold paint a Goal group", icon='INFO')
 
 
+class OPDEFORM_MT_looks(bpy.types.Menu):
+    bl_label = "Jiggle Looks"
+
+    def draw(self, context):
+        for name in LOOKS:
+            self.layout.operator("opdeform.apply_preset", text=name).preset = name
+
+
 class PHYSICS_PT_opdeform_goal(ToggledSubPanel, bpy.types.Panel):
     bl_label = "Goal"
     toggle = "use_goal"
 
     def draw(self, context):
         layout, obj, s = self.body(context)
-        layout.prop(s, "goal_strength")
-        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Weight Group")
+        layout.menu("OPDEFORM_MT_looks", text=f"Look: {presets.current_look(s)}")
+        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Follow Group")
+        col = layout.column(align=True)
+        if s.goal_group:
+            col.prop(s, "goal_min", text="Follow Min")
+            col.prop(s, "goal_max", text="Max")
+        else:
+            col.prop(s, "goal_strength")
+        layout.prop(s, "sag")
         mod = modifier.get(obj)
         if mod is None:
             layout.label(text="The OPDeform modifier is missing: Build adds it", icon='ERROR')
         else:
             layout.label(text=f"Follows the stack above OPDeform (modifier {modifier.index(obj) + 1} of "
                               f"{len(obj.modifiers)})", icon='MODIFIER')
+
+
+class PHYSICS_PT_opdeform_regions(SubPanel, bpy.types.Panel):
+    bl_label = "Regions"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    def draw(self, context):
+        layout, obj, s = split(self.layout, context)
+        layout.prop_search(s, "softness_group", obj, "vertex_groups", text="Softness")
+        row = layout.row()
+        row.active = bool(s.softness_group)
+        row.prop(s, "soft_stiffness")
+        layout.prop_search(s, "damping_group", obj, "vertex_groups", text="Damping")
+        row = layout.row()
+        row.active = bool(s.damping_group)
+        row.prop(s, "region_damping")
 
 
 class OPDEFORM_UL_handles(bpy.types.UIList):
@@ -285,7 +317,7 @@ class PHYSICS_PT_opdeform_tumbling(PhysicsPanel, bpy.types.Panel):
 
 
 classes = (PHYSICS_PT_opdeform, PHYSICS_PT_opdeform_graph, PHYSICS_PT_opdeform_floor, PHYSICS_PT_opdeform_pins,
-           PHYSICS_PT_opdeform_goal, OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
+           OPDEFORM_MT_looks, PHYSICS_PT_opdeform_goal, PHYSICS_PT_opdeform_regions, OPDEFORM_UL_handles, PHYSICS_PT_opdeform_handles, PHYSICS_PT_opdeform_cache, PHYSICS_PT_opdeform_tumbling)
 
 # registers in the order of `classes`, unregisters in the reverse order
 register, unregister = bpy.utils.register_classes_factory(classes)

@@ -11,7 +11,7 @@ from .compiled import AddonError, module
 
 
 def graph_key(settings):
-    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group, settings.goal_group)
+    return (settings.particles, settings.graph_mode, settings.neighbors, settings.pin_group)
 
 
 def frame_range(settings, scene):
@@ -26,8 +26,11 @@ def frame_rate(scene):
 
 
 def gravity(settings, scene):
+    """The scene's gravity as the body feels it: with a goal, the Sag share of it (the animation holds its shape
+    against the rest)."""
     use = scene.use_gravity and (settings.mode == 'DYNAMIC' or settings.pose_gravity)
-    return tuple(scene.gravity) if use else (0.0, 0.0, 0.0)
+    share = settings.sag if goal_strength(settings) is not None else 1.0
+    return tuple(share * g for g in scene.gravity) if use else (0.0, 0.0, 0.0)
 
 
 def sim_settings(settings, scene, graph):
@@ -53,8 +56,16 @@ def body_contact(contact):
 
 
 def goal_strength(settings):
-    """The goal strength in use: None when off (and in posing mode, which has no animation to follow)."""
+    """The goal's Follow in use: None when off (and in posing mode, which has no animation to follow)."""
     return settings.goal_strength if settings.use_goal and settings.mode == 'DYNAMIC' else None
+
+
+def maps(settings):
+    """The painted maps' settings (what the engine is given besides the groups' weights, and what a bake
+    depends on): (follow group, follow range, softness group, soft stiffness, damping group, its damping per
+    second)."""
+    return (settings.goal_group, (settings.goal_min, settings.goal_max), settings.softness_group,
+            settings.soft_stiffness, settings.damping_group, settings.region_damping)
 
 
 def cache_folder(folder):

@@ -18,6 +18,7 @@ from . import colliders, modifier
 from .compiled import AddonError, module
 from .discovery import enabled_objects
 from .handle_data import handle_targets
+from .parameters import frame_range
 from .runtime import cache_modifier, configure, ensure, frame_input, show
 from .state import bodies, forget_groups, get
 
@@ -139,6 +140,19 @@ def safely(obj, fn, *args, **kw):
 
 def live_dynamic(scene):
     return [o for o in enabled_objects(scene) if is_live(o) and o.opdeform.mode == 'DYNAMIC']
+
+
+def replay_to_current(scene):
+    """A file just opened: its live objects simulated frame by frame from the start of their caches to the
+    scene's frame, as playback made them (a jump would blend the animation over the frames it skips), so the
+    file shows the pose it was saved with. Returns the frames played."""
+    objects = live_dynamic(scene)
+    current = scene.frame_current
+    first = min((frame_range(o.opdeform, scene)[0] for o in objects), default=current)
+    for frame in range(first, current):
+        scene.frame_set(frame)
+    scene.frame_set(current)
+    return max(0, current - first + 1) if objects else 0
 
 
 def simulate_frame(scene, depsgraph=None):

@@ -1,5 +1,5 @@
-"""Material presets (Jelly, Flesh, Rubber, Stiff from ``opdeform.materials.PRESETS``): applying one, and which
-one the settings hold ("Custom" when none: no preset is stored). Their menu and operator are in
+"""Material presets (Jelly, Flesh, Rubber, Stiff from ``opdeform.materials.PRESETS``) and jiggle looks (Subtle,
+Fleshy, Floppy from ``core.settings.LOOKS``): applying one, and which one the settings hold ("Custom" when none: no preset is stored). Their menu and operator are in
 settings_panels.py and operators.py. Also what the engine reads from the settings: the Units
 (core/settings.py) and the substeps in use; and the stamp that Enable gives an object (versioning.py)."""
 
@@ -30,6 +30,44 @@ def apply(s, name, only_unset=False):
             s.settings_version = core_settings.SETTINGS_VERSION
 
 
+def apply_named(s, name):
+    """Applies a material preset or a look by its name; AddonError naming the choices for another name."""
+    if name in core_settings.LOOKS:
+        apply_look(s, name)
+    elif name in materials().PRESETS:
+        apply(s, name)
+    else:
+        raise AddonError(f"no preset {name!r}: one of {', '.join((*materials().PRESETS, *core_settings.LOOKS))}")
+
+
+def goal_ticked(s):
+    """Goal turned on: an object whose material is still the default preset takes the default look (a jiggle
+    out of the box); a material chosen by the user stays."""
+    try:
+        if s.use_goal and s.enabled and current_name(s) == DEFAULT_PRESET:
+            apply_look(s, core_settings.DEFAULT_LOOK)
+    except AddonError:  # opdeform did not load (the panel says so): the material stays
+        pass
+
+
+def apply_look(s, name):
+    """Sets a look of ``core.settings.LOOKS`` (material units)."""
+    for key, value in core_settings.LOOKS[name].items():
+        setattr(s, key, value)
+    s.use_solver_units = False
+    if s.settings_version == core_settings.MATERIAL_UNITS_VERSION:
+        s.settings_version = core_settings.SETTINGS_VERSION
+
+
+def current_look(s):
+    """The name of the look the settings hold, else "Custom"."""
+    for name, values in core_settings.LOOKS.items():
+        if not versioning.uses_solver_units(s) and all(
+                abs(getattr(s, k) - v) <= 1e-4 * abs(v) for k, v in values.items()):
+            return name
+    return core_settings.CUSTOM
+
+
 def current_name(s):
     if versioning.uses_solver_units(s):
         return "Solver Units"
@@ -52,11 +90,12 @@ def units(s, fps):
 
 def stamp(s):
     """Enabled now: a new object gets the current version and, unless in solver units, the default preset for
-    the settings not set by hand or script."""
+    the settings not set by hand or script (the default look with its Goal on)."""
     if not s.enabled or s.settings_version >= core_settings.SETTINGS_VERSION:
         return
     if s.settings_version >= core_settings.MATERIAL_UNITS_VERSION:  # set up before: only the modulus moves
         s.modulus = versioning.modulus(s)
+        versioning.keep_goal(s)
         s.settings_version = core_settings.SETTINGS_VERSION
         return
     if not s.use_solver_units:
@@ -67,3 +106,4 @@ def stamp(s):
         if not s.is_property_set("use_frame_rate_substeps") and not s.is_property_set("substeps"):
             s.use_frame_rate_substeps = True
     s.settings_version = core_settings.SETTINGS_VERSION
+    goal_ticked(s)

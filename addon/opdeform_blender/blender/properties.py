@@ -145,17 +145,35 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                               description="Vertex group whose vertices are held in place (weight = constraint "
                                           "weight); read at Build")
     pin_strength: FloatProperty(name="Pin Strength", default=1.0, min=0.0, soft_max=10.0)
-    # goal: follow the animated input (Armature, shape keys, object animation) with secondary motion
-    use_goal: BoolProperty(name="Goal", default=False,
-                           description="Pull the particles toward the animated shape that reaches the OPDeform "
-                                       "modifier (secondary motion on an animation); off: a soft body around the "
-                                       "rest shape")
-    goal_strength: FloatProperty(name="Strength", default=0.5, min=0.0, max=1.0, subtype='FACTOR',
-                                 description="0: free dynamics, 1: exactly the animation; in between the body "
-                                             "lags, overshoots and settles back (0.2 Hz to 1000 Hz springs)")
-    goal_group: StringProperty(name="Goal Group", default="",
-                               description="Vertex group whose weights (0..1) multiply the strength per vertex "
-                                           "(empty: everywhere); read at Build")
+    # goal: follow the animated input (Armature, shape keys, object animation) with secondary motion; the maps
+    # are read every frame (no Build): docs/goals.md
+    use_goal: BoolProperty(name="Goal", default=False, update=lambda s, c: presets.goal_ticked(s),
+                           description="Follow the animated shape that reaches the OPDeform modifier: it is where "
+                                       "the flesh comes to rest, the simulation adds its lag and overshoot "
+                                       "(secondary motion); off: a soft body around the rest shape")
+    goal_strength: FloatProperty(name="Follow", default=0.7, min=0.0, max=1.0, subtype='FACTOR',
+                                 description="How closely the body follows the animation without a Follow Group "
+                                             "(1: exactly, 0: free; in between a spring of 0.2 Hz to 1000 Hz)")
+    goal_group: StringProperty(name="Follow Group", default="",
+                               description="Vertex group: a weight of 1 locks a vertex to the animation, 0 frees "
+                                           "it (mapped to Min..Max); empty: Follow everywhere")
+    goal_min: FloatProperty(name="Min", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
+                            description="Follow at a group weight of 0")
+    goal_max: FloatProperty(name="Max", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
+                            description="Follow at a group weight of 1")
+    sag: FloatProperty(name="Sag", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
+                       description="Share of the scene's gravity that pulls the flesh off its animation (0: the "
+                                   "animation holds its shape against gravity)")
+    softness_group: StringProperty(name="Softness Group", default="",
+                                   description="Vertex group of softer regions (a belly, ears): at weight 1 the "
+                                               "stiffness is Soft Stiffness times the body's")
+    soft_stiffness: FloatProperty(name="Soft Stiffness", default=0.2, min=0.01, max=1.0, subtype='FACTOR',
+                                  description="Stiffness at Softness Group weight 1, as a share of the body's")
+    damping_group: StringProperty(name="Damping Group", default="",
+                                  description="Vertex group of regions damped to Region Damping at weight 1")
+    region_damping: FloatProperty(name="Region Damping", default=5.0, min=0.0, soft_max=50.0,
+                                  description="Damping per second at Damping Group weight 1 (the body's "
+                                              "Damping at 0)")
     handles: CollectionProperty(type=OPDEFORM_HandleItem)
     handle_index: IntProperty(default=0)
     # cache

@@ -20,11 +20,14 @@ bodies = Bodies()  # the contact groups of the live objects (core/contact.py)
 class Runtime:
     """What the add-on holds for one object between frames."""
 
-    def __init__(self, engine, graph_key, pins, goal_weights):
+    def __init__(self, engine, graph_key, pins):
         self.engine = engine
         self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
         self.pins = pins  # (indices, weights) read from the pin group at Build
-        self.goal_weights = goal_weights  # per-vertex weights of the goal group (None: 1 everywhere)
+        # group name -> per-vertex weights of the painted maps (follow, softness, damping), read when first
+        # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
+        self.groups = {}
+        self.mode = 'OBJECT'  # the object's mode when the groups were read
         self.handle_matrices = None  # bytes of the handle transforms last used
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown

@@ -1,5 +1,6 @@
 """Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
-(a version-1 modulus is tripled on load, keeping the look). Version 0 (files saved before material units)
+(a version-1 modulus is tripled on load, keeping the look). Version 3: the goal's follow values (a version-2
+goal keeps its mapping and gravity, ``keep_goal``). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
 stored or default). On a file load (handlers.on_load_post) every such object is marked so
 (``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
@@ -8,6 +9,8 @@ version and gives the settings the user has not set the default preset (Rubber) 
 (``presets.stamp``, above this module: it needs the presets)."""
 
 from ..core import settings as core_settings
+
+OLD_GOAL_STRENGTH = 0.5  # the goal strength's default before version 3
 
 
 def uses_solver_units(s):
@@ -32,4 +35,13 @@ def upgrade(objects):
                 s.use_solver_units = True
             else:
                 s.modulus = modulus(s)
+            keep_goal(s)
             s.settings_version = core_settings.SETTINGS_VERSION
+
+
+def keep_goal(s):
+    """An object from before version 3 keeps what its goal meant: its strength times the group's weight (Min 0,
+    Max the strength) and the scene's full gravity (Sag 1); its strength is stored, whatever the default is
+    now."""
+    s.goal_strength = s.goal_strength if s.is_property_set("goal_strength") else OLD_GOAL_STRENGTH
+    s.goal_min, s.goal_max, s.sag = 0.0, s.goal_strength, 1.0

@@ -158,7 +158,9 @@ class Engine:
         self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.follow = None  # per-vertex follow values of the goal, None: no goal
         self._lock = None  # (V, 1) share of the simulated offset each vertex shows: 0 where follow is 1
-        self._regions = (None, None)  # set_regions' per-particle stiffness scale and damping
+        self._softness = None  # set_regions' per-particle stiffness scale (None: 1)
+        self._damping = None  # set_regions' per-particle damping per step (None: the body's)
+        self._given = None  # configure's last parameters, before the softness map
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
         self.fields = None  # the scene's force fields in the simulation (core/fields.py)
@@ -215,7 +217,9 @@ class Engine:
         error = frame_logic.range_error(int(start), int(end))
         if error:
             raise EngineError(error)
-        params = dict(params, skin_neighbors=self.neighbors)
+        self._given = params = dict(params, skin_neighbors=self.neighbors)
+        if self._softness is not None:  # the softness map: a per-particle stiffness is the core's stiffness scale
+            params = dict(params, stiffness=params["stiffness"] * self._softness)
         changed = False
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
@@ -352,20 +356,25 @@ class Engine:
     def set_regions(self, stiffness_scale=None, damping=None):
         """Per-vertex maps (a painted softness and damping; None: uniform) as per-particle values: the stiffness
         of each particle times ``stiffness_scale`` (> 0), and its damping per step in [0, 1] in place of the
-        body's (relative to the goals' motion while a goal is on). A change outdates the cache; a new
-        stiffness scale refactors once."""
+        body's (relative to the goals' motion while a goal is on). Call after ``configure``. A change outdates
+        the cache; a new softness refactors once."""
+        if stiffness_scale is None and damping is None and self._softness is None and self._damping is None:
+            return False
         if self.fit is None:
             self.fit = self.od.GoalFit(self.graph, self.rest)
-        scale = None if stiffness_scale is None else self.fit.particle_values(stiffness_scale)
+        softness = None if stiffness_scale is None else self.fit.particle_values(stiffness_scale)
         per_particle = None if damping is None else np.clip(self.fit.particle_values(damping), 0.0, 1.0)
-        if _same(scale, self._regions[0]) and _same(per_particle, self._regions[1]):
+        if _same(softness, self._softness) and _same(per_particle, self._damping):
             return False
+        if softness is not None and not np.all(np.isfinite(softness) & (softness > 0.0)):
+            raise EngineError("the softness map must be finite and > 0")
         try:
-            self.sim.set_stiffness_scale(scale)
             self.sim.set_particle_damping(per_particle)
         except ValueError as exc:
-            raise EngineError(f"painted regions: {exc}") from None
-        self._regions = (scale, per_particle)
+            raise EngineError(f"the damping map: {exc}") from None
+        self._softness, self._damping = softness, per_particle
+        given, self._params = self._given, None  # the stiffness with the new softness
+        self.configure(given, self._substeps, self._floor, self.start, self.end, self._solver)
         self.invalidate()
         return True
 

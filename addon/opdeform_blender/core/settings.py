@@ -13,8 +13,13 @@ Two kinds of objects:
 
 from dataclasses import dataclass
 
-SETTINGS_VERSION = 2  # stamped on an object when oriented particles are enabled; 0: a file made before
+import numpy as np
+
+SETTINGS_VERSION = 3  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
+# Version 3: the goal's group weight is the follow value itself (Goal Min..Max) where it multiplied the strength,
+# and the goal holds the shape against gravity (Sag). An older object keeps its mapping (Max = its strength)
+# and its full gravity (Sag 1).
 # Version 2: stiffness_for calibrates k in bending, not under a uniform strain, and the presets' moduli were
 # tripled to keep their droops; a version-1 modulus means about this times more now (exact for the presets).
 V1_MODULUS_FACTOR = 3.0
@@ -36,6 +41,19 @@ class Units:
     max_iterations: int
     iterations: int  # per step, solver units
     substeps: int
+
+
+# Looks for secondary motion on an animated character (the Goal sub-panel's menu), named by what the artist
+# sees, as Maya's jiggle and the Wiggle add-ons name theirs: the body's material (MPa, density, damping per
+# second) and the painted regions' softness and damping. Measured on tests/blender/character_scene.py's creature
+# (docs/goals.md, "Looks"). Ticking Goal on an object whose material is still the default preset gives it
+# DEFAULT_LOOK: a body as stiff as Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm).
+LOOKS = {
+    "Subtle": dict(modulus=6.0, density=1050.0, damping_rate=4.0, soft_stiffness=0.15, region_damping=4.0),
+    "Fleshy": dict(modulus=2.0, density=1050.0, damping_rate=4.0, soft_stiffness=0.15, region_damping=4.0),
+    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=2.5, soft_stiffness=0.1, region_damping=2.5),
+}
+DEFAULT_LOOK = "Fleshy"
 
 
 def preset_values(materials, name):
@@ -72,3 +90,10 @@ def solver_settings(od, graph, u, fps, gravity):
                   damping=m.step_damping(u.damping_rate, dt))
     return params, dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=u.tolerance / PERCENT,
                         max_iterations=u.max_iterations)
+
+
+def region_damping(u, dt, weights, rate):
+    """Per-vertex damping per step of a painted damping map: the body's damping at weight 0, ``rate`` (per
+    second) at 1, blended as rates per second (the body's per-step share in solver units read as a rate)."""
+    body = -np.log1p(-min(u.damping, 1.0 - 1e-12)) / dt if u.solver_units else u.damping_rate
+    return -np.expm1(-(body + np.asarray(weights) * (rate - body)) * dt)
