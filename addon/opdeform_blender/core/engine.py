@@ -13,6 +13,11 @@ transform, is fitted to per-particle goal frames (``GoalFit``) that pull the par
 and carry the rest shape (the animated shape is the equilibrium, docs/goals.md), and offset = skin(state) -
 skin(goal frames), times each vertex's lock (0 where it follows fully): secondary motion layered on the
 animation, none where the follow value is 1.
+
+Longer than the add-on's 350-line rule, on purpose: it is one class whose configuration, cache, goals and
+output all read the same simulation and cache, and every path to a frame (playback, bake, contact groups in
+core/contact.py) goes through ``begin``/``simulate``; the bpy-free helpers around it already live in
+frames.py, cache.py, checks.py, colliders.py, fields.py and handles.py.
 """
 
 import time
