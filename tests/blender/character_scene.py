@@ -16,7 +16,8 @@ module (5.2): the scene that the character suite (suite_character.py), its measu
   at the tail tip; "softness" 1 where follow is lowest, 0 on the core; "region_ear_tips",
   "region_belly_front", "region_tail_tip" (weight 1) name the vertices that the measurement reports.
 - Floor "Floor": an 8 m grid at z = 0 with a Collision modifier (Blender's default settings).
-- OPDeform (``enable``) goes after the Armature, with Goal on and the "follow" group picked.
+- OPDeform (``enable``) goes after the Armature, with Goal on, the "follow" group and the "softness" group
+  picked.
 
 For comparisons, each in a scene of its own sharing the rig and the floor (``variant_scene``): Blender's Soft
 Body after the Armature with its goal from "follow" (``soft_body``), and in Blender 5.x the bundled Cloth
@@ -200,10 +201,11 @@ def armature_only(obj, scene=None):
 
 
 def enable(obj, **settings):
-    """OPDeform after the Armature, as an artist sets it up: Goal on, the "follow" group picked, the settings
-    given (property names of obj.opdeform), then Enable (which builds)."""
+    """OPDeform after the Armature, as an artist sets it up: Goal on (which picks the Fleshy look), the "follow"
+    group picked and the "softness" group picked for the painted regions, the settings given (property names of
+    obj.opdeform), then Enable (which builds)."""
     s = obj.opdeform
-    s.use_goal, s.goal_group = True, "follow"
+    s.use_goal, s.goal_group, s.softness_group = True, "follow", "softness"
     for name, value in settings.items():
         setattr(s, name, value)
     scene = obj.users_scene[0]
