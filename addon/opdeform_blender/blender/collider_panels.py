@@ -13,7 +13,7 @@ def draw_collisions(layout, settings, bodies=False):
     layout = prepared(layout)
     col = layout.column()
     col.active = settings.use_colliders
-    col.prop(settings, "collision_collection")
+    col.prop(settings, "collision_collection", text="Collection")
     layout.prop(settings, "show_contacts")
     if not bodies:
         return
@@ -23,13 +23,13 @@ def draw_collisions(layout, settings, bodies=False):
     layout.prop(settings, "use_self_collision")
     col = layout.column(align=True)
     col.active = settings.use_self_collision
-    col.prop(settings, "self_distance")
-    col.prop(settings, "self_friction")
+    col.prop(settings, "self_distance", text="Distance")
+    col.prop(settings, "self_friction", text="Friction")
 
 
 def draw_weights(layout, weights):
     layout = prepared(layout)
-    layout.prop(weights, "collection")
+    layout.prop(weights, "collection", text="Collection")
     col = layout.column(align=True)
     for name in WEIGHTS:
         col.prop(weights, name, slider=True)

@@ -1,5 +1,7 @@
-"""opdeform's place in the modifier stack: a Geometry Nodes modifier ("OPDeform", node group "OPDeform Offset")
-that the add-on creates and the user may move (after an Armature, before a Subdivision).
+"""opdeform's place in the modifier stack: a Geometry Nodes modifier ("OPDeform", node group "OPDeform: see
+Physics") that the add-on creates and the user may move (after an Armature, before a Subdivision). The Modifier
+tab explains it by the group's name (whole at the factory Properties width, 333 px under a 1920-pixel window),
+its description (Blender 4.0+: the group's tooltip) and a frame inside the group.
 
 Its nodes do three things, read the same way in Blender 3.4 through 5.x:
 - Store Named Attribute ``opdeform_input``: the positions that reach the modifier (the rest mesh deformed by
@@ -20,11 +22,13 @@ import bpy
 import numpy as np
 
 MODIFIER = "OPDeform"
-GROUP = "OPDeform Offset"
+GROUP = "OPDeform: see Physics"
+ABOUT = ("OPDeform soft body: the OPDeform add-on writes each frame's simulated offset here; its settings are "
+         "in the Physics tab (Oriented Particles)")
 INPUT = "opdeform_input"
 INDEX = "opdeform_index"
 OFFSET = "opdeform_offset"
-VERSION = 2  # the node group's layout: 1 had no index; an older group is replaced on Build
+VERSION = 3  # the node group's layout: 1 had no index, 2 no explanation; an older group is replaced on Build
 
 
 def _socket(group, name, in_out):
@@ -51,6 +55,8 @@ def _store(nodes, links, name, data_type, kind, value_socket, geometry_socket):
 def _new_group():
     group = bpy.data.node_groups.new(GROUP, 'GeometryNodeTree')
     group["opdeform"] = VERSION  # ours, whatever its name becomes
+    if hasattr(group, "description"):  # Blender 4.0+
+        group.description = ABOUT
     _socket(group, "Geometry", 'INPUT')
     _socket(group, "Geometry", 'OUTPUT')
     nodes, links = group.nodes, group.links
@@ -64,6 +70,8 @@ def _new_group():
     links.new(geometry, move.inputs["Geometry"])
     links.new(_value(offset.outputs), move.inputs["Offset"])
     links.new(move.outputs[0], nodes.new('NodeGroupOutput').inputs[0])
+    note = nodes.new('NodeFrame')
+    note.label, note.label_size = "Settings: Physics tab > Oriented Particles (OPDeform add-on)", 14
     return group
 
 

@@ -47,7 +47,8 @@ def split(layout, context):
     return prepared(layout), context.object, context.object.opdeform
 
 
-def wrapped(layout, text, icon='NONE', width=60):
+def wrapped(layout, text, icon='NONE', width=40):
+    """text as labels of at most ``width`` characters a line, whole at the factory Properties width (333 px)."""
     col = layout.column(align=True)
     words, line, first = text.split(), "", True
     for w in words:

@@ -22,21 +22,21 @@ def draw_material(layout, s, context):
         col.prop(s, "stiffness")
         col.prop(s, "density")
         if s.mode == 'DYNAMIC':
-            col.prop(s, "damping")
+            col.prop(s, "damping", text="Damping/Step")
             col.prop(s, "iterations")
     else:
-        col.prop(s, "modulus", text="Stiffness (MPa)")
+        col.prop(s, "modulus", text="Stiffness MPa")
         col.prop(s, "density")
         if s.mode == 'DYNAMIC':
             col.prop(s, "damping_rate", text="Damping (/s)")
-            col.prop(s, "tolerance", text="Quality Tolerance")
-            col.prop(s, "max_iterations")
+            col.prop(s, "tolerance", text="Tolerance")
+            col.prop(s, "max_iterations", text="Max Iter.")
     if s.mode == 'DYNAMIC':
         _draw_substeps(layout.column(), s, context.scene)
 
 
 def _draw_substeps(col, s, scene):
-    col.prop(s, "use_frame_rate_substeps")
+    col.prop(s, "use_frame_rate_substeps", text="Match FPS")
     if s.use_frame_rate_substeps:
         fps = frame_rate(scene)
         col.label(text=f"{presets.substeps(s, fps)} substeps at {fps:g} fps", icon='TIME')
@@ -136,7 +136,7 @@ class PHYSICS_PT_opdeform_graph(SubPanel, bpy.types.Panel):
         col = layout.column()
         col.prop(s, "particles")
         col.prop(s, "graph_mode")
-        col.prop(s, "neighbors")
+        col.prop(s, "neighbors", text="Neighbors")
         rt = state.get(obj)
         row = layout.row()
         if rt is not None and rt.graph_key != graph_key(s):
@@ -176,7 +176,7 @@ class PHYSICS_PT_opdeform_pins(SubPanel, bpy.types.Panel):
         layout, obj, s = split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
-        layout.label(text="Pins hold firmly at any weight; for a soft hold paint a Goal group", icon='INFO')
+        wrapped(layout, "Pins hold firmly at any weight; for a soft hold paint a Goal group", 'INFO')
 
 
 class OPDEFORM_MT_looks(bpy.types.Menu):
@@ -194,7 +194,7 @@ class PHYSICS_PT_opdeform_goal(ToggledSubPanel, bpy.types.Panel):
     def draw(self, context):
         layout, obj, s = self.body(context)
         layout.menu("OPDEFORM_MT_looks", text=f"Look: {presets.current_look(s)}")
-        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Follow Group")
+        layout.prop_search(s, "goal_group", obj, "vertex_groups", text="Follow")
         col = layout.column(align=True)
         if s.goal_group:
             col.prop(s, "goal_min", text="Follow Min")
@@ -206,8 +206,8 @@ class PHYSICS_PT_opdeform_goal(ToggledSubPanel, bpy.types.Panel):
         if mod is None:
             layout.label(text="The OPDeform modifier is missing: Build adds it", icon='ERROR')
         else:
-            layout.label(text=f"Follows the stack above OPDeform (modifier {modifier.index(obj) + 1} of "
-                              f"{len(obj.modifiers)})", icon='MODIFIER')
+            wrapped(layout, f"Follows the stack above OPDeform (modifier {modifier.index(obj) + 1} of "
+                            f"{len(obj.modifiers)})", 'MODIFIER')
 
 
 class PHYSICS_PT_opdeform_regions(SubPanel, bpy.types.Panel):
@@ -219,11 +219,11 @@ class PHYSICS_PT_opdeform_regions(SubPanel, bpy.types.Panel):
         layout.prop_search(s, "softness_group", obj, "vertex_groups", text="Softness")
         row = layout.row()
         row.active = bool(s.softness_group)
-        row.prop(s, "soft_stiffness")
+        row.prop(s, "soft_stiffness", text="Stiffness")
         layout.prop_search(s, "damping_group", obj, "vertex_groups", text="Damping")
         row = layout.row()
         row.active = bool(s.damping_group)
-        row.prop(s, "region_damping")
+        row.prop(s, "region_damping", text="Rate (/s)")
 
 
 class OPDEFORM_UL_handles(bpy.types.UIList):

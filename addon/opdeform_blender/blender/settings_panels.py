@@ -48,7 +48,7 @@ class PHYSICS_PT_opdeform_advanced(SubPanel, bpy.types.Panel):
         col = layout.column()
         col.active = versioning.uses_solver_units(s)
         col.prop(s, "stiffness")
-        col.prop(s, "damping")
+        col.prop(s, "damping", text="Damping/Step")
         col.prop(s, "iterations")
 
 
