@@ -16,7 +16,7 @@ import opdeform
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import frames, handles, loader, tumbling  # noqa: E402
+from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
 from opdeform_blender.core.engine import Engine, EngineError, original_input  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
@@ -244,3 +244,28 @@ def test_original_input_behind_later_modifiers():
     for index in (None, np.r_[3, 2, 1, 0, np.arange(6)]):
         with pytest.raises(EngineError, match="after OPDeform"):
             original_input(p, index, 4)
+
+
+
+def test_attached_pieces_are_found_and_named():
+    """A bar and two small capsules in one mesh (one capsule's vertices split, as UV seams split them): the
+    pieces as the core numbers them, and the capsules, which get no particles, named by size and centre."""
+    from opdeform import meshes
+    bar, bt = meshes.bar()
+    cap, ct = meshes.capsule(radius=0.05, length=0.1)
+    split = np.vstack([cap, cap[:1]])  # a duplicate of vertex 0, used by the first triangle: welded
+    st = ct.copy()
+    st[0][st[0] == 0] = len(cap)
+    v = np.vstack([bar, cap + (0.5, 0.5, 0.0), split + (1.5, 0.5, 0.0)])
+    t = np.vstack([bt, ct + len(bar), st + len(bar) + len(cap)])
+    piece, count = checks.vertex_pieces(v, t)
+    assert count == 3 and piece.tolist() == [0] * len(bar) + [1] * len(cap) + [2] * (len(cap) + 1)
+    graph = opdeform.Graph.from_mesh(v, t, particles=40)
+    assert opdeform.mesh.mesh_pieces(graph)[0] == 3
+    found = checks.attached_pieces(opdeform, graph, v, t)
+    assert [n for n, _ in found] == [len(cap) + 1, len(cap)], found
+    np.testing.assert_allclose(found[1][1], cap.mean(axis=0) + (0.5, 0.5, 0.0), atol=1e-12)
+    text = checks.attached_text(found)
+    assert text.startswith("2 detached shells") and "rigidly" in text and f"{len(cap)} vertices at (0.50" in text
+    alone = opdeform.Graph.from_mesh(bar, bt, particles=20)
+    assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None

@@ -365,6 +365,80 @@ def test_reload_between_frames():
         _call_every_handler(bpy.context.scene)
 
 
+# -- meshes of several pieces ------------------------------------------------------------------------------------
+
+def _moved(obj, frames):
+    """How far each vertex moved over the frames (from the first), with the handlers watched; no error."""
+    with watched():
+        bpy.context.scene.frame_set(frames[0])
+        first = H.positions(obj)
+        _frames(frames[1:])
+    assert not obj.opdeform.error, obj.opdeform.error
+    return np.linalg.norm(H.positions(obj) - first, axis=1)
+
+
+def test_two_part_object_enables_and_simulates():
+    """Two cubes in one object, Goal off and on (Sag 1, so that gravity pulls it off its goal): Enable builds
+    without a traceback and both parts move in 10 frames."""
+    v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 1.0, 2.0), (3, 3, 3))
+    for goal in (False, True):
+        obj = H.mesh_object(f"Two parts {goal}", np.vstack([v, v + (2.0, 0.0, 0.0)]),
+                            np.vstack([t, t + len(v)]))
+        obj.opdeform.use_goal, obj.opdeform.sag = goal, 1.0
+        bpy.ops.opdeform.enable(object=obj.name)
+        assert obj.opdeform.built and not obj.opdeform.error, obj.opdeform.error
+        d = _moved(obj, range(1, 12))
+        assert d[:len(v)].min() > 1e-3 and d[len(v):].min() > 1e-3, (goal, d[:len(v)].min(), d[len(v):].min())
+
+
+SHELLS = 9
+
+
+def _creature():
+    """A body (an icosphere of radius 0.5 m) and SHELLS small detached ones (radius 0.06 m: ears, tail, feet)
+    in one mesh; (object, the small shells' centres)."""
+    from mathutils import Matrix
+    centres = [(0.6 * np.cos(a), 0.6 * np.sin(a), 1.0 + 0.1 * k)
+               for k, a in enumerate(np.linspace(0.0, 2.0 * np.pi, SHELLS, endpoint=False))]
+    mesh = bpy.data.meshes.new("Creature")
+    bm = bmesh.new()
+    bmesh.ops.create_icosphere(bm, subdivisions=3, radius=0.5, matrix=Matrix.Translation((0.0, 0.0, 1.0)))
+    for c in centres:
+        bmesh.ops.create_icosphere(bm, subdivisions=2, radius=0.06, matrix=Matrix.Translation(c))
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = bpy.data.objects.new("Creature", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj, np.array(centres)
+
+
+def test_detached_shells_are_named():
+    """The small shells get no particles (attached rigidly to the body): the panel's warning says how many,
+    where, and what to do; they move with the body, without an error."""
+    obj, centres = _creature()
+    bpy.ops.opdeform.enable(object=obj.name)
+    rt = H.runtime().get(obj)
+    assert len(rt.attached) == SHELLS, rt.attached
+    found = np.array([c for _, c in rt.attached])
+    assert np.abs(found[:, None] - centres[None]).max(axis=2).min(axis=0).max() < 1e-5, (found, centres)
+    assert {n for n, _ in rt.attached} == {42}, rt.attached  # an icosphere of 2 subdivisions
+    panels = importlib.import_module(H.ADDON + ".blender.panels")
+    text = [w for w in panels.warnings(rt, 1) if "detached" in w]
+    assert len(text) == 1 and f"{SHELLS} detached shells" in text[0] and "rigidly" in text[0], text
+    assert "0.60, 0.00, 1.00" in text[0] and "6 more" in text[0], text[0]
+    assert _moved(obj, range(1, 12)).min() > 1e-3  # the body falls, the shells with it
+
+
+def test_one_piece_names_no_shell():
+    """A mesh of one piece, and a two-part object whose parts both have particles: no shell named."""
+    obj = _enable_bar()
+    assert H.runtime().get(obj).attached == ()
+    v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 1.0, 2.0), (3, 3, 3))
+    two = H.mesh_object("Two parts", np.vstack([v, v + (2.0, 0.0, 0.0)]), np.vstack([t, t + len(v)]))
+    bpy.ops.opdeform.enable(object=two.name)
+    assert H.runtime().get(two).attached == ()
+
+
 # -- tumbling particles: the baked point cloud's handler ---------------------------------------------------------
 
 def test_tumbling_frames_survive_broken_data():

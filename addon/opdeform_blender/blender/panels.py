@@ -5,7 +5,7 @@ Weights), registered after this module (a sub-panel needs its parent)."""
 
 import bpy
 
-from ..core import frame_report, loader
+from ..core import checks, frame_report, loader
 from ..core.settings import LOOKS
 from . import modifier, presets, runtime, state, versioning
 from .compiled import ADDON_PACKAGE
@@ -56,6 +56,9 @@ def warnings(rt, frame):
     if thin is not None and thin[2]:
         out.append(f"Thinnest part {thin[0]:.3g} m, particles {thin[1]:.3g} m apart: fewer than two across; "
                    "raise Particles")
+    attached = checks.attached_text(rt.attached)
+    if attached:
+        out.append(attached)
     if rt.engine.behind:
         out.append(f"Catching up: {rt.engine.behind:,} frames to go (Esc stops)")
     return out

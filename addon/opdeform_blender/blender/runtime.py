@@ -12,7 +12,7 @@ import time
 import bpy
 import numpy as np
 
-from ..core import bake_files
+from ..core import bake_files, checks
 from ..core import handles as handle_math
 from ..core.engine import Engine, EngineError, original_input
 from ..core.frames import BakeFrames
@@ -94,6 +94,7 @@ def build(obj, scene, depsgraph=None):
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     rt = Runtime(engine, graph_key(s), pins)
+    rt.attached = checks.attached_pieces(od, engine.graph, engine.rest, engine.triangles, engine.rest_local)
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:

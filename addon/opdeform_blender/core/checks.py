@@ -1,10 +1,13 @@
 """The panel's warnings (issue 14), free of bpy, on top of ``opdeform.materials``: a driven handle too fast for
 the steps (per frame, from the handle targets), and too few particles across the mesh's thinnest part (at
-Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py)."""
+Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py), and the
+detached shells that got no particles of their own (at Build: the core attaches a piece with under a tenth of
+the largest piece's volume rigidly to the nearest large piece, opdeform.graph's small_pieces="attach")."""
 
 import numpy as np
 
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
+WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 
 
 def handle_motion(before, after, fps):
@@ -31,3 +34,58 @@ def thin_part(materials, graph, vertices, triangles):
     if len(vertices) * len(triangles) > THIN_PART_BUDGET:
         return None
     return materials.thin_part_warning(graph, vertices, triangles)
+
+
+def vertex_pieces(vertices, triangles):
+    """(the connected piece of each vertex, -1 for a vertex of no triangle; the number of pieces), the pieces
+    as the core finds them: vertices closer than WELD of the bounding box welded first, pieces numbered by
+    their first triangle."""
+    v = np.asarray(vertices, dtype=np.float64)
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    tolerance = max(float(np.ptp(v, axis=0).max()), 1e-30) * WELD
+    _, weld = np.unique(np.round(v / tolerance), axis=0, return_inverse=True)
+    tri = weld.reshape(-1)[t]
+    label = np.arange(weld.max() + 1)
+    while True:  # each welded vertex takes the lowest label of its triangles' vertices, then its label's label
+        low = label[tri].min(axis=1)
+        new = label.copy()
+        for k in range(3):
+            np.minimum.at(new, tri[:, k], low)
+        new = new[new]
+        if np.array_equal(new, label):
+            break
+        label = new
+    roots, first = np.unique(label[tri[:, 0]], return_index=True)
+    number = np.full(len(label), -1)
+    number[roots[np.argsort(first)]] = np.arange(len(roots))
+    piece = np.full(len(v), -1)
+    used = np.unique(t)
+    piece[used] = number[label[weld.reshape(-1)[used]]]
+    return piece, len(roots)
+
+
+def attached_pieces(od, graph, vertices, triangles, shown=None):
+    """The mesh's pieces with no particles of their own, each skinned rigidly by the nearest large piece:
+    ((vertex count, centre), ...), largest first; the centre is the mean of ``shown`` (the vertices by
+    default). () when every piece has particles, or when the core counts its pieces otherwise."""
+    count, of_particle = od.mesh.mesh_pieces(graph)
+    if count < 2:
+        return ()
+    piece, found = vertex_pieces(vertices, triangles)
+    if found != count:
+        return ()
+    shown = np.asarray(vertices if shown is None else shown, dtype=np.float64)
+    out = [(int((piece == p).sum()), tuple(float(c) for c in shown[piece == p].mean(axis=0)))
+           for p in np.setdiff1d(np.arange(count), of_particle)]
+    return tuple(sorted(out, key=lambda x: -x[0]))
+
+
+def attached_text(pieces, shown=3):
+    """The panel's warning for attached_pieces (None when there are none)."""
+    if not pieces:
+        return None
+    named = ", ".join(f"{n} vertices at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f})" for n, c in pieces[:shown])
+    more = f" and {len(pieces) - shown} more" if len(pieces) > shown else ""
+    return (f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} without particles ({named}{more}): "
+            "each moves rigidly with the nearest large piece, whatever the particle count; to make one jiggle, "
+            "join it to the body (Merge by Distance, Bridge) or give it an OPDeform object of its own")

@@ -19,7 +19,7 @@ ENV_VAR = "OPDEFORM_PYTHONPATH"
 API_VERSION = (0, 1)
 # Names the add-on calls: a package without them is reported as mismatched, never as a traceback.
 REQUIRED = ("Graph", "Simulation", "SolverError", "Graph.from_mesh", "Skin", "pin_vertices",
-            "add_vertex_direction")
+            "add_vertex_direction", "mesh.mesh_pieces")
 
 _state = {"module": None, "error": None, "where": None, "tried": False}
 
