@@ -220,8 +220,9 @@ class FakeLayout:
     """Records what a panel's draw() asks for (labels, operators, properties): panels cannot be drawn in
     background mode, but their draw code can run and be checked."""
 
-    def __init__(self, log=None):
+    def __init__(self, log=None, use_property_split=False):
         self.log = [] if log is None else log
+        self.use_property_split = use_property_split
 
     def __getattr__(self, name):
         if name.startswith("__"):
@@ -229,18 +230,26 @@ class FakeLayout:
 
         def call(*args, **kw):
             if name == "label":
-                self.log.append(("label", kw.get("text", "")))
+                self.log.append(("label", kw.get("text", ""), kw.get("icon", 'NONE') != 'NONE'))
             elif name == "operator":
                 self.log.append(("operator", args[0], kw.get("text")))
             elif name in ("prop", "prop_search"):
-                self.log.append(("prop", args[1]))
+                kind = args[0].bl_rna.properties[args[1]].type
+                self.log.append(("prop", args[1], _shown_text(args[0], args[1], kw), self.use_property_split, kind))
             elif name == "template_list":
                 self.log.append(("list", args[0]))
-            return FakeLayout(self.log)
+            return FakeLayout(self.log, self.use_property_split)
         return call
 
     def __setattr__(self, name, value):
         object.__setattr__(self, name, value)
+
+
+def _shown_text(data, identifier, kw):
+    """The text Blender shows beside a property: text=, else the property's name ("" for an expanded enum)."""
+    if "text" in kw:
+        return kw["text"]
+    return "" if kw.get("expand") else data.bl_rna.properties[identifier].name
 
 
 class _FakePanel:
@@ -270,7 +279,36 @@ def draw_panels():
 
 
 def labels(log):
-    return " | ".join(entry[1] for entry in log if entry[0] == "label")
+    """The labels' texts joined by spaces (a text wrapped over several labels reads whole)."""
+    return " ".join(entry[1] for entry in log if entry[0] == "label")
+
+
+REGION_WIDTH = 320  # the Properties editor's width in the factory layout, 1920-pixel window, UI scale 1
+
+
+def cut_texts(log, region_width=REGION_WIDTH):
+    """The (text, its width, the room for it) of every label and property text in a draw_panels() log that Blender
+    would cut at this region width, with Blender's UI font at 11 px (its default). The room, from Blender's
+    property split (0.4 of the row for the label): the row is the region less 40 px of margins; a text has 16
+    px of padding, an icon or a checkbox takes 20 px. Calibrated on Blender 3.4's screenshots
+    (tests/blender/screenshot_tabs.py): at 227 px "Skin Neighbors" (74 px) is cut and "Follow Min" (54 px)
+    whole, at 320 px "Damping per Step" (89 px) whole."""
+    import blf
+    blf.size(0, 11) if bpy.app.version >= (4, 0, 0) else blf.size(0, 11, 72)
+    row = region_width - 40
+    cut = []
+    for entry in log:
+        if entry[0] == "label":
+            text, room = entry[1], row - 16 - (20 if entry[2] else 0)
+        elif entry[0] == "prop" and entry[2]:
+            text, split, kind = entry[2], entry[3], entry[4]
+            room = (0.6 * row - 36 if kind == 'BOOLEAN' else 0.4 * row - 16) if split else row - 16
+        else:
+            continue
+        width = blf.dimensions(0, text)[0]
+        if width > room:
+            cut.append((text, width, room))
+    return cut
 
 
 FPS = 24

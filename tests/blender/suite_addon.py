@@ -308,6 +308,23 @@ def test_save_reload_continues():
     np.testing.assert_array_equal(again[15], live[15])
 
 
+def test_panels_labels_fit_default_width():
+    obj = H.bar_object()
+    for name in ("Follow", "Soft", "Damp"):
+        obj.vertex_groups.new(name=name)
+    bpy.ops.opdeform.enable(object=obj.name)
+    bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    s = obj.opdeform
+    s.use_goal, s.goal_group, s.softness_group, s.damping_group, s.use_floor = True, "Follow", "Soft", "Damp", True
+    assert H.cut_texts([("prop", "neighbors", "Skin Neighbors", True, 'INT')], 227)  # the check can fail
+    for units, mode in ((False, 'DYNAMIC'), (True, 'DYNAMIC'), (False, 'POSE')):
+        s.use_solver_units, s.mode = units, mode
+        log = H.draw_panels()
+        assert len([e for e in log if e[0] == "prop"]) > 20
+        cut = H.cut_texts(log)
+        assert not cut, (units, mode, cut)
+
+
 def test_panels_draw_in_every_state():
     obj = H.bar_object()
     log = H.draw_panels()
