@@ -6,6 +6,8 @@ output is left behind as if complete."""
 import csv
 import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -97,6 +99,23 @@ def test_bad_input_is_an_error_naming_the_shot_and_leaves_no_output(scene, tmp_p
         shots.bake(shots.load(spec))
     assert f"shot bad ({spec})" in str(info.value) and problem in str(info.value), str(info.value)
     assert os.listdir(tmp_path / "out") == []
+
+
+def test_a_farms_lower_memory_cap_is_kept(scene, tmp_path):
+    """Under a farm's ``ulimit -v`` of 4 GiB (below the spec's 8 GiB) Blender runs under that cap: a .blend bake
+    and its render work (raising the limit failed: Blender never started), and the cap is never raised."""
+    spec = write_spec(tmp_path, scene, "capped", last=4)
+    cap = 4 * 2 ** 20  # KiB
+    script = ('ulimit -v "$0" && "$1" -m opdeform bake "$2" && "$1" -m opdeform render "$2" --references "$3" '
+              '--out "$4" --frames 2 --update && "$1" -c "from opdeform import blender; '
+              'print(blender.blender_command(\'blender\', None, \'s.py\', [], 8)[3], blender.memory_cap_kib(2))"')
+    done = subprocess.run(["sh", "-c", script, str(cap), sys.executable, spec, tmp_path / "refs", tmp_path / "render"],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.splitlines()[-1] == f"{cap} {2 * 2 ** 20}"  # the farm's cap kept, a lower one taken
+    assert io.read_pc2(tmp_path / "out" / "capped.pc2")[2].shape == (4, 170, 3)
+    assert sorted(os.listdir(tmp_path / "refs")) == ["capped_0001.npy", "capped_0001.png", "capped_0004.npy",
+                                                     "capped_0004.png"]
 
 
 @pytest.mark.parametrize("mesh, extra, key, problem", [

@@ -4,7 +4,8 @@ outputs as a mesh shot are written: PC2, frames, report.
 
 Blender runs with ``--factory-startup --disable-autoexec`` in a temporary work folder inside the output
 folder: its own ``BLENDER_USER_CONFIG`` and ``BLENDER_USER_SCRIPTS`` (the add-on copied or unzipped into
-``addons/``), its memory capped (``ulimit -v``) and its time limited. ``blender_bake.py`` runs inside it,
+``addons/``), its memory capped (``ulimit -v``: the spec's memory, or the cap this process already runs under
+when that is lower, as on a farm: a limit is only ever lowered) and its time limited. ``blender_bake.py`` runs inside it,
 bakes into the work folder and writes ``done.json`` last; only then are the outputs renamed into place, so a
 crash, a timeout or a bad object leaves no file passed off as complete. Every failure is a ``BlenderError``
 naming the shot.
@@ -18,6 +19,11 @@ import subprocess
 import tempfile
 import threading
 import zipfile
+
+try:
+    import resource
+except ImportError:  # Windows: no address-space limit to set
+    resource = None
 
 import numpy as np
 
@@ -92,11 +98,22 @@ def blender_env(work, addon=None):
     return env
 
 
+def memory_cap_kib(memory_gib):
+    """Blender's ``ulimit -v`` in KiB: ``memory_gib``, or this process's own limit when that is lower (a farm's
+    cap is kept: ``ulimit -v`` above it would fail and Blender would never start); None without limits (Windows)."""
+    if resource is None:
+        return None
+    wanted = int(memory_gib * 2 ** 20)
+    soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    return wanted if soft == resource.RLIM_INFINITY else min(wanted, soft // 1024)
+
+
 def blender_command(executable, blend, script, args, memory_gib):
-    """``blender -b`` on a file with a script, under ``ulimit -v`` of ``memory_gib``."""
+    """``blender -b`` on a file with a script, under ``ulimit -v`` of ``memory_gib`` or the lower cap already set."""
     command = [executable, "-b", "--factory-startup", "--disable-autoexec", *([blend] if blend else []),
                "--python-exit-code", "1", "-P", script, "--", *args]
-    return ["sh", "-c", 'ulimit -v "$0" && exec "$@"', str(int(memory_gib * 2 ** 20)), *command]
+    cap = memory_cap_kib(memory_gib)
+    return command if cap is None else ["sh", "-c", 'ulimit -v "$0" && exec "$@"', str(cap), *command]
 
 
 def run(command, env, timeout, what, on_line=None):
