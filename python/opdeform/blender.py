@@ -5,8 +5,8 @@ outputs as a mesh shot are written: PC2, frames, report.
 Blender runs with ``--factory-startup --disable-autoexec`` in a temporary work folder inside the output
 folder: its own ``BLENDER_USER_CONFIG`` and ``BLENDER_USER_SCRIPTS`` (the add-on copied or unzipped into
 ``addons/``), its memory capped (``ulimit -v``: the spec's memory, or the cap this process already runs under
-when that is lower, as on a farm: a limit is only ever lowered) and its time limited. ``blender_bake.py`` runs inside it,
-bakes into the work folder and writes ``done.json`` last; only then are the outputs renamed into place, so a
+when that is lower, as on a farm: a limit is only ever lowered) and its time limited. ``blender_bake.py`` runs
+inside it, bakes into the work folder and writes ``done.json`` last; only then are the outputs renamed into place, so a
 crash, a timeout or a bad object leaves no file passed off as complete. Every failure is a ``BlenderError``
 naming the shot.
 """
