@@ -231,8 +231,9 @@ class PHYSICS_PT_opdeform_regions(SubPanel, bpy.types.Panel):
 
 class OPDEFORM_UL_handles(bpy.types.UIList):
     def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
-        row = layout.row(align=True)
-        row.prop(item, "target", text="", icon='EMPTY_AXIS')
+        split = layout.split(factor=0.6, align=True)  # the target's name whole at the factory width
+        split.prop(item, "target", text="", icon='EMPTY_AXIS')
+        row = split.row(align=True)
         row.prop(item, "use_rotation", text="", icon='ORIENTATION_GIMBAL')
         row.prop(item, "strength", text="")
 
