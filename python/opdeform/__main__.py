@@ -1,7 +1,7 @@
-"""``python -m opdeform``: the command line of opdeform.cli."""
+"""python -m opdeform: the opdeform command (opdeform.cli)."""
 
 import sys
 
 from .cli import main
 
-sys.exit(main())
+sys.exit(main(prog="python -m opdeform"))

@@ -1,11 +1,7 @@
-"""``python -m opdeform``: bake one shot, bake a batch over a Dask cluster, or summarise a bake's report.
-
-    python -m opdeform bake SPEC [--threads N] [--restart]
-    python -m opdeform batch SPEC... [--scheduler ADDRESS] [--workers N] [--timeout SECONDS]
-    python -m opdeform report BAKE            (a spec, or its report CSV)
-    python -m opdeform render SPEC... --references DIR [--out DIR] [--frames N] [--update]
-
-Exit status 0 when everything baked, 1 when a shot failed, 2 for bad arguments or a bad spec.
+"""The opdeform command (``opdeform`` or ``python -m opdeform``): bake one shot, bake a batch over a Dask
+cluster, summarise a bake's report, or render baked shots against references. HELP and EPILOG are its help,
+in plain text; a subcommand that needs an optional package names the extra that installs it (EXTRAS).
+Progress (frames done, rate, time left) goes to a terminal only: a farm's log stays quiet.
 """
 
 import argparse
@@ -13,10 +9,32 @@ import os
 import sys
 import time
 
-from . import blender
+from . import __version__, blender
 from . import shot as shots
 
 __all__ = ["main"]
+
+HELP = """Bake shots (TOML specs: a mesh, its material, pins, keyframed handles, goals, frames and outputs) to
+point caches, mesh frames and a per-frame report; spread many over a Dask cluster; summarise a report;
+render baked shots with Blender against reference images."""
+EPILOG = """examples:
+  opdeform bake examples/tail.toml
+  opdeform report examples/tail.toml
+  opdeform batch shots/*.toml --workers 2
+  opdeform render shots/*.toml --references refs/
+
+exit status: 0 when everything baked, 1 when a shot failed, 2 for bad arguments, a bad spec or a missing
+optional package. Optional packages: pip install "opdeform[plot]" (matplotlib: report plots, render),
+"opdeform[batch]" (Dask: batch)."""
+EXTRAS = {"matplotlib": "plot", "dask": "batch", "distributed": "batch"}  # top-level module -> extra
+
+
+def _duration(seconds):
+    """'42 s', '3 min 05 s', '2 h 07 min'."""
+    s = round(seconds)
+    if s < 60:
+        return f"{s} s"
+    return f"{s // 60} min {s % 60:02d} s" if s < 3600 else f"{s // 3600} h {s % 3600 // 60:02d} min"
 
 
 def _progress_bar(stream):
@@ -29,7 +47,9 @@ def _progress_bar(stream):
         width = 40
         filled = width * done // total
         rate = done / max(time.perf_counter() - start, 1e-9)
-        stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} frames, {rate:.1f} frames/s")
+        left = f"{_duration((total - done) / rate)} left" if rate > 0 else "time left unknown"
+        stream.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {done}/{total} frames, {rate:.1f} frames/s, "
+                     f"{left}\033[K")
         stream.write("\n" if done == total else "")
         stream.flush()
     return progress
@@ -78,6 +98,8 @@ def report(args):
 
 
 def render(args):
+    import matplotlib  # noqa: F401 (render compares images with it: a missing extra is named before Blender runs)
+
     from . import render as renders
 
     def line(row):
@@ -94,8 +116,11 @@ def render(args):
     return 1 if failed else 0
 
 
-def main(argv=None):
-    parser = argparse.ArgumentParser(prog="python -m opdeform", description=__doc__.split("\n")[0])
+def main(argv=None, prog="opdeform"):
+    """Runs the command line ``argv`` (default sys.argv[1:]); returns the exit status."""
+    parser = argparse.ArgumentParser(prog=prog, description=HELP, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"opdeform {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     p = commands.add_parser("bake", help="bake one shot")
     p.add_argument("spec")
@@ -123,6 +148,13 @@ def main(argv=None):
         return args.run(args)
     except shots.SpecError as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as exc:
+        extra = EXTRAS.get((exc.name or "").split(".")[0])
+        if extra is None:
+            raise
+        print(f'error: {args.command} needs {exc.name}, which is not installed: pip install "opdeform[{extra}]"',
+              file=sys.stderr)
         return 2
     except (ConnectionError, OSError, ValueError, blender.BlenderError) as exc:
         print(f"error: {exc}", file=sys.stderr)

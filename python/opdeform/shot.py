@@ -585,7 +585,11 @@ def _write_report(shot, rows):
 
 
 def _plot(path, rows, title):
-    import matplotlib
+    try:
+        import matplotlib
+    except ModuleNotFoundError:  # an optional package: the bake's other outputs stand without it
+        log.warning('%s not written: the plot needs matplotlib (pip install "opdeform[plot]")', path)
+        return
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     rows = rows[1:] or rows  # the first frame is the rest shape: nothing was solved
