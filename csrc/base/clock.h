@@ -1,4 +1,4 @@
-// A monotonic clock for the time counters of the solvers (clock.c).
+// A monotonic clock for the time counters of the solvers (platform.c: each system its own).
 #pragma once
 
 // Seconds since an arbitrary start, monotonic.

@@ -10,17 +10,16 @@
 // workers in the child was not chosen: a forked child is usually one of several (multiprocessing.Pool),
 // where one thread each already fills the cores. The prepare handler also shuts down the OpenMP thread team
 // of the forking thread (omp_pause_resource_all, OpenMP 5.0), which CHOLMOD's supernodal factorization
-// starts: libgomp's team does not survive fork either (measured: a child refactoring hung forever).
+// starts: libgomp's team does not survive fork either (measured: a child refactoring hung forever). Threads,
+// locks, the CPU count and the fork hooks come from platform.h (Windows has no fork: the count stays 0).
 #include "pool.h"
 
 #include "core.h"
+#include "platform.h"
 
-#include <pthread.h>
-#include <sched.h>
 #include <stdbool.h>
 #include <stdatomic.h>
 #include <stdlib.h>
-#include <unistd.h>
 
 typedef struct od_PoolWorker
 {
@@ -33,10 +32,10 @@ struct od_Pool
 	int threads;
 	int spin;  // pauses before sleeping: OD_POOL_SPIN, or 0 with more threads than CPUs
 	int forks; // od_forks when created
-	pthread_t* workers;
+	od_Thread* workers;
 	od_PoolWorker* args;
-	pthread_mutex_t lock;
-	pthread_cond_t wake, done;
+	od_Mutex lock;
+	od_Cond wake, done;
 	atomic_llong generation;
 	atomic_int quit;
 	// the current job
@@ -52,19 +51,12 @@ struct od_Pool
 // ---------------------------------------------------------------------------------------------------------
 // Fork
 
-// OpenMP 5.0's call (libgomp, brought in by CHOLMOD); weak: NULL when no OpenMP runtime is loaded.
-extern int omp_pause_resource_all(int kind) __attribute__((weak));
-#define OD_OMP_PAUSE_SOFT 1
-
 static atomic_int od_forks;
-static pthread_once_t od_atforkOnce = PTHREAD_ONCE_INIT;
+static od_Once od_atforkOnce = OD_ONCE_INIT;
 
 static void od_Pool_BeforeFork(void)
 {
-	if (omp_pause_resource_all)
-	{
-		omp_pause_resource_all(OD_OMP_PAUSE_SOFT);
-	}
+	od_Platform_PauseOpenMP();
 }
 
 static void od_Pool_InChild(void)
@@ -74,7 +66,7 @@ static void od_Pool_InChild(void)
 
 static void od_Pool_RegisterAtFork(void)
 {
-	pthread_atfork(od_Pool_BeforeFork, NULL, od_Pool_InChild);
+	od_Platform_AtFork(od_Pool_BeforeFork, od_Pool_InChild);
 }
 
 static bool od_Pool_Forked(const od_Pool* pool)
@@ -106,8 +98,7 @@ static int od_OmpThreads(void)
 
 int od_Pool_AvailableThreads(void)
 {
-	cpu_set_t set;
-	int cpus = sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : (int)sysconf(_SC_NPROCESSORS_ONLN);
+	int cpus = od_Platform_Cpus();
 	int omp = od_OmpThreads();
 	cpus = omp > 0 && omp < cpus ? omp : cpus;
 	return cpus < 1 ? 1 : cpus > OD_POOL_MAX_THREADS ? OD_POOL_MAX_THREADS : cpus;
@@ -115,13 +106,6 @@ int od_Pool_AvailableThreads(void)
 
 // ---------------------------------------------------------------------------------------------------------
 // Workers
-
-static void od_Pause(void)
-{
-#if defined(__x86_64__) || defined(__i386__)
-	__builtin_ia32_pause();
-#endif
-}
 
 static bool od_NewJob(od_Pool* pool, long long seen)
 {
@@ -143,7 +127,7 @@ static bool od_SpinUntil(bool (*done)(od_Pool*, long long), od_Pool* pool, long 
 		{
 			return true;
 		}
-		od_Pause();
+		od_Platform_Pause();
 	}
 	return false;
 }
@@ -166,12 +150,12 @@ static void* od_Pool_Main(void* arg)
 	{
 		if (!od_SpinUntil(od_NewJob, pool, seen))
 		{
-			pthread_mutex_lock(&pool->lock);
+			od_Mutex_Lock(&pool->lock);
 			while (!atomic_load(&pool->quit) && atomic_load(&pool->generation) == seen)
 			{
-				pthread_cond_wait(&pool->wake, &pool->lock);
+				od_Cond_Wait(&pool->wake, &pool->lock);
 			}
-			pthread_mutex_unlock(&pool->lock);
+			od_Mutex_Unlock(&pool->lock);
 		}
 		if (atomic_load(&pool->quit))
 		{
@@ -181,9 +165,9 @@ static void* od_Pool_Main(void* arg)
 		od_Pool_Work(pool, thread);
 		if (atomic_fetch_sub(&pool->running, 1) == 1)
 		{
-			pthread_mutex_lock(&pool->lock); // the caller may be about to sleep on `done`
-			pthread_cond_signal(&pool->done);
-			pthread_mutex_unlock(&pool->lock);
+			od_Mutex_Lock(&pool->lock); // the caller may be about to sleep on `done`
+			od_Cond_Signal(&pool->done);
+			od_Mutex_Unlock(&pool->lock);
 		}
 	}
 	return NULL;
@@ -197,7 +181,7 @@ od_Status od_Pool_Create(int threads, od_Pool** out)
 	{
 		return status;
 	}
-	pthread_once(&od_atforkOnce, od_Pool_RegisterAtFork);
+	od_RunOnce(&od_atforkOnce, od_Pool_RegisterAtFork);
 	int available = od_Pool_AvailableThreads();
 	threads = threads == 0 ? available : threads;
 	od_Pool* pool = od_AllocZero(1, sizeof *pool);
@@ -216,13 +200,13 @@ od_Status od_Pool_Create(int threads, od_Pool** out)
 	// More threads than CPUs: a spinning waiter holds the CPU that the thread it waits for needs (measured,
 	// see docs/hardening.md), so waiters sleep at once.
 	pool->spin = threads <= available ? OD_POOL_SPIN : 0;
-	pthread_mutex_init(&pool->lock, NULL);
-	pthread_cond_init(&pool->wake, NULL);
-	pthread_cond_init(&pool->done, NULL);
+	od_Mutex_Init(&pool->lock);
+	od_Cond_Init(&pool->wake);
+	od_Cond_Init(&pool->done);
 	for (int t = 1; t < threads; ++t)
 	{
 		pool->args[t] = (od_PoolWorker){ pool, t };
-		if (pthread_create(&pool->workers[t], NULL, od_Pool_Main, &pool->args[t]) != 0)
+		if (!od_Thread_Start(&pool->workers[t], od_Pool_Main, &pool->args[t]))
 		{
 			break; // fewer threads than asked: still correct
 		}
@@ -240,17 +224,17 @@ void od_Pool_Destroy(od_Pool* pool)
 	}
 	if (pool->workers && pool->args && !od_Pool_Forked(pool))
 	{
-		pthread_mutex_lock(&pool->lock);
+		od_Mutex_Lock(&pool->lock);
 		atomic_store(&pool->quit, 1);
-		pthread_cond_broadcast(&pool->wake);
-		pthread_mutex_unlock(&pool->lock);
+		od_Cond_Broadcast(&pool->wake);
+		od_Mutex_Unlock(&pool->lock);
 		for (int t = 1; t < pool->threads; ++t)
 		{
-			pthread_join(pool->workers[t], NULL);
+			od_Thread_Join(&pool->workers[t]);
 		}
-		pthread_mutex_destroy(&pool->lock);
-		pthread_cond_destroy(&pool->wake);
-		pthread_cond_destroy(&pool->done);
+		od_Mutex_Destroy(&pool->lock);
+		od_Cond_Destroy(&pool->wake);
+		od_Cond_Destroy(&pool->done);
 	}
 	od_Free(pool->workers);
 	od_Free(pool->args);
@@ -276,23 +260,23 @@ void od_Pool_Run(od_Pool* pool, int count, od_PoolFn* fn, void* ctx)
 		}
 		return;
 	}
-	pthread_mutex_lock(&pool->lock);
+	od_Mutex_Lock(&pool->lock);
 	pool->fn = fn;
 	pool->ctx = ctx;
 	pool->count = count;
 	atomic_store(&pool->next, 0);
 	atomic_store(&pool->running, pool->threads - 1);
 	atomic_fetch_add(&pool->generation, 1);
-	pthread_cond_broadcast(&pool->wake);
-	pthread_mutex_unlock(&pool->lock);
+	od_Cond_Broadcast(&pool->wake);
+	od_Mutex_Unlock(&pool->lock);
 	od_Pool_Work(pool, 0);
 	if (!od_SpinUntil(od_JobDone, pool, 0))
 	{
-		pthread_mutex_lock(&pool->lock);
+		od_Mutex_Lock(&pool->lock);
 		while (atomic_load(&pool->running) > 0)
 		{
-			pthread_cond_wait(&pool->done, &pool->lock);
+			od_Cond_Wait(&pool->done, &pool->lock);
 		}
-		pthread_mutex_unlock(&pool->lock);
+		od_Mutex_Unlock(&pool->lock);
 	}
 }

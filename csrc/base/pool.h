@@ -1,6 +1,6 @@
-// A small pthread pool: run fn(ctx, task, thread) for every task of a range on a fixed set of threads
-// (the caller is thread 0). Tasks are handed out dynamically, so results are deterministic only when a
-// task's output does not depend on which thread ran it: give each task its own output, and per-thread
+// A small thread pool (threads from platform.h): run fn(ctx, task, thread) for every task of a range on a fixed
+// set of threads (the caller is thread 0). Tasks are handed out dynamically, so results are deterministic only
+// when a task's output does not depend on which thread ran it: give each task its own output, and per-thread
 // scratch by `thread`.
 #pragma once
 
