@@ -28,12 +28,17 @@ def handle(materials, sim, before, after, substeps, fps):
     return materials.handle_warning(sim, speed, turn, substeps, fps)
 
 
-def thin_part(materials, graph, vertices, triangles):
+def thin_part(od, graph, vertices, triangles):
     """(the thinnest part, the particle spacing, too few particles across), or None for a mesh too large to
-    check in about two seconds."""
-    if len(vertices) * len(triangles) > THIN_PART_BUDGET:
+    check in about two seconds. Only the pieces with particles are measured: a detached shell attached to
+    another piece (attached_pieces) stays rigid at any particle count, so raising Particles would not help it."""
+    without = _pieces_without_particles(od, graph, vertices, triangles)
+    if without is not None:
+        piece, missing = without
+        triangles = triangles[~np.isin(piece[triangles[:, 0]], missing)]
+    if len(vertices) * len(triangles) > THIN_PART_BUDGET or len(triangles) == 0:
         return None
-    return materials.thin_part_warning(graph, vertices, triangles)
+    return od.materials.thin_part_warning(graph, vertices, triangles)
 
 
 def vertex_pieces(vertices, triangles):
@@ -68,16 +73,24 @@ def attached_pieces(od, graph, vertices, triangles, shown=None):
     """The mesh's pieces with no particles of their own, each skinned rigidly by the nearest large piece:
     ((vertex count, centre), ...), largest first; the centre is the mean of ``shown`` (the vertices by
     default). () when every piece has particles, or when the core counts its pieces otherwise."""
+    without = _pieces_without_particles(od, graph, vertices, triangles)
+    if without is None:
+        return ()
+    piece, missing = without
+    shown = np.asarray(vertices if shown is None else shown, dtype=np.float64)
+    out = [(int((piece == p).sum()), tuple(float(c) for c in shown[piece == p].mean(axis=0))) for p in missing]
+    return tuple(sorted(out, key=lambda x: -x[0]))
+
+
+def _pieces_without_particles(od, graph, vertices, triangles):
+    """(each vertex's piece, the pieces with no particle of their own), or None when every piece has particles
+    or the core counts its pieces otherwise."""
     count, of_particle = od.mesh.mesh_pieces(graph)
     if count < 2:
-        return ()
+        return None
     piece, found = vertex_pieces(vertices, triangles)
-    if found != count:
-        return ()
-    shown = np.asarray(vertices if shown is None else shown, dtype=np.float64)
-    out = [(int((piece == p).sum()), tuple(float(c) for c in shown[piece == p].mean(axis=0)))
-           for p in np.setdiff1d(np.arange(count), of_particle)]
-    return tuple(sorted(out, key=lambda x: -x[0]))
+    missing = np.setdiff1d(np.arange(count), of_particle)
+    return (piece, missing) if found == count and len(missing) else None
 
 
 def attached_text(pieces, shown=3):

@@ -182,7 +182,7 @@ class Engine:
         self.cache = StateCache()
         self.reports = FrameReports()
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
-        self.thin_part = checks.thin_part(od.materials, self.graph, self.rest, triangles)
+        self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
