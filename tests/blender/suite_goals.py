@@ -4,6 +4,7 @@ animation, follows it exactly at full strength, object keyframes count, a painte
 mesh's own vertices never change (play, bake, disable, reload); Edit Mode edits reach the rest; subframes
 blend like the bake; linked duplicates and bad input are reports that keep the last good frame."""
 
+import importlib
 import math
 import os
 import sys
@@ -64,6 +65,52 @@ def test_goal_weight_softens():
         tail = H.tail_rig(1.0, group=weight)
         deviations[weight] = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
     assert deviations[1.0] < 1e-3 * LENGTH and deviations[0.2] > 0.05, deviations
+
+
+def test_maps_apply_on_the_next_frame_without_a_build():
+    """Follow Group picked, repainted, Softness and Damping groups picked after Enable: the next frame uses them,
+    no Build asked for (the panel's Build stays plain); a weight of 1 follows whatever the Follow without a group
+    was (the weight is the follow value, not a factor)."""
+    tail = H.tail_rig(0.3)
+    s = tail.opdeform
+    free = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    g = tail.vertex_groups.new(name="Follow")
+    g.add(list(range(len(tail.data.vertices))), 1.0, 'REPLACE')
+    s.goal_group = "Follow"
+    locked = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    assert free > 0.05 and locked < 1e-3 * LENGTH, (free, locked)
+    bpy.context.view_layer.objects.active = tail
+    bpy.ops.object.mode_set(mode='WEIGHT_PAINT')  # a repaint is read again after the object leaves Object Mode
+    g.add(list(range(len(tail.data.vertices))), 0.2, 'REPLACE')
+    bpy.context.view_layer.update()  # what the UI does after each stroke
+    bpy.ops.object.mode_set(mode='OBJECT')
+    repainted = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    soft = tail.vertex_groups.new(name="Soft")
+    soft.add(list(range(len(tail.data.vertices))), 1.0, 'REPLACE')
+    s.softness_group, s.damping_group = "Soft", "Soft"
+    softened = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    assert repainted > 0.05 and softened != repainted, (repainted, softened)
+    ops = [e for e in H.draw_panels() if e[0] == "operator" and e[1] == "opdeform.build"]
+    assert ops and all(e[2] != "Build (settings changed)" for e in ops), ops
+
+
+def test_looks_and_goal_out_of_the_box():
+    """Ticking Goal on the default material gives the default look; a look is applied and recognised by name;
+    a material chosen first stays."""
+    v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
+    tail = H.mesh_object("Body", v, t)  # the add-on's defaults, as Enable gives them
+    bpy.ops.opdeform.enable(object=tail.name)
+    s = tail.opdeform
+    s.use_goal = True
+    presets = importlib.import_module(H.ADDON + ".blender.presets")
+    assert presets.current_look(s) == "Fleshy" and abs(s.modulus - 2.0) < 1e-6, (presets.current_look(s), s.modulus)
+    bpy.ops.opdeform.apply_preset(object=tail.name, preset="Floppy")
+    assert presets.current_look(s) == "Floppy" and abs(s.soft_stiffness - 0.1) < 1e-6
+    other = H.mesh_object("Other", v, t)
+    bpy.ops.opdeform.enable(object=other.name)
+    bpy.ops.opdeform.apply_preset(object=other.name, preset="Stiff")
+    other.opdeform.use_goal = True
+    assert presets.current_name(other.opdeform) == "Stiff" and presets.current_look(other.opdeform) == "Custom"
 
 
 def test_base_mesh_unchanged_after_play_bake_disable_reload():

@@ -31,7 +31,8 @@ def on_frame_change(scene, depsgraph=None):
 @persistent
 def on_depsgraph_update(scene, depsgraph=None):
     """Posing mode: a moved handle re-solves the pose. Dynamics: a handle moved by hand outdates the cached
-    frames after the current one. Any: an edited mesh's kept collider triangles are dropped."""
+    frames after the current one. Any: an edited mesh's kept collider triangles are dropped, and the painted
+    maps of an object in Weight Paint or Edit Mode are read again on its next frame."""
     if depsgraph is not None:
         colliders.forget_triangles(u.id.name for u in depsgraph.updates if u.is_updated_geometry)
     if _guard["busy"] or depsgraph is not None and not depsgraph.id_type_updated('OBJECT'):
@@ -40,6 +41,8 @@ def on_depsgraph_update(scene, depsgraph=None):
     try:
         for obj in enabled_objects(scene):
             rt = state.get(obj)
+            if rt is not None and obj.mode != 'OBJECT':  # painting or assigning: the maps are read again
+                rt.groups.clear()
             if not playback.is_live(obj) or rt is None:
                 continue
             s = obj.opdeform

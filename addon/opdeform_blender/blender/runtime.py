@@ -48,12 +48,12 @@ def configure(rt, obj, scene, depsgraph=None):
 
 
 def group_weights(rt, obj, name, what):
-    """A painted map's per-vertex weights (None without a group), kept in the runtime until the object was in
-    another mode than Object Mode (where groups are painted and assigned): reading a group walks every vertex in
-    Python (about 5 ms for 6,000 vertices), too slow for every frame."""
-    if obj.mode != 'OBJECT' or rt.mode != 'OBJECT':
+    """A painted map's per-vertex weights (None without a group), kept in the runtime until the object is seen
+    in another mode than Object Mode (where groups are painted and assigned; handlers.on_depsgraph_update looks
+    after each edit): reading a group walks every vertex in Python (about 5 ms for 6,000 vertices), too slow for
+    every frame."""
+    if obj.mode != 'OBJECT':
         rt.groups.clear()
-        rt.mode = obj.mode
     if name not in rt.groups:
         rt.groups[name] = read_weights(obj, name, what)
     return rt.groups[name]

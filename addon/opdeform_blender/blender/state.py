@@ -28,7 +28,6 @@ class Runtime:
         # group name -> per-vertex weights of the painted maps (follow, softness, damping), read when first
         # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
         self.groups = {}
-        self.mode = 'OBJECT'  # the object's mode when the groups were read
         self.handle_matrices = None  # bytes of the handle transforms last used
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
