@@ -6,13 +6,24 @@ is required raises TypeError naming the expected type (checked where that object
 """
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-__all__ = ["as_array", "choice", "integer", "number", "vector"]
+__all__ = ["ArrayLike", "Floats", "Ints", "Vector", "as_array", "choice", "integer", "number", "vector"]
+
+# The types of the API's annotations: ArrayLike what an array argument accepts (numpy arrays, nested lists or
+# tuples of numbers), Floats and Ints what the calls return, Vector a point or direction (x, y, z).
+ArrayLike = npt.ArrayLike
+Floats = npt.NDArray[np.float64]
+Ints = npt.NDArray[np.int32]
+Vector = Sequence[float] | npt.NDArray[Any]
 
 
-def as_array(name, value, shape, dtype=np.float64):
+def as_array(name: str, value: ArrayLike, shape: Sequence[int | None],
+             dtype: npt.DTypeLike = np.float64) -> npt.NDArray[Any]:
     """``value`` as a C-contiguous array of ``shape`` (None = any length); ValueError naming ``name``."""
     try:
         arr = np.asarray(value)
@@ -34,7 +45,7 @@ def as_array(name, value, shape, dtype=np.float64):
     return np.ascontiguousarray(arr, dtype=dtype)
 
 
-def number(name, value):
+def number(name: str, value: object) -> float:
     """A finite float (None, strings, NaN and infinities refused; the core checks the range)."""
     try:
         x = None if isinstance(value, (str, bytes)) else float(value)
@@ -48,7 +59,7 @@ def number(name, value):
 _INT32 = (-2 ** 31, 2 ** 31 - 1)
 
 
-def integer(name, value, bounds=_INT32):
+def integer(name: str, value: object, bounds: tuple[int, int] | None = _INT32) -> int:
     """An int (bool and float refused, numpy integers accepted) within ``bounds`` (default: the C int the
     core takes; None: any), else ValueError naming the argument (not OverflowError from the binding)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -62,7 +73,7 @@ def integer(name, value, bounds=_INT32):
 _WORDS = {2: "two", 3: "three"}
 
 
-def vector(name, value, size=3):
+def vector(name: str, value: ArrayLike, size: int = 3) -> tuple[float, ...]:
     """``size`` finite floats as a tuple; fast for tuples, lists and 1-D arrays."""
     if isinstance(value, np.ndarray) and value.shape == (size,) and np.issubdtype(value.dtype, np.number):
         value = value.tolist()
@@ -75,7 +86,7 @@ def vector(name, value, size=3):
     return result
 
 
-def choice(name, value, options):
+def choice(name: str, value: object, options: dict[Any, Any] | Sequence[Any]) -> Any:
     """options[value] (a dict or a sequence: its index); ValueError naming the argument otherwise."""
     try:
         found = value in options

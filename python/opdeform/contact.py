@@ -1,9 +1,11 @@
 """Simulations that collide with each other (``opdeform.ContactGroup``, docs/contact.md)."""
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from . import _core
-from ._arguments import integer, number
+from ._arguments import ArrayLike, Floats, Ints, integer, number
 from .simulation import Simulation
 
 __all__ = ["ContactGroup"]
@@ -21,7 +23,8 @@ class ContactGroup:
     busy. The forces the group keeps between steps are part of its state: ``save_state`` and ``restore_state``
     with the members' states (``Simulation.set_state``) make a step again bit for bit."""
 
-    def __init__(self, sims, thickness=0.005, friction=0.5, in_iterations=True):
+    def __init__(self, sims: Sequence[Simulation], thickness: float = 0.005, friction: float = 0.5,
+                 in_iterations: bool = True) -> None:
         sims = list(sims)
         for k, sim in enumerate(sims):
             if not isinstance(sim, Simulation):
@@ -30,19 +33,19 @@ class ContactGroup:
         self._core = _core.ContactGroup([sim._core for sim in sims], number("thickness", thickness),
                                         number("friction", friction), bool(in_iterations))
 
-    def set_contact(self, thickness=0.005, friction=0.5, in_iterations=True):
+    def set_contact(self, thickness: float = 0.005, friction: float = 0.5, in_iterations: bool = True) -> None:
         """The gap (m, > 0) and Coulomb friction between the bodies, and whether contact acts inside the
         iterations (docs/contact.md)."""
         self._core.set_contact(number("thickness", thickness), number("friction", friction), bool(in_iterations))
 
-    def step(self, steps=1):
+    def step(self, steps: int = 1) -> None:
         """Advances every simulation ``steps`` time steps, in contact. On a non-finite result raises
         SolverError; each simulation keeps its state from before the call."""
         self._core.step(integer("steps", steps))
         for sim in self.sims:
             sim._colliders_arrived()
 
-    def save_state(self):
+    def save_state(self) -> tuple[Ints, Floats]:
         """What the group keeps from one step to the next besides its members' states: its pairs of particles
         ((m, 2) int32, indices over the members' particles in order) and their forces ((m, 7) float64: the
         normal force, the friction force and the normal), the warm start of the next step's forces. Restored
@@ -52,7 +55,7 @@ class ContactGroup:
         self._core.read_pairs(pairs, forces)
         return pairs, forces
 
-    def restore_state(self, state):
+    def restore_state(self, state: tuple[ArrayLike, ArrayLike] | None) -> None:
         """Sets what ``save_state`` returned (of this group or one of the same members); ``None``: a new group's
         (no forces). ValueError on pairs out of range or non-finite forces, nothing changed."""
         if state is None:

@@ -9,10 +9,12 @@ range of lag and overshoot over the slider instead of crowding it below 0.5. ``r
 animated mesh, so that at full strength the output is the animation itself, vertex for vertex.
 """
 
+from typing import Protocol
+
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, integer
+from ._arguments import ArrayLike, Floats, Ints, as_array, integer
 from ._rebuild import FromArguments
 from .graph import Graph
 
@@ -22,7 +24,7 @@ GOAL_MIN_HZ = 0.2     # strength just above 0
 GOAL_MAX_HZ = 1000.0  # strength 1: (2π f h)² is 6.9e4 at 24 fps, the goal is followed to ~1e-5 of a step's motion
 
 
-def goal_frequency(strength):
+def goal_frequency(strength: ArrayLike) -> Floats:
     """Strength in [0, 1] (a number or an array) -> spring frequency in Hz: 0 -> 0, s > 0 -> f_min (f_max /
     f_min)^(s²)."""
     s = np.asarray(strength, dtype=np.float64)
@@ -35,7 +37,7 @@ class GoalFit(FromArguments):
     """Goal frames of a graph's particles fitted to an animated mesh: per particle, the rigid motion that best
     carries its ``neighbors`` nearest rest vertices (Sumner-weighted) onto their animated positions."""
 
-    def __init__(self, graph, rest_vertices, neighbors=16):
+    def __init__(self, graph: Graph, rest_vertices: ArrayLike, neighbors: int = 16) -> None:
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
         self.graph = graph
@@ -44,12 +46,12 @@ class GoalFit(FromArguments):
         self._args = (graph, vertices.copy(), neighbors)  # a pickle fits again
 
     @property
-    def n_vertices(self):
+    def n_vertices(self) -> int:
         """The number of rest vertices."""
         return self._core.n_vertices
 
     @property
-    def neighbors(self):
+    def neighbors(self) -> int:
         """The rest vertices fitted per particle."""
         return self._core.neighbors
 
@@ -59,22 +61,22 @@ class GoalFit(FromArguments):
         return out
 
     @property
-    def indices(self):
+    def indices(self) -> Ints:
         """(n, k) int32: each particle's rest vertices, nearest first."""
         return self._read("indices", np.int32)
 
     @property
-    def weights(self):
+    def weights(self) -> Floats:
         """(n, k): their weights, summing to 1 per particle."""
         return self._read("weights", np.float64)
 
-    def particle_values(self, vertex_values):
+    def particle_values(self, vertex_values: ArrayLike) -> Floats:
         """Per-vertex values (V,), e.g. a painted goal weight, as per-particle values: each particle's weighted
         mean over its vertices."""
         values = as_array("vertex_values", vertex_values, (self.n_vertices,))
         return (values[self.indices] * self.weights).sum(axis=1)
 
-    def fit(self, animated):
+    def fit(self, animated: ArrayLike) -> tuple[Floats, Floats]:
         """(positions (n,3), rotations (n,3,3)) of the goal frames for the animated vertices (V,3)."""
         n = self.graph.n_particles
         positions, rotations = np.empty((n, 3)), np.empty((n, 3, 3))
@@ -82,7 +84,25 @@ class GoalFit(FromArguments):
         return positions, rotations
 
 
-def relative_deform(skin, animated, sim, goals, out=None):
+class Skinning(Protocol):
+    """What relative_deform needs of a Skin (mesh.py, a layer above this one)."""
+    @property
+    def n_vertices(self) -> int: ...
+
+    def deform(self, positions: ArrayLike, rotations: ArrayLike) -> Floats: ...
+
+
+class Posed(Protocol):
+    """What relative_deform needs of a Simulation (simulation.py, a layer above this one)."""
+    @property
+    def positions(self) -> Floats: ...
+
+    @property
+    def rotations(self) -> Floats: ...
+
+
+def relative_deform(skin: Skinning, animated: ArrayLike, sim: Posed, goals: tuple[ArrayLike, ArrayLike],
+                    out: Floats | None = None) -> Floats:
     """The animated vertices moved by what the simulation adds to the goals: animated + skin(sim) - skin(goals),
     the layering of secondary motion on an animation (exactly the animation where the particles sit on their
     goals). goals is the (positions, rotations) pair of ``GoalFit.fit``."""

@@ -3,7 +3,7 @@
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, vector
+from ._arguments import ArrayLike, Floats, Ints, Vector, as_array, choice, integer, vector
 
 __all__ = ["Graph", "MODES", "SMALL_PIECES"]
 
@@ -18,7 +18,8 @@ class Graph:
     columns are the ellipsoid axes (proper rotations; default identity).
     """
 
-    def __init__(self, centers, radii, edges, axes=None):
+    def __init__(self, centers: ArrayLike, radii: ArrayLike, edges: ArrayLike,
+                 axes: ArrayLike | None = None) -> None:
         centers = as_array("centers", centers, (None, 3))
         n = centers.shape[0]
         radii = as_array("radii", radii, (n, 3))
@@ -30,8 +31,8 @@ class Graph:
         self._made = ("arrays", tuple(None if a is None else a.copy() for a in (centers, radii, edges, axes)))
 
     @classmethod
-    def from_mesh(cls, vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
-                  small_pieces="attach"):
+    def from_mesh(cls, vertices: ArrayLike, triangles: ArrayLike, particles: int = 100, mode: str = "auto",
+                  join_pieces: bool = False, voxels_per_particle: int = 100, small_pieces: str = "attach") -> "Graph":
         """A graph of ``particles`` ellipsoids covering a triangle mesh (vertices (V,3), triangles (T,3)):
         through the volume of closed pieces, along the surface of open or thin ones (``mode="auto"``), or
         forced: "volume", "surface", or "chain" (a 1-D chain along each piece's principal axis). Frames and
@@ -59,12 +60,12 @@ class Graph:
         self.__dict__.update((Graph.from_mesh(*args) if kind == "from_mesh" else Graph(*args)).__dict__)
 
     @property
-    def n_particles(self):
+    def n_particles(self) -> int:
         """The number of particles."""
         return self._core.n_particles
 
     @property
-    def n_edges(self):
+    def n_edges(self) -> int:
         """The number of edges."""
         return self._core.n_edges
 
@@ -74,36 +75,36 @@ class Graph:
         return out
 
     @property
-    def centers(self):
+    def centers(self) -> Floats:
         """(n, 3) rest centres, a copy."""
         return self._read("centers", (self.n_particles, 3))
 
     @property
-    def radii(self):
+    def radii(self) -> Floats:
         """(n, 3) ellipsoid radii along each particle's axes, a copy."""
         return self._read("radii", (self.n_particles, 3))
 
     @property
-    def axes(self):
+    def axes(self) -> Floats:
         """(n, 3, 3) rest frames, a copy (the axes are the columns)."""
         return self._read("axes", (self.n_particles, 3, 3))
 
     @property
-    def edges(self):
+    def edges(self) -> Ints:
         """(e, 2) int32 particle pairs, a copy."""
         return self._read("edges", (self.n_edges, 2), np.int32)
 
     @property
-    def volumes(self):
+    def volumes(self) -> Floats:
         """(n,) ellipsoid volumes, 4/3 pi r0 r1 r2."""
         r = self.radii
         return 4.0 / 3.0 * np.pi * r[:, 0] * r[:, 1] * r[:, 2]
 
-    def pieces(self):
+    def pieces(self) -> tuple[int, Ints]:
         """(count, label of each particle) of the connected pieces."""
         return self._core.piece_count(), self._read("pieces", (self.n_particles,), np.int32)
 
-    def skin_weights(self, point, m=4):
+    def skin_weights(self, point: Vector, m: int = 4) -> tuple[Ints, Floats]:
         """Indices and Sumner weights of the m nearest particles of a rest-space point."""
         m = integer("m", m)
         idx = np.empty(m, np.int32)
@@ -111,5 +112,5 @@ class Graph:
         count = self._core.skin_weights(vector("point", point), m, idx, w)
         return idx[:count], w[:count]
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"opdeform.Graph(n_particles={self.n_particles}, n_edges={self.n_edges})"

@@ -7,7 +7,7 @@ The C core does the work with the GIL released; this layer checks shapes and dty
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, integer, number
+from ._arguments import ArrayLike, Floats, Ints, Vector, as_array, integer, number
 from ._rebuild import FromArguments
 from .graph import MODES, SMALL_PIECES, Graph
 from .simulation import Simulation
@@ -15,13 +15,13 @@ from .simulation import Simulation
 __all__ = ["MODES", "SMALL_PIECES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
 
 
-def graph_from_mesh(vertices, triangles, particles=100, mode="auto", join_pieces=False, voxels_per_particle=100,
-                    small_pieces="attach"):
+def graph_from_mesh(vertices: ArrayLike, triangles: ArrayLike, particles: int = 100, mode: str = "auto",
+                    join_pieces: bool = False, voxels_per_particle: int = 100, small_pieces: str = "attach") -> Graph:
     """A graph of ``particles`` ellipsoids covering the mesh (see ``Graph.from_mesh``)."""
     return Graph.from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle, small_pieces)
 
 
-def mesh_pieces(graph):
+def mesh_pieces(graph: Graph) -> tuple[int, Ints]:
     """(count, the mesh piece of each particle) of a graph built from a mesh: pieces are the connected pieces
     of the triangle mesh (or groups of them with ``join_pieces``), numbered by their first triangle; a piece
     may have no particles ("attach"). A vertex is skinned only by particles of its own piece, or of the piece
@@ -59,7 +59,8 @@ class Skin(FromArguments):
     ``threads``: 0..64, 0 = the CPUs this process may use (meshes under 16384 vertices use one thread).
     """
 
-    def __init__(self, graph, rest_vertices, neighbors=4, triangles=None, rest_normals=None, threads=0):
+    def __init__(self, graph: Graph, rest_vertices: ArrayLike, neighbors: int = 4, triangles: ArrayLike | None = None,
+                 rest_normals: ArrayLike | None = None, threads: int = 0) -> None:
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
         self.graph = graph
@@ -72,12 +73,12 @@ class Skin(FromArguments):
         self._args = (graph, arrays[0], neighbors, *arrays[1:], threads)  # a pickle binds again
 
     @property
-    def n_vertices(self):
+    def n_vertices(self) -> int:
         """The number of skinned vertices."""
         return self._core.n_vertices
 
     @property
-    def neighbors(self):
+    def neighbors(self) -> int:
         """Particles per vertex: the m asked for, or fewer when the graph has fewer particles."""
         return self._core.neighbors
 
@@ -87,21 +88,22 @@ class Skin(FromArguments):
         return out
 
     @property
-    def indices(self):
+    def indices(self) -> Ints:
         """(V,m) int32: the bound particles of each vertex, nearest first."""
         return self._read("indices", np.int32, self.neighbors)
 
     @property
-    def weights(self):
+    def weights(self) -> Floats:
         """(V,m) float64: their weights (each row sums to 1)."""
         return self._read("weights", np.float64, self.neighbors)
 
     @property
-    def rest_normals(self):
+    def rest_normals(self) -> Floats | None:
         """(V,3) float64 rest normals given or computed at binding, or None."""
         return self._read("rest_normals", np.float64, 3) if self._core.has_rest_normals else None
 
-    def deform(self, positions, rotations, out=None, normals_out=None, rest_normals=None):
+    def deform(self, positions: ArrayLike, rotations: ArrayLike, out: Floats | None = None,
+               normals_out: Floats | None = None, rest_normals: ArrayLike | None = None) -> Floats:
         """Deformed vertex positions for particle ``positions`` (n,3) and ``rotations`` (n,3,3), written into
         ``out`` (float32 or float64, (V,3) or flat (3V,), e.g. for Blender's ``foreach_set``; allocated as
         float64 (V,3) when None) and returned. Normals are computed only when ``normals_out`` is given (same
@@ -117,7 +119,8 @@ class Skin(FromArguments):
         self._core.deform(positions, rotations, out, normals_out, rest_normals)
         return out
 
-    def deform_sim(self, sim, out=None, normals_out=None, push_out=True):
+    def deform_sim(self, sim: Simulation, out: Floats | None = None, normals_out: Floats | None = None,
+                   push_out: bool = True) -> Floats:
         """``deform`` with the simulation's current positions and rotations; with ``push_out`` the vertices
         inside its colliders or below its floor are moved to their surface (``Simulation.push_out``,
         docs/contact.md)."""
@@ -127,11 +130,12 @@ class Skin(FromArguments):
             flat[:] = sim.push_out(flat)
         return out
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"opdeform.Skin(n_vertices={self.n_vertices}, neighbors={self.neighbors})"
 
 
-def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
+def pin_vertices(sim: Simulation, rest_vertices: ArrayLike, indices: ArrayLike, weights: ArrayLike | None = None,
+                 weight: float | None = None) -> list[int]:
     """Pins mesh vertices where they are now: one position constraint per vertex of ``indices``, of weight
     ``weight`` (default: ``sim.default_weight()``) times the vertex's entry of ``weights`` (e.g. a painted
     vertex group; default 1). A vertex of weight 0 is not pinned. Returns the ids of the constraints added,
@@ -161,7 +165,8 @@ def pin_vertices(sim, rest_vertices, indices, weights=None, weight=None):
     return ids
 
 
-def add_vertex_direction(sim, rest_vertices, index, direction, target=None, weight=None):
+def add_vertex_direction(sim: Simulation, rest_vertices: ArrayLike, index: int, direction: Vector,
+                         target: Vector | None = None, weight: float | None = None) -> int:
     """A direction constraint at mesh vertex ``index`` on the rest ``direction`` (e.g. its normal): turns it
     towards ``target`` (None: keeps where it points now). Returns the constraint id."""
     if not isinstance(sim, Simulation):

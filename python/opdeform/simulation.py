@@ -1,9 +1,11 @@
 """ARAP dynamics of an oriented-particle graph (``opdeform.Simulation``); see METHOD.md."""
 
+from typing import Any
+
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, number, vector
+from ._arguments import ArrayLike, Floats, Vector, as_array, choice, integer, number, vector
 from .fields import ForceFields
 from .goals import goal_frequency
 from .graph import Graph
@@ -17,8 +19,9 @@ class Simulation(ForceFields):
     ``stiffness`` is a number or one per particle (as ``materials.stiffness_for`` gives it): then k is their
     mean and ``stiffness_scale`` their ratios to it (``set_stiffness_scale``)."""
 
-    def __init__(self, graph, stiffness, density=1000.0, dt=1 / 60, iterations=10, gravity=(0.0, 0.0, -9.81),
-                 damping=0.0, skin_neighbors=4):
+    def __init__(self, graph: Graph, stiffness: float | ArrayLike, density: float = 1000.0, dt: float = 1 / 60,
+                 iterations: int = 10, gravity: Vector = (0.0, 0.0, -9.81), damping: float = 0.0,
+                 skin_neighbors: int = 4) -> None:
         if not isinstance(graph, Graph):
             raise TypeError("graph must be an opdeform.Graph")
         k, scale = split_stiffness(stiffness, graph.n_particles)
@@ -49,7 +52,7 @@ class Simulation(ForceFields):
         self._collider_ids = 0
 
     # -- constraints ----------------------------------------------------------------------------------
-    def default_weight(self, kind="position"):
+    def default_weight(self, kind: str = "position") -> float:
         """1000 times the elastic stiffness of a typical particle: holds a point firmly, keeps the matrix
         well conditioned. Position weights are in N/m, direction weights in J."""
         k = self.params["stiffness"]
@@ -59,14 +62,15 @@ class Simulation(ForceFields):
             return 1e3 * k * self._mean_moment
         raise ValueError(f"kind must be 'position' or 'direction', got {kind!r}")
 
-    def add_position_constraint(self, point, target=None, weight=None):
+    def add_position_constraint(self, point: Vector, target: Vector | None = None, weight: float | None = None) -> int:
         """Pins the rest-space point to target (None: where it is now). Returns the constraint id."""
         weight = self.default_weight("position") if weight is None else number("weight", weight)
         target = None if target is None else vector("target", target)
         point = vector("point", point)
         return self._added(self._core.add_position_constraint(point, target, weight), [0, point, None, weight])
 
-    def add_direction_constraint(self, point, direction, target=None, weight=None):
+    def add_direction_constraint(self, point: Vector, direction: Vector, target: Vector | None = None,
+                                 weight: float | None = None) -> int:
         """Turns the rest direction at the rest-space point towards target (None: where it points now)."""
         weight = self.default_weight("direction") if weight is None else number("weight", weight)
         target = None if target is None else vector("target", target)
@@ -79,18 +83,18 @@ class Simulation(ForceFields):
         self._history.append(id)
         return id
 
-    def set_constraint_target(self, id, target):
+    def set_constraint_target(self, id: int, target: Vector) -> None:
         """Moves a constraint's target (a point, or a direction); unknown ids raise IndexError."""
         self._core.set_constraint_target(integer("id", id), vector("target", target))
 
-    def set_constraint_weight(self, id, weight):
+    def set_constraint_weight(self, id: int, weight: float) -> None:
         """Changes a constraint's weight (a position weight refactors once, on the next step; a direction weight
         refactors nothing); unknown ids raise IndexError."""
         weight = number("weight", weight)
         self._core.set_constraint_weight(integer("id", id), weight)
         self._constraints[id][3] = weight
 
-    def remove_constraint(self, id):
+    def remove_constraint(self, id: int) -> None:
         """Removes a constraint; unknown ids raise IndexError."""
         self._core.remove_constraint(integer("id", id))
         del self._constraints[id]
@@ -100,12 +104,12 @@ class Simulation(ForceFields):
             self._history = []
 
     @property
-    def n_constraints(self):
+    def n_constraints(self) -> int:
         """The number of position and direction constraints."""
         return self._core.constraint_count()
 
     # -- stiffness per particle ---------------------------------------------------------------------------
-    def set_stiffness_scale(self, scale):
+    def set_stiffness_scale(self, scale: ArrayLike | None) -> None:
         """A stiffness per particle: particle i's ellipsoid stores scale[i] times the stiffness (every elastic
         term integrated over it, METHOD.md eq. 3), one value > 0 per particle, or None for all 1 (the same
         bits as never set). A change refactors the global matrix once, on the next step."""
@@ -113,13 +117,13 @@ class Simulation(ForceFields):
         self._core.set_stiffness_scale(None if scale is None else as_array("scale", scale, (n,)))
 
     @property
-    def stiffness_scale(self):
+    def stiffness_scale(self) -> Floats | None:
         """The stiffness per particle (set_stiffness_scale), a copy; None when all 1."""
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("stiffness_scale", out) else None
 
     # -- goals ----------------------------------------------------------------------------------------
-    def set_goal_strength(self, strength):
+    def set_goal_strength(self, strength: float | ArrayLike | None) -> None:
         """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
         0 free, 1 follows the goals. None removes the goals. A change refactors the global matrix once."""
         if strength is None:
@@ -129,7 +133,7 @@ class Simulation(ForceFields):
                      (self.graph.n_particles,))
         self.set_goal_frequencies(goal_frequency(s))
 
-    def set_goal_frequencies(self, frequencies):
+    def set_goal_frequencies(self, frequencies: float | ArrayLike | None) -> None:
         """The goal springs as frequencies in Hz, one per particle (>= 0), or None to remove the goals."""
         hz = None if frequencies is None else as_array("frequencies", frequencies, (self.graph.n_particles,)).copy()
         self._core.set_goal_frequencies(hz)
@@ -137,7 +141,7 @@ class Simulation(ForceFields):
             self._goal_frames = None
         self._goal_hz = hz
 
-    def set_goals(self, positions, rotations=None):
+    def set_goals(self, positions: ArrayLike, rotations: ArrayLike | None = None) -> None:
         """Goal centres (n,3) and rotations (n,3,3; None: the rest frames), e.g. from ``GoalFit.fit``. Only the
         right side changes: no refactoring. Needs goal strengths first."""
         n = self.graph.n_particles
@@ -146,7 +150,7 @@ class Simulation(ForceFields):
         self._core.set_goals(pos, rot)
         self._goal_frames = (pos, rot)
 
-    def set_goals_carry_rest(self, enabled=True):
+    def set_goals_carry_rest(self, enabled: bool = True) -> None:
         """Secondary motion that rides the animation (docs/goals.md): with ``enabled`` the elastic energy is
         measured against the goal shape (the particles where ``set_goals`` puts them) instead of the rest shape,
         so the animated shape is the body's equilibrium. A region left alone settles back onto the animation;
@@ -160,12 +164,12 @@ class Simulation(ForceFields):
         self._core.set_goal_rest(bool(enabled))
 
     @property
-    def goals_carry_rest(self):
+    def goals_carry_rest(self) -> bool:
         """Whether the goals carry the rest shape (``set_goals_carry_rest``)."""
         return self._core.goal_rest()
 
     @property
-    def goal_motion(self):
+    def goal_motion(self) -> tuple[Floats, Floats, int] | None:
         """(velocities, angular_velocities, steps since the last set_goals or -1) of goals carrying the rest, or
         None: what a step's damping reads besides the state, so a saved state continues to the same bits only
         with it (``set_goal_motion``; the add-on's frame cache keeps it per frame, pickles carry it)."""
@@ -176,13 +180,13 @@ class Simulation(ForceFields):
         steps = self._core.goal_motion(velocities, angular)
         return velocities, angular, steps
 
-    def set_goal_motion(self, motion):
+    def set_goal_motion(self, motion: tuple[Floats, Floats, int] | None) -> None:
         """Puts back a ``goal_motion`` (None: nothing to put back)."""
         if motion is not None:
             self._core.restore_goal_motion(*motion)
 
     # -- damping per particle ---------------------------------------------------------------------------
-    def set_particle_damping(self, damping):
+    def set_particle_damping(self, damping: float | ArrayLike | None) -> None:
         """Velocity damping per step per particle, a number or one value per particle in [0, 1], in place of the
         ``damping`` parameter (relative to the goals when they carry the rest: ``set_goals_carry_rest``); None:
         the ``damping`` parameter for all, the same bits as never set."""
@@ -193,20 +197,20 @@ class Simulation(ForceFields):
         self._core.set_particle_damping(damping)
 
     @property
-    def particle_damping(self):
+    def particle_damping(self) -> Floats | None:
         """The damping per particle (``set_particle_damping``), a copy; None when the ``damping`` parameter
         applies to all."""
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("particle_damping", out) else None
 
     # -- floor -----------------------------------------------------------------------------------------
-    def set_floor(self, height=0.0, friction=0.0):
+    def set_floor(self, height: float = 0.0, friction: float = 0.0) -> None:
         """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
         floor = (number("height", height), number("friction", friction))
         self._core.set_floor(*floor)
         self._floor = floor
 
-    def clear_floor(self):
+    def clear_floor(self) -> None:
         """Removes the floor."""
         self._core.clear_floor()
         self._floor = None
@@ -214,9 +218,11 @@ class Simulation(ForceFields):
     # -- colliders (docs/contact.md) --------------------------------------------------------------------
     COLLIDER_SHAPES = ("plane", "box", "sphere", "capsule", "mesh")
 
-    def add_collider(self, shape, half_extents=(0.5, 0.5, 0.5), radius=0.5, half_length=0.5, vertices=None,
-                     triangles=None, rotation=None, translation=(0.0, 0.0, 0.0), normal=None, friction=0.5,
-                     thickness=0.005, resolution=64):
+    def add_collider(self, shape: str, half_extents: Vector = (0.5, 0.5, 0.5), radius: float = 0.5,
+                     half_length: float = 0.5, vertices: ArrayLike | None = None, triangles: ArrayLike | None = None,
+                     rotation: ArrayLike | None = None, translation: Vector = (0.0, 0.0, 0.0),
+                     normal: Vector | None = None, friction: float = 0.5, thickness: float = 0.005,
+                     resolution: int = 64) -> int:
         """A scene collider; returns its id. ``shape``: "plane" (z < 0 of its frame; or give ``normal``: the
         plane through ``translation`` facing it), "box" (``half_extents``), "sphere" (``radius``), "capsule"
         (``radius`` about the segment |z| <= ``half_length``) or "mesh" (``vertices`` (V,3), ``triangles``
@@ -241,36 +247,36 @@ class Simulation(ForceFields):
         self._collider_ids = id + 1
         return id
 
-    def move_collider(self, id, translation, rotation=None):
+    def move_collider(self, id: int, translation: Vector, rotation: ArrayLike | None = None) -> None:
         """The collider's frame at the end of the next ``step`` call (reached at constant velocity over its
         steps; contact follows the swept motion)."""
         target = (_rotation(rotation).copy(), vector("translation", translation))
         self._core.move_collider(integer("id", id), *target)
         self._colliders[id]["target"] = target
 
-    def update_collider_vertices(self, id, vertices):
+    def update_collider_vertices(self, id: int, vertices: ArrayLike) -> None:
         """New vertices (V,3) of a mesh collider, in its frame (a deforming collider): re-sampled now."""
         verts = as_array("vertices", vertices, (None, 3))
         self._core.update_collider_vertices(integer("id", id), verts)
         self._colliders[id]["args"]["vertices"] = verts.copy()
 
-    def set_collider_contact(self, id, friction=0.5, thickness=0.005):
+    def set_collider_contact(self, id: int, friction: float = 0.5, thickness: float = 0.005) -> None:
         """A collider's Coulomb friction and thickness (m, > 0); unknown ids raise IndexError."""
         contact = {"friction": number("friction", friction), "thickness": number("thickness", thickness)}
         self._core.set_collider_contact(integer("id", id), *contact.values())
         self._colliders[id]["args"].update(contact)
 
-    def remove_collider(self, id):
+    def remove_collider(self, id: int) -> None:
         """Removes a collider; unknown ids raise IndexError."""
         self._core.remove_collider(integer("id", id))
         del self._colliders[id]
 
     @property
-    def n_colliders(self):
+    def n_colliders(self) -> int:
         """How many colliders the simulation has."""
         return self._core.collider_count()
 
-    def push_out(self, points, out=None):
+    def push_out(self, points: ArrayLike, out: Floats | None = None) -> Floats:
         """``points`` (n,3) with those inside a collider or below the floor moved to the surface, written into
         ``out`` (float64 (n,3), C-contiguous, writable; ``points`` itself to push in place) and returned, or into
         a new array: what a skinned mesh shows (``Skin.deform_sim`` does it)."""
@@ -285,7 +291,7 @@ class Simulation(ForceFields):
         self._core.push_out(out)
         return out
 
-    def collider_distances(self, points):
+    def collider_distances(self, points: ArrayLike) -> Floats:
         """The signed distance of each point (n,3) to the nearest collider or the floor (negative inside)."""
         pts = as_array("points", points, (None, 3))
         out = np.empty(len(pts))
@@ -293,7 +299,8 @@ class Simulation(ForceFields):
         return out
 
     # -- contact between particles (docs/contact.md) -----------------------------------------------------
-    def set_self_contact(self, enabled=True, thickness=0.005, friction=0.5, exclusion_ring=2, exclusion_scale=1.5):
+    def set_self_contact(self, enabled: bool = True, thickness: float = 0.005, friction: float = 0.5,
+                         exclusion_ring: int = 2, exclusion_scale: float = 1.5) -> None:
         """Contact of distant parts of this body with each other (a tail against its own body). Pairs of
         particles at most ``exclusion_ring`` edges apart, or closer at rest than ``exclusion_scale`` times the
         sum of their largest radii, never collide; the others keep ``thickness`` (m) apart along the line
@@ -303,12 +310,12 @@ class Simulation(ForceFields):
                                     number("exclusion_scale", exclusion_scale))
 
     @property
-    def self_contact(self):
+    def self_contact(self) -> dict[str, Any] | None:
         """The self-contact settings of ``set_self_contact`` as a dict, or None when off."""
         return self._core.self_contact()
 
     # -- solving ---------------------------------------------------------------------------------------
-    def step(self, steps=1):
+    def step(self, steps: int = 1) -> None:
         """Advances ``steps`` time steps. On a non-finite result raises SolverError and keeps the state."""
         self._core.step(integer("steps", steps))
         self._colliders_arrived()
@@ -319,17 +326,18 @@ class Simulation(ForceFields):
             if c["target"] is not None:
                 c["frame"], c["target"] = c["target"], None
 
-    def solve_static(self, iterations):
+    def solve_static(self, iterations: int) -> None:
         """The static pose (no inertia, gravity included) from the current state; needs a position
         constraint on every connected piece."""
         self._core.solve_static(integer("iterations", iterations))
 
-    def energy(self):
+    def energy(self) -> float:
         """The objective of the last step (or static solve) at the current iterate."""
         return self._core.energy()
 
     # -- state -----------------------------------------------------------------------------------------
-    def set_state(self, positions, rotations, velocities=None, angular_velocities=None):
+    def set_state(self, positions: ArrayLike, rotations: ArrayLike, velocities: ArrayLike | None = None,
+                  angular_velocities: ArrayLike | None = None) -> None:
         """Sets positions (n, 3), rotations (n, 3, 3) and optionally (angular) velocities (n, 3)."""
         n = self.graph.n_particles
         pos = as_array("positions", positions, (n, 3))
@@ -344,26 +352,26 @@ class Simulation(ForceFields):
         return out
 
     @property
-    def positions(self):
+    def positions(self) -> Floats:
         """(n, 3) particle positions, a copy."""
         return self._read("positions", (self.graph.n_particles, 3))
 
     @property
-    def rotations(self):
+    def rotations(self) -> Floats:
         """(n, 3, 3) particle rotations, a copy."""
         return self._read("rotations", (self.graph.n_particles, 3, 3))
 
     @property
-    def velocities(self):
+    def velocities(self) -> Floats:
         """(n, 3) particle velocities, a copy."""
         return self._read("velocities", (self.graph.n_particles, 3))
 
     @property
-    def angular_velocities(self):
+    def angular_velocities(self) -> Floats:
         """(n, 3) particle angular velocities, a copy."""
         return self._read("angular_velocities", (self.graph.n_particles, 3))
 
-    def skin_points(self, points, m=None):
+    def skin_points(self, points: ArrayLike, m: int | None = None) -> Floats:
         """Positions of rest-space points under the current state (linear-blend skinning, eq. 1)."""
         pts = as_array("points", points, (None, 3))
         m = self.params["skin_neighbors"] if m is None else m
@@ -445,11 +453,11 @@ class Simulation(ForceFields):
 
     # -- parameters and diagnostics --------------------------------------------------------------------
     @property
-    def params(self):
+    def params(self) -> dict[str, Any]:
         """The parameters as a dict (stiffness, density, dt, iterations, gravity, damping, ...)."""
         return self._core.params()
 
-    def set_params(self, **changes):
+    def set_params(self, **changes: Any) -> None:
         """Changes parameters (same names as the constructor); the state is kept. A stiffness replaces the
         stiffness scale too: one per particle sets it, a number makes it uniform."""
         p = self.params
@@ -466,8 +474,9 @@ class Simulation(ForceFields):
 
     FACTORIZATIONS = ("auto", "simplicial", "supernodal")
 
-    def set_solver(self, accelerator="none", window=5, rho=0.999, threads=1, factorization="auto", tolerance=None,
-                   max_iterations=None):
+    def set_solver(self, accelerator: str = "none", window: int = 5, rho: float = 0.999, threads: int = 1,
+                   factorization: str = "auto", tolerance: float | None = None,
+                   max_iterations: int | None = None) -> None:
         """How the local/global iteration runs: ``accelerator`` "none" (plain), "anderson" (history
         ``window``) or "chebyshev" (spectral radius estimate ``rho``), both safeguarded by the energy, or
         "auto": under a tolerance each step makes two plain pairs and goes on plain (to half the tolerance)
@@ -489,7 +498,7 @@ class Simulation(ForceFields):
                               choice("factorization", factorization, self.FACTORIZATIONS), tolerance, cap)
 
     @property
-    def solver(self):
+    def solver(self) -> dict[str, Any]:
         """The solver settings of set_solver() as a dict: the accelerator, window, rho, threads and
         factorization (``tolerance`` and ``max_iterations`` apart)."""
         s = self._core.solver()
@@ -499,22 +508,22 @@ class Simulation(ForceFields):
         return s
 
     @property
-    def counters(self):
+    def counters(self) -> dict[str, float]:
         """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
         return self._core.counters()
 
     @property
-    def tolerance(self):
+    def tolerance(self) -> float | None:
         """The residual tolerance of a step (0: ``iterations`` pairs a step), set by ``set_solver``."""
         return self._core.solver()["tolerance"]
 
     @property
-    def max_iterations(self):
+    def max_iterations(self) -> int | None:
         """The cap of a step under a tolerance, set by ``set_solver``."""
         return self._core.solver()["max_iterations"]
 
     @property
-    def step_report(self):
+    def step_report(self) -> dict[str, float]:
         """What the last ``step`` call did: steps, iterations (all steps), most_iterations (in one step), error
         (the largest error estimate at the end of a step: the residual, a fraction of the body's size, doubled
         for "auto"'s plain pairs; -1 without a tolerance) and unconverged (steps that stopped at
@@ -522,23 +531,23 @@ class Simulation(ForceFields):
         return self._core.step_report()
 
     @property
-    def trace_energy(self):
+    def trace_energy(self) -> bool:
         """Whether each call records the objective after every local and global step (``energy_trace``)."""
         return self._core.trace_energy
 
     @trace_energy.setter
-    def trace_energy(self, enabled):
+    def trace_energy(self, enabled: bool) -> None:
         self._core.trace_energy = bool(enabled)
 
     @property
-    def energy_trace(self):
+    def energy_trace(self) -> Floats:
         """Objective after the first global solve and after each local and global step of the last call."""
         out = np.empty(self._core.trace_length())
         self._core.read("energy_trace", out)
         return out
 
 
-def frame_from_normal(normal):
+def frame_from_normal(normal: Vector) -> Floats:
     """A rotation whose z axis is ``normal`` (the frame of a plane collider facing it)."""
     n = np.asarray(normal, dtype=np.float64)
     length = np.linalg.norm(n)
@@ -554,7 +563,7 @@ def _rotation(rotation):
     return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
 
 
-def split_stiffness(stiffness, n):
+def split_stiffness(stiffness: float | ArrayLike, n: int) -> tuple[float, Floats | None]:
     """(k, scale) of a stiffness: a number (scale None), or one per particle (k their mean, scale k_i / k)."""
     if np.ndim(stiffness) == 0:
         return stiffness, None
@@ -566,7 +575,8 @@ def split_stiffness(stiffness, n):
     return k, per_particle / k
 
 
-def core_params(stiffness, density, dt, iterations, gravity, damping, skin_neighbors):
+def core_params(stiffness: float, density: float, dt: float, iterations: int, gravity: Vector, damping: float,
+                skin_neighbors: int) -> tuple[Any, ...]:
     """The core's positional parameters (a Simulation's and a ShapeMatching's), each converted by name."""
     return (number("stiffness", stiffness), number("density", density), number("dt", dt),
             integer("iterations", iterations), vector("gravity", gravity), number("damping", damping),
