@@ -4,6 +4,8 @@ API is the pure-Python layer of opdeform (Graph, Simulation, Skin, GoalFit, mpm.
 
 from typing import Any
 
+__version__: str
+
 class ContactGroup:
     def __init__(self, *args: Any, **kwargs: Any) -> None: ...
     def pair_count(self, *args: Any, **kwargs: Any) -> Any: ...
