@@ -69,8 +69,8 @@ def test_bake_and_batch_write_the_same_bits(scene, tmp_path):
         ["frames", "report.png", "shot.pc2", "shot_report.csv"]
     distributed = pytest.importorskip("distributed")  # noqa: F841
     from opdeform import batch
-    specs = [write_spec(tmp_path / "batch", scene, f"shot{k}", extra="[material]\nstiffness = 5e5\n")
-             for k in range(2)]
+    specs = [write_spec(tmp_path / f"batch{k}", scene, f"shot{k}", extra="[material]\nstiffness = 5e5\n")
+             for k in range(2)]  # a folder each: the two would write the same plot (a second bake is refused)
     results = batch.run(specs, workers=2)
     assert all(r.ok for r in results), [r.error for r in results]
     for r in results:

@@ -14,6 +14,7 @@ under its name only when complete) are in the last section.
 
 import contextlib
 import os
+import secrets
 import struct
 import stat
 
@@ -22,8 +23,9 @@ import numpy as np
 from . import _core
 from ._arguments import as_array, integer
 
-__all__ = ["read", "read_obj", "read_ply", "write", "write_obj", "write_ply",
-           "PC2Writer", "atomic_path", "partial_name", "pc2_header", "read_pc2", "write_pc2"]
+__all__ = ["read", "read_obj", "read_ply", "write", "write_obj", "write_ply", "OutputBusy",
+           "PC2Writer", "atomic_path", "exclusive", "lock_name", "partial_files", "partial_name", "pc2_header",
+           "read_pc2", "write_pc2"]
 
 
 def _read(path, fmt):
@@ -98,18 +100,26 @@ PC2_HEADER = struct.Struct("<12siiffi")
 
 
 def partial_name(path):
-    """The temporary name a file is written under: ``a/b.pc2`` -> ``a/b.part.pc2``."""
+    """A temporary name to write ``path`` under, unique to the caller: ``a/b.pc2`` -> ``a/b.part-PID-RANDOM.pc2``
+    (the process id and 32 random bits, so that two writers of one file, in two processes or two threads,
+    never share a partial file)."""
     root, ext = os.path.splitext(os.fspath(path))
-    return root + ".part" + ext
+    return f"{root}.part-{os.getpid()}-{secrets.token_hex(4)}{ext}"
+
+
+def partial_files(path):
+    """The partial files of ``path`` in its folder (``partial_name``'s, whoever wrote them)."""
+    folder, tail = os.path.split(os.fspath(path))
+    root, ext = os.path.splitext(tail)
+    found = os.listdir(folder or ".") if os.path.isdir(folder or ".") else []
+    return sorted(os.path.join(folder, f) for f in found if f.startswith(root + ".part-") and f.endswith(ext))
 
 
 @contextlib.contextmanager
 def atomic_path(path):
-    """Yields the temporary name to write ``path`` under (``partial_name`` with this process's id, so that
-    two processes writing the same file never rename each other's part); renames it to ``path`` when the
+    """Yields the temporary name to write ``path`` under (``partial_name``); renames it to ``path`` when the
     block completes, removes it when the block raises."""
-    root, ext = os.path.splitext(partial_name(path))
-    part = f"{root}{os.getpid()}{ext}"
+    part = partial_name(path)
     try:
         yield part
     except BaseException:
@@ -119,31 +129,99 @@ def atomic_path(path):
     os.replace(part, path)
 
 
+class OutputBusy(OSError):
+    """Another writer holds an output's lock (``exclusive``)."""
+
+
+def lock_name(path):
+    """The lock file of an output: ``a/b.pc2`` -> ``a/.b.pc2.lock``."""
+    folder, tail = os.path.split(os.fspath(path))
+    return os.path.join(folder, f".{tail}.lock")
+
+
+@contextlib.contextmanager
+def exclusive(path, lock=None):
+    """Holds the lock of an output (``lock``, by default ``lock_name(path)``, created with O_EXCL and holding
+    this host's name and process id) for the block; OutputBusy naming the holder when another live writer has
+    it. A lock left by a process of this host that has ended (killed mid-bake) is taken over; one from another
+    host stays until removed."""
+    lock = lock or lock_name(path)
+    for attempt in range(2):
+        try:
+            fd = os.open(lock, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+            break
+        except FileExistsError:
+            host, pid = _lock_holder(lock)
+            if attempt or host != os.uname().nodename or pid is None or _alive(pid):
+                raise OutputBusy(f"{os.fspath(path)} is being baked by process {pid} on {host} (lock {lock}); "
+                                 f"if no bake of it runs, delete the lock") from None
+            os.remove(lock)
+    try:
+        os.write(fd, f"{os.uname().nodename} {os.getpid()}\n".encode())
+    finally:
+        os.close(fd)
+    try:
+        yield lock
+    finally:
+        os.remove(lock)
+
+
+def _lock_holder(lock):
+    """(host, pid) written in a lock file; pid None when it cannot be read."""
+    try:
+        with open(lock, "rb") as f:
+            host, pid = f.read(300).decode("utf-8", "replace").split()
+        return host, int(pid)
+    except (OSError, ValueError):
+        return "an unknown host", None
+
+
+def _alive(pid):
+    """Whether a process of this host runs (a zombie, killed and not yet reaped, does not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except (OSError, IndexError):
+        return True
+
+
 class PC2Writer:
     """Writes PC2 frames one at a time, the header's sample count kept current after each, so that a file
-    cut short at any frame is valid. ``atomic``: frames go to ``partial_name(path)``, renamed to ``path`` by
-    ``close()`` (an exception in a ``with`` block leaves the partial file, for a resume); otherwise straight to
-    ``path`` (the add-on's bake, played back while it runs). ``keep``: continue a partial file after its
-    first ``keep`` frames."""
+    cut short at any frame is valid. ``atomic``: frames go to ``partial`` (a ``partial_name`` of this writer's
+    own), renamed to ``path`` by ``close()`` (an exception in a ``with`` block leaves the partial file, for a
+    resume); otherwise straight to ``path`` (the add-on's bake, played back while it runs). ``keep``: continue
+    the partial file ``resume`` (an earlier writer's, taken over: renamed to this writer's) after its first
+    ``keep`` frames."""
 
-    def __init__(self, path, n_points, start=1.0, rate=1.0, atomic=True, keep=0):
+    def __init__(self, path, n_points, start=1.0, rate=1.0, atomic=True, keep=0, resume=None):
         self.path = os.fspath(path)
         self.n_points = integer("n_points", n_points)
         self.count = integer("keep", keep)
-        self._target = partial_name(self.path) if atomic else self.path
+        self.partial = partial_name(self.path) if atomic else self.path
         folder = os.path.dirname(self.path)
         if folder:
             os.makedirs(folder, exist_ok=True)
         if self.count:
-            found = pc2_header(self._target)
-            if found[0] != self.n_points or found[3] < self.count:
-                raise ValueError(f"{self._target}: holds {found[3]} frames of {found[0]} points, cannot keep "
-                                 f"{self.count} of {self.n_points}")
-            self._file = open(self._target, "r+b")
-            self._file.truncate(PC2_HEADER.size + self.count * self.n_points * 12)
+            self._resume(os.fspath(resume) if resume is not None else self.partial)
         else:
-            self._file = open(self._target, "wb")
+            self._file = open(self.partial, "wb")
             self._file.write(PC2_HEADER.pack(PC2_MAGIC, 1, self.n_points, float(start), float(rate), 0))
+
+    def _resume(self, earlier):
+        found = pc2_header(earlier)
+        if found[0] != self.n_points or found[3] < self.count:
+            raise ValueError(f"{earlier}: holds {found[3]} frames of {found[0]} points, cannot keep "
+                             f"{self.count} of {self.n_points}")
+        if earlier != self.partial:
+            os.replace(earlier, self.partial)
+        self._file = open(self.partial, "r+b")
+        self._file.truncate(PC2_HEADER.size + self.count * self.n_points * 12)
 
     def write(self, points):
         pts = np.ascontiguousarray(points, dtype="<f4")
@@ -162,8 +240,8 @@ class PC2Writer:
         if self._file is not None:
             self._file.close()
             self._file = None
-            if self._target != self.path:
-                os.replace(self._target, self.path)
+            if self.partial != self.path:
+                os.replace(self.partial, self.path)
 
     def __enter__(self):
         return self

@@ -5,16 +5,22 @@ there, vertex indices in range, the output folder writable; a problem raises ``S
 the key and the problem, before anything runs. ``bake(shot)`` runs it the way the Blender add-on's engine does
 (graph from the mesh, pins and handles as position and direction constraints, ``substeps`` solver steps per
 frame, the first frame the rest shape) and writes the outputs, each complete or not at all; with
-``checkpoint_every`` it pickles the simulation every so many frames and a later bake resumes from there.
+``checkpoint_every`` it saves the simulation's state every so many frames (arrays behind a checked header, never
+a pickle) and a later bake resumes from there.
 """
 
+import contextlib
 import hashlib
+import json
 import logging
 import os
-import pickle
+import re
+import stat
+import string
 import tempfile
 import time
 import tomllib
+import urllib.parse
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -41,16 +47,23 @@ def _fail(where, problem):
     raise SpecError(f"{where}: {problem}")
 
 
-def _number(where, value, low=None, above=None):
+def _number(where, value, low=None, above=None, most=None):
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         _fail(where, f"must be a number, got {value!r}")
     if (low is not None and value < low) or (above is not None and value <= above):
         _fail(where, f"must be {'>= ' + str(low) if low is not None else '> ' + str(above)}, got {value!r}")
+    if most is not None and value > most:
+        _fail(where, f"must be at most {most:g}, got {value!r}")
     return float(value)
 
 
 def _positive(where, value):
     return _number(where, value, above=0)
+
+
+def _bounded(most):
+    """A check of a positive number of at most ``most``."""
+    return lambda where, value: _number(where, value, above=0, most=most)
 
 
 def _fraction(where, value):
@@ -66,14 +79,21 @@ def _finite(where, value):
     return _number(where, value)
 
 
-def _integer(where, value, low=None):
+def _integer(where, value, low=None, most=None):
     if isinstance(value, bool) or not isinstance(value, int) or (low is not None and value < low):
         _fail(where, f"must be an integer{'' if low is None else ' >= ' + str(low)}, got {value!r}")
+    if most is not None and value > most:
+        _fail(where, f"must be at most {most:,}, got {value:,}")
     return value
 
 
 def _count(where, value):
     return _integer(where, value, 1)
+
+
+def _counted(most):
+    """A check of a count (an integer >= 1) of at most ``most``."""
+    return lambda where, value: _integer(where, value, 1, most)
 
 
 def _natural(where, value):
@@ -87,7 +107,9 @@ def _vector(where, value):
 
 
 def _text(where, value):
-    return value if isinstance(value, str) and value else _fail(where, f"must be a non-empty string, got {value!r}")
+    if not isinstance(value, str) or not value or "\0" in value:
+        _fail(where, f"must be a non-empty string without NUL, got {value!r}")
+    return value
 
 
 def _flag(where, value):
@@ -109,6 +131,8 @@ def _frame_range(where, value):
     if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)) or \
             value[1] <= value[0]:
         _fail(where, f"must be [first, last] integers with last > first, got {value!r}")
+    if value[1] - value[0] >= MAX_FRAMES or max(map(abs, value)) > 2 ** 31 - 1:
+        _fail(where, f"a shot has at most {MAX_FRAMES:,} frames numbered within 32 bits, got {value!r}")
     return tuple(value)
 
 
@@ -126,17 +150,24 @@ def _keys(where, value):
     return [_table(f"{where}[{k}]", key, KEY_SCHEMA) for k, key in enumerate(value)]
 
 
+# Upper bounds of a spec's values: past them a bake cannot run (memory, overflow) or would take days.
+MAX_FRAMES = 1_000_000
+MAX_SUBSTEPS = 10_000
+MAX_PARTICLES = 1_000_000
+MAX_ITERATIONS = 100_000
+MAX_STIFFNESS = 1e15  # Pa; diamond is about 1.2e12
+MAX_DENSITY = 1e6  # kg/m^3; osmium is 22,590
 REQUIRED = object()
 KEY_SCHEMA = {"frame": (_integer, REQUIRED), "offset": (_vector, (0.0, 0.0, 0.0)), "rotate": (_vector, (0.0, 0.0, 0.0))}
 HANDLE_SCHEMA = {"vertex": (_natural, REQUIRED), "strength": (_positive, 1.0),
                  "rotation": (_flag, False), "keys": (_keys, REQUIRED)}
 SCHEMA = {
     "": {"version": (_count, REQUIRED), "name": (_text, None), "mesh": (_text, REQUIRED),
-         "frames": (_frame_range, REQUIRED), "fps": (_positive, 24.0), "substeps": (_count, 1)},
-    "graph": {"particles": (_count, 100), "mode": (_mode, "auto"), "neighbors": (_count, 4)},
-    "material": {"stiffness": (_positive, REQUIRED), "density": (_positive, 1000.0), "damping": (_fraction, 0.0),
+         "frames": (_frame_range, REQUIRED), "fps": (_positive, 24.0), "substeps": (_counted(MAX_SUBSTEPS), 1)},
+    "graph": {"particles": (_counted(MAX_PARTICLES), 100), "mode": (_mode, "auto"), "neighbors": (_count, 4)},
+    "material": {"stiffness": (_bounded(MAX_STIFFNESS), REQUIRED), "density": (_bounded(MAX_DENSITY), 1000.0), "damping": (_fraction, 0.0),
                  "gravity": (_vector, (0.0, 0.0, -9.81))},
-    "solver": {"iterations": (_count, 10), "accelerator": (_accelerator, "none"), "threads": (_natural, 0),
+    "solver": {"iterations": (_counted(MAX_ITERATIONS), 10), "accelerator": (_accelerator, "none"), "threads": (_natural, 0),
                "tolerance": (_positive, None)},
     "pins": {"vertices": (_indices, REQUIRED), "strength": (_positive, 1.0)},
     "goals": {"animation": (_text, REQUIRED), "strength": (_fraction, REQUIRED), "neighbors": (_count, 16)},
@@ -260,15 +291,31 @@ def _load(path, raw, data):
 
 
 def _outputs(path, settings):
-    """The shot's name; the output folder made absolute (and checked writable), the default file names."""
+    """The shot's name; the output folder made absolute (and checked writable), the default file names; every
+    output name inside the folder."""
     name = settings[""]["name"] or os.path.splitext(os.path.basename(path))[0]
+    if os.path.basename(name) != name or name in (os.curdir, os.pardir) or (os.altsep and os.altsep in name):
+        _fail("name" if settings[""]["name"] else "spec", f"must be a plain name (no folders) to name files inside "
+                                                           f"the output folder, got {name!r}")
     out = settings["output"]
-    out["folder"] = _writable(os.path.normpath(os.path.join(os.path.dirname(path), out["folder"])))
     out["pc2"] = out["pc2"] or f"{name}.pc2"
     out["report"] = out["report"] or f"{name}_report.csv"
+    for key in ("pc2", "report", "plot"):
+        if out[key]:
+            _inside(f"output.{key}", out[key])
     if out["frames"]:
-        _frame_names(out["frames"])
+        first, last = settings[""]["frames"]
+        for frame in (first, last):
+            _inside("output.frames", _frame_names(out["frames"]).format(frame=frame, name=name))
+    out["folder"] = _writable(os.path.normpath(os.path.join(os.path.dirname(path), out["folder"])))
     return name
+
+
+def _inside(where, name):
+    """Refuses a file name that is absolute or leaves the output folder once normalised."""
+    norm = os.path.normpath(name)
+    if os.path.isabs(name) or norm in (os.curdir, os.pardir) or norm.startswith(os.pardir + os.sep):
+        _fail(where, f"must name a file inside the output folder, got {name!r}")
 
 
 BLEND = ".blend:"
@@ -367,7 +414,21 @@ def _animation(folder, goals, count, frames):
     return samples
 
 
+MAX_FIELD_WIDTH = 32
+
+
 def _frame_names(template):
+    """The frames template checked: only {frame} and {name} fields of a width up to MAX_FIELD_WIDTH (checked
+    before formatting: a width of 10^9 would build a gigabyte string), frames named apart, .obj or .ply."""
+    try:
+        fields = [(f, spec) for _, f, spec, _ in string.Formatter().parse(template) if f is not None]
+    except ValueError as exc:
+        _fail("output.frames", f"{template!r} is not a name with {{frame}} (and {{name}}): {exc}")
+    for f, spec in fields:
+        if f not in ("frame", "name"):
+            _fail("output.frames", f"{template!r} has the field {{{f}}}: only {{frame}} and {{name}}")
+        if "{" in spec or any(int(w) > MAX_FIELD_WIDTH for w in re.findall(r"\d+", spec)):
+            _fail("output.frames", f"{template!r}: a field width is at most {MAX_FIELD_WIDTH}, got {{{f}:{spec}}}")
     try:
         name = template.format(frame=1, name="shot")
     except (KeyError, IndexError, ValueError) as exc:
@@ -376,6 +437,7 @@ def _frame_names(template):
         _fail("output.frames", f"{template!r} names every frame the same: put {{frame:04d}} in it")
     if os.path.splitext(name)[1].lower() not in (".obj", ".ply"):
         _fail("output.frames", f"must end in .obj or .ply, got {template!r}")
+    return template
 
 
 def _writable(folder):
@@ -482,22 +544,46 @@ def bake(shot, threads=None, progress=None, resume=True):
     """Simulates the shot and writes its outputs; returns the report rows (one dict per frame, REPORT_COLUMNS).
     threads: the solver's when the spec leaves them to the runner (None: 1; results are the same bits for the
     same count); progress(done, total) after each frame; resume: continue from the shot's checkpoint
-    when it was written for this spec, mesh and animation (same digest). A .blend shot is baked by Blender
-    (``opdeform.blender``)."""
-    if shot.blend:
-        from . import blender
-        return blender.bake(shot, threads, progress, _place_baked)
-    threads = shot.threads(threads or 1)
+    when it was written for this spec, mesh and animation (same digest). Every output is locked for the bake
+    (``io.exclusive``: a second bake of one of them raises ``io.OutputBusy``). A .blend shot is baked by
+    Blender (``opdeform.blender``)."""
+    with contextlib.ExitStack() as locks:
+        for path in _output_paths(shot):
+            locks.enter_context(io.exclusive(path, _lock(shot, path)))
+        if shot.blend:
+            from . import blender
+            return blender.bake(shot, threads, progress, _place_baked)
+        return _bake(shot, shot.threads(threads or 1), progress, resume)
+
+
+def _output_paths(shot):
+    """Every file a bake writes (the frames by their first frame's name), the checkpoint included, the PC2 first
+    and the others in a fixed order."""
+    frames = shot.output("frames") and shot.output("frames").format(frame=shot.first, name=shot.name)
+    others = {shot.output("report"), shot.output("plot"), frames, shot.checkpoint} - {None, shot.output("pc2")}
+    return [shot.output("pc2")] + sorted(others)
+
+
+def _lock(shot, path):
+    """The lock of an output, in the output folder: ``.NAME.lock``, a path in a subfolder quoted (``%2F``)."""
+    folder = shot.settings["output"]["folder"]
+    return os.path.join(folder, f".{urllib.parse.quote(os.path.relpath(path, folder), safe='')}.lock")
+
+
+def _bake(shot, threads, progress, resume):
     rig = build(shot, threads)
     start, rows = shot.first, []
-    saved = _read_checkpoint(shot) if resume else None
+    saved = _read_checkpoint(shot, rig, threads) if resume else None
     if saved:
         start, rows = saved["frame"], saved["rows"]
-        rig.sim = saved["sim"]
-        rig.sim.set_solver(shot.section("solver")["accelerator"], threads=threads)
         log.info("%s: resuming after frame %d", shot.name, start)
+    for path in (shot.output("pc2"), shot.output("report"), shot.output("plot"), shot.checkpoint):
+        for part in io.partial_files(path) if path else ():  # left by a bake that was killed
+            if not saved or part != saved["partial"]:
+                os.remove(part)
     total = shot.last - shot.first + 1
-    writer = io.PC2Writer(shot.output("pc2"), len(shot.vertices), shot.first, 1.0, keep=len(rows))
+    writer = io.PC2Writer(shot.output("pc2"), len(shot.vertices), shot.first, 1.0, keep=len(rows),
+                          resume=saved and saved["partial"])
     with writer:
         outputs = Outputs(shot, writer, rows)
         if not saved:
@@ -508,7 +594,7 @@ def bake(shot, threads=None, progress=None, resume=True):
                 progress(frame - shot.first + 1, total)
             every = shot.section("output")["checkpoint_every"]
             if every and (frame - shot.first) % every == 0 and frame < shot.last:
-                _write_checkpoint(shot, frame, rig.sim, rows)
+                _write_checkpoint(shot, frame, rig.sim, rows, writer.partial)
     _write_report(shot, rows)
     if os.path.exists(shot.checkpoint):
         os.remove(shot.checkpoint)
@@ -560,17 +646,98 @@ def report_row(frame, sim, stepped, step_seconds, skin_seconds, iterations, tole
             "over_tolerance": int(tolerance is not None and residual > tolerance)}
 
 
-def _read_checkpoint(shot):
-    if not os.path.exists(shot.checkpoint) or not os.path.exists(io.partial_name(shot.output("pc2"))):
+# -- checkpoints: data, never code ----------------------------------------------------------------------------
+# A checkpoint holds what a bake cannot make again from its spec: the simulation's state (positions, rotations,
+# velocities, angular velocities) after a frame and the report rows so far, as float64 arrays, behind a JSON
+# header (format version, the shot's digest, the frame, the counts, the partial PC2's name and the payload's
+# SHA-256). It is read only once the header matches this shot and the payload its digest; the rig itself comes
+# from the spec. Nothing in an output folder is unpickled: the folder may be shared farm storage.
+CHECKPOINT_MAGIC = b"OPDEFORM CHECKPOINT\n"
+CHECKPOINT_VERSION = 1
+CHECKPOINT_HEADER = 4096  # bytes at most
+
+
+def _read_checkpoint(shot, rig, threads):
+    """{"frame", "rows", "partial"} of the shot's checkpoint with ``rig.sim`` put in its state, or None: no
+    checkpoint, or one that cannot be used (reported with its path: the bake starts over)."""
+    if not os.path.lexists(shot.checkpoint):
         return None
-    with open(shot.checkpoint, "rb") as f:
-        saved = pickle.load(f)
-    return saved if saved["digest"] == shot.digest else None
+    try:
+        header, arrays = _checkpoint_arrays(shot, rig.sim.graph.n_particles)
+        rig.sim._core.restore_state(*arrays[:4])
+    except (OSError, ValueError) as exc:
+        log.warning("%s: cannot resume from it (%s); baking from the first frame (bake --restart ignores "
+                    "checkpoints)", shot.checkpoint, exc)
+        rig.sim = build(shot, threads).sim  # whatever a failed restore left
+        return None
+    rows = [dict(zip(REPORT_COLUMNS, row)) for row in arrays[4].tolist()]
+    for row in rows:
+        row["frame"], row["over_tolerance"] = int(row["frame"]), int(row["over_tolerance"])
+    return {"frame": header["frame"], "rows": rows,
+            "partial": os.path.join(os.path.dirname(shot.output("pc2")), header["partial"])}
 
 
-def _write_checkpoint(shot, frame, sim, rows):
+def _checkpoint_arrays(shot, particles):
+    """The header and arrays of the shot's checkpoint, checked; ValueError naming the first problem."""
+    fd = os.open(shot.checkpoint, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            raise ValueError("not a regular file")
+        head = f.read(len(CHECKPOINT_MAGIC) + CHECKPOINT_HEADER)
+        if not head.startswith(CHECKPOINT_MAGIC) or b"\n" not in head[len(CHECKPOINT_MAGIC):]:
+            raise ValueError("not an opdeform checkpoint")
+        line = head[len(CHECKPOINT_MAGIC):].split(b"\n", 1)[0]
+        header = _checkpoint_header(shot, line, particles)
+        f.seek(len(CHECKPOINT_MAGIC) + len(line) + 1)
+        size = 8 * (particles * 18 + header["rows"] * len(REPORT_COLUMNS))
+        payload = f.read(size + 1)
+    if len(payload) != size:
+        raise ValueError(f"{len(payload)} bytes of data where the header says {size}")
+    if hashlib.sha256(payload).hexdigest() != header["sha256"]:
+        raise ValueError("its data does not match its SHA-256")
+    data = np.frombuffer(payload, "<f8")
+    shapes = [(particles, 3), (particles, 3, 3), (particles, 3), (particles, 3), (header["rows"], len(REPORT_COLUMNS))]
+    arrays, at = [], 0
+    for shape in shapes:
+        arrays.append(data[at:at + int(np.prod(shape))].reshape(shape).copy())
+        at += int(np.prod(shape))
+    if not np.array_equal(arrays[4][:, 0], np.arange(shot.first, header["frame"] + 1)):
+        raise ValueError("its report rows are not the frames before it")
+    return header, arrays
+
+
+def _checkpoint_header(shot, line, particles):
+    try:
+        header = json.loads(line)
+    except (ValueError, RecursionError):
+        raise ValueError("its header is not JSON") from None
+    expected = {"version": int, "digest": str, "frame": int, "particles": int, "rows": int, "partial": str,
+                "sha256": str}
+    if not isinstance(header, dict) or set(header) != set(expected) or \
+            any(type(header[k]) is not kind for k, kind in expected.items()):
+        raise ValueError(f"its header is not that of version {CHECKPOINT_VERSION}")
+    if header["version"] != CHECKPOINT_VERSION:
+        raise ValueError(f"format version {header['version']}, this opdeform reads {CHECKPOINT_VERSION}")
+    if header["digest"] != shot.digest:
+        raise ValueError("written for another spec, mesh or animation")
+    if header["particles"] != particles or not shot.first <= header["frame"] < shot.last or \
+            header["rows"] != header["frame"] - shot.first + 1:
+        raise ValueError(f"frame {header['frame']} of {header['particles']} particles does not fit this shot")
+    partial = os.path.join(os.path.dirname(shot.output("pc2")), header["partial"])
+    if os.path.basename(header["partial"]) != header["partial"] or partial not in io.partial_files(shot.output("pc2")):
+        raise ValueError(f"its partial PC2 {header['partial']!r} is not there")
+    return header
+
+
+def _write_checkpoint(shot, frame, sim, rows, partial):
+    rows = np.array([[row[c] for c in REPORT_COLUMNS] for row in rows], "<f8")
+    arrays = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities, rows)
+    payload = b"".join(np.ascontiguousarray(a, "<f8").tobytes() for a in arrays)
+    header = {"version": CHECKPOINT_VERSION, "digest": shot.digest, "frame": frame,
+              "particles": sim.graph.n_particles, "rows": len(rows), "partial": os.path.basename(partial),
+              "sha256": hashlib.sha256(payload).hexdigest()}
     with io.atomic_path(shot.checkpoint) as part, open(part, "wb") as f:
-        pickle.dump({"digest": shot.digest, "frame": frame, "sim": sim, "rows": rows}, f)
+        f.write(CHECKPOINT_MAGIC + json.dumps(header).encode() + b"\n" + payload)
 
 
 # -- the report ----------------------------------------------------------------------------------------------
