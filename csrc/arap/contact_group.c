@@ -160,6 +160,49 @@ void od_ContactGroup_GetPairs(const od_ContactGroup* group, int* pairs, double* 
 	}
 }
 
+// A carried force that would move its two particles by more than this in one step, unopposed (|f| h² (1/m_a +
+// 1/m_b)), is no state a step leaves (those move them by about the contact thickness): a saved state is
+// untrusted input (issue 28), and 1e300 made every later step fail.
+#define OD_PAIR_MAX_PUSH 1e3 // m
+
+// The mass of particle p of the group (particles numbered over the members in order).
+static double od_GroupMass(const od_ContactGroup* group, int p)
+{
+	int b = 0;
+	for (; p >= group->sims[b]->graph->n; ++b)
+	{
+		p -= group->sims[b]->graph->n;
+	}
+	return group->sims[b]->def.density * group->sims[b]->graph->volumes[p];
+}
+
+// A pair's carried forces: finite, the normal force >= 0, the normal a unit vector, the push bounded.
+static od_Status od_CheckPairForces(const od_ContactGroup* group, int k, const int* pair, const double* f)
+{
+	for (int c = 0; c < 7; ++c)
+	{
+		if (!isfinite(f[c]) || (c == 0 && f[0] < 0.0))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "forces[%d, %d] = %g must be finite%s", k, c, f[c],
+						   c == 0 ? " and >= 0" : "");
+		}
+	}
+	double n2 = f[4] * f[4] + f[5] * f[5] + f[6] * f[6];
+	if (!(fabs(n2 - 1.0) < 1e-6))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "forces[%d, 4:7]: the normal (%g, %g, %g) is not a unit vector", k, f[4],
+					   f[5], f[6]);
+	}
+	double h = group->sims[0]->def.dt, size = f[0] + sqrt(f[1] * f[1] + f[2] * f[2] + f[3] * f[3]);
+	double push = size * h * h * (1.0 / od_GroupMass(group, pair[0]) + 1.0 / od_GroupMass(group, pair[1]));
+	if (!(push <= OD_PAIR_MAX_PUSH))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "forces[%d]: a normal and friction force of %g N would push its particles "
+										  "%g m in one step (at most %g)", k, size, push, OD_PAIR_MAX_PUSH);
+	}
+	return OD_OK;
+}
+
 od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int* pairs, const double* forces)
 {
 	int total = 0;
@@ -178,13 +221,10 @@ od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int*
 			return od_Fail(OD_ERROR_ARGUMENT, "pairs[%d] = (%d, %d) must be particles 0 <= a < b < %d", k,
 						   pairs[2 * k], pairs[2 * k + 1], total);
 		}
-		for (int c = 0; c < 7; ++c)
+		od_Status status = od_CheckPairForces(group, k, pairs + 2 * k, forces + 7 * k);
+		if (status != OD_OK)
 		{
-			if (!isfinite(forces[7 * k + c]) || (c == 0 && forces[7 * k] < 0.0))
-			{
-				return od_Fail(OD_ERROR_ARGUMENT, "forces[%d, %d] = %g must be finite%s", k, c, forces[7 * k + c],
-							   c == 0 ? " and >= 0" : "");
-			}
+			return status;
 		}
 	}
 	od_PairScratch* s = &group->pairs;

@@ -158,6 +158,18 @@ static void od_FitOne(const od_GoalFit* fit, const double* animated, int j, doub
 		od_Vec3 y = od_Sub(od_V3Load(animated + 3 * idx[a]), ybar), x = od_Sub(od_V3Load(fit->rest + 3 * idx[a]), xbar);
 		od_M3AddOuter(&cov, w[a], y, x);
 	}
+	double size = 0.0;
+	for (int k = 0; k < 9; ++k)
+	{
+		size = fmax(size, fabs(cov.m[k]));
+	}
+	if (size > 1e100 || (size > 0.0 && size < 1e-100)) // R ignores a positive scale; its products would overflow
+	{
+		for (int k = 0; k < 9; ++k)
+		{
+			cov.m[k] /= size;
+		}
+	}
 	od_Mat3 r = od_PolarRotation(&cov);
 	od_M3Store(rotation, &r);
 	od_V3Store(position, od_Add(ybar, od_M3MulV(&r, od_Sub(od_V3Load(fit->centers + 3 * j), xbar))));
@@ -186,6 +198,13 @@ od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, doub
 	for (int j = 0; j < fit->particleCount; ++j)
 	{
 		od_FitOne(fit, animated, j, positions + 3 * j, rotations + 9 * j);
+		if (!od_IsFinite3(positions + 3 * j) || od_CheckFinite("rotations", rotations + 9 * j, 9) != OD_OK)
+		{
+			return od_Fail(OD_ERROR_ARGUMENT,
+						   "animated vertices: particle %d's goal frame overflows (coordinates too large to fit, "
+						   "e.g. %g)",
+						   j, animated[3 * fit->idx[(size_t)fit->k * j]]);
+		}
 	}
 	return OD_OK;
 }

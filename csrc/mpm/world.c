@@ -195,8 +195,7 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 	return OD_OK;
 }
 
-// Grows every per-particle array to hold `capacity` particles.
-static od_Status od_Reserve(od_MpmWorld* w, int capacity)
+od_Status od_MpmWorld_Reserve(od_MpmWorld* w, int capacity)
 {
 	if (capacity <= w->state.capacity)
 	{
@@ -234,7 +233,7 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "particles: a world holds at most %d particles", OD_MPM_MAX_PARTICLES);
 	}
-	status = od_Reserve(w, w->state.count + d->count);
+	status = od_MpmWorld_Reserve(w, w->state.count + d->count);
 	if (status != OD_OK)
 	{
 		return status;
@@ -270,99 +269,6 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 	w->model.materialCount++;
 	w->state.count += d->count;
 	w->state.sinceReorder = OD_MPM_REORDER_EVERY; // sort the newcomers into place at the next substep
-	return OD_OK;
-}
-
-// -- saved state: the header, the material slots, the particles (in their block order), both quaternion
-// arrays and every collider's frames, as plain bytes of this build -------------------------------------------
-#define OD_MPM_STATE_MAGIC "odmpm01"
-
-typedef struct od_MpmStateHeader
-{
-	char magic[8];
-	int count, materialCount, colliderCount, sinceReorder;
-	double maxSpeed, maxHardening;
-	od_MpmStats stats;
-} od_MpmStateHeader;
-
-typedef struct od_MpmFrames
-{
-	od_Mat3 R0, R1, R;
-	od_Vec3 t0, t1, omega, velocity, t;
-} od_MpmFrames;
-
-static size_t od_StateBytes(int count, int materials, int colliders)
-{
-	return sizeof(od_MpmStateHeader) + sizeof(od_MpmMaterialSlot) * (size_t)materials +
-		   (sizeof(od_MpmParticle) + 8 * sizeof(double)) * (size_t)count + sizeof(od_MpmFrames) * (size_t)colliders;
-}
-
-size_t od_MpmWorld_StateSize(const od_MpmWorld* w)
-{
-	return od_StateBytes(w->state.count, w->model.materialCount, w->colliderCount);
-}
-
-// Copies n bytes between a field and the blob at *at, in the direction `save` says; advances *at.
-static void od_Transfer(char** at, void* field, size_t n, bool save)
-{
-	memcpy(save ? *at : field, save ? field : *at, n);
-	*at += n;
-}
-
-static void od_TransferBody(od_MpmWorld* w, char* at, bool save)
-{
-	size_t n = (size_t)w->state.count;
-	od_Transfer(&at, w->model.materials, sizeof(od_MpmMaterialSlot) * (size_t)w->model.materialCount, save);
-	od_Transfer(&at, w->state.particles, sizeof(od_MpmParticle) * n, save);
-	od_Transfer(&at, w->state.quat, 4 * sizeof(double) * n, save);
-	od_Transfer(&at, w->state.polarQuat, 4 * sizeof(double) * n, save);
-	for (int k = 0; k < w->colliderCount; ++k)
-	{
-		od_Collider* c = &w->colliders[k].body;
-		od_MpmFrames f = { c->R0, c->R1, c->R, c->t0, c->t1, c->omega, c->velocity, c->t };
-		od_Transfer(&at, &f, sizeof f, save);
-		c->R0 = f.R0, c->R1 = f.R1, c->R = f.R;
-		c->t0 = f.t0, c->t1 = f.t1, c->omega = f.omega, c->velocity = f.velocity, c->t = f.t;
-	}
-}
-
-void od_MpmWorld_SaveState(const od_MpmWorld* w, void* out)
-{
-	od_MpmStateHeader h = { OD_MPM_STATE_MAGIC, w->state.count, w->model.materialCount, w->colliderCount,
-							w->state.sinceReorder, w->state.maxSpeed, w->state.maxHardening, w->state.stats };
-	memcpy(out, &h, sizeof h);
-	od_TransferBody((od_MpmWorld*)w, (char*)out + sizeof h, true);
-}
-
-od_Status od_MpmWorld_LoadState(od_MpmWorld* w, const void* in, size_t size)
-{
-	od_MpmStateHeader h;
-	if (size < sizeof h || (memcpy(&h, in, sizeof h), memcmp(h.magic, OD_MPM_STATE_MAGIC, sizeof h.magic) != 0))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "state: not an MPM state saved by this build");
-	}
-	if (h.colliderCount != w->colliderCount)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "state: saved with %d colliders, the world has %d", h.colliderCount,
-					   w->colliderCount);
-	}
-	if (h.count < 0 || h.materialCount < 0 || h.materialCount > OD_MPM_MAX_MATERIALS ||
-		size != od_StateBytes(h.count, h.materialCount, h.colliderCount))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "state: %zu bytes do not hold what the header says", size);
-	}
-	od_Status status = od_Reserve(w, h.count);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	w->state.count = h.count;
-	w->model.materialCount = h.materialCount;
-	od_TransferBody(w, (char*)in + sizeof h, false);
-	w->state.sinceReorder = h.sinceReorder;
-	w->state.maxSpeed = h.maxSpeed;
-	w->state.maxHardening = h.maxHardening;
-	w->state.stats = h.stats;
 	return OD_OK;
 }
 

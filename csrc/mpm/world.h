@@ -134,6 +134,10 @@ struct od_MpmWorld
 	od_MpmThreadData* threadData;
 };
 
+// world.c: grows every per-particle array (and the grid's block table, the sort buffers) to hold `capacity`
+// particles; changes no particle.
+od_Status od_MpmWorld_Reserve(od_MpmWorld* w, int capacity);
+
 // grid.c
 // Sizes the grid (refusing a domain of too many blocks); od_MpmGrid_Reserve allocates its block table.
 od_Status od_MpmGrid_Init(od_MpmWorld* w);

@@ -6,6 +6,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Ints, integer, number
+from ._saved import int32_pairs
 from .simulation import Simulation
 
 __all__ = ["ContactGroup"]
@@ -57,12 +58,13 @@ class ContactGroup:
 
     def restore_state(self, state: tuple[ArrayLike, ArrayLike] | None) -> None:
         """Sets what ``save_state`` returned (of this group or one of the same members); ``None``: a new group's
-        (no forces). ValueError on pairs out of range or non-finite forces, nothing changed."""
+        (no forces). ValueError on pairs out of range (never wrapped to int32) or forces out of range
+        (docs/hardening.md), nothing changed."""
         if state is None:
             pairs, forces = np.empty((0, 2), np.int32), np.empty((0, 7))
         else:
             pairs, forces = state
-            pairs = np.ascontiguousarray(pairs, np.int32)
+            pairs = int32_pairs(pairs)
             forces = np.ascontiguousarray(forces, np.float64)
             if pairs.ndim != 2 or pairs.shape[1] != 2 or forces.shape != (len(pairs), 7):
                 raise ValueError(f"state: pairs (m, 2) and forces (m, 7) expected, got {pairs.shape} and "

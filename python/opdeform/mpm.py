@@ -78,8 +78,20 @@ class World(ForceFields):
     def __getstate__(self):
         return {"calls": self._calls, "state": self._core.save_state()}
 
+    # what a pickle may replay: the calls that make the model, __init__ first (the particles are in the state)
+    _REPLAYED = ("set_wind", "add_collider", "add_force_field", "move_force_field", "remove_force_field")
+
     def __setstate__(self, saved):
-        for name, args in saved["calls"]:
+        """The recorded model calls again, then the core's state bytes, which it checks before writing anything;
+        anything else in ``calls`` raises ValueError naming it (a pickle is untrusted input, issue 28)."""
+        calls = saved.get("calls") if isinstance(saved, dict) else None
+        if not isinstance(calls, list) or not calls:
+            raise ValueError(f"calls: a list of (name, arguments) pairs expected, got {type(calls).__name__}")
+        for k, call in enumerate(calls):
+            allowed = ("__init__",) if k == 0 else self._REPLAYED
+            if not (isinstance(call, tuple) and len(call) == 2 and call[0] in allowed and isinstance(call[1], tuple)):
+                raise ValueError(f"calls[{k}]: one of {allowed} with a tuple of arguments expected, got {call!r:.80}")
+        for name, args in calls:
             getattr(self, name)(*args)
         self._core.load_state(saved["state"])
 

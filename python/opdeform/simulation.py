@@ -6,6 +6,7 @@ import numpy as np
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Vector, as_array, choice, integer, number, vector
+from ._saved import check_simulation
 from .fields import ForceFields
 from .goals import goal_frequency
 from .graph import Graph
@@ -400,6 +401,7 @@ class Simulation(ForceFields):
                 "self_contact": self.self_contact}
 
     def __setstate__(self, saved):
+        check_simulation(saved)
         self._start(saved["graph"], core_params(**saved["params"]))
         self.set_solver(**saved["solver"])
         self.trace_energy = saved["trace_energy"]

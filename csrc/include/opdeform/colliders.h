@@ -100,8 +100,9 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps);
 // force (3) and the normal (3)), the warm start of the next step's forces. Saved with the members' states and
 // set back with them, the next step is the one that followed the save, bit for bit (an empty list: a new
 // group's). GetPairs writes od_ContactGroup_GetPairCount pairs; SetPairs checks everything before it changes
-// anything (indices in range, a < b, finite values, force >= 0, |friction| <= friction coefficient × force
-// is not checked: the next update bounds it).
+// anything (indices in range, a < b, finite values, force >= 0, a unit normal, forces that would push their
+// particles at most 1 km in one step; |friction| <= friction coefficient × force is not checked: the next
+// update bounds it).
 int od_ContactGroup_GetPairCount(const od_ContactGroup* group);
 void od_ContactGroup_GetPairs(const od_ContactGroup* group, int* pairs, double* forces);
 od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int* pairs, const double* forces);

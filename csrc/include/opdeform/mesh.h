@@ -171,6 +171,8 @@ int od_GoalFit_GetNeighborCount(const od_GoalFit* fit); // k actually used (at m
 const int* od_GoalFit_GetIndices(const od_GoalFit* fit);
 const double* od_GoalFit_GetWeights(const od_GoalFit* fit);
 // animated: vertexCount*3 (the deformed rest vertices, same order); positions n*3, rotations n*9 written.
+// OD_ERROR_ARGUMENT when a vertex used is not finite or a frame overflows (coordinates near 1e308); the
+// outputs are then not frames.
 od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations);
 
 #ifdef __cplusplus

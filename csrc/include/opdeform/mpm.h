@@ -185,7 +185,9 @@ od_MpmStats od_MpmWorld_GetStats(const od_MpmWorld* world);
 
 // The state (particles, orientations, clock, collider frames) as bytes of this build, for a checkpoint:
 // LoadState on a world made by the same calls (create, wind, colliders; particles are replaced) continues to
-// the same bits. SaveState writes StateSize bytes.
+// the same bits. SaveState writes StateSize bytes. LoadState checks every count, id, index and number before it
+// writes anything (the bytes may come from a damaged or crafted file): OD_ERROR_ARGUMENT naming the first
+// problem, the world unchanged.
 size_t od_MpmWorld_StateSize(const od_MpmWorld* world);
 void od_MpmWorld_SaveState(const od_MpmWorld* world, void* out);
 od_Status od_MpmWorld_LoadState(od_MpmWorld* world, const void* in, size_t size);
