@@ -23,7 +23,7 @@ from .discovery import mark_discovery
 from .handle_data import active_handles, bind_handle, bind_new_handles, handle_matrix
 from .mesh_data import check_object, read_vertex_group, read_weights, triangles, vertex_positions
 from .parameters import (body_contact, cache_folder, floor, frame_range, frame_rate, gravity, goal_strength,
-                         graph_key, maps, self_contact, sim_settings)
+                         graph_key, maps, self_contact, settings_key, sim_settings)
 from .state import Runtime, get, put, renamed
 
 MODIFIER_NAME = "OPDeform Cache"
@@ -31,7 +31,13 @@ MODIFIER_NAME = "OPDeform Cache"
 
 # -- build ---------------------------------------------------------------------------------------------
 def configure(rt, obj, scene, depsgraph=None):
-    """Applies the current settings to the engine (a change clears the in-memory cache)."""
+    """Applies the current settings to the engine (a change clears the in-memory cache). Skipped while what it
+    reads is as last time (parameters.settings_key, 0.01 ms; configuring the character: 0.15 ms a frame) and no
+    painted map is to be read again (group_weights)."""
+    key = settings_key(obj, scene)
+    if (key, tuple(rt.groups)) == rt.configured and obj.mode == 'OBJECT':  # other modes paint or assign groups
+        return
+    rt.configured = None  # a failure below leaves it to be configured again
     s = obj.opdeform
     bind_new_handles(rt, s, depsgraph)
     e = rt.engine
@@ -45,6 +51,7 @@ def configure(rt, obj, scene, depsgraph=None):
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
     set_maps(rt, obj, scene)
     e.set_contact(self_contact(obj.opdeform_contact), body_contact(obj.opdeform_contact))
+    rt.configured = (key, tuple(rt.groups))
 
 
 def group_weights(rt, obj, name, what):

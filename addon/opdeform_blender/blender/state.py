@@ -29,6 +29,7 @@ class Runtime:
         # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
         self.groups = {}
         self.handle_matrices = None  # bytes of the handle transforms last used
+        self.configured = None  # (settings_key, groups read) of the last runtime.configure
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
         self.baking = False  # a bake computes frames without writing the offset
