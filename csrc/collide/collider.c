@@ -9,12 +9,16 @@
 // narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x. An open mesh
 // (a ramp, a terrain, a table top: no inside to count crossings into) takes its sign from the side of its
 // nearest triangle instead, carried through the sweep with the distance; beyond its rim that side extends,
-// so behind a rim counts as inside. New vertices (a deforming collider) re-sample in the same memory when it
-// is large enough.
+// so behind a rim counts as inside. New vertices (a deforming collider) are sampled into new memory that
+// replaces the old only once complete, so that a call stopped part-way (od_CheckInterrupt: Ctrl-C, polled
+// every 64 triangles and every plane of samples) or out of memory leaves the collider as it was. Cost: about
+// 8 us a triangle at resolution 64 (a 998,000-triangle sphere: 8.3 s to add, 7.8 s a vertex update, one core
+// of this machine), from the exact distances in the band around each triangle.
 // What a contact does (stick, slip, push back) is the caller's: see mpm/collider.c.
 #include "collider.h"
 
 #include "core.h"
+#include "interrupt.h"
 
 #include <math.h>
 #include <stdbool.h>
@@ -23,6 +27,7 @@
 
 #define OD_MESH_MAX_DIM 96 // distance samples per axis at most
 #define OD_MESH_BAND 3     // samples around each triangle that get the exact distance
+#define OD_MESH_POLL 63    // triangles between interrupt checks, less one (a power of two less one)
 
 // ---------------------------------------------------------------------------------------------------------
 // Mesh distance samples
@@ -104,10 +109,15 @@ static void od_KeepSide(od_Collider* c, size_t at, double d, double cosine)
 }
 
 // Exact unsigned distances within OD_MESH_BAND samples of each triangle (and an open mesh's sides).
-static void od_SdfBand(od_Collider* c, const od_MeshView* m)
+static od_Status od_SdfBand(od_Collider* c, const od_MeshView* m)
 {
 	for (int tri = 0; tri < m->triangles; ++tri)
 	{
+		od_Status status = (tri & OD_MESH_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			return status;
+		}
 		od_Vec3 a = od_MeshVertex(m, tri, 0), b = od_MeshVertex(m, tri, 1), cc = od_MeshVertex(m, tri, 2);
 		od_Vec3 normal = od_Cross(od_Sub(b, a), od_Sub(cc, a));
 		double area = od_Length(normal);
@@ -149,11 +159,12 @@ static void od_SdfBand(od_Collider* c, const od_MeshView* m)
 			}
 		}
 	}
+	return OD_OK;
 }
 
 // Two chamfer sweeps (26 neighbours) carry the band's distances (and an open mesh's sides) through the rest of
 // the samples.
-static void od_SdfSweep(od_Collider* c)
+static od_Status od_SdfSweep(od_Collider* c)
 {
 	const int* n = c->dims;
 	double reach[4]; // the distance to a neighbour by its squared offset in samples
@@ -166,6 +177,10 @@ static void od_SdfSweep(od_Collider* c)
 		int step = pass == 0 ? 1 : -1;
 		for (int kk = 0; kk < n[2]; ++kk)
 		{
+			if (od_CheckInterrupt() != OD_OK)
+			{
+				return OD_ERROR_INTERRUPTED;
+			}
 			int k = pass == 0 ? kk : n[2] - 1 - kk;
 			for (int jj = 0; jj < n[1]; ++jj)
 			{
@@ -207,6 +222,7 @@ static void od_SdfSweep(od_Collider* c)
 			}
 		}
 	}
+	return OD_OK;
 }
 
 // The rows of samples (j, k) whose yz lies in triangle tri's yz bounds: [lo[0], hi[0]] x [lo[1], hi[1]].
@@ -292,9 +308,11 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 	}
 	// a tiny irrational offset keeps rays off shared edges and vertices
 	const double jitter[2] = { 1.37e-7 * c->spacing, 2.71e-7 * c->spacing };
-	for (int k = 0; k < c->dims[2]; ++k)
+	od_Status status = OD_OK;
+	for (int k = 0; k < c->dims[2] && status == OD_OK; ++k)
 	{
-		for (int j = 0; j < c->dims[1]; ++j)
+		status = od_CheckInterrupt();
+		for (int j = 0; j < c->dims[1] && status == OD_OK; ++j)
 		{
 			double y = c->origin[1] + j * c->spacing + jitter[0], z = c->origin[2] + k * c->spacing + jitter[1];
 			int count = 0;
@@ -336,7 +354,7 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 	od_Free(hits);
 	od_Free(rowStart);
 	od_Free(rowTris);
-	return OD_OK;
+	return status;
 }
 
 // Makes an open mesh's samples behind their nearest triangle negative.
@@ -376,8 +394,8 @@ static od_Status od_MeshBounds(od_Collider* c, const od_MeshView* m, int vertexC
 	return OD_OK;
 }
 
-// Distance samples of a mesh at the finest spacing its bounds allow (not finer than minSpacing), in memory
-// reused when it is large enough (a deforming collider re-sampled each frame).
+// Distance samples of a mesh at the finest spacing its bounds allow (not finer than minSpacing), into c's
+// memory when it is large enough.
 static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexCount)
 {
 	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
@@ -425,14 +443,32 @@ static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexC
 	{
 		memset(c->side, 0, total * sizeof(double));
 	}
-	od_SdfBand(c, m);
-	od_SdfSweep(c);
-	if (c->side)
+	status = od_SdfBand(c, m);
+	status = status == OD_OK ? od_SdfSweep(c) : status;
+	if (status != OD_OK || !c->side)
 	{
-		od_SdfSide(c, total);
-		return OD_OK;
+		return status == OD_OK ? od_SdfSign(c, m) : status;
 	}
-	return od_SdfSign(c, m);
+	od_SdfSide(c, total);
+	return OD_OK;
+}
+
+// od_MeshSample into new memory, which replaces c's only when sampling completes: a failure (an interrupt,
+// out of memory) leaves c as it was.
+static od_Status od_MeshResample(od_Collider* c, const od_MeshView* m, int vertexCount)
+{
+	od_Collider next = *c;
+	next.sdf = next.side = NULL;
+	next.capacity = 0;
+	od_Status status = od_MeshSample(&next, m, vertexCount);
+	if (status != OD_OK)
+	{
+		od_Collider_Destroy(&next);
+		return status;
+	}
+	od_Collider_Destroy(c);
+	*c = next;
+	return OD_OK;
 }
 
 typedef struct od_Edge
@@ -511,7 +547,7 @@ static od_Status od_MeshInit(od_Collider* c, const od_ShapeDef* def)
 	{
 		status = od_CheckOpen(c, def);
 	}
-	return status == OD_OK ? od_MeshSample(c, &m, def->vertexCount) : status;
+	return status == OD_OK ? od_MeshResample(c, &m, def->vertexCount) : status;
 }
 
 od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int vertexCount, const int* triangles,
@@ -522,7 +558,7 @@ od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int ve
 	double radius = c->radius;
 	od_Status status = od_MeshBounds(c, &m, vertexCount, lo, hi); // checked first: a failure changes nothing
 	c->radius = radius;
-	return status == OD_OK ? od_MeshSample(c, &m, vertexCount) : status;
+	return status == OD_OK ? od_MeshResample(c, &m, vertexCount) : status;
 }
 
 // The sample cell of local point p clamped into the sample box: its first sample i and fractions f; returns the

@@ -62,8 +62,8 @@ void od_Collider_BeginCall(od_Collider* c, double duration);
 void od_Collider_Place(od_Collider* c, double s);
 // The frame at fraction s of the current call, without placing it.
 void od_Collider_FrameAt(const od_Collider* c, double s, od_Mat3* R, od_Vec3* t);
-// New vertices of a mesh collider (same triangles, in its frame): re-sampled; on failure nothing changed
-// (out of memory aside).
+// New vertices of a mesh collider (same triangles, in its frame): re-sampled; on failure (out of memory and
+// OD_ERROR_INTERRUPTED included: polled with od_CheckInterrupt) nothing changed.
 od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int vertexCount, const int* triangles,
 								  int triangleCount);
 // Whether every edge of the triangles is shared by exactly two (closed), and a triangle wound against a

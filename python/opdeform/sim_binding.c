@@ -350,7 +350,9 @@ static PyObject* Sim_add_collider(PyObject* obj, PyObject* args)
 	d.triangles = ArrayData(&views[1]);
 	memcpy(d.rotation, views[2].buf, sizeof d.rotation);
 	int id = -1;
+	PyThreadState* ts = Binding_Begin(obj); // a mesh's distance samples: seconds for a million triangles
 	od_Status status = od_Sim_AddCollider(sim, &d, &id);
+	Binding_End(obj, ts);
 	ReleaseArrays(views, 3);
 	return Binding_Id(obj, status, id);
 }
@@ -389,7 +391,9 @@ static PyObject* Sim_update_collider_vertices(PyObject* obj, PyObject* args)
 	{
 		return nv > INT_MAX ? PyErr_Format(PyExc_ValueError, "vertices: too many") : NULL;
 	}
+	PyThreadState* ts = Binding_Begin(obj);
 	od_Status status = od_Sim_UpdateColliderVertices(sim, id, view.buf, (int)nv);
+	Binding_End(obj, ts);
 	ReleaseArray(&view);
 	return Binding_Done(obj, status);
 }
