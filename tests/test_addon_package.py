@@ -28,6 +28,8 @@ ADDON = ROOT / "addon" / "opdeform_blender"
 BPY_VERSIONS = ("4.2", "5.0", "5.2")  # scripts/setup-bpy's venvs
 CACHE = Path.home() / ".cache" / "opdeform"
 GLIBC_MAX = (2, 28)  # manylinux_2_28: Blender's own baseline
+# the cross-built wheels (scripts/package_platform.py): wheel tag -> Blender's platform, with "_" for "-"
+PLATFORMS = {"win_amd64": "windows_x64", "macosx_11_0_arm64": "macos_arm64", "macosx_10_13_x86_64": "macos_x64"}
 # What a machine without SuiteSparse lacks: CHOLMOD, its orderings, BLAS, LAPACK, the Fortran runtime
 HIDDEN = re.compile(r"^lib(cholmod|amd|camd|colamd|ccolamd|suitesparseconfig|metis|blas|lapack|openblas|"
                     r"gfortran|quadmath)\b")
@@ -50,9 +52,14 @@ def packages(tmp_path_factory):
     proc = subprocess.run([str(ROOT / "scripts" / "package"), str(out)], capture_output=True, text=True,
                           cwd=str(ROOT), timeout=1200)
     assert proc.returncode == 0, proc.stdout + proc.stderr
-    found = {"wheel": list(out.glob("opdeform-*.whl")), "legacy": list(out.glob("*-legacy.zip")),
-             "extension": list(out.glob("opdeform_blender-*-linux_x64.zip"))}
+    found = {"wheel": list(out.glob("opdeform-*manylinux*.whl")), "legacy": list(out.glob("*-legacy-linux_x64.zip")),
+             "extension": list(out.glob("opdeform_blender-*[0-9]-linux_x64.zip"))}
+    for tag, platform in PLATFORMS.items():
+        found["wheel " + tag] = list(out.glob(f"opdeform-*-{tag}.whl"))
+        found["extension " + tag] = list(out.glob(f"opdeform_blender-*[0-9]-{platform}.zip"))
+        found["legacy " + tag] = list(out.glob(f"opdeform_blender-*-legacy-{platform}.zip"))
     assert all(len(paths) == 1 for paths in found.values()), (found, proc.stdout)
+    assert len(list(out.iterdir())) == len(found), sorted(p.name for p in out.iterdir())
     return {kind: paths[0] for kind, paths in found.items()}
 
 
@@ -235,7 +242,7 @@ def test_blender_validator(packages, version):
         pytest.skip(why)
     ext = blender_ext(version)
     assert ext is not None, f"bpy {version} has no blender_ext.py (bl_pkg)"
-    for target in (ADDON, packages["extension"]):
+    for target in (ADDON, *(path for kind, path in packages.items() if kind.startswith("extension"))):
         proc = subprocess.run([*ext, "validate", str(target)], capture_output=True, text=True, timeout=120)
         assert proc.returncode == 0 and "Success" in proc.stdout, proc.stdout + proc.stderr
 
@@ -253,7 +260,7 @@ def test_versions_are_meson_builds(packages):
     version = meson_version()
     assert bl_info_version((ADDON / "__init__.py").read_text()) == version
     assert tomllib.loads((ADDON / "blender_manifest.toml").read_text())["version"] == version
-    for kind, suffix, prefix in (("legacy", "legacy", "opdeform_blender/"), ("extension", "linux_x64", "")):
+    for kind, suffix, prefix in (("legacy", "legacy-linux_x64", "opdeform_blender/"), ("extension", "linux_x64", "")):
         assert packages[kind].name == f"opdeform_blender-{version}-{suffix}.zip"
         with zipfile.ZipFile(packages[kind]) as z:
             assert bl_info_version(z.read(prefix + "__init__.py").decode()) == version

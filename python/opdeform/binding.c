@@ -124,6 +124,13 @@ static const char* FormatName(char fmt)
 	return fmt == 'd' ? "float64" : fmt == 'f' ? "float32" : "int32";
 }
 
+// The buffer's format letter is the one wanted; for int32 also 'l' where a C long is 32 bits (Windows: numpy's
+// int32 arrays say 'l' there).
+static int SameFormat(char want, char got)
+{
+	return got == want || (want == 'i' && got == 'l' && sizeof(long) == 4);
+}
+
 int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, int writable, Py_buffer* view)
 {
 	memset(view, 0, sizeof *view);
@@ -140,7 +147,7 @@ int GetArray(PyObject* obj, const char* name, char fmt, Py_ssize_t count, int wr
 		++f;
 	}
 	Py_ssize_t itemsize = fmt == 'd' ? 8 : 4; // 'i' int32, 'f' float32
-	if (f[0] != fmt || f[1] != '\0' || view->itemsize != itemsize || view->len != count * itemsize)
+	if (!SameFormat(fmt, f[0]) || f[1] != '\0' || view->itemsize != itemsize || view->len != count * itemsize)
 	{
 		PyErr_Format(PyExc_ValueError, "%s must hold %zd %s values (got %zd bytes of format '%s')", name, count,
 					 FormatName(fmt), view->len, view->format ? view->format : "B");

@@ -1,0 +1,158 @@
+"""The cross-built packages of scripts/package (scripts/package_platform.py). Windows runs here under Debian's
+wine 8.0 (scripts/setup-wine): the C unit tests as test_core.exe, and the wheel inside the official Windows
+embeddable CPython 3.11 and 3.13 with numpy 2.1.3's Windows wheel, where the core's physics tests (the Linux
+wheel's list, WHEEL_TESTS) must give the same outcomes as the Linux wheel. macOS is checked statically, no Mac
+being here: each Mach-O's architecture, minimum OS, the libraries it loads and the one symbol it exports, and the
+wheels' tags. Every cross-built extension zip holds its platform's wheel only."""
+
+import os
+import re
+import subprocess
+import tomllib
+import xml.etree.ElementTree as ElementTree
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from test_addon_package import PLATFORMS, WHEEL_LEAVES_OUT, WHEEL_TESTS, meson_version, packages  # noqa: F401
+from test_addon import ROOT
+
+WINE = Path.home() / ".cache" / "opdeform" / "wine"
+LLVM = Path("/usr/lib/llvm-14/bin")  # llvm-14 (scripts/setup): reads PE and Mach-O files on Linux
+# Mach-O: wheel tag -> (cputype name, minimum macOS)
+MACOS = {"macosx_11_0_arm64": ("arm64", "11.0"), "macosx_10_13_x86_64": ("x86_64", "10.13")}
+# What Windows itself provides (the UCRT's api sets, kernel32): _core.pyd may import these and python3.dll only
+WINDOWS_SYSTEM = re.compile(r"^(kernel32|api-ms-win-crt-[a-z]+-l1-1-0|ucrtbase|ntdll)\.dll$", re.I)
+
+
+def wine_env():
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
+    env.update(WINEPREFIX=str(WINE / "prefix"), WINEDEBUG="-all")
+    return env
+
+
+def wine(args, timeout, env=None, cwd=None):
+    """Runs a Windows program under wine64. Its stdin is an empty pipe: from /dev/null the CPython of the
+    embeddable package cannot start (WinError 6, an invalid handle)."""
+    return subprocess.run(["/usr/lib/wine/wine64", *map(str, args)], input="", capture_output=True, text=True,
+                          timeout=timeout, env=env or wine_env(), cwd=cwd)
+
+
+def windows_path(path):
+    return "Z:" + str(path).replace("/", "\\")
+
+
+def unpack(wheel, where):
+    with zipfile.ZipFile(wheel) as z:
+        z.extractall(where)
+    return where
+
+
+def outcomes(junit):
+    """test id -> passed/failed/skipped/error, from pytest's JUnit XML."""
+    found = {}
+    for case in ElementTree.parse(junit).iter("testcase"):
+        kinds = [child.tag for child in case if child.tag in ("failure", "error", "skipped")]
+        found[f"{case.get('classname')}::{case.get('name')}"] = kinds[0] if kinds else "passed"
+    return found
+
+
+def run_wheel_tests(python, wheel_dir, junit, env):
+    args = [*python, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--junitxml={junit}", "--deselect",
+            "tests/" + WHEEL_LEAVES_OUT, *("tests/" + name for name in WHEEL_TESTS)]
+    return args, env
+
+
+@pytest.fixture(scope="module")
+def linux_outcomes(packages, tmp_path_factory):  # noqa: F811
+    where = unpack(packages["wheel"], tmp_path_factory.mktemp("linux-wheel"))
+    junit = where / "junit.xml"
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
+    env["PYTHONPATH"] = str(where)
+    args, env = run_wheel_tests(["python3"], where, junit, env)
+    subprocess.run(args, capture_output=True, text=True, env=env, timeout=900, cwd=str(ROOT))
+    return outcomes(junit)
+
+
+def test_windows_c_unit_tests_run_under_wine():
+    build = Path(os.environ.get("PACKAGE_BUILD_DIR", ROOT / "build-package")) / "platforms" / "win_amd64"
+    exe = build / "test_core.exe"
+    assert exe.exists(), f"{exe}: run scripts/package"
+    proc = wine([exe], timeout=300, cwd=str(build))
+    assert proc.returncode == 0 and re.search(r"\b(\d+) passed, 0 failed", proc.stdout), proc.stdout + proc.stderr
+
+
+@pytest.mark.parametrize("version", ["3.11", "3.13"])
+def test_windows_wheel_passes_the_core_physics_tests(packages, linux_outcomes, version, tmp_path):  # noqa: F811
+    """The Windows wheel in Windows' CPython (under wine) passes what the Linux wheel passes."""
+    python = WINE / f"py{version}" / "python.exe"
+    assert python.exists(), f"{python}: run scripts/setup-wine"
+    where = unpack(packages["wheel win_amd64"], tmp_path / "wheel")
+    junit = tmp_path / "junit.xml"
+    env = wine_env()
+    env["PYTHONPATH"] = windows_path(where)
+    args, env = run_wheel_tests([python], where, windows_path(junit), env)
+    proc = wine(args, timeout=1500, env=env, cwd=str(ROOT))
+    assert junit.exists(), proc.stdout[-4000:] + proc.stderr[-2000:]
+    found = outcomes(junit)
+    differ = {test: (linux, found.get(test)) for test, linux in linux_outcomes.items() if found.get(test) != linux}
+    assert not differ, (differ, proc.stdout[-3000:])
+    assert proc.returncode == 0, proc.stdout[-4000:]
+
+
+def test_windows_pyd_imports_python3_dll_and_exports_its_init(packages, tmp_path):  # noqa: F811
+    where = unpack(packages["wheel win_amd64"], tmp_path)
+    core = where / "opdeform" / "_core.pyd"
+    bundled = [p.name for p in (where / "opdeform").glob("*.dll")]
+    assert len(bundled) == 1 and re.fullmatch(r"libscipy_openblas-[0-9a-f]{8}\.dll", bundled[0]), bundled
+    exports = subprocess.run([LLVM / "llvm-readobj", "--coff-exports", core], capture_output=True, text=True,
+                             check=True).stdout
+    assert re.findall(r"Name: (\S+)", exports) == ["PyInit__core"], exports
+    imports = subprocess.run([LLVM / "llvm-readobj", "--coff-imports", core], capture_output=True, text=True,
+                             check=True).stdout
+    dlls = set(re.findall(r"Name: (\S+\.dll)", imports, flags=re.I))
+    assert {"python3.dll", bundled[0]} <= dlls, dlls
+    assert not [d for d in dlls - {"python3.dll", bundled[0]} if not WINDOWS_SYSTEM.match(d)], dlls
+
+
+@pytest.mark.parametrize("tag", MACOS)
+def test_macos_wheel_statically(packages, tag, tmp_path):  # noqa: F811
+    """Architecture, minimum macOS, loaded libraries (the system's and the wheel's own), the one exported
+    symbol, and the tag: all that can be checked without a Mac."""
+    arch, minimum = MACOS[tag]
+    wheel = packages["wheel " + tag]
+    assert wheel.name == f"opdeform-{meson_version()}-cp311-abi3-{tag}.whl"
+    where = unpack(wheel, tmp_path)
+    info = next(where.glob("*.dist-info"))
+    assert re.search(rf"^Tag: cp311-abi3-{tag}$", (info / "WHEEL").read_text(), flags=re.M)
+    core, blas = where / "opdeform" / "_core.abi3.so", where / "opdeform.libs" / "libscipy_openblas.dylib"
+    for binary in (core, blas):
+        headers = subprocess.run([LLVM / "llvm-objdump", "--macho", "--private-headers", binary],
+                                 capture_output=True, text=True, check=True).stdout
+        assert re.search(rf"^\s*MH_MAGIC_64\s+{arch.upper().replace('_', '_')}\s", headers, flags=re.M | re.I), \
+            headers[:800]
+        versions = re.findall(r"(?:minos|version) (\d+\.\d+)", headers)
+        assert versions and max(tuple(map(int, v.split("."))) for v in versions) <= \
+            tuple(map(int, minimum.split("."))), (binary.name, versions)
+        loads = re.findall(r"cmd LC_LOAD_DYLIB\n\s+cmdsize \d+\n\s+name (\S+)", headers)
+        assert loads and all(n.startswith("/usr/lib/") or n == "@rpath/libscipy_openblas.dylib" for n in loads), loads
+    assert "@loader_path/../opdeform.libs" in subprocess.run(
+        [LLVM / "llvm-objdump", "--macho", "--private-headers", core], capture_output=True, text=True).stdout
+    symbols = subprocess.run([LLVM / "llvm-nm", "--extern-only", "--defined-only", core], capture_output=True,
+                             text=True, check=True).stdout
+    assert [line.split()[-1] for line in symbols.splitlines()] == ["_PyInit__core"], symbols
+
+
+@pytest.mark.parametrize("tag", PLATFORMS)
+def test_extension_zip_holds_its_platforms_wheel(packages, tag):  # noqa: F811
+    with zipfile.ZipFile(packages["extension " + tag]) as z:
+        manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
+        wheels = [n for n in z.namelist() if n.endswith(".whl")]
+        assert wheels == ["wheels/" + packages["wheel " + tag].name], wheels
+        assert z.read(wheels[0]) == packages["wheel " + tag].read_bytes()
+    assert manifest["platforms"] == [PLATFORMS[tag].replace("_", "-")]
+    assert manifest["wheels"] == ["./" + wheels[0]]
+    with zipfile.ZipFile(packages["legacy " + tag]) as z:
+        core = [n for n in z.namelist() if "/vendor/opdeform/_core" in n]
+        assert core == ["opdeform_blender/vendor/opdeform/_core" + (".pyd" if tag == "win_amd64" else ".abi3.so")]
