@@ -5,7 +5,8 @@ fan-triangulated, other data (normals, texture coordinates, colours) skipped. ``
 17 significant digits (exact round trip), ``write_ply`` binary little-endian PLY (float64 vertices).
 ``read`` and ``write`` pick the format from the file name. Parsing and formatting run in the C core with
 the GIL released; a malformed file raises ValueError naming the file and the problem, and so does anything
-but a regular file (a FIFO, a device such as /dev/zero, a directory). OBJ is ASCII or UTF-8 text with LF,
+but a regular file (a FIFO, a device such as /dev/zero, a directory) and a coordinate that is not finite
+(nan, inf, 1e400); the writers refuse non-finite vertices. OBJ is ASCII or UTF-8 text with LF,
 CRLF or old-Mac CR line ends; UTF-16 or binary data (a NUL byte) is refused.
 
 PC2 point caches (``PC2Writer``, ``read_pc2``, ``write_pc2``, ``pc2_header``) and ``atomic_path`` (a file appears
@@ -23,31 +24,46 @@ import numpy as np
 from . import _core
 from ._arguments import as_array, integer
 
-__all__ = ["read", "read_obj", "read_ply", "write", "write_obj", "write_ply", "OutputBusy",
+__all__ = ["read", "read_obj", "read_ply", "read_regular", "write", "write_obj", "write_ply", "OutputBusy",
            "PC2Writer", "atomic_path", "exclusive", "lock_name", "partial_files", "partial_name", "pc2_header",
            "read_pc2", "write_pc2"]
 
 
-def _read(path, fmt):
-    # Opened without blocking (a FIFO would wait for a writer forever) and checked before reading: only a
-    # regular file has an end (/dev/zero would fill the memory).
+def read_regular(path):
+    """The bytes of a regular file; ValueError naming it for anything else. Opened without blocking (a FIFO
+    would wait for a writer forever) and checked before reading: only a regular file has an end (/dev/zero
+    would fill the memory)."""
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
             raise ValueError(f"{os.fspath(path)}: not a regular file (a directory, FIFO, socket or device)")
         with os.fdopen(fd, "rb", closefd=False) as f:
-            data = f.read()
+            return f.read()
     finally:
         os.close(fd)
+
+
+def _read(path, fmt):
     try:
-        vertices, triangles = _core.parse_mesh(data, fmt)
+        vertices, triangles = _core.parse_mesh(read_regular(path), fmt)
     except ValueError as exc:
         raise ValueError(f"{os.fspath(path)}: {exc}") from None
-    return np.frombuffer(vertices, np.float64).reshape(-1, 3), np.frombuffer(triangles, np.int32).reshape(-1, 3)
+    vertices = np.frombuffer(vertices, np.float64).reshape(-1, 3)
+    bad = np.flatnonzero(~np.isfinite(vertices).all(axis=1))
+    if len(bad):  # nan, inf, or a number past float64 (1e400)
+        raise ValueError(f"{os.fspath(path)}: vertex {bad[0]} (from 0) is not finite: {vertices[bad[0]].tolist()}")
+    return vertices, np.frombuffer(triangles, np.int32).reshape(-1, 3)
+
+
+def _finite(name, array):
+    bad = np.flatnonzero(~np.isfinite(array).all(axis=1))
+    if len(bad):
+        raise ValueError(f"{name}[{bad[0]}] is not finite: {array[bad[0]].tolist()}")
+    return array
 
 
 def _write(path, vertices, triangles, fmt):
-    vertices = as_array("vertices", vertices, (None, 3))
+    vertices = _finite("vertices", as_array("vertices", vertices, (None, 3)))
     triangles = as_array("triangles", triangles, (None, 3), np.int32)
     data = _core.format_mesh(fmt, vertices, triangles)
     with open(path, "wb") as f:

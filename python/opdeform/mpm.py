@@ -281,22 +281,28 @@ def write_ply(path, positions, orientations, velocities=None):
 
 
 def read_ply(path):
-    """The dict of float arrays written by write_ply (name -> (n,))."""
-    with open(path, "rb") as f:
-        names, n = [], 0
-        while True:
-            raw = f.readline()
-            if not raw:  # a file cut short (or empty): no end_header would ever come
-                raise ValueError(f"{path}: the PLY header ends before end_header")
-            line = raw.decode("ascii").strip()
-            if line.startswith("element vertex"):
-                n = int(line.split()[2])
-            elif line.startswith("property float"):
-                names.append(line.split()[2])
-            elif line == "end_header":
-                break
-        data = np.frombuffer(f.read(4 * n * len(names)), dtype="<f4").reshape(n, len(names))
-    return {name: data[:, k] for k, name in enumerate(names)}
+    """The dict of float arrays written by write_ply (name -> (n,)); ValueError naming the file for anything
+    else (not a regular file, a damaged header, a vertex count the data does not hold)."""
+    from .io import read_regular
+    data = read_regular(path)
+    end = data.find(b"end_header\n", 0, 65536)
+    if end < 0:  # a file cut short (or empty): no end_header would ever come
+        raise ValueError(f"{os.fspath(path)}: no end_header in the first 64 KiB of the PLY header")
+    try:
+        lines = data[:end].decode("ascii").splitlines()
+    except UnicodeDecodeError:
+        raise ValueError(f"{os.fspath(path)}: the PLY header is not ASCII text") from None
+    names = [line.split()[2] for line in lines if line.startswith("property float") and len(line.split()) == 3]
+    counts = [line.split()[2:] for line in lines if line.startswith("element vertex")]
+    n = counts[0][0] if len(counts) == 1 and len(counts[0]) == 1 else None
+    if n is None or not n.isdigit():
+        raise ValueError(f"{os.fspath(path)}: the PLY header's vertex count must be one integer >= 0, got {n!r}")
+    n, body = int(n), data[end + len(b"end_header\n"):]
+    if n * 4 * len(names) > len(body):
+        raise ValueError(f"{os.fspath(path)}: truncated: {n} vertices of {len(names)} floats need "
+                         f"{n * 4 * len(names)} bytes, the file holds {len(body)}")
+    values = np.frombuffer(body, dtype="<f4", count=n * len(names)).reshape(n, len(names))
+    return {name: values[:, k] for k, name in enumerate(names)}
 
 
 def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
