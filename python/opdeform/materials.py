@@ -30,11 +30,13 @@ cross-sections (the particles' second moment of area along the body, smoothed ov
 would, its particles' stiffness is raised, and the loads are solved again; the graph then bends everywhere
 as a continuum of rigidity c I(s), and k = E J / (c J_particles) makes that the material's (J the closed
 mesh's second moment, as above). Only the cross directions in which the body is a beam are measured (a
-plate across its thickness); a body in several connected pieces is calibrated piece by piece (issue 24,
-docs/settings.md). The tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness
-per particle (``Simulation(graph, stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight
-static solves of the graph, once per graph (0.19 s at 100 particles, 2.0 s at 1,000; above 1,000 particles the
-"bending" k). A blob, a curved body, or a chain whose end particle cannot be held by a face keeps the "bending"
+plate across its thickness); a body in several connected pieces is calibrated piece by piece, a bent one (an
+L-bracket) straight part by straight part (its skeleton on a grid fill of the mesh), and thin appendages (a
+character's ears and tail) each as a cantilever of its own cross-sections (issue 24, docs/settings.md). The
+tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness per particle (``Simulation(graph,
+stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight static solves of the graph, once per
+graph (0.19 s at 100 particles, 2.0 s at 1,000; above 1,000 particles the "bending" k). A blob, a
+curved body, or a chain whose end particle cannot be held by a face keeps the "bending"
 k on every particle.
 
 E itself is not scale-free: a body of size L under gravity sags by a fraction proportional to rho g L / E (and
@@ -170,14 +172,24 @@ def _calibrated_ratio(graph, mesh, calibration):
     if calibration not in known:
         centre, frame, moments = _principal_frame(graph)
         second = _body_second_moment(graph, centre, frame, moments, mesh)
-        measured = _measured_bending(graph, centre, frame, moments, second, mesh) if calibration == "measured" \
-            else None
-        found = _compliant_ratio(graph, centre, frame, moments, second)
-        if measured is not None:
-            w = _beam_weight(second)
-            found = measured if found is None else w * measured + (1.0 - w) * found
+        points = _clamp_points(graph, mesh) if calibration == "measured" else None
+        found = _body_ratio(graph, centre, frame, moments, second, points)
+        if calibration == "measured" and found is not None and graph.n_particles <= _MEASURED_MAX:
+            closed = _closed_mesh(graph, mesh)
+            found = found if closed is None else _with_parts(graph, closed, found)
         known[calibration] = found
     return known[calibration]
+
+
+def _body_ratio(graph, centre, frame, moments, second, points):
+    """k / E of a body whose continuum has the second moment ``second``: measured where it is a beam (``points``
+    on it, whose end faces are held; None: not measured), blended by _beam_weight with the bending k."""
+    measured = None if points is None else _measured_bending(graph, centre, frame, moments, second, points)
+    found = _compliant_ratio(graph, centre, frame, moments, second)
+    if measured is None:
+        return found
+    w = _beam_weight(second)
+    return measured if found is None else w * measured + (1.0 - w) * found
 
 
 def _piece_ratios(graph, mesh, calibration):
@@ -290,13 +302,13 @@ _MEASURED_MAX = 1000
 _LIMIT = 4.0  # the scale stays within [1/_LIMIT, _LIMIT] (a guard: 0.52-1.75 on the bodies of docs/settings.md)
 
 
-def _measured_bending(graph, centre, frame, moments, second, mesh):
+def _measured_bending(graph, centre, frame, moments, second, points):
     """The measured k per Pa of each particle, or None where the body is no straight beam (length under
     _ELONGATED thicknesses, or curved) or cannot be held by an end face (an end's points on a line: a chain's
-    end particle), and for more than _MEASURED_MAX particles."""
+    end particle), and for more than _MEASURED_MAX particles. An end face: the ``points`` within _END of the
+    length of an end."""
     if graph.n_particles > _MEASURED_MAX:
         return None
-    points = _clamp_points(graph, mesh)
     along = (points - centre) @ frame[:, 0]
     lo, hi = along.min(), along.max()
     ends = (along <= lo + _END * (hi - lo), along >= hi - _END * (hi - lo))
@@ -589,3 +601,337 @@ def handle_warning(sim, speed, angular_speed=0.0, substeps=1, fps=24.0):
     per_step = speed * dt / body_size(sim.graph)
     turn = math.degrees(angular_speed * dt)
     return per_step, bool(per_step > 0.05 or turn > 10.0)
+
+
+# -- appendages: thin parts off a thick core, calibrated one by one (issue 24) ------------------------------
+# A creature's ears and tail hold 1-8 of its 50-400 particles: too few for the measured calibration's end
+# faces, and under the body's one bending k its tail, the torso held, drooped 5.4x more at 400 particles than
+# at 50. Each thin part is cut from the closed mesh's volume on a grid (a morphological opening: the cells that
+# no ball of _THIN times the body's greatest depth inside it reaches), held at its root (the core particles with
+# an edge to it) and loaded across by its weight; its k is set so that its tip deflects as the continuum
+# cantilever of its own cross-sections would.
+_THIN = 0.35  # the opening ball's radius over the greatest depth (the creature's ears and tail: 0.12-0.2)
+_GRID_CELLS = 200_000  # grid cells over the mesh's bounding box
+_MARGIN = 2  # cells of the core's rim left to it: two ears met through the rim of the head between them
+_SECTION = 4.0  # cells per cell of length, at least, of a part (the creature's ears 16, a plate's edges 1-2)
+_TIP = 0.1  # the tip region: the last share of an appendage's length
+_BENT = 0.2  # a body whose skeleton leaves its chord by this share of it is split there (the L-bracket: 0.45)
+_SKELETON_CELLS = 20_000  # grid cells over the bounding box for the skeleton
+_TIP_POINTS = 40  # at most this many of the tip region's cells skinned
+
+
+def _closed_mesh(graph, mesh):
+    """(vertices, triangles) of the closed mesh given or remembered, else None."""
+    if mesh is None and graph._made[0] == "from_mesh":
+        mesh = graph._made[1][:2]
+    if mesh is None:
+        return None
+    vertices, triangles = np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int64)
+    return (vertices, triangles) if _closed_mesh_moments(vertices, triangles) is not None else None
+
+
+def _with_parts(graph, mesh, ratio):
+    """``ratio`` (k / E per particle, or one for the body) with each thin appendage's particles given their own
+    k / E, or, on a bent body with none, each straight part's; ``ratio`` itself where the body has neither."""
+    grid = _Grid(*mesh)
+    label = grid.appendages()
+    part = label[grid.cell_of(graph.centers)]
+    if not (part >= 0).any():
+        return _with_straight_parts(graph, mesh, grid, ratio)
+    ratio = np.full(graph.n_particles, ratio) if np.ndim(ratio) == 0 else ratio.copy()
+    for p in np.unique(part[part >= 0]):
+        chosen = np.flatnonzero(part == p)
+        found = _appendage_ratio(graph, chosen, grid.centres(np.flatnonzero(label == p)), grid.h, ratio)
+        if found is not None:
+            ratio[found[0]] = found[1]
+    return ratio
+
+
+def _with_straight_parts(graph, mesh, grid, ratio):
+    """k / E per particle of a bent body, each straight part (the cells and particles nearest a segment of its
+    skeleton, _Grid.skeleton) calibrated as a body of its own, its second moment and end faces the grid cells'
+    (``grid``, of the closed ``mesh``): the particles' own J left the L-bracket 1.39x apart over 50-400
+    particles (docs/settings.md). ``ratio`` where the body is straight or a part cannot be calibrated."""
+    corners = _Grid(*mesh, cells=_SKELETON_CELLS).skeleton()
+    if corners is None or len(corners) < 3:
+        return ratio
+    centres = grid.centres(np.flatnonzero(grid.inside.ravel()))
+    owner = _nearest_segment(centres, corners)
+    part = _nearest_segment(graph.centers, corners)
+    found = np.full(graph.n_particles, np.nan)
+    for p in range(len(corners) - 1):
+        chosen = np.flatnonzero(part == p)
+        mine = owner == p
+        if len(chosen) < 2 or not mine.any():
+            continue
+        sub = _subgraph(graph, chosen)
+        if sub.n_edges == 0:
+            continue
+        centre, frame, moments = _principal_frame(sub)
+        y = (centres[mine] - centre) @ frame
+        second = (y.T @ y + mine.sum() * grid.h ** 2 / 12.0 * np.eye(3)) * (sub.volumes.sum() / mine.sum())
+        own = _body_ratio(sub, centre, frame, moments, second, centres[mine])
+        if own is not None:
+            found[chosen] = own
+    return ratio if np.isnan(found).all() else np.where(np.isnan(found), ratio, found)
+
+
+def _subgraph(graph, chosen):
+    """The graph of the particles ``chosen`` and the edges between them."""
+    index = np.full(graph.n_particles, -1)
+    index[chosen] = np.arange(len(chosen))
+    e = index[graph.edges]
+    return Graph(graph.centers[chosen], graph.radii[chosen], e[(e >= 0).all(axis=1)], graph.axes[chosen])
+
+
+def _nearest_segment(points, corners):
+    """For each point, the segment of the polyline ``corners`` (m, 3) nearest it (0 .. m - 2)."""
+    distance = []
+    for a, b in zip(corners[:-1], corners[1:]):
+        h = np.clip(((points - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+        distance.append(np.linalg.norm(points - (a + h[:, None] * (b - a)), axis=1))
+    return np.argmin(np.stack(distance, axis=1), axis=1)
+
+
+def _straightened(points, corners):
+    """The polyline through ``points`` at the indices ``corners`` refitted: a line through each run of points
+    between two corners (its middle half: the level sets round a corner off), each inner corner where the
+    lines on either side come closest, the ends the end points on their lines."""
+    lines = []
+    for a, b in zip(corners[:-1], corners[1:]):
+        run = points[a + (b - a) // 4:b - (b - a) // 4 + 1]
+        middle = run.mean(axis=0)
+        lines.append((middle, np.linalg.svd(run - middle)[2][0]))
+    fitted = [lines[0][0] + (points[0] - lines[0][0]) @ lines[0][1] * lines[0][1]]
+    for (p, u), (q, w) in zip(lines[:-1], lines[1:]):
+        # closest points p + a u, q + b w of two lines: a - b (u.w) = (q - p).u, a (u.w) - b = (q - p).w
+        c, d = u @ w, q - p
+        a, b = np.linalg.lstsq([[1.0, -c], [c, -1.0]], [d @ u, d @ w], rcond=None)[0]
+        fitted.append(0.5 * (p + a * u + q + b * w))
+    fitted.append(lines[-1][0] + (points[-1] - lines[-1][0]) @ lines[-1][1] * lines[-1][1])
+    return np.array(fitted)
+
+
+def _polyline(points, bent):
+    """Indices of the corners of a polyline through ``points`` (m, 3), in order (Douglas-Peucker): a point
+    further than ``bent`` times the chord from it becomes a corner, and each side is split again."""
+    a, b = points[0], points[-1]
+    chord = np.linalg.norm(b - a)
+    if len(points) < 3 or chord == 0.0:
+        return [0, len(points) - 1]
+    off = np.linalg.norm(np.cross(points - a, b - a), axis=1) / chord
+    far = int(np.argmax(off))
+    if off[far] <= bent * chord:
+        return [0, len(points) - 1]
+    left, right = _polyline(points[:far + 1], bent), _polyline(points[far:], bent)
+    return left + [far + i for i in right[1:]]
+
+
+def _appendage_ratio(graph, chosen, samples, h, ratio):
+    """k / E of the particles ``chosen`` (an appendage, whose volume is the grid cells ``samples`` of side h):
+    held at the particles with an edge to it, loaded across each of its cross axes, the k at which its tip
+    region's compliance (summed over both) is the continuum cantilever's; None where nothing holds it."""
+    e = graph.edges
+    inner = np.isin(e, chosen)
+    root = np.setdiff1d(e[inner.any(axis=1)], chosen)
+    if len(root) == 0:
+        return None
+    axes = np.linalg.eigh(np.cov((samples - samples.mean(axis=0)).T))[1][:, ::-1]
+    s = (samples - graph.centers[root].mean(axis=0)) @ axes[:, 0]
+    if s.mean() < 0.0:
+        s, axes = -s, -axes
+    tip = np.flatnonzero(s >= s.max() - _TIP * (s.max() - s.min()))
+    tip = tip[np.linspace(0, len(tip) - 1, min(len(tip), _TIP_POINTS)).astype(np.int64)]
+    continuum = sum(_cantilever_tip(s, samples @ axes[:, b], h, tip) for b in (1, 2))
+    ring = np.setdiff1d(e[np.isin(e, root).any(axis=1)], np.concatenate([chosen, root]))
+    members = np.concatenate([chosen, root, ring])
+    index = np.full(graph.n_particles, -1)
+    index[members] = np.arange(len(members))
+    part = Graph(graph.centers[members], graph.radii[members], index[e[np.isin(e, members).all(axis=1)]],
+                 graph.axes[members])
+    free = len(chosen) + len(root)
+    held = _clamp_points(part, None).reshape(len(members), 7, 3)[free:].reshape(-1, 3)
+    guess = float(np.mean(ratio[chosen]))
+    own = len(chosen)
+    k = np.concatenate([np.full(own, guess), ratio[root], ratio[ring]])
+    for _ in range(3):
+        compliance = 0.0
+        for b in (1, 2):
+            load = _SAG * (s.max() - s.min()) * k[0] / _cantilever_tip(s, samples @ axes[:, b], h, tip)
+            sim = Simulation(part, k, density=1.0, gravity=load * axes[:, b])
+            for p in held:
+                sim.add_position_constraint(p)
+            sim.set_solver("chebyshev")
+            sim.solve_static(_ITERATIONS[0])
+            compliance += float(((sim.skin_points(samples[tip]) - samples[tip]) @ axes[:, b]).mean()) / load
+        k[:own] = max(k[0] * compliance / continuum, guess / 64.0)
+    return chosen, k[0]
+
+
+def _cantilever_tip(s, t, h, tip):
+    """The mean deflection of the ``tip`` cells of a continuum cantilever (E = 1, unit weight per volume)
+    whose cells of side h lie at s along it and t across, clamped at its least s: slices of width h, each
+    with its weight and second moment of area, curvature M / I integrated twice from the root."""
+    bins = np.minimum(((s - s.min()) / h).astype(np.int64), int((s.max() - s.min()) / h))
+    count = np.bincount(bins).astype(np.float64)
+    middle = s.min() + (np.arange(len(count)) + 0.5) * h
+    mean = np.bincount(bins, t) / np.maximum(count, 1.0)
+    second = (np.bincount(bins, t * t) - count * mean ** 2 + count * h * h / 12.0) * h * h  # per unit length
+    weight = count * h ** 3
+    moment = np.array([(weight[j + 1:] * (middle[j + 1:] - middle[j])).sum() for j in range(len(count))])
+    curvature = moment / np.maximum(second, second.max() * 1e-6)
+    deflection = np.cumsum(np.cumsum(curvature) * h) * h
+    return float(deflection[bins[tip]].mean())
+
+
+class _Grid:
+    """A closed mesh's volume on a grid of cubes of side ``h`` from ``lo``: ``inside`` (nx, ny, nz), the cells
+    whose centres the mesh encloses (its crossings along z at each column's centre, paired)."""
+
+    def __init__(self, vertices, triangles, cells=_GRID_CELLS):
+        self.lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+        self.h = float(np.cbrt(np.prod(hi - self.lo) / cells))
+        self.shape = tuple(int(x) for x in np.ceil((hi - self.lo) / self.h))
+        self.inside = self._fill((vertices[triangles] - self.lo) / self.h - 0.5)
+
+    def _fill(self, p):
+        """The inside cells from the triangles p (t, 3, 3) in cell units (cell i's centre at i)."""
+        nx, ny, nz = self.shape
+        p = p[_area(p[:, 0], p[:, 1], p[:, 2, :2]) != 0.0]  # a face seen edge-on from above crosses no column
+        lo = np.maximum(np.ceil(p[:, :, :2].min(axis=1)), 0).astype(np.int64)
+        span = np.maximum(np.minimum(np.floor(p[:, :, :2].max(axis=1)), [nx - 1, ny - 1]) - lo + 1, 0).astype(np.int64)
+        count = span[:, 0] * span[:, 1]
+        tri = np.repeat(np.arange(len(p)), count)
+        k = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        q = lo[tri] + np.stack([k % span[tri, 0], k // span[tri, 0]], axis=1)
+        a, b, c = p[tri, 0], p[tri, 1], p[tri, 2]
+        w = np.stack([_area(b, c, q), _area(c, a, q), _area(a, b, q)], axis=1) / _area(a, b, c[:, :2])[:, None]
+        hit = (w >= 0.0).all(axis=1)
+        column = q[hit, 0] * ny + q[hit, 1]
+        z = (w[hit] * np.stack([a[hit, 2], b[hit, 2], c[hit, 2]], axis=1)).sum(axis=1)
+        # a column through an edge or a corner meets each face there: one crossing (a flat face on a grid of
+        # vertices, the plate's, else left holes through the body)
+        crossing = np.unique(np.stack([column, np.round(z, 9)], axis=1), axis=0)
+        column, z = crossing[:, 0].astype(np.int64), crossing[:, 1]
+        starts = np.searchsorted(column, column, side="left")
+        rank = np.arange(len(column)) - starts
+        even = np.bincount(column, minlength=nx * ny)[column] % 2 == 0
+        enter = np.flatnonzero((rank % 2 == 0) & even)
+        first = np.clip(np.ceil(z[enter]), 0, nz).astype(np.int64)
+        last = np.clip(np.floor(z[enter + 1]) + 1, 0, nz).astype(np.int64)
+        change = np.zeros((nx * ny, nz + 1), np.int64)
+        np.add.at(change, (column[enter], first), 1)
+        np.add.at(change, (column[enter], last), -1)
+        return (np.cumsum(change, axis=1)[:, :nz] > 0).reshape(nx, ny, nz)
+
+    def centres(self, flat):
+        return self.lo + (np.stack(np.unravel_index(flat, self.shape), axis=1) + 0.5) * self.h
+
+    def cell_of(self, points):
+        """The flat cell index of each point (clipped to the grid)."""
+        i = np.clip(((points - self.lo) / self.h).astype(np.int64), 0, np.array(self.shape) - 1)
+        return np.ravel_multi_index(tuple(i.T), self.shape)
+
+    def skeleton(self):
+        """The corners (m, 3) of the body's skeleton, a polyline: the centroids of the level sets of the
+        geodesic distance (in steps to the 26 neighbours) from one end face, the cells furthest from a cell,
+        cut at the corners of _polyline at _BENT; None where the inside is not one connected body."""
+        cells = np.flatnonzero(self.inside.ravel())
+        first = self.geodesic(cells[:1])[cells]
+        if len(cells) == 0 or (first < 0).any():
+            return None
+        level = self.geodesic(cells[first == first.max()])[cells]
+        count = np.bincount(level)
+        xyz = self.centres(cells)
+        skeleton = np.stack([np.bincount(level, xyz[:, i]) for i in range(3)], axis=1) / count[:, None]
+        return _straightened(skeleton, _polyline(skeleton, _BENT))
+
+    def geodesic(self, seeds):
+        """Per flat cell, its distance in steps (26 neighbours) through the inside from the flat cells
+        ``seeds``; -1 where none reaches."""
+        shape = np.array(self.shape) + 2
+        inside = np.pad(self.inside, 1).ravel()
+        step = _steps(shape)
+        distance = np.full(inside.size, -1)
+        front = np.ravel_multi_index(tuple((np.stack(np.unravel_index(seeds, self.shape)) + 1)), shape)
+        distance[front], d = 0, 0
+        while len(front):
+            d += 1
+            near = np.unique((front[:, None] + step).ravel())
+            front = near[inside[near] & (distance[near] < 0)]
+            distance[front] = d
+        return distance.reshape(shape)[1:-1, 1:-1, 1:-1].ravel()
+
+    def appendages(self):
+        """A flat label per cell: the connected thin part it is in (0, 1, ...), -1 for the core and outside."""
+        depth = 0
+        eroded = self.inside
+        while eroded.any():
+            eroded, depth = _erode(eroded, depth), depth + 1
+        radius = max(1, int(round(_THIN * depth)))
+        core = self.inside
+        for r in range(radius):
+            core = _erode(core, r)
+        for r in range(radius + _MARGIN):
+            core = _dilate(core, r)
+        label = _components(self.inside & ~core).ravel()
+        index = np.stack(np.unravel_index(np.arange(label.size), self.shape), axis=1)
+        for p in range(label.max() + 1):
+            cells = np.flatnonzero(label == p)
+            length = np.linalg.norm(index[cells].max(axis=0) - index[cells].min(axis=0)) + 1.0
+            if len(cells) < _SECTION * length:  # slivers along a box's edges and creases, not parts
+                label[cells] = -1
+        return label
+
+
+def _steps(shape):
+    """The flat offsets of the 26 neighbours of a cell in a grid of ``shape``."""
+    o = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
+    o = o[np.any(o != 0, axis=1)]
+    return o @ np.array([shape[1] * shape[2], shape[2], 1])
+
+
+def _area(a, b, q):
+    """Twice the signed area of the triangles (a, b, q) in xy."""
+    return (b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (q[:, 0] - a[:, 0])
+
+
+def _dilate(mask, step):
+    """One step of a ball's dilation: the 6 face neighbours on even steps, the 26 on odd (an octagon-like
+    ball, closer to round than either)."""
+    out = mask.copy()
+    for axis in range(3):
+        grown = out if step % 2 else mask
+        shifted = np.zeros_like(grown)
+        for lo, hi in ((slice(1, None), slice(None, -1)), (slice(None, -1), slice(1, None))):
+            a, b = [slice(None)] * 3, [slice(None)] * 3
+            a[axis], b[axis] = lo, hi
+            shifted[tuple(a)] |= grown[tuple(b)]
+        out = out | shifted
+    return out
+
+
+def _erode(mask, step):
+    return ~_dilate(~mask, step)
+
+
+def _components(mask):
+    """Labels 0, 1, ... of the face-connected components of ``mask``, -1 elsewhere: each cell takes the least
+    flat index among its neighbours' and then its label's label (pointer jumping), until nothing changes."""
+    big = mask.size
+    label = np.where(mask, np.arange(big).reshape(mask.shape), big)
+    while True:
+        spread = label.copy()
+        for axis in range(3):
+            for lo, hi in ((slice(1, None), slice(None, -1)), (slice(None, -1), slice(1, None))):
+                a, b = [slice(None)] * 3, [slice(None)] * 3
+                a[axis], b[axis] = lo, hi
+                spread[tuple(a)] = np.minimum(spread[tuple(a)], label[tuple(b)])
+        spread = np.where(mask, spread, big)
+        flat = np.append(spread.ravel(), big)
+        spread = flat[flat[spread]]
+        if np.array_equal(spread, label):
+            break
+        label = spread
+    _, number = np.unique(label, return_inverse=True)
+    return np.where(mask, number.reshape(mask.shape), -1)

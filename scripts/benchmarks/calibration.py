@@ -1,15 +1,17 @@
 """Calibration for any body: static droop under the same modulus at 50-400 particles (issue 24).
 
 Each body is built with Graph.from_mesh at every particle count, given ``materials.stiffness_for(graph, Rubber)``
-(Rubber's density), held where it is clamped (every mesh vertex of that region pinned) and solved static under
-gravity; the droop is the mean drop of its tip region over a length. Bodies: a plate 1 x 0.5 x 0.08 m clamped
-at a short end, an L-shaped bracket (arms of 1.0 and 0.6 m, section 0.2 x 0.1 m, lying flat, clamped at the end
-of its long arm), the 2 x 0.2 m tail, the creature (``meshes.creature()``) standing on its pinned feet (the tail
-tip's drop), and a two-box body (two 1 x 0.1 x 0.1 m bars 0.3 m apart, one object, each clamped at x = 0).
+(Rubber's density; the character Jelly's), held where it is clamped (every mesh vertex of that region pinned)
+and solved static under gravity; the droop is the mean drop of its tip region over a length. Bodies: a plate
+1 x 0.5 x 0.08 m clamped at a short end, an L-shaped bracket (arms of 1.0 and 0.6 m, section 0.2 x 0.1 m,
+lying flat, clamped at the end of its long arm), the 2 x 0.2 m tail, the character (``meshes.character()``)
+held by its torso (the drop of its tail's tip and of its left ear's, over their lengths), and a two-box body
+(two 1 x 0.1 x 0.1 m bars 0.3 m apart, one object, each clamped at x = 0).
 Prints the droops, max/min across counts per body, the plate against Euler-Bernoulli and Kirchhoff
 (cylindrical bending, nu = 0.3) theory at the body's effective E, and the calibration's cost (processor time).
 Options: --counts 50,100,200,400, --bodies plate,bracket, --calibration measured|bending|uniform,
---cost (the calibration's processor time at 100 and 1,000 particles of the plate and the tail).
+--cost (the calibration's processor time at 100 and 1,000 particles of the plate, the tail, the bracket and
+the character).
 """
 
 import argparse
@@ -23,6 +25,7 @@ from opdeform import materials, meshes
 from .common import table
 
 RUBBER = materials.PRESETS["Rubber"]
+JELLY = materials.PRESETS["Jelly"]
 G = 9.81
 
 
@@ -61,9 +64,33 @@ def tail():
     return v, t, v[:, 0] <= 1e-9, v[:, 0] >= 2.0 - 1e-9, 2.0
 
 
-def creature():
-    v, t = meshes.creature()
-    return v, t, v[:, 2] <= 0.03, v[:, 0] <= v[:, 0].min() + 0.05, 1.0
+def _character(part):
+    """``meshes.character()`` held by its torso (the vertices nearest the body's capsule, in its middle 60 %),
+    the tip of ``part`` (the vertices nearest its capsule, at its end)."""
+    v, t = meshes.character()
+    names = list(meshes.CHARACTER_PARTS)
+    near = [_capsule(v, *meshes.CHARACTER_PARTS[name]) for name in names]
+    own = np.argmin([d for d, _ in near], axis=0)
+    along = near[names.index("body")][1]
+    held = (own == names.index("body")) & (along > 0.2) & (along < 0.8)
+    i = names.index(part)
+    a, b = (np.array(x) for x in meshes.CHARACTER_PARTS[part][:2])
+    return v, t, held, (own == i) & (near[i][1] >= 0.999), float(np.linalg.norm(b - a))
+
+
+def _capsule(p, a, b, ra, rb):
+    """(distance of points p to a tapered capsule's surface, their parameter 0..1 along its axis)."""
+    a, b = np.array(a), np.array(b)
+    h = np.clip(((p - a) @ (b - a)) / ((b - a) @ (b - a)), 0.0, 1.0)
+    return np.linalg.norm(p - (a + h[:, None] * (b - a)), axis=1) - (ra + (rb - ra) * h), h
+
+
+def character_tail():
+    return _character("tail")
+
+
+def character_ear():
+    return _character("ear.L")
 
 
 def two_boxes():
@@ -73,17 +100,20 @@ def two_boxes():
     return v, t, v[:, 0] <= 1e-9, v[:, 0] >= 1.0 - 1e-9, 1.0
 
 
-BODIES = {"plate": plate, "bracket": bracket, "tail": tail, "creature": creature, "two_boxes": two_boxes}
+BODIES = {"plate": plate, "bracket": bracket, "tail": tail, "character_tail": character_tail,
+          "character_ear": character_ear, "two_boxes": two_boxes}
 
 
 def droop(body, particles, calibration="measured", iterations=4000):
-    """(droop of the tip region / the body's length, the graph's size used for E, calibration seconds)."""
+    """(droop of the tip region / the body's length, the graph's size used for E, calibration seconds); the
+    character under Jelly (under Rubber it droops 0.1-0.5 mm)."""
     v, t, held, tip, length = BODIES[body]()
+    material = JELLY if body.startswith("character") else RUBBER
     g = opdeform.Graph.from_mesh(v, t, particles=particles)
     start = time.process_time()
-    k = materials.stiffness_for(g, RUBBER.modulus, calibration=calibration)
+    k = materials.stiffness_for(g, material.modulus, calibration=calibration)
     cost = time.process_time() - start
-    sim = opdeform.Simulation(g, k, density=RUBBER.density)
+    sim = opdeform.Simulation(g, k, density=material.density)
     opdeform.pin_vertices(sim, v, np.flatnonzero(held))
     sim.set_solver("chebyshev")
     sim.solve_static(iterations)
@@ -126,6 +156,6 @@ def run(args):
         print(*rows[-1], flush=True)
     table(rows, ["body"] + [f"{n}" for n in counts] + ["max/min", "plate / EB, / Kirchhoff", "calib. s"])
     if a.cost:
-        for body in ("plate", "tail"):
+        for body in ("plate", "tail", "bracket", "character_tail"):
             for n in (100, 1000):
                 print(f"cost {body} {n} particles: {cost(body, n, a.calibration):.2f} s", flush=True)
