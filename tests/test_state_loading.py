@@ -269,6 +269,18 @@ def test_goal_fit_that_overflows_is_refused(bar):
             fit.fit(animated)
 
 
+@pytest.mark.parametrize("scale", [1e-185, 1e-300])
+def test_goal_fit_of_a_tiny_flat_rest_mesh_binds(bar, scale):
+    """Found by fuzz_goal_fit: the search grid's cell underflowed to 0 (NaN cast to int under UBSan; here a
+    MemoryError "out of memory for a search grid over 170 points")."""
+    v, _, graph = bar
+    flat = v.copy()
+    flat[:, 2] = 0.0
+    fit = opdeform.GoalFit(graph, flat * scale)
+    assert fit.indices.min() >= 0 and fit.indices.max() < len(v)
+    np.testing.assert_allclose(fit.weights.sum(axis=1), 1.0, rtol=1e-12)
+
+
 # -- bit flips over real pickles ------------------------------------------------------------------------------
 FLIPS = 100 if os.environ.get("OPDEFORM_SANITIZED") else 400  # per object
 

@@ -90,9 +90,11 @@ od_Status od_NearestGrid_Create(od_NearestGrid* g, const double* points, int cou
 	// The largest cell with no more than count/2 cells (bisection in log scale).
 	double target = count / 2.0 > 1.0 ? count / 2.0 : 1.0;
 	double small = largest * 1e-7, big = largest > 0.0 ? largest * 2.0 : 1.0;
-	for (int it = 0; it < 60 && largest > 0.0; ++it)
+	// small * big underflows for extents below ~1e-150 (a cell of 0: NaN cell counts), so take the roots apart
+	// there; an extent below ~1e-300 (small is 0) gets one cell.
+	for (int it = 0; it < 60 && small > 0.0; ++it)
 	{
-		double mid = sqrt(small * big);
+		double mid = small * big > DBL_MIN ? sqrt(small * big) : sqrt(small) * sqrt(big);
 		if (od_GridCells(extent, mid, g->dims) > target)
 		{
 			small = mid;
