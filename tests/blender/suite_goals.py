@@ -103,7 +103,7 @@ def test_looks_and_goal_out_of_the_box():
     s = tail.opdeform
     s.use_goal = True
     presets = importlib.import_module(H.ADDON + ".blender.presets")
-    assert presets.current_look(s) == "Fleshy" and abs(s.modulus - 2.0) < 1e-6, (presets.current_look(s), s.modulus)
+    assert presets.current_look(s) == "Fleshy" and abs(s.modulus - 3.0) < 1e-6, (presets.current_look(s), s.modulus)
     bpy.ops.opdeform.apply_preset(object=tail.name, preset="Floppy")
     assert presets.current_look(s) == "Floppy" and abs(s.soft_stiffness - 0.1) < 1e-6
     other = H.mesh_object("Other", v, t)

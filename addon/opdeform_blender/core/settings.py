@@ -49,9 +49,9 @@ class Units:
 # (docs/goals.md, "Looks"). Ticking Goal on an object whose material is still the default preset gives it
 # DEFAULT_LOOK: a body as stiff as Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm).
 LOOKS = {
-    "Subtle": dict(modulus=6.0, density=1050.0, damping_rate=4.0, soft_stiffness=0.15, region_damping=4.0),
-    "Fleshy": dict(modulus=2.0, density=1050.0, damping_rate=4.0, soft_stiffness=0.15, region_damping=4.0),
-    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=2.5, soft_stiffness=0.1, region_damping=2.5),
+    "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0),
+    "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0),
+    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=5.0, soft_stiffness=0.1, region_damping=5.0),
 }
 DEFAULT_LOOK = "Fleshy"
 
