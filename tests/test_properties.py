@@ -21,6 +21,7 @@ from hypothesis.stateful import Bundle, RuleBasedStateMachine, consumes, initial
 
 import opdeform
 from opdeform import _core, mpm
+from opdeform.simulation import MAX_WEIGHT_RATIO
 
 SANITIZED = bool(os.environ.get("OPDEFORM_SANITIZED"))
 EXAMPLES = int(os.environ.get("OPDEFORM_HYPOTHESIS_EXAMPLES", 12 if SANITIZED else 40))
@@ -90,6 +91,7 @@ class SimulationMachine(RuleBasedStateMachine):
         self.n = self.graph.n_particles
         self.sim = opdeform.Simulation(self.graph, stiffness, iterations=iterations)
         self.live = set()
+        self.kinds = {}
         self.seen = 0  # ids handed out so far
 
     def call(self, fn, *, must=None, changes_state=False):
@@ -117,13 +119,14 @@ class SimulationMachine(RuleBasedStateMachine):
     def add_position(self, point, target_point, w):
         ok, cid = self.call(lambda: self.sim.add_position_constraint(point, target_point, w))
         valid = all(map(math.isfinite, point)) and (target_point is None or all(map(math.isfinite, target_point))) \
-            and w > 0 and math.isfinite(w) and _near(self.graph, point)
+            and self._weight_ok("position", w) and _near(self.graph, point)
         assert ok == valid, (point, target_point, w, cid)
         if not ok:
             return multiple()
         assert cid == self.seen
         self.seen += 1
         self.live.add(cid)
+        self.kinds[cid] = "position"
         return cid
 
     @rule(target=ids, point=good_vec3, direction=vec3, target_dir=st.one_of(st.none(), vec3), w=weight)
@@ -133,6 +136,7 @@ class SimulationMachine(RuleBasedStateMachine):
             return multiple()
         self.seen += 1
         self.live.add(cid)
+        self.kinds[cid] = "direction"
         return cid
 
     @rule(cid=st.one_of(ids, st.integers(-3, 60)), target_point=vec3)
@@ -151,7 +155,11 @@ class SimulationMachine(RuleBasedStateMachine):
         ok, _ = self.call(lambda: self.sim.set_constraint_weight(cid, w),
                           must=None if cid in self.live else CLEAN)
         if cid in self.live:
-            assert ok == (w > 0 and math.isfinite(w))
+            assert ok == self._weight_ok(self.kinds[cid], w)
+
+    def _weight_ok(self, kind, w):
+        """Positive, finite and at most MAX_WEIGHT_RATIO default weights (issue 28)."""
+        return 0 < w <= MAX_WEIGHT_RATIO * self.sim.default_weight(kind)
 
     @rule(cid=st.one_of(consumes(ids), st.integers(-3, 60)))
     def remove(self, cid):

@@ -26,6 +26,10 @@
 #include <math.h>
 #include <string.h>
 
+#define OD_MAX_STIFFNESS 1e20 // Pa: 1e8 times diamond's Young's modulus
+#define OD_MAX_DENSITY 1e8    // kg/m³: 4,000 times osmium's
+#define OD_MIN_DT 1e-9        // s
+
 od_SimDef od_DefaultSimDef(void)
 {
 	od_SimDef def;
@@ -143,17 +147,20 @@ od_SolverDef od_Sim_GetSolver(const od_Sim* sim)
 
 static od_Status od_CheckDef(const od_SimDef* def)
 {
-	if (!(def->stiffness > 0.0) || !isfinite(def->stiffness))
+	// Bounds of what a step represents (issue 28): beyond them every step failed (stiffness 1e300, density 1e308:
+	// the matrix or the energy overflows; dt 1e-300: the mass term m/h² does). The Fig. 1 bar steps at each
+	// bound with the others anywhere in stiffness [1e15, 1e22], density [1e-3, 1e8], dt [1e-9, 1] s.
+	if (!(def->stiffness > 0.0 && def->stiffness <= OD_MAX_STIFFNESS))
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "stiffness = %g must be finite and > 0", def->stiffness);
+		return od_Fail(OD_ERROR_ARGUMENT, "stiffness = %g must be in (0, %g]", def->stiffness, OD_MAX_STIFFNESS);
 	}
-	if (!(def->density > 0.0) || !isfinite(def->density))
+	if (!(def->density > 0.0 && def->density <= OD_MAX_DENSITY))
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "density = %g must be finite and > 0", def->density);
+		return od_Fail(OD_ERROR_ARGUMENT, "density = %g must be in (0, %g]", def->density, OD_MAX_DENSITY);
 	}
-	if (!(def->dt > 0.0) || !isfinite(def->dt))
+	if (!(def->dt >= OD_MIN_DT) || !isfinite(def->dt))
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "dt = %g must be finite and > 0", def->dt);
+		return od_Fail(OD_ERROR_ARGUMENT, "dt = %g must be finite and >= %g", def->dt, OD_MIN_DT);
 	}
 	if (def->iterations < 1)
 	{

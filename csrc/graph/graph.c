@@ -36,9 +36,10 @@ static od_Status od_CheckParticles(const od_GraphDef* def)
 		for (int k = 0; k < 3; ++k)
 		{
 			double r = def->radii[3 * i + k];
-			if (!(r > 0.0) || !isfinite(r))
+			if (!(r >= OD_MIN_RADIUS && r <= OD_MAX_RADIUS))
 			{
-				return od_Fail(OD_ERROR_ARGUMENT, "radii[%d][%d] = %g must be finite and > 0", i, k, r);
+				return od_Fail(OD_ERROR_ARGUMENT, "radii[%d][%d] = %g must be in [%g, %g] m", i, k, r, OD_MIN_RADIUS,
+							   OD_MAX_RADIUS);
 			}
 		}
 		if (def->axes)

@@ -32,6 +32,11 @@ od_Status od_Graph_SetMeshPieces(od_Graph* graph, const od_PieceMapDef* def);
 // particles), in sizes of the graph (the box's diagonal): a point 1e20 m away made a lever that flung a 2 m
 // bar 43 km; handles and pinned vertices sit on or near the body.
 #define OD_REST_POINT_REACH 100.0
+// A radius's bounds (issue 28): a particle's volume r³, its mass and its moment m r² stay normal doubles for
+// every density a Simulation accepts (radii 1e-200 gave a zero mass: every step failed); the Fig. 1 bar scaled
+// by 1e-9 and 1e9 steps.
+#define OD_MIN_RADIUS 1e-12
+#define OD_MAX_RADIUS 1e12
 
 // OD_OK when p lies within OD_REST_POINT_REACH sizes of the graph's box, else OD_ERROR_ARGUMENT naming `name`.
 od_Status od_Graph_CheckRestPoint(const od_Graph* g, const double p[3], const char* name);

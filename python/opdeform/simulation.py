@@ -13,6 +13,8 @@ from .graph import Graph
 
 __all__ = ["Simulation"]
 
+MAX_WEIGHT_RATIO = 1e9  # a constraint's weight is at most this many default weights (Simulation._weight)
+
 
 class Simulation(ForceFields):
     """ARAP dynamics of an oriented-particle graph (METHOD.md): k = stiffness, rho = density, h = dt,
@@ -65,7 +67,7 @@ class Simulation(ForceFields):
 
     def add_position_constraint(self, point: Vector, target: Vector | None = None, weight: float | None = None) -> int:
         """Pins the rest-space point to target (None: where it is now). Returns the constraint id."""
-        weight = self.default_weight("position") if weight is None else number("weight", weight)
+        weight = self.default_weight("position") if weight is None else self._weight("position", weight)
         target = None if target is None else vector("target", target)
         point = vector("point", point)
         return self._added(self._core.add_position_constraint(point, target, weight), [0, point, None, weight])
@@ -73,11 +75,23 @@ class Simulation(ForceFields):
     def add_direction_constraint(self, point: Vector, direction: Vector, target: Vector | None = None,
                                  weight: float | None = None) -> int:
         """Turns the rest direction at the rest-space point towards target (None: where it points now)."""
-        weight = self.default_weight("direction") if weight is None else number("weight", weight)
+        weight = self.default_weight("direction") if weight is None else self._weight("direction", weight)
         target = None if target is None else vector("target", target)
         point, direction = vector("point", point), vector("direction", direction)
         return self._added(self._core.add_direction_constraint(point, direction, target, weight),
                            [1, point, direction, weight])
+
+    def _weight(self, kind, weight):
+        """A weight of at most MAX_WEIGHT_RATIO default weights: above it the constraint's rank-deficient term
+        swamps the particle's own in the factorization (1e30 N/m on the Fig. 1 bar, 1e15 defaults: the matrix
+        "not positive definite" on every step, issue 28); the bar steps at 1e12 defaults for stiffness 1e3-1e20
+        and dt 1e-9-1 s."""
+        weight = number("weight", weight)
+        limit = MAX_WEIGHT_RATIO * self.default_weight(kind)
+        if not weight <= limit:
+            raise ValueError(f"weight = {weight:g} must be at most {limit:g} ({MAX_WEIGHT_RATIO:g} times the default "
+                             f"{kind} weight for this stiffness)")
+        return weight
 
     def _added(self, id, record):
         self._constraints[id] = record
@@ -91,7 +105,8 @@ class Simulation(ForceFields):
     def set_constraint_weight(self, id: int, weight: float) -> None:
         """Changes a constraint's weight (a position weight refactors once, on the next step; a direction weight
         refactors nothing); unknown ids raise IndexError."""
-        weight = number("weight", weight)
+        kind = ("position", "direction")[self._constraints[id][0]] if id in self._constraints else "position"
+        weight = self._weight(kind, weight)
         self._core.set_constraint_weight(integer("id", id), weight)
         self._constraints[id][3] = weight
 

@@ -1,0 +1,64 @@
+"""Values a step cannot represent are refused where they are given (issue 28, round three): the argument is
+named, and the object is unchanged and still steps. A failed step leaves the counters and the energy as they
+were (docs/hardening.md)."""
+
+import numpy as np
+import pytest
+
+from opdeform import Graph, Simulation, scenes
+
+
+def _bar():
+    return scenes.fig1_bar()
+
+
+@pytest.mark.parametrize("kwargs, name", [({"stiffness": 1e300}, "stiffness"), ({"stiffness": 1e21}, "stiffness"),
+                                          ({"density": 1e308}, "density"), ({"density": 1e9}, "density"),
+                                          ({"dt": 1e-300}, "dt"), ({"dt": 1e-10}, "dt")])
+def test_parameters_no_step_can_take_are_refused_at_set_up(kwargs, name):
+    graph = _bar().graph
+    args = {"stiffness": 1e9, **kwargs}
+    with pytest.raises(ValueError, match=name):
+        Simulation(graph, **args)
+    sim = _bar()
+    before = sim.params
+    with pytest.raises(ValueError, match=name):
+        sim.set_params(**kwargs)
+    assert sim.params == before
+    sim.step(1)
+    assert np.isfinite(sim.energy())
+
+
+def test_the_bounds_themselves_step():
+    graph = _bar().graph
+    for kwargs in ({"stiffness": 1e20}, {"density": 1e8}, {"dt": 1e-9}):
+        sim = Simulation(graph, **{"stiffness": 1e9, **kwargs})
+        sim.add_position_constraint(graph.centers[0])
+        sim.step(2)
+        assert np.all(np.isfinite(sim.positions)), kwargs
+
+
+@pytest.mark.parametrize("scale", [1e-200, 1e-13, 1e14, 1e200])
+def test_radii_whose_volume_a_step_cannot_represent_are_refused(scale):
+    graph = _bar().graph
+    radii = graph.radii.copy()
+    radii[3] *= scale
+    with pytest.raises(ValueError, match=r"radii\[3\]"):
+        Graph(graph.centers, radii, graph.edges)
+
+
+def test_a_constraint_weight_far_above_the_default_is_refused():
+    sim = _bar()
+    p = sim.graph.centers[0]
+    for weight in (1e308, 1e30, 2e9 * sim.default_weight("position")):
+        with pytest.raises(ValueError, match="weight"):
+            sim.add_position_constraint(p, weight=weight)
+    with pytest.raises(ValueError, match="weight"):
+        sim.add_direction_constraint(p, (1, 0, 0), weight=1e308)
+    n = sim.n_constraints
+    cid = sim.add_position_constraint(p, weight=1e9 * sim.default_weight("position"))
+    with pytest.raises(ValueError, match="weight"):
+        sim.set_constraint_weight(cid, 1e308)
+    assert sim.n_constraints == n + 1
+    sim.step(2)
+    assert np.all(np.isfinite(sim.positions))
