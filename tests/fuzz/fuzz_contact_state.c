@@ -4,43 +4,14 @@
 // b) and m rows of 7 doubles (normal force, friction force, normal); the count is passed as given when
 // negative, else cut to the pairs the bytes hold. Invariants: a refused state leaves the group's pairs as they
 // were; an accepted one reads back bit for bit; a step after it ends finite or fails keeping both states.
-#include "fuzz_input.h"
+#include "fuzz_chain.h"
 
 #include "opdeform/colliders.h"
 #include "opdeform/opdeform.h"
 
 #include <stdlib.h>
 
-#define N 8
-
-static const od_Graph* chain(void)
-{
-	static od_Graph* g = NULL;
-	if (g)
-	{
-		return g;
-	}
-	double centers[N * 3] = { 0 }, radii[N * 3];
-	int edges[(N - 1) * 2];
-	for (int i = 0; i < N; ++i)
-	{
-		centers[3 * i] = 0.2 * i;
-		radii[3 * i] = radii[3 * i + 1] = radii[3 * i + 2] = 0.1;
-	}
-	for (int e = 0; e < N - 1; ++e)
-	{
-		edges[2 * e] = e;
-		edges[2 * e + 1] = e + 1;
-	}
-	od_GraphDef gd = od_DefaultGraphDef();
-	gd.particleCount = N;
-	gd.centers = centers;
-	gd.radii = radii;
-	gd.edgeCount = N - 1;
-	gd.edges = edges;
-	CHECK(od_Graph_Create(&gd, &g) == OD_OK);
-	return g;
-}
+#define N CHAIN_N
 
 typedef struct Pairs
 {

@@ -5,42 +5,13 @@
 // V animated ones (doubles). Invariants: a refused fit leaves *fit NULL; an accepted one has indices in range
 // and weights >= 0 summing to 1 per particle; a fit returns finite positions and proper rotations or
 // OD_ERROR_ARGUMENT.
-#include "fuzz_input.h"
+#include "fuzz_chain.h"
 
 #include "opdeform/mesh.h"
 
 #include <stdlib.h>
 
-#define N 8
-
-static const od_Graph* chain(void)
-{
-	static od_Graph* g = NULL;
-	if (g)
-	{
-		return g;
-	}
-	double centers[N * 3] = { 0 }, radii[N * 3];
-	int edges[(N - 1) * 2];
-	for (int i = 0; i < N; ++i)
-	{
-		centers[3 * i] = 0.2 * i;
-		radii[3 * i] = radii[3 * i + 1] = radii[3 * i + 2] = 0.1;
-	}
-	for (int e = 0; e < N - 1; ++e)
-	{
-		edges[2 * e] = e;
-		edges[2 * e + 1] = e + 1;
-	}
-	od_GraphDef gd = od_DefaultGraphDef();
-	gd.particleCount = N;
-	gd.centers = centers;
-	gd.radii = radii;
-	gd.edgeCount = N - 1;
-	gd.edges = edges;
-	CHECK(od_Graph_Create(&gd, &g) == OD_OK);
-	return g;
-}
+#define N CHAIN_N
 
 static void check_fit(const od_GoalFit* fit, int vertices)
 {

@@ -6,11 +6,11 @@
 // carrying the rest, a position and a direction constraint. Input: the arrays below back to back (missing
 // bytes read as zero). Invariants: a refused call changes nothing (state, goal motion, damping, target); an
 // accepted one reads back bit for bit; the step ends finite or fails keeping the state.
-#include "fuzz_input.h"
+#include "fuzz_chain.h"
 
 #include "opdeform/opdeform.h"
 
-#define N 8
+#define N CHAIN_N
 
 typedef struct Saved
 {
@@ -45,36 +45,6 @@ static void take(const od_Sim* sim, Snapshot* s)
 		memcpy(s->damping, d, sizeof s->damping);
 	}
 	CHECK(od_Sim_GetConstraintTarget(sim, 0, s->target) == OD_OK);
-}
-
-// The chain's graph, made once (a simulation borrows it).
-static const od_Graph* chain(void)
-{
-	static od_Graph* g = NULL;
-	if (g)
-	{
-		return g;
-	}
-	double centers[N * 3] = { 0 }, radii[N * 3];
-	int edges[(N - 1) * 2];
-	for (int i = 0; i < N; ++i)
-	{
-		centers[3 * i] = 0.2 * i;
-		radii[3 * i] = radii[3 * i + 1] = radii[3 * i + 2] = 0.1;
-	}
-	for (int e = 0; e < N - 1; ++e)
-	{
-		edges[2 * e] = e;
-		edges[2 * e + 1] = e + 1;
-	}
-	od_GraphDef gd = od_DefaultGraphDef();
-	gd.particleCount = N;
-	gd.centers = centers;
-	gd.radii = radii;
-	gd.edgeCount = N - 1;
-	gd.edges = edges;
-	CHECK(od_Graph_Create(&gd, &g) == OD_OK);
-	return g;
 }
 
 static od_Sim* make_sim(void)
