@@ -4,6 +4,7 @@ import os
 import shutil
 import sys
 import tempfile
+import traceback
 
 import bpy
 import numpy as np
@@ -438,3 +439,15 @@ def suzanne_drop(particles, **settings):
         check.update(positions(obj).astype(np.float64))
     assert not obj.opdeform.error, obj.opdeform.error
     return obj, check
+
+
+def start_in_ui(setup, first_interval=1.0):
+    """Runs setup() from a timer once Blender's window is up (screenshot scripts); on an error the traceback is
+    printed and Blender quits, so the caller never waits on a window that will not draw."""
+    def guarded():
+        try:
+            setup()
+        except Exception:
+            traceback.print_exc()
+            bpy.ops.wm.quit_blender()
+    bpy.app.timers.register(guarded, first_interval=first_interval)

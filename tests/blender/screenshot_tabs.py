@@ -37,15 +37,6 @@ def open_all_panels():
         bpy.utils.register_class(cls)
 
 
-def setup():
-    try:
-        _setup()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        bpy.ops.wm.quit_blender()
-
-
 def _setup():
     H.enable_addon()
     for o in list(bpy.data.objects):
@@ -92,4 +83,4 @@ def shoot(shots=list(TABS)):
 
 
 bpy.context.preferences.view.show_splash = False
-bpy.app.timers.register(setup, first_interval=1.0)
+H.start_in_ui(_setup)

@@ -19,15 +19,6 @@ import helpers as H  # noqa: E402
 OUT = os.path.abspath((sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else ["blender_panel.png"])[0])
 
 
-def setup():
-    try:
-        _setup()
-    except Exception:
-        import traceback
-        traceback.print_exc()
-        bpy.ops.wm.quit_blender()
-
-
 def _setup():
     import numpy as np
     H.enable_addon()
@@ -84,4 +75,4 @@ def shoot():
 
 
 bpy.context.preferences.view.show_splash = False
-bpy.app.timers.register(setup, first_interval=1.0)
+H.start_in_ui(_setup)
