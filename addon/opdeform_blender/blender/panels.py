@@ -179,7 +179,7 @@ class PHYSICS_PT_opdeform_pins(SubPanel, bpy.types.Panel):
         layout, obj, s = split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
-        wrapped(layout, "Pins hold firmly at any weight; for a soft hold paint a Goal group", 'INFO')
+        wrapped(layout, "Pins hold firmly at any weight; for a soft hold paint a Follow Group (Goal)", 'INFO')
 
 
 class OPDEFORM_MT_looks(bpy.types.Menu):
