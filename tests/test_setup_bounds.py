@@ -2,10 +2,14 @@
 named, and the object is unchanged and still steps. A failed step leaves the counters and the energy as they
 were (docs/hardening.md)."""
 
+import os
+import signal
+import threading
+
 import numpy as np
 import pytest
 
-from opdeform import Graph, Simulation, scenes
+from opdeform import Graph, Simulation, SolverError, scenes
 
 
 def _bar():
@@ -50,15 +54,34 @@ def test_radii_whose_volume_a_step_cannot_represent_are_refused(scale):
 def test_a_constraint_weight_far_above_the_default_is_refused():
     sim = _bar()
     p = sim.graph.centers[0]
-    for weight in (1e308, 1e30, 2e9 * sim.default_weight("position")):
+    for weight in (1e308, 1e30, 2e12 * sim.default_weight("position")):
         with pytest.raises(ValueError, match="weight"):
             sim.add_position_constraint(p, weight=weight)
     with pytest.raises(ValueError, match="weight"):
         sim.add_direction_constraint(p, (1, 0, 0), weight=1e308)
     n = sim.n_constraints
-    cid = sim.add_position_constraint(p, weight=1e9 * sim.default_weight("position"))
+    cid = sim.add_position_constraint(p, weight=1e12 * sim.default_weight("position"))
     with pytest.raises(ValueError, match="weight"):
         sim.set_constraint_weight(cid, 1e308)
     assert sim.n_constraints == n + 1
     sim.step(2)
     assert np.all(np.isfinite(sim.positions))
+
+
+def test_a_failed_step_counts_nothing_and_keeps_the_energy():
+    sim = _bar()
+    sim.step(1)
+    energy, steps = sim.energy(), sim.counters["steps"]
+    timer = threading.Timer(0.3, lambda: os.kill(os.getpid(), signal.SIGINT))  # fails the call many steps in
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            sim.step(10 ** 7)
+    finally:
+        timer.cancel()
+    assert sim.counters["steps"] == steps
+    assert sim.energy() == energy
+    sim.set_state(sim.positions, sim.rotations, velocities=np.full((sim.graph.n_particles, 3), 1e306))
+    with pytest.raises(SolverError):
+        sim.step(1)
+    assert sim.counters["steps"] == steps

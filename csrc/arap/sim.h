@@ -202,6 +202,12 @@ struct od_Sim
 	double* y;            // n*3 predicted centres
 	double* Rtilde;       // n*9 predicted rotations
 	double* inertiaTerm;  // n*9, (ρ/h²) R̃_i Ā_i: the inertia's term of C_i, fixed during a step
+	// What a failed call gives back (od_End): the objective before it (its y, R̃, inertia term, swapped out at
+	// the start of the call, and its mode) and the step count, so that energy() and counters are as before.
+	double *keptY, *keptRtilde, *keptInertiaTerm;
+	bool keptPredictionValid;
+	od_Mode keptMode;
+	long long keptSteps;
 	double* angularScale; // n, friction's scaling of the angular velocity of touching particles (floor, colliders)
 	double* damping;      // n, c_i per particle (od_Sim_SetParticleDamping); NULL: def.damping for all
 	double* contactForce; // n*3, forces of particle contact on the right side during a step (body_contact.c); NULL

@@ -239,11 +239,15 @@ od_Status od_Sim_Create(const od_Graph* graph, const od_SimDef* def, od_Sim** ou
 		sim->y = od_Alloc(sizeof(double) * 3 * n);
 		sim->Rtilde = od_Alloc(sizeof(double) * 9 * n);
 		sim->inertiaTerm = od_Alloc(sizeof(double) * 9 * n);
+		sim->keptY = od_Alloc(sizeof(double) * 3 * n);
+		sim->keptRtilde = od_Alloc(sizeof(double) * 9 * n);
+		sim->keptInertiaTerm = od_Alloc(sizeof(double) * 9 * n);
 		sim->angularScale = od_Alloc(sizeof(double) * n);
 		sim->edgeMoment = od_Alloc(sizeof(double) * 18 * graph->edgeCount);
 		sim->edgeArm = od_Alloc(sizeof(double) * 6 * graph->edgeCount);
 		sim->rowArm = od_Alloc(sizeof(double) * 3 * n);
-		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->angularScale && sim->edgeMoment && sim->edgeArm &&
+		status = sim->y && sim->Rtilde && sim->inertiaTerm && sim->keptY && sim->keptRtilde && sim->keptInertiaTerm &&
+						 sim->angularScale && sim->edgeMoment && sim->edgeArm &&
 						 sim->rowArm
 					 ? OD_OK
 					 : od_Fail(OD_ERROR_MEMORY, "out of memory for a simulation of %d particles", n);
@@ -279,6 +283,9 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->y);
 	od_Free(sim->Rtilde);
 	od_Free(sim->inertiaTerm);
+	od_Free(sim->keptY);
+	od_Free(sim->keptRtilde);
+	od_Free(sim->keptInertiaTerm);
 	od_Free(sim->angularScale);
 	od_Free(sim->damping);
 	od_Free(sim->contactForce);

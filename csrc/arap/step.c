@@ -212,12 +212,28 @@ static void od_UpdateVelocities(od_Sim* sim, const od_State* before)
 	}
 }
 
+// Swaps the prediction's buffers with the kept ones: at the start of a call (a call predicts before it reads
+// them) the objective before the call is kept; a failed call swaps it back (od_End).
+static void od_SwapPrediction(od_Sim* sim)
+{
+	double* y = sim->y;
+	double* rtilde = sim->Rtilde;
+	double* inertia = sim->inertiaTerm;
+	sim->y = sim->keptY;
+	sim->Rtilde = sim->keptRtilde;
+	sim->inertiaTerm = sim->keptInertiaTerm;
+	sim->keptY = y;
+	sim->keptRtilde = rtilde;
+	sim->keptInertiaTerm = inertia;
+}
+
 static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 {
 	if (atomic_exchange(&sim->busy, 1))
 	{
 		return od_Fail(OD_ERROR_BUSY, "the simulation is being used by another thread");
 	}
+	od_Mode previous = sim->mode;
 	sim->mode = mode;
 	sim->partitionDirty = sim->partitionDirty || sim->constraints.pairsDirty || sim->constraints.incidenceDirty;
 	od_Status status = od_Constraints_Prepare(sim);
@@ -231,11 +247,16 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 	}
 	if (status != OD_OK)
 	{
+		sim->mode = previous;
 		atomic_store(&sim->busy, 0);
 		return status;
 	}
 	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
+	od_SwapPrediction(sim);
+	sim->keptPredictionValid = sim->predictionValid;
+	sim->keptMode = previous;
+	sim->keptSteps = sim->counters.steps;
 	return OD_OK;
 }
 
@@ -248,7 +269,10 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 	if (status != OD_OK)
 	{
 		od_CopyState(&sim->state, &sim->saved, sim->graph->n);
-		sim->predictionValid = false;
+		od_SwapPrediction(sim);
+		sim->predictionValid = sim->keptPredictionValid;
+		sim->mode = sim->keptMode;
+		sim->counters.steps = sim->keptSteps;
 	}
 	atomic_store(&sim->busy, 0);
 	return status;
