@@ -85,3 +85,28 @@ def test_a_failed_step_counts_nothing_and_keeps_the_energy():
     with pytest.raises(SolverError):
         sim.step(1)
     assert sim.counters["steps"] == steps
+
+
+def test_complex_arguments_are_refused_not_truncated():
+    graph = _bar().graph
+    with pytest.raises(ValueError, match="centers"):
+        Graph(graph.centers + 1j, graph.radii, graph.edges)
+    with pytest.raises(ValueError, match="point"):
+        graph.skin_weights(np.array([1 + 1j, 0, 0]))
+    with pytest.raises(ValueError, match="point"):
+        graph.skin_weights([np.complex128(1 + 1j), 0.0, 0.0])
+    sim = _bar()
+    with pytest.raises(ValueError, match="points"):
+        sim.skin_points(graph.centers[:2] + 1j)
+    with pytest.raises(ValueError, match="dt"):
+        sim.set_params(dt=np.complex128(0.01 + 1j))
+    with pytest.raises(ValueError, match="stiffness"):
+        Simulation(graph, np.full(graph.n_particles, 1e9 + 1j))
+
+
+def test_skinning_a_nan_point_is_refused():
+    sim = _bar()
+    with pytest.raises(ValueError, match="point"):
+        sim.graph.skin_weights((np.nan, 0.0, 0.0))
+    with pytest.raises(ValueError, match="point"):
+        sim.skin_points([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]])

@@ -1,6 +1,6 @@
 """The argument converters of every opdeform call: any array-like or number in, what the core reads out.
 
-The rule: a wrong value for a number or array argument (None, a string, NaN, a wrong shape) raises
+The rule: a wrong value for a number or array argument (None, a string, NaN, a complex number, a wrong shape) raises
 ValueError naming the argument; an object of the wrong class where an opdeform object
 is required raises TypeError naming the expected type (checked where that object is used).
 """
@@ -34,6 +34,8 @@ def as_array(name: str, value: ArrayLike, shape: Sequence[int | None],
     if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if np.iscomplexobj(arr):  # numpy would drop the imaginary part with only a warning
+        raise ValueError(f"{name} must hold real numbers, got dtype {arr.dtype}")
     if np.issubdtype(dtype, np.integer):
         if arr.size and not np.issubdtype(arr.dtype, np.integer):
             if not np.issubdtype(arr.dtype, np.number) or not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
@@ -46,9 +48,9 @@ def as_array(name: str, value: ArrayLike, shape: Sequence[int | None],
 
 
 def number(name: str, value: object) -> float:
-    """A finite float (None, strings, NaN and infinities refused; the core checks the range)."""
+    """A finite float (None, strings, complex numbers, NaN and infinities refused; the core checks the range)."""
     try:
-        x = None if isinstance(value, (str, bytes)) else float(value)
+        x = None if isinstance(value, (str, bytes, complex, np.complexfloating)) else float(value)
     except (TypeError, ValueError):
         x = None
     if x is None or not math.isfinite(x):
@@ -75,10 +77,10 @@ _WORDS = {2: "two", 3: "three"}
 
 def vector(name: str, value: ArrayLike, size: int = 3) -> tuple[float, ...]:
     """``size`` finite floats as a tuple; fast for tuples, lists and 1-D arrays."""
-    if isinstance(value, np.ndarray) and value.shape == (size,) and np.issubdtype(value.dtype, np.number):
+    real = (int, float, np.integer, np.floating)
+    if isinstance(value, np.ndarray) and value.shape == (size,) and issubclass(value.dtype.type, real):
         value = value.tolist()
-    if not (isinstance(value, (tuple, list)) and len(value) == size
-            and all(isinstance(x, (int, float, np.number)) for x in value)):
+    if not (isinstance(value, (tuple, list)) and len(value) == size and all(isinstance(x, real) for x in value)):
         value = as_array(name, value, (size,)).tolist()
     result = tuple(float(x) for x in value)
     if not all(math.isfinite(x) for x in result):
