@@ -9,7 +9,7 @@ import threading
 import numpy as np
 import pytest
 
-from opdeform import Graph, Simulation, SolverError, scenes
+from opdeform import Graph, Simulation, SolverError, mpm, scenes
 
 
 def _bar():
@@ -110,3 +110,16 @@ def test_skinning_a_nan_point_is_refused():
         sim.graph.skin_weights((np.nan, 0.0, 0.0))
     with pytest.raises(ValueError, match="point"):
         sim.skin_points([[0.0, 0.0, 0.0], [np.nan, 0.0, 0.0]])
+
+
+def test_moving_an_mpm_collider_far_out_of_the_world_is_refused():
+    world = mpm.World((0, 0, 0), (1, 1, 1), 1 / 16)
+    world.add_particles(mpm.fill_box((0.4, 0.4, 0.2), (0.6, 0.6, 0.4), 1 / 24), mpm.snow())
+    box = world.add_collider("box", "slip", half_extents=(0.1, 0.1, 0.1), translation=(0.5, 0.5, 0.7))
+    for far in ((1e300, 0, 0), (0.5, 0.5, -1e5), (np.nan, 0, 0)):
+        with pytest.raises(ValueError, match="translation"):
+            world.move_collider(box, far)
+    with pytest.raises(ValueError, match="translation"):
+        world.add_collider("box", "slip", half_extents=(0.1, 0.1, 0.1), translation=(0, 1e300, 0))
+    world.step(1 / 60)
+    assert np.all(np.isfinite(world.positions))

@@ -277,10 +277,40 @@ od_Status od_MpmWorld_SetWind(od_MpmWorld* w, const od_MpmWindDef* def)
 	return od_MpmWind_Set(&w->model.wind, def, w->model.def.dx);
 }
 
+// How far from the domain a collider's frame may be placed, in domain sizes (the box's diagonal): one moved
+// 1e300 m was accepted and the next step failed blaming the material (issue 28). Farther than this it touches
+// no particle, and a move there (or back) within one step would take more substeps than a call may
+// (OD_MPM_MAX_SUBSTEPS: the collider's speed counts in the CFL bound).
+#define OD_MPM_COLLIDER_REACH 1e4
+
+static od_Status od_CheckColliderPlace(const od_MpmWorld* w, const double translation[3])
+{
+	const double* lower = w->model.def.lower;
+	const double* upper = w->model.def.upper;
+	double size = 0.0, outside = 0.0;
+	for (int k = 0; k < 3; ++k)
+	{
+		size = hypot(size, upper[k] - lower[k]);
+		outside = fmax(outside, fmax(lower[k] - translation[k], translation[k] - upper[k]));
+	}
+	if (!(outside <= OD_MPM_COLLIDER_REACH * size))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "collider: translation (%g, %g, %g) is %g m outside the domain, more than %g domain sizes (%g m)",
+					   translation[0], translation[1], translation[2], outside, OD_MPM_COLLIDER_REACH, size);
+	}
+	return OD_OK;
+}
+
 od_Status od_MpmWorld_AddCollider(od_MpmWorld* w, const od_MpmColliderDef* def, int* id)
 {
 	od_MpmCollider c;
-	od_Status status = od_MpmCollider_Init(&c, def, w->model.def.dx);
+	od_Status status = od_CheckColliderPlace(w, def->translation);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	status = od_MpmCollider_Init(&c, def, w->model.def.dx);
 	if (status != OD_OK)
 	{
 		return status;
@@ -302,6 +332,11 @@ od_Status od_MpmWorld_MoveCollider(od_MpmWorld* w, int id, const double rotation
 	if (id < 0 || id >= w->colliderCount)
 	{
 		return od_Fail(OD_ERROR_NOT_FOUND, "collider: no collider %d (there are %d)", id, w->colliderCount);
+	}
+	od_Status status = od_CheckColliderPlace(w, translation);
+	if (status != OD_OK)
+	{
+		return status;
 	}
 	return od_Collider_SetTarget(&w->colliders[id].body, rotation, translation);
 }
