@@ -9,7 +9,7 @@ import threading
 import numpy as np
 import pytest
 
-from opdeform import Graph, Simulation, SolverError, mpm, scenes
+from opdeform import Graph, Simulation, SolverError, meshes, mpm, scenes
 
 
 def _bar():
@@ -123,3 +123,20 @@ def test_moving_an_mpm_collider_far_out_of_the_world_is_refused():
         world.add_collider("box", "slip", half_extents=(0.1, 0.1, 0.1), translation=(0, 1e300, 0))
     world.step(1 / 60)
     assert np.all(np.isfinite(world.positions))
+
+
+def test_a_stray_vertex_outside_the_triangles_is_not_welded_in_and_one_inside_is_named():
+    vertices, triangles = meshes.bar()
+    stray = np.vstack([vertices, [[1e8, 0.0, 0.0]]])
+    expected = Graph.from_mesh(vertices, triangles, 50)
+    graph = Graph.from_mesh(stray, triangles, 50)  # a vertex of no triangle: was welded into 6 points
+    assert np.array_equal(graph.centers, expected.centers)
+    with pytest.raises(ValueError, match=r"only \d+ distinct vertices: it spans 1e\+08 m .* welded"):
+        Graph.from_mesh(stray, np.vstack([triangles, [[0, 1, len(vertices)]]]), 50)
+
+
+@pytest.mark.parametrize("scale", [1e300, 1e150, 1e13, 1e-300, 1e-11])
+def test_a_mesh_whose_span_no_particle_can_take_is_refused_naming_the_span(scale):
+    vertices, triangles = meshes.bar()
+    with pytest.raises(ValueError, match=r"^vertices: the mesh spans .* m .*must span \[1e-09, 1e\+12\] m"):
+        Graph.from_mesh(vertices * scale, triangles, 50)

@@ -1195,8 +1195,12 @@ static od_Status od_Build(od_Builder* b, od_Graph** graph)
 	}
 	if (b->pieces.distinctVertices < n)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "particles = %d, but the mesh has only %d distinct vertices", n,
-					   b->pieces.distinctVertices);
+		double span = b->pieces.span;
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "particles = %d, but the mesh has only %d distinct vertices: it spans %g m (the diagonal of its "
+					   "bounding box) and vertices closer than %g of that (%g m) are welded into one; is a vertex far "
+					   "from the others?",
+					   n, b->pieces.distinctVertices, span, OD_WELD_FRACTION, span * OD_WELD_FRACTION);
 	}
 	status = od_MakeGroups(b);
 	status = status == OD_OK ? od_ChooseVoxels(b) : status;

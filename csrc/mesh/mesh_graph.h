@@ -19,7 +19,14 @@ typedef struct od_MeshPieces
 	bool* closed;         // count: every edge of its non-degenerate triangles is shared by exactly two
 	int* pieceOfVertex;   // vertexCount: the piece of each vertex, -1 for a vertex of no triangle
 	int distinctVertices; // vertices used by triangles, after welding
+	double span;          // the diagonal of the triangles' bounding box; welded: closer than OD_WELD_FRACTION of it
 } od_MeshPieces;
+
+#define OD_WELD_FRACTION 1e-8
+// A mesh's span (m): its particles' radii must lie in [OD_MIN_RADIUS, OD_MAX_RADIUS] (graph.h), and its
+// volumes and moments be finite (spans 1e300 and 1e150 ended in an overflow or a NaN cell size, issue 28).
+#define OD_MIN_SPAN 1e-9
+#define OD_MAX_SPAN 1e12
 
 od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* pieces);
 // qsort order of int pairs (the first two ints of each item): by the first, then the second.

@@ -1,7 +1,8 @@
 // The connected pieces of a triangle mesh, and for each its area, enclosed volume and whether it is closed.
 //
-// Welding first: vertices are snapped to a lattice of 1e-8 of the bounding-box diagonal and equal
-// lattice points become one vertex (sorting, so deterministic). Pieces are the connected components of
+// Welding first: vertices are snapped to a lattice of OD_WELD_FRACTION of the span (the diagonal of the bounding
+// box of the triangles' vertices; a vertex of no triangle, however far, is not counted) and equal lattice points
+// become one vertex (sorting, so deterministic). A span outside [OD_MIN_SPAN, OD_MAX_SPAN] is refused. Pieces are the connected components of
 // the triangles over welded vertices, numbered by their first triangle. A piece is closed when every
 // edge of its non-degenerate triangles is used by exactly two of them.
 #include "mesh_graph.h"
@@ -33,21 +34,41 @@ static int od_CompareWeldKeys(const void* pa, const void* pb)
 	return (a->vertex > b->vertex) - (a->vertex < b->vertex);
 }
 
-// weld[v] = the smallest vertex index at v's lattice point.
-static od_Status od_Weld(const od_MeshGraphDef* def, int* weld)
+// The diagonal of the bounding box of the triangles' vertices (hypot: no overflow below 1e308), and its corner.
+static double od_Span(const od_MeshGraphDef* def, double lo[3])
 {
-	int nv = def->vertexCount;
-	double lo[3] = { INFINITY, INFINITY, INFINITY }, hi[3] = { -INFINITY, -INFINITY, -INFINITY };
-	for (int v = 0; v < nv; ++v)
+	double hi[3] = { -INFINITY, -INFINITY, -INFINITY };
+	lo[0] = lo[1] = lo[2] = INFINITY;
+	for (int t = 0; t < 3 * def->triangleCount; ++t)
 	{
 		for (int a = 0; a < 3; ++a)
 		{
-			lo[a] = fmin(lo[a], def->vertices[3 * v + a]);
-			hi[a] = fmax(hi[a], def->vertices[3 * v + a]);
+			lo[a] = fmin(lo[a], def->vertices[3 * def->triangles[t] + a]);
+			hi[a] = fmax(hi[a], def->vertices[3 * def->triangles[t] + a]);
 		}
 	}
-	double diag = od_Length(od_Sub(od_V3Load(hi), od_V3Load(lo)));
-	double quantum = diag > 0.0 ? diag * 1e-8 : 1.0;
+	if (def->triangleCount == 0)
+	{
+		lo[0] = lo[1] = lo[2] = hi[0] = hi[1] = hi[2] = 0.0;
+	}
+	return hypot(hypot(hi[0] - lo[0], hi[1] - lo[1]), hi[2] - lo[2]);
+}
+
+// weld[v] = the smallest vertex index at v's lattice point; *span = the span (see the top).
+static od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span)
+{
+	int nv = def->vertexCount;
+	double lo[3];
+	double diag = od_Span(def, lo);
+	*span = diag;
+	if (diag > OD_MAX_SPAN || (diag > 0.0 && diag < OD_MIN_SPAN))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "vertices: the mesh spans %g m (the diagonal of its bounding box); it must span [%g, %g] m: "
+					   "its particles' radii must be in [1e-12, 1e12] m (scale it, or change its units)",
+					   diag, OD_MIN_SPAN, OD_MAX_SPAN);
+	}
+	double quantum = diag > 0.0 ? diag * OD_WELD_FRACTION : 1.0;
 	od_WeldKey* keys = od_Alloc(sizeof(od_WeldKey) * (size_t)nv);
 	if (!keys)
 	{
@@ -57,7 +78,7 @@ static od_Status od_Weld(const od_MeshGraphDef* def, int* weld)
 	{
 		for (int a = 0; a < 3; ++a)
 		{
-			keys[v].q[a] = llround((def->vertices[3 * v + a] - lo[a]) / quantum);
+			keys[v].q[a] = llround(fmax(fmin((def->vertices[3 * v + a] - lo[a]) / quantum, 0x1p62), -0x1p62));
 		}
 		keys[v].vertex = v;
 	}
@@ -159,7 +180,7 @@ od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* p)
 	int* pieceOf = od_Alloc(sizeof(int) * (size_t)nv); // piece of each root, then piece of each triangle
 	int* pieceOfTriangle = od_Alloc(sizeof(int) * (size_t)nt);
 	od_Status status = weld && parent && pieceOf && pieceOfTriangle
-						   ? od_Weld(def, weld)
+						   ? od_Weld(def, weld, &p->span)
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory finding the pieces of %d triangles", nt);
 	if (status == OD_OK)
 	{
