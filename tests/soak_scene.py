@@ -22,7 +22,12 @@ WARMUP = 100
 
 
 def rss_bytes():
-    """Resident set size of this process (Linux /proc), or 0 where unavailable."""
+    """Resident set size of this process (Linux /proc, Windows' working set), or 0 where unavailable."""
+    if os.name == "nt":
+        import ctypes
+        counters = (ctypes.c_size_t * 9)(72)  # PROCESS_MEMORY_COUNTERS (72 bytes): [2] is WorkingSetSize
+        known = ctypes.windll.kernel32.K32GetProcessMemoryInfo(ctypes.c_void_p(-1), counters, 72)
+        return counters[2] if known else 0
     try:
         with open("/proc/self/statm") as f:
             return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")

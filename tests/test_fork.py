@@ -21,6 +21,11 @@ import opdeform
 from opdeform import mpm
 
 TIMEOUT = 30
+NO_FORK = pytest.mark.skipif(not hasattr(os, "fork"), reason="Windows has no fork (os.fork, multiprocessing's fork)")
+# the worker-thread counts read /proc/self/task and pin with os.sched_setaffinity: Linux only
+CPUS = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
+TWO_CPUS = pytest.mark.skipif(CPUS < 2, reason="needs Linux's /proc and affinity calls, and two CPUs to tell one "
+                              "from all")
 
 
 def _lattice(nx, ny, nz, s=0.1):
@@ -73,6 +78,7 @@ def _use_in_child(name):
     return name
 
 
+@NO_FORK
 @pytest.mark.parametrize("name", sorted(MAKERS))
 def test_os_fork_child_uses_and_deletes_a_threaded_object(name):
     obj, use = MAKERS[name]()
@@ -100,6 +106,7 @@ def test_os_fork_child_uses_and_deletes_a_threaded_object(name):
     use()  # the parent's object still works on its threads
 
 
+@NO_FORK
 def test_multiprocessing_fork_pool_maps_over_threaded_objects():
     for name, make in MAKERS.items():
         obj, use = make()
@@ -131,18 +138,18 @@ def _worker_threads(code, env=None):
 WORLD = "w = mpm.World((0, 0, 0), (1, 1, 1), 1 / 16, threads=0)\n"
 
 
-@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs two CPUs to tell one from all")
+@TWO_CPUS
 def test_threads_zero_follows_the_affinity_mask():
-    assert _worker_threads(WORLD) == min(len(os.sched_getaffinity(0)), 64) - 1
+    assert _worker_threads(WORLD) == min(CPUS, 64) - 1
     pinned = "os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})\n" + WORLD
     assert _worker_threads(pinned) == 0  # before: one worker per online core
 
 
-@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="needs two CPUs to tell one from all")
+@TWO_CPUS
 def test_threads_zero_is_at_most_omp_num_threads():
     assert _worker_threads(WORLD, {"OMP_NUM_THREADS": "1"}) == 0
     assert _worker_threads(WORLD, {"OMP_NUM_THREADS": "1,1"}) == 0  # a nested list: its first entry
-    assert _worker_threads(WORLD, {"OMP_NUM_THREADS": "junk"}) == min(len(os.sched_getaffinity(0)), 64) - 1
+    assert _worker_threads(WORLD, {"OMP_NUM_THREADS": "junk"}) == min(CPUS, 64) - 1
 
 
 def test_thread_counts_above_the_limit_are_refused_naming_threads():

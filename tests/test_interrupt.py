@@ -29,7 +29,10 @@ def _interrupt(call):
 
     def fire():
         sent.append(time.monotonic())
-        os.kill(os.getpid(), signal.SIGINT)
+        if os.name == "nt":  # Windows: os.kill would end the process; Ctrl-C runs the handler on another thread
+            signal.raise_signal(signal.SIGINT)
+        else:
+            os.kill(os.getpid(), signal.SIGINT)
 
     timer = threading.Timer(DELAY, fire)
     timer.start()

@@ -16,6 +16,7 @@ under its name only when complete) are in the last section.
 import contextlib
 import os
 import secrets
+import socket
 import struct
 import stat
 
@@ -33,10 +34,13 @@ def read_regular(path):
     """The bytes of a regular file; ValueError naming it for anything else. Opened without blocking (a FIFO
     would wait for a writer forever) and checked before reading: only a regular file has an end (/dev/zero
     would fill the memory)."""
+    not_regular = f"{os.fspath(path)}: not a regular file (a directory, FIFO, socket or device)"
+    if os.path.isdir(path):  # Windows opens no directory (PermissionError)
+        raise ValueError(not_regular)
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0))
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
-            raise ValueError(f"{os.fspath(path)}: not a regular file (a directory, FIFO, socket or device)")
+            raise ValueError(not_regular)
         with os.fdopen(fd, "rb", closefd=False) as f:
             return f.read()
     finally:
@@ -168,12 +172,12 @@ def exclusive(path, lock=None):
             break
         except FileExistsError:
             host, pid = _lock_holder(lock)
-            if attempt or host != os.uname().nodename or pid is None or _alive(pid):
+            if attempt or host != socket.gethostname() or pid is None or _alive(pid):
                 raise OutputBusy(f"{os.fspath(path)} is being baked by process {pid} on {host} (lock {lock}); "
                                  f"if no bake of it runs, delete the lock") from None
             os.remove(lock)
     try:
-        os.write(fd, f"{os.uname().nodename} {os.getpid()}\n".encode())
+        os.write(fd, f"{socket.gethostname()} {os.getpid()}\n".encode())
     finally:
         os.close(fd)
     try:
@@ -194,6 +198,8 @@ def _lock_holder(lock):
 
 def _alive(pid):
     """Whether a process of this host runs (a zombie, killed and not yet reaped, does not)."""
+    if os.name == "nt":
+        return _alive_on_windows(pid)
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -205,6 +211,22 @@ def _alive(pid):
             return f.read().rsplit(b")", 1)[1].split()[0] != b"Z"
     except (OSError, IndexError):
         return True
+
+
+def _alive_on_windows(pid):
+    """OpenProcess and GetExitCodeProcess (on Windows os.kill(pid, 0) would end the process)."""
+    import ctypes
+    kernel32 = ctypes.WinDLL("kernel32", use_last_error=True)
+    kernel32.OpenProcess.restype = ctypes.c_void_p
+    handle = kernel32.OpenProcess(0x1000, False, pid)  # PROCESS_QUERY_LIMITED_INFORMATION
+    if not handle:
+        return ctypes.get_last_error() == 5  # ERROR_ACCESS_DENIED: another user's live process
+    code = ctypes.c_ulong()
+    try:
+        known = kernel32.GetExitCodeProcess(ctypes.c_void_p(handle), ctypes.byref(code))
+    finally:
+        kernel32.CloseHandle(ctypes.c_void_p(handle))
+    return not known or code.value == 259  # STILL_ACTIVE
 
 
 class PC2Writer:
