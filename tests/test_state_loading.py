@@ -281,6 +281,16 @@ def test_goal_fit_of_a_tiny_flat_rest_mesh_binds(bar, scale):
     np.testing.assert_allclose(fit.weights.sum(axis=1), 1.0, rtol=1e-12)
 
 
+def test_goal_fit_of_a_rest_mesh_spanning_more_than_the_doubles_is_refused(bar):
+    """Found by fuzz_goal_fit's campaign: vertices at -1.5e308 and 1.5e308 (finite) span an infinite extent: NaN
+    cell counts (UBSan, nearest.c)."""
+    v, _, graph = bar
+    far = v.copy()
+    far[0], far[1] = -1.5e308, 1.5e308
+    with pytest.raises(ValueError, match="span"):
+        opdeform.GoalFit(graph, far)
+
+
 # -- bit flips over real pickles ------------------------------------------------------------------------------
 FLIPS = 100 if os.environ.get("OPDEFORM_SANITIZED") else 400  # per object
 

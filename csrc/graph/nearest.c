@@ -71,6 +71,8 @@ od_Status od_NearestGrid_Create(od_NearestGrid* g, const double* points, int cou
 {
 	g->points = points;
 	g->count = count;
+	g->cellStart = NULL;
+	g->items = NULL;
 	double lo[3] = { DBL_MAX, DBL_MAX, DBL_MAX }, hi[3] = { -DBL_MAX, -DBL_MAX, -DBL_MAX }, extent[3];
 	for (int i = 0; i < count; ++i)
 	{
@@ -86,6 +88,11 @@ od_Status od_NearestGrid_Create(od_NearestGrid* g, const double* points, int cou
 		g->origin[a] = count ? lo[a] : 0.0;
 		extent[a] = count ? hi[a] - lo[a] : 0.0;
 		largest = fmax(largest, extent[a]);
+	}
+	if (!isfinite(largest))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "nearest search: %d points span more than the largest double on an axis",
+					   count);
 	}
 	// The largest cell with no more than count/2 cells (bisection in log scale).
 	double target = count / 2.0 > 1.0 ? count / 2.0 : 1.0;
