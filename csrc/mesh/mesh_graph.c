@@ -48,6 +48,11 @@
 
 #define OD_LLOYD_STEPS 10
 #define OD_VOXEL_PASSES 8
+// A group's grid holds at most this many cells per voxel wanted (and at least OD_VOXEL_CELL_FLOOR): a sliver
+// or a spike (a cube with one corner pulled 1e5 m out) filled 1/10^9 of its box and voxelized the full
+// OD_VOXEL_CELL_LIMIT in each pass (0.4-1.7 s for 8 vertices, issue 28); an ordinary body fills a tenth or more.
+#define OD_VOXEL_CELLS_PER_VOXEL 1000.0
+#define OD_VOXEL_CELL_FLOOR 65536.0
 
 od_MeshGraphDef od_DefaultMeshGraphDef(void)
 {
@@ -294,18 +299,19 @@ static double od_EstimateCellSize(const od_Builder* b, double target, double* ex
 	return 1.0 / u;
 }
 
-// The smallest cell size >= h that keeps every group's grid within OD_VOXEL_CELL_LIMIT.
-static double od_LimitCellSize(const od_Builder* b, double h, bool* limited)
+// The smallest cell size >= h that keeps every group's grid within OD_VOXEL_CELL_LIMIT and within
+// OD_VOXEL_CELLS_PER_VOXEL cells per voxel wanted (target).
+static double od_LimitCellSize(const od_Builder* b, double h, double target, bool* limited)
 {
+	double limit = fmin(OD_VOXEL_CELL_LIMIT, fmax(OD_VOXEL_CELLS_PER_VOXEL * target, OD_VOXEL_CELL_FLOOR));
 	for (int i = 0; i < b->groupCount; ++i)
 	{
 		int count;
 		const int* list = od_GroupTriangles(b, &b->groups[i], &count);
 		double cells;
-		while ((cells = od_Voxels_CellCount(b->def->vertices, b->def->triangles, list, count, h)) >
-			   OD_VOXEL_CELL_LIMIT)
+		while ((cells = od_Voxels_CellCount(b->def->vertices, b->def->triangles, list, count, h)) > limit)
 		{
-			h *= fmax(cbrt(cells / OD_VOXEL_CELL_LIMIT), 1.01);
+			h *= fmax(cbrt(cells / limit), 1.01);
 			*limited = true;
 		}
 	}
@@ -339,7 +345,7 @@ static od_Status od_ChooseVoxels(od_Builder* b)
 	for (int pass = 0; pass < OD_VOXEL_PASSES; ++pass)
 	{
 		bool limited = false;
-		h = od_LimitCellSize(b, h, &limited);
+		h = od_LimitCellSize(b, h, target, &limited);
 		od_Status status = od_VoxelizeGroups(b, h, &count);
 		if (status != OD_OK)
 		{
