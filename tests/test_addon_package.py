@@ -46,9 +46,9 @@ def blender_ext(version):
     return [str(bpy_python(version)), found[0]] if found else None
 
 
-@pytest.fixture(scope="module")
-def packages(tmp_path_factory):
-    out = tmp_path_factory.mktemp("dist")
+def build_packages(out):
+    """scripts/package into out: kind ("wheel", "extension", "legacy", each also + " " + a PLATFORMS tag) -> path.
+    tests/conftest.py's session fixture `packages` calls it once for this file and tests/test_platforms.py."""
     proc = subprocess.run([str(ROOT / "scripts" / "package"), str(out)], capture_output=True, text=True,
                           cwd=str(ROOT), timeout=1200)
     assert proc.returncode == 0, proc.stdout + proc.stderr
@@ -61,15 +61,6 @@ def packages(tmp_path_factory):
     assert all(len(paths) == 1 for paths in found.values()), (found, proc.stdout)
     assert len(list(out.iterdir())) == len(found), sorted(p.name for p in out.iterdir())
     return {kind: paths[0] for kind, paths in found.items()}
-
-
-@pytest.fixture(scope="module")
-def wheel_dir(packages, tmp_path_factory):
-    """The wheel unpacked, as pip would install it."""
-    where = tmp_path_factory.mktemp("wheel")
-    with zipfile.ZipFile(packages["wheel"]) as z:
-        z.extractall(where)
-    return where
 
 
 def meson_version():
@@ -188,15 +179,27 @@ WHEEL_TESTS = ("test_acceleration.py", "test_api_edges.py", "test_arguments.py",
 WHEEL_LEAVES_OUT = "test_interrupt.py::test_ctrl_c_stops_shape_matching"
 
 
-def test_the_wheel_passes_the_core_physics_tests(wheel_dir):
+def wheel_tests(python, junit, names=None):
+    """The command line that runs WHEEL_TESTS (or those names) in `python` (a list), writing pytest's JUnit XML
+    to junit."""
+    return [*python, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--junitxml={junit}", "--deselect",
+            "tests/" + WHEEL_LEAVES_OUT, *("tests/" + name for name in names or WHEEL_TESTS)]
+
+
+def run_linux_wheel_tests(wheel_dir, junit):
+    """WHEEL_TESTS against the unpacked wheel: the finished process (its JUnit XML in junit). Run once a session
+    (tests/conftest.py's fixture `linux_wheel_tests`): tests/test_platforms.py compares Windows' outcomes to it."""
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
     env["PYTHONPATH"] = str(wheel_dir)
     where = subprocess.run([sys.executable, "-c", "import opdeform; print(opdeform.__file__)"], capture_output=True,
                            text=True, env=env, timeout=60)
     assert where.stdout.startswith(str(wheel_dir)), where.stdout + where.stderr
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "--deselect",
-                           "tests/" + WHEEL_LEAVES_OUT, *(str(ROOT / "tests" / name) for name in WHEEL_TESTS)],
-                          capture_output=True, text=True, env=env, timeout=900, cwd=str(ROOT))
+    return subprocess.run(wheel_tests([sys.executable], junit), capture_output=True, text=True, env=env,
+                          timeout=900, cwd=str(ROOT))
+
+
+def test_the_wheel_passes_the_core_physics_tests(linux_wheel_tests):
+    proc, _ = linux_wheel_tests
     assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-2000:]
 
 

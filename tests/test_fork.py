@@ -24,8 +24,8 @@ TIMEOUT = 30
 NO_FORK = pytest.mark.skipif(not hasattr(os, "fork"), reason="Windows has no fork (os.fork, multiprocessing's fork)")
 # the worker-thread counts read /proc/self/task and pin with os.sched_setaffinity: Linux only
 CPUS = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 0
-TWO_CPUS = pytest.mark.skipif(CPUS < 2, reason="needs Linux's /proc and affinity calls, and two CPUs to tell one "
-                              "from all")
+TWO_CPUS = pytest.mark.skipif(CPUS < 2, reason="needs Linux's /proc and affinity calls (not Windows'), and two CPUs to tell "
+                              "one from all")
 
 
 def _lattice(nx, ny, nz, s=0.1):

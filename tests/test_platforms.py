@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from test_addon_package import PLATFORMS, WHEEL_LEAVES_OUT, WHEEL_TESTS, meson_version, packages  # noqa: F401
+from test_addon_package import PLATFORMS, meson_version, wheel_tests
 from test_addon import ROOT
 
 WINE = Path.home() / ".cache" / "opdeform" / "wine"
@@ -24,6 +24,21 @@ LLVM = Path("/usr/lib/llvm-14/bin")  # llvm-14 (scripts/setup): reads PE and Mac
 MACOS = {"macosx_11_0_arm64": ("arm64", "11.0"), "macosx_10_13_x86_64": ("x86_64", "10.13")}
 # What Windows itself provides (the UCRT's api sets, kernel32): _core.pyd may import these and python3.dll only
 WINDOWS_SYSTEM = re.compile(r"^(kernel32|api-ms-win-crt-[a-z]+-l1-1-0|ucrtbase|ntdll)\.dll$", re.I)
+
+
+# What Linux passes and Windows skips, each skip's message naming Windows (docs/packaging.md): test ids as in
+# pytest's JUnit XML, without parameters
+WINDOWS_SKIPS = {"tests.test_api_edges::test_readers_refuse_a_fifo_and_a_device",
+                 "tests.test_fork::test_os_fork_child_uses_and_deletes_a_threaded_object",
+                 "tests.test_fork::test_multiprocessing_fork_pool_maps_over_threaded_objects",
+                 "tests.test_fork::test_threads_zero_follows_the_affinity_mask",
+                 "tests.test_fork::test_threads_zero_is_at_most_omp_num_threads",
+                 "tests.test_properties::test_repeated_programs_leak_nothing"}
+
+
+# Windows' CPython 3.13 runs WHEEL_TESTS in full (about 7 min under wine here); 3.11, the wheel's oldest (its
+# limited API), these alone (about 1 min), which bounds scripts/test's time
+SMOKE = ("test_core.py", "test_arguments.py", "test_io.py", "test_pickle.py", "test_forces.py", "test_soak.py")
 
 
 def wine_env():
@@ -49,30 +64,14 @@ def unpack(wheel, where):
     return where
 
 
-def outcomes(junit):
-    """test id -> passed/failed/skipped/error, from pytest's JUnit XML."""
+def outcomes(junit, messages=False):
+    """test id -> passed/failed/skipped/error (or, with messages, the skip's message), from pytest's JUnit XML."""
     found = {}
     for case in ElementTree.parse(junit).iter("testcase"):
-        kinds = [child.tag for child in case if child.tag in ("failure", "error", "skipped")]
-        found[f"{case.get('classname')}::{case.get('name')}"] = kinds[0] if kinds else "passed"
+        kinds = [child for child in case if child.tag in ("failure", "error", "skipped")]
+        found[f"{case.get('classname')}::{case.get('name')}"] = \
+            (kinds[0].get("message", "") if messages else kinds[0].tag) if kinds else ("" if messages else "passed")
     return found
-
-
-def run_wheel_tests(python, wheel_dir, junit, env):
-    args = [*python, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--junitxml={junit}", "--deselect",
-            "tests/" + WHEEL_LEAVES_OUT, *("tests/" + name for name in WHEEL_TESTS)]
-    return args, env
-
-
-@pytest.fixture(scope="module")
-def linux_outcomes(packages, tmp_path_factory):  # noqa: F811
-    where = unpack(packages["wheel"], tmp_path_factory.mktemp("linux-wheel"))
-    junit = where / "junit.xml"
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
-    env["PYTHONPATH"] = str(where)
-    args, env = run_wheel_tests(["python3"], where, junit, env)
-    subprocess.run(args, capture_output=True, text=True, env=env, timeout=900, cwd=str(ROOT))
-    return outcomes(junit)
 
 
 def test_windows_c_unit_tests_run_under_wine():
@@ -84,7 +83,7 @@ def test_windows_c_unit_tests_run_under_wine():
 
 
 @pytest.mark.parametrize("version", ["3.11", "3.13"])
-def test_windows_wheel_passes_the_core_physics_tests(packages, linux_outcomes, version, tmp_path):  # noqa: F811
+def test_windows_wheel_passes_the_core_physics_tests(packages, linux_wheel_tests, version, tmp_path):
     """The Windows wheel in Windows' CPython (under wine) passes what the Linux wheel passes."""
     python = WINE / f"py{version}" / "python.exe"
     assert python.exists(), f"{python}: run scripts/setup-wine"
@@ -92,16 +91,22 @@ def test_windows_wheel_passes_the_core_physics_tests(packages, linux_outcomes, v
     junit = tmp_path / "junit.xml"
     env = wine_env()
     env["PYTHONPATH"] = windows_path(where)
-    args, env = run_wheel_tests([python], where, windows_path(junit), env)
-    proc = wine(args, timeout=1500, env=env, cwd=str(ROOT))
+    proc = wine(wheel_tests([python], windows_path(junit), None if version == "3.13" else SMOKE), timeout=1500,
+                env=env, cwd=str(ROOT))
     assert junit.exists(), proc.stdout[-4000:] + proc.stderr[-2000:]
-    found = outcomes(junit)
-    differ = {test: (linux, found.get(test)) for test, linux in linux_outcomes.items() if found.get(test) != linux}
+    found, linux, messages = outcomes(junit), outcomes(linux_wheel_tests[1]), outcomes(junit, messages=True)
+    only_linux = {test for test in linux if linux[test] == "passed" and found.get(test) == "skipped"}
+    assert {test.split("[")[0] for test in only_linux} <= WINDOWS_SKIPS, only_linux
+    assert all("Windows" in messages[test] for test in only_linux), {test: messages[test] for test in only_linux}
+    linux = {test: kind for test, kind in linux.items() if version == "3.13" or test.split("::")[0] in
+             {"tests." + name.removesuffix(".py") for name in SMOKE}}
+    differ = {test: (linux[test], found.get(test)) for test in linux if found.get(test) != linux[test]
+              and test not in only_linux}
     assert not differ, (differ, proc.stdout[-3000:])
     assert proc.returncode == 0, proc.stdout[-4000:]
 
 
-def test_windows_pyd_imports_python3_dll_and_exports_its_init(packages, tmp_path):  # noqa: F811
+def test_windows_pyd_imports_python3_dll_and_exports_its_init(packages, tmp_path):
     where = unpack(packages["wheel win_amd64"], tmp_path)
     core = where / "opdeform" / "_core.pyd"
     bundled = [p.name for p in (where / "opdeform").glob("*.dll")]
@@ -117,7 +122,7 @@ def test_windows_pyd_imports_python3_dll_and_exports_its_init(packages, tmp_path
 
 
 @pytest.mark.parametrize("tag", MACOS)
-def test_macos_wheel_statically(packages, tag, tmp_path):  # noqa: F811
+def test_macos_wheel_statically(packages, tag, tmp_path):
     """Architecture, minimum macOS, loaded libraries (the system's and the wheel's own), the one exported
     symbol, and the tag: all that can be checked without a Mac."""
     arch, minimum = MACOS[tag]
@@ -132,7 +137,8 @@ def test_macos_wheel_statically(packages, tag, tmp_path):  # noqa: F811
                                  capture_output=True, text=True, check=True).stdout
         assert re.search(rf"^\s*MH_MAGIC_64\s+{arch.upper().replace('_', '_')}\s", headers, flags=re.M | re.I), \
             headers[:800]
-        versions = re.findall(r"(?:minos|version) (\d+\.\d+)", headers)
+        versions = [a or b for a, b in re.findall(r"^\s*minos (\d+\.\d+)|cmd LC_VERSION_MIN_MACOSX\n\s+cmdsize \d+\n"
+                                                  r"\s+version (\d+\.\d+)", headers, flags=re.M)]
         assert versions and max(tuple(map(int, v.split("."))) for v in versions) <= \
             tuple(map(int, minimum.split("."))), (binary.name, versions)
         loads = re.findall(r"cmd LC_LOAD_DYLIB\n\s+cmdsize \d+\n\s+name (\S+)", headers)
@@ -147,14 +153,15 @@ def test_macos_wheel_statically(packages, tag, tmp_path):  # noqa: F811
 
 
 @pytest.mark.parametrize("tag", PLATFORMS)
-def test_extension_zip_holds_its_platforms_wheel(packages, tag):  # noqa: F811
+def test_extension_zip_holds_its_platforms_wheel(packages, tag):
     with zipfile.ZipFile(packages["extension " + tag]) as z:
         manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
         wheels = [n for n in z.namelist() if n.endswith(".whl")]
         assert wheels == ["wheels/" + packages["wheel " + tag].name], wheels
         assert z.read(wheels[0]) == packages["wheel " + tag].read_bytes()
-    assert manifest["platforms"] == [PLATFORMS[tag].replace("_", "-")]
-    assert manifest["wheels"] == ["./" + wheels[0]]
+    generated = manifest["build"]["generated"]  # what Blender reads in a split build's zip
+    assert generated["platforms"] == [PLATFORMS[tag].replace("_", "-")]
+    assert generated["wheels"] == ["./" + wheels[0]]
     with zipfile.ZipFile(packages["legacy " + tag]) as z:
-        core = [n for n in z.namelist() if "/vendor/opdeform/_core" in n]
+        core = [n for n in z.namelist() if "/vendor/opdeform/_core" in n and not n.endswith(".pyi")]  # .pyi: stubs
         assert core == ["opdeform_blender/vendor/opdeform/_core" + (".pyd" if tag == "win_amd64" else ".abi3.so")]
