@@ -9,7 +9,8 @@ import os
 import sys
 import time
 
-from . import __version__, blender
+from . import blender
+from ._core import __version__
 from . import shot as shots
 
 __all__ = ["main"]
