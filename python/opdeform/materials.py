@@ -864,16 +864,18 @@ class _Grid:
 
     def appendages(self):
         """A flat label per cell: the connected thin part it is in (0, 1, ...), -1 for the core and outside."""
+        inside = np.pad(self.inside, 1)  # outside all round: a fill touching the grid's side erodes there too
         depth = 0
-        eroded = self.inside
-        while eroded.any():
+        eroded = inside
+        while eroded.any():  # ends: a padded grid loses its outer layer at every step
             eroded, depth = _erode(eroded, depth), depth + 1
         radius = max(1, int(round(_THIN * depth)))
-        core = self.inside
+        core = inside
         for r in range(radius):
             core = _erode(core, r)
         for r in range(radius + _MARGIN):
             core = _dilate(core, r)
+        core = core[1:-1, 1:-1, 1:-1]
         label = _components(self.inside & ~core).ravel()
         index = np.stack(np.unravel_index(np.arange(label.size), self.shape), axis=1)
         for p in range(label.max() + 1):
