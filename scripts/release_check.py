@@ -95,7 +95,7 @@ def extension_problems(release, wheels):
     digests = {sha256(w) for w in wheels}
     problems = []
     for path in sorted(glob.glob(os.path.join(release, "opdeform_blender-*.zip"))):
-        if path.endswith("-legacy.zip"):
+        if "-legacy" in os.path.basename(path):  # the legacy zips vendor the wheel's files, not the wheel
             continue
         with zipfile.ZipFile(path) as z:
             inside = [n for n in z.namelist() if n.endswith(".whl")]

@@ -231,8 +231,9 @@ def test_extension_lists_the_wheel(packages):
         names = set(z.namelist())
         manifest = tomllib.loads(z.read("blender_manifest.toml").decode())
         assert z.read("wheels/" + wheel) == packages["wheel"].read_bytes()
-    assert manifest["wheels"] == ["./wheels/" + wheel]
-    assert manifest["platforms"] == ["linux-x64"] and manifest["license"] == ["SPDX:GPL-3.0-or-later"]
+    generated = manifest["build"]["generated"]  # what Blender reads in a split build's zip
+    assert generated["wheels"] == ["./wheels/" + wheel]
+    assert generated["platforms"] == ["linux-x64"] and manifest["license"] == ["SPDX:GPL-3.0-or-later"]
     assert manifest["id"] == "opdeform_blender" and len(manifest["permissions"]["files"]) <= 64
     assert "__init__.py" in names and not [n for n in names if "vendor/" in n or "__pycache__" in n]
 

@@ -100,7 +100,7 @@ def test_written_ply_is_standard_binary(tmp_path):
 ])
 def test_malformed_files_are_value_errors_naming_the_file(tmp_path, name, content, message):
     path = tmp_path / name
-    path.write_text(content)
+    path.write_bytes(content.encode())  # the same bytes on every OS (Windows' text mode writes \r\n)
     with pytest.raises(ValueError, match=message) as info:
         io.read(path)
     assert name in str(info.value)
