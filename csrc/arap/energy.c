@@ -115,10 +115,10 @@ static double od_ElasticEnergy(const od_Sim* sim)
 			int j = g->adj[k];
 			od_Mat3 rj = od_M3Load(s->R + 9 * j), aj = od_M3Load(g->moments + 9 * j), turned = ri;
 			od_Vec3 dbar;
-			if (od_Goals_CarryRest(sim)) // R_i Q_ij and d_ij of the goal shape (goal.c)
+			if (od_Goals_CarryRest(sim)) // R_i Q_ij and d_ij of the goal shape, as the edge's terms keep them (goal.c)
 			{
-				od_Mat3 q;
-				od_Goals_EdgeRest(sim, i, j, &dbar, &q);
+				od_Mat3 q = od_M3Load(sim->goals.edgeTurn + 9 * k);
+				dbar = od_Scale(-1.0, od_V3Load(sim->goals.edgeRest + 6 * k));
 				turned = od_M3MulNT(&ri, &q);
 			}
 			else

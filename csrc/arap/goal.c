@@ -39,9 +39,10 @@
 static void od_FreeMotion(od_Goals* goals)
 {
 	od_Free(goals->edgeRest);
+	od_Free(goals->edgeTurn);
 	od_Free(goals->velocity);
 	od_Free(goals->spin);
-	goals->edgeRest = goals->velocity = goals->spin = NULL;
+	goals->edgeRest = goals->edgeTurn = goals->velocity = goals->spin = NULL;
 }
 
 void od_Goals_Destroy(od_Goals* goals)
@@ -64,9 +65,10 @@ static od_Status od_AllocateMotion(od_Sim* sim)
 	}
 	size_t n = (size_t)sim->graph->n;
 	goals->edgeRest = od_Alloc(sizeof(double) * 12 * (size_t)sim->graph->edgeCount);
+	goals->edgeTurn = od_Alloc(sizeof(double) * 18 * (size_t)sim->graph->edgeCount);
 	goals->velocity = od_AllocZero(3 * n, sizeof(double));
 	goals->spin = od_AllocZero(3 * n, sizeof(double));
-	if (!goals->edgeRest || !goals->velocity || !goals->spin)
+	if (!goals->edgeRest || !goals->edgeTurn || !goals->velocity || !goals->spin)
 	{
 		od_FreeMotion(goals);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the goal shape of %zu particles", n);
@@ -333,6 +335,7 @@ void od_Goals_PrepareEdge(const od_Sim* sim, int i, int e, double si, double sj,
 	int j = g->adj[e];
 	od_Mat3 q, ai = od_M3Load(g->moments + 9 * i), aj = od_M3Load(g->moments + 9 * j);
 	od_Goals_EdgeRest(sim, i, j, arm, &q);
+	od_M3Store(sim->goals.edgeTurn + 9 * e, &q);
 	od_Mat3 left = od_M3Mul(&aj, &q), right = od_M3Mul(&q, &ai);
 	*moment = od_M3Zero();
 	od_M3AddScaled(moment, sj, &left);

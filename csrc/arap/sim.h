@@ -82,6 +82,7 @@ typedef struct od_Goals
 	// The arrays exist while carryRest and the goals do (NULL otherwise).
 	bool carryRest;
 	double* edgeRest; // 6 per directed edge (i, j): X̄_i - X̄_j of the goal shape in i's goal frame, then in j's
+	double* edgeTurn; // 9 per directed edge (i, j): Q_ji = G_jᵀ G_i, kept for the objective (energy.c)
 	double* velocity; // n*3, u_i: each goal centre's velocity between the last two frames (0 before the second)
 	double* spin;     // n*3, Ω_i: each goal frame's angular velocity, the same
 	bool framed;      // a frame was set since the motion was reset (else the next one's velocity is 0)

@@ -16,6 +16,7 @@
 #include "field.h"
 #include "global_solve.h"
 #include "goal.h"
+#include "local_step.h"
 #include "math3.h"
 #include "polar.h"
 #include "scene_colliders.h"
@@ -546,6 +547,7 @@ od_Status od_Sim_Step(od_Sim* sim, int steps)
 
 double od_Sim_GetEnergy(od_Sim* sim)
 {
+	od_LocalStep_PrepareEdges(sim); // goals set since the last step: the objective reads the edges' terms
 	if (sim->mode == OD_DYNAMIC && !sim->predictionValid)
 	{
 		od_Predict(sim);
