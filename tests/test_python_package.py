@@ -1,9 +1,11 @@
 """Python packaging conventions: every public name of opdeform (and each public method and property of its
 classes) has a docstring that help() shows; the type stubs (_core.pyi, py.typed) ship beside the compiled
-module and name everything it defines; the sdist leaves the fuzz corpus and the test and documentation
-artefacts out, its description stands alone (no links), and `pip install` of it builds no C tests and prints
-no warning."""
+module, name everything it defines and match the binding's argument parsing (scripts/stubs); the sdist leaves
+the fuzz corpus and the test and documentation artefacts out, its description stands alone (no links), and
+`pip install` of it builds no C tests and prints no warning."""
 
+import importlib.machinery
+import importlib.util
 import inspect
 import re
 import subprocess
@@ -56,6 +58,37 @@ def test_stubs_ship_and_name_the_compiled_module():
             block = stub.split(f"class {name}", 1)[1].split("\nclass ", 1)[0]
             for member in (n for n in vars(obj) if not n.startswith("_")):
                 assert f"def {member}(" in block, f"{name}.{member}"
+
+
+def stubs_checker():
+    """scripts/stubs as a module: it checks _core.pyi against the binding's argument parsing."""
+    loader = importlib.machinery.SourceFileLoader("stubs_checker", str(ROOT / "scripts" / "stubs"))
+    module = importlib.util.module_from_spec(importlib.util.spec_from_loader(loader.name, loader))
+    loader.exec_module(module)
+    return module
+
+
+# A mistake each, planted in a copy of the stub: (the text replaced, its replacement, the name reported)
+STUB_MISTAKES = [
+    ("def step(self, steps: int, /) -> None: ...\n    # steps,",
+     "def step(self, steps: float, /) -> None: ...\n    # steps,", "Simulation.step: steps: float"),
+    ("def set_floor(self, height: float, friction: float, /) -> None: ...\n    def set_goal_",
+     "def set_floor(self, height: float, /) -> None: ...\n    def set_goal_", "Simulation.set_floor: 1 parameters"),
+    ("def read_pairs(self, pairs: Buffer, forces: Buffer, /)", "def read_pairs(self, pairs: Buffer, forces: Buffer)",
+     "ContactGroup.read_pairs: not positional-only"),
+    ('threads: int = ...) -> "Skin"', 'thread: int = ...) -> "Skin"', "Skin.__new__: parameters"),
+    ("    def trace_length(self) -> int: ...\n", "", "Simulation.trace_length: not in _core.pyi")]
+
+
+def test_stubs_match_the_bindings_argument_parsing():
+    checker = stubs_checker()
+    problems, count = checker.check()
+    assert not problems and count > 90, problems
+    text = (ROOT / "python" / "opdeform" / "_core.pyi").read_text()
+    for old, new, reported in STUB_MISTAKES:
+        assert text.count(old) == 1, old
+        problems, _ = checker.check(text.replace(old, new))
+        assert len(problems) == 1 and problems[0].startswith(reported), (reported, problems)
 
 
 @pytest.fixture(scope="module")
