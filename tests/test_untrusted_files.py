@@ -60,3 +60,23 @@ def test_writers_refuse_non_finite_coordinates(tmp_path, writer):
     vertices = np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]])
     message = _error(writer, path, vertices, [[0, 1, 2]])
     assert "vertices" in message and "not finite" in message and not path.exists(), message
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian"])
+def test_elements_without_properties_are_skipped_at_once(tmp_path, fmt):
+    # 14 elements of 715,827,882 items (the largest count) and no property: ~500 bytes that made io.read_ply
+    # loop 10^10 times (6.4 s here, 9-142 s in issue 28); such an element holds no data in either format
+    path = tmp_path / f"{fmt}.ply"
+    empty = "".join(f"element e{k} 715827882\n" for k in range(14))
+    body = (b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" if fmt == "ascii"
+            else np.array([0, 0, 0, 1, 0, 0, 0, 1, 0], "<f4").tobytes() + b"\x03" + np.arange(3, dtype="<i4").tobytes())
+    path.write_bytes(f"ply\nformat {fmt} 1.0\n{empty}element vertex 3\nproperty float x\nproperty float y\n"
+                     f"property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                     .encode() + body)
+    result = []
+    reader = threading.Thread(target=lambda: result.append(io.read_ply(path)), daemon=True)
+    reader.start()
+    reader.join(2)
+    assert result, "still reading after 2 s"
+    vertices, triangles = result[0]
+    assert vertices.tolist() == [[0, 0, 0], [1, 0, 0], [0, 1, 0]] and triangles.tolist() == [[0, 1, 2]]

@@ -3,8 +3,9 @@
 // OBJ: `v x y z` and `f a b c ...` lines (indices 1-based or negative = relative, `a/t/n` forms), other
 // lines skipped; polygons fan-triangulated. PLY: ascii and both binary byte orders, any scalar types;
 // the vertex element's x, y, z and the face element's vertex_indices (or vertex_index) list are read,
-// every other element and property is skipped. Text is parsed from a NUL-terminated copy, so strtod and
-// strtol never run past the data. Out-of-range indices are errors naming the triangle.
+// every other element and property is skipped (one without properties holds no data: skipped whatever its
+// count). Text is parsed from a NUL-terminated copy, so strtod and strtol never run past the data.
+// Out-of-range indices are errors naming the triangle.
 #include "opdeform/mesh.h"
 
 #include "buffer.h"
@@ -398,6 +399,10 @@ static od_Status od_PlyElements(od_PlyInput* in, const od_PlyElement* elements, 
 	for (int e = 0; e < elementCount; ++e)
 	{
 		const od_PlyElement* el = &elements[e];
+		if (el->propertyCount == 0)
+		{
+			continue; // no data in either format: 715 million such items are skipped at once, not counted out
+		}
 		for (long long i = 0; i < el->count; ++i)
 		{
 			double xyz[3] = { 0, 0, 0 };
