@@ -12,7 +12,8 @@
 - every Blender extension zip carries only wheels that are, byte for byte, files of this release (what the
   extension ships is what the index serves);
 - the sdist builds a wheel here (pip wheel, no build isolation, the system's CHOLMOD) whose module steps a bar.
-Prints one line a file and `release: ok ...`, or each problem and exits 1.
+Prints one line a file and `release: ok ...`, or each problem and exits 1. Project URLs are not checked: the
+project has none yet; while the metadata has none, a note says so.
 """
 
 import glob
@@ -35,6 +36,8 @@ PLATFORMS = {"manylinux_2_28_x86_64": ("linux-x64", "Operating System :: POSIX :
              "macosx_10_13_x86_64": ("macos-x64", "Operating System :: MacOS"),
              "macosx_11_0_x86_64": ("macos-x64", "Operating System :: MacOS")}
 IN_WHEEL = ("opdeform/py.typed", "opdeform/_core.pyi", "opdeform/cli.py")
+# the project has no public address yet: said, not failed, until a maintainer adds them
+NO_URLS = "no project URLs: add [project.urls] to pyproject.toml before the first upload (docs/packaging.md)"
 ENTRY_POINT = "opdeform = opdeform.cli:main"
 SMOKE = """import numpy as np, opdeform
 n = 10
@@ -83,11 +86,12 @@ def wheel_problems(path, version, classifiers):
     return problems, known[0] if known else None
 
 
-def sdist_classifiers(path):
+def sdist_metadata(path, field):
+    """The values of a metadata field (Classifier, Project-URL) in the sdist's PKG-INFO."""
     with tarfile.open(path) as tar:
         member = next(m for m in tar.getmembers() if m.name.count("/") == 1 and m.name.endswith("/PKG-INFO"))
         header = tar.extractfile(member).read().decode().split("\n\n", 1)[0]
-    return [line.split(":", 1)[1].strip() for line in header.splitlines() if line.startswith("Classifier:")]
+    return [line.split(":", 1)[1].strip() for line in header.splitlines() if line.startswith(field + ":")]
 
 
 def extension_problems(release, wheels):
@@ -148,7 +152,7 @@ def main(release, build):
         return 1
     problems = [] if str(parse_sdist_filename(os.path.basename(sdists[0]))[1]) == version else \
         [f"{sdists[0]}: not version {version}"]
-    classifiers = sdist_classifiers(sdists[0])
+    classifiers = sdist_metadata(sdists[0], "Classifier")
     problems += [f"classifier {c!r} is not one the index accepts" for c in classifiers if c not in KNOWN_CLASSIFIERS]
     seen = {}
     for wheel in wheels:
@@ -163,6 +167,8 @@ def main(release, build):
         print("release: FAILED\n" + "\n".join(f"  {p}" for p in problems))
         return 1
     platforms = ", ".join(sorted(PLATFORMS[p][0] for p in seen if p))
+    if not sdist_metadata(sdists[0], "Project-URL"):
+        print(f"release: note: {NO_URLS}")
     print(f"release: ok: opdeform {version}, the sdist and wheels for {platforms}; twine check --strict passed")
     return 0
 

@@ -34,6 +34,8 @@ def test_the_release_is_checked(release):
     assert done.returncode == 0, done.stdout + done.stderr
     assert re.search(r"^release: ok: opdeform [\d.]+, the sdist and wheels for .*linux-x64.*; twine check --strict "
                      r"passed$", done.stdout, flags=re.M), done.stdout
+    no_urls = "[project.urls]" not in (ROOT / "pyproject.toml").read_text()
+    assert ("release: note: no project URLs" in done.stdout) == no_urls, done.stdout
     listed = sorted(line.split()[1] for line in (out / "SHA256SUMS").read_text().splitlines())
     assert listed == sorted(p.name for p in out.iterdir() if p.name != "SHA256SUMS")
     assert len([n for n in listed if n.endswith(".tar.gz")]) == 1 and [n for n in listed if n.endswith(".whl")]
