@@ -238,17 +238,19 @@ def test_extension_lists_the_wheel(packages):
     assert "__init__.py" in names and not [n for n in names if "vendor/" in n or "__pycache__" in n]
 
 
+@pytest.mark.parametrize("target", ["source", "extension", *(f"extension {tag}" for tag in PLATFORMS)])
 @pytest.mark.parametrize("version", BPY_VERSIONS)
-def test_blender_validator(packages, version):
-    """`blender --command extension validate` of that bpy accepts the add-on's source folder and the zip."""
+def test_blender_validator(packages, version, target):
+    """`blender --command extension validate` of that bpy accepts the add-on's source folder and each platform's
+    zip (linux-x64, windows-x64, macos-arm64, macos-x64)."""
     why = host_missing(f"bpy-{version}")  # under CI, fails when the set-up installed it without saying why not
     if why:
         pytest.skip(why)
     ext = blender_ext(version)
     assert ext is not None, f"bpy {version} has no blender_ext.py (bl_pkg)"
-    for target in (ADDON, *(path for kind, path in packages.items() if kind.startswith("extension"))):
-        proc = subprocess.run([*ext, "validate", str(target)], capture_output=True, text=True, timeout=120)
-        assert proc.returncode == 0 and "Success" in proc.stdout, proc.stdout + proc.stderr
+    path = ADDON if target == "source" else packages[target]
+    proc = subprocess.run([*ext, "validate", str(path)], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and "Success" in proc.stdout, proc.stdout + proc.stderr
 
 
 def test_packages_leave_the_baseline_out(packages):
