@@ -1,10 +1,13 @@
 """The Dask batch (issue 17) on a real LocalCluster of 2 worker processes: the same bits as serial bakes, a
 failing shot reported with its error and log while the others finish, a worker killed mid-shot (the shot runs
-again elsewhere and resumes from its checkpoint), and an unreachable scheduler refused in bounded time."""
+again elsewhere and resumes from its checkpoint), and an unreachable scheduler refused in bounded time, as is
+another service at the scheduler's port (one that answers something else, one that says nothing)."""
 
 import os
 import shutil
 import signal
+import socket
+import threading
 import time
 
 import pytest
@@ -63,3 +66,47 @@ def test_an_unreachable_scheduler_is_a_clear_error_in_bounded_time():
     with pytest.raises(ConnectionError, match="tcp://127.0.0.1:9: no answer within 2 s"):
         batch.connect("tcp://127.0.0.1:9", timeout=2)
     assert time.monotonic() - t0 < 15
+
+
+@pytest.fixture
+def other_service():
+    """A TCP server on 127.0.0.1 that answers each connection with ``reply`` (None: says nothing, holds it)."""
+    server = socket.create_server(("127.0.0.1", 0))
+    held = []
+
+    def serve(reply):
+        while True:
+            try:
+                conn, _ = server.accept()
+            except OSError:  # closed at the end of the test
+                return
+            held.append(conn)
+            if reply is not None:
+                conn.sendall(reply)
+
+    def start(reply):
+        threading.Thread(target=serve, args=(reply,), daemon=True).start()
+        return f"tcp://127.0.0.1:{server.getsockname()[1]}"
+
+    yield start
+    server.close()
+    for conn in held:
+        conn.close()
+
+
+@pytest.mark.parametrize("reply, problem", [(b"HTTP/1.1 400 Bad Request\r\n\r\n", "is not a Dask scheduler"),
+                                            (None, "no Dask handshake came within 2 s")],
+                         ids=["an HTTP reply", "silence"])
+def test_another_service_at_the_port_is_a_clear_error_within_the_timeout(other_service, reply, problem):
+    # before: MemoryError "Unable to allocate 3.07 EiB" (the reply's first 8 bytes read as a length); the
+    # silent service held the Client past 60 s
+    address = other_service(reply)
+    t0 = time.monotonic()
+    with pytest.raises(ConnectionError, match=f"scheduler {address}: .*{problem}"):
+        batch.connect(address, timeout=2)
+    assert time.monotonic() - t0 < 15
+
+
+def test_a_scheduler_at_its_address_passes_the_check(client):
+    with batch.connect(client.scheduler.address, timeout=5) as other:
+        assert len(other.scheduler_info()["workers"]) == 2

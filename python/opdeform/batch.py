@@ -12,6 +12,8 @@ bake`` run with the same threads.
 import io as text_io
 import logging
 import os
+import socket
+import struct
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -63,9 +65,11 @@ def _bake_on_worker(spec):
 
 def connect(scheduler=None, workers=2, threads_per_worker=1, timeout=10.0):
     """A ``distributed.Client``: to the scheduler at ``scheduler`` (ConnectionError naming it when it does not
-    answer within ``timeout`` seconds), or to a new LocalCluster of ``workers`` processes."""
+    answer within ``timeout`` seconds, or answers not as a Dask scheduler), or to a new LocalCluster of
+    ``workers`` processes."""
     from distributed import Client, LocalCluster
     if scheduler:
+        _check_scheduler(scheduler, timeout)
         try:
             return Client(scheduler, timeout=timeout)
         except (OSError, TimeoutError) as exc:
@@ -73,6 +77,55 @@ def connect(scheduler=None, workers=2, threads_per_worker=1, timeout=10.0):
     cluster = LocalCluster(n_workers=workers, threads_per_worker=threads_per_worker, processes=True,
                            dashboard_address=None)
     return Client(cluster)
+
+
+# The first thing a Dask scheduler sends on a TCP connection is its handshake: 8 bytes giving the length of
+# the message (a few hundred bytes), then the message. Dask's Client allocates whatever length it reads (an
+# HTTP reply asked for 2.82 EiB: MemoryError) and waits for the handshake without a time limit (a service that
+# says nothing held it for 58 s and more with timeout=2), so a tcp address is checked here first.
+HANDSHAKE_LIMIT = 1 << 20
+
+
+def _check_scheduler(address, timeout):
+    """ConnectionError naming ``address`` unless what listens there sends a Dask handshake within ``timeout``
+    seconds. An address nothing listens at is left to the Client (it retries until the timeout, for a
+    scheduler that is starting); schemes other than tcp (tls, inproc) are not checked."""
+    from distributed.comm import get_address_host_port, normalize_address, parse_address
+    if parse_address(normalize_address(address))[0] != "tcp":
+        return
+    deadline = time.monotonic() + timeout
+    try:
+        sock = socket.create_connection(get_address_host_port(address), timeout=timeout)
+    except TimeoutError:
+        raise ConnectionError(f"scheduler {address}: no answer within {timeout:g} s") from None
+    except OSError:
+        return
+    with sock:
+        head = _receive(sock, 8, deadline, address, timeout)
+        length = struct.unpack("Q", head)[0]  # native order, as Dask writes it
+        if length > HANDSHAKE_LIMIT:
+            raise ConnectionError(f"scheduler {address}: what answers there is not a Dask scheduler (it began "
+                                  f"with {head!r}, not the length of a Dask handshake)")
+        _receive(sock, length, deadline, address, timeout)
+
+
+def _receive(sock, size, deadline, address, timeout):
+    data = b""
+    while len(data) < size:
+        sock.settimeout(max(deadline - time.monotonic(), 1e-3))
+        try:
+            chunk = sock.recv(size - len(data))
+        except TimeoutError:
+            raise ConnectionError(f"scheduler {address}: a connection opened but no Dask handshake came within "
+                                  f"{timeout:g} s (another service listening there?)") from None
+        except OSError as exc:
+            raise ConnectionError(f"scheduler {address}: the connection failed before a Dask handshake ({exc})") \
+                from None
+        if not chunk:
+            raise ConnectionError(f"scheduler {address}: the connection closed before a Dask handshake (another "
+                                  f"service listening there?)")
+        data += chunk
+    return data
 
 
 def submit(client, specs):
