@@ -42,7 +42,10 @@ static void od_FreeMotion(od_Goals* goals)
 	od_Free(goals->edgeTurn);
 	od_Free(goals->velocity);
 	od_Free(goals->spin);
-	goals->edgeRest = goals->edgeTurn = goals->velocity = goals->spin = NULL;
+	od_Free(goals->frameX);
+	od_Free(goals->frameR);
+	goals->edgeRest = goals->edgeTurn = goals->velocity = goals->spin = goals->frameX = goals->frameR = NULL;
+	goals->placed = false;
 }
 
 void od_Goals_Destroy(od_Goals* goals)
@@ -68,11 +71,15 @@ static od_Status od_AllocateMotion(od_Sim* sim)
 	goals->edgeTurn = od_Alloc(sizeof(double) * 18 * (size_t)sim->graph->edgeCount);
 	goals->velocity = od_AllocZero(3 * n, sizeof(double));
 	goals->spin = od_AllocZero(3 * n, sizeof(double));
-	if (!goals->edgeRest || !goals->edgeTurn || !goals->velocity || !goals->spin)
+	goals->frameX = od_Alloc(sizeof(double) * 3 * n);
+	goals->frameR = od_Alloc(sizeof(double) * 9 * n);
+	if (!goals->edgeRest || !goals->edgeTurn || !goals->velocity || !goals->spin || !goals->frameX || !goals->frameR)
 	{
 		od_FreeMotion(goals);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the goal shape of %zu particles", n);
 	}
+	memcpy(goals->frameX, goals->x, sizeof(double) * 3 * n);
+	memcpy(goals->frameR, goals->R, sizeof(double) * 9 * n);
 	goals->framed = false;
 	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
 	return OD_OK;
@@ -205,8 +212,66 @@ od_Status od_Sim_SetGoals(od_Sim* sim, const double* positions, const double* ro
 		od_Mat3 r = rotations ? od_M3Load(rotations + 9 * i) : od_M3Identity();
 		od_M3Store(sim->goals.R + 9 * i, &r);
 	}
+	if (od_Goals_CarryRest(sim))
+	{
+		memcpy(sim->goals.frameX, sim->goals.x, sizeof(double) * 3 * n);
+		memcpy(sim->goals.frameR, sim->goals.R, sizeof(double) * 9 * n);
+	}
 	od_UpdateTerms(sim);
 	return OD_OK;
+}
+
+// Goals carrying the rest between frames: in a call made just after a new frame (no step since it was set),
+// step k of n places each goal where its measured motion (velocity u_i, angular velocity Ω_i, od_TrackMotion,
+// the motion the prediction already damps against) puts it b = n - 1 - k steps before the frame,
+// g_i - b h u_i and exp(-b h [Ω_i]×) G_i, so the animation moves across a frame's substeps instead of jumping to
+// the frame at the first (docs/goals.md, "Between frames"). The last step has the frame itself. The edges'
+// terms stay those of the frame set: a rigid motion of the goals leaves them unchanged.
+void od_Goals_Place(od_Sim* sim)
+{
+	od_Goals* goals = &sim->goals;
+	int back = goals->steps - 1 - goals->step;
+	if (!od_Goals_CarryRest(sim) || (back <= 0 && !goals->placed))
+	{
+		return;
+	}
+	if (back <= 0)
+	{
+		od_Goals_EndCall(sim);
+		return;
+	}
+	double t = sim->def.dt * back;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_V3Store(goals->x + 3 * i,
+				   od_MulAdd(od_V3Load(goals->frameX + 3 * i), -t, od_V3Load(goals->velocity + 3 * i)));
+		od_Mat3 turn = od_M3ExpSkew(od_Scale(-t, od_V3Load(goals->spin + 3 * i))), frame = od_M3Load(goals->frameR + 9 * i);
+		od_Mat3 r = od_M3Mul(&turn, &frame);
+		od_M3Store(goals->R + 9 * i, &r);
+	}
+	goals->placed = true;
+	od_UpdateTerms(sim);
+}
+
+void od_Goals_BeginCall(od_Sim* sim, int steps)
+{
+	od_Goals* goals = &sim->goals;
+	bool moving = od_Goals_CarryRest(sim) && goals->framed && goals->mark == sim->counters.steps;
+	goals->step = 0;
+	goals->steps = moving ? steps : 0;
+}
+
+void od_Goals_EndCall(od_Sim* sim)
+{
+	od_Goals* goals = &sim->goals;
+	if (!goals->placed)
+	{
+		return;
+	}
+	memcpy(goals->x, goals->frameX, sizeof(double) * 3 * (size_t)sim->graph->n);
+	memcpy(goals->R, goals->frameR, sizeof(double) * 9 * (size_t)sim->graph->n);
+	goals->placed = false;
+	od_UpdateTerms(sim);
 }
 
 double od_Goals_Diagonal(const od_Sim* sim, int i)

@@ -87,6 +87,11 @@ typedef struct od_Goals
 	double* spin;     // n*3, Ω_i: each goal frame's angular velocity, the same
 	bool framed;      // a frame was set since the motion was reset (else the next one's velocity is 0)
 	long long mark;   // counters.steps at the last od_Sim_SetGoals (framed)
+	// Between frames (od_Goals_Place): x and R hold the goals placed for a call's step, the frame set is kept here.
+	double* frameX;   // n*3, the goal centres as set
+	double* frameR;   // n*9, the goal rotations as set
+	int step, steps;  // the call's step being made and its steps, 0 unless a frame was set just before the call
+	bool placed;      // x and R differ from the frame set
 } od_Goals;
 
 // A scene collider (scene_colliders.c) and, during a step, its frames at the step's start (a) and end (b) and the

@@ -16,6 +16,7 @@
 #include "energy.h"
 #include "floor.h"
 #include "global_solve.h"
+#include "goal.h"
 #include "interrupt.h"
 #include "local_step.h"
 #include "math3.h"
@@ -285,6 +286,7 @@ od_Status od_Step_Begin(od_Sim* sim, int steps)
 	{
 		sim->report = (od_StepReport){ .error = -1.0 };
 		od_Colliders_BeginCall(sim, steps);
+		od_Goals_BeginCall(sim, steps);
 	}
 	return status;
 }
@@ -294,6 +296,7 @@ void od_Step_Start(od_Sim* sim, bool chooseStart)
 	int n = sim->graph->n;
 	memcpy(sim->previous.x, sim->state.x, sizeof(double) * 3 * n);
 	memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
+	od_Goals_Place(sim);
 	od_Predict(sim);
 	if (chooseStart && sim->solverDef.tolerance > 0.0)
 	{
@@ -347,10 +350,12 @@ void od_Step_Finish(od_Sim* sim, int k, int steps)
 	}
 	od_UpdateVelocities(sim, &sim->previous);
 	sim->counters.steps++;
+	sim->goals.step++;
 }
 
 od_Status od_Step_End(od_Sim* sim, od_Status status)
 {
+	od_Goals_EndCall(sim);
 	status = od_End(sim, status);
 	od_Colliders_EndCall(sim, status == OD_OK);
 	return status;
