@@ -17,6 +17,9 @@
 // 0.071 -> 0.134 % of the bar's length); on the sagging bar, which swings, the predicted start put the
 // iterate 2.6x further from the solution, and the energy keeps the previous rotations there (0.158 % and
 // 0.070 ms before, 0.155 % and 0.072 ms after). Always predicting cost the sagging bar 3.3x.
+// With goals carrying the rest the predicted rotations, which carry the goals' turn, are taken untested: on
+// the 1,000-particle character of issue 24 (10 steps a frame) the test kept them so often that the iterations
+// a step stayed 2.25 without it, and it cost two global solves and two objectives (1.73 -> 1.02 ms a step).
 //
 // The auto accelerator (od_Tolerance_Plan, od_Tolerance_Check): each step's first two pairs are plain, and
 // q = r_2 / r_1 says how they contract. Fast (q < OD_AUTO_SLOW): plain pairs for the rest of the step. Slow:
@@ -41,6 +44,7 @@
 #include "core.h"
 #include "energy.h"
 #include "global_solve.h"
+#include "goal.h"
 #include "math3.h"
 #include "polar.h"
 
@@ -95,20 +99,31 @@ void od_Tolerance_Destroy(od_Tolerance* tol)
 	memset(tol, 0, sizeof *tol);
 }
 
-void od_Tolerance_ChooseStart(od_Sim* sim)
+// The rotations the angular velocities predict, made proper rotations, as the state's.
+static void od_PredictedRotations(od_Sim* sim)
 {
-	int n = sim->graph->n;
-	if (od_GlobalStep(sim) != OD_OK)
-	{
-		return; // the iteration's own global solve reports it
-	}
-	double kept = od_Energy(sim);
-	for (int i = 0; i < n; ++i)
+	for (int i = 0; i < sim->graph->n; ++i)
 	{
 		od_Mat3 r = od_M3Load(sim->Rtilde + 9 * i);
 		od_Orthonormalize(&r);
 		od_M3Store(sim->state.R + 9 * i, &r);
 	}
+}
+
+void od_Tolerance_ChooseStart(od_Sim* sim)
+{
+	int n = sim->graph->n;
+	if (od_Goals_CarryRest(sim))
+	{
+		od_PredictedRotations(sim); // untested: see the note above
+		return;
+	}
+	if (od_GlobalStep(sim) != OD_OK)
+	{
+		return; // the iteration's own global solve reports it
+	}
+	double kept = od_Energy(sim);
+	od_PredictedRotations(sim);
 	if (od_GlobalStep(sim) != OD_OK || !(od_Energy(sim) < kept))
 	{
 		memcpy(sim->state.R, sim->previous.R, sizeof(double) * 9 * n);
