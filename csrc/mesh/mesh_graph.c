@@ -35,6 +35,7 @@
 #include "buffer.h"
 #include "core.h"
 #include "graph.h"
+#include "interrupt.h"
 #include "math3.h"
 #include "mesh_check.h"
 #include "nearest.h"
@@ -47,6 +48,7 @@
 #include <string.h>
 
 #define OD_LLOYD_STEPS 10
+#define OD_SPREAD_POLL 4095u // voxels taken from Dijkstra's queue between interrupt checks, less one
 #define OD_VOXEL_PASSES 8
 // A group's grid holds at most this many cells per voxel wanted (and at least OD_VOXEL_CELL_FLOOR): a sliver
 // or a spike (a cube with one corner pulled 1e5 m out) filled 1/10^9 of its box and voxelized the full
@@ -530,11 +532,17 @@ static od_HeapItem od_HeapPop(od_Buffer* buffer)
 }
 
 // Dijkstra from what is queued: a voxel joins the cell of the first seed that reaches it strictly closer.
+// Polls for interrupts every OD_SPREAD_POLL + 1 voxels taken from the queue.
 static od_Status od_Spread(od_Cells* c)
 {
 	const int* cells = c->voxels->cells;
-	while (c->heap.size > 0)
+	for (unsigned taken = 0; c->heap.size > 0; ++taken)
 	{
+		od_Status polled = (taken & OD_SPREAD_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (polled != OD_OK)
+		{
+			return polled;
+		}
 		od_HeapItem top = od_HeapPop(&c->heap);
 		if (top.d > c->dist[top.v])
 		{

@@ -47,7 +47,7 @@ typedef struct od_Voxels
 
 // The number of cells of the grid that od_Voxelize would use (to keep it below OD_VOXEL_CELL_LIMIT).
 double od_Voxels_CellCount(const double* vertices, const int* triangles, const int* list, int count, double h);
-// Voxelizes the triangles list[0..count) at cell size h.
+// Voxelizes the triangles list[0..count) at cell size h (polls for interrupts: OD_ERROR_INTERRUPTED).
 od_Status od_Voxelize(const double* vertices, const int* triangles, const int* list, int count, double h, bool fill,
 					  od_Voxels* voxels);
 void od_Voxels_Destroy(od_Voxels* voxels);

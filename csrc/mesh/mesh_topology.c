@@ -4,10 +4,12 @@
 // box of the triangles' vertices; a vertex of no triangle, however far, is not counted) and equal lattice points
 // become one vertex (sorting, so deterministic). A span outside [OD_MIN_SPAN, OD_MAX_SPAN] is refused. Pieces are the connected components of
 // the triangles over welded vertices, numbered by their first triangle. A piece is closed when every
-// edge of its non-degenerate triangles is used by exactly two of them.
+// edge of its non-degenerate triangles is used by exactly two of them. The interrupt handler is polled
+// between the two sorts (welding, edges), which are not interruptible themselves.
 #include "mesh_graph.h"
 
 #include "core.h"
+#include "interrupt.h"
 #include "math3.h"
 #include "union_find.h"
 
@@ -182,6 +184,7 @@ od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* p)
 	od_Status status = weld && parent && pieceOf && pieceOfTriangle
 						   ? od_Weld(def, weld, &p->span)
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory finding the pieces of %d triangles", nt);
+	status = status == OD_OK ? od_CheckInterrupt() : status; // between the sorts (welding, edges)
 	if (status == OD_OK)
 	{
 		od_UnionInit(parent, nv);
@@ -245,7 +248,8 @@ od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* p)
 			parent[w] = 1;
 		}
 		od_Measure(def, pieceOfTriangle, p);
-		status = od_MarkClosed(def, weld, pieceOfTriangle, p);
+		status = od_CheckInterrupt();
+		status = status == OD_OK ? od_MarkClosed(def, weld, pieceOfTriangle, p) : status;
 	}
 	od_Free(weld);
 	od_Free(parent);

@@ -4,14 +4,18 @@
 // of Akenine-Möller, so a closed surface leaves no face-connected gap. Fill: the cells that a flood from
 // the empty border layer cannot reach through face neighbours are enclosed; for an open surface that
 // leaves only the shell, for a closed one its interior too. The grid is centred on the triangles'
-// bounding box so that axis-aligned faces fall mid-cell rather than on cell boundaries.
+// bounding box so that axis-aligned faces fall mid-cell rather than on cell boundaries. Both passes poll for
+// interrupts (od_CheckInterrupt: every OD_VOXEL_POLL + 1 triangles or flooded cells).
 #include "mesh_graph.h"
 
 #include "core.h"
+#include "interrupt.h"
 #include "math3.h"
 
 #include <math.h>
 #include <string.h>
+
+#define OD_VOXEL_POLL 4095 // triangles or flooded cells between interrupt checks, less one (a power of two less one)
 
 enum
 {
@@ -138,7 +142,7 @@ static void od_MarkShell(const od_Voxels* g, const double* vertices, const int* 
 }
 
 // Marks OD_CELL_OUTSIDE every empty cell reachable from cell 0 (in the empty border layer).
-static void od_FloodOutside(const od_Voxels* g, unsigned char* state, int* queue)
+static od_Status od_FloodOutside(const od_Voxels* g, unsigned char* state, int* queue)
 {
 	int nx = g->dims[0], nxy = g->dims[0] * g->dims[1];
 	int head = 0, tail = 0;
@@ -146,6 +150,11 @@ static void od_FloodOutside(const od_Voxels* g, unsigned char* state, int* queue
 	state[0] = OD_CELL_OUTSIDE;
 	while (head < tail)
 	{
+		od_Status status = (head & OD_VOXEL_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			return status;
+		}
 		int c = queue[head++];
 		int x = c % nx, y = (c / nx) % g->dims[1], z = c / nxy;
 		int next[6] = { x > 0 ? c - 1 : -1,
@@ -163,6 +172,7 @@ static void od_FloodOutside(const od_Voxels* g, unsigned char* state, int* queue
 			}
 		}
 	}
+	return OD_OK;
 }
 
 // Filled: everything but the outside; not filled: the shell only.
@@ -196,15 +206,22 @@ od_Status od_Voxelize(const double* vertices, const int* triangles, const int* l
 		od_Free(queue);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for a voxel grid of %d cells", cells);
 	}
-	for (int i = 0; i < count; ++i)
+	od_Status status = OD_OK;
+	for (int i = 0; i < count && status == OD_OK; ++i)
 	{
-		od_MarkShell(g, vertices, triangles + 3 * list[i], state);
+		status = (i & OD_VOXEL_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status == OD_OK)
+		{
+			od_MarkShell(g, vertices, triangles + 3 * list[i], state);
+		}
 	}
-	if (fill)
-	{
-		od_FloodOutside(g, state, queue);
-	}
+	status = status == OD_OK && fill ? od_FloodOutside(g, state, queue) : status;
 	od_Free(queue);
+	if (status != OD_OK)
+	{
+		od_Free(state);
+		return status;
+	}
 	for (int c = 0; c < cells; ++c)
 	{
 		g->count += od_IsSolid(state[c], fill);

@@ -44,17 +44,27 @@ static int Binding_SignalRaised(void* unused)
 	return raised;
 }
 
-PyThreadState* Binding_Begin(PyObject* obj)
+PyThreadState* Binding_Release(void)
 {
-	((GuardedObject*)obj)->busy = 1;
 	od_SetInterruptHandler(Binding_SignalRaised, NULL);
 	return PyEval_SaveThread();
 }
 
-void Binding_End(PyObject* obj, PyThreadState* ts)
+void Binding_Reacquire(PyThreadState* ts)
 {
 	PyEval_RestoreThread(ts);
 	od_SetInterruptHandler(NULL, NULL);
+}
+
+PyThreadState* Binding_Begin(PyObject* obj)
+{
+	((GuardedObject*)obj)->busy = 1;
+	return Binding_Release();
+}
+
+void Binding_End(PyObject* obj, PyThreadState* ts)
+{
+	Binding_Reacquire(ts);
 	((GuardedObject*)obj)->busy = 0;
 }
 

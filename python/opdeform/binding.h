@@ -46,6 +46,9 @@ int Binding_Enter(PyObject* obj);
 // of the call) and releases the GIL; Binding_End takes the GIL back and clears both.
 PyThreadState* Binding_Begin(PyObject* obj);
 void Binding_End(PyObject* obj, PyThreadState* ts);
+// The same for a call that uses no object yet (building one: a graph from a mesh, a skin, a parsed file).
+PyThreadState* Binding_Release(void);
+void Binding_Reacquire(PyThreadState* ts);
 
 // ---------------------------------------------------------------------------------------------------------
 // Statuses

@@ -93,9 +93,9 @@ static PyObject* Mesh_graph_from_mesh(PyObject* module, PyObject* args)
 	def.voxelsPerParticle = voxels;
 	def.smallPieces = (od_SmallPieces)small;
 	od_Graph* graph = NULL;
-	PyThreadState* ts = PyEval_SaveThread();
+	PyThreadState* ts = Binding_Release(); // seconds for a million triangles or voxels; Ctrl-C polled
 	od_Status status = od_Graph_CreateFromMesh(&def, &graph);
-	PyEval_RestoreThread(ts);
+	Binding_Reacquire(ts);
 	PyBuffer_Release(&vv);
 	PyBuffer_Release(&tv);
 	if (status != OD_OK)

@@ -66,6 +66,8 @@ typedef struct od_MeshGraphDef
 } od_MeshGraphDef;
 
 od_MeshGraphDef od_DefaultMeshGraphDef(void);
+// Polls the interrupt handler (od_SetInterruptHandler) while voxelizing and growing cells: on
+// OD_ERROR_INTERRUPTED no graph is made.
 od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph);
 
 // ---------------------------------------------------------------------------------------------------------
