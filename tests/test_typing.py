@@ -37,6 +37,14 @@ out = opdeform.relative_deform(skin, centers + 0.01, sim, fitted)
 strength: float = float(opdeform.goal_frequency(0.5))
 group = opdeform.ContactGroup([sim])
 group.step(2)
+from opdeform import io, meshes, mpm
+bar_vertices, bar_triangles = meshes.bar(segments=10)
+io.write_obj("bar.obj", bar_vertices, bar_triangles)
+read_vertices, read_triangles = io.read_obj("bar.obj")
+world = mpm.World((0, 0, 0), (1, 1, 1), 0.05, spin=0.5)
+world.add_particles(mpm.fill_box((0.2, 0.2, 0.2), (0.4, 0.4, 0.4), 0.02), mpm.snow(density=500.0))
+world.step(1 / 24)
+flakes_at: np.ndarray = world.positions
 '''
 PLANTED = [  # (line, what mypy must catch)
     ('sim.step("10")', "a string for an int"),
@@ -48,6 +56,12 @@ PLANTED = [  # (line, what mypy must catch)
     ("sim.set_solver(thread=2)", "a misspelt keyword"),
     ("opdeform.Skin(graph, centers, neighbors=None)", "None for an int"),
     ("opdeform.ContactGroup(sim)", "a Simulation for a sequence of them"),
+    ("io.read_obj(42)", "an int for a file name"),
+    ('mpm.World((0, 0, 0), (1, 1, 1), dx="fine")', "a string for a float"),
+    ('world.add_particles(centers, material="snow")', "a string for a Material"),
+    ("meshes.bar(segments=2.5)", "a float for an int"),
+    ('frames: int = io.read_pc2("a.pc2")', "a tuple used as an int"),
+    ("world.add_collider(shape=\"box\", threads=2)", "a keyword World.add_collider does not take"),
 ]
 
 
@@ -67,6 +81,21 @@ def mypy(tmp_path, source):
 def test_a_correct_script_passes(tmp_path):
     done, errors = mypy(tmp_path, CORRECT)
     assert done.returncode == 0 and not errors, done.stdout + done.stderr
+
+
+# The modules annotated throughout: mypy --disallow-untyped-defs passes on each (a function without annotations
+# fails it)
+ANNOTATED = ("io", "meshes", "mpm", "batch", "blender")
+
+
+def test_annotated_modules_pass_mypy_strictly(tmp_path):
+    folder = os.path.dirname(opdeform.__file__)
+    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent", "--ignore-missing-imports",
+                           "--disallow-untyped-defs", "--disallow-incomplete-defs", "--cache-dir",
+                           str(tmp_path / "cache"), *(os.path.join(folder, f"{name}.py") for name in ANNOTATED)],
+                          capture_output=True, text=True, timeout=600,
+                          env=dict(os.environ, MYPYPATH=os.path.dirname(folder)))
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
 def test_every_planted_mistake_is_caught(tmp_path):

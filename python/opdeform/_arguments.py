@@ -22,7 +22,7 @@ Ints = npt.NDArray[np.int32]
 Vector = Sequence[float] | npt.NDArray[Any]
 
 
-def as_array(name: str, value: ArrayLike, shape: Sequence[int | None],
+def as_array(name: str, value: ArrayLike | None, shape: Sequence[int | None],
              dtype: npt.DTypeLike = np.float64) -> npt.NDArray[Any]:
     """``value`` as a C-contiguous array of ``shape`` (None = any length); ValueError naming ``name``."""
     try:

@@ -16,9 +16,12 @@ import socket
 import struct
 import time
 import traceback
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import shot as shots
+from .io import FilePath
 
 __all__ = ["ShotResult", "bake_shot", "connect", "run", "submit", "gather"]
 
@@ -29,12 +32,12 @@ class ShotResult:
     ok: bool
     seconds: float = 0.0
     frames: int = 0
-    outputs: dict = field(default_factory=dict)
+    outputs: dict[str, str] = field(default_factory=dict)
     error: str = ""
     log: str = ""
 
 
-def bake_shot(spec, threads=1):
+def bake_shot(spec: str, threads: int | None = 1) -> ShotResult:
     """Loads and bakes one spec; every failure comes back inside the result (with the log of the bake)."""
     captured = text_io.StringIO()
     handler = logging.StreamHandler(captured)
@@ -58,12 +61,13 @@ def bake_shot(spec, threads=1):
         logger.removeHandler(handler)
 
 
-def _bake_on_worker(spec):
+def _bake_on_worker(spec: str) -> ShotResult:
     from distributed import get_worker
     return bake_shot(spec, get_worker().state.nthreads)
 
 
-def connect(scheduler=None, workers=2, threads_per_worker=1, timeout=10.0):
+def connect(scheduler: str | None = None, workers: int = 2, threads_per_worker: int = 1,
+            timeout: float = 10.0) -> Any:
     """A ``distributed.Client``: to the scheduler at ``scheduler`` (ConnectionError naming it when it does not
     answer within ``timeout`` seconds, or answers not as a Dask scheduler), or to a new LocalCluster of
     ``workers`` processes."""
@@ -86,7 +90,7 @@ def connect(scheduler=None, workers=2, threads_per_worker=1, timeout=10.0):
 HANDSHAKE_LIMIT = 1 << 20
 
 
-def _check_scheduler(address, timeout):
+def _check_scheduler(address: str, timeout: float) -> None:
     """ConnectionError naming ``address`` unless what listens there sends a Dask handshake within ``timeout``
     seconds. An address nothing listens at is left to the Client (it retries until the timeout, for a
     scheduler that is starting); schemes other than tcp (tls, inproc) are not checked."""
@@ -109,7 +113,7 @@ def _check_scheduler(address, timeout):
         _receive(sock, length, deadline, address, timeout)
 
 
-def _receive(sock, size, deadline, address, timeout):
+def _receive(sock: socket.socket, size: int, deadline: float, address: str, timeout: float) -> bytes:
     data = b""
     while len(data) < size:
         sock.settimeout(max(deadline - time.monotonic(), 1e-3))
@@ -128,19 +132,20 @@ def _receive(sock, size, deadline, address, timeout):
     return data
 
 
-def submit(client, specs):
+def submit(client: Any, specs: Sequence[FilePath]) -> list[Any]:
     """One task per spec (absolute paths; a worker must be able to read them); returns the futures in order."""
     paths = [os.path.abspath(os.fspath(s)) for s in specs]
     return [client.submit(_bake_on_worker, p, pure=False, key=f"bake-{k}-{os.path.basename(p)}")
             for k, p in enumerate(paths)]
 
 
-def gather(specs, futures, on_result=None):
+def gather(specs: Sequence[FilePath], futures: Sequence[Any],
+           on_result: Callable[[ShotResult], object] | None = None) -> list[ShotResult]:
     """The ShotResult of every future, in the order of the specs; a task that could not run (its worker died
     too often, the cluster went away) becomes a failed result naming the reason. on_result(result) as each ends."""
     from distributed import as_completed
     index = {f.key: k for k, f in enumerate(futures)}
-    results = [None] * len(futures)
+    results: list[Any] = [None] * len(futures)
     for future in as_completed(futures):
         k = index[future.key]
         try:
@@ -154,7 +159,8 @@ def gather(specs, futures, on_result=None):
     return results
 
 
-def run(specs, scheduler=None, workers=2, timeout=10.0, on_result=None):
+def run(specs: Sequence[FilePath], scheduler: str | None = None, workers: int = 2, timeout: float = 10.0,
+        on_result: Callable[[ShotResult], object] | None = None) -> list[ShotResult]:
     """Bakes the specs over a cluster (see ``connect``); returns their ShotResults in order."""
     with connect(scheduler, workers, timeout=timeout) as client:
         results = gather(specs, submit(client, specs), on_result)

@@ -19,7 +19,11 @@ import subprocess
 import tempfile
 import threading
 import zipfile
+from collections.abc import Callable, Mapping, Sequence
+from types import ModuleType
+from typing import Any
 
+resource: ModuleType | None
 try:
     import resource
 except ImportError:  # Windows: no address-space limit to set
@@ -28,6 +32,12 @@ except ImportError:  # Windows: no address-space limit to set
 import numpy as np
 
 from . import io
+
+# a shot.Shot (imported by shot, below it in the package's layers: not named here)
+Shot = Any
+# place(shot, pc2 path, triangles, report rows): writes a bake's outputs (shot.bake gives it)
+Place = Callable[[Shot, str, np.ndarray[Any, Any], list[Any]], object]
+Progress = Callable[[int, int], object]
 
 __all__ = ["BlenderError", "addon_source", "bake", "blender_command", "blender_env", "find_blender"]
 
@@ -42,7 +52,7 @@ class BlenderError(RuntimeError):
     """Blender could not bake or render a shot: the message names the shot and says why."""
 
 
-def find_blender(executable=None):
+def find_blender(executable: str | None = None) -> str:
     """The Blender to run: ``executable``, else $OPDEFORM_BLENDER, else ``blender`` on PATH."""
     name = executable or os.environ.get("OPDEFORM_BLENDER") or "blender"
     found = shutil.which(name)
@@ -51,7 +61,7 @@ def find_blender(executable=None):
     return found
 
 
-def addon_source(addon=None):
+def addon_source(addon: str | None = None) -> str:
     """The add-on to install: ``addon`` (a folder or a zip of scripts/package), else $OPDEFORM_ADDON, else the
     repository's addon/opdeform_blender above this package (a checkout's build tree)."""
     if addon or os.environ.get("OPDEFORM_ADDON"):
@@ -68,7 +78,7 @@ def addon_source(addon=None):
     raise BlenderError("no Blender add-on found: set [blender] addon or $OPDEFORM_ADDON (a folder or a zip)")
 
 
-def _install_addon(source, user):
+def _install_addon(source: str, user: str) -> None:
     """Copies (a folder) or unzips (a zip) the add-on into ``user/addons``."""
     addons = os.path.join(user, "addons")
     if zipfile.is_zipfile(source):
@@ -80,7 +90,7 @@ def _install_addon(source, user):
         raise BlenderError(f"{source} holds no {ADDON}/__init__.py")
 
 
-def blender_env(work, addon=None):
+def blender_env(work: str, addon: str | None = None) -> dict[str, str]:
     """Blender's environment: temporary user folders (``addon`` installed there); this opdeform
     ($OPDEFORM_PYTHONPATH) unless the add-on is a zip with its own; no Python paths of this interpreter
     (Blender has its own Python)."""
@@ -98,7 +108,7 @@ def blender_env(work, addon=None):
     return env
 
 
-def memory_cap_kib(memory_gib):
+def memory_cap_kib(memory_gib: float) -> int | None:
     """Blender's ``ulimit -v`` in KiB: ``memory_gib``, or this process's own limit when that is lower (a farm's
     cap is kept: ``ulimit -v`` above it would fail and Blender would never start); None without limits (Windows)."""
     if resource is None:
@@ -108,7 +118,8 @@ def memory_cap_kib(memory_gib):
     return wanted if soft == resource.RLIM_INFINITY else min(wanted, soft // 1024)
 
 
-def blender_command(executable, blend, script, args, memory_gib):
+def blender_command(executable: str, blend: str | None, script: str, args: Sequence[str],
+                    memory_gib: float) -> list[str]:
     """``blender -b`` on a file with a script, under ``ulimit -v`` of ``memory_gib`` or the lower cap already set."""
     command = [executable, "-b", "--factory-startup", "--disable-autoexec", *([blend] if blend else []),
                "--python-exit-code", "1", "-P", script, "--", *args]
@@ -116,15 +127,16 @@ def blender_command(executable, blend, script, args, memory_gib):
     return command if cap is None else ["sh", "-c", 'ulimit -v "$0" && exec "$@"', str(cap), *command]
 
 
-def run(command, env, timeout, what, on_line=None):
+def run(command: Sequence[str], env: Mapping[str, str], timeout: float, what: str,
+        on_line: Callable[[str], object] | None = None) -> str:
     """Runs Blender (``command``), its output to ``log`` lines; on_line(line) for each. BlenderError naming
     ``what`` when it does not end within ``timeout`` seconds or exits with an error. Returns the output."""
-    lines = []
+    lines: list[str] = []
     proc = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             errors="replace", start_new_session=True)
 
-    def read():
-        for line in proc.stdout:
+    def read() -> None:
+        for line in proc.stdout or ():
             lines.append(line)
             if on_line:
                 on_line(line)
@@ -145,23 +157,24 @@ def run(command, env, timeout, what, on_line=None):
     return output
 
 
-def _tail(lines):
+def _tail(lines: Sequence[str]) -> str:
     errors = [line for line in lines if line.startswith("OPDEFORM_ERROR ")]
     if errors:
         return ": " + errors[-1][len("OPDEFORM_ERROR "):].strip()
     return "; the end of its output:\n" + "".join(lines[-LOG_TAIL:])
 
 
-def _progress_lines(progress):
+def _progress_lines(progress: Progress | None) -> Callable[[str], None]:
     """on_line for ``run``: the bake's ``OPDEFORM_FRAME done total`` lines to progress(done, total)."""
-    def on_line(line):
+    def on_line(line: str) -> None:
         if progress and line.startswith("OPDEFORM_FRAME "):
             done, total = map(int, line.split()[1:3])
             progress(done, total)
     return on_line
 
 
-def bake(shot, threads=None, progress=None, place=None):
+def bake(shot: Shot, threads: int | None = None, progress: Progress | None = None,
+         place: Place | None = None) -> list[Any]:
     """Bakes a .blend shot with Blender; place(shot, pc2, triangles, rows) writes the outputs from what Blender
     made (``shot.bake`` gives it) before the work folder goes. Returns the report rows (as ``shot.bake``)."""
     what = f"shot {shot.name} ({shot.spec})"
@@ -185,7 +198,7 @@ def bake(shot, threads=None, progress=None, place=None):
         shutil.rmtree(work, ignore_errors=True)
 
 
-def _finish(shot, work, what, place):
+def _finish(shot: Shot, work: str, what: str, place: Place | None) -> list[Any]:
     """Checks what Blender left in ``work`` (done.json written last, the PC2 complete) and places it."""
     done = os.path.join(work, "done.json")
     if not os.path.isfile(done):
@@ -196,5 +209,6 @@ def _finish(shot, work, what, place):
     count = io.pc2_header(result["pc2"])[3]
     if count != expected:
         raise BlenderError(f"{what}: the bake holds {count} frames, the shot has {expected}")
-    place(shot, result["pc2"], np.load(os.path.join(work, "triangles.npy")), result["rows"])
+    if place is not None:
+        place(shot, result["pc2"], np.load(os.path.join(work, "triangles.npy")), result["rows"])
     return result["rows"]

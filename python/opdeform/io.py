@@ -19,18 +19,25 @@ import secrets
 import socket
 import struct
 import stat
+from collections.abc import Iterator
+from types import TracebackType
+from typing import IO, Any, Literal
 
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, integer
+from ._arguments import ArrayLike, Floats, Ints, as_array, integer
 
 __all__ = ["read", "read_obj", "read_ply", "read_regular", "write", "write_obj", "write_ply", "OutputBusy",
            "PC2Writer", "atomic_path", "exclusive", "lock_name", "partial_files", "partial_name", "pc2_header",
            "read_pc2", "write_pc2"]
 
+FilePath = str | os.PathLike[str]  # a file's name: a str or a pathlib.Path
+Mesh = tuple[Floats, Ints]  # (vertices (V,3) float64, triangles (T,3) int32)
+Format = Literal["obj", "ply"]
 
-def read_regular(path):
+
+def read_regular(path: FilePath) -> bytes:
     """The bytes of a regular file; ValueError naming it for anything else. Opened without blocking (a FIFO
     would wait for a writer forever) and checked before reading: only a regular file has an end (/dev/zero
     would fill the memory)."""
@@ -47,64 +54,64 @@ def read_regular(path):
         os.close(fd)
 
 
-def _read(path, fmt):
+def _read(path: FilePath, fmt: Format) -> Mesh:
     try:
         vertices, triangles = _core.parse_mesh(read_regular(path), fmt)
     except ValueError as exc:
         raise ValueError(f"{os.fspath(path)}: {exc}") from None
-    vertices = np.frombuffer(vertices, np.float64).reshape(-1, 3)
-    bad = np.flatnonzero(~np.isfinite(vertices).all(axis=1))
+    points = np.frombuffer(vertices, np.float64).reshape(-1, 3)
+    bad = np.flatnonzero(~np.isfinite(points).all(axis=1))
     if len(bad):  # nan, inf, or a number past float64 (1e400)
-        raise ValueError(f"{os.fspath(path)}: vertex {bad[0]} (from 0) is not finite: {vertices[bad[0]].tolist()}")
-    return vertices, np.frombuffer(triangles, np.int32).reshape(-1, 3)
+        raise ValueError(f"{os.fspath(path)}: vertex {bad[0]} (from 0) is not finite: {points[bad[0]].tolist()}")
+    return points, np.frombuffer(triangles, np.int32).reshape(-1, 3)
 
 
-def _finite(name, array):
+def _finite(name: str, array: Floats) -> Floats:
     bad = np.flatnonzero(~np.isfinite(array).all(axis=1))
     if len(bad):
         raise ValueError(f"{name}[{bad[0]}] is not finite: {array[bad[0]].tolist()}")
     return array
 
 
-def _write(path, vertices, triangles, fmt):
-    vertices = _finite("vertices", as_array("vertices", vertices, (None, 3)))
-    triangles = as_array("triangles", triangles, (None, 3), np.int32)
-    data = _core.format_mesh(fmt, vertices, triangles)
+def _write(path: FilePath, vertices: ArrayLike, triangles: ArrayLike, fmt: Format) -> None:
+    points = _finite("vertices", as_array("vertices", vertices, (None, 3)))
+    faces = as_array("triangles", triangles, (None, 3), np.int32)
+    data = _core.format_mesh(fmt, points, faces)
     with open(path, "wb") as f:
         f.write(data)
 
 
-def read_obj(path):
+def read_obj(path: FilePath) -> Mesh:
     """(vertices (V,3) float64, triangles (T,3) int32) of an OBJ file."""
     return _read(path, "obj")
 
 
-def read_ply(path):
+def read_ply(path: FilePath) -> Mesh:
     """(vertices (V,3) float64, triangles (T,3) int32) of an ascii or binary PLY file."""
     return _read(path, "ply")
 
 
-def write_obj(path, vertices, triangles):
+def write_obj(path: FilePath, vertices: ArrayLike, triangles: ArrayLike) -> None:
     _write(path, vertices, triangles, "obj")
 
 
-def write_ply(path, vertices, triangles):
+def write_ply(path: FilePath, vertices: ArrayLike, triangles: ArrayLike) -> None:
     _write(path, vertices, triangles, "ply")
 
 
-def _format_of(path):
+def _format_of(path: FilePath) -> Format:
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext not in (".obj", ".ply"):
         raise ValueError(f"{os.fspath(path)}: the file name must end in .obj or .ply")
-    return ext[1:]
+    return "obj" if ext == ".obj" else "ply"
 
 
-def read(path):
+def read(path: FilePath) -> Mesh:
     """read_obj or read_ply, by the file name's extension."""
     return _read(path, _format_of(path))
 
 
-def write(path, vertices, triangles):
+def write(path: FilePath, vertices: ArrayLike, triangles: ArrayLike) -> None:
     """write_obj or write_ply, by the file name's extension."""
     _write(path, vertices, triangles, _format_of(path))
 
@@ -119,7 +126,7 @@ PC2_MAGIC = b"POINTCACHE2\0"
 PC2_HEADER = struct.Struct("<12siiffi")
 
 
-def partial_name(path):
+def partial_name(path: FilePath) -> str:
     """A temporary name to write ``path`` under, unique to the caller: ``a/b.pc2`` -> ``a/b.part-PID-RANDOM.pc2``
     (the process id and 32 random bits, so that two writers of one file, in two processes or two threads,
     never share a partial file)."""
@@ -127,7 +134,7 @@ def partial_name(path):
     return f"{root}.part-{os.getpid()}-{secrets.token_hex(4)}{ext}"
 
 
-def partial_files(path):
+def partial_files(path: FilePath) -> list[str]:
     """The partial files of ``path`` in its folder (``partial_name``'s, whoever wrote them)."""
     folder, tail = os.path.split(os.fspath(path))
     root, ext = os.path.splitext(tail)
@@ -136,7 +143,7 @@ def partial_files(path):
 
 
 @contextlib.contextmanager
-def atomic_path(path):
+def atomic_path(path: FilePath) -> Iterator[str]:
     """Yields the temporary name to write ``path`` under (``partial_name``); renames it to ``path`` when the
     block completes, removes it when the block raises."""
     part = partial_name(path)
@@ -153,14 +160,14 @@ class OutputBusy(OSError):
     """Another writer holds an output's lock (``exclusive``)."""
 
 
-def lock_name(path):
+def lock_name(path: FilePath) -> str:
     """The lock file of an output: ``a/b.pc2`` -> ``a/.b.pc2.lock``."""
     folder, tail = os.path.split(os.fspath(path))
     return os.path.join(folder, f".{tail}.lock")
 
 
 @contextlib.contextmanager
-def exclusive(path, lock=None):
+def exclusive(path: FilePath, lock: FilePath | None = None) -> Iterator[FilePath]:
     """Holds the lock of an output (``lock``, by default ``lock_name(path)``, created with O_EXCL and holding
     this host's name and process id) for the block; OutputBusy naming the holder when another live writer has
     it. A lock left by a process of this host that has ended (killed mid-bake) is taken over; one from another
@@ -186,7 +193,7 @@ def exclusive(path, lock=None):
         os.remove(lock)
 
 
-def _lock_holder(lock):
+def _lock_holder(lock: FilePath) -> tuple[str, int | None]:
     """(host, pid) written in a lock file; pid None when it cannot be read."""
     try:
         with open(lock, "rb") as f:
@@ -196,7 +203,7 @@ def _lock_holder(lock):
         return "an unknown host", None
 
 
-def _alive(pid):
+def _alive(pid: int) -> bool:
     """Whether a process of this host runs (a zombie, killed and not yet reaped, does not)."""
     if os.name == "nt":
         return _alive_on_windows(pid)
@@ -213,20 +220,21 @@ def _alive(pid):
         return True
 
 
-def _alive_on_windows(pid):
+def _alive_on_windows(pid: int) -> bool:
     """OpenProcess and GetExitCodeProcess (on Windows os.kill(pid, 0) would end the process)."""
     import ctypes
-    kernel32 = ctypes.WinDLL("kernel32", use_last_error=True)
+    kernel32 = ctypes.WinDLL("kernel32", use_last_error=True)  # type: ignore[attr-defined]  # Windows only
     kernel32.OpenProcess.restype = ctypes.c_void_p
     handle = kernel32.OpenProcess(0x1000, False, pid)  # PROCESS_QUERY_LIMITED_INFORMATION
     if not handle:
-        return ctypes.get_last_error() == 5  # ERROR_ACCESS_DENIED: another user's live process
+        # ERROR_ACCESS_DENIED: another user's live process
+        return bool(ctypes.get_last_error() == 5)  # type: ignore[attr-defined]
     code = ctypes.c_ulong()
     try:
         known = kernel32.GetExitCodeProcess(ctypes.c_void_p(handle), ctypes.byref(code))
     finally:
         kernel32.CloseHandle(ctypes.c_void_p(handle))
-    return not known or code.value == 259  # STILL_ACTIVE
+    return bool(not known or code.value == 259)  # STILL_ACTIVE
 
 
 class PC2Writer:
@@ -237,11 +245,13 @@ class PC2Writer:
     the partial file ``resume`` (an earlier writer's, taken over: renamed to this writer's) after its first
     ``keep`` frames."""
 
-    def __init__(self, path, n_points, start=1.0, rate=1.0, atomic=True, keep=0, resume=None):
+    def __init__(self, path: FilePath, n_points: int, start: float = 1.0, rate: float = 1.0, atomic: bool = True,
+                 keep: int = 0, resume: FilePath | None = None) -> None:
         self.path = os.fspath(path)
         self.n_points = integer("n_points", n_points)
         self.count = integer("keep", keep)
         self.partial = partial_name(self.path) if atomic else self.path
+        self._file: IO[bytes] | None
         folder = os.path.dirname(self.path)
         if folder:
             os.makedirs(folder, exist_ok=True)
@@ -251,7 +261,7 @@ class PC2Writer:
             self._file = open(self.partial, "wb")
             self._file.write(PC2_HEADER.pack(PC2_MAGIC, 1, self.n_points, float(start), float(rate), 0))
 
-    def _resume(self, earlier):
+    def _resume(self, earlier: str) -> None:
         found = pc2_header(earlier)
         if found[0] != self.n_points or found[3] < self.count:
             raise ValueError(f"{earlier}: holds {found[3]} frames of {found[0]} points, cannot keep "
@@ -261,11 +271,13 @@ class PC2Writer:
         self._file = open(self.partial, "r+b")
         self._file.truncate(PC2_HEADER.size + self.count * self.n_points * 12)
 
-    def write(self, points):
+    def write(self, points: ArrayLike) -> None:
         pts = np.ascontiguousarray(points, dtype="<f4")
         if pts.size != 3 * self.n_points:
             raise ValueError(f"points: a PC2 frame of {self.path} has {self.n_points} points, got {pts.size // 3}")
         f = self._file
+        if f is None:
+            raise ValueError(f"{self.path}: the PC2 writer is closed")
         f.seek(PC2_HEADER.size + self.count * self.n_points * 12)
         f.write(pts.tobytes())
         self.count += 1
@@ -273,7 +285,7 @@ class PC2Writer:
         f.write(struct.pack("<i", self.count))
         f.flush()
 
-    def close(self):
+    def close(self) -> None:
         """Closes the file; an atomic writer's file then takes its name."""
         if self._file is not None:
             self._file.close()
@@ -281,10 +293,11 @@ class PC2Writer:
             if self.partial != self.path:
                 os.replace(self.partial, self.path)
 
-    def __enter__(self):
+    def __enter__(self) -> "PC2Writer":
         return self
 
-    def __exit__(self, kind, value, trace):
+    def __exit__(self, kind: type[BaseException] | None, value: BaseException | None,
+                 trace: TracebackType | None) -> None:
         if kind is None:
             self.close()
         elif self._file is not None:
@@ -292,7 +305,7 @@ class PC2Writer:
             self._file = None
 
 
-def pc2_header(path):
+def pc2_header(path: FilePath) -> tuple[int, float, float, int]:
     """(point count, start frame, sample rate, sample count) of a PC2 file."""
     with open(path, "rb") as f:
         raw = f.read(PC2_HEADER.size)
@@ -304,7 +317,7 @@ def pc2_header(path):
     return n, start, rate, count
 
 
-def read_pc2(path):
+def read_pc2(path: FilePath) -> tuple[float, float, np.ndarray[Any, np.dtype[np.float32]]]:
     """(start frame, sample rate, frames float32 (samples, points, 3)) of a PC2 file."""
     n, start, rate, count = pc2_header(path)
     data = np.fromfile(path, dtype="<f4", offset=PC2_HEADER.size, count=count * n * 3)
@@ -313,9 +326,9 @@ def read_pc2(path):
     return start, rate, data.reshape(count, n, 3)
 
 
-def write_pc2(path, frames, start=1.0, rate=1.0):
+def write_pc2(path: FilePath, frames: ArrayLike, start: float = 1.0, rate: float = 1.0) -> None:
     """All frames (samples, points, 3) at once, complete or not at all."""
-    frames = as_array("frames", frames, (None, None, 3))
-    with PC2Writer(path, frames.shape[1], start, rate) as writer:
-        for points in frames:
+    samples = as_array("frames", frames, (None, None, 3))
+    with PC2Writer(path, samples.shape[1], start, rate) as writer:
+        for points in samples:
             writer.write(points)

@@ -12,12 +12,21 @@ with outward-facing (counter-clockwise) triangles.
 - ``subdivide``: four triangles for each, to make large meshes (benchmarks).
 """
 
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any
+
 import numpy as np
+import numpy.typing as npt
 
 __all__ = ["bar", "capsule", "character", "creature", "sheet", "strand", "subdivide"]
 
+Array = npt.NDArray[Any]
+Mesh = tuple[npt.NDArray[np.float64], npt.NDArray[np.int32]]  # (vertices (V,3) float64, triangles (T,3) int32)
+# a tapered capsule: (start, end, radius at start, radius at end)
+Part = tuple[tuple[float, float, float], tuple[float, float, float], float, float]
 
-def _grid_triangles(rows, cols, offset=0):
+
+def _grid_triangles(rows: int, cols: int, offset: int = 0) -> Array:
     """Two triangles per quad of a rows x cols vertex grid (row-major), facing (row step) x (column step)."""
     i, j = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
     a = offset + i * cols + j
@@ -25,7 +34,7 @@ def _grid_triangles(rows, cols, offset=0):
     return np.concatenate([np.stack([a, d, c], -1).reshape(-1, 3), np.stack([a, c, b], -1).reshape(-1, 3)])
 
 
-def _weld(vertices, triangles, decimals=9):
+def _weld(vertices: Array, triangles: Array, decimals: int = 9) -> Mesh:
     """Merges vertices that coincide to ``decimals`` places (shared edges of separately built faces)."""
     keys = np.round(vertices, decimals)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
@@ -35,17 +44,18 @@ def _weld(vertices, triangles, decimals=9):
     return vertices[first[order]], rank[inverse.reshape(-1)][triangles].astype(np.int32)
 
 
-def _finish(vertices, triangles):
+def _finish(vertices: npt.ArrayLike, triangles: npt.ArrayLike) -> Mesh:
     return np.ascontiguousarray(vertices, np.float64), np.ascontiguousarray(triangles, np.int32)
 
 
-def bar(length=2.0, width=0.2, segments=20, cross=2):
+def bar(length: float = 2.0, width: float = 0.2, segments: int = 20, cross: int = 2) -> Mesh:
     """The bar along +x: x in [0, length], y and z in [-width/2, width/2]; ``segments`` divisions along its
     length and ``cross`` across each side face."""
     size = np.array([length, width, width], float)
     lo = np.array([0.0, -width / 2, -width / 2])
     div = np.array([segments, cross, cross])
-    vertices, triangles = [], []
+    vertices: list[Array] = []
+    triangles: list[Array] = []
     for axis in range(3):
         u, v = (axis + 1) % 3, (axis + 2) % 3
         for side in (0, 1):
@@ -65,16 +75,16 @@ def bar(length=2.0, width=0.2, segments=20, cross=2):
     return _finish(*_weld(np.concatenate(vertices), np.concatenate(triangles)))
 
 
-def _revolve(x, r, segments):
+def _revolve(x: Array, r: Array, segments: int) -> Mesh:
     """The closed surface of revolution about +x of the profile (x, r), whose ends have r = 0 (poles)."""
     phi = np.linspace(0.0, 2 * np.pi, segments, endpoint=False)
     ring = np.stack([np.zeros(segments), np.cos(phi), np.sin(phi)], -1)
     inner = len(x) - 2
-    vertices = [np.array([[x[0], 0.0, 0.0]])]
+    rings = [np.array([[x[0], 0.0, 0.0]])]
     for k in range(1, len(x) - 1):
-        vertices.append(ring * r[k] + [x[k], 0.0, 0.0])
-    vertices.append(np.array([[x[-1], 0.0, 0.0]]))
-    vertices = np.concatenate(vertices)
+        rings.append(ring * r[k] + [x[k], 0.0, 0.0])
+    rings.append(np.array([[x[-1], 0.0, 0.0]]))
+    vertices = np.concatenate(rings)
     j = np.arange(segments)
     jn = (j + 1) % segments
     tris = [np.stack([np.zeros(segments, int), 1 + jn, 1 + j], -1)]
@@ -87,7 +97,8 @@ def _revolve(x, r, segments):
     return _finish(vertices, np.concatenate(tris))
 
 
-def capsule(radius=0.1, length=1.0, segments=32, rings=8, body=8):
+def capsule(radius: float = 0.1, length: float = 1.0, segments: int = 32, rings: int = 8,
+            body: int = 8) -> Mesh:
     """A capsule along +x centred at the origin: a cylinder of ``length`` and ``radius`` with hemispherical
     caps (``rings`` latitude steps each), ``segments`` around and ``body`` divisions along the cylinder."""
     theta = np.linspace(-np.pi / 2, 0.0, rings + 1)
@@ -98,7 +109,7 @@ def capsule(radius=0.1, length=1.0, segments=32, rings=8, body=8):
     return _revolve(x, r, segments)
 
 
-def sheet(size=(1.0, 1.0), resolution=(20, 20)):
+def sheet(size: Sequence[float] = (1.0, 1.0), resolution: Sequence[int] = (20, 20)) -> Mesh:
     """An open size[0] x size[1] rectangle in z = 0 centred at the origin, resolution quads per side."""
     nx, ny = resolution[0] + 1, resolution[1] + 1
     xx, yy = np.meshgrid(np.linspace(-size[0] / 2, size[0] / 2, nx), np.linspace(-size[1] / 2, size[1] / 2, ny),
@@ -107,7 +118,7 @@ def sheet(size=(1.0, 1.0), resolution=(20, 20)):
     return _finish(vertices, _grid_triangles(nx, ny))
 
 
-def strand(length=1.0, width=0.02, segments=50, sag=0.0):
+def strand(length: float = 1.0, width: float = 0.02, segments: int = 50, sag: float = 0.0) -> Mesh:
     """An open ribbon of ``segments`` quads along +x from 0 to ``length``, ``width`` wide in y, bowed down
     by ``sag`` in the middle (a parabola)."""
     x = np.linspace(0.0, length, segments + 1)
@@ -120,7 +131,7 @@ def strand(length=1.0, width=0.02, segments=50, sag=0.0):
 # -- the creature --------------------------------------------------------------------------------------------
 
 # (start, end, radius at start, radius at end) of the capsules of the creature, in metres; feet at z = 0.
-_CREATURE_PARTS = [
+_CREATURE_PARTS: list[Part] = [
     ((-0.35, 0.0, 0.58), (0.35, 0.0, 0.6), 0.2, 0.2),        # body
     ((0.35, 0.0, 0.62), (0.58, 0.0, 0.88), 0.1, 0.08),       # neck
     ((0.56, 0.0, 0.92), (0.8, 0.0, 0.88), 0.11, 0.07),       # head
@@ -133,7 +144,7 @@ _CREATURE_PARTS = [
 
 
 # The character's capsules by name (metres, facing -y; the feet reach z = -0.005 before it is stood on z = 0).
-CHARACTER_PARTS = {
+CHARACTER_PARTS: dict[str, Part] = {
     "body": ((0.0, 0.05, 0.55), (0.0, 0.05, 1.2), 0.42, 0.33),
     "belly": ((0.0, -0.2, 0.78), (0.0, -0.2, 0.8), 0.36, 0.36),
     "head": ((0.0, 0.0, 1.62), (0.0, -0.06, 1.74), 0.28, 0.26),
@@ -147,12 +158,12 @@ CHARACTER_PARTS = {
 }
 
 
-def _capsules_distance(p, parts, blend=0.06):
+def _capsules_distance(p: Array, parts: Iterable[Part], blend: float = 0.06) -> Array:
     """Signed distance (approximate) of points p (..., 3) to a smooth union of tapered capsules
     ``(start, end, radius at start, radius at end)``."""
-    d = None
-    for a, b, ra, rb in parts:
-        a, b = np.array(a), np.array(b)
+    d: Any = None
+    for start, end, ra, rb in parts:
+        a, b = np.array(start), np.array(end)
         ab = b - a
         t = np.clip(((p - a) @ ab) / (ab @ ab), 0.0, 1.0)
         part = np.linalg.norm(p - (a + t[..., None] * ab), axis=-1) - (ra + (rb - ra) * t)
@@ -164,7 +175,7 @@ def _capsules_distance(p, parts, blend=0.06):
     return d
 
 
-def _surface_nets(f, origin, h):
+def _surface_nets(f: Array, origin: Array, h: float) -> Mesh:
     """A closed triangle mesh of the zero level of samples f (nx, ny, nz) on a grid of spacing h (negative
     inside, positive on the grid's border): one vertex per cell that the surface crosses (the mean of its
     edge crossings), one quad (two triangles) per grid edge that crosses it."""
@@ -216,7 +227,7 @@ def _surface_nets(f, origin, h):
     return _finish(vertices, np.concatenate([t1, t2]))
 
 
-def _is_closed_manifold(triangles):
+def _is_closed_manifold(triangles: Array) -> bool:
     """Every edge in exactly two triangles, once in each direction."""
     a, b = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]).T.astype(np.int64)
     n = int(triangles.max()) + 1
@@ -224,7 +235,7 @@ def _is_closed_manifold(triangles):
     return bool(np.all(forward[1:] != forward[:-1]) and np.array_equal(forward, backward))
 
 
-def _closed_surface(distance, lo, hi, h):
+def _closed_surface(distance: Callable[[Array], Array], lo: Array, hi: Array, h: float) -> Mesh:
     """Surface nets of the zero level of ``distance`` (points -> signed distance) over the box lo..hi at spacing
     h, standing on z = 0."""
     # A saddle of the level set on a cell face makes an edge of four triangles; a shifted grid avoids it.
@@ -239,7 +250,7 @@ def _closed_surface(distance, lo, hi, h):
     return vertices, triangles
 
 
-def creature(resolution=48):
+def creature(resolution: int = 48) -> Mesh:
     """The creature: about 1.9 m long, standing on z = 0, facing +x; ``resolution`` grid cells along its
     length (48 gives about 4,000 triangles, 130 about 28,000; ``subdivide`` for more)."""
     lo = np.array([-1.05, -0.4, -0.1])
@@ -247,7 +258,7 @@ def creature(resolution=48):
     return _closed_surface(lambda p: _capsules_distance(p, _CREATURE_PARTS), lo, hi, (hi[0] - lo[0]) / resolution)
 
 
-def character(resolution=70):
+def character(resolution: int = 70) -> Mesh:
     """The hopping character of issue 24: one closed shell 2.43 m tall standing on z = 0, facing -y (Blender's
     front view): a body with a forward belly, a head, two 0.5 m ears, a 0.75 m tail and two feet;
     ``resolution`` grid cells along its height (70 gives about 5,800 vertices). ``CHARACTER_PARTS`` names
@@ -258,7 +269,7 @@ def character(resolution=70):
                            (hi[2] - lo[2]) / resolution)
 
 
-def subdivide(vertices, triangles, levels=1):
+def subdivide(vertices: npt.ArrayLike, triangles: npt.ArrayLike, levels: int = 1) -> Mesh:
     """Splits every triangle into four at its edge midpoints, ``levels`` times (the shape is unchanged;
     a closed mesh stays closed)."""
     vertices, triangles = _finish(vertices, triangles)

@@ -6,13 +6,16 @@ with randomly oriented particles, and PLY export of the frames. Quaternions are 
 """
 
 import os
-from dataclasses import dataclass, astuple
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from . import _core
-from ._arguments import as_array, choice, integer, number, vector
+from ._arguments import ArrayLike, Floats, Vector, as_array, choice, integer, number, vector
 from .fields import ForceFields
+from .io import FilePath
 
 __all__ = ["Material", "snow", "jelly", "flakes", "World", "fill_box", "fill_mesh", "flake_layer",
            "random_orientations", "quaternions_to_euler", "write_ply", "read_ply", "write_frames"]
@@ -21,8 +24,9 @@ _KINDS = {"snow": 0, "jelly": 1, "flakes": 2}
 _CONTACTS = {"sticky": 0, "slip": 1, "separate": 2}
 _SHAPES = {"plane": 0, "box": 1, "sphere": 2, "mesh": 3}
 _WINDS = {"off": 0, "noise": 1, "potential": 2}
-_FIELDS = {"positions": 3, "velocities": 3, "orientations": 4, "rotations": (3, 3), "deformation": (3, 3),
-           "affine": (3, 3), "plastic_j": ()}
+_FIELDS: dict[str, int | tuple[int, ...]] = {
+    "positions": 3, "velocities": 3, "orientations": 4, "rotations": (3, 3), "deformation": (3, 3), "affine": (3, 3),
+    "plastic_j": ()}
 
 
 @dataclass
@@ -36,23 +40,22 @@ class Material:
     critical_stretch: float = 4.5e-3
     hardening: float = 10.0
 
-    def _core_tuple(self):
-        fields = astuple(self)
-        return (choice("material.kind", self.kind, _KINDS),) + tuple(number(f"material.{n}", v) for n, v in zip(
-            ("density", "young_modulus", "poisson_ratio", "critical_compression", "critical_stretch", "hardening"),
-            fields[1:]))
+    def _core_tuple(self) -> tuple[int, float, float, float, float, float, float]:
+        d, e, p, c, s, h = (number(f"material.{n}", getattr(self, n)) for n in (
+            "density", "young_modulus", "poisson_ratio", "critical_compression", "critical_stretch", "hardening"))
+        return choice("material.kind", self.kind, _KINDS), d, e, p, c, s, h
 
 
-def snow(**changes):
+def snow(**changes: Any) -> Material:
     """The seed's Table 2: θc 2.5e-2, θs 4.5e-3, ξ 10, ρ 600, E 5e3, ν 0.3."""
     return Material(**changes)
 
 
-def jelly(**changes):
+def jelly(**changes: Any) -> Material:
     return Material(**{"kind": "jelly", "density": 1000.0, "young_modulus": 1e5, **changes})
 
 
-def flakes(**changes):
+def flakes(**changes: Any) -> Material:
     return Material(**{"kind": "flakes", "density": 100.0, "young_modulus": 1e3, **changes})
 
 
@@ -65,23 +68,25 @@ class World(ForceFields):
     when it would take more than 100,000 substeps or 2^27 particle-substeps (colliders' speeds counted).
     """
 
-    def __init__(self, lower, upper, dx, gravity=(0.0, 0.0, -9.81), cfl=0.4, max_dt=1e-3, spin=1.0, walls="slip",
-                 wall_friction=0.0, threads=0):
+    def __init__(self, lower: Vector, upper: Vector, dx: float, gravity: Vector = (0.0, 0.0, -9.81), cfl: float = 0.4,
+                 max_dt: float = 1e-3, spin: float = 1.0, walls: str = "slip", wall_friction: float = 0.0,
+                 threads: int = 0) -> None:
         self.dx = number("dx", dx)
         self._core = _core.MpmWorld(vector("lower", lower), vector("upper", upper), self.dx,
                                     vector("gravity", gravity), number("cfl", cfl), number("max_dt", max_dt),
                                     number("spin", spin), choice("walls", walls, _CONTACTS),
                                     number("wall_friction", wall_friction), integer("threads", threads))
         # the calls that make the model, for pickling (the state itself comes from the core as bytes)
-        self._calls = [("__init__", (lower, upper, dx, gravity, cfl, max_dt, spin, walls, wall_friction, threads))]
+        self._calls: list[tuple[str, tuple[Any, ...]]] = [
+            ("__init__", (lower, upper, dx, gravity, cfl, max_dt, spin, walls, wall_friction, threads))]
 
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         return {"calls": self._calls, "state": self._core.save_state()}
 
     # what a pickle may replay: the calls that make the model, __init__ first (the particles are in the state)
     _REPLAYED = ("set_wind", "add_collider", "add_force_field", "move_force_field", "remove_force_field")
 
-    def __setstate__(self, saved):
+    def __setstate__(self, saved: dict[str, Any]) -> None:
         """The recorded model calls again, then the core's state bytes, which it checks before writing anything;
         anything else in ``calls`` raises ValueError naming it (a pickle is untrusted input, issue 28)."""
         calls = saved.get("calls") if isinstance(saved, dict) else None
@@ -96,8 +101,9 @@ class World(ForceFields):
         self._core.load_state(saved["state"])
 
     # -- content -------------------------------------------------------------------------------------------
-    def add_particles(self, positions, material=None, particle_volume=None, velocities=None, orientations=None,
-                      affine=None):
+    def add_particles(self, positions: ArrayLike, material: Material | None = None,
+                      particle_volume: float | None = None, velocities: ArrayLike | None = None,
+                      orientations: ArrayLike | None = None, affine: ArrayLike | None = None) -> None:
         """Adds a batch of particles sharing a material. particle_volume defaults to (dx/2)³ (8 per cell)."""
         pos = as_array("positions", positions, (None, 3))
         n = pos.shape[0]
@@ -114,28 +120,33 @@ class World(ForceFields):
             raise ValueError(f"material must be an opdeform.mpm.Material, got {type(material).__name__}")
         self._core.add_particles(pos, vel, aff, quat, volume, material._core_tuple())
 
-    def set_wind(self, kind="noise", velocity=(0.0, 0.0, 0.0), amplitude=1.0, wavelength=4.0, octaves=4,
-                 persistence=0.5, drift=(0.0, 0.0), drag=2.0, ground=0.0, ref_height=1.0, exponent=0.0, seed=1):
+    def set_wind(self, kind: str = "noise", velocity: Vector = (0.0, 0.0, 0.0), amplitude: float = 1.0,
+                 wavelength: float = 4.0, octaves: int = 4, persistence: float = 0.5, drift: Vector = (0.0, 0.0),
+                 drag: float = 2.0, ground: float = 0.0, ref_height: float = 1.0, exponent: float = 0.0,
+                 seed: int = 1) -> None:
         """Perlin-noise wind on the grid. kind: 'noise' (vortical), 'potential' (curl-free gradient of
         noise) or 'off'. Grid velocities relax to the wind at rate ``drag`` (1/s); the wind is scaled by
         ((z - ground) / ref_height) ** exponent ('noise' only) and its pattern drifts with ``drift`` (m/s)."""
         self._core.set_wind(choice("wind kind", kind, _WINDS), vector("velocity", velocity),
                             number("amplitude", amplitude), number("wavelength", wavelength),
                             integer("octaves", octaves), number("persistence", persistence),
-                            vector("drift", drift, 2), number("drag", drag), number("ground", ground),
+                            _pair("drift", drift), number("drag", drag), number("ground", ground),
                             number("ref_height", ref_height), number("exponent", exponent),
                             integer("seed", seed, None) & 0xFFFFFFFF)
         self._calls.append(("set_wind", (kind, velocity, amplitude, wavelength, octaves, persistence, drift, drag,
                                          ground, ref_height, exponent, seed)))
 
-    def add_collider(self, shape, contact="slip", friction=0.0, half_extents=(0.5, 0.5, 0.5), radius=None,
-                     vertices=None, triangles=None, rotation=None, translation=(0.0, 0.0, 0.0)):
+    def add_collider(self, shape: str, contact: str = "slip", friction: float = 0.0,
+                     half_extents: Vector = (0.5, 0.5, 0.5), radius: float | None = None,
+                     vertices: ArrayLike | None = None, triangles: ArrayLike | None = None,
+                     rotation: ArrayLike | None = None, translation: Vector = (0.0, 0.0, 0.0)) -> int:
         """A collider: shape 'plane' (z < 0 of its frame), 'box', 'sphere' or 'mesh' (closed triangles in its
         frame). Returns its id for move_collider."""
         shape_id = choice("shape", shape, _SHAPES)
         if radius is not None:
             half_extents = (number("radius", radius),) * 3
-        verts = tris = None
+        verts: Floats | None = None
+        tris = None
         if shape == "mesh":
             verts = as_array("vertices", vertices, (None, 3))
             tris = as_array("triangles", triangles, (None, 3), np.int32)
@@ -148,31 +159,31 @@ class World(ForceFields):
                                              translation)))
         return id
 
-    def add_floor(self, height=0.0, contact="slip", friction=0.0):
+    def add_floor(self, height: float = 0.0, contact: str = "slip", friction: float = 0.0) -> int:
         return self.add_collider("plane", contact, friction, translation=(0.0, 0.0, number("height", height)))
 
-    def move_collider(self, id, translation, rotation=None):
+    def move_collider(self, id: int, translation: Vector, rotation: ArrayLike | None = None) -> None:
         """The collider's frame at the end of the next step(); it moves there at constant velocity."""
         self._core.move_collider(integer("id", id), _rotation(rotation), vector("translation", translation))
 
     # -- stepping ------------------------------------------------------------------------------------------
-    def step(self, duration):
+    def step(self, duration: float) -> None:
         """Advances ``duration`` seconds in CFL-limited substeps, then updates the orientations."""
         self._core.step(number("duration", duration))
 
-    def substep(self, dt):
+    def substep(self, dt: float) -> None:
         """One substep of exactly dt (no CFL limit, orientations not updated)."""
         self._core.substep(number("dt", dt))
 
-    def update_orientations(self):
+    def update_orientations(self) -> None:
         self._core.update_orientations()
 
     # -- state ---------------------------------------------------------------------------------------------
     @property
-    def n_particles(self):
+    def n_particles(self) -> int:
         return self._core.n_particles
 
-    def read(self, name):
+    def read(self, name: str) -> Floats:
         """A field as a numpy array: positions, velocities (n,3), orientations (n,4), rotations,
         deformation, affine (n,3,3) or plastic_j (n,)."""
         if name not in _FIELDS:
@@ -182,19 +193,34 @@ class World(ForceFields):
         self._core.read(name, out)
         return out
 
-    positions = property(lambda self: self.read("positions"))
-    velocities = property(lambda self: self.read("velocities"))
-    orientations = property(lambda self: self.read("orientations"))
-    rotations = property(lambda self: self.read("rotations"))
+    @property
+    def positions(self) -> Floats:
+        """read("positions"): (n,3)."""
+        return self.read("positions")
 
     @property
-    def stats(self):
+    def velocities(self) -> Floats:
+        """read("velocities"): (n,3)."""
+        return self.read("velocities")
+
+    @property
+    def orientations(self) -> Floats:
+        """read("orientations"): (n,4) unit quaternions (w, x, y, z)."""
+        return self.read("orientations")
+
+    @property
+    def rotations(self) -> Floats:
+        """read("rotations"): (n,3,3)."""
+        return self.read("rotations")
+
+    @property
+    def stats(self) -> dict[str, float]:
         """substeps, last_substeps, time, last_dt, active_blocks, max_speed."""
         return self._core.stats()
 
 
 # -- emitters ------------------------------------------------------------------------------------------------
-def random_orientations(n, seed=0):
+def random_orientations(n: int, seed: int = 0) -> Floats:
     """n unit quaternions (w, x, y, z) uniform over the rotations (Shoemake)."""
     rng = np.random.default_rng(seed)
     u1, u2, u3 = rng.random((3, integer("n", n)))
@@ -204,7 +230,7 @@ def random_orientations(n, seed=0):
     return q * np.where(q[:, :1] < 0, -1.0, 1.0)
 
 
-def fill_box(lower, upper, spacing, jitter=0.0, seed=0):
+def fill_box(lower: Vector, upper: Vector, spacing: float, jitter: float = 0.0, seed: int = 0) -> Floats:
     """Particle centres on a lattice of ``spacing`` filling [lower, upper], each moved by up to
     jitter * spacing at random."""
     lo, hi, h = vector("lower", lower), vector("upper", upper), number("spacing", spacing)
@@ -217,7 +243,8 @@ def fill_box(lower, upper, spacing, jitter=0.0, seed=0):
     return pts
 
 
-def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
+def fill_mesh(vertices: ArrayLike, triangles: ArrayLike, spacing: float, jitter: float = 0.0,
+              seed: int = 0) -> Floats:
     """Lattice points inside a closed triangle mesh (parity of ray crossings along +x)."""
     v = as_array("vertices", vertices, (None, 3))
     t = as_array("triangles", triangles, (None, 3), np.int32)
@@ -241,7 +268,7 @@ def fill_mesh(vertices, triangles, spacing, jitter=0.0, seed=0):
     return pts[inside]
 
 
-def flake_layer(center, size, thickness, count, seed=0):
+def flake_layer(center: Vector, size: ArrayLike, thickness: float, count: int, seed: int = 0) -> Floats:
     """``count`` flakes scattered uniformly in a slab of horizontal size (sx, sy) and ``thickness``."""
     c = np.array(vector("center", center))
     s = as_array("size", size, (2,))
@@ -250,10 +277,9 @@ def flake_layer(center, size, thickness, count, seed=0):
     return c + u * np.array([s[0], s[1], number("thickness", thickness)])
 
 
-def quaternions_to_euler(q):
+def quaternions_to_euler(q: ArrayLike) -> Floats:
     """(n,4) quaternions (w, x, y, z) to (n,3) Euler angles in Blender's 'XYZ' order (for Blender < 4.1)."""
-    q = as_array("q", q, (None, 4))
-    w, x, y, z = q.T
+    w, x, y, z = as_array("q", q, (None, 4)).T
     rx = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     ry = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
     rz = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
@@ -264,7 +290,8 @@ def quaternions_to_euler(q):
 _PLY_FIELDS = ("x", "y", "z", "qw", "qx", "qy", "qz", "vx", "vy", "vz")
 
 
-def write_ply(path, positions, orientations, velocities=None):
+def write_ply(path: FilePath, positions: ArrayLike, orientations: ArrayLike,
+              velocities: ArrayLike | None = None) -> None:
     """Binary little-endian PLY of vertices with float properties x y z qw qx qy qz [vx vy vz]."""
     pos = as_array("positions", positions, (None, 3))
     n = pos.shape[0]
@@ -280,7 +307,7 @@ def write_ply(path, positions, orientations, velocities=None):
         f.write(data.tobytes())
 
 
-def read_ply(path):
+def read_ply(path: FilePath) -> dict[str, np.ndarray[Any, np.dtype[np.float32]]]:
     """The dict of float arrays written by write_ply (name -> (n,)); ValueError naming the file for anything
     else (not a regular file, a damaged header, a vertex count the data does not hold)."""
     from .io import read_regular
@@ -294,10 +321,10 @@ def read_ply(path):
         raise ValueError(f"{os.fspath(path)}: the PLY header is not ASCII text") from None
     names = [line.split()[2] for line in lines if line.startswith("property float") and len(line.split()) == 3]
     counts = [line.split()[2:] for line in lines if line.startswith("element vertex")]
-    n = counts[0][0] if len(counts) == 1 and len(counts[0]) == 1 else None
-    if n is None or not n.isdigit():
-        raise ValueError(f"{os.fspath(path)}: the PLY header's vertex count must be one integer >= 0, got {n!r}")
-    n, body = int(n), data[end + len(b"end_header\n"):]
+    given = counts[0][0] if len(counts) == 1 and len(counts[0]) == 1 else None
+    if given is None or not given.isdigit():
+        raise ValueError(f"{os.fspath(path)}: the PLY header's vertex count must be one integer >= 0, got {given!r}")
+    n, body = int(given), data[end + len(b"end_header\n"):]
     if n * 4 * len(names) > len(body):
         raise ValueError(f"{os.fspath(path)}: truncated: {n} vertices of {len(names)} floats need "
                          f"{n * 4 * len(names)} bytes, the file holds {len(body)}")
@@ -305,7 +332,8 @@ def read_ply(path):
     return {name: values[:, k] for k, name in enumerate(names)}
 
 
-def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
+def write_frames(world: World, out_dir: FilePath, frames: int, fps: float = 24, prefix: str = "frame",
+                 on_frame: Callable[[int, World], object] | None = None) -> list[str]:
     """Steps ``world`` one frame at a time and writes out_dir/<prefix>_0000.ply ... (frame 0 = the initial
     state). on_frame(index, world) runs before each step (move colliders there) and may return False to
     stop. Returns the written paths."""
@@ -323,5 +351,10 @@ def write_frames(world, out_dir, frames, fps=24, prefix="frame", on_frame=None):
 
 
 # -- argument helpers ----------------------------------------------------------------------------------------
-def _rotation(rotation):
+def _pair(name: str, value: Vector) -> tuple[float, float]:
+    x, y = vector(name, value, 2)
+    return x, y
+
+
+def _rotation(rotation: ArrayLike | None) -> Floats:
     return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
