@@ -158,6 +158,25 @@ def test_a_lock_left_by_a_dead_process_is_taken_over(tmp_path):
     assert io.pc2_header(tmp_path / "out" / "shot.pc2")[3] == 5
 
 
+@pytest.mark.parametrize("held, holder", [("farm-node-7 4242\n", "process 4242 on farm-node-7, another host: "
+                                                                 "whether it still runs cannot be checked"),
+                                          ("\x00\xff", "a writer whose lock cannot be read")],
+                         ids=["another host", "unreadable"])
+def test_a_lock_that_cannot_be_checked_is_refused_naming_it_and_how_to_clear_it(tmp_path, capsys, held, holder):
+    # before: "... by process 4242 on farm-node-7 (lock ...); if no bake of it runs, delete the lock" (not saying
+    # why the lock is kept, nor which file to delete); an unreadable lock: "by process None on an unknown host"
+    spec = write_spec(tmp_path, last=5)
+    os.makedirs(tmp_path / "out")
+    lock = tmp_path / "out" / ".shot.pc2.lock"
+    lock.write_bytes(held.encode("latin-1"))
+    assert cli.main(["bake", spec]) == 1
+    err = capsys.readouterr().err
+    assert f"is being baked by {holder}" in err and f"if no bake of it runs, delete {lock} and bake again" in err, err
+    assert lock.read_bytes() == held.encode("latin-1") and not (tmp_path / "out" / "shot.pc2").exists()
+    lock.unlink()
+    assert cli.main(["bake", spec]) == 0
+
+
 def test_atomic_files_of_one_output_have_a_part_name_per_writer(tmp_path):
     with io.atomic_path(tmp_path / "a.obj") as first, io.atomic_path(tmp_path / "a.obj") as second:
         assert first != second and os.path.dirname(first) == str(tmp_path)

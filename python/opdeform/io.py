@@ -171,7 +171,8 @@ def exclusive(path: FilePath, lock: FilePath | None = None) -> Iterator[FilePath
     """Holds the lock of an output (``lock``, by default ``lock_name(path)``, created with O_EXCL and holding
     this host's name and process id) for the block; OutputBusy naming the holder when another live writer has
     it. A lock left by a process of this host that has ended (killed mid-bake) is taken over; one from another
-    host stays until removed."""
+    host (whose processes cannot be checked from here) or one that cannot be read stays until removed, and the
+    message says which file to delete."""
     lock = lock or lock_name(path)
     for attempt in range(2):
         try:
@@ -180,8 +181,7 @@ def exclusive(path: FilePath, lock: FilePath | None = None) -> Iterator[FilePath
         except FileExistsError:
             host, pid = _lock_holder(lock)
             if attempt or host != socket.gethostname() or pid is None or _alive(pid):
-                raise OutputBusy(f"{os.fspath(path)} is being baked by process {pid} on {host} (lock {lock}); "
-                                 f"if no bake of it runs, delete the lock") from None
+                raise _busy(path, lock, host, pid) from None
             os.remove(lock)
     try:
         os.write(fd, f"{socket.gethostname()} {os.getpid()}\n".encode())
@@ -191,6 +191,18 @@ def exclusive(path: FilePath, lock: FilePath | None = None) -> Iterator[FilePath
         yield lock
     finally:
         os.remove(lock)
+
+
+def _busy(path: FilePath, lock: FilePath, host: str, pid: int | None) -> OutputBusy:
+    """OutputBusy naming the output, the lock, its holder and how to clear the lock."""
+    if pid is None:
+        holder = "a writer whose lock cannot be read"
+    elif host != socket.gethostname():
+        holder = f"process {pid} on {host}, another host: whether it still runs cannot be checked from here"
+    else:
+        holder = f"process {pid} on {host}"
+    return OutputBusy(f"{os.fspath(path)} is being baked by {holder} (lock {os.fspath(lock)}); if no bake of it "
+                      f"runs, delete {os.fspath(lock)} and bake again")
 
 
 def _lock_holder(lock: FilePath) -> tuple[str, int | None]:
