@@ -1,5 +1,7 @@
 """Pickling by the arguments an object was made from: for objects whose whole state is what their
-constructor computed (Skin, GoalFit), a pickle stores those arguments and unpickling makes the object again."""
+constructor computed (Skin, GoalFit), a pickle stores those arguments and unpickling makes the object again.
+The constructor checks them as any call, but ``pickle.loads`` runs whatever a crafted pickle names before that:
+unpickle only trusted files; elsewhere store the arguments as arrays and call the constructor."""
 
 __all__ = ["FromArguments"]
 

@@ -56,6 +56,9 @@ class Graph:
         return self._made
 
     def __setstate__(self, made):
+        """Made again through the constructor or ``from_mesh`` (checked as any call); ``pickle.loads`` runs
+        whatever a crafted pickle names before this, so unpickle only trusted files (else store the arrays the
+        graph was made from and make it again)."""
         kind, args = made
         self.__dict__.update((Graph.from_mesh(*args) if kind == "from_mesh" else Graph(*args)).__dict__)
 

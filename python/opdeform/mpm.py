@@ -88,7 +88,10 @@ class World(ForceFields):
 
     def __setstate__(self, saved: dict[str, Any]) -> None:
         """The recorded model calls again, then the core's state bytes, which it checks before writing anything;
-        anything else in ``calls`` raises ValueError naming it (a pickle is untrusted input, issue 28)."""
+        anything else in ``calls`` raises ValueError naming it (a pickle is untrusted input, issue 28). This
+        cannot make ``pickle.loads`` safe: it runs whatever a crafted pickle names before this is reached. A
+        World has no public loader of plain data (its particles' deformation and plastic state travel only in
+        the pickle): unpickle only what you or a trusted process wrote."""
         calls = saved.get("calls") if isinstance(saved, dict) else None
         if not isinstance(calls, list) or not calls:
             raise ValueError(f"calls: a list of (name, arguments) pairs expected, got {type(calls).__name__}")

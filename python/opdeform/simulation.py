@@ -416,6 +416,12 @@ class Simulation(ForceFields):
                 "self_contact": self.self_contact}
 
     def __setstate__(self, saved):
+        """Unpickling: the saved calls replayed after ``check_simulation`` bounds them. ``pickle.loads`` runs
+        whatever a crafted pickle names before this is reached, and nothing here can stop that: unpickle only
+        what you or a trusted process wrote. For state kept where others can write (shared farm storage), store
+        data instead: ``positions``, ``rotations``, ``velocities`` and ``angular_velocities`` as arrays
+        (``numpy.savez``, read with ``numpy.load(..., allow_pickle=False)``) and ``set_state`` them on a
+        Simulation your own code builds, as the bake's checkpoints do (docs/pipeline.md)."""
         check_simulation(saved)
         self._start(saved["graph"], core_params(**saved["params"]))
         self.set_solver(**saved["solver"])
