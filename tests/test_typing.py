@@ -85,7 +85,7 @@ def test_a_correct_script_passes(tmp_path):
 
 # The modules annotated throughout: mypy --disallow-untyped-defs passes on each (a function without annotations
 # fails it)
-ANNOTATED = ("io", "meshes", "mpm", "batch", "blender")
+ANNOTATED = ("io", "meshes", "mpm", "batch", "blender", "shot")
 
 
 def test_annotated_modules_pass_mypy_strictly(tmp_path):

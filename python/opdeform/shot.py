@@ -21,11 +21,15 @@ import tempfile
 import time
 import tomllib
 import urllib.parse
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any, Literal, NoReturn, overload
 
 import numpy as np
+import numpy.typing as npt
 
 from . import io, meshes
+from ._arguments import ArrayLike, Floats
 from .goals import GoalFit, relative_deform
 from .graph import MODES, Graph
 from .mesh import Skin, add_vertex_direction, pin_vertices
@@ -36,6 +40,12 @@ __all__ = ["Shot", "SpecError", "VERSION", "bake", "load", "read_report", "repor
 VERSION = 1
 log = logging.getLogger("opdeform.shot")
 REPORT_COLUMNS = ("frame", "step_seconds", "skin_seconds", "energy", "residual", "max_speed", "over_tolerance")
+# A report row: REPORT_COLUMNS to numbers (frame and over_tolerance ints); a spec's checked table: key to value;
+# a schema: key to (check, default); a check takes (where, value) and returns the value
+Row = dict[str, Any]
+Settings = dict[str, Any]
+Check = Callable[[str, Any], Any]
+Schema = dict[str, tuple[Check, Any]]
 
 
 class SpecError(ValueError):
@@ -43,11 +53,12 @@ class SpecError(ValueError):
 
 
 # -- value checks: each takes (where, value) and returns the value or raises SpecError ------------------------
-def _fail(where, problem):
+def _fail(where: str, problem: str) -> NoReturn:
     raise SpecError(f"{where}: {problem}")
 
 
-def _number(where, value, low=None, above=None, most=None):
+def _number(where: str, value: Any, low: float | None = None, above: float | None = None,
+            most: float | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
         _fail(where, f"must be a number, got {value!r}")
     if (low is not None and value < low) or (above is not None and value <= above):
@@ -57,29 +68,29 @@ def _number(where, value, low=None, above=None, most=None):
     return float(value)
 
 
-def _positive(where, value):
+def _positive(where: str, value: Any) -> float:
     return _number(where, value, above=0)
 
 
-def _bounded(most):
+def _bounded(most: float) -> Check:
     """A check of a positive number of at most ``most``."""
     return lambda where, value: _number(where, value, above=0, most=most)
 
 
-def _fraction(where, value):
+def _fraction(where: str, value: Any) -> float:
     value = _number(where, value, low=0)
     return value if value <= 1 else _fail(where, f"must be in [0, 1], got {value!r}")
 
 
-def _nonnegative(where, value):
+def _nonnegative(where: str, value: Any) -> float:
     return _number(where, value, low=0)
 
 
-def _finite(where, value):
+def _finite(where: str, value: Any) -> float:
     return _number(where, value)
 
 
-def _integer(where, value, low=None, most=None):
+def _integer(where: str, value: Any, low: int | None = None, most: int | None = None) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or (low is not None and value < low):
         _fail(where, f"must be an integer{'' if low is None else ' >= ' + str(low)}, got {value!r}")
     if most is not None and value > most:
@@ -87,47 +98,47 @@ def _integer(where, value, low=None, most=None):
     return value
 
 
-def _count(where, value):
+def _count(where: str, value: Any) -> int:
     return _integer(where, value, 1)
 
 
-def _counted(most):
+def _counted(most: int) -> Check:
     """A check of a count (an integer >= 1) of at most ``most``."""
     return lambda where, value: _integer(where, value, 1, most)
 
 
-def _natural(where, value):
+def _natural(where: str, value: Any) -> int:
     return _integer(where, value, 0)
 
 
-def _vector(where, value):
+def _vector(where: str, value: Any) -> tuple[float, ...]:
     if not isinstance(value, list) or len(value) != 3:
         _fail(where, f"must be three numbers, got {value!r}")
     return tuple(_number(f"{where}[{k}]", x) for k, x in enumerate(value))
 
 
-def _text(where, value):
+def _text(where: str, value: Any) -> str:
     if not isinstance(value, str) or not value or "\0" in value:
         _fail(where, f"must be a non-empty string without NUL, got {value!r}")
     return value
 
 
-def _flag(where, value):
+def _flag(where: str, value: Any) -> bool:
     return value if isinstance(value, bool) else _fail(where, f"must be true or false, got {value!r}")
 
 
-def _mode(where, value):
+def _mode(where: str, value: Any) -> str:
     return value if value in MODES else _fail(where, f"must be one of {list(MODES)}, got {value!r}")
 
 
 ACCELERATORS = ("none", "anderson", "chebyshev", "auto")
 
 
-def _accelerator(where, value):
+def _accelerator(where: str, value: Any) -> str:
     return value if value in ACCELERATORS else _fail(where, f"must be one of {list(ACCELERATORS)}, got {value!r}")
 
 
-def _frame_range(where, value):
+def _frame_range(where: str, value: Any) -> tuple[int, ...]:
     if not (isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value)) or \
             value[1] <= value[0]:
         _fail(where, f"must be [first, last] integers with last > first, got {value!r}")
@@ -136,7 +147,7 @@ def _frame_range(where, value):
     return tuple(value)
 
 
-def _indices(where, value):
+def _indices(where: str, value: Any) -> str | list[int]:
     if isinstance(value, str):  # a text file of indices (a vertex group written out), one or more a line
         return value
     if not isinstance(value, list) or not all(type(v) is int for v in value):
@@ -144,7 +155,7 @@ def _indices(where, value):
     return value
 
 
-def _keys(where, value):
+def _keys(where: str, value: Any) -> list[Settings]:
     if not isinstance(value, list) or not value:
         _fail(where, "must be a non-empty list of {frame, offset, rotate} tables")
     return [_table(f"{where}[{k}]", key, KEY_SCHEMA) for k, key in enumerate(value)]
@@ -158,10 +169,10 @@ MAX_ITERATIONS = 100_000
 MAX_STIFFNESS = 1e15  # Pa; diamond is about 1.2e12
 MAX_DENSITY = 1e6  # kg/m^3; osmium is 22,590
 REQUIRED = object()
-KEY_SCHEMA = {"frame": (_integer, REQUIRED), "offset": (_vector, (0.0, 0.0, 0.0)), "rotate": (_vector, (0.0, 0.0, 0.0))}
-HANDLE_SCHEMA = {"vertex": (_natural, REQUIRED), "strength": (_positive, 1.0),
+KEY_SCHEMA: Schema = {"frame": (_integer, REQUIRED), "offset": (_vector, (0.0, 0.0, 0.0)), "rotate": (_vector, (0.0, 0.0, 0.0))}
+HANDLE_SCHEMA: Schema = {"vertex": (_natural, REQUIRED), "strength": (_positive, 1.0),
                  "rotation": (_flag, False), "keys": (_keys, REQUIRED)}
-SCHEMA = {
+SCHEMA: dict[str, Schema] = {
     "": {"version": (_count, REQUIRED), "name": (_text, None), "mesh": (_text, REQUIRED),
          "frames": (_frame_range, REQUIRED), "fps": (_positive, 24.0), "substeps": (_counted(MAX_SUBSTEPS), 1)},
     "graph": {"particles": (_counted(MAX_PARTICLES), 100), "mode": (_mode, "auto"), "neighbors": (_count, 4)},
@@ -185,7 +196,7 @@ BLEND_ONLY = ("blender",)
 NOT_BLEND = ("pins", "goals", "handles")
 
 
-def _table(where, table, schema, required=True):
+def _table(where: str, table: Any, schema: Schema, required: bool = True) -> Settings:
     """The table's values checked by the schema, defaults filled in; unknown keys refused, and missing ones
     unless not ``required`` (then None: a .blend object's setting)."""
     if not isinstance(table, dict):
@@ -213,41 +224,47 @@ class Shot:
     """A checked shot description; ``spec`` is the file, paths are resolved, the mesh is read."""
     spec: str
     name: str
-    settings: dict
+    settings: dict[str, Any]
     vertices: np.ndarray = field(repr=False)
     triangles: np.ndarray = field(repr=False)
     pins: np.ndarray = field(repr=False)
     animation: np.ndarray = field(repr=False)
     digest: str = ""
-    blend: tuple = None  # (file, object) of a .blend mesh, baked by Blender
-    overrides: dict = field(default_factory=dict)  # what the spec sets of a .blend object's settings
+    blend: tuple[str, str] | None = None  # (file, object) of a .blend mesh, baked by Blender
+    overrides: dict[str, Any] = field(default_factory=dict)  # what the spec sets of a .blend object's settings
 
-    def section(self, name):
+    def section(self, name: str) -> Any:
         return self.settings[name]
 
     @property
-    def first(self):
+    def first(self) -> int:
         return self.settings[""]["frames"][0]
 
     @property
-    def last(self):
+    def last(self) -> int:
         return self.settings[""]["frames"][1]
 
-    def output(self, key):
-        """The full path of an output (None when the spec asks for none)."""
+    @overload
+    def output(self, key: Literal["pc2", "report"]) -> str: ...
+
+    @overload
+    def output(self, key: str) -> str | None: ...
+
+    def output(self, key: str) -> str | None:
+        """The full path of an output (None when the spec asks for none; the spec always has pc2 and report)."""
         out = self.settings["output"]
         return None if out[key] is None else os.path.join(out["folder"], out[key])
 
-    def threads(self, available):
+    def threads(self, available: int) -> int:
         """The solver threads: the spec's, or (0 there) what the runner allows."""
         return self.settings["solver"]["threads"] or available
 
     @property
-    def checkpoint(self):
+    def checkpoint(self) -> str:
         return os.path.join(self.settings["output"]["folder"], f".{self.name}.checkpoint")
 
 
-def load(path):
+def load(path: io.FilePath) -> Shot:
     """The checked ``Shot`` of a TOML spec; SpecError naming the key and the problem otherwise."""
     path = os.path.abspath(os.fspath(path))
     try:
@@ -262,9 +279,9 @@ def load(path):
         raise SpecError(f"{path}: {exc}") from None
 
 
-def _load(path, raw, data):
+def _load(path: str, raw: bytes, data: dict[str, Any]) -> Shot:
     top = {k: v for k, v in data.items() if k not in SCHEMA and k != "handles"}
-    settings = {"": _table("", top, SCHEMA[""])}
+    settings: dict[str, Any] = {"": _table("", top, SCHEMA[""])}
     if settings[""]["version"] != VERSION:
         _fail("version", f"this opdeform reads version {VERSION}, got {settings['']['version']}")
     folder = os.path.dirname(path)
@@ -290,7 +307,7 @@ def _load(path, raw, data):
     return Shot(path, name, settings, vertices, triangles, pins, animation, digest)
 
 
-def _outputs(path, settings):
+def _outputs(path: str, settings: dict[str, Any]) -> str:
     """The shot's name; the output folder made absolute (and checked writable), the default file names; every
     output name inside the folder."""
     name = settings[""]["name"] or os.path.splitext(os.path.basename(path))[0]
@@ -311,7 +328,7 @@ def _outputs(path, settings):
     return name
 
 
-def _inside(where, name):
+def _inside(where: str, name: str) -> None:
     """Refuses a file name that is absolute or leaves the output folder once normalised."""
     norm = os.path.normpath(name)
     if os.path.isabs(name) or norm in (os.curdir, os.pardir) or norm.startswith(os.pardir + os.sep):
@@ -321,7 +338,7 @@ def _inside(where, name):
 BLEND = ".blend:"
 
 
-def _blend(folder, source, data):
+def _blend(folder: str, source: str, data: dict[str, Any]) -> tuple[str, str] | None:
     """(file, object) of a ``FILE.blend:OBJECT`` mesh (the file checked), else None; the sections that do not
     go with the mesh's kind refused."""
     if BLEND not in source:
@@ -341,7 +358,8 @@ def _blend(folder, source, data):
     return path, obj
 
 
-def _blend_shot(path, raw, data, settings, blend):
+def _blend_shot(path: str, raw: bytes, data: dict[str, Any], settings: dict[str, Any],
+                blend: tuple[str, str]) -> Shot:
     """The Shot of a .blend object: no mesh read here (Blender reads it), the spec's overriding keys kept."""
     if settings["output"]["checkpoint_every"]:
         _fail("output.checkpoint_every", "not with a .blend mesh: Blender bakes the shot in one go")
@@ -358,7 +376,7 @@ def _blend_shot(path, raw, data, settings, blend):
 BUILTIN = "builtin:"
 
 
-def _mesh(folder, source):
+def _mesh(folder: str, source: str) -> io.Mesh:
     """An OBJ or PLY file relative to the spec, or ``builtin:NAME`` of opdeform.meshes (bar, capsule, creature,
     sheet, strand)."""
     if source.startswith(BUILTIN):
@@ -375,13 +393,13 @@ def _mesh(folder, source):
         _fail("mesh", str(exc))
 
 
-def _in_range(where, indices, count):
+def _in_range(where: str, indices: Iterable[int], count: int) -> None:
     bad = [i for i in indices if not 0 <= i < count]
     if bad:
         _fail(where, f"vertex index {bad[0]} is out of range: the mesh has {count} vertices")
 
 
-def _pins(folder, pins, count):
+def _pins(folder: str, pins: Settings | None, count: int) -> npt.NDArray[np.int64]:
     if pins is None:
         return np.zeros(0, np.int64)
     indices = pins["vertices"]
@@ -396,7 +414,7 @@ def _pins(folder, pins, count):
     return np.asarray(indices, np.int64)
 
 
-def _animation(folder, goals, count, frames):
+def _animation(folder: str, goals: Settings | None, count: int, frames: Sequence[int]) -> npt.NDArray[np.float32]:
     """The goal animation's frames (one per shot frame from the first), from a PC2 file."""
     if goals is None:
         return np.zeros((0, count, 3), np.float32)
@@ -417,11 +435,12 @@ def _animation(folder, goals, count, frames):
 MAX_FIELD_WIDTH = 32
 
 
-def _frame_names(template):
+def _frame_names(template: str) -> str:
     """The frames template checked: only {frame} and {name} fields of a width up to MAX_FIELD_WIDTH (checked
     before formatting: a width of 10^9 would build a gigabyte string), frames named apart, .obj or .ply."""
     try:
-        fields = [(f, spec) for _, f, spec, _ in string.Formatter().parse(template) if f is not None]
+        fields = [(f, spec) for _, f, spec, _ in string.Formatter().parse(template)
+                  if f is not None and spec is not None]  # a field always has a spec, maybe empty
     except ValueError as exc:
         _fail("output.frames", f"{template!r} is not a name with {{frame}} (and {{name}}): {exc}")
     for f, spec in fields:
@@ -440,7 +459,7 @@ def _frame_names(template):
     return template
 
 
-def _writable(folder):
+def _writable(folder: str) -> str:
     try:
         os.makedirs(folder, exist_ok=True)
         with tempfile.TemporaryFile(dir=folder):
@@ -455,11 +474,11 @@ def _writable(folder):
 class Rig:
     sim: Simulation
     skin: Skin
-    handle_ids: list
-    fit: GoalFit = None
+    handle_ids: list[list[int]]
+    fit: GoalFit | None = None
 
 
-def build(shot, threads=1):
+def build(shot: Shot, threads: int = 1) -> Rig:
     """Graph, skin, simulation, pins, handles and goals of a shot (the Blender engine's recipe)."""
     top, graph_settings, material, solver = (shot.section(k) for k in ("", "graph", "material", "solver"))
     graph = Graph.from_mesh(shot.vertices, shot.triangles, particles=graph_settings["particles"],
@@ -482,7 +501,7 @@ def build(shot, threads=1):
     return rig
 
 
-def _add_handle(sim, vertices, handle):
+def _add_handle(sim: Simulation, vertices: ArrayLike, handle: Settings) -> list[int]:
     weight = handle["strength"] * sim.default_weight("position")
     ids = pin_vertices(sim, vertices, [handle["vertex"]], weight=weight)
     if handle["rotation"]:
@@ -491,7 +510,7 @@ def _add_handle(sim, vertices, handle):
     return ids
 
 
-def _rotation(degrees):
+def _rotation(degrees: ArrayLike) -> Floats:
     """The rotation of Euler angles (degrees) about x, then y, then z (Blender's XYZ)."""
     rx, ry, rz = np.radians(degrees)
     cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
@@ -501,7 +520,7 @@ def _rotation(degrees):
     return z @ y @ x
 
 
-def _key_at(keys, frame):
+def _key_at(keys: Sequence[Settings], frame: int) -> tuple[Floats, Floats]:
     """(offset, rotate) at a frame: linear between keys, held before the first and after the last."""
     frames = [k["frame"] for k in keys]
     offset = [np.interp(frame, frames, [k["offset"][a] for k in keys]) for a in range(3)]
@@ -509,7 +528,7 @@ def _key_at(keys, frame):
     return np.array(offset), np.array(rotate)
 
 
-def _apply_handles(rig, shot, frame):
+def _apply_handles(rig: Rig, shot: Shot, frame: int) -> None:
     for ids, handle in zip(rig.handle_ids, shot.section("handles")):
         offset, rotate = _key_at(handle["keys"], frame)
         rig.sim.set_constraint_target(ids[0], shot.vertices[handle["vertex"]] + offset)
@@ -523,24 +542,26 @@ class Outputs:
     """The writers of one bake: PC2 (atomic, resumable), mesh frames and the report rows."""
     shot: Shot
     pc2: io.PC2Writer
-    rows: list
+    rows: list[Row]
 
-    def frame(self, frame, vertices, row):
+    def frame(self, frame: int, vertices: Floats, row: Row) -> None:
         self.pc2.write(vertices)
         _write_frame(self.shot, frame, vertices)
         self.rows.append(row)
 
 
-def _write_frame(shot, frame, vertices):
+def _write_frame(shot: Shot, frame: int, vertices: ArrayLike) -> None:
     """The frame's mesh file (OBJ or PLY) when the spec asks for frames."""
-    if shot.output("frames"):
-        path = shot.output("frames").format(frame=frame, name=shot.name)
+    frames = shot.output("frames")
+    if frames:
+        path = frames.format(frame=frame, name=shot.name)
         os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
         with io.atomic_path(path) as part:
             io.write(part, vertices, shot.triangles)
 
 
-def bake(shot, threads=None, progress=None, resume=True):
+def bake(shot: Shot, threads: int | None = None, progress: Callable[[int, int], object] | None = None,
+         resume: bool = True) -> list[Row]:
     """Simulates the shot and writes its outputs; returns the report rows (one dict per frame, REPORT_COLUMNS).
     threads: the solver's when the spec leaves them to the runner (None: 1; results are the same bits for the
     same count); progress(done, total) after each frame; resume: continue from the shot's checkpoint
@@ -556,21 +577,22 @@ def bake(shot, threads=None, progress=None, resume=True):
         return _bake(shot, shot.threads(threads or 1), progress, resume)
 
 
-def _output_paths(shot):
+def _output_paths(shot: Shot) -> list[str]:
     """Every file a bake writes (the frames by their first frame's name), the checkpoint included, the PC2 first
     and the others in a fixed order."""
-    frames = shot.output("frames") and shot.output("frames").format(frame=shot.first, name=shot.name)
-    others = {shot.output("report"), shot.output("plot"), frames, shot.checkpoint} - {None, shot.output("pc2")}
-    return [shot.output("pc2")] + sorted(others)
+    frames = shot.output("frames")
+    first = frames and frames.format(frame=shot.first, name=shot.name)
+    others = {shot.output("report"), shot.output("plot"), first, shot.checkpoint} - {shot.output("pc2")}
+    return [shot.output("pc2")] + sorted(path for path in others if path is not None)
 
 
-def _lock(shot, path):
+def _lock(shot: Shot, path: str) -> str:
     """The lock of an output, in the output folder: ``.NAME.lock``, a path in a subfolder quoted (``%2F``)."""
     folder = shot.settings["output"]["folder"]
     return os.path.join(folder, f".{urllib.parse.quote(os.path.relpath(path, folder), safe='')}.lock")
 
 
-def _bake(shot, threads, progress, resume):
+def _bake(shot: Shot, threads: int, progress: Callable[[int, int], object] | None, resume: bool) -> list[Row]:
     rig = build(shot, threads)
     start, rows = shot.first, []
     saved = _read_checkpoint(shot, rig, threads) if resume else None
@@ -583,7 +605,7 @@ def _bake(shot, threads, progress, resume):
                 os.remove(part)
     total = shot.last - shot.first + 1
     writer = io.PC2Writer(shot.output("pc2"), len(shot.vertices), shot.first, 1.0, keep=len(rows),
-                          resume=saved and saved["partial"])
+                          resume=saved["partial"] if saved else None)
     with writer:
         outputs = Outputs(shot, writer, rows)
         if not saved:
@@ -601,7 +623,7 @@ def _bake(shot, threads, progress, resume):
     return rows
 
 
-def _place_baked(shot, pc2, triangles, rows):
+def _place_baked(shot: Shot, pc2: str, triangles: npt.NDArray[Any], rows: list[Row]) -> None:
     """The outputs of a bake made by Blender: frames and report from its PC2 (the mesh's ``triangles``), then
     the PC2 renamed into place."""
     shot = replace(shot, triangles=triangles)
@@ -611,7 +633,7 @@ def _place_baked(shot, pc2, triangles, rows):
     os.replace(pc2, shot.output("pc2"))
 
 
-def _frame(rig, shot, frame, outputs, step=True):
+def _frame(rig: Rig, shot: Shot, frame: int, outputs: Outputs, step: bool = True) -> None:
     """Targets and goals of the frame, ``substeps`` steps (none on the first frame: the rest state), the output."""
     _apply_handles(rig, shot, frame)
     goals = rig.fit.fit(shot.animation[frame - shot.first]) if rig.fit else None
@@ -631,7 +653,8 @@ def _frame(rig, shot, frame, outputs, step=True):
     log.debug("%s: frame %d", shot.name, frame)
 
 
-def report_row(frame, sim, stepped, step_seconds, skin_seconds, iterations, tolerance=None):
+def report_row(frame: int, sim: Simulation, stepped: bool, step_seconds: float, skin_seconds: float, iterations: int,
+               tolerance: float | None = None) -> Row:
     """The report row of a frame (REPORT_COLUMNS): times, the final objective, the residual (the last
     local/global pair's share of the last step's decrease of the objective: small when converged) and the
     fastest particle; ``stepped``: the simulation stepped for this frame (sim.trace_energy on)."""
@@ -657,7 +680,7 @@ CHECKPOINT_VERSION = 1
 CHECKPOINT_HEADER = 4096  # bytes at most
 
 
-def _read_checkpoint(shot, rig, threads):
+def _read_checkpoint(shot: Shot, rig: Rig, threads: int) -> dict[str, Any] | None:
     """{"frame", "rows", "partial"} of the shot's checkpoint with ``rig.sim`` put in its state, or None: no
     checkpoint, or one that cannot be used (reported with its path: the bake starts over)."""
     if not os.path.lexists(shot.checkpoint):
@@ -677,7 +700,7 @@ def _read_checkpoint(shot, rig, threads):
             "partial": os.path.join(os.path.dirname(shot.output("pc2")), header["partial"])}
 
 
-def _checkpoint_arrays(shot, particles):
+def _checkpoint_arrays(shot: Shot, particles: int) -> tuple[dict[str, Any], list[Floats]]:
     """The header and arrays of the shot's checkpoint, checked; ValueError naming the first problem."""
     fd = os.open(shot.checkpoint, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOFOLLOW", 0))
     with os.fdopen(fd, "rb") as f:
@@ -706,7 +729,7 @@ def _checkpoint_arrays(shot, particles):
     return header, arrays
 
 
-def _checkpoint_header(shot, line, particles):
+def _checkpoint_header(shot: Shot, line: bytes, particles: int) -> dict[str, Any]:
     try:
         header = json.loads(line)
     except (ValueError, RecursionError):
@@ -729,9 +752,9 @@ def _checkpoint_header(shot, line, particles):
     return header
 
 
-def _write_checkpoint(shot, frame, sim, rows, partial):
-    rows = np.array([[row[c] for c in REPORT_COLUMNS] for row in rows], "<f8")
-    arrays = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities, rows)
+def _write_checkpoint(shot: Shot, frame: int, sim: Simulation, rows: list[Row], partial: str) -> None:
+    table = np.array([[row[c] for c in REPORT_COLUMNS] for row in rows], "<f8")
+    arrays = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities, table)
     payload = b"".join(np.ascontiguousarray(a, "<f8").tobytes() for a in arrays)
     header = {"version": CHECKPOINT_VERSION, "digest": shot.digest, "frame": frame,
               "particles": sim.graph.n_particles, "rows": len(rows), "partial": os.path.basename(partial),
@@ -741,17 +764,18 @@ def _write_checkpoint(shot, frame, sim, rows, partial):
 
 
 # -- the report ----------------------------------------------------------------------------------------------
-def _write_report(shot, rows):
+def _write_report(shot: Shot, rows: list[Row]) -> None:
     """The report CSV (and its plot) of the spec's outputs."""
-    if shot.output("report"):
-        with io.atomic_path(shot.output("report")) as part, open(part, "w") as f:
+    report, plot = shot.output("report"), shot.output("plot")
+    if report:
+        with io.atomic_path(report) as part, open(part, "w") as f:
             f.write(",".join(REPORT_COLUMNS) + "\n")
             f.writelines(",".join(repr(row[c]) for c in REPORT_COLUMNS) + "\n" for row in rows)
-    if shot.output("plot"):
-        _plot(shot.output("plot"), rows, shot.name)
+    if plot:
+        _plot(plot, rows, shot.name)
 
 
-def _plot(path, rows, title):
+def _plot(path: str, rows: list[Row], title: str) -> None:
     try:
         import matplotlib
     except ModuleNotFoundError:  # an optional package: the bake's other outputs stand without it
@@ -773,7 +797,7 @@ def _plot(path, rows, title):
     plt.close(fig)
 
 
-def read_report(path):
+def read_report(path: io.FilePath) -> list[Row]:
     """The rows of a report CSV (a dict per frame, numbers as numbers)."""
     with open(path) as f:
         header = f.readline().strip().split(",")
