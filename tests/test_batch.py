@@ -45,6 +45,14 @@ def test_batch_matches_serial_bits_and_reports_a_failure(client, tmp_path):
         assert open(result.outputs["pc2"], "rb").read() == serial_copy(spec, tmp_path / f"serial{k}")
 
 
+def test_a_shot_leaving_threads_to_the_runner_logs_the_threads_it_runs(tmp_path, capsys):
+    # threads = 0 in the spec and None here: the bake runs 1 thread (was "%d" % None: the log line lost)
+    text = open(write_spec(tmp_path, "any")).read().replace("threads = 1", "threads = 0")
+    result = batch.bake_shot(write_spec(tmp_path, "any", text=text), None)
+    assert result.ok and "baking frames 1-30 with 1 threads" in result.log, result.log
+    assert "Logging error" not in capsys.readouterr().err
+
+
 def test_a_killed_worker_reruns_the_shot_from_its_checkpoint(client, tmp_path):
     spec = write_spec(tmp_path, "long", last=3000, every=25)
     (future,) = batch.submit(client, [spec])

@@ -49,9 +49,9 @@ def bake_shot(spec: str, threads: int | None = 1) -> ShotResult:
     try:
         shot = shots.load(spec)
         logger.info("%s: baking frames %d-%d with %d threads", shot.name, shot.first, shot.last,
-                    shot.threads(threads))
+                    shot.threads(threads or 1))  # what shots.bake runs with
         rows = shots.bake(shot, threads)
-        outputs = {key: shot.output(key) for key in ("pc2", "frames", "report", "plot") if shot.output(key)}
+        outputs = {key: path for key in ("pc2", "frames", "report", "plot") if (path := shot.output(key))}
         return ShotResult(spec, True, time.perf_counter() - t0, len(rows), outputs, log=captured.getvalue())
     except Exception as exc:  # a failed shot is a result, not the end of the batch
         logger.error("%s", traceback.format_exc())
