@@ -365,6 +365,122 @@ def test_reload_between_frames():
         _call_every_handler(bpy.context.scene)
 
 
+# -- a modal bake stopped part-way ---------------------------------------------------------------------------------
+
+class _Window:
+    """Stands in for the window manager and its timer events: background hosts have no window."""
+
+    def __getattr__(self, name):  # progress_begin/update/end, event_timer_add/remove, modal_handler_add
+        return lambda *args, **kw: None
+
+
+def _modal_bake(obj):
+    """obj's Bake button as the UI runs it: start_modal, then modal() at each timer event. Returns the operator
+    (its reports in ``reports``), the context it is given and its timer event."""
+    import types
+    modal_bake = importlib.import_module(H.ADDON + ".blender.modal_bake")
+
+    class Bake(modal_bake.ModalBake):
+        reports = []
+
+        def report(self, level, message):
+            self.reports.append((set(level), message))
+
+        def _begin(self, context):
+            return H.runtime().BakeJob(obj, context.scene)
+
+    op = Bake()
+    context = types.SimpleNamespace(window_manager=_Window(), window=None, workspace=None, scene=bpy.context.scene)
+    assert op.start_modal(context) == {'RUNNING_MODAL'}, op.reports
+    timer = types.SimpleNamespace(type='TIMER')
+    for _ in range(5):
+        assert op.modal(context, timer) == {'RUNNING_MODAL'}, op.reports
+    return op, context, timer
+
+
+def _baked_bar(folder):
+    """A bar with a finished bake of frames 1-6 in folder (the last good bake); its PC2 path and bytes."""
+    obj = _enable_bar(cache_directory=folder, frame_end=6)
+    bpy.ops.opdeform.bake(object=obj.name)
+    path = bpy.path.abspath(obj.opdeform.bake_file)
+    assert obj.opdeform.baked and H.pc2().pc2_header(path)[3] == 6
+    with open(path, "rb") as f:
+        return obj, path, f.read()
+
+
+def _last_bake_kept(obj, path, data):
+    names = os.listdir(os.path.dirname(path))
+    assert not [n for n in names if n.endswith(".part")], names
+    with open(path, "rb") as f:
+        assert f.read() == data, "the last good bake was written over"
+    assert obj.opdeform.baked and H.runtime().cache_modifier(obj) is not None
+
+
+def test_modal_bake_stopped_by_a_file_load_leaves_no_part_file():
+    """A file loaded while a modal bake runs (the load_pre handler; Blender then cancels the operator): the
+    partial file is removed, the object says why its bake stopped, the last good bake and the mesh stay."""
+    folder = os.path.join(H.tmpdir(), "modal_load")
+    obj, path, data = _baked_bar(folder)
+    rest = H.base_positions(obj)
+    blend = os.path.join(H.tmpdir(), "modal_load.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=blend)
+    obj.opdeform.frame_end = 60
+    op, context, _ = _modal_bake(obj)
+    assert os.path.isfile(path + ".part")
+    seen = []
+
+    def note_error(*args):  # runs after the add-on's load_pre handler, while the object is still there
+        seen.append(bpy.data.objects["Bar"].opdeform.error)
+
+    bpy.app.handlers.load_pre.append(note_error)
+    try:
+        with watched():
+            bpy.ops.wm.open_mainfile(filepath=blend)
+    finally:
+        if note_error in bpy.app.handlers.load_pre:
+            bpy.app.handlers.load_pre.remove(note_error)
+    if hasattr(op, "cancel"):  # Blender cancels the modal operators of the windows it rebuilds
+        op.cancel(context)
+    obj = bpy.data.objects["Bar"]
+    _last_bake_kept(obj, path, data)
+    assert seen and "file" in seen[0] and "load" in seen[0], seen
+    np.testing.assert_array_equal(H.base_positions(obj), rest)
+    assert not obj.opdeform.error, "the error of the file left reached the file loaded"
+
+
+def test_modal_bake_stopped_by_a_vertex_count_change_leaves_no_part_file():
+    """The mesh loses vertices part-way through a modal bake: the bake stops at the next frame, removes its
+    partial file and says why on the object; the last good bake and the edited mesh stay as they are."""
+    folder = os.path.join(H.tmpdir(), "modal_count")
+    obj, path, data = _baked_bar(folder)
+    obj.opdeform.frame_end = 60
+    op, context, timer = _modal_bake(obj)
+    _remove_vertices(obj.data, 2)
+    edited = H.base_positions(obj)
+    try:
+        result = op.modal(context, timer)
+    except Exception as exc:  # noqa: BLE001 - in the UI Blender prints it and drops the operator
+        result = f"{type(exc).__name__}: {exc}"
+    _last_bake_kept(obj, path, data)
+    assert "vertex count" in obj.opdeform.error and "bake" in obj.opdeform.error, obj.opdeform.error
+    assert any("vertex count" in message for _, message in op.reports), op.reports
+    assert result == {'CANCELLED'}, result
+    np.testing.assert_array_equal(H.base_positions(obj), edited)
+
+
+def test_modal_bake_of_a_deleted_object_leaves_no_part_file():
+    folder = os.path.join(H.tmpdir(), "modal_deleted")
+    obj, path, data = _baked_bar(folder)
+    obj.opdeform.frame_end = 60
+    op, context, timer = _modal_bake(obj)
+    bpy.data.objects.remove(obj, do_unlink=True)
+    assert op.modal(context, timer) == {'CANCELLED'}, op.reports
+    assert any("disappeared" in message for _, message in op.reports), op.reports
+    assert sorted(os.listdir(folder)) == ["Bar.pc2", "Bar.pc2.opdeform"], os.listdir(folder)
+    with open(path, "rb") as f:
+        assert f.read() == data
+
+
 # -- meshes of several pieces ------------------------------------------------------------------------------------
 
 def _moved(obj, frames):

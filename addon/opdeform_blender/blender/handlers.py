@@ -1,5 +1,5 @@
 """App handlers: live playback (frame change), posing and handle edits (depsgraph update), file load and undo,
-and the baked tumbling particles shown on their point clouds (frame change).
+the baked tumbling particles shown on their point clouds (frame change), and the modal bakes a file load stops.
 
 They never raise: an error becomes ``obj.opdeform.error`` (shown in the panel and printed), and that object's
 simulation pauses until Reset. They only touch enabled objects and never re-evaluate the whole scene.
@@ -8,7 +8,7 @@ simulation pauses until Reset. They only touch enabled objects and never re-eval
 import bpy
 from bpy.app.handlers import persistent
 
-from . import colliders, modifier, playback, state, tumbling_runtime, versioning
+from . import colliders, modal_bake, modifier, playback, state, tumbling_runtime, versioning
 from .compiled import AddonError
 from .discovery import enabled_objects, mark_discovery
 from .handle_data import handle_signature
@@ -55,6 +55,13 @@ def on_depsgraph_update(scene, depsgraph=None):
                     rt.handle_matrices = sig
     finally:
         _guard["busy"] = False
+
+
+@persistent
+def on_load_pre(*args):
+    """A file is loaded: the modal bakes under way stop (their partial files go, the last bakes stay) before
+    Blender drops their operators and the data they bake."""
+    modal_bake.stop_all("a file was loaded")
 
 
 @persistent
@@ -124,6 +131,7 @@ HANDLERS = (
     ("frame_change_post", on_frame_change),
     ("frame_change_post", tumbling_frame_change),
     ("depsgraph_update_post", on_depsgraph_update),
+    ("load_pre", on_load_pre),
     ("load_post", on_load_post),
     ("undo_post", on_undo_post),
     ("redo_post", on_undo_post),

@@ -204,9 +204,10 @@ def find_object(ident, name):
 
 class BakeJob(BakeFrames):
     """A bake one frame at a time: live playback's own code path (frame_set runs the frame handler) writing
-    every frame to a PC2 file. Stopping early keeps the frames written so far. Everything is checked and the
-    output file opened (core/bake_files.py) before the scene changes; the previous bake and its Mesh Cache
-    modifier stay until this one finishes with frames."""
+    every frame to a PC2 file. Everything is checked and the output file opened (core/bake_files.py) before the
+    scene changes; the previous bake and its Mesh Cache modifier stay until this one finishes with frames
+    (``finish``: Esc keeps the frames written so far); a bake that stops (``abort``, blender/modal_bake.py)
+    leaves them as they were."""
 
     def __init__(self, obj, scene):
         s = obj.opdeform
@@ -250,10 +251,16 @@ class BakeJob(BakeFrames):
         obj = self.obj
         if obj is None:
             raise AddonError(f"object {self.obj_name!r} disappeared during the bake")
+        count = len(obj.data.vertices) if obj.type == 'MESH' else 0
+        if count != self.rt.engine.n_vertices:  # checked before the frame handler rebuilds the runtime
+            raise AddonError(f"{obj.name}: the mesh's vertex count changed during the bake "
+                             f"({self.rt.engine.n_vertices} -> {count})")
         self.scene.frame_set(self.frame)
         rt = get(obj)
         if obj.opdeform.error:
             raise AddonError(obj.opdeform.error)
+        if rt is not None and rt is not self.rt:
+            raise AddonError(f"{obj.name}: the mesh was edited during the bake (its simulation was rebuilt)")
         if rt is None or rt.shown is None or rt.shown[1] != self.frame:
             raise AddonError(f"frame {self.frame} was not simulated")
         self.writer.write(rt.engine.out)
@@ -291,6 +298,19 @@ class BakeJob(BakeFrames):
         modifier.clear_offset(obj.data)  # the Mesh Cache modifier shows the frames
         self.scene.frame_set(self.original_frame)
         return count
+
+
+    def abort(self, message):
+        """Stops without the frames: the partial file goes, the last bake stays, the object's error says why."""
+        self.rt.baking = False
+        try:
+            self.writer.close()
+        finally:
+            bake_files.discard(self.path)
+        obj = find_object(self.obj_ident, self.obj_name)
+        if obj is not None:
+            kept = "the last bake is kept" if obj.opdeform.baked else "nothing was baked"
+            obj.opdeform.error = f"{message}; {kept}"
 
 
 def _move_after_opdeform(obj, mod):

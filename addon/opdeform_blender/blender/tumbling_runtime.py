@@ -92,7 +92,7 @@ def gravity(scene):
 
 class BakeJob(BakeFrames):
     """A bake one frame at a time, with runtime.BakeJob's interface (step, done, frame, start, total, obj_name,
-    path, finish) so the Bake operators' shared modal code runs it with its progress bar and Esc."""
+    path, finish, abort) so the Bake operators' shared modal code runs it with its progress bar and Esc."""
 
     def __init__(self, obj, scene):
         if obj is None or obj.type != 'MESH':
@@ -148,6 +148,14 @@ class BakeJob(BakeFrames):
             point_cloud.instance_nodes(points, point_cloud.snowflake_object(), s.flake_size)
         self.scene.frame_set(self.original_frame)
         return count
+
+    def abort(self, message):
+        """Stops without the frames: those written go (the last bake went when this one began); the domain's
+        error says why."""
+        core.free_frames(self.path)
+        obj = bpy.data.objects.get(self.obj_name)
+        if obj is not None:
+            obj.opdeform_tumbling.error = message
 
 
 def free_bake(obj):
