@@ -17,7 +17,7 @@ import opdeform
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
 from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
-from opdeform_blender.core.engine import Engine, EngineError, original_input  # noqa: E402
+from opdeform_blender.core.engine import Engine, EngineError, original_input, to_world  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
     hasattr(opdeform.Graph, "from_mesh")
@@ -229,6 +229,19 @@ def test_engine_goal_follows_the_input_and_rejects_bad_goals():
     assert np.array_equal(e.out, shown) and e.cache.last == 5  # nothing changed
     e.set_goal(None)
     assert e.goal_strength is None and len(e.cache) == 0
+
+
+def test_to_world_of_an_unturned_object_is_the_product():
+    local = np.random.default_rng(5).normal(size=(50, 3)).astype(np.float32)
+    local[0] = (-0.0, 0.0, 2.0)
+    for turn in (np.eye(3), np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 2.0]])):
+        m = np.eye(4)
+        m[:3, :3], m[:3, 3] = turn, (1.5, -2.0, 0.25)
+        product = local.astype(np.float64).dot(turn.T) + m[:3, 3]
+        assert np.array_equal(to_world(local, m), product)
+    before = local.copy()
+    to_world(local, np.eye(4))[:] = 9.0  # a new array: the input stays
+    assert np.array_equal(local, before)
 
 
 def test_original_input_behind_later_modifiers():

@@ -52,7 +52,13 @@ def check_matrix(matrix):
 
 
 def to_world(local, m):
-    out = np.asarray(local, dtype=np.float64).dot(m[:3, :3].T)  # dot and an add in place: 0.06 ms, not 0.1 (5,752)
+    """Object-space points (V, 3) placed by the 4x4 transform m, float64. An unturned, unscaled object (a rigged
+    character parented to its rig) is only moved: the same values as the product by the identity, in 0.004 ms
+    where the product took 0.10 (5,752 vertices, Blender 3.4's numpy)."""
+    if np.array_equal(m[:3, :3], np.eye(3)):
+        out = np.array(local, dtype=np.float64)
+    else:
+        out = np.asarray(local, dtype=np.float64).dot(m[:3, :3].T)
     out += m[:3, 3]
     return out
 
