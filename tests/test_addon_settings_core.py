@@ -78,6 +78,17 @@ def test_error_plot_marks_the_tolerance_and_errors_above_it():
         assert np.isclose(pixels, colour).all(axis=1).any(), colour
 
 
+def test_report_stretch_is_the_stretch_warnings_ratio():
+    g = opdeform.Graph.from_mesh(*opdeform.meshes.bar(), particles=30)
+    stretch = frame_report.Stretch(g)
+    assert stretch(g.centers) == pytest.approx(1.0)
+    rng = np.random.default_rng(3)
+    for scale in (1.0, 3.0):  # the limit's two sides
+        x = g.centers * np.array([scale, 1.0, 1.0]) + rng.normal(0.0, 0.01, g.centers.shape)
+        ratio = opdeform.materials.stretch_warning(g, x, frame_report.STRETCH_LIMIT)[0]
+        assert stretch(x) == pytest.approx(ratio, rel=1e-14) and (ratio > frame_report.STRETCH_LIMIT) == (scale > 2)
+
+
 def test_bake_files_and_ownership(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("x")

@@ -30,7 +30,7 @@ from . import handles as handle_math
 from .cache import StateCache
 from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
 from .fields import SceneFields
-from .frame_report import FrameReports, report
+from .frame_report import FrameReports, Stretch, report
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
@@ -189,6 +189,7 @@ class Engine:
         self._pin_ids = []
         self.cache = StateCache()
         self.reports = FrameReports()
+        self.stretch = Stretch(self.graph)  # the reports' largest edge stretch
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self._solver = None
@@ -574,7 +575,7 @@ class Engine:
         self.cache.store(k, self._state(), tk, gk)
         self._push_out(k)
         self.colliders.remember(k, sk)
-        self.reports.store(k, report(self.od.materials, self.sim, handle))
+        self.reports.store(k, report(self.stretch, self.sim, handle))
 
     def _reached(self, run, shown, seconds):
         self.timing["solver"] += seconds
