@@ -238,7 +238,9 @@ def test_to_world_of_an_unturned_object_is_the_product():
         m = np.eye(4)
         m[:3, :3], m[:3, 3] = turn, (1.5, -2.0, 0.25)
         product = local.astype(np.float64).dot(turn.T) + m[:3, 3]
+        kept = np.empty((50, 3))
         assert np.array_equal(to_world(local, m), product)
+        assert to_world(local, m, kept) is kept and np.array_equal(kept, product)
     before = local.copy()
     to_world(local, np.eye(4))[:] = 9.0  # a new array: the input stays
     assert np.array_equal(local, before)
