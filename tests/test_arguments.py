@@ -10,7 +10,7 @@ import pytest
 from test_threads import _world
 
 import opdeform
-from opdeform import _core, mesh, meshes, mpm
+from opdeform import _arguments, _core, mesh, meshes, mpm
 
 BAD = [None, "x", math.nan]
 # Keywords that take an opdeform object, not a number or an array (a wrong class there is a TypeError).
@@ -122,3 +122,10 @@ def test_a_wrong_class_for_an_opdeform_object_stays_type_error():
         opdeform.Simulation("graph", 1e3)
     with pytest.raises(TypeError, match="opdeform.Graph"):
         mesh.Skin("graph", [(0, 0, 0)])
+
+
+def test_an_empty_array_where_two_lengths_are_open_raises_value_error_naming_it(tmp_path):
+    # (n, n, 3) of nothing: refused as of the wrong shape (was a TypeError from reshaping to (0, None, 3))
+    with pytest.raises(ValueError, match=r"frames must have shape \(n, n, 3\), got \(0,\)"):
+        opdeform.io.write_pc2(tmp_path / "empty.pc2", [])
+    assert _arguments.as_array("centers", [], (None, 3)).shape == (0, 3)  # one open length: still (0, 3)

@@ -29,8 +29,9 @@ def as_array(name: str, value: ArrayLike | None, shape: Sequence[int | None],
         arr = np.asarray(value)
     except (ValueError, TypeError) as exc:
         raise ValueError(f"{name}: not an array of numbers ({exc})") from None
-    if arr.size == 0 and len(shape) > 1 and shape[0] is None:
-        arr = arr.reshape((0,) + tuple(shape[1:]))
+    known = [s for s in shape[1:] if s is not None]
+    if arr.size == 0 and len(shape) > 1 and shape[0] is None and len(known) == len(shape) - 1:
+        arr = arr.reshape((0, *known))  # not with a second length unknown: refused below as of the wrong shape
     if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
         want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
         raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
@@ -47,7 +48,7 @@ def as_array(name: str, value: ArrayLike | None, shape: Sequence[int | None],
     return np.ascontiguousarray(arr, dtype=dtype)
 
 
-def number(name: str, value: object) -> float:
+def number(name: str, value: Any) -> float:
     """A finite float (None, strings, complex numbers, NaN and infinities refused; the core checks the range)."""
     try:
         x = None if isinstance(value, (str, bytes, complex, np.complexfloating)) else float(value)
@@ -78,13 +79,14 @@ _WORDS = {2: "two", 3: "three"}
 def vector(name: str, value: ArrayLike, size: int = 3) -> tuple[float, ...]:
     """``size`` finite floats as a tuple; fast for tuples, lists and 1-D arrays."""
     real = (int, float, np.integer, np.floating)
-    if isinstance(value, np.ndarray) and value.shape == (size,) and issubclass(value.dtype.type, real):
-        value = value.tolist()
-    if not (isinstance(value, (tuple, list)) and len(value) == size and all(isinstance(x, real) for x in value)):
-        value = as_array(name, value, (size,)).tolist()
-    result = tuple(float(x) for x in value)
+    items: Any = value  # a tuple or list of numbers once converted
+    if isinstance(items, np.ndarray) and items.shape == (size,) and issubclass(items.dtype.type, real):
+        items = items.tolist()
+    if not (isinstance(items, (tuple, list)) and len(items) == size and all(isinstance(x, real) for x in items)):
+        items = as_array(name, items, (size,)).tolist()
+    result = tuple(float(x) for x in items)
     if not all(math.isfinite(x) for x in result):
-        raise ValueError(f"{name} must be {_WORDS.get(size, size)} finite numbers, got {value!r}")
+        raise ValueError(f"{name} must be {_WORDS.get(size, size)} finite numbers, got {items!r}")
     return result
 
 
