@@ -144,6 +144,17 @@ def test_bad_parameters_raise_value_error(kw, message):
     assert sm.params == small().params
 
 
+def test_a_new_stiffness_is_set_and_one_per_particle_refused():
+    # (was AttributeError: the Simulation's set_params asked for set_stiffness_scale, after changing the core)
+    sm = small()
+    sm.set_params(stiffness=0.5)
+    assert sm.params["stiffness"] == 0.5
+    sm.step(2)
+    with pytest.raises(ValueError, match="stiffness must be a finite number"):
+        sm.set_params(stiffness=[0.5] * sm.graph.n_particles)
+    assert sm.params["stiffness"] == 0.5
+
+
 def test_bad_calls_raise_and_lose_nothing():
     sm = small()
     sm.step(2)

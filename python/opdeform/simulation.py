@@ -1,8 +1,10 @@
 """ARAP dynamics of an oriented-particle graph (``opdeform.Simulation``); see METHOD.md."""
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Vector, as_array, choice, integer, number, vector
@@ -16,7 +18,117 @@ __all__ = ["Simulation"]
 MAX_WEIGHT_RATIO = 1e12  # a constraint's weight is at most this many default weights (Simulation._weight)
 
 
-class Simulation(ForceFields):
+class CoreObject:
+    """What a Simulation and a ShapeMatching share: the core objects of both take the same calls for
+    constraint targets, the floor, stepping, the state and the parameters."""
+
+    graph: Graph
+    _core: Any  # _core.Simulation or _core.ShapeMatching
+    _floor: tuple[float, float] | None
+    _colliders: Mapping[int, dict[str, Any]]  # moved colliders arrive at the end of a step call
+
+    def set_constraint_target(self, id: int, target: Vector) -> None:
+        """Moves a constraint's target (a point, or a direction); unknown ids raise IndexError."""
+        self._core.set_constraint_target(integer("id", id), vector("target", target))
+
+    @property
+    def n_constraints(self) -> int:
+        """The number of position and direction constraints."""
+        return self._core.constraint_count()
+
+    def set_floor(self, height: float = 0.0, friction: float = 0.0) -> None:
+        """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
+        floor = (number("height", height), number("friction", friction))
+        self._core.set_floor(*floor)
+        self._floor = floor
+
+    def clear_floor(self) -> None:
+        """Removes the floor."""
+        self._core.clear_floor()
+        self._floor = None
+
+    def step(self, steps: int = 1) -> None:
+        """Advances ``steps`` time steps. On a non-finite result raises SolverError and keeps the state."""
+        self._core.step(integer("steps", steps))
+        self._colliders_arrived()
+
+    def _colliders_arrived(self) -> None:
+        """After a step call: each moved collider is at its target."""
+        for c in self._colliders.values():
+            if c["target"] is not None:
+                c["frame"], c["target"] = c["target"], None
+
+    def set_state(self, positions: ArrayLike, rotations: ArrayLike, velocities: ArrayLike | None = None,
+                  angular_velocities: ArrayLike | None = None) -> None:
+        """Sets positions (n, 3), rotations (n, 3, 3) and optionally (angular) velocities (n, 3)."""
+        n = self.graph.n_particles
+        pos = as_array("positions", positions, (n, 3))
+        rot = as_array("rotations", rotations, (n, 3, 3))
+        vel = None if velocities is None else as_array("velocities", velocities, (n, 3))
+        ang = None if angular_velocities is None else as_array("angular_velocities", angular_velocities, (n, 3))
+        self._core.set_state(pos, rot, vel, ang)
+
+    def _read(self, name: str, shape: tuple[int, ...]) -> Floats:
+        out = np.empty(shape)
+        self._core.read(name, out)
+        return out
+
+    @property
+    def positions(self) -> Floats:
+        """(n, 3) particle positions, a copy."""
+        return self._read("positions", (self.graph.n_particles, 3))
+
+    @property
+    def rotations(self) -> Floats:
+        """(n, 3, 3) particle rotations, a copy."""
+        return self._read("rotations", (self.graph.n_particles, 3, 3))
+
+    @property
+    def velocities(self) -> Floats:
+        """(n, 3) particle velocities, a copy."""
+        return self._read("velocities", (self.graph.n_particles, 3))
+
+    @property
+    def angular_velocities(self) -> Floats:
+        """(n, 3) particle angular velocities, a copy."""
+        return self._read("angular_velocities", (self.graph.n_particles, 3))
+
+    def skin_points(self, points: ArrayLike, m: int | None = None) -> Floats:
+        """Positions of rest-space points under the current state (linear-blend skinning, eq. 1)."""
+        pts = as_array("points", points, (None, 3))
+        m = self.params["skin_neighbors"] if m is None else m
+        x, rot, rest = self.positions, self.rotations, self.graph.centers
+        out = np.zeros_like(pts)
+        for k, p in enumerate(pts):
+            idx, w = self.graph.skin_weights(p, m)
+            out[k] = np.einsum("j,jab,jb->a", w, rot[idx], p - rest[idx]) + w @ x[idx]
+        return out
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """The parameters as a dict (stiffness, density, dt, iterations, gravity, damping, ...)."""
+        return self._core.params()
+
+    def set_params(self, **changes: Any) -> None:
+        """Changes parameters (same names as the constructor); the state is kept."""
+        self._core.set_params(*core_params(**self._changed_params(changes)))
+
+    def _changed_params(self, changes: dict[str, Any]) -> dict[str, Any]:
+        """The parameters with ``changes`` made; ValueError naming the unknown ones."""
+        p = self.params
+        unknown = set(changes) - set(p)
+        if unknown:
+            raise ValueError(f"unknown parameters: {sorted(unknown)}")
+        p.update(changes)
+        return p
+
+    @property
+    def counters(self) -> dict[str, float]:
+        """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
+        return self._core.counters()
+
+
+class Simulation(CoreObject, ForceFields):
     """ARAP dynamics of an oriented-particle graph (METHOD.md): k = stiffness, rho = density, h = dt,
     c = damping, iterations = local/global pairs after each step's first global solve, skin_neighbors = m.
     ``stiffness`` is a number or one per particle (as ``materials.stiffness_for`` gives it): then k is their
@@ -32,7 +144,7 @@ class Simulation(ForceFields):
         if scale is not None:
             self.set_stiffness_scale(scale)
 
-    def _start(self, graph, params):
+    def _start(self, graph: Graph, params: tuple[Any, ...]) -> None:
         self.graph = graph
         self._core = _core.Simulation(graph._core, *params)
         v = graph.volumes
@@ -42,16 +154,16 @@ class Simulation(ForceFields):
         # What the core cannot give back, for pickling: the constraints as added (kind, point, direction,
         # weight) by id, the adds and removals since the set was last empty (they decide the slot order, and
         # so the bits), the ids issued before that, the floor and the goals.
-        self._constraints = {}
-        self._history = []
+        self._constraints: dict[int, list[Any]] = {}
+        self._history: list[int] = []
         self._ids_before = 0
-        self._floor = None
-        self._goal_hz = None
-        self._goal_frames = None
+        self._floor: tuple[float, float] | None = None
+        self._goal_hz: Floats | None = None
+        self._goal_frames: tuple[Floats, Floats | None] | None = None
         # The scene, for pickling too: the force-field calls as made (ForceFields records them in _calls),
         # each live collider's arguments with its frame now and the frame the next step call takes it to.
-        self._calls = []
-        self._colliders = {}
+        self._calls: list[tuple[str, tuple[Any, ...]]] = []
+        self._colliders: dict[int, dict[str, Any]] = {}
         self._collider_ids = 0
 
     # -- constraints ----------------------------------------------------------------------------------
@@ -81,7 +193,7 @@ class Simulation(ForceFields):
         return self._added(self._core.add_direction_constraint(point, direction, target, weight),
                            [1, point, direction, weight])
 
-    def _weight(self, kind, weight):
+    def _weight(self, kind: str, weight: float) -> float:
         """A weight of at most MAX_WEIGHT_RATIO default weights: above it the constraint's rank-deficient term
         swamps the particle's own in the factorization (1e30 N/m on the Fig. 1 bar, ~1e21 defaults: the matrix
         "not positive definite" on every step, issue 28); the bar steps at 1e12 defaults for stiffness 1e3-1e20
@@ -93,14 +205,10 @@ class Simulation(ForceFields):
                              f"{kind} weight for this stiffness)")
         return weight
 
-    def _added(self, id, record):
+    def _added(self, id: int, record: list[Any]) -> int:
         self._constraints[id] = record
         self._history.append(id)
         return id
-
-    def set_constraint_target(self, id: int, target: Vector) -> None:
-        """Moves a constraint's target (a point, or a direction); unknown ids raise IndexError."""
-        self._core.set_constraint_target(integer("id", id), vector("target", target))
 
     def set_constraint_weight(self, id: int, weight: float) -> None:
         """Changes a constraint's weight (a position weight refactors once, on the next step; a direction weight
@@ -118,11 +226,6 @@ class Simulation(ForceFields):
         if not self._constraints:
             self._ids_before += sum(1 for op in self._history if op >= 0)
             self._history = []
-
-    @property
-    def n_constraints(self) -> int:
-        """The number of position and direction constraints."""
-        return self._core.constraint_count()
 
     # -- stiffness per particle ---------------------------------------------------------------------------
     def set_stiffness_scale(self, scale: ArrayLike | None) -> None:
@@ -218,18 +321,6 @@ class Simulation(ForceFields):
         applies to all."""
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("particle_damping", out) else None
-
-    # -- floor -----------------------------------------------------------------------------------------
-    def set_floor(self, height: float = 0.0, friction: float = 0.0) -> None:
-        """A floor plane z = height (normal +z) with Coulomb friction coefficient ``friction``."""
-        floor = (number("height", height), number("friction", friction))
-        self._core.set_floor(*floor)
-        self._floor = floor
-
-    def clear_floor(self) -> None:
-        """Removes the floor."""
-        self._core.clear_floor()
-        self._floor = None
 
     # -- colliders (docs/contact.md) --------------------------------------------------------------------
     COLLIDER_SHAPES = ("plane", "box", "sphere", "capsule", "mesh")
@@ -331,17 +422,6 @@ class Simulation(ForceFields):
         return self._core.self_contact()
 
     # -- solving ---------------------------------------------------------------------------------------
-    def step(self, steps: int = 1) -> None:
-        """Advances ``steps`` time steps. On a non-finite result raises SolverError and keeps the state."""
-        self._core.step(integer("steps", steps))
-        self._colliders_arrived()
-
-    def _colliders_arrived(self):
-        """After a step call: each moved collider is at its target."""
-        for c in self._colliders.values():
-            if c["target"] is not None:
-                c["frame"], c["target"] = c["target"], None
-
     def solve_static(self, iterations: int) -> None:
         """The static pose (no inertia, gravity included) from the current state; needs a position
         constraint on every connected piece."""
@@ -351,55 +431,8 @@ class Simulation(ForceFields):
         """The objective of the last step (or static solve) at the current iterate."""
         return self._core.energy()
 
-    # -- state -----------------------------------------------------------------------------------------
-    def set_state(self, positions: ArrayLike, rotations: ArrayLike, velocities: ArrayLike | None = None,
-                  angular_velocities: ArrayLike | None = None) -> None:
-        """Sets positions (n, 3), rotations (n, 3, 3) and optionally (angular) velocities (n, 3)."""
-        n = self.graph.n_particles
-        pos = as_array("positions", positions, (n, 3))
-        rot = as_array("rotations", rotations, (n, 3, 3))
-        vel = None if velocities is None else as_array("velocities", velocities, (n, 3))
-        ang = None if angular_velocities is None else as_array("angular_velocities", angular_velocities, (n, 3))
-        self._core.set_state(pos, rot, vel, ang)
-
-    def _read(self, name, shape):
-        out = np.empty(shape)
-        self._core.read(name, out)
-        return out
-
-    @property
-    def positions(self) -> Floats:
-        """(n, 3) particle positions, a copy."""
-        return self._read("positions", (self.graph.n_particles, 3))
-
-    @property
-    def rotations(self) -> Floats:
-        """(n, 3, 3) particle rotations, a copy."""
-        return self._read("rotations", (self.graph.n_particles, 3, 3))
-
-    @property
-    def velocities(self) -> Floats:
-        """(n, 3) particle velocities, a copy."""
-        return self._read("velocities", (self.graph.n_particles, 3))
-
-    @property
-    def angular_velocities(self) -> Floats:
-        """(n, 3) particle angular velocities, a copy."""
-        return self._read("angular_velocities", (self.graph.n_particles, 3))
-
-    def skin_points(self, points: ArrayLike, m: int | None = None) -> Floats:
-        """Positions of rest-space points under the current state (linear-blend skinning, eq. 1)."""
-        pts = as_array("points", points, (None, 3))
-        m = self.params["skin_neighbors"] if m is None else m
-        x, rot, rest = self.positions, self.rotations, self.graph.centers
-        out = np.zeros_like(pts)
-        for k, p in enumerate(pts):
-            idx, w = self.graph.skin_weights(p, m)
-            out[k] = np.einsum("j,jab,jb->a", w, rot[idx], p - rest[idx]) + w @ x[idx]
-        return out
-
     # -- pickling ---------------------------------------------------------------------------------------
-    def __getstate__(self):
+    def __getstate__(self) -> dict[str, Any]:
         """Everything a step reads: graph, parameters, stiffness scale, damping per particle, solver settings,
         floor, goals (with their rest setting and motion), constraints
         (ids, slot order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices),
@@ -415,7 +448,7 @@ class Simulation(ForceFields):
                 "fields": self._calls, "colliders": self._colliders, "collider_ids": self._collider_ids,
                 "self_contact": self.self_contact}
 
-    def __setstate__(self, saved):
+    def __setstate__(self, saved: dict[str, Any]) -> None:
         """Unpickling: the saved calls replayed after ``check_simulation`` bounds them. ``pickle.loads`` runs
         whatever a crafted pickle names before this is reached, and nothing here can stop that: unpickle only
         what you or a trusted process wrote. For state kept where others can write (shared farm storage), store
@@ -445,7 +478,8 @@ class Simulation(ForceFields):
             self.set_self_contact(True, **saved["self_contact"])
         self._core.restore_state(*saved["state"])
 
-    def _replay(self, ids_before, history, constraints, targets):
+    def _replay(self, ids_before: int, history: list[int], constraints: dict[int, list[Any]],
+                targets: dict[int, Any]) -> None:
         """The same adds and removals, so that ids and slots match; removed constraints come back as
         placeholders, live ones as added, with their targets as stored (no renormalisation)."""
         placeholder = [0, tuple(self.graph.centers[0]), None, 1.0]
@@ -462,7 +496,7 @@ class Simulation(ForceFields):
         for id, target in targets.items():
             self._core.restore_constraint_target(id, target)
 
-    def _replay_colliders(self, ids, colliders):
+    def _replay_colliders(self, ids: int, colliders: dict[int, dict[str, Any]]) -> None:
         """Each live collider added again at its frame now (ids in order, removed ones as placeholders, so that
         ids and the order contact takes them in match), then sent on to its target."""
         for id in range(ids):
@@ -475,19 +509,10 @@ class Simulation(ForceFields):
                 self.move_collider(id, c["target"][1], c["target"][0])
 
     # -- parameters and diagnostics --------------------------------------------------------------------
-    @property
-    def params(self) -> dict[str, Any]:
-        """The parameters as a dict (stiffness, density, dt, iterations, gravity, damping, ...)."""
-        return self._core.params()
-
     def set_params(self, **changes: Any) -> None:
         """Changes parameters (same names as the constructor); the state is kept. A stiffness replaces the
         stiffness scale too: one per particle sets it, a number makes it uniform."""
-        p = self.params
-        unknown = set(changes) - set(p)
-        if unknown:
-            raise ValueError(f"unknown parameters: {sorted(unknown)}")
-        p.update(changes)
+        p = self._changed_params(changes)
         p["stiffness"], scale = split_stiffness(p["stiffness"], self.graph.n_particles)
         self._core.set_params(*core_params(**p))
         if "stiffness" in changes:
@@ -529,11 +554,6 @@ class Simulation(ForceFields):
         s["accelerator"] = self.ACCELERATORS[s["accelerator"]]
         s["factorization"] = self.FACTORIZATIONS[s["factorization"]]
         return s
-
-    @property
-    def counters(self) -> dict[str, float]:
-        """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
-        return self._core.counters()
 
     @property
     def tolerance(self) -> float | None:
@@ -582,12 +602,13 @@ def frame_from_normal(normal: Vector) -> Floats:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _rotation(rotation):
+def _rotation(rotation: ArrayLike | None) -> Floats:
     return np.eye(3) if rotation is None else as_array("rotation", rotation, (3, 3))
 
 
-def split_stiffness(stiffness: float | ArrayLike, n: int) -> tuple[float, Floats | None]:
-    """(k, scale) of a stiffness: a number (scale None), or one per particle (k their mean, scale k_i / k)."""
+def split_stiffness(stiffness: float | ArrayLike, n: int) -> tuple[Any, Floats | None]:
+    """(k, scale) of a stiffness: a number as given (scale None; core_params checks it), or one per particle (k
+    their mean, scale k_i / k)."""
     if np.ndim(stiffness) == 0:
         return stiffness, None
     per_particle = as_array("stiffness", stiffness, (n,))
