@@ -3,16 +3,18 @@ constructor computed (Skin, GoalFit), a pickle stores those arguments and unpick
 The constructor checks them as any call, but ``pickle.loads`` runs whatever a crafted pickle names before that:
 unpickle only trusted files; elsewhere store the arguments as arrays and call the constructor."""
 
+from typing import Any
+
 __all__ = ["FromArguments"]
 
 
 class FromArguments:
     """Set ``self._args`` (the constructor's arguments, copied) in ``__init__``; pickling does the rest."""
 
-    _args = ()
+    _args: tuple[Any, ...] = ()
 
-    def __getstate__(self):
+    def __getstate__(self) -> tuple[Any, ...]:
         return self._args
 
-    def __setstate__(self, args):
-        self.__init__(*args)
+    def __setstate__(self, args: tuple[Any, ...]) -> None:
+        type(self).__init__(self, *args)

@@ -7,9 +7,11 @@ never a MemoryError hours later. The values themselves (points, weights, arrays)
 replay makes, as for any caller. ContactGroup pairs are converted to int32 only when they fit.
 """
 
+from typing import Any
+
 import numpy as np
 
-from ._arguments import integer
+from ._arguments import Ints, integer
 
 __all__ = ["check_simulation", "int32_pairs", "MAX_REPLAYED_IDS"]
 
@@ -22,7 +24,7 @@ SIMULATION_KEYS = ("graph", "params", "stiffness_scale", "solver", "trace_energy
 FIELD_CALLS = ("add_force_field", "move_force_field", "remove_force_field")
 
 
-def check_simulation(saved):
+def check_simulation(saved: object) -> None:
     """Raises naming the first entry of a Simulation's pickled state that the replay could not use."""
     if not isinstance(saved, dict):
         raise TypeError(f"saved Simulation: a dict expected, got {type(saved).__name__}")
@@ -43,7 +45,7 @@ def check_simulation(saved):
     _check_goal_motion(saved.get("goal_motion"))
 
 
-def _check_history(ids_before, history):
+def _check_history(ids_before: object, history: object) -> set[int]:
     """The adds (ids in issue order) and removals (~id of a live one) since the set was last empty; returns
     the live ids."""
     ids_before = integer("ids_before", ids_before, (0, MAX_REPLAYED_IDS))
@@ -51,7 +53,8 @@ def _check_history(ids_before, history):
     if not isinstance(history, list) or len(history) > most:
         raise ValueError(f"history: a list of at most {most} ids expected (ids_before = {ids_before}: a pickle may "
                          f"replay at most {MAX_REPLAYED_IDS} constraint ids)")
-    live, next_id = set(), ids_before
+    live: set[int] = set()
+    next_id = ids_before
     for k, op in enumerate(history):
         op = integer(f"history[{k}]", op)
         if op >= 0 and op != next_id:
@@ -66,7 +69,7 @@ def _check_history(ids_before, history):
     return live
 
 
-def _check_colliders(collider_ids, colliders):
+def _check_colliders(collider_ids: object, colliders: object) -> None:
     count = integer("collider_ids", collider_ids, (0, MAX_REPLAYED_IDS))
     if not isinstance(colliders, dict) or not all(isinstance(id, int) and 0 <= id < count for id in colliders):
         raise ValueError(f"colliders: a dict of ids in [0, {count}) expected")
@@ -75,7 +78,7 @@ def _check_colliders(collider_ids, colliders):
             raise ValueError(f"colliders[{id}]: a dict of args, frame and target expected")
 
 
-def _check_fields(fields):
+def _check_fields(fields: object) -> None:
     if not isinstance(fields, list):
         raise ValueError(f"fields: a list of (name, arguments) expected, got {type(fields).__name__}")
     for k, call in enumerate(fields):
@@ -83,7 +86,7 @@ def _check_fields(fields):
             raise ValueError(f"fields[{k}]: one of {FIELD_CALLS} with a tuple of arguments expected, got {call!r:.80}")
 
 
-def _check_goal_motion(motion):
+def _check_goal_motion(motion: object) -> None:
     if motion is None:
         return
     if not (isinstance(motion, (tuple, list)) and len(motion) == 3):
@@ -91,7 +94,7 @@ def _check_goal_motion(motion):
     integer("goal_motion steps", motion[2], (-1, 2**31 - 1))
 
 
-def int32_pairs(pairs):
+def int32_pairs(pairs: Any) -> Ints:
     """ContactGroup pairs as int32, refused (ValueError naming them) unless they are integers that fit."""
     arr = np.asarray(pairs)
     if arr.size and not np.issubdtype(arr.dtype, np.integer):

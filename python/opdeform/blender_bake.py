@@ -14,6 +14,8 @@ import json
 import os
 import sys
 import time
+from types import ModuleType
+from typing import Any, NoReturn
 
 import addon_utils
 import bpy
@@ -27,12 +29,12 @@ SETTINGS = {"substeps": "substeps", "graph.particles": "particles", "graph.mode"
             "floor.friction": "floor_friction"}
 
 
-def fail(message):
+def fail(message: str) -> NoReturn:
     print(f"OPDEFORM_ERROR {message}", flush=True)
     sys.exit(1)
 
 
-def runtime():
+def runtime() -> ModuleType:
     """The add-on's runtime module, the add-on enabled and its opdeform loaded."""
     if addon_utils.enable(ADDON, default_set=True, handle_error=lambda exc: print(exc)) is None:
         fail(f"the add-on {ADDON} did not enable (see the output above)")
@@ -44,7 +46,7 @@ def runtime():
     return rt
 
 
-def apply_overrides(obj, scene, overrides):
+def apply_overrides(obj: Any, scene: Any, overrides: dict[str, Any]) -> None:
     """The spec's keys over the object's settings (and the scene's frame rate and gravity)."""
     s = obj.opdeform
     for key, value in overrides.items():
@@ -61,7 +63,7 @@ def apply_overrides(obj, scene, overrides):
         s.use_floor = True
 
 
-def bake(job):
+def bake(job: dict[str, Any]) -> None:
     rt = runtime()
     scene = bpy.context.scene
     obj = bpy.data.objects.get(job["object"])
@@ -83,7 +85,7 @@ def bake(job):
         json.dump({"pc2": baking.path, "rows": rows}, f)
 
 
-def run(rt, baking, job):
+def run(rt: ModuleType, baking: Any, job: dict[str, Any]) -> list[dict[str, Any]]:
     """Bakes every frame; returns the report rows (opdeform.shot.report_row)."""
     shots = importlib.import_module(rt.module().__name__ + ".shot")
     settings = baking.obj.opdeform

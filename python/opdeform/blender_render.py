@@ -13,6 +13,8 @@ needed: the Mesh Cache modifier plays the PC2.
 import json
 import math
 import sys
+from collections.abc import Sequence
+from typing import Any
 
 import bpy
 import numpy as np
@@ -23,7 +25,7 @@ SAMPLES = 16
 SEED = 0
 
 
-def material(name, color, alpha=1.0):
+def material(name: str, color: Sequence[float], alpha: float = 1.0) -> Any:
     """A Principled material of a colour (and alpha)."""
     mat = bpy.data.materials.new(name)
     mat.use_nodes = True
@@ -37,7 +39,7 @@ def material(name, color, alpha=1.0):
     return mat
 
 
-def cycles(scene, resolution=RESOLUTION, samples=SAMPLES):
+def cycles(scene: Any, resolution: tuple[int, int] = RESOLUTION, samples: int = SAMPLES) -> None:
     """Reproducible Cycles settings: CPU, fixed seed and samples, no denoiser, no adaptive sampling, PNG."""
     scene.render.engine = 'CYCLES'
     scene.cycles.device = 'CPU'
@@ -55,7 +57,7 @@ def cycles(scene, resolution=RESOLUTION, samples=SAMPLES):
     scene.render.threads = 2
 
 
-def lights(scene):
+def lights(scene: Any) -> None:
     """A grey-blue world and a sun."""
     world = bpy.data.worlds.new("World")
     world.use_nodes = True
@@ -69,13 +71,14 @@ def lights(scene):
     scene.collection.objects.link(sun)
 
 
-def setup_render(scene, resolution=RESOLUTION, samples=SAMPLES):
+def setup_render(scene: Any, resolution: tuple[int, int] = RESOLUTION, samples: int = SAMPLES) -> None:
     """Cycles settings, world and sun of the regression renders."""
     cycles(scene, resolution, samples)
     lights(scene)
 
 
-def camera(scene, target, direction, distance, lens=35):
+def camera(scene: Any, target: Sequence[float], direction: Sequence[float], distance: float,
+           lens: float = 35) -> None:
     """The scene's camera at ``target + distance * direction``, looking at ``target``."""
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.data.lens = lens
@@ -86,7 +89,7 @@ def camera(scene, target, direction, distance, lens=35):
     scene.camera = cam
 
 
-def mesh_object(scene, name, vertices, faces):
+def mesh_object(scene: Any, name: str, vertices: Sequence[Sequence[float]], faces: Sequence[Sequence[int]]) -> Any:
     """A new mesh object linked to the scene."""
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata([tuple(map(float, v)) for v in vertices], [], [tuple(map(int, f)) for f in faces])
@@ -96,7 +99,7 @@ def mesh_object(scene, name, vertices, faces):
     return obj
 
 
-def mesh_cache(obj, pc2, start, index=None):
+def mesh_cache(obj: Any, pc2: str, start: float, index: int | None = None) -> None:
     """A Mesh Cache modifier playing ``pc2`` from frame ``start`` (the add-on's axes), at ``index`` in the stack."""
     mod = obj.modifiers.new("Baked Shot", 'MESH_CACHE')
     mod.cache_format, mod.filepath, mod.frame_start = 'PC2', pc2, start
@@ -107,7 +110,7 @@ def mesh_cache(obj, pc2, start, index=None):
             bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=index)
 
 
-def blend_scene(scene, job):
+def blend_scene(scene: Any, job: dict[str, Any]) -> None:
     """The .blend shot's object plays the PC2 where its opdeform modifiers were; lights when the file has none."""
     obj = bpy.data.objects[job["object"]]
     ours = [k for k, m in enumerate(obj.modifiers) if m.name.startswith("OPDeform")]
@@ -120,7 +123,7 @@ def blend_scene(scene, job):
         lights(scene)
 
 
-def mesh_scene(job):
+def mesh_scene(job: dict[str, Any]) -> None:
     """A new scene for a mesh shot: the mesh playing the PC2, a floor when the shot has one, camera, lights."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -139,13 +142,13 @@ def mesh_scene(job):
     lights(scene)
 
 
-def frame_camera(scene, bounds):
+def frame_camera(scene: Any, bounds: Sequence[Sequence[float]]) -> None:
     """A camera looking at the box ``bounds`` (every baked frame) from the front right, above."""
     lo, hi = np.array(bounds)
     camera(scene, (lo + hi) / 2, (1.0, -1.6, 0.7), 1.3 * float(np.linalg.norm(hi - lo)) + 1e-3)
 
 
-def main(job):
+def main(job: dict[str, Any]) -> None:
     if job.get("object"):
         blend_scene(bpy.context.scene, job)
     else:

@@ -8,6 +8,8 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable, Sequence
+from typing import TextIO
 
 from . import blender
 from ._core import __version__
@@ -30,7 +32,7 @@ optional package. Optional packages: pip install "opdeform[plot]" (matplotlib: r
 EXTRAS = {"matplotlib": "plot", "dask": "batch", "distributed": "batch"}  # top-level module -> extra
 
 
-def _duration(seconds):
+def _duration(seconds: float) -> str:
     """'42 s', '3 min 05 s', '2 h 07 min'."""
     s = round(seconds)
     if s < 60:
@@ -38,13 +40,13 @@ def _duration(seconds):
     return f"{s // 60} min {s % 60:02d} s" if s < 3600 else f"{s // 3600} h {s % 3600 // 60:02d} min"
 
 
-def _progress_bar(stream):
+def _progress_bar(stream: TextIO) -> Callable[[int, int], None] | None:
     """progress(done, total) drawing a bar on a terminal; None elsewhere (a farm's log stays quiet)."""
     if not stream.isatty():
         return None
     start = time.perf_counter()
 
-    def progress(done, total):
+    def progress(done: int, total: int) -> None:
         width = 40
         filled = width * done // total
         rate = done / max(time.perf_counter() - start, 1e-9)
@@ -56,7 +58,7 @@ def _progress_bar(stream):
     return progress
 
 
-def bake(args):
+def bake(args: argparse.Namespace) -> int:
     shot = shots.load(args.spec)
     t0 = time.perf_counter()
     rows = shots.bake(shot, args.threads, _progress_bar(sys.stderr), resume=not args.restart)
@@ -64,10 +66,10 @@ def bake(args):
     return 0
 
 
-def batch(args):
+def batch(args: argparse.Namespace) -> int:
     from . import batch as batches
 
-    def line(result):
+    def line(result: batches.ShotResult) -> None:
         name = os.path.basename(result.spec)
         if result.ok:
             print(f"ok     {name}: {result.frames} frames in {result.seconds:.2f} s", flush=True)
@@ -81,7 +83,7 @@ def batch(args):
     return 1 if failed else 0
 
 
-def report(args):
+def report(args: argparse.Namespace) -> int:
     path = args.bake
     if path.endswith(".toml"):
         path = shots.load(path).output("report")
@@ -98,12 +100,12 @@ def report(args):
     return 0
 
 
-def render(args):
+def render(args: argparse.Namespace) -> int:
     import matplotlib  # noqa: F401 (render compares images with it: a missing extra is named before Blender runs)
 
     from . import render as renders
 
-    def line(row):
+    def line(row: renders.RenderRow) -> None:
         if row.frame:
             print(f"{'ok  ' if row.ok else 'FAIL'} {row.shot} frame {row.frame}: image mean {row.image_mean:.5f}, "
                   f"pixels off {100 * row.image_fraction:.3f}%, vertices {row.vertex_max:.3g} m "
@@ -117,7 +119,7 @@ def render(args):
     return 1 if failed else 0
 
 
-def main(argv=None, prog="opdeform"):
+def main(argv: Sequence[str] | None = None, prog: str = "opdeform") -> int:
     """Runs the command line ``argv`` (default sys.argv[1:]); returns the exit status."""
     parser = argparse.ArgumentParser(prog=prog, description=HELP, epilog=EPILOG,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -146,7 +148,8 @@ def main(argv=None, prog="opdeform"):
     p.set_defaults(run=render)
     args = parser.parse_args(argv)
     try:
-        return args.run(args)
+        status: int = args.run(args)
+        return status
     except shots.SpecError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

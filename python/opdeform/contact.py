@@ -63,9 +63,8 @@ class ContactGroup:
         if state is None:
             pairs, forces = np.empty((0, 2), np.int32), np.empty((0, 7))
         else:
-            pairs, forces = state
-            pairs = int32_pairs(pairs)
-            forces = np.ascontiguousarray(forces, np.float64)
+            given_pairs, given_forces = state
+            pairs, forces = int32_pairs(given_pairs), np.ascontiguousarray(given_forces, np.float64)
             if pairs.ndim != 2 or pairs.shape[1] != 2 or forces.shape != (len(pairs), 7):
                 raise ValueError(f"state: pairs (m, 2) and forces (m, 7) expected, got {pairs.shape} and "
                                  f"{forces.shape}")

@@ -9,9 +9,10 @@ range of lag and overshoot over the slider instead of crowding it below 0.5. ``r
 animated mesh, so that at full strength the output is the animation itself, vertex for vertex.
 """
 
-from typing import Protocol
+from typing import Any, Literal, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Ints, as_array, integer
@@ -55,7 +56,7 @@ class GoalFit(FromArguments):
         """The rest vertices fitted per particle."""
         return self._core.neighbors
 
-    def _read(self, name, dtype):
+    def _read(self, name: Literal["indices", "weights"], dtype: npt.DTypeLike) -> npt.NDArray[Any]:
         out = np.empty((self.graph.n_particles, self.neighbors), dtype)
         self._core.read(name, out)
         return out

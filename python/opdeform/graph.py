@@ -1,6 +1,9 @@
 """The rest graph of ellipsoid particles (``opdeform.Graph``), given directly or built from a mesh."""
 
+from typing import Any, Literal
+
 import numpy as np
+import numpy.typing as npt
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Ints, Vector, as_array, choice, integer, vector
@@ -28,7 +31,8 @@ class Graph:
         self._core = _core.Graph(centers, radii, edges, axes)
         # the core keeps a checked copy (axes orthonormalised, a mesh's pieces) with no way back in: a pickle
         # holds what the graph was made from and makes it again, to the same bits
-        self._made = ("arrays", tuple(None if a is None else a.copy() for a in (centers, radii, edges, axes)))
+        made = tuple(None if a is None else a.copy() for a in (centers, radii, edges, axes))
+        self._made: tuple[str, tuple[Any, ...]] = ("arrays", made)
 
     @classmethod
     def from_mesh(cls, vertices: ArrayLike, triangles: ArrayLike, particles: int = 100, mode: str = "auto",
@@ -52,10 +56,10 @@ class Graph:
                                      voxels_per_particle, small_pieces))
         return graph
 
-    def __getstate__(self):
+    def __getstate__(self) -> tuple[str, tuple[Any, ...]]:
         return self._made
 
-    def __setstate__(self, made):
+    def __setstate__(self, made: tuple[str, tuple[Any, ...]]) -> None:
         """Made again through the constructor or ``from_mesh`` (checked as any call); ``pickle.loads`` runs
         whatever a crafted pickle names before this, so unpickle only trusted files (else store the arrays the
         graph was made from and make it again)."""
@@ -72,7 +76,8 @@ class Graph:
         """The number of edges."""
         return self._core.n_edges
 
-    def _read(self, name, shape, dtype=np.float64):
+    def _read(self, name: Literal["centers", "radii", "axes", "edges", "pieces", "mesh_pieces"],
+              shape: tuple[int, ...], dtype: npt.DTypeLike = np.float64) -> npt.NDArray[Any]:
         out = np.empty(shape, dtype)
         self._core.read(name, out)
         return out

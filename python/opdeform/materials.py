@@ -53,6 +53,7 @@ does not change with the frame rate.
 import math
 import weakref
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -167,7 +168,7 @@ def _uniform_stiffness(graph, modulus):
 # settings may change), and the closed-mesh test alone sorts the mesh's edges (12.6 ms a frame for Suzanne
 # subdivided once, 2,012 vertices, about ten times the frame's simulation); the measured one solves. A Graph
 # does not change.
-_OWN_MESH_RATIOS = weakref.WeakKeyDictionary()
+_OWN_MESH_RATIOS: weakref.WeakKeyDictionary[Graph, dict[str, Any]] = weakref.WeakKeyDictionary()
 
 
 def _calibrated_ratio(graph, mesh, calibration):

@@ -4,13 +4,19 @@ graph (``Skin``), and constraints on mesh vertices (``pin_vertices``, ``add_vert
 The C core does the work with the GIL released; this layer checks shapes and dtypes. See docs/mesh.md.
 """
 
+from typing import Any, Literal
+
 import numpy as np
+import numpy.typing as npt
 
 from . import _core
 from ._arguments import ArrayLike, Floats, Ints, Vector, as_array, integer, number
 from ._rebuild import FromArguments
 from .graph import MODES, SMALL_PIECES, Graph
 from .simulation import Simulation
+
+# an output buffer of deform: float32 (Blender's foreach_set) or float64
+Buffer = npt.NDArray[np.floating[Any]]
 
 __all__ = ["MODES", "SMALL_PIECES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
 
@@ -21,7 +27,7 @@ def graph_from_mesh(vertices: ArrayLike, triangles: ArrayLike, particles: int = 
     return Graph.from_mesh(vertices, triangles, particles, mode, join_pieces, voxels_per_particle, small_pieces)
 
 
-def mesh_pieces(graph: Graph) -> tuple[int, Ints]:
+def mesh_pieces(graph: Graph) -> tuple[int, Ints | None]:
     """(count, the mesh piece of each particle) of a graph built from a mesh: pieces are the connected pieces
     of the triangle mesh (or groups of them with ``join_pieces``), numbered by their first triangle; a piece
     may have no particles ("attach"). A vertex is skinned only by particles of its own piece, or of the piece
@@ -30,7 +36,7 @@ def mesh_pieces(graph: Graph) -> tuple[int, Ints]:
     return count, graph._read("mesh_pieces", (graph.n_particles,), np.int32) if count else None
 
 
-def _output(name, out, n_vertices):
+def _output(name: str, out: Buffer, n_vertices: int) -> Buffer:
     """Checks a caller's output buffer: float32 or float64, (V,3) or flat (3V,), C-contiguous, writable."""
     if isinstance(out, np.ndarray):
         if out.dtype not in (np.float32, np.float64):
@@ -42,7 +48,7 @@ def _output(name, out, n_vertices):
     return out
 
 
-def _rest_normals(normals, n_vertices):
+def _rest_normals(normals: ArrayLike, n_vertices: int) -> npt.NDArray[Any]:
     """float32 normals pass as they are (Blender's); anything else becomes float64 (V,3)."""
     arr = np.asarray(normals)
     if arr.dtype == np.float32 and arr.flags.c_contiguous and arr.shape in ((n_vertices, 3), (3 * n_vertices,)):
@@ -82,7 +88,8 @@ class Skin(FromArguments):
         """Particles per vertex: the m asked for, or fewer when the graph has fewer particles."""
         return self._core.neighbors
 
-    def _read(self, name, dtype, width):
+    def _read(self, name: Literal["indices", "weights", "rest_normals"], dtype: npt.DTypeLike,
+              width: int) -> npt.NDArray[Any]:
         out = np.empty((self.n_vertices, width), dtype)
         self._core.read(name, out)
         return out
@@ -102,8 +109,8 @@ class Skin(FromArguments):
         """(V,3) float64 rest normals given or computed at binding, or None."""
         return self._read("rest_normals", np.float64, 3) if self._core.has_rest_normals else None
 
-    def deform(self, positions: ArrayLike, rotations: ArrayLike, out: Floats | None = None,
-               normals_out: Floats | None = None, rest_normals: ArrayLike | None = None) -> Floats:
+    def deform(self, positions: ArrayLike, rotations: ArrayLike, out: Buffer | None = None,
+               normals_out: Buffer | None = None, rest_normals: ArrayLike | None = None) -> npt.NDArray[Any]:
         """Deformed vertex positions for particle ``positions`` (n,3) and ``rotations`` (n,3,3), written into
         ``out`` (float32 or float64, (V,3) or flat (3V,), e.g. for Blender's ``foreach_set``; allocated as
         float64 (V,3) when None) and returned. Normals are computed only when ``normals_out`` is given (same
@@ -119,8 +126,8 @@ class Skin(FromArguments):
         self._core.deform(positions, rotations, out, normals_out, rest_normals)
         return out
 
-    def deform_sim(self, sim: Simulation, out: Floats | None = None, normals_out: Floats | None = None,
-                   push_out: bool = True) -> Floats:
+    def deform_sim(self, sim: Simulation, out: Buffer | None = None, normals_out: Buffer | None = None,
+                   push_out: bool = True) -> npt.NDArray[Any]:
         """``deform`` with the simulation's current positions and rotations; with ``push_out`` the vertices
         inside its colliders or below its floor are moved to their surface (``Simulation.push_out``,
         docs/contact.md)."""

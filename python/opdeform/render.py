@@ -13,9 +13,12 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, fields
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from . import blender, io
 from . import shot as shots
@@ -49,12 +52,12 @@ class RenderRow:
     note: str = ""
 
 
-def chosen_frames(shot, count):
+def chosen_frames(shot: shots.Shot, count: int) -> list[int]:
     """``count`` frames spread over the shot, the first and the last included."""
     return sorted({int(round(f)) for f in np.linspace(shot.first, shot.last, max(count, 1))})
 
 
-def image_difference(a, b):
+def image_difference(a: npt.ArrayLike, b: npt.ArrayLike) -> tuple[float, float]:
     """(mean absolute difference, share of pixels off by more than PIXEL in a channel) of two RGB images."""
     a, b = np.asarray(a, np.float32)[..., :3], np.asarray(b, np.float32)[..., :3]
     if a.shape != b.shape:
@@ -63,12 +66,13 @@ def image_difference(a, b):
     return float(diff.mean()), float((diff.max(axis=2) > PIXEL).mean())
 
 
-def _read_png(path):
+def _read_png(path: str) -> npt.NDArray[Any]:
     import matplotlib.image
     return matplotlib.image.imread(path)
 
 
-def _blender_job(shot, baked, frames, out, work):
+def _blender_job(shot: shots.Shot, baked: npt.NDArray[Any], frames: list[int], out: str,
+                 work: str) -> dict[str, Any]:
     """The job of blender_render.py for a shot."""
     job = {"pc2": shot.output("pc2"), "frames": frames, "out": out, "name": shot.name, "start": shot.first,
            "bounds": [baked.min(axis=(0, 1)).tolist(), baked.max(axis=(0, 1)).tolist()]}
@@ -80,7 +84,7 @@ def _blender_job(shot, baked, frames, out, work):
     return dict(job, mesh=mesh, floor=floor and floor["height"])
 
 
-def _render_images(shot, baked, frames, out):
+def _render_images(shot: shots.Shot, baked: npt.NDArray[Any], frames: list[int], out: str) -> list[str]:
     """Renders the frames with Blender; returns the PNG paths."""
     settings = shot.section("blender")
     what = f"shot {shot.name} ({shot.spec})"
@@ -101,7 +105,8 @@ def _render_images(shot, baked, frames, out):
     return [os.path.join(out, f"{shot.name}_{f:04d}.png") for f in frames]
 
 
-def _compare(shot, frame, vertices, image, references, diagonal, update):
+def _compare(shot: shots.Shot, frame: int, vertices: npt.NDArray[Any], image: str, references: str, diagonal: float,
+             update: bool) -> RenderRow:
     """The row of one rendered frame: image and vertex differences from the references (written first when
     ``update``)."""
     stem = os.path.join(references, f"{shot.name}_{frame:04d}")
@@ -126,7 +131,7 @@ def _compare(shot, frame, vertices, image, references, diagonal, update):
     return row
 
 
-def render_shot(spec, references, out, count=3, update=False):
+def render_shot(spec: io.FilePath, references: str, out: str, count: int = 3, update: bool = False) -> list[RenderRow]:
     """The RenderRows of one baked shot (``count`` frames); a shot that cannot be rendered is one row that
     says why."""
     try:
@@ -143,7 +148,8 @@ def render_shot(spec, references, out, count=3, update=False):
         return [RenderRow(os.path.basename(os.fspath(spec)), note=str(exc))]
 
 
-def render(specs, references, out, count=3, update=False, on_row=None):
+def render(specs: Iterable[io.FilePath], references: io.FilePath, out: io.FilePath, count: int = 3,
+           update: bool = False, on_row: Callable[[RenderRow], object] | None = None) -> list[RenderRow]:
     """Renders and compares every baked shot; writes ``out``/report.csv and report.md; returns the rows.
     on_row(row) as each comes."""
     out = os.path.abspath(out)
@@ -158,7 +164,7 @@ def render(specs, references, out, count=3, update=False, on_row=None):
     return rows
 
 
-def write_report(rows, out):
+def write_report(rows: Sequence[RenderRow], out: str) -> None:
     """``report.csv`` (one row a frame) and ``report.md`` (the same with each image beside its reference)."""
     names = [f.name for f in fields(RenderRow)]
     with io.atomic_path(os.path.join(out, "report.csv")) as part, open(part, "w", newline="") as f:

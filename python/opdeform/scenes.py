@@ -4,9 +4,11 @@ Shared by scripts/demo, scripts/bench and the tests so that all three measure th
 """
 
 import math
+from typing import Any
 
 import numpy as np
 
+from ._arguments import ArrayLike, Floats, Ints, Vector
 from .graph import Graph
 from .simulation import Simulation
 
@@ -16,7 +18,7 @@ BAR_PARTICLES = 20
 BAR_STIFFNESS = 1e9  # k for the bar (METHOD.md's value): 5.6 % sag, a small deflection
 
 
-def bar_graph(particles=BAR_PARTICLES, length=BAR_LENGTH, width=BAR_WIDTH):
+def bar_graph(particles: int = BAR_PARTICLES, length: float = BAR_LENGTH, width: float = BAR_WIDTH) -> Graph:
     """A chain of disc-like ellipsoids filling a length x width x width box along +x (Fig. 2, right)."""
     dx = length / particles
     centers = np.zeros((particles, 3))
@@ -26,14 +28,14 @@ def bar_graph(particles=BAR_PARTICLES, length=BAR_LENGTH, width=BAR_WIDTH):
     return Graph(centers, radii, edges)
 
 
-def end_face_points(x, width=BAR_WIDTH, count=5):
+def end_face_points(x: float, width: float = BAR_WIDTH, count: int = 5) -> Floats:
     """The count x count grid of vertices of the bar's end face at x (25 points, as the paper pins)."""
     s = np.linspace(-width / 2, width / 2, count)
     yy, zz = np.meshgrid(s, s, indexing="ij")
     return np.stack([np.full(yy.size, x), yy.ravel(), zz.ravel()], axis=1)
 
 
-def fig1_bar(stiffness=BAR_STIFFNESS, **sim_args):
+def fig1_bar(stiffness: float | ArrayLike = BAR_STIFFNESS, **sim_args: Any) -> Simulation:
     """Fig. 1: the bar fixed at its x = 0 end face by 25 position constraints, sagging under gravity.
     Returns the simulation; the tip is the rest point (BAR_LENGTH, 0, 0)."""
     sim = Simulation(bar_graph(), stiffness, **sim_args)
@@ -45,7 +47,7 @@ def fig1_bar(stiffness=BAR_STIFFNESS, **sim_args):
 BAR_TIP = (BAR_LENGTH, 0.0, 0.0)
 
 
-def tip_sag(sim):
+def tip_sag(sim: Simulation) -> float:
     """How far the bar's tip has dropped below its rest height."""
     return -float(sim.skin_points([BAR_TIP])[0, 2])
 
@@ -54,13 +56,13 @@ class TwistedBar:
     """Fig. 2: the fixed bar whose free end is twisted about the bar's axis and moved by one position
     constraint and three direction constraints (the end frame's axes)."""
 
-    def __init__(self, stiffness=BAR_STIFFNESS, **sim_args):
+    def __init__(self, stiffness: float | ArrayLike = BAR_STIFFNESS, **sim_args: Any) -> None:
         self.sim = fig1_bar(stiffness, **sim_args)
         self.tip = np.array(BAR_TIP)
         self.position_id = self.sim.add_position_constraint(self.tip)
         self.direction_ids = [self.sim.add_direction_constraint(self.tip, axis) for axis in np.eye(3)]
 
-    def pose(self, angle, offset):
+    def pose(self, angle: float, offset: Vector) -> None:
         """Twist the end by ``angle`` radians about +x and move it by ``offset``."""
         c, s = math.cos(angle), math.sin(angle)
         tip = (BAR_LENGTH + offset[0], offset[1], offset[2])
@@ -68,13 +70,13 @@ class TwistedBar:
         for cid, axis in zip(self.direction_ids, ((1.0, 0.0, 0.0), (0.0, c, s), (0.0, -s, c))):
             self.sim.set_constraint_target(cid, axis)
 
-    def animate(self, t, duration=2.0):
+    def animate(self, t: float, duration: float = 2.0) -> None:
         """The pose at time t of a clip that twists the end by 180 degrees and lifts it by 0.5."""
         u = min(max(t / duration, 0.0), 1.0)
         self.pose(math.pi * u, (-0.3 * u, 0.0, 0.5 * u))
 
 
-def body_graph(rows=10, cols=10, spacing=0.1, height=1.0):
+def body_graph(rows: int = 10, cols: int = 10, spacing: float = 0.1, height: float = 1.0) -> Graph:
     """A 100-particle, 261-edge body (the paper's Fig. 4 graph size): a triangulated 10 x 10 slab of
     flattened ellipsoids, 180 lattice edges and 81 diagonals, tilted and lifted above the floor."""
     ij = np.array([(i, j) for i in range(rows) for j in range(cols)], float)
@@ -86,7 +88,7 @@ def body_graph(rows=10, cols=10, spacing=0.1, height=1.0):
     radii = np.tile([spacing * 0.55, spacing * 0.55, spacing * 0.3], (rows * cols, 1))
     axes = np.tile(rot, (rows * cols, 1, 1))
 
-    def node(i, j):
+    def node(i: int, j: int) -> int:
         return i * cols + j
 
     edges = [(node(i, j), node(i, j + 1)) for i in range(rows) for j in range(cols - 1)]
@@ -95,14 +97,14 @@ def body_graph(rows=10, cols=10, spacing=0.1, height=1.0):
     return Graph(centers, radii, np.array(edges), axes)
 
 
-def falling_body(stiffness=2e5, friction=0.5, **sim_args):
+def falling_body(stiffness: float | ArrayLike = 2e5, friction: float = 0.5, **sim_args: Any) -> Simulation:
     """Fig. 4's set-up: the 100-particle body dropped on a floor at z = 0 with friction."""
     sim = Simulation(body_graph(), stiffness, **sim_args)
     sim.set_floor(0.0, friction)
     return sim
 
 
-def lowest_point(sim):
+def lowest_point(sim: Simulation) -> float:
     """The lowest point of any ellipsoid (support distance along -z)."""
     g = sim.graph
     frames = sim.rotations @ g.axes
@@ -110,7 +112,8 @@ def lowest_point(sim):
     return float((sim.positions[:, 2] - s).min())
 
 
-def bent_rod(self_contact, sweep=1.0, steps=120):
+def bent_rod(self_contact: bool, sweep: float = 1.0,
+             steps: int = 120) -> tuple[Simulation, Floats, Ints, int, list[tuple[float, float, float]]]:
     """A 1.2 m rod along x (a capsule mesh, 60 particles) held at its root end by two pins, and the targets
     of the pin on its tip, one a step: a half circle about the middle through ``sweep`` half turns in 90 of
     ``steps`` steps (1: onto the root; more: past it). Returns (sim, vertices, triangles, tip's constraint id,
