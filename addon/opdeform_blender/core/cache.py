@@ -9,8 +9,9 @@ they are recomputed from the state when a cached frame is shown.
 Bounded: at most ``CACHE_BYTES`` (256 MiB; about 18,000 frames of 100 particles, 1,800 of 1,000). Past it the
 oldest frames after the start are dropped (the start frame is always kept); showing a dropped frame replays
 from the start (core/frames.py). A bake writes every frame to its file as it goes, so nothing baked is lost.
-The bytes counted are what a frame holds: its arrays' data and objects, the tuples around them and its slot in
-the dict (counting the data alone let 256 MiB hold 392 MiB for a 20-particle bar, issue 28)."""
+The bytes counted are what a frame holds: its arrays' objects and data as the allocator hands them out, the
+tuples around them and its slot in the dict (counting the data alone let 256 MiB hold 392 MiB for a
+20-particle bar, issue 28; now a 128 MiB cap holds 123 MiB in Blender 3.4 and 5.2)."""
 
 import sys
 
@@ -20,13 +21,28 @@ CACHE_BYTES = 256 * 2 ** 20
 # A frame's slot in the dict and its int key: the slot (hash, key, value: 24 bytes) in a table at most 2/3 full
 # with its index, and the key object (28 bytes)
 SLOT_BYTES = 96
+# What a block costs beyond its size class, by measurement: a far jump (tests/blender/check_cache_memory.py,
+# 20 particles, a 128 MiB cap) grew Blender 3.4 by 1.07 times the cap with 16 (about 50 bytes a block left
+# out: the allocator's bookkeeping, Python's pools left part-used as the oldest frames go); with 64, 0.96 in
+# 3.4 and 5.2 (the jump's own 5 MiB taken off); glibc's Python then holds 0.83 of what is counted
+ALLOCATION_BYTES = 64
+
+
+def _allocated(n):
+    """The bytes an allocation of n bytes takes: n rounded up to the allocator's size class, four classes per
+    doubling as jemalloc has them (Blender's allocator on Linux; glibc rounds to 16 bytes, less), plus
+    ALLOCATION_BYTES. Counted as the data alone, a far jump in Blender 3.4 held 298 MiB for 256 (issue 28)."""
+    step = max(16, 1 << max(0, (n - 1).bit_length() - 3))
+    return -(-n // step) * step + ALLOCATION_BYTES
 
 
 def _size(value):
-    """The bytes value holds: an array's object and data, a tuple's or list's and what it holds (None and
-    numbers: their object, shared or not, so a little more than they take)."""
+    """The bytes value holds: an array's object, its shape and strides, and its data as allocated, a tuple's
+    or list's and what it holds (None and numbers: their object, shared or not, so a little more than they
+    take)."""
     if isinstance(value, np.ndarray):
-        return sys.getsizeof(value) + (0 if value.flags.owndata else value.nbytes)
+        data = _allocated(value.nbytes) if value.flags.owndata else 0
+        return sys.getsizeof(value) - (value.nbytes if value.flags.owndata else 0) + _allocated(16 * value.ndim) + data
     if isinstance(value, (tuple, list)):
         return sys.getsizeof(value) + sum(_size(v) for v in value)
     return sys.getsizeof(value)
