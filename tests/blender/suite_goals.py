@@ -182,6 +182,33 @@ def test_subframes_blend_like_the_bake():
     assert np.abs(H.positions(tail) - live).max() < 1e-6 * LENGTH
 
 
+def test_an_offset_shown_already_is_not_written_again():
+    """The same offset again (a frame shown again, the frames past the cache's end) is not written: Blender
+    shows it from the frame's first evaluation, and the object is not evaluated a second time. Undo and a save,
+    which change what the mesh holds, write it again."""
+    tail = H.tail_rig(0.5)
+    tail.opdeform.use_scene_range, tail.opdeform.frame_end = False, 8
+    scene = bpy.context.scene
+    H.play(range(1, 9))
+    modifier, state = (importlib.import_module(f"{H.ADDON}.blender.{m}") for m in ("modifier", "state"))
+    write, writes = modifier.write_offset, []
+    modifier.write_offset = lambda mesh, offset: (writes.append(scene.frame_current), write(mesh, offset))
+    try:
+        rt = H.runtime().get(tail)
+        for f in (8, 10, 12, 7, 8):
+            scene.frame_set(f)
+            assert np.array_equal(H.positions(tail), rt.engine.out), f
+        assert writes == [7, 8], writes  # 10 and 12 show the end frame's offset on their own input
+        assert np.abs(H.animated_positions(tail) - H.positions(tail)).max() > 1e-3  # the offset is shown
+        state.prune({state.key(tail)})  # what undo does
+        scene.frame_set(8)
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(H.tmpdir(), "written.blend"))
+        assert writes == [7, 8, 8, 8], writes
+        assert np.array_equal(H.positions(tail), rt.engine.out)
+    finally:
+        modifier.write_offset = write
+
+
 def test_linked_duplicates_report_and_bake():
     obj = H.bar_object()
     bpy.ops.opdeform.enable(object=obj.name)

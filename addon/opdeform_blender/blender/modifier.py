@@ -116,6 +116,10 @@ def write_offset(mesh, offset):
     mesh.update()
 
 
+def has_offset(mesh):
+    return mesh.attributes.get(OFFSET) is not None
+
+
 def clear_offset(mesh):
     attr = mesh.attributes.get(OFFSET)
     if attr is not None:

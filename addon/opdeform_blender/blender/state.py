@@ -31,6 +31,7 @@ class Runtime:
         self.handle_matrices = None  # bytes of the handle transforms last used
         self.configured = None  # (settings_key, groups read) of the last runtime.configure
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
+        self.written = None  # a copy of the offset last written into the mesh (runtime.show)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
         self.baking = False  # a bake computes frames without writing the offset
         # seconds of simulation per frame change (None: all the frames asked for, as scripts and renders need)
@@ -80,9 +81,12 @@ def items():
 
 
 def prune(valid_keys):
-    """Forgets the runtimes of objects that are gone (after undo or a file load)."""
+    """Forgets the runtimes of objects that are gone (after undo or a file load), and what the others last wrote
+    into their meshes (undo brings back the offset a mesh held then)."""
     for k in [k for k in _runtimes if k not in valid_keys]:
         del _runtimes[k]
+    for rt in _runtimes.values():
+        rt.written = None
 
 
 def forget_groups():
