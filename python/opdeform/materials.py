@@ -52,17 +52,26 @@ does not change with the frame rate.
 
 import math
 import weakref
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
+from ._arguments import ArrayLike, Floats, Ints, Vector
 from .graph import Graph
 from .simulation import Simulation
 
 __all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE",
            "body_size", "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
            "step_damping", "stretch_warning", "substeps_for", "thin_part_warning"]
+
+# The annotations' types: a mesh as given (vertices, triangles; or the arguments Graph.from_mesh kept, the
+# mesh first), a calibration's k / E (one for the body or one per particle), an array of the computations
+MeshArg = Sequence[Any]
+Arr = npt.NDArray[Any]
+Ratio = float | Arr
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus
 # Residual tolerance of a step (Simulation.set_solver) and the accelerator that reaches it: measured on the
@@ -96,15 +105,16 @@ PRESETS = {m.name: m for m in (
 DEFAULT_MATERIAL = "Rubber"
 
 
-def preset_table():
+def preset_table() -> list[dict[str, Any]]:
     """The presets as plain data for a panel: a list of dicts (name, modulus, density, damping, tolerance,
     description), in PRESETS order."""
     return [dict(name=m.name, modulus=m.modulus, density=m.density, damping=m.damping, tolerance=m.tolerance,
                  description=m.description) for m in PRESETS.values()]
 
 
-def simulation_settings(graph, modulus, density, damping, tolerance=DEFAULT_TOLERANCE, fps=24.0, substeps=None,
-                        size=None):
+def simulation_settings(graph: Graph, modulus: float, density: float, damping: float,
+                        tolerance: float = DEFAULT_TOLERANCE, fps: float = 24.0, substeps: int | None = None,
+                        size: float | None = None) -> tuple[dict[str, Any], dict[str, Any], int]:
     """The panel's artist values (modulus Pa at REFERENCE_SIZE, density kg/m^3, damping per second, tolerance,
     frame rate, substeps per frame: default ``substeps_for(fps)``) as (Simulation keyword arguments,
     set_solver keyword arguments, substeps per frame)."""
@@ -117,7 +127,7 @@ def simulation_settings(graph, modulus, density, damping, tolerance=DEFAULT_TOLE
     return sim, dict(accelerator=DEFAULT_ACCELERATOR, tolerance=float(tolerance)), substeps
 
 
-def body_size(graph, mesh=None):
+def body_size(graph: Graph, mesh: MeshArg | None = None) -> float:
     """The largest extent of the rest body, m: of ``mesh`` (vertices, triangles) or the mesh ``Graph.from_mesh``
     was given, else of the particles (centres plus their largest radius). The particles' reach grows with their size: the character measured
     2.60 m at 50 particles and 2.48 m at 400, and E (modulus times size) 5 % apart with it."""
@@ -134,7 +144,8 @@ def body_size(graph, mesh=None):
 CALIBRATIONS = ("measured", "bending", "uniform")
 
 
-def stiffness_for(graph, modulus, size=None, mesh=None, calibration="measured"):
+def stiffness_for(graph: Graph, modulus: float, size: float | None = None, mesh: MeshArg | None = None,
+                  calibration: str = "measured") -> float | Floats:
     """The solver's stiffness for a material of ``modulus`` Pa at REFERENCE_SIZE on this graph; ``size`` (m) is
     the body's size (default ``body_size(graph)``). ``mesh`` (vertices, triangles): the closed body whose
     second moment a continuum would have (default: the mesh ``Graph.from_mesh`` was given, when it is closed;
@@ -156,7 +167,7 @@ def stiffness_for(graph, modulus, size=None, mesh=None, calibration="measured"):
     return np.full(graph.n_particles, k) if calibration == "measured" and np.ndim(k) == 0 else k
 
 
-def _uniform_stiffness(graph, modulus):
+def _uniform_stiffness(graph: Graph, modulus: float) -> float:
     """The uniform-strain k, 3 E V / sum_edges (v_i + v_j) |d|^2 (only where no calibration applies: the add-on
     asks for k every frame)."""
     c, v, e = graph.centers, graph.volumes, graph.edges
@@ -171,7 +182,7 @@ def _uniform_stiffness(graph, modulus):
 _OWN_MESH_RATIOS: weakref.WeakKeyDictionary[Graph, dict[str, Any]] = weakref.WeakKeyDictionary()
 
 
-def _calibrated_ratio(graph, mesh, calibration):
+def _calibrated_ratio(graph: Graph, mesh: MeshArg | None, calibration: str) -> Ratio | None:
     """k / E: one per particle (measured, a beam-like body), one for the body (bending; measured elsewhere), or
     None where nothing bends (no edge has a length along the longest axis: the uniform k then)."""
     known = _OWN_MESH_RATIOS.setdefault(graph, {}) if mesh is None else {}
@@ -189,7 +200,7 @@ def _calibrated_ratio(graph, mesh, calibration):
     return known[calibration]
 
 
-def _body_ratio(graph, centre, frame, moments, second, points):
+def _body_ratio(graph: Graph, centre: Arr, frame: Arr, moments: Arr, second: Arr, points: Arr | None) -> Ratio | None:
     """k / E of a body whose continuum has the second moment ``second``: measured where it is a beam (``points``
     on it, whose end faces are held; None: not measured), blended by _beam_weight with the bending k."""
     measured = None if points is None else _measured_bending(graph, centre, frame, moments, second, points)
@@ -200,7 +211,7 @@ def _body_ratio(graph, centre, frame, moments, second, points):
     return measured if found is None else w * measured + (1.0 - w) * found
 
 
-def _piece_ratios(graph, mesh, calibration):
+def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
     """k / E per particle of a graph in several connected pieces, each calibrated as a body of its own with its
     part of the mesh (the vertices a piece's particles skin, and the triangles of those). Held as one body, a
     piece the end faces missed had no constraint and the static solve raised (issue 24: two boxes joined into
@@ -209,7 +220,8 @@ def _piece_ratios(graph, mesh, calibration):
     count, label = graph.pieces()
     if mesh is None and graph._made[0] == "from_mesh":
         mesh = graph._made[1][:2]
-    vertices = triangles = None
+    vertices: Arr | None = None
+    triangles: Any = None  # an array wherever vertices is one
     if mesh is not None:
         vertices = np.asarray(mesh[0], dtype=np.float64)
         triangles = np.asarray(mesh[1], dtype=np.int64)
@@ -238,7 +250,7 @@ def _piece_ratios(graph, mesh, calibration):
     return ratio
 
 
-def _compliant_ratio(graph, centre, frame, moments, second):
+def _compliant_ratio(graph: Graph, centre: Arr, frame: Arr, moments: Arr, second: Arr) -> float | None:
     """The bending k / E that gives the graph the continuum's compliance summed over the two cross axes,
     (1 / G_ab + 1 / G_ac) / (1 / J_ab + 1 / J_ac), or None where nothing bends. The softer direction rules, as it
     does the look: k = (J_ab + J_ac) / (G_ab + G_ac), the stiffer one's, left a 1 x 0.5 x 0.08 m plate clamped
@@ -250,13 +262,13 @@ def _compliant_ratio(graph, centre, frame, moments, second):
     return (1.0 / bend[0] + 1.0 / bend[1]) / (1.0 / second[1, 1] + 1.0 / second[2, 2])
 
 
-def _moments(graph):
+def _moments(graph: Graph) -> Arr:
     """(n, 3, 3) rest moments in rest space, Ē A Ēᵀ with A = 0.2 v diag(r^2) (METHOD.md)."""
     v, r, axes = graph.volumes, graph.radii, graph.axes
     return np.einsum("nij,nj,nkj->nik", axes, 0.2 * v[:, None] * r ** 2, axes)
 
 
-def _principal_frame(graph):
+def _principal_frame(graph: Graph) -> tuple[Arr, Arr, Arr]:
     """(centroid, frame whose columns are the principal axes, longest first, moments) of the particles'
     volume (centres and ellipsoids)."""
     v, x = graph.volumes, graph.centers
@@ -268,7 +280,7 @@ def _principal_frame(graph):
     return centre, frame[:, ::-1], moments
 
 
-def _bending_energy(graph, centre, frame, moments, b):
+def _bending_energy(graph: Graph, centre: Arr, frame: Arr, moments: Arr, b: int) -> float:
     """G of the module's docstring for fibres along frame[:, 0] bending towards frame[:, b]."""
     x = (graph.centers - centre) @ frame
     v, e = graph.volumes, graph.edges
@@ -310,7 +322,7 @@ _MEASURED_MAX = 1000
 _LIMIT = 4.0  # the scale stays within [1/_LIMIT, _LIMIT] (a guard: 0.52-1.75 on the bodies of docs/settings.md)
 
 
-def _measured_bending(graph, centre, frame, moments, second, points):
+def _measured_bending(graph: Graph, centre: Arr, frame: Arr, moments: Arr, second: Arr, points: Arr) -> Arr | None:
     """The measured k per Pa of each particle, or None where the body is no straight beam (length under
     _ELONGATED thicknesses, or curved) or cannot be held by an end face (an end's points on a line: a chain's
     end particle), and for more than _MEASURED_MAX particles. An end face: the ``points`` within _END of the
@@ -334,7 +346,8 @@ def _measured_bending(graph, centre, frame, moments, second, points):
     turning = _turning(s, v)
     both = turning[0] ** 2 + turning[1] ** 2
     load = _SAG * 8.0 * rigidity / (v.sum() * (hi - lo) ** 2)  # g of a tip deflection _SAG (hi - lo) at k = 1
-    scale, poses = np.ones(graph.n_particles), {}
+    scale = np.ones(graph.n_particles)
+    poses: dict[tuple[int, int], tuple[Arr, Arr]] = {}  # the last round's static pose per (end, direction)
     for r in range(_ROUNDS + 1):
         curvature = {d: [None, None] for d in across}  # [direction][end]
         for e, held in enumerate(ends):
@@ -366,14 +379,14 @@ def _measured_bending(graph, centre, frame, moments, second, points):
     return scale * sum(second[d + 1, d + 1] / (own[d + 1, d + 1] * level[d]) for d in across) / len(across)
 
 
-def _beam_weight(second):
+def _beam_weight(second: Arr) -> float:
     """How much of the measured k a body takes (0 to 1): by its length over its least thickness, sqrt(J_aa /
     J_cc) of its second moments, from _ELONGATED (none) to _BEAM (all)."""
     elongation = math.sqrt(second[0, 0] / second[2, 2]) if second[2, 2] > 0.0 else math.inf
     return min(max((elongation - _ELONGATED) / (_BEAM - _ELONGATED), 0.0), 1.0)
 
 
-def _turning(s, v):
+def _turning(s: Arr, v: Arr) -> tuple[Arr, Arr]:
     """The bending moment at each particle's section under a unit weight per volume, the body held at its low
     end (sum over s_j > s_i of v_j (s_j - s_i)) and at its high end: cumulative sums in the order of s."""
     order = np.argsort(s)
@@ -384,7 +397,7 @@ def _turning(s, v):
     return low, high
 
 
-def _clamp_points(graph, mesh):
+def _clamp_points(graph: Graph, mesh: MeshArg | None) -> Arr:
     """Rest points on the body: the mesh's vertices (given or remembered), else each ellipsoid's centre and
     the ends of its axes."""
     if mesh is None and graph._made[0] == "from_mesh":
@@ -400,7 +413,7 @@ class _Kernel:
     """Gaussian sums along the body: sum_j K(s_j - s_i) f_j at every particle, K of width sigma, the f binned
     on a grid of sigma / 4 over [lo, hi] (bins x bins, not particles x particles)."""
 
-    def __init__(self, s, lo, hi, sigma):
+    def __init__(self, s: Arr, lo: float, hi: float, sigma: float) -> None:
         bins = max(1, int(np.ceil(4.0 * (hi - lo) / sigma)))
         self.width = (hi - lo) / bins
         self.s, self.bins = s, bins
@@ -409,16 +422,16 @@ class _Kernel:
         self.weights = np.exp(-0.5 * ((middle[:, None] - middle[None, :]) / sigma) ** 2)
         self.cover = self.weights.sum(axis=1)[self.bin] * self.width  # the kernel's length on the body
 
-    def sum(self, f):
+    def sum(self, f: Arr) -> Arr:
         return (self.weights @ np.bincount(self.bin, f, self.bins))[self.bin]
 
-    def slope(self, v, y):
+    def slope(self, v: Arr, y: Arr) -> Arr:
         """The local least-squares slope of y along s, the particles weighted by volume v."""
         s = self.s
         w, ws, wy = self.sum(v), self.sum(v * s), self.sum(v * y)
         return (self.sum(v * s * y) - ws * wy / w) / (self.sum(v * s * s) - ws * ws / w)
 
-    def straightness(self, graph, centre, frame, moments):
+    def straightness(self, graph: Graph, centre: Arr, frame: Arr, moments: Arr) -> float:
         """The least, over the cross axes, of the particles' second moment about the local neutral axis (their
         mean across the body near each) over that about the body's axis: 1 for a straight body."""
         v = graph.volumes
@@ -430,7 +443,7 @@ class _Kernel:
             ratios.append(((v * (t - near) ** 2).sum() + own) / ((v * t * t).sum() + own))
         return float(min(ratios))
 
-    def section_moment(self, graph, frame, moments, b):
+    def section_moment(self, graph: Graph, frame: Arr, moments: Arr, b: int) -> Arr:
         """The particles' second moment of area for bending towards frame[:, b] about the local neutral axis:
         per unit length, so that its integral along the body is theirs."""
         v = graph.volumes
@@ -440,7 +453,7 @@ class _Kernel:
         return (self.sum(v * t * t) - wt * wt / w + self.sum(own)) / self.cover
 
 
-def _body_second_moment(graph, centre, frame, moments, mesh):
+def _body_second_moment(graph: Graph, centre: Arr, frame: Arr, moments: Arr, mesh: MeshArg | None) -> Arr:
     """The continuum's second moment (3, 3) about its centroid in ``frame``: of the closed mesh scaled to the
     particles' volume (their mass), else of the particles (centres and ellipsoids)."""
     if mesh is None and graph._made[0] == "from_mesh":
@@ -455,13 +468,13 @@ def _body_second_moment(graph, centre, frame, moments, mesh):
     return _particle_second_moment(graph, centre, frame, moments)
 
 
-def _particle_second_moment(graph, centre, frame, moments):
+def _particle_second_moment(graph: Graph, centre: Arr, frame: Arr, moments: Arr) -> Arr:
     """The particles' second moment (3, 3) about the centre in ``frame`` (centres and ellipsoids)."""
     y = (graph.centers - centre) @ frame
     return np.einsum("n,ni,nj->ij", graph.volumes, y, y) + frame.T @ moments.sum(axis=0) @ frame
 
 
-def _closed_mesh_moments(vertices, triangles):
+def _closed_mesh_moments(vertices: Arr, triangles: Arr) -> tuple[float, Arr] | None:
     """(volume, second moment about the centroid) of a closed triangle mesh (every edge in two faces; the
     divergence theorem over the tetrahedra from the vertices' mean, each piece turned outward: faces turned both
     ways are made consistent first), else None (an open or non-orientable mesh, or no volume)."""
@@ -486,7 +499,7 @@ def _closed_mesh_moments(vertices, triangles):
     return volume, second - volume * np.outer(centroid, centroid)
 
 
-def _outward_signs(triangles, det):
+def _outward_signs(triangles: Arr, det: Arr) -> Arr | None:
     """+1 or -1 per face that turns every piece of a closed, orientable mesh outward (each edge then runs once
     each way; a piece's signed volume positive), from the faces' signed tetrahedron volumes ``det``; None for
     an open or non-orientable mesh. Measured on the add-on's test tail (a 2 x 0.2 m box, 704 faces, 320 of
@@ -503,7 +516,7 @@ def _outward_signs(triangles, det):
         return None  # an edge not in exactly two faces
     a, b = face[0::2], face[1::2]
     same = np.all(corners[0::2] == corners[1::2], axis=1)  # both faces run the edge the same way: one turns
-    neighbours = [[] for _ in range(count)]
+    neighbours: list[list[tuple[int, bool]]] = [[] for _ in range(count)]
     for f, g, flip in zip(a.tolist(), b.tolist(), same.tolist()):
         neighbours[f].append((g, flip))
         neighbours[g].append((f, flip))
@@ -525,14 +538,15 @@ def _outward_signs(triangles, det):
     return np.where(volume[piece] < 0.0, -sign, sign)
 
 
-def step_damping(rate, dt):
+def step_damping(rate: float, dt: float) -> float:
     """The solver's per-step velocity damping c for a rate per second: 1 - exp(-rate dt)."""
     if not (rate >= 0.0 and math.isfinite(rate)):
         raise ValueError(f"damping = {rate} must be finite and >= 0 (per second)")
     return 1.0 - math.exp(-rate * dt)
 
 
-def make_simulation(graph, material=DEFAULT_MATERIAL, dt=1 / 24, gravity=(0.0, 0.0, -9.81), size=None):
+def make_simulation(graph: Graph, material: str | Material = DEFAULT_MATERIAL, dt: float = 1 / 24,
+                    gravity: Vector = (0.0, 0.0, -9.81), size: float | None = None) -> Simulation:
     """A Simulation of ``material`` (a PRESETS name or a Material) stepping ``dt``, iterating each step to the
     material's tolerance with the measured best accelerator."""
     m = PRESETS[material] if isinstance(material, str) else material
@@ -542,7 +556,7 @@ def make_simulation(graph, material=DEFAULT_MATERIAL, dt=1 / 24, gravity=(0.0, 0
     return sim
 
 
-def substeps_for(fps, max_dt=1 / 240):
+def substeps_for(fps: float, max_dt: float = 1 / 240) -> int:
     """Substeps per frame so that a step is at most ``max_dt``: implicit Euler takes out energy at a rate
     proportional to dt, so equal steps give the same jiggle: 1/240 s is a whole number of steps at 24, 30, 48
     and 60 fps (measured: frequency within 0.1 %, amplitude within 1 % on the 2 m tail, 1.7 % on a capsule tail;
@@ -555,7 +569,7 @@ def substeps_for(fps, max_dt=1 / 240):
 
 # -- warnings the panel shows ----------------------------------------------------------------------------
 
-def stretch_warning(graph, positions, limit=2.0):
+def stretch_warning(graph: Graph, positions: ArrayLike, limit: float = 2.0) -> tuple[float, Ints]:
     """(largest edge length / rest length, the edges stretched beyond ``limit``): the graph tearing apart."""
     x = np.asarray(positions, dtype=np.float64)
     e, c = graph.edges, graph.centers
@@ -563,7 +577,8 @@ def stretch_warning(graph, positions, limit=2.0):
     return float(ratio.max(initial=0.0)), e[ratio > limit]
 
 
-def thin_part_warning(graph, vertices, triangles, across=2):
+def thin_part_warning(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
+                      across: float = 2) -> tuple[float, float, bool]:
     """(thinnest part of the mesh, particle spacing, whether the spacing is too coarse): a part thinner than
     ``across`` particle spacings has a particle or less across and bends like a chain, not like the body.
     The thickness at a vertex is the distance along its inward normal to the opposite side (rays against
@@ -575,7 +590,7 @@ def thin_part_warning(graph, vertices, triangles, across=2):
     return float(thickness), spacing, bool(thickness < across * spacing)
 
 
-def _thickness(v, t):
+def _thickness(v: Arr, t: Arr) -> Arr:
     """Per vertex, the distance along its inward normal to the nearest other triangle (Moller-Trumbore)."""
     a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
     fn = np.cross(b - a, c - a)
@@ -601,7 +616,8 @@ def _thickness(v, t):
     return out[np.isfinite(out)] if np.isfinite(out).any() else np.array([np.inf])
 
 
-def handle_warning(sim, speed, angular_speed=0.0, substeps=1, fps=24.0):
+def handle_warning(sim: Simulation, speed: float, angular_speed: float = 0.0, substeps: int = 1,
+                   fps: float = 24.0) -> tuple[float, bool]:
     """(motion of a driven handle per step / the body's size, whether it is too fast): a handle that moves
     more than 5 % of the body's size (or turns more than 10 degrees) in one step needs more substeps or a
     looser tolerance cap; measured in docs/settings.md. ``speed`` m/s, ``angular_speed`` rad/s."""
@@ -630,7 +646,7 @@ _FIT_ROUNDS = 3  # solves of an appendage's k after the first
 _LEVEL_ROUNDS = 2  # of a straight beam's tip levelling
 
 
-def _closed_mesh(graph, mesh):
+def _closed_mesh(graph: Graph, mesh: MeshArg | None) -> tuple[Arr, Arr] | None:
     """(vertices, triangles) of the closed mesh given or remembered, else None."""
     if mesh is None and graph._made[0] == "from_mesh":
         mesh = graph._made[1][:2]
@@ -640,7 +656,7 @@ def _closed_mesh(graph, mesh):
     return (vertices, triangles) if _closed_mesh_moments(vertices, triangles) is not None else None
 
 
-def _with_parts(graph, mesh, ratio):
+def _with_parts(graph: Graph, mesh: tuple[Arr, Arr], ratio: Ratio) -> Ratio:
     """``ratio`` (k / E per particle, or one for the body) with each thin appendage's particles given their own
     k / E, or, on a bent body with none, each straight part's; ``ratio`` itself where the body has neither."""
     grid = _Grid(*mesh)
@@ -648,7 +664,7 @@ def _with_parts(graph, mesh, ratio):
     part = label[grid.cell_of(graph.centers)]
     if not (part >= 0).any():
         return _with_straight_parts(graph, mesh, grid, ratio)
-    ratio = np.full(graph.n_particles, ratio) if np.ndim(ratio) == 0 else ratio.copy()
+    ratio = np.full(graph.n_particles, ratio) if np.ndim(ratio) == 0 else np.array(ratio)
     for p in np.unique(part[part >= 0]):
         chosen = np.flatnonzero(part == p)
         found = _appendage_ratio(graph, chosen, grid.centres(np.flatnonzero(label == p)), grid.h, ratio)
@@ -657,7 +673,7 @@ def _with_parts(graph, mesh, ratio):
     return ratio
 
 
-def _with_straight_parts(graph, mesh, grid, ratio):
+def _with_straight_parts(graph: Graph, mesh: tuple[Arr, Arr], grid: "_Grid", ratio: Ratio) -> Ratio:
     """k / E per particle of a bent body, each straight part (the cells and particles nearest a segment of its
     skeleton, _Grid.skeleton) calibrated as a body of its own, its second moment and end faces the grid cells'
     (``grid``, of the closed ``mesh``): the particles' own J left the L-bracket 1.39x apart over 50-400
@@ -689,7 +705,7 @@ def _with_straight_parts(graph, mesh, grid, ratio):
     return ratio if np.isnan(found).all() else np.where(np.isnan(found), ratio, found)
 
 
-def _tip_levelled(graph, samples, h, points, ratio):
+def _tip_levelled(graph: Graph, samples: Arr, h: float, points: Arr, ratio: Ratio) -> Ratio:
     """``ratio`` (k / E per particle of a straight beam, measured) scaled, linearly along the body, so that the
     graph held at either end face (the rest ``points`` within _END of the length of an end) and loaded across
     each direction in which it is a beam deflects at its tip region as the continuum of the grid cells
@@ -723,13 +739,13 @@ def _tip_levelled(graph, samples, h, points, ratio):
     return ratio
 
 
-def _tip_cells(s):
+def _tip_cells(s: Arr) -> Arr:
     """Up to _TIP_POINTS of the cells at s in the last _TIP share of the length (the tip region)."""
     tip = np.flatnonzero(s >= s.max() - _TIP * (s.max() - s.min()))
     return tip[np.linspace(0, len(tip) - 1, min(len(tip), _TIP_POINTS)).astype(np.int64)]
 
 
-def _tip_compliance(graph, k, held, tip, direction, load):
+def _tip_compliance(graph: Graph, k: Ratio, held: Arr, tip: Arr, direction: Arr, load: float) -> float:
     """The mean static deflection along ``direction`` per unit load of the rest points ``tip`` (skinned) of the
     graph of stiffness ``k``, held at the rest points ``held``, under a weight ``load`` per volume along it."""
     sim = Simulation(graph, k, density=1.0, gravity=load * direction)
@@ -740,7 +756,7 @@ def _tip_compliance(graph, k, held, tip, direction, load):
     return float(((sim.skin_points(tip) - tip) @ direction).mean()) / load
 
 
-def _subgraph(graph, chosen):
+def _subgraph(graph: Graph, chosen: Arr) -> Graph:
     """The graph of the particles ``chosen`` and the edges between them."""
     index = np.full(graph.n_particles, -1)
     index[chosen] = np.arange(len(chosen))
@@ -748,7 +764,7 @@ def _subgraph(graph, chosen):
     return Graph(graph.centers[chosen], graph.radii[chosen], e[(e >= 0).all(axis=1)], graph.axes[chosen])
 
 
-def _nearest_segment(points, corners):
+def _nearest_segment(points: Arr, corners: Arr) -> Arr:
     """For each point, the segment of the polyline ``corners`` (m, 3) nearest it (0 .. m - 2)."""
     distance = []
     for a, b in zip(corners[:-1], corners[1:]):
@@ -757,7 +773,7 @@ def _nearest_segment(points, corners):
     return np.argmin(np.stack(distance, axis=1), axis=1)
 
 
-def _straightened(points, corners):
+def _straightened(points: Arr, corners: Sequence[int]) -> Arr:
     """The polyline through ``points`` at the indices ``corners`` refitted: a line through each run of points
     between two corners (its middle half: the level sets round a corner off), each inner corner where the
     lines on either side come closest, the ends the end points on their lines."""
@@ -776,7 +792,7 @@ def _straightened(points, corners):
     return np.array(fitted)
 
 
-def _polyline(points, bent):
+def _polyline(points: Arr, bent: float) -> list[int]:
     """Indices of the corners of a polyline through ``points`` (m, 3), in order (Douglas-Peucker): a point
     further than ``bent`` times the chord from it becomes a corner, and each side is split again."""
     a, b = points[0], points[-1]
@@ -791,7 +807,7 @@ def _polyline(points, bent):
     return left + [far + i for i in right[1:]]
 
 
-def _appendage_ratio(graph, chosen, samples, h, ratio):
+def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: Arr) -> tuple[Arr, float] | None:
     """k / E of the particles ``chosen`` (an appendage, whose volume is the grid cells ``samples`` of side h):
     held at the particles with an edge to it, loaded across each of its cross axes, the k at which its tip
     region's compliance (summed over both) is the continuum cantilever's; None where nothing holds it."""
@@ -818,21 +834,21 @@ def _appendage_ratio(graph, chosen, samples, h, ratio):
     own = len(chosen)
     k = np.concatenate([np.full(own, guess), ratio[root], ratio[ring]])
 
-    def compliance(own_k):
+    def compliance(own_k: float) -> float:
         k[:own] = own_k
         loads = [_SAG * (s.max() - s.min()) * own_k / _cantilever_tip(s, samples @ axes[:, b], h, tip) for b in (1, 2)]
         return sum(_tip_compliance(part, k, held, samples[tip], axes[:, b], load) for b, load in zip((1, 2), loads))
     return chosen, _series_fit(compliance, guess, continuum, guess / 64.0)
 
 
-def _series_fit(compliance, k, target, least):
+def _series_fit(compliance: Callable[[float], float], k: float, target: float, least: float) -> float:
     """The k (at least ``least``) at which ``compliance(k)`` is ``target``, for a compliance a + b / k: the
     part's own springs in series with what holds it (the root's, fixed). Scaling k by compliance / target
     alone converges as (a / target)^n: the character's tail was still 10-20 % off after three rounds."""
     found = [(k, compliance(k))]
     for _ in range(_FIT_ROUNDS):
         (k0, c0), (k1, c1) = found[-2:] if len(found) > 1 else (found[0], (None, None))
-        if k1 is None or k0 == k1 or c0 == c1:
+        if k1 is None or c1 is None or k0 == k1 or c0 == c1:
             k = k0 * c0 / target
         else:
             b = (c0 - c1) / (1.0 / k0 - 1.0 / k1)
@@ -842,7 +858,7 @@ def _series_fit(compliance, k, target, least):
     return found[-1][0]
 
 
-def _cantilever_tip(s, t, h, tip):
+def _cantilever_tip(s: Arr, t: Arr, h: float, tip: Arr) -> float:
     """The mean deflection of the ``tip`` cells of a continuum cantilever (E = 1, unit weight per volume)
     whose cells of side h lie at s along it and t across, clamped at its least s: slices of width h, each
     with its weight and second moment of area, curvature M / I integrated twice from the root."""
@@ -862,13 +878,13 @@ class _Grid:
     """A closed mesh's volume on a grid of cubes of side ``h`` from ``lo``: ``inside`` (nx, ny, nz), the cells
     whose centres the mesh encloses (its crossings along z at each column's centre, paired)."""
 
-    def __init__(self, vertices, triangles, cells=_GRID_CELLS):
+    def __init__(self, vertices: Arr, triangles: Arr, cells: int = _GRID_CELLS) -> None:
         self.lo, hi = vertices.min(axis=0), vertices.max(axis=0)
         self.h = float(np.cbrt(np.prod(hi - self.lo) / cells))
         self.shape = tuple(int(x) for x in np.ceil((hi - self.lo) / self.h))
         self.inside = self._fill((vertices[triangles] - self.lo) / self.h - 0.5)
 
-    def _fill(self, p):
+    def _fill(self, p: Arr) -> Arr:
         """The inside cells from the triangles p (t, 3, 3) in cell units (cell i's centre at i)."""
         nx, ny, nz = self.shape
         p = p[_area(p[:, 0], p[:, 1], p[:, 2, :2]) != 0.0]  # a face seen edge-on from above crosses no column
@@ -898,15 +914,15 @@ class _Grid:
         np.add.at(change, (column[enter], last), -1)
         return (np.cumsum(change, axis=1)[:, :nz] > 0).reshape(nx, ny, nz)
 
-    def centres(self, flat):
+    def centres(self, flat: Arr) -> Arr:
         return self.lo + (np.stack(np.unravel_index(flat, self.shape), axis=1) + 0.5) * self.h
 
-    def cell_of(self, points):
+    def cell_of(self, points: Arr) -> Arr:
         """The flat cell index of each point (clipped to the grid)."""
         i = np.clip(((points - self.lo) / self.h).astype(np.int64), 0, np.array(self.shape) - 1)
         return np.ravel_multi_index(tuple(i.T), self.shape)
 
-    def skeleton(self):
+    def skeleton(self) -> Arr | None:
         """The corners (m, 3) of the body's skeleton, a polyline: the centroids of the level sets of the
         geodesic distance (in steps to the 26 neighbours) from one end face, the cells furthest from a cell,
         cut at the corners of _polyline at _BENT; None where the inside is not one connected body."""
@@ -920,7 +936,7 @@ class _Grid:
         skeleton = np.stack([np.bincount(level, xyz[:, i]) for i in range(3)], axis=1) / count[:, None]
         return _straightened(skeleton, _polyline(skeleton, _BENT))
 
-    def geodesic(self, seeds):
+    def geodesic(self, seeds: Arr) -> Arr:
         """Per flat cell, its distance in steps (26 neighbours) through the inside from the flat cells
         ``seeds``; -1 where none reaches."""
         shape = np.array(self.shape) + 2
@@ -936,7 +952,7 @@ class _Grid:
             distance[front] = d
         return distance.reshape(shape)[1:-1, 1:-1, 1:-1].ravel()
 
-    def appendages(self):
+    def appendages(self) -> Arr:
         """A flat label per cell: the connected thin part it is in (0, 1, ...), -1 for the core and outside."""
         inside = np.pad(self.inside, 1)  # outside all round: a fill touching the grid's side erodes there too
         depth = 0
@@ -960,19 +976,19 @@ class _Grid:
         return label
 
 
-def _steps(shape):
+def _steps(shape: Arr) -> Arr:
     """The flat offsets of the 26 neighbours of a cell in a grid of ``shape``."""
     o = np.stack(np.meshgrid(*[np.arange(-1, 2)] * 3, indexing="ij"), axis=-1).reshape(-1, 3)
     o = o[np.any(o != 0, axis=1)]
     return o @ np.array([shape[1] * shape[2], shape[2], 1])
 
 
-def _area(a, b, q):
+def _area(a: Arr, b: Arr, q: Arr) -> Arr:
     """Twice the signed area of the triangles (a, b, q) in xy."""
     return (b[:, 0] - a[:, 0]) * (q[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (q[:, 0] - a[:, 0])
 
 
-def _dilate(mask, step):
+def _dilate(mask: Arr, step: int) -> Arr:
     """One step of a ball's dilation: the 6 face neighbours on even steps, the 26 on odd (an octagon-like
     ball, closer to round than either)."""
     out = mask.copy()
@@ -987,11 +1003,11 @@ def _dilate(mask, step):
     return out
 
 
-def _erode(mask, step):
+def _erode(mask: Arr, step: int) -> Arr:
     return ~_dilate(~mask, step)
 
 
-def _components(mask):
+def _components(mask: Arr) -> Arr:
     """Labels 0, 1, ... of the face-connected components of ``mask``, -1 elsewhere: each cell takes the least
     flat index among its neighbours' and then its label's label (pointer jumping), until nothing changes."""
     big = mask.size
