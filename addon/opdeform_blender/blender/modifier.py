@@ -108,16 +108,18 @@ def index(obj):
     return list(obj.modifiers).index(get(obj))
 
 
-def write_offset(mesh, offset):
-    attr = mesh.attributes.get(OFFSET)
+def offset_attribute(mesh):
+    return mesh.attributes.get(OFFSET)
+
+
+def write_offset(mesh, offset, attr=None):
+    """Writes the offset into the mesh's attribute (``attr`` when the caller has it, else looked up), created
+    when missing."""
+    attr = mesh.attributes.get(OFFSET) if attr is None else attr
     if attr is None:
         attr = mesh.attributes.new(OFFSET, 'FLOAT_VECTOR', 'POINT')
     attr.data.foreach_set("vector", offset.reshape(-1))
     mesh.update()
-
-
-def has_offset(mesh):
-    return mesh.attributes.get(OFFSET) is not None
 
 
 def clear_offset(mesh):

@@ -98,7 +98,7 @@ def frame_shown(obj, rt, run, out):
     else:
         rt.remember(frame, out)
     t1 = time.perf_counter()
-    show(obj, rt, rt.engine.offset)
+    show(obj, rt, rt.engine.offset, simulated=run.plan.kind == "simulate")
     rt.shown = ("rest" if frame <= rt.engine.start else "frame", shown)
     t2 = time.perf_counter()
     rt.timing = dict(rt.engine.timing, total=t2 - rt.started, write=t2 - t1)

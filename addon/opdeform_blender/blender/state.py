@@ -31,7 +31,7 @@ class Runtime:
         self.handle_matrices = None  # bytes of the handle transforms last used
         self.configured = None  # (settings_key, groups read) of the last runtime.configure
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)
-        self.written = None  # a copy of the offset last written into the mesh (runtime.show)
+        self.written = None  # a copy of the offset last written into the mesh, None: not known (runtime.show)
         self.recent = {}  # frame -> output (float32), the last RECENT_FRAMES frames shown
         self.baking = False  # a bake computes frames without writing the offset
         # seconds of simulation per frame change (None: all the frames asked for, as scripts and renders need)
