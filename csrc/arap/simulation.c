@@ -22,7 +22,6 @@
 #include "scene_colliders.h"
 #include "sim.h"
 #include "step.h"
-#include "surface_contact.h"
 #include "tolerance.h"
 
 #include <math.h>
@@ -291,7 +290,6 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->angularScale);
 	od_Free(sim->damping);
 	od_Free(sim->contactForce);
-	od_SurfaceContact_Destroy(&sim->surface);
 	od_Free(sim->edgeMoment);
 	od_Free(sim->edgeArm);
 	od_Free(sim->rowArm);
