@@ -61,7 +61,8 @@ def to_world(local, m, out=None):
         np.copyto(out, local)
     else:
         np.dot(np.asarray(local, dtype=np.float64), m[:3, :3].T, out=out)
-    out += m[:3, 3]
+    if m[:3, 3].any():  # not at the origin (adding zeros would only turn -0.0 into 0.0)
+        out += m[:3, 3]
     return out
 
 
@@ -459,8 +460,8 @@ class Engine:
         return self._buffers[name]
 
     def _world_offset(self, positions, rotations, reference, frame):
-        """skin(state) - reference (world), in a kept buffer, times the goal's lock; of a cached frame, with the
-        vertices its colliders and floor pushed out."""
+        """skin(state) - reference (world), in a kept buffer; of a cached frame, with the vertices its colliders
+        and floor pushed out."""
         out = self._buffer("offset")
         last = self._last_pushed
         if frame is not None and last is not None and last[0] == frame and last[1] is positions:
@@ -471,18 +472,27 @@ class Engine:
             if pushed is not None:
                 out[pushed[0]] = pushed[1]
             out -= reference
+        return out
+
+    def _locked(self, world, out):
+        """The world offset times the goal's lock (the share of it each vertex shows), into out: the float32 offset
+        itself in the same pass (the same values as the float64 product cast), or world in place."""
         if self._lock is not None:
-            out *= self._lock
+            np.multiply(world, self._lock, out=out, casting="same_kind")
+        elif out is not world:
+            out[:] = world
         return out
 
     def _emit(self, positions, rotations, reference, incoming, matrix, frame=None):
         """offset = skin(state) - reference (world), in object space; out = incoming + offset. ``frame``: the
         cached frame whose state it is (its pushed-out vertices shown)."""
         t = time.perf_counter()
-        moved = self._world_offset(positions, rotations, reference, frame)
-        if not np.array_equal(matrix[:3, :3], np.eye(3)):  # an unturned, unscaled object: the world offset
-            moved = np.matmul(moved, np.linalg.inv(matrix[:3, :3]).T, out=self._buffer("object_offset"))
-        self.offset[:] = moved
+        world = self._world_offset(positions, rotations, reference, frame)
+        if np.array_equal(matrix[:3, :3], np.eye(3)):  # an unturned, unscaled object: the world offset
+            self._locked(world, self.offset)
+        else:
+            self._locked(world, world)
+            self.offset[:] = np.matmul(world, np.linalg.inv(matrix[:3, :3]).T, out=self._buffer("object_offset"))
         np.add(incoming, self.offset, out=self.out)
         self.timing["skin"] += time.perf_counter() - t
         self.shown_state = (positions, rotations)
