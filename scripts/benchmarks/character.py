@@ -32,6 +32,9 @@ the armature-only pose (tests/blender/character_measure.py) follow: core, ear, b
 settle. Aims (issue 24), printed with the load average: what OPDeform adds beyond its solver <= 1 ms a frame;
 >= 60 frames a second (<= 16.7 ms per frame_set) at 1,000 particles. Results: out/bench/character/<host>.json.
 
+`scripts/bench character --writes [--hosts ...]` instead times what Blender takes for each way a frame handler
+can change what the character shows (scripts/benchmarks/_character_writes.py).
+
 `scripts/bench character --picture [--out PNG]` instead renders the frame strip (armature only / OPDeform /
 Soft Body / Cloth Dynamics at a mid-hop frame, tests/blender/render_character.py) in bpy 5.2, by default to
 docs/images/character_strip.png.
@@ -264,6 +267,10 @@ def run(args):
     from .common import out_dir
     if "--picture" in args:
         picture(args)
+        return
+    if "--writes" in args:
+        from . import _character_writes
+        _character_writes.run(args)
         return
     hosts = args[args.index("--hosts") + 1].split(",") if "--hosts" in args else ["blender", "bpy-5.2"]
     frames = int(args[args.index("--frames") + 1]) if "--frames" in args else 96
