@@ -5,11 +5,13 @@
 // the vertex element's x, y, z and the face element's vertex_indices (or vertex_index) list are read,
 // every other element and property is skipped (one without properties holds no data: skipped whatever its
 // count). Text is parsed from a NUL-terminated copy, so strtod and strtol never run past the data.
-// Out-of-range indices are errors naming the triangle.
+// Out-of-range indices are errors naming the triangle. Reading and writing poll for interrupts
+// (od_CheckInterrupt) every OD_IO_POLL + 1 lines, items, vertices or triangles: OD_ERROR_INTERRUPTED.
 #include "opdeform/mesh.h"
 
 #include "buffer.h"
 #include "core.h"
+#include "interrupt.h"
 #include "mesh_check.h"
 
 #include <errno.h>
@@ -19,6 +21,14 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#define OD_IO_POLL 4095 // lines, items, vertices or triangles between interrupt checks, less one (2^k - 1)
+
+// OD_OK, or what od_CheckInterrupt says every OD_IO_POLL + 1 counts.
+static od_Status od_PollEvery(long long count)
+{
+	return (count & OD_IO_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+}
 
 // The mesh being read: vertices and triangles as growing buffers, and the current polygon.
 typedef struct od_MeshReader
@@ -214,6 +224,11 @@ od_Status od_Mesh_ParseObj(const char* data, size_t size, od_Mesh* mesh)
 	for (const char* p = text; *p && status == OD_OK; p = od_NextLine(p), ++line)
 	{
 		p = od_SkipBlanks(p);
+		status = od_PollEvery(line);
+		if (status != OD_OK)
+		{
+			break;
+		}
 		if (p[0] == 'v' && od_IsBlank(p[1]))
 		{
 			status = od_ObjVertex(&r, p + 2, line);
@@ -405,6 +420,11 @@ static od_Status od_PlyElements(od_PlyInput* in, const od_PlyElement* elements, 
 		}
 		for (long long i = 0; i < el->count; ++i)
 		{
+			od_Status polled = od_PollEvery(i);
+			if (polled != OD_OK)
+			{
+				return polled;
+			}
 			double xyz[3] = { 0, 0, 0 };
 			for (int k = 0; k < el->propertyCount; ++k)
 			{
@@ -632,12 +652,14 @@ static od_Status od_WriteObj(od_Buffer* b, int vertexCount, const double* vertic
 	for (int v = 0; v < vertexCount && status == OD_OK; ++v)
 	{
 		const double* p = vertices + 3 * v;
-		status = od_Print(b, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]);
+		status = od_PollEvery(v);
+		status = status == OD_OK ? od_Print(b, "v %.17g %.17g %.17g\n", p[0], p[1], p[2]) : status;
 	}
 	for (int t = 0; t < triangleCount && status == OD_OK; ++t)
 	{
 		const int* tri = triangles + 3 * t;
-		status = od_Print(b, "f %d %d %d\n", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+		status = od_PollEvery(t);
+		status = status == OD_OK ? od_Print(b, "f %d %d %d\n", tri[0] + 1, tri[1] + 1, tri[2] + 1) : status;
 	}
 	return status;
 }

@@ -4,13 +4,14 @@
 // box of the triangles' vertices; a vertex of no triangle, however far, is not counted) and equal lattice points
 // become one vertex (sorting, so deterministic). A span outside [OD_MIN_SPAN, OD_MAX_SPAN] is refused. Pieces are the connected components of
 // the triangles over welded vertices, numbered by their first triangle. A piece is closed when every
-// edge of its non-degenerate triangles is used by exactly two of them. The interrupt handler is polled
-// between the two sorts (welding, edges), which are not interruptible themselves.
+// edge of its non-degenerate triangles is used by exactly two of them. Both sorts (welding, edges) poll the
+// interrupt handler (od_Sort); their keys tie only for identical items, so the order is qsort's.
 #include "mesh_graph.h"
 
 #include "core.h"
 #include "interrupt.h"
 #include "math3.h"
+#include "sort.h"
 #include "union_find.h"
 
 #include <math.h>
@@ -84,8 +85,8 @@ static od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span)
 		}
 		keys[v].vertex = v;
 	}
-	qsort(keys, (size_t)nv, sizeof *keys, od_CompareWeldKeys);
-	for (int i = 0, first = 0; i < nv; ++i)
+	od_Status status = od_Sort(keys, (size_t)nv, sizeof *keys, od_CompareWeldKeys); // ties: none (the vertex)
+	for (int i = 0, first = 0; i < nv && status == OD_OK; ++i)
 	{
 		if (memcmp(keys[i].q, keys[first].q, sizeof keys[i].q) != 0)
 		{
@@ -94,7 +95,7 @@ static od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span)
 		weld[keys[i].vertex] = keys[first].vertex;
 	}
 	od_Free(keys);
-	return OD_OK;
+	return status;
 }
 
 int od_CompareIntPairs(const void* pa, const void* pb)
@@ -138,8 +139,9 @@ static od_Status od_MarkClosed(const od_MeshGraphDef* def, const int* weld, cons
 			e[2] = pieceOfTriangle[t];
 		}
 	}
-	qsort(edges, (size_t)count, sizeof(int) * 3, od_CompareIntPairs);
-	for (int i = 0; i < count;)
+	// Equal (a, b) have the same piece (a and b are joined), so only identical items tie.
+	od_Status status = od_Sort(edges, (size_t)count, sizeof(int) * 3, od_CompareIntPairs);
+	for (int i = 0; i < count && status == OD_OK;)
 	{
 		int j = i;
 		while (j < count && edges[3 * j] == edges[3 * i] && edges[3 * j + 1] == edges[3 * i + 1])
@@ -153,7 +155,7 @@ static od_Status od_MarkClosed(const od_MeshGraphDef* def, const int* weld, cons
 		i = j;
 	}
 	od_Free(edges);
-	return OD_OK;
+	return status;
 }
 
 static void od_Measure(const od_MeshGraphDef* def, const int* pieceOfTriangle, od_MeshPieces* p)
@@ -184,7 +186,7 @@ od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* p)
 	od_Status status = weld && parent && pieceOf && pieceOfTriangle
 						   ? od_Weld(def, weld, &p->span)
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory finding the pieces of %d triangles", nt);
-	status = status == OD_OK ? od_CheckInterrupt() : status; // between the sorts (welding, edges)
+	status = status == OD_OK ? od_CheckInterrupt() : status;
 	if (status == OD_OK)
 	{
 		od_UnionInit(parent, nv);

@@ -13,6 +13,7 @@
 
 #include "core.h"
 #include "graph.h"
+#include "interrupt.h"
 #include "math3.h"
 #include "mesh_check.h"
 #include "nearest.h"
@@ -44,6 +45,8 @@
 // Vertices per task of the pool, when deforming and when binding; meshes below two deform chunks get no pool.
 #define OD_DEFORM_CHUNK 8192
 #define OD_BIND_CHUNK 1024
+// Vertices bound between interrupt checks (about 0.7 us each on one core with 2,000 particles: ~10 ms).
+#define OD_BIND_BATCH 16384
 
 struct od_Skin
 {
@@ -86,36 +89,36 @@ static bool od_SkinUsesAvx2(void)
 #endif
 }
 
-// Runs fn over [0, count) in chunks, on the pool when there is one.
+// Runs fn over [begin, end) in chunks, on the pool when there is one.
 typedef void od_RangeFn(void* context, int begin, int end);
 
 typedef struct od_RangeJob
 {
 	od_RangeFn* fn;
 	void* context;
-	int count, chunk;
+	int begin, end, chunk;
 } od_RangeJob;
 
 static void od_RunChunk(void* ctx, int task, int thread)
 {
 	(void)thread;
 	const od_RangeJob* job = ctx;
-	int begin = task * job->chunk;
-	int end = job->count - begin < job->chunk ? job->count : begin + job->chunk;
+	int begin = job->begin + task * job->chunk;
+	int end = job->end - begin < job->chunk ? job->end : begin + job->chunk;
 	job->fn(job->context, begin, end);
 }
 
-static void od_SkinRun(const od_Skin* s, int chunk, od_RangeFn* fn, void* context)
+static void od_SkinRun(const od_Skin* s, int begin, int end, int chunk, od_RangeFn* fn, void* context)
 {
-	od_RangeJob job = { fn, context, s->vertexCount, chunk };
-	int tasks = (int)(((long long)s->vertexCount + chunk - 1) / chunk);
+	od_RangeJob job = { fn, context, begin, end, chunk };
+	int tasks = (int)(((long long)end - begin + chunk - 1) / chunk);
 	if (s->pool)
 	{
 		od_Pool_Run(s->pool, tasks, od_RunChunk, &job);
 	}
 	else
 	{
-		fn(context, 0, s->vertexCount);
+		fn(context, begin, end);
 	}
 }
 
@@ -252,9 +255,22 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 		od_TriangleNormals(def, s->restNormals);
 	}
 	od_BindJob job = { s, graph, &grid, pieceSize };
-	od_SkinRun(s, OD_BIND_CHUNK, od_BindRange, &job);
+	for (int begin = 0; begin < s->vertexCount && status == OD_OK; begin += OD_BIND_BATCH)
+	{
+		status = od_CheckInterrupt(); // between batches, on the calling thread (workers never poll)
+		int end = s->vertexCount - begin < OD_BIND_BATCH ? s->vertexCount : begin + OD_BIND_BATCH;
+		if (status == OD_OK)
+		{
+			od_SkinRun(s, begin, end, OD_BIND_CHUNK, od_BindRange, &job);
+		}
+	}
 	od_NearestGrid_Destroy(&grid);
 	od_Free(pieceSize);
+	if (status != OD_OK)
+	{
+		od_Skin_Destroy(s);
+		return status;
+	}
 	*out = s;
 	return OD_OK;
 }
@@ -623,9 +639,9 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 	}
 	od_DeformJob job = { s, maps, target, restNormals, restNormalType };
 #ifdef OD_SKIN_AVX2
-	od_SkinRun(s, OD_DEFORM_CHUNK, s->columns ? od_DeformRangeAvx2 : od_DeformRange, &job);
+	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, s->columns ? od_DeformRangeAvx2 : od_DeformRange, &job);
 #else
-	od_SkinRun(s, OD_DEFORM_CHUNK, od_DeformRange, &job);
+	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, od_DeformRange, &job);
 #endif
 	return OD_OK;
 }

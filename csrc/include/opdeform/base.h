@@ -38,7 +38,8 @@ long long od_GetAllocationCount(void);
 
 // Interrupting long calls (a host's Ctrl-C). The handler set on a thread is polled by the long calls that
 // thread makes, at most every 50 ms of their work, between steps (od_Sim_Step), iterations (a static solve,
-// shape matching), MPM substeps, a mesh collider's triangles and the voxels of a graph built from a mesh;
+// shape matching), MPM substeps, a mesh collider's triangles, the voxels and sorts of a graph built from a
+// mesh, the vertices a skin binds and the lines or items of a mesh file read or written;
 // when it returns nonzero the call stops with OD_ERROR_INTERRUPTED: ARAP and shape-matching calls keep the
 // state from before the call (as any failure), an MPM step keeps the state at the last whole substep. NULL
 // removes it. The core's own worker threads never call it.

@@ -87,7 +87,8 @@ typedef struct od_SkinDef
 } od_SkinDef;
 
 od_SkinDef od_DefaultSkinDef(void);
-// Binds once; the skin copies what it needs of the graph and may outlive it.
+// Binds once; the skin copies what it needs of the graph and may outlive it. Polls the interrupt handler
+// (od_SetInterruptHandler) between batches of vertices: on OD_ERROR_INTERRUPTED no skin is made.
 od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin** skin);
 void od_Skin_Destroy(od_Skin* skin);
 int od_Skin_GetVertexCount(const od_Skin* skin);
@@ -142,7 +143,8 @@ od_Status od_Mesh_ParsePly(const char* data, size_t size, od_Mesh* mesh);
 void od_Mesh_Free(od_Mesh* mesh);
 
 // Formats a mesh as OBJ text (17 significant digits) or binary little-endian PLY (float64 vertices, int32
-// triangles). *data is allocated here; release it with od_Mesh_FreeData.
+// triangles). *data is allocated here; release it with od_Mesh_FreeData. Parsing and formatting poll the
+// interrupt handler: on OD_ERROR_INTERRUPTED nothing is returned.
 od_Status od_Mesh_FormatObj(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
 							char** data, size_t* size);
 od_Status od_Mesh_FormatPly(int vertexCount, const double* vertices, int triangleCount, const int* triangles,
