@@ -498,10 +498,15 @@ static void od_BackwardBin(void* ctx, int bin, int thread)
 	}
 }
 
+// One entry of the factor in one substitution pass (three right sides), in nanoseconds: the pool's measure of a
+// pass's work (docs/speed.md).
+#define OD_ENTRY_NS 0.8
+
 static void od_SolveParallel(od_Cholesky* ch, od_Pool* pool)
 {
 	size_t stride = 3 * (size_t)ch->n;
-	od_Pool_Run(pool, ch->threads, od_ForwardBin, ch);
+	double work = OD_ENTRY_NS * (ch->colStart[ch->n] + ch->n);
+	od_Pool_Run(pool, ch->threads, work, od_ForwardBin, ch);
 	for (int k = 0; k < ch->topCount; ++k) // the bins' updates of the top rows, in bin order
 	{
 		double* r = ch->y + 3 * ch->top[k];
@@ -523,7 +528,7 @@ static void od_SolveParallel(od_Cholesky* ch, od_Pool* pool)
 	{
 		od_Backward(ch, ch->top[k]);
 	}
-	od_Pool_Run(pool, ch->threads, od_BackwardBin, ch);
+	od_Pool_Run(pool, ch->threads, work, od_BackwardBin, ch);
 }
 
 void od_Cholesky_Solve(od_Cholesky* ch, od_Pool* pool, const double* b, double* x)

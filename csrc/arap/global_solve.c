@@ -361,6 +361,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 }
 
 #define OD_RHS_CHUNK 256
+#define OD_RHS_NS 60.0 // one row on one thread, in nanoseconds: the pool's measure of the work (docs/speed.md)
 
 typedef struct od_RhsJob
 {
@@ -387,7 +388,7 @@ static void od_FillRows(const od_Sim* sim, double* b, bool residual)
 	int tasks = (sim->graph->n + OD_RHS_CHUNK - 1) / OD_RHS_CHUNK;
 	if (sim->pool)
 	{
-		od_Pool_Run(sim->pool, tasks, od_RhsTask, &job);
+		od_Pool_Run(sim->pool, tasks, OD_RHS_NS * sim->graph->n, od_RhsTask, &job);
 		return;
 	}
 	for (int t = 0; t < tasks; ++t)

@@ -220,6 +220,8 @@ typedef struct od_SweepJob
 // Graphs smaller than this sweep on the calling thread: waking the others costs more than it saves
 // (measured: 100 particles stepped 1.6x slower on two threads than on one).
 #define OD_SWEEP_SPLIT 512
+// One particle's update on one thread, in nanoseconds: the pool's measure of a sweep's work (docs/speed.md).
+#define OD_SWEEP_NS 130.0
 
 static void od_SweepTask(void* ctx, int block, int thread)
 {
@@ -257,7 +259,7 @@ static void od_Sweep(od_Sim* sim)
 	}
 	od_SweepJob job = { .sim = sim, .directions = directions };
 	int blocks = od_Pool_Threads(sim->pool);
-	od_Pool_Run(sim->pool, blocks, od_SweepTask, &job);
+	od_Pool_Run(sim->pool, blocks, OD_SWEEP_NS * sim->graph->n, od_SweepTask, &job);
 	od_SweepTask(&job, blocks, 0); // the border
 	for (int t = 0; t < blocks; ++t)
 	{

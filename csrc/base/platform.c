@@ -13,6 +13,8 @@
 #include <sys/sysctl.h>
 #include <time.h>
 #else
+#include <fcntl.h>
+#include <stdlib.h>
 #include <sched.h>
 #include <time.h>
 #include <unistd.h>
@@ -33,6 +35,11 @@ int od_Platform_Cpus(void)
 		return count;
 	}
 	return (int)GetActiveProcessorCount(ALL_PROCESSOR_GROUPS);
+}
+
+int od_Platform_RunningThreads(void)
+{
+	return -1;
 }
 
 static DWORD WINAPI od_Thread_Main(LPVOID arg)
@@ -143,6 +150,38 @@ int od_Platform_Cpus(void)
 #else
 	cpu_set_t set;
 	return sched_getaffinity(0, sizeof set, &set) == 0 ? CPU_COUNT(&set) : (int)sysconf(_SC_NPROCESSORS_ONLN);
+#endif
+}
+
+int od_Platform_RunningThreads(void)
+{
+#ifdef __APPLE__
+	return -1;
+#else
+	// "0.52 0.58 0.59 3/467 12345": the 4th field is runnable/existing threads (a few hundred bytes read)
+	char text[128];
+	int file = open("/proc/loadavg", O_RDONLY);
+	ssize_t size = file >= 0 ? read(file, text, sizeof text - 1) : -1;
+	if (file >= 0)
+	{
+		close(file);
+	}
+	int fields = 0, running = 0;
+	for (ssize_t k = 0; k < size && fields < 3; ++k)
+	{
+		fields += text[k] == ' ';
+		if (fields == 3)
+		{
+			running = (int)strtol(text + k + 1, NULL, 10);
+		}
+	}
+	if (running <= 0)
+	{
+		return -1;
+	}
+	long online = sysconf(_SC_NPROCESSORS_ONLN);
+	int cpus = od_Platform_Cpus();
+	return online > cpus && cpus > 0 ? (int)((long)running * cpus / online) : running;
 #endif
 }
 

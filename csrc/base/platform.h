@@ -1,5 +1,5 @@
 // What differs between Linux, macOS and Windows, behind one interface (platform.c): the CPUs this process may
-// use, threads, a mutex and a condition variable, run-once, fork hooks, the monotonic clock (clock.h) and the
+// use and how many threads run on them now, threads, a mutex and a condition variable, run-once, fork hooks, the monotonic clock (clock.h) and the
 // spin-wait hint. No other file of the core calls an operating system's API.
 #pragma once
 
@@ -40,6 +40,11 @@ typedef pthread_once_t od_Once;
 // mask, else GetActiveProcessorCount), the active CPUs on macOS (sysctl hw.activecpu: no affinity there); 0
 // when unknown.
 int od_Platform_Cpus(void);
+
+// The threads runnable right now on the CPUs this process may use, the caller included (Linux: /proc/loadavg's
+// count of runnable threads, times Cpus() over the machine's online CPUs where the process may use fewer);
+// -1 where unknown (macOS, Windows: there every CPU of the affinity mask counts as free).
+int od_Platform_RunningThreads(void);
 
 // Starts fn(arg) on a new thread; false when it could not. *thread stays where it is until joined.
 bool od_Thread_Start(od_Thread* thread, void* (*fn)(void*), void* arg);

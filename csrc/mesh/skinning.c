@@ -45,6 +45,10 @@
 // Vertices per task of the pool, when deforming and when binding; meshes below two deform chunks get no pool.
 #define OD_DEFORM_CHUNK 8192
 #define OD_BIND_CHUNK 1024
+// One vertex on one thread, in nanoseconds, when deforming and when binding: the pool's measure of the work
+// (docs/speed.md).
+#define OD_DEFORM_NS 6.0
+#define OD_BIND_NS 600.0
 // Vertices bound between interrupt checks (about 0.7 us each on one core with 2,000 particles: ~10 ms).
 #define OD_BIND_BATCH 16384
 
@@ -108,13 +112,14 @@ static void od_RunChunk(void* ctx, int task, int thread)
 	job->fn(job->context, begin, end);
 }
 
-static void od_SkinRun(const od_Skin* s, int begin, int end, int chunk, od_RangeFn* fn, void* context)
+static void od_SkinRun(const od_Skin* s, int begin, int end, int chunk, double vertexNs, od_RangeFn* fn,
+					   void* context)
 {
 	od_RangeJob job = { fn, context, begin, end, chunk };
 	int tasks = (int)(((long long)end - begin + chunk - 1) / chunk);
 	if (s->pool)
 	{
-		od_Pool_Run(s->pool, tasks, od_RunChunk, &job);
+		od_Pool_Run(s->pool, tasks, vertexNs * (end - begin), od_RunChunk, &job);
 	}
 	else
 	{
@@ -261,7 +266,7 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 		int end = s->vertexCount - begin < OD_BIND_BATCH ? s->vertexCount : begin + OD_BIND_BATCH;
 		if (status == OD_OK)
 		{
-			od_SkinRun(s, begin, end, OD_BIND_CHUNK, od_BindRange, &job);
+			od_SkinRun(s, begin, end, OD_BIND_CHUNK, OD_BIND_NS, od_BindRange, &job);
 		}
 	}
 	od_NearestGrid_Destroy(&grid);
@@ -639,9 +644,10 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 	}
 	od_DeformJob job = { s, maps, target, restNormals, restNormalType };
 #ifdef OD_SKIN_AVX2
-	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, s->columns ? od_DeformRangeAvx2 : od_DeformRange, &job);
+	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, OD_DEFORM_NS, s->columns ? od_DeformRangeAvx2 : od_DeformRange,
+			   &job);
 #else
-	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, od_DeformRange, &job);
+	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, OD_DEFORM_NS, od_DeformRange, &job);
 #endif
 	return OD_OK;
 }

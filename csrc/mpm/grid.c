@@ -138,6 +138,11 @@ static uint8_t od_KeyReach(uint64_t key)
 }
 
 #define OD_KEY_TASKS 64
+// The pool's measures of work, nanoseconds on one thread (docs/speed.md): a particle's key, a block's clearing
+// and update.
+#define OD_KEY_NS 60.0
+#define OD_CLEAR_NS 250.0
+#define OD_UPDATE_NS 200.0 // without wind (with it: 3,400)
 
 static void od_KeyTask(void* ctx, int task, int thread)
 {
@@ -243,7 +248,7 @@ static void od_ClearTask(void* ctx, int task, int thread)
 od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 {
 	od_MpmSort* s = &w->sort;
-	od_Pool_Run(w->pool, OD_KEY_TASKS, od_KeyTask, w);
+	od_Pool_Run(w->pool, OD_KEY_TASKS, OD_KEY_NS * w->state.count, od_KeyTask, w);
 	od_RadixSort(w);
 	if (reorder)
 	{
@@ -282,7 +287,7 @@ od_Status od_MpmGrid_Prepare(od_MpmWorld* w, int reorder)
 	od_Status status = od_AssignSlots(w);
 	if (status == OD_OK)
 	{
-		od_Pool_Run(w->pool, w->grid.slotCount, od_ClearTask, &w->grid);
+		od_Pool_Run(w->pool, w->grid.slotCount, OD_CLEAR_NS * w->grid.slotCount, od_ClearTask, &w->grid);
 	}
 	return status;
 }
@@ -428,5 +433,5 @@ void od_MpmGrid_Update(od_MpmWorld* w, double dt)
 {
 	od_UpdateJob job = { w, dt, w->state.stats.time + dt,
 						 w->model.wind.def.kind == OD_MPM_WIND_OFF ? 0.0 : 1.0 - exp(-w->model.wind.def.drag * dt) };
-	od_Pool_Run(w->pool, w->grid.slotCount, od_UpdateTask, &job);
+	od_Pool_Run(w->pool, w->grid.slotCount, OD_UPDATE_NS * w->grid.slotCount, od_UpdateTask, &job);
 }

@@ -87,6 +87,7 @@ static void od_QuatScaleAngle(const double q[4], double eta, double out[4])
 }
 
 #define OD_ROTATION_TASKS 256
+#define OD_ROTATION_NS 400.0 // a particle on one thread: the pool's measure of the work (docs/speed.md)
 
 static void od_RotationTask(void* ctx, int task, int thread)
 {
@@ -134,5 +135,5 @@ static void od_RotationTask(void* ctx, int task, int thread)
 
 void od_MpmWorld_UpdateOrientations(od_MpmWorld* w)
 {
-	od_Pool_Run(w->pool, OD_ROTATION_TASKS, od_RotationTask, w);
+	od_Pool_Run(w->pool, OD_ROTATION_TASKS, OD_ROTATION_NS * w->state.count, od_RotationTask, w);
 }

@@ -95,12 +95,19 @@ static void od_P2GTask(void* ctx, int task, int thread)
 	od_MpmGrid_Flush(w, ob, region);
 }
 
+// A particle on one thread, in nanoseconds, scattered and gathered: the pool's measures of the work
+// (docs/speed.md; a colour's particles counted as its share of the blocks).
+#define OD_P2G_NS 70.0
+#define OD_G2P_NS 350.0
+
 void od_MpmP2G(od_MpmWorld* w, double dt)
 {
+	double perBlock = OD_P2G_NS * w->state.count / (w->sort.occupiedCount > 0 ? w->sort.occupiedCount : 1);
 	for (int c = 0; c < 8; ++c)
 	{
 		od_TransferJob job = { w, dt, w->sort.colourStart[c] };
-		od_Pool_Run(w->pool, w->sort.colourStart[c + 1] - w->sort.colourStart[c], od_P2GTask, &job);
+		int blocks = w->sort.colourStart[c + 1] - w->sort.colourStart[c];
+		od_Pool_Run(w->pool, blocks, perBlock * blocks, od_P2GTask, &job);
 	}
 }
 
@@ -194,7 +201,7 @@ void od_MpmG2P(od_MpmWorld* w, double dt)
 		w->threadData[t].maxHardening = 0.0;
 	}
 	od_TransferJob job = { w, dt, 0 };
-	od_Pool_Run(w->pool, w->sort.occupiedCount, od_G2PTask, &job);
+	od_Pool_Run(w->pool, w->sort.occupiedCount, OD_G2P_NS * w->state.count, od_G2PTask, &job);
 	w->state.maxSpeed = 0.0;
 	w->state.maxHardening = 0.0;
 	for (int t = 0; t < threads; ++t)
