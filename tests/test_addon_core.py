@@ -17,7 +17,7 @@ import opdeform
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
 from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
-from opdeform_blender.core.engine import Engine, EngineError, original_input, to_world  # noqa: E402
+from opdeform_blender.core.engine import Engine, EngineError, check_matrix, original_input, to_world  # noqa: E402
 
 HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
     hasattr(opdeform.Graph, "from_mesh")
@@ -244,6 +244,15 @@ def test_to_world_of_an_unturned_object_is_the_product():
     before = local.copy()
     to_world(local, np.eye(4))[:] = 9.0  # a new array: the input stays
     assert np.array_equal(local, before)
+
+
+def test_check_matrix_refuses_flat_and_non_finite_transforms():
+    turned = np.eye(4)
+    turned[:3, :3] = [[0.0, -2.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 1e-3]]  # turned, scaled, thin: det 4e-3
+    assert np.array_equal(check_matrix(turned), turned) and np.array_equal(check_matrix(None), np.eye(4))
+    for bad in (np.diag([1.0, 1.0, 0.0, 1.0]), np.diag([1e-5, 1e-5, 1e-3, 1.0]), np.diag([1.0, np.nan, 1.0, 1.0])):
+        with pytest.raises(EngineError, match="degenerate or not finite"):
+            check_matrix(bad)
 
 
 def test_original_input_behind_later_modifiers():

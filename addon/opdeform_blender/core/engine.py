@@ -44,9 +44,11 @@ class EngineError(ValueError):
 
 
 def check_matrix(matrix):
-    """The object's 4x4 transform (None: identity) as float64; EngineError when degenerate or not finite."""
+    """The object's 4x4 transform (None: identity) as float64; EngineError when degenerate or not finite. The
+    determinant as a triple product of Python floats: LAPACK's took 0.06 ms a frame with cold caches (3.4)."""
     m = np.eye(4) if matrix is None else np.asarray(matrix, dtype=np.float64).reshape(4, 4)
-    if not np.all(np.isfinite(m)) or abs(np.linalg.det(m[:3, :3])) < 1e-12:
+    (a, b, c), (d, e, f), (g, h, i) = m[:3, :3].tolist()
+    if not np.all(np.isfinite(m)) or abs(a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)) < 1e-12:
         raise EngineError("the object's transform is degenerate or not finite")
     return m
 
@@ -460,8 +462,8 @@ class Engine:
         return self._buffers[name]
 
     def _world_offset(self, positions, rotations, reference, frame):
-        """skin(state) - reference (world), in a kept buffer; of a cached frame, with the vertices its colliders
-        and floor pushed out."""
+        """skin(state) - reference (world), in a kept buffer, times the goal's lock; of a cached frame, with the
+        vertices its colliders and floor pushed out."""
         out = self._buffer("offset")
         last = self._last_pushed
         if frame is not None and last is not None and last[0] == frame and last[1] is positions:
@@ -472,27 +474,18 @@ class Engine:
             if pushed is not None:
                 out[pushed[0]] = pushed[1]
             out -= reference
-        return out
-
-    def _locked(self, world, out):
-        """The world offset times the goal's lock (the share of it each vertex shows), into out: the float32 offset
-        itself in the same pass (the same values as the float64 product cast), or world in place."""
         if self._lock is not None:
-            np.multiply(world, self._lock, out=out, casting="same_kind")
-        elif out is not world:
-            out[:] = world
+            out *= self._lock
         return out
 
     def _emit(self, positions, rotations, reference, incoming, matrix, frame=None):
         """offset = skin(state) - reference (world), in object space; out = incoming + offset. ``frame``: the
         cached frame whose state it is (its pushed-out vertices shown)."""
         t = time.perf_counter()
-        world = self._world_offset(positions, rotations, reference, frame)
-        if np.array_equal(matrix[:3, :3], np.eye(3)):  # an unturned, unscaled object: the world offset
-            self._locked(world, self.offset)
-        else:
-            self._locked(world, world)
-            self.offset[:] = np.matmul(world, np.linalg.inv(matrix[:3, :3]).T, out=self._buffer("object_offset"))
+        moved = self._world_offset(positions, rotations, reference, frame)
+        if not np.array_equal(matrix[:3, :3], np.eye(3)):  # an unturned, unscaled object: the world offset
+            moved = np.matmul(moved, np.linalg.inv(matrix[:3, :3]).T, out=self._buffer("object_offset"))
+        self.offset[:] = moved
         np.add(incoming, self.offset, out=self.out)
         self.timing["skin"] += time.perf_counter() - t
         self.shown_state = (positions, rotations)
