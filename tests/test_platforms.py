@@ -88,10 +88,10 @@ def outcomes(junit, messages=False):
     return found
 
 
-def test_windows_c_unit_tests_run_under_wine():
+def test_windows_c_unit_tests_run_under_wine(packages):  # scripts/package (the fixture) builds test_core.exe
     build = Path(os.environ.get("PACKAGE_BUILD_DIR", ROOT / "build-package")) / "platforms" / "win_amd64"
     exe = build / "test_core.exe"
-    assert exe.exists(), f"{exe}: run scripts/package"
+    assert exe.exists(), f"{exe}: scripts/package did not build it"
     proc = wine([exe], timeout=300, cwd=str(build))
     assert proc.returncode == 0 and re.search(r"\b(\d+) passed, 0 failed", proc.stdout), proc.stdout + proc.stderr
 
