@@ -19,6 +19,7 @@
 
 #include "core.h"
 #include "interrupt.h"
+#include "sort.h"
 
 #include <math.h>
 #include <stdbool.h>
@@ -496,10 +497,10 @@ od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool
 		int from = triangles[k], to = triangles[k % 3 == 2 ? k - 2 : k + 1];
 		e[k] = (od_Edge){ .a = from < to ? from : to, .b = from < to ? to : from, .forward = from < to, .triangle = k / 3 };
 	}
-	qsort(e, 3 * (size_t)triangleCount, sizeof *e, od_CompareEdge);
+	od_Status status = od_Sort(e, 3 * (size_t)triangleCount, sizeof *e, od_CompareEdge); // stable: ties in input order
 	*closed = true;
 	*flipped = -1;
-	for (int k = 0, next; k < 3 * triangleCount; k = next)
+	for (int k = 0, next; status == OD_OK && k < 3 * triangleCount; k = next)
 	{
 		for (next = k + 1; next < 3 * triangleCount && od_CompareEdge(&e[k], &e[next]) == 0; ++next)
 		{
@@ -511,7 +512,7 @@ od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool
 		*closed = *closed && next - k == 2;
 	}
 	od_Free(e);
-	return OD_OK;
+	return status;
 }
 
 // A mesh declared open, or found open when asked to look (def->detectOpen), must be wound one way: the side

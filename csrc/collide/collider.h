@@ -67,7 +67,8 @@ void od_Collider_FrameAt(const od_Collider* c, double s, od_Mat3* R, od_Vec3* t)
 od_Status od_Collider_SetVertices(od_Collider* c, const double* vertices, int vertexCount, const int* triangles,
 								  int triangleCount);
 // Whether every edge of the triangles is shared by exactly two (closed), and a triangle wound against a
-// neighbour (-1 when none). Indices must be in range.
+// neighbour (-1 when none). Indices must be in range. The edges are sorted with od_Sort (polls for interrupts:
+// OD_ERROR_INTERRUPTED; stable, so ties keep their input order, as glibc's merging qsort did).
 od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool* closed, int* flipped);
 void od_Collider_EndCall(od_Collider* c);
 double od_Collider_MaxSpeed(const od_Collider* c);
