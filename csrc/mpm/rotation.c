@@ -9,9 +9,15 @@
 // continuous however far a particle has turned (no wrap at π when η ≠ 1), and since each increment's
 // quaternion is taken in the hemisphere of the previous one, the output quaternions never flip sign
 // between frames (what interpolating renderers need). Increments must stay below half a turn per update.
+// The update runs in batches of OD_ROTATION_BATCH particles with an interrupt check between them, writing
+// into the reorder buffer, copied over the quaternions only when all are done: a stopped update changes
+// nothing.
 #include "world.h"
 
+#include "interrupt.h"
 #include "polar.h"
+
+#include <string.h>
 
 void od_QuatFromMatrix(const od_Mat3* r, double q[4])
 {
@@ -86,16 +92,27 @@ static void od_QuatScaleAngle(const double q[4], double eta, double out[4])
 	}
 }
 
-#define OD_ROTATION_TASKS 256
+#define OD_ROTATION_TASKS 256 // per batch
+#define OD_ROTATION_BATCH 65536 // particles between interrupt checks (about 26 ms on one thread)
 #define OD_ROTATION_NS 400.0 // a particle on one thread: the pool's measure of the work (docs/speed.md)
+
+// A batch of the update: particles[begin, begin + count) write their new quaternions by id into quat and
+// polarQuat (the reorder buffer), so that a call stopped between batches leaves the world's as they were.
+typedef struct od_RotationJob
+{
+	const od_MpmWorld* w;
+	int begin, count;
+	double *quat, *polarQuat;
+} od_RotationJob;
 
 static void od_RotationTask(void* ctx, int task, int thread)
 {
 	(void)thread;
-	od_MpmWorld* w = ctx;
+	const od_RotationJob* job = ctx;
+	const od_MpmWorld* w = job->w;
 	int begin, end;
-	od_TaskRange(w->state.count, OD_ROTATION_TASKS, task, &begin, &end);
-	for (int i = begin; i < end; ++i)
+	od_TaskRange(job->count, OD_ROTATION_TASKS, task, &begin, &end);
+	for (int i = job->begin + begin; i < job->begin + end; ++i)
 	{
 		const od_MpmParticle* p = &w->state.particles[i];
 		od_Mat3 F = od_M3Load(p->F);
@@ -112,8 +129,8 @@ static void od_RotationTask(void* ctx, int task, int thread)
 			}
 		}
 		od_Mat3 R = od_PolarRotation(&F);
-		double* old = w->state.polarQuat + 4 * p->id;
-		double* q = w->state.quat + 4 * p->id;
+		const double* old = w->state.polarQuat + 4 * p->id;
+		const double* q = w->state.quat + 4 * p->id;
 		double now[4], inverse[4] = { old[0], -old[1], -old[2], -old[3] }, delta[4], scaled[4];
 		od_QuatFromMatrix(&R, now);
 		if (now[0] * old[0] + now[1] * old[1] + now[2] * old[2] + now[3] * old[3] < 0.0)
@@ -125,15 +142,33 @@ static void od_RotationTask(void* ctx, int task, int thread)
 		}
 		od_QuatMul(now, inverse, delta);
 		od_QuatScaleAngle(delta, w->model.def.spin, scaled);
-		od_QuatMul(scaled, q, q);
-		for (int k = 0; k < 4; ++k)
-		{
-			old[k] = now[k];
-		}
+		od_QuatMul(scaled, q, job->quat + 4 * p->id);
+		memcpy(job->polarQuat + 4 * p->id, now, sizeof now);
 	}
 }
 
-void od_MpmWorld_UpdateOrientations(od_MpmWorld* w)
+_Static_assert(sizeof(od_MpmParticle) >= 8 * sizeof(double), "the reorder buffer holds both new quaternions");
+
+od_Status od_MpmWorld_UpdateOrientations(od_MpmWorld* w)
 {
-	od_Pool_Run(w->pool, OD_ROTATION_TASKS, OD_ROTATION_NS * w->state.count, od_RotationTask, w);
+	size_t n = (size_t)w->state.count;
+	if (n == 0)
+	{
+		return OD_OK;
+	}
+	double* next = (double*)w->spare; // free between substeps
+	od_RotationJob job = { .w = w, .quat = next, .polarQuat = next + 4 * n };
+	for (job.begin = 0; job.begin < w->state.count; job.begin += OD_ROTATION_BATCH)
+	{
+		od_Status status = od_CheckInterrupt();
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		job.count = w->state.count - job.begin < OD_ROTATION_BATCH ? w->state.count - job.begin : OD_ROTATION_BATCH;
+		od_Pool_Run(w->pool, OD_ROTATION_TASKS, OD_ROTATION_NS * job.count, od_RotationTask, &job);
+	}
+	memcpy(w->state.quat, job.quat, 4 * sizeof(double) * n);
+	memcpy(w->state.polarQuat, job.polarQuat, 4 * sizeof(double) * n);
+	return OD_OK;
 }

@@ -15,11 +15,13 @@
 
 #include "check.h"
 #include "core.h"
+#include "interrupt.h"
 
 #include <stdbool.h>
 #include <string.h>
 
 #define OD_MPM_STATE_MAGIC "odmpm01"
+#define OD_MPM_STATE_CHUNK ((size_t)1 << 22) // bytes saved between interrupt checks (about 1 ms)
 #define OD_MPM_QUAT_TOLERANCE 1e-6 // |q|² - 1 of a saved quaternion, as od_MpmWorld_AddParticles allows
 
 typedef struct od_MpmStateHeader
@@ -47,31 +49,45 @@ size_t od_MpmWorld_StateSize(const od_MpmWorld* w)
 	return od_StateBytes(w->state.count, w->model.materialCount, w->colliderCount);
 }
 
-// Copies n bytes between a field and the blob at *at, in the direction `save` says; advances *at.
-static void od_Transfer(char** at, void* field, size_t n, bool save)
+// Copies n bytes between a field and the blob at *at, in the direction `save` says; advances *at. Saving
+// polls for interrupts every OD_MPM_STATE_CHUNK bytes (the world is only read); a load has checked everything
+// and writes in one go.
+static od_Status od_Transfer(char** at, void* field, size_t n, bool save)
 {
-	memcpy(save ? *at : field, save ? field : *at, n);
+	for (size_t done = 0; done < n; done += OD_MPM_STATE_CHUNK)
+	{
+		od_Status status = save ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			return status;
+		}
+		size_t part = n - done < OD_MPM_STATE_CHUNK ? n - done : OD_MPM_STATE_CHUNK;
+		memcpy(save ? *at + done : (char*)field + done, save ? (char*)field + done : *at + done, part);
+	}
 	*at += n;
+	return OD_OK;
 }
 
-static void od_TransferBody(od_MpmWorld* w, char* at, bool save)
+static od_Status od_TransferBody(od_MpmWorld* w, char* at, bool save)
 {
 	size_t n = (size_t)w->state.count;
-	od_Transfer(&at, w->model.materials, sizeof(od_MpmMaterialSlot) * (size_t)w->model.materialCount, save);
-	od_Transfer(&at, w->state.particles, sizeof(od_MpmParticle) * n, save);
-	od_Transfer(&at, w->state.quat, 4 * sizeof(double) * n, save);
-	od_Transfer(&at, w->state.polarQuat, 4 * sizeof(double) * n, save);
-	for (int k = 0; k < w->colliderCount; ++k)
+	od_Status status =
+		od_Transfer(&at, w->model.materials, sizeof(od_MpmMaterialSlot) * (size_t)w->model.materialCount, save);
+	status = status == OD_OK ? od_Transfer(&at, w->state.particles, sizeof(od_MpmParticle) * n, save) : status;
+	status = status == OD_OK ? od_Transfer(&at, w->state.quat, 4 * sizeof(double) * n, save) : status;
+	status = status == OD_OK ? od_Transfer(&at, w->state.polarQuat, 4 * sizeof(double) * n, save) : status;
+	for (int k = 0; k < w->colliderCount && status == OD_OK; ++k)
 	{
 		od_Collider* c = &w->colliders[k].body;
 		od_MpmFrames f = { c->R0, c->R1, c->R, c->t0, c->t1, c->omega, c->velocity, c->t };
-		od_Transfer(&at, &f, sizeof f, save);
+		status = od_Transfer(&at, &f, sizeof f, save);
 		c->R0 = f.R0, c->R1 = f.R1, c->R = f.R;
 		c->t0 = f.t0, c->t1 = f.t1, c->omega = f.omega, c->velocity = f.velocity, c->t = f.t;
 	}
+	return status;
 }
 
-void od_MpmWorld_SaveState(const od_MpmWorld* w, void* out)
+od_Status od_MpmWorld_SaveState(const od_MpmWorld* w, void* out)
 {
 	od_MpmStateHeader h;
 	memset(&h, 0, sizeof h); // no stray padding bytes in the file
@@ -84,7 +100,7 @@ void od_MpmWorld_SaveState(const od_MpmWorld* w, void* out)
 	h.maxHardening = w->state.maxHardening;
 	h.stats = w->state.stats;
 	memcpy(out, &h, sizeof h);
-	od_TransferBody((od_MpmWorld*)w, (char*)out + sizeof h, true);
+	return od_TransferBody((od_MpmWorld*)w, (char*)out + sizeof h, true);
 }
 
 static bool od_NonNegative(double x)

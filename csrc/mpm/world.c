@@ -5,7 +5,8 @@
 // last substep produced; the last substeps are evened out so that the frame ends exactly. A substep is
 // sort (grid.c) -> P2G -> grid update -> G2P (transfer.c). Orientations are updated once per
 // Step (rotation.c). All buffers are sized when particles are added; the grid's node pool grows
-// during the first substeps only.
+// during the first substeps only. Adding particles polls for interrupts every 4,096 particles checked or
+// copied; a batch is counted only once whole, so a stopped add leaves the world as it was.
 #include "world.h"
 
 #include "core.h"
@@ -13,6 +14,8 @@
 
 #include <stdbool.h>
 #include <string.h>
+
+#define OD_MPM_ADD_POLL 4095 // particles checked or copied between interrupt checks, less one (a power of two less one)
 
 od_MpmWorldDef od_DefaultMpmWorldDef(void)
 {
@@ -162,6 +165,11 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 	double margin = 2.0 * w->model.def.dx;
 	for (int i = 0; i < d->count; ++i)
 	{
+		status = (i & OD_MPM_ADD_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			return status;
+		}
 		const double* x = d->positions + 3 * i;
 		if (!od_IsFinite3(x))
 		{
@@ -222,28 +230,18 @@ od_Status od_MpmWorld_Reserve(od_MpmWorld* w, int capacity)
 	return status;
 }
 
-od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
+// Writes the batch after the world's particles (ids count, count + 1, ...) and their fastest speed into
+// *maxSpeed, polling for interrupts; the world's count and material table are the caller's to advance.
+static od_Status od_CopyParticles(od_MpmWorld* w, const od_MpmParticlesDef* d, double* maxSpeed)
 {
-	od_Status status = od_CheckParticles(w, d);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	if (d->count > OD_MPM_MAX_PARTICLES - w->state.count)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "particles: a world holds at most %d particles", OD_MPM_MAX_PARTICLES);
-	}
-	status = od_MpmWorld_Reserve(w, w->state.count + d->count);
-	if (status != OD_OK)
-	{
-		return status;
-	}
-	od_MpmMaterialSlot* slot = &w->model.materials[w->model.materialCount];
-	*slot = (od_MpmMaterialSlot){ .def = d->material, .volume = d->particleVolume };
-	od_MpmMaterial_Derive(slot);
 	static const double identity[9] = { 1, 0, 0, 0, 1, 0, 0, 0, 1 }, unit[4] = { 1, 0, 0, 0 };
 	for (int i = 0; i < d->count; ++i)
 	{
+		od_Status status = (i & OD_MPM_ADD_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			return status;
+		}
 		int id = w->state.count + i;
 		od_MpmParticle* p = &w->state.particles[id];
 		*p = (od_MpmParticle){ .Jp = 1.0, .id = id, .material = w->model.materialCount };
@@ -264,10 +262,35 @@ od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
 			w->state.quat[4 * id + k] = n * q[k]; // starts at the rest orientation
 			w->state.polarQuat[4 * id + k] = unit[k];
 		}
-		w->state.maxSpeed = fmax(w->state.maxSpeed, od_Length(od_V3Load(p->v)));
+		*maxSpeed = fmax(*maxSpeed, od_Length(od_V3Load(p->v)));
 	}
+	return OD_OK;
+}
+
+od_Status od_MpmWorld_AddParticles(od_MpmWorld* w, const od_MpmParticlesDef* d)
+{
+	od_Status status = od_CheckParticles(w, d);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	if (d->count > OD_MPM_MAX_PARTICLES - w->state.count)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "particles: a world holds at most %d particles", OD_MPM_MAX_PARTICLES);
+	}
+	status = od_MpmWorld_Reserve(w, w->state.count + d->count);
+	double maxSpeed = w->state.maxSpeed;
+	status = status == OD_OK ? od_CopyParticles(w, d, &maxSpeed) : status;
+	if (status != OD_OK)
+	{
+		return status; // the new particles lie past the count: the world is as it was
+	}
+	od_MpmMaterialSlot* slot = &w->model.materials[w->model.materialCount];
+	*slot = (od_MpmMaterialSlot){ .def = d->material, .volume = d->particleVolume };
+	od_MpmMaterial_Derive(slot);
 	w->model.materialCount++;
 	w->state.count += d->count;
+	w->state.maxSpeed = maxSpeed;
 	w->state.sinceReorder = OD_MPM_REORDER_EVERY; // sort the newcomers into place at the next substep
 	return OD_OK;
 }
@@ -514,11 +537,7 @@ od_Status od_MpmWorld_Step(od_MpmWorld* w, double duration)
 	}
 	od_EndCall(w);
 	w->state.stats.lastSubsteps = substeps;
-	if (status == OD_OK)
-	{
-		od_MpmWorld_UpdateOrientations(w);
-	}
-	return status;
+	return status == OD_OK ? od_MpmWorld_UpdateOrientations(w) : status; // stopped there: as at the last substep
 }
 
 int od_MpmFieldWidth(od_MpmField field)

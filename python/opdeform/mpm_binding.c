@@ -2,7 +2,8 @@
 //
 // Arguments arrive already checked and converted by opdeform/mpm.py: C-contiguous float64/int32 buffers
 // and plain numbers. This file only checks buffer sizes, maps status codes to exceptions and releases
-// the GIL around the steps and a mesh collider's set-up (the busy guard refuses every call meanwhile).
+// the GIL around the steps, a mesh collider's set-up, adding particles, the orientation update and saving the
+// state (the busy guard refuses every call meanwhile).
 #include "mpm_binding.h"
 
 #include "opdeform/mpm.h"
@@ -97,7 +98,9 @@ static PyObject* Mpm_add_particles(PyObject* obj, PyObject* args)
 	d.velocities = ArrayData(&views[1]);
 	d.affine = ArrayData(&views[2]);
 	d.orientations = ArrayData(&views[3]);
+	PyThreadState* ts = Binding_Begin(obj); // 0.4 s for 2.1 million particles; Ctrl-C polled
 	od_Status status = od_MpmWorld_AddParticles(world, &d);
+	Binding_End(obj, ts);
 	ReleaseArrays(views, 4);
 	return Binding_Done(obj, status);
 }
@@ -228,8 +231,10 @@ static PyObject* Mpm_update_orientations(PyObject* obj, PyObject* unused)
 	{
 		return NULL;
 	}
-	od_MpmWorld_UpdateOrientations(world);
-	Py_RETURN_NONE;
+	PyThreadState* ts = Binding_Begin(obj); // 0.3 s for 2.1 million particles; Ctrl-C polled
+	od_Status status = od_MpmWorld_UpdateOrientations(world);
+	Binding_End(obj, ts);
+	return Binding_Done(obj, status);
 }
 
 static const char* const MpmFieldNames[] = { "positions", "velocities", "orientations", "rotations",
@@ -283,9 +288,18 @@ static PyObject* Mpm_save_state(PyObject* obj, PyObject* unused)
 	(void)unused;
 	od_MpmWorld* world = Mpm_Enter(obj);
 	PyObject* out = world ? PyBytes_FromStringAndSize(NULL, (Py_ssize_t)od_MpmWorld_StateSize(world)) : NULL;
-	if (out)
+	if (!out)
 	{
-		od_MpmWorld_SaveState(world, PyBytes_AsString(out));
+		return NULL;
+	}
+	char* bytes = PyBytes_AsString(out);
+	PyThreadState* ts = Binding_Begin(obj); // 0.3 s for 2.1 million particles; Ctrl-C polled
+	od_Status status = od_MpmWorld_SaveState(world, bytes);
+	Binding_End(obj, ts);
+	if (status != OD_OK)
+	{
+		Py_DECREF(out);
+		return Binding_Done(obj, status);
 	}
 	return out;
 }

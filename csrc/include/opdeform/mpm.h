@@ -157,6 +157,8 @@ typedef enum od_MpmField
 od_Status od_MpmWorld_Create(const od_MpmWorldDef* def, od_MpmWorld** world);
 void od_MpmWorld_Destroy(od_MpmWorld* world);
 od_MpmWorldDef od_MpmWorld_GetDef(const od_MpmWorld* world);
+// Polls the interrupt handler every 4,096 particles: on OD_ERROR_INTERRUPTED (as on any failure) nothing
+// was added.
 od_Status od_MpmWorld_AddParticles(od_MpmWorld* world, const od_MpmParticlesDef* def);
 int od_MpmWorld_GetParticleCount(const od_MpmWorld* world);
 od_Status od_MpmWorld_SetWind(od_MpmWorld* world, const od_MpmWindDef* def);
@@ -175,8 +177,10 @@ od_FieldSet* od_MpmWorld_GetForceFields(od_MpmWorld* world);
 od_Status od_MpmWorld_Step(od_MpmWorld* world, double duration);
 // One substep of exactly dt (no CFL); orientations are not updated.
 od_Status od_MpmWorld_Substep(od_MpmWorld* world, double dt);
-// Recomputes orientations and rotations from the current deformation gradients.
-void od_MpmWorld_UpdateOrientations(od_MpmWorld* world);
+// Recomputes orientations and rotations from the current deformation gradients. Polls the interrupt handler
+// (od_SetInterruptHandler) every 65,536 particles: on OD_ERROR_INTERRUPTED nothing changed (Step then keeps
+// the state of its last substep, as when stopped between substeps).
+od_Status od_MpmWorld_UpdateOrientations(od_MpmWorld* world);
 
 // Copies a field into out (the sizes of od_MpmField), particles in the order they were added.
 void od_MpmWorld_Read(const od_MpmWorld* world, od_MpmField field, double* out);
@@ -185,11 +189,12 @@ od_MpmStats od_MpmWorld_GetStats(const od_MpmWorld* world);
 
 // The state (particles, orientations, clock, collider frames) as bytes of this build, for a checkpoint:
 // LoadState on a world made by the same calls (create, wind, colliders; particles are replaced) continues to
-// the same bits. SaveState writes StateSize bytes. LoadState checks every count, id, index and number before it
+// the same bits. SaveState writes StateSize bytes, polling the interrupt handler every 4 MiB (on
+// OD_ERROR_INTERRUPTED the bytes are incomplete; the world is only read). LoadState checks every count, id, index and number before it
 // writes anything (the bytes may come from a damaged or crafted file): OD_ERROR_ARGUMENT naming the first
 // problem, the world unchanged.
 size_t od_MpmWorld_StateSize(const od_MpmWorld* world);
-void od_MpmWorld_SaveState(const od_MpmWorld* world, void* out);
+od_Status od_MpmWorld_SaveState(const od_MpmWorld* world, void* out);
 od_Status od_MpmWorld_LoadState(od_MpmWorld* world, const void* in, size_t size);
 
 #ifdef __cplusplus
