@@ -4,12 +4,13 @@
 // Σ w (y - ȳ)(x - x̄)ᵀ, and the goal centre ȳ + R (X̄ - x̄). The weights are the Sumner weights of the
 // skin (graph/skin_weights.c) over the k nearest vertices of the particle's rest centre, so a particle
 // follows the part of the surface it stands for. Binding finds the neighbours once (a grid over the
-// vertices); a fit is O(particles · k) with one 3x3 SVD per particle, reads only those vertices (a NaN
+// vertices, polling for interrupts every 1,024 particles); a fit is O(particles · k) with one 3x3 SVD per particle, reads only those vertices (a NaN
 // elsewhere in the mesh does not reach the goals) and allocates nothing.
 #include "opdeform/mesh.h"
 
 #include "check.h"
 #include "core.h"
+#include "interrupt.h"
 #include "graph.h"
 #include "math3.h"
 #include "mesh_check.h"
@@ -18,6 +19,8 @@
 #include "skin_weights.h"
 
 #include <string.h>
+
+#define OD_GOAL_FIT_POLL 1023 // particles bound between interrupt checks, less one (a power of two less one)
 
 struct od_GoalFit
 {
@@ -59,6 +62,11 @@ static od_Status od_Bind(od_GoalFit* fit, const od_Graph* graph, const double* v
 	int near[OD_MAX_GOAL_NEIGHBORS + 1];
 	for (int j = 0; j < fit->particleCount; ++j)
 	{
+		status = (j & OD_GOAL_FIT_POLL) == 0 ? od_CheckInterrupt() : OD_OK;
+		if (status != OD_OK)
+		{
+			break;
+		}
 		int* idx = fit->idx + (size_t)fit->k * j;
 		double* w = fit->w + (size_t)fit->k * j;
 		int count = od_NearestGrid_Query(&grid, NULL, 0, graph->centers + 3 * j, fit->k + 1, dist, near);
@@ -73,7 +81,7 @@ static od_Status od_Bind(od_GoalFit* fit, const od_Graph* graph, const double* v
 		od_V3Store(fit->centroid + 3 * j, centroid);
 	}
 	od_NearestGrid_Destroy(&grid);
-	return OD_OK;
+	return status;
 }
 
 od_Status od_GoalFit_Create(const od_Graph* graph, const od_GoalFitDef* def, od_GoalFit** out)
