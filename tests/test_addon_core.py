@@ -293,3 +293,18 @@ def test_attached_pieces_are_found_and_named():
     assert text.startswith("2 detached shells") and "rigidly" in text and f"{len(cap)} vertices at (0.50" in text
     alone = opdeform.Graph.from_mesh(bar, bt, particles=20)
     assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None
+
+
+def test_thin_appendages_are_named_with_the_particles_that_would_do():
+    """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
+    fewest-particle part three (rounded up to 50); None without any."""
+    parts = [((0.0, 0.78, 0.79), 0.65, 2), ((0.2, 0.05, 2.18), 0.45, 1), ((-0.2, 0.05, 2.18), 0.45, 1),
+             ((0.24, -0.11, 0.07), 0.4, 1)]
+    text = checks.appendages_text(parts, 100)
+    assert text.startswith("4 thin parts") and "0.65 m at (0.00, 0.78, 0.79): 2" in text and "1 more" in text
+    assert text.endswith("raise Particles to about 300"), text
+    assert checks.appendages_text(parts[:1], 220).endswith("about 350") and checks.appendages_text([], 100) is None
+    from opdeform import meshes
+    v, t = meshes.character()
+    graph = opdeform.Graph.from_mesh(v, t, particles=100)
+    assert len(checks.thin_appendages(opdeform, graph, v, t)) == 5

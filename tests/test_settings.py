@@ -293,6 +293,21 @@ def test_thin_part_warning():
     assert not materials.thin_part_warning(fine, v, t)[2]
 
 
+def test_thin_appendages_with_too_few_particles():
+    """The character's ears, tail and feet (a grid opening, as the calibration finds them) have 0-2 particles
+    each at 50-200 particles and 3-6 at 400: named below 400, not at 400; an open mesh has none."""
+    v, t = meshes.character()
+    counts = {}
+    for n in (50, 100, 400):
+        parts = materials.thin_appendages(opdeform.Graph.from_mesh(v, t, particles=n), v, t)
+        counts[n] = sorted(count for _, _, count in parts)
+    assert len(counts[50]) == 5 and max(counts[50]) <= 2 and len(counts[100]) == 5 and counts[400] == []
+    tail_part = materials.thin_appendages(opdeform.Graph.from_mesh(v, t, particles=100), v, t)[0]
+    assert tail_part[1] == pytest.approx(0.65, abs=0.1) and tail_part[0][1] > 0.5  # the longest: the tail, behind
+    bar, bt = meshes.bar()
+    assert materials.thin_appendages(opdeform.Graph.from_mesh(bar, bt, particles=20), bar, bt[1:]) == []
+
+
 def test_handle_warning():
     sim = scenes.fig1_bar()
     assert not materials.handle_warning(sim, speed=1.0, fps=24)[1]

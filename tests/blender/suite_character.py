@@ -106,3 +106,15 @@ def test_bake_equals_playback():
     for f in (1, C.MOTION_END // 2, C.MOTION_END, C.FRAMES):
         scene.frame_set(f)
         np.testing.assert_array_equal(H.positions(obj), live[f])
+
+
+def test_thin_parts_with_too_few_particles_are_named():
+    """At the default 100 particles the ears and tail have 1-2 particles each and turn nearly rigidly: the
+    panel names them and the count that gives them three; at 1,000 particles it says nothing."""
+    m = M.shot()
+    text = H.labels(H.draw_panels())
+    assert "thin parts with under 3 particles along" in text and "raise Particles to about" in text, text
+    m = M.shot(particles=PARTICLES_HIGH)
+    text = H.labels(H.draw_panels())
+    assert "thin part" not in text, text
+    assert m.obj.opdeform.built

@@ -56,6 +56,9 @@ def warnings(rt, frame):
     if thin is not None and thin[2]:
         out.append(f"Thinnest part {thin[0]:.3g} m, particles {thin[1]:.3g} m apart: fewer than two across; "
                    "raise Particles")
+    appendages = checks.appendages_text(rt.engine.thin_appendages, rt.engine.graph.n_particles)
+    if appendages:
+        out.append(appendages)
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)

@@ -1,7 +1,7 @@
 """The panel's warnings (issue 14), free of bpy, on top of ``opdeform.materials``: a driven handle too fast for
 the steps (per frame, from the handle targets), and too few particles across the mesh's thinnest part (at
-Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py), and the
-detached shells that got no particles of their own (at Build: the core attaches a piece with under a tenth of
+Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py), the thin
+appendages with under three particles along them (at Build), and the detached shells that got no particles of their own (at Build: the core attaches a piece with under a tenth of
 the largest piece's volume rigidly to the nearest large piece, opdeform.graph's small_pieces="attach")."""
 
 import numpy as np
@@ -32,13 +32,37 @@ def thin_part(od, graph, vertices, triangles):
     """(the thinnest part, the particle spacing, too few particles across), or None for a mesh too large to
     check in about two seconds. Only the pieces with particles are measured: a detached shell attached to
     another piece (attached_pieces) stays rigid at any particle count, so raising Particles would not help it."""
-    without = _pieces_without_particles(od, graph, vertices, triangles)
-    if without is not None:
-        piece, missing = without
-        triangles = triangles[~np.isin(piece[triangles[:, 0]], missing)]
+    triangles = _with_particles(od, graph, vertices, triangles)
     if len(vertices) * len(triangles) > THIN_PART_BUDGET or len(triangles) == 0:
         return None
     return od.materials.thin_part_warning(graph, vertices, triangles)
+
+
+def thin_appendages(od, graph, vertices, triangles):
+    """The thin appendages with under three particles along them (opdeform.materials.thin_appendages:
+    (centre, length, particles), longest first), of the pieces with particles; any mesh size (a grid fill)."""
+    return od.materials.thin_appendages(graph, vertices, _with_particles(od, graph, vertices, triangles))
+
+
+def appendages_text(parts, particles, shown=3, along=3):
+    """The panel's warning for thin_appendages (None when there are none): what to raise Particles to for
+    ``along`` particles in each (particles scale with the count)."""
+    if not parts:
+        return None
+    named = ", ".join(f"{length:.2f} m at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}): {n}" for c, length, n in parts[:shown])
+    more = f" and {len(parts) - shown} more" if len(parts) > shown else ""
+    enough = -(-particles * along // max(1, min(n for _, _, n in parts)) // 50) * 50
+    return (f"{len(parts)} thin part{'s' if len(parts) > 1 else ''} with under {along} particles along "
+            f"({named}{more}): each turns nearly rigidly and hardly jiggles; raise Particles to about {enough}")
+
+
+def _with_particles(od, graph, vertices, triangles):
+    """The triangles of the mesh's pieces that have particles of their own (all of them when every piece has)."""
+    without = _pieces_without_particles(od, graph, vertices, triangles)
+    if without is None:
+        return triangles
+    piece, missing = without
+    return triangles[~np.isin(piece[triangles[:, 0]], missing)]
 
 
 def vertex_pieces(vertices, triangles):

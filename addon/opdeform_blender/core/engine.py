@@ -197,6 +197,7 @@ class Engine:
         self.stretch = Stretch(self.graph)  # the reports' largest edge stretch
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
+        self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
