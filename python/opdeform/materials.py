@@ -604,7 +604,7 @@ def thin_appendages(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
     grid = _Grid(v, t)
     label = grid.appendages()
     part = label[grid.cell_of(graph.centers)]
-    out = []
+    out: list[tuple[tuple[float, float, float], float, int]] = []
     for p in np.unique(label[label >= 0]):
         cells = grid.centres(np.flatnonzero(label == p))
         centre = cells.mean(axis=0)
@@ -612,7 +612,8 @@ def thin_appendages(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
         s = (cells - centre) @ axis
         count = int((part == p).sum())
         if count < along:
-            out.append((tuple(float(x) for x in centre), float(s.max() - s.min() + grid.h), count))
+            x, y, z = (float(c) for c in centre)
+            out.append(((x, y, z), float(s.max() - s.min() + grid.h), count))
     return sorted(out, key=lambda x: -x[1])
 
 
