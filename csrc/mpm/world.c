@@ -15,6 +15,7 @@
 #include <stdbool.h>
 #include <string.h>
 
+#define OD_MPM_GROW_PIECE ((size_t)1 << 22) // bytes copied between interrupt checks when the arrays grow (4 MiB)
 #define OD_MPM_ADD_POLL 4095 // particles checked or copied between interrupt checks, less one (a power of two less one)
 
 od_MpmWorldDef od_DefaultMpmWorldDef(void)
@@ -203,6 +204,31 @@ static od_Status od_CheckParticles(const od_MpmWorld* w, const od_MpmParticlesDe
 	return OD_OK;
 }
 
+// Moves *array's first `used` bytes into a new block of `bytes`, a piece at a time with an interrupt check
+// between pieces (realloc copies a block it cannot extend in place in one go: on Windows, adding 2.1 million
+// particles to as many stopped Ctrl-C for 1.0 s under wine); *array is unchanged on failure.
+static od_Status od_Grow(void** array, size_t used, size_t bytes, int capacity)
+{
+	char* p = od_Alloc(bytes);
+	if (!p)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "particles: out of memory for %d particles", capacity);
+	}
+	for (size_t at = 0; at < used; at += OD_MPM_GROW_PIECE)
+	{
+		od_Status status = od_CheckInterrupt();
+		if (status != OD_OK)
+		{
+			od_Free(p);
+			return status;
+		}
+		memcpy(p + at, (const char*)*array + at, used - at < OD_MPM_GROW_PIECE ? used - at : OD_MPM_GROW_PIECE);
+	}
+	od_Free(*array);
+	*array = p;
+	return OD_OK;
+}
+
 od_Status od_MpmWorld_Reserve(od_MpmWorld* w, int capacity)
 {
 	if (capacity <= w->state.capacity)
@@ -214,12 +240,12 @@ od_Status od_MpmWorld_Reserve(od_MpmWorld* w, int capacity)
 	size_t sizes[4] = { sizeof(od_MpmParticle), sizeof(od_MpmParticle), 4 * sizeof(double), 4 * sizeof(double) };
 	for (int k = 0; k < 4; ++k)
 	{
-		void* p = od_Realloc(*arrays[k], sizes[k] * (size_t)capacity);
-		if (!p)
+		size_t used = arrays[k] == (void**)&w->spare ? 0 : sizes[k] * (size_t)w->state.count; // spare: scratch
+		od_Status status = od_Grow(arrays[k], used, sizes[k] * (size_t)capacity, capacity);
+		if (status != OD_OK)
 		{
-			return od_Fail(OD_ERROR_MEMORY, "particles: out of memory for %d particles", capacity);
+			return status;
 		}
-		*arrays[k] = p;
 	}
 	od_Status status = od_MpmGrid_Reserve(w);
 	status = status == OD_OK ? od_MpmSort_Reserve(w, capacity) : status;
