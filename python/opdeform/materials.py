@@ -608,7 +608,7 @@ def thin_appendages(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
     for p in np.unique(label[label >= 0]):
         cells = grid.centres(np.flatnonzero(label == p))
         centre = cells.mean(axis=0)
-        axis = np.linalg.eigh(np.cov((cells - centre).T))[1][:, -1]
+        axis = _cell_axes(cells)[:, 0]
         s = (cells - centre) @ axis
         count = int((part == p).sum())
         if count < along:
@@ -843,7 +843,7 @@ def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: A
     root = np.setdiff1d(e[inner.any(axis=1)], chosen)
     if len(root) == 0:
         return None
-    axes = np.linalg.eigh(np.cov((samples - samples.mean(axis=0)).T))[1][:, ::-1]
+    axes = _cell_axes(samples)
     s = (samples - graph.centers[root].mean(axis=0)) @ axes[:, 0]
     if s.mean() < 0.0:
         s, axes = -s, -axes
@@ -883,6 +883,11 @@ def _series_fit(compliance: Callable[[float], float], k: float, target: float, l
             k = b / (target - a) if b > 0.0 and target > a else k1 * c1 / target
         found.append((max(k, least), compliance(max(k, least))))
     return found[-1][0]
+
+
+def _cell_axes(cells: Arr) -> Arr:
+    """The principal axes of grid cells' centres (columns), longest first."""
+    return np.linalg.eigh(np.cov((cells - cells.mean(axis=0)).T))[1][:, ::-1]
 
 
 def _cantilever_tip(s: Arr, t: Arr, h: float, tip: Arr) -> float:
