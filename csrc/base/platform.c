@@ -6,6 +6,13 @@
 
 #include "clock.h"
 
+#include <stdlib.h>
+
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
+#define OD_PLATFORM_X86_CPUID 1
+#include <cpuid.h>
+#endif
+
 #if defined(_WIN32)
 #define WIN32_LEAN_AND_MEAN
 #include <windows.h>
@@ -275,3 +282,27 @@ double od_Clock(void)
 }
 
 #endif
+
+bool od_Platform_HasAvx2Fma(void)
+{
+#ifdef OD_PLATFORM_X86_CPUID
+	static int known = -1; // a benign race: every thread computes the same answer
+	if (known < 0)
+	{
+		unsigned a, b, c, d;
+		bool avx = false;
+		// leaf 1: FMA (ecx 12), OSXSAVE (27), AVX (28); xgetbv: the OS saves xmm and ymm; leaf 7: AVX2 (ebx 5)
+		if (__get_cpuid(1, &a, &b, &c, &d) && (c & (1u << 27)) && (c & (1u << 28)) && (c & (1u << 12)))
+		{
+			unsigned lo, hi;
+			__asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
+			avx = (lo & 6u) == 6u && __get_cpuid_count(7, 0, &a, &b, &c, &d) && (b & (1u << 5));
+		}
+		const char* off = getenv("OPDEFORM_NO_AVX2");
+		known = avx && !(off && *off && *off != '0');
+	}
+	return known == 1;
+#else
+	return false;
+#endif
+}

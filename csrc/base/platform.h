@@ -1,5 +1,5 @@
 // What differs between Linux, macOS and Windows, behind one interface (platform.c): the CPUs this process may
-// use and how many threads run on them now, threads, a mutex and a condition variable, run-once, fork hooks, the monotonic clock (clock.h) and the
+// use, whether they run AVX2 + FMA, and how many threads run on them now, threads, a mutex and a condition variable, run-once, fork hooks, the monotonic clock (clock.h) and the
 // spin-wait hint. No other file of the core calls an operating system's API.
 #pragma once
 
@@ -45,6 +45,11 @@ int od_Platform_Cpus(void);
 // count of runnable threads, times Cpus() over the machine's online CPUs where the process may use fewer);
 // -1 where unknown (macOS, Windows: there every CPU of the affinity mask counts as free).
 int od_Platform_RunningThreads(void);
+
+// Whether the AVX2 + FMA kernels run: an x86-64 processor with both whose operating system saves the ymm registers
+// (cpuid and xgetbv, no runtime library), in a GCC or Clang build; false elsewhere, and when the environment sets
+// OPDEFORM_NO_AVX2 to anything but "" or "0" (the baseline kernels on any processor: tests, comparisons). Read once.
+bool od_Platform_HasAvx2Fma(void);
 
 // Starts fn(arg) on a new thread; false when it could not. *thread stays where it is until joined.
 bool od_Thread_Start(od_Thread* thread, void* (*fn)(void*), void* arg);

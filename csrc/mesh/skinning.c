@@ -17,6 +17,7 @@
 #include "math3.h"
 #include "mesh_check.h"
 #include "nearest.h"
+#include "platform.h"
 #include "pool.h"
 #include "skin_weights.h"
 
@@ -28,7 +29,7 @@
 
 #if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
 // x86-64 builds target the baseline (SSE2); the m = 4 blend has a second version for AVX2 + FMA, chosen at run
-// time (cpuid: no runtime library needed) where the processor and the operating system support it.
+// time (od_Platform_HasAvx2Fma) where the processor and the operating system support it.
 #define OD_SKIN_AVX2 1
 #endif
 #ifndef OD_STREAM_VERTICES
@@ -38,7 +39,6 @@
 #ifndef OD_SKIN_PREFETCH
 #define OD_SKIN_PREFETCH 32 // vertices ahead (a prefetch past the end is only a hint: it never faults)
 #endif
-#include <cpuid.h>
 #include <immintrin.h>
 #endif
 
@@ -69,25 +69,11 @@ struct od_Skin
 	double* columnStore; // its allocation, or NULL without the AVX2 path
 };
 
-// Whether the AVX2 + FMA blend runs: the processor has both and the operating system saves the ymm registers.
+// Whether the AVX2 + FMA blend runs (platform.c: the processor, the operating system, OPDEFORM_NO_AVX2).
 static bool od_SkinUsesAvx2(void)
 {
 #ifdef OD_SKIN_AVX2
-	static int known = -1; // a benign race: every thread computes the same answer
-	if (known < 0)
-	{
-		unsigned a, b, c, d;
-		bool avx = false;
-		if (__get_cpuid(1, &a, &b, &c, &d) && (c & (1u << 27)) && (c & (1u << 28)) && (c & (1u << 12)))
-		{
-			unsigned lo, hi;
-			__asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));
-			avx = (lo & 6u) == 6u && __get_cpuid_count(7, 0, &a, &b, &c, &d) && (b & (1u << 5));
-		}
-		const char* off = getenv("OPDEFORM_NO_AVX2"); // the SSE2 blend on any processor (tests, comparisons)
-		known = avx && !(off && *off && *off != '0');
-	}
-	return known == 1;
+	return od_Platform_HasAvx2Fma();
 #else
 	return false;
 #endif
