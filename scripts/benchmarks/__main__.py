@@ -1,12 +1,16 @@
 """Dispatch: python -m benchmarks [suite|report|all] [options]. The default suite is `core`; `report` runs
 the error-against-time report with its plots, the stability table, the leave-it-out switches and the scale
-series in one go."""
+series in one go. Every suite's output begins with the load average and ends with it again, beside the suite's
+wall time and processor time (this process's threads and the child processes that ended: Blender, runners)."""
 
 import importlib
+import os
 import pkgutil
 import sys
+import time
 
 import benchmarks
+from benchmarks.common import load
 
 
 REPORT = ("error", "stability", "features", "scale")
@@ -34,8 +38,14 @@ def main(argv):
         if name not in names:
             print(f"unknown suite {name!r}; suites: {', '.join(names)}", file=sys.stderr)
             return 2
-        print(f"== {name}")
+        print(f"== {name}; before: {load()}", flush=True)
+        wall, cpu = time.perf_counter(), os.times()
         importlib.import_module("benchmarks." + name).run(rest)
+        done = os.times()
+        own = done.user + done.system - cpu.user - cpu.system
+        children = max(done.children_user + done.children_system - cpu.children_user - cpu.children_system, 0.0)
+        print(f"== {name}: {time.perf_counter() - wall:.1f} s wall, {own + children:.1f} s processor time (this "
+              f"process {own:.1f}, child processes {children:.1f}); after: {load()}", flush=True)
     return 0
 
 

@@ -1,19 +1,60 @@
-"""Timing helpers shared by the suites: medians of repeated runs, measured side by side."""
+"""Timing helpers shared by the suites: medians of repeated runs in wall and processor time, measured side by
+side; the load average; a copy's memory bandwidth."""
 
 import os
 import statistics
 import time
 
 
-def median_ms(fn, repeats=7, inner=1):
-    """Median over `repeats` runs of fn() (called `inner` times per run), in milliseconds per call."""
-    samples = []
+def median_times(fn, repeats=7, inner=1):
+    """Medians over `repeats` runs of fn() (called `inner` times per run), in milliseconds per call: (wall time,
+    processor time of every thread of the process)."""
+    wall, cpu = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         for _ in range(inner):
             fn()
-        samples.append((time.perf_counter() - t) * 1e3 / inner)
-    return statistics.median(samples)
+        wall.append((time.perf_counter() - t) * 1e3 / inner)
+        cpu.append((time.process_time() - c) * 1e3 / inner)
+    return statistics.median(wall), statistics.median(cpu)
+
+
+def load():
+    """The load average over 1, 5 and 15 minutes and, on Linux, the threads runnable right now / all threads."""
+    try:
+        with open("/proc/loadavg") as f:  # Linux: the 4th field, runnable / all threads right now
+            running = f", {f.read().split()[3]} running/threads"
+    except OSError:
+        running = ""
+    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()) + running
+
+
+def copy_bandwidth(threads, megabytes=512, repeats=9):
+    """A large copy split over `threads` threads (numpy copies without the GIL), bytes read plus bytes written:
+    (GB per second of wall time, GB per second of processor time of all threads), medians of `repeats`. The
+    reference for a kernel on the same number of threads: its wall time against the first, its processor time
+    against the second."""
+    import threading
+
+    import numpy as np
+
+    src = np.ones(megabytes * 2**20 // 8)
+    dst = np.empty_like(src)
+    parts = np.array_split(np.arange(len(src)), threads)
+    bounds = [(p[0], p[-1] + 1) for p in parts]
+
+    def copy():
+        workers = [threading.Thread(target=np.copyto, args=(dst[a:b], src[a:b])) for a, b in bounds[1:]]
+        for w in workers:
+            w.start()
+        a, b = bounds[0]
+        np.copyto(dst[a:b], src[a:b])
+        for w in workers:
+            w.join()
+
+    copy()
+    wall_ms, cpu_ms = median_times(copy, repeats)
+    return 2 * src.nbytes / wall_ms / 1e6, 2 * src.nbytes / cpu_ms / 1e6
 
 
 def out_dir(*parts):

@@ -1,10 +1,11 @@
-"""The paper's three scenes: ms/step (median, one thread) against the paper's 2013 figures."""
+"""The paper's three scenes: ms/step (median, one thread, wall and processor time) against the paper's 2013
+figures (the speed-up and the aim from the wall time)."""
 
 import os
 
 from opdeform import scenes
 
-from .common import median_ms, print_aims, table
+from .common import median_times, print_aims, table
 
 PAPER_MS = {"fig1 bar": 0.51, "fig2 twist": 0.62, "fig4 body": 2.25}
 
@@ -29,11 +30,12 @@ def run(args):
     for name, fn in _scenes().items():
         for _ in range(60):  # warm-up: factorization and a settled motion
             fn()
-        ms = median_ms(fn, repeats=15, inner=100)
+        ms, cpu = median_times(fn, repeats=15, inner=100)
         paper = PAPER_MS[name]
-        rows.append((name, f"{ms:.4f}", f"{paper:.2f}", f"{paper / ms:.1f}x", "yes" if paper / ms >= 10 else "NO"))
+        rows.append((name, f"{ms:.4f}", f"{cpu:.4f}", f"{paper:.2f}", f"{paper / ms:.1f}x",
+                     "yes" if paper / ms >= 10 else "NO"))
         times[name] = ms
-    table(rows, ["scene", "ms/step", "paper ms", "speed-up", ">=10x"])
+    table(rows, ["scene", "ms/step", "cpu ms/step", "paper ms", "speed-up", ">=10x"])
     body = times["fig4 body"]
     print_aims([("Fig. 4 body, one thread", f"{body:.4f} ms/step, {PAPER_MS['fig4 body'] / body:.1f}x the paper",
                  "<= 0.112 ms, 20x", body <= 0.112)])

@@ -25,7 +25,7 @@ import numpy as np
 
 import opdeform
 
-from .common import out_dir, table
+from .common import load, out_dir, table
 
 BEAMS = ((10, 5, 2), (10, 10, 10), (100, 10, 10), (250, 20, 20))  # 100 to 100,000 particles
 VERTICES = (1_000, 10_000, 100_000, 1_000_000, 3_000_000)
@@ -44,15 +44,6 @@ def thread_counts(cpus):
 
 def _option(args, name, default):
     return int(args[args.index(name) + 1]) if name in args else default
-
-
-def _load():
-    try:
-        with open("/proc/loadavg") as f:  # Linux: the 4th field, runnable / all threads right now
-            running = f", {f.read().split()[3]} running/threads"
-    except OSError:
-        running = ""
-    return "load average " + " ".join(f"{x:.2f}" for x in os.getloadavg()) + running
 
 
 class Case:
@@ -231,7 +222,7 @@ def run(args):
               "skin": (skin_cases, _option(args, "--max-vertices", 3_000_000)),
               "mpm": (mpm_cases, _option(args, "--max-mpm", 1_000_000))}
     header = (f"machine: {cpus} CPUs ({os.uname().machine}), threads {counts}, {repeats} interleaved rounds"
-              f"{', a busy process beside' if busy else ''}; before: {_load()}")
+              f"{', a busy process beside' if busy else ''}; before: {load()}")
     print(header)
     proc = start_busy() if busy else None
     results, rows = [], []
@@ -242,10 +233,10 @@ def run(args):
                 result = measure(case, counts, repeats)
                 results.append((case, result))
                 rows += rows_of(case, result, counts)
-                print(f"  {case.kernel} {case.size:,} done; {_load()}", flush=True)
+                print(f"  {case.kernel} {case.size:,} done; {load()}", flush=True)
     finally:
         stop_busy(proc)
-    after = _load()
+    after = load()
     table(rows, ["kernel", "size", "threads", "wall ms", "cpu ms", "speed-up", "cpu / 1 thread", "stages ms (wall)"])
     print("wall ms, cpu ms: medians per call; cpu: processor time of every thread of the process; speed-up: wall "
           f"time of 1 thread / t threads; stages: the ARAP step's local step and global solve (its counters)\n"
