@@ -2,8 +2,13 @@
 with the shares of the local step, the global solve and skinning (a surface mesh of ~10 vertices per
 particle, deformed every step without normals), the growth rate, and the one-off cost of analysing and
 factoring with CHOLMOD's simplicial and supernodal paths (the substitution is the same for both: cholesky.c
-copies the factor). Writes out/bench/scale/scale.csv and scale.png (ms/step against particles, log-log, with
-the share of each stage). Options: --max N (largest particle count, default 100000)."""
+copies the factor). Step and skinning times are medians of wall time and of processor time (every thread of
+the process); the shares come from the step's own local_seconds and global_seconds (wall). The factorization
+is timed in the call that makes it, by itself: the first step of a fresh beam at 1 iteration (its analysis
+and factorization, two substitutions and one local step; the core has no counter of the factorization's own
+time), beside a later step of the same beam for scale. Writes out/bench/scale/scale.csv and scale.png
+(ms/step against particles, log-log, with the share of each stage). Options: --max N (largest particle count,
+default 100000)."""
 
 import csv
 import math
@@ -16,7 +21,7 @@ import numpy as np
 import opdeform
 from opdeform import meshes
 
-from .common import out_dir, print_aims, table
+from .common import median_times, out_dir, print_aims, table
 from .error import lattice
 
 SIZES = ((10, 5, 2), (10, 10, 10), (100, 10, 10), (250, 20, 20))  # 100, 1,000, 10,000 and 100,000 particles
@@ -44,34 +49,40 @@ def beam_skin(sim, dims, threads):
 
 
 def factor_ms(dims, factorization):
-    """The first step's extra time over the second: analysis and factorization."""
+    """(wall ms, processor ms) of the first step of a fresh beam at 1 iteration, the call that analyses and
+    factors, and the wall ms of a later step (median of 3)."""
     sim = beam(dims)
     sim.set_solver(factorization=factorization)
-    t = time.perf_counter()
+    sim.set_params(iterations=1)
+    wall, cpu = time.perf_counter(), time.process_time()
     sim.step()
-    first = time.perf_counter() - t
-    t = time.perf_counter()
-    sim.step()
-    return (first - (time.perf_counter() - t)) * 1e3
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    counted = sim.counters
+    if (counted["analyses"], counted["factorizations"], counted["steps"]) != (1, 1, 1):
+        raise RuntimeError(f"the timed step did not factor exactly once: {counted}")
+    return wall * 1e3, cpu * 1e3, median_times(sim.step, 3)[0]
 
 
 def measure(sim, skin, steps):
+    """Medians per step: (step wall ms, step cpu ms, skinning wall ms, skinning cpu ms), and the local step's,
+    the global solve's and the skinning's shares of the wall time."""
     sim.step(2)  # factorization and warm-up
     out = np.empty((skin.n_vertices, 3), np.float32)
     before = sim.counters
     step_ms, skin_ms = [], []
     for _ in range(steps):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         sim.step()
-        t1 = time.perf_counter()
+        t1, c1 = time.perf_counter(), time.process_time()
         skin.deform_sim(sim, out=out)
-        step_ms.append((t1 - t) * 1e3)
-        skin_ms.append((time.perf_counter() - t1) * 1e3)
+        step_ms.append(((t1 - t) * 1e3, (c1 - c) * 1e3))
+        skin_ms.append(((time.perf_counter() - t1) * 1e3, (time.process_time() - c1) * 1e3))
     after = sim.counters
-    total = (sum(step_ms) + sum(skin_ms)) / 1e3
+    total = sum(w for w, _ in step_ms + skin_ms) / 1e3
     local = (after["local_seconds"] - before["local_seconds"]) / total
     glob = (after["global_seconds"] - before["global_seconds"]) / total
-    return statistics.median(step_ms), statistics.median(skin_ms), local, glob, sum(skin_ms) / 1e3 / total
+    medians = [statistics.median(x[k] for x in samples) for samples in (step_ms, skin_ms) for k in (0, 1)]
+    return (*medians, local, glob, sum(w for w, _ in skin_ms) / 1e3 / total)
 
 
 def run(args):
@@ -88,16 +99,24 @@ def run(args):
             sim = beam(dims)
             sim.set_solver(threads=threads)
             skin = beam_skin(sim, dims, 1 if threads == 1 else 0)
-            ms, skin_ms, local, glob, skin_share = measure(sim, skin, steps)
+            ms, cpu, skin_ms, skin_cpu, local, glob, skin_share = measure(sim, skin, steps)
             label = "1 thread" if threads == 1 else f"{cores} threads"
             series.setdefault(label, []).append((n, ms))
-            rows.append((n, sim.graph.n_edges, skin.n_vertices, label, f"{ms:.3f}", f"{skin_ms:.3f}",
+            rows.append((n, sim.graph.n_edges, skin.n_vertices, label, f"{ms:.3f}", f"{cpu:.3f}", f"{skin_ms:.3f}",
+                         f"{skin_cpu:.3f}",
                          f"{100 * local:.0f} %", f"{100 * glob:.0f} %", f"{100 * skin_share:.0f} %"))
             shares.append((n, label, local, glob, skin_share))
-        factor_rows.append((n, *(f"{factor_ms(dims, f):.1f}" for f in ("simplicial", "supernodal"))))
-    table(rows, ["particles", "edges", "vertices", "threads", "ms/step", "skin ms", "local", "global", "skinning"])
+        for path in ("simplicial", "supernodal"):
+            factor_rows.append((n, path, *(f"{ms:.2f}" for ms in factor_ms(dims, path))))
+    table(rows, ["particles", "edges", "vertices", "threads", "ms/step", "cpu ms/step", "skin ms", "skin cpu ms",
+                 "local", "global", "skinning"])
+    print("ms: wall time, cpu ms: processor time of every thread (medians); local, global, skinning: shares of the "
+          "wall time")
     print()
-    table(factor_rows, ["particles", "analyse+factor ms, simplicial", "supernodal"])
+    table(factor_rows, ["particles", "factorization", "first step ms (analyse + factor)", "cpu ms",
+                        "a later step ms"])
+    print("first step: a fresh beam at 1 iteration, the call that analyses and factors, timed by itself (it also "
+          "holds two substitutions and a local step, as the later step does)")
     print()
     for label, pts in series.items():
         for (n0, t0), (n1, t1) in zip(pts, pts[1:]):
@@ -115,8 +134,8 @@ def write(rows, series, shares):
     folder = out_dir("scale")
     with open(os.path.join(folder, "scale.csv"), "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["particles", "edges", "vertices", "threads", "ms_per_step", "skin_ms", "local", "global",
-                    "skinning"])
+        w.writerow(["particles", "edges", "vertices", "threads", "ms_per_step", "cpu_ms_per_step", "skin_ms",
+                    "skin_cpu_ms", "local", "global", "skinning"])
         w.writerows(rows)
     import matplotlib
 
