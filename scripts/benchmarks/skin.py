@@ -1,63 +1,33 @@
 """Skinning 1,000,000 vertices (m = 4, positions and normals) against memory bandwidth; graph building.
 
-Skinning: ms per frame (median) on all cores and on one, into float32 buffers laid out for Blender's
-foreach_set, with the machine's memory bandwidth measured in the same run (a large copy, bytes read plus
-written; the better of all threads and one) and the fraction of it the skinning reaches: the least bytes a
-frame must move (rest positions, indices, weights and rest normals read, positions and normals written)
-over the bandwidth, divided by the time taken. Graph building: seconds (median) for a 100k-triangle mesh
-into 1,000 particles, and the binding of the million vertices.
+Skinning: ms per frame (median, wall and processor time) on all cores and on one, into float32 buffers laid
+out for Blender's foreach_set, with the machine's memory bandwidth measured in the same run (a large copy,
+bytes read plus written, on all threads and on one) and the fraction of it the skinning reaches: the least
+bytes a frame must move (rest positions, indices, weights and rest normals read, positions and normals
+written) over the copy's bandwidth on the same number of threads, divided by the time taken. Like with
+like: wall time against the copy's wall-time bandwidth ("fraction, wall") and processor time of all
+threads against the copy's processor-time bandwidth ("fraction, cpu"; other work on the machine stretches
+wall times, not these). Graph building: seconds (median, wall and processor) for a 100k-triangle mesh into
+1,000 particles, and the binding of the million vertices.
 """
 
 import os
-import statistics
-import threading
-import time
 
 import numpy as np
 
 import opdeform
 from opdeform import meshes
 
-from .common import print_aims, table
+from .common import copy_bandwidth, median_times, print_aims, table
 
 VERTICES = 1_000_000
 NEIGHBORS = 4
 
 
-def _median_s(fn, repeats):
-    return _timed(fn, repeats)[0]
-
-
 def _timed(fn, repeats):
     """Median wall seconds and median process CPU seconds (all threads) of fn()."""
-    wall, cpu = [], []
-    for _ in range(repeats):
-        t, c = time.perf_counter(), time.process_time()
-        fn()
-        wall.append(time.perf_counter() - t)
-        cpu.append(time.process_time() - c)
-    return statistics.median(wall), statistics.median(cpu)
-
-
-def copy_bandwidth(threads, megabytes=512, repeats=9):
-    """GB/s of a large copy split over `threads` threads (numpy copies without the GIL): bytes read plus
-    bytes written per second, median of `repeats`."""
-    src = np.ones(megabytes * 2**20 // 8)
-    dst = np.empty_like(src)
-    parts = np.array_split(np.arange(len(src)), threads)
-    bounds = [(p[0], p[-1] + 1) for p in parts]
-
-    def copy():
-        workers = [threading.Thread(target=np.copyto, args=(dst[a:b], src[a:b])) for a, b in bounds[1:]]
-        for w in workers:
-            w.start()
-        a, b = bounds[0]
-        np.copyto(dst[a:b], src[a:b])
-        for w in workers:
-            w.join()
-
-    copy()
-    return 2 * src.nbytes / _median_s(copy, repeats) / 1e9
+    wall, cpu = median_times(fn, repeats)
+    return wall / 1e3, cpu / 1e3
 
 
 def frame_bytes(n_vertices, m, normals=True, out_bytes=4):
@@ -82,51 +52,50 @@ def _falling_state(graph, steps=30):
 
 def run(args):
     cores = os.cpu_count()
-    print(f"machine: {cores} cores, load average {os.getloadavg()[0]:.1f}; mesh: the creature subdivided, first "
-          f"{VERTICES:,} vertices; m = {NEIGHBORS}")
+    print(f"machine: {cores} cores; mesh: the creature subdivided, first {VERTICES:,} vertices; m = {NEIGHBORS}")
     v, t = _million_vertex_mesh()
     base_v, base_t = meshes.creature()
     graph = opdeform.Graph.from_mesh(base_v, base_t, particles=100)
     normals = opdeform.Skin(graph, v, triangles=t).rest_normals[:VERTICES]
     v = np.ascontiguousarray(v[:VERTICES])
-    bind_s = _median_s(lambda: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals), 3)
-    skins = {"all": opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals),
-             "one": opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals, threads=1)}
+    bind = _timed(lambda: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals), 3)
+    skins = {cores: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals),
+             1: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals, threads=1)}
     positions, rotations = _falling_state(graph)
     out32, nrm32 = np.empty(3 * VERTICES, np.float32), np.empty(3 * VERTICES, np.float32)
     out64, nrm64 = np.empty((VERTICES, 3)), np.empty((VERTICES, 3))
-    every_core, one_core = copy_bandwidth(cores), copy_bandwidth(1)
-    bandwidth = max(every_core, one_core)  # the machine's bandwidth: the better of the two
-    cases = [("positions + normals, float32", "all", out32, nrm32, 4),
-             ("positions only, float32", "all", out32, None, 4),
-             ("positions + normals, float64", "all", out64, nrm64, 8),
-             ("positions + normals, float32", "one", out32, nrm32, 4)]
+    bandwidth = {cores: copy_bandwidth(cores), 1: copy_bandwidth(1)}  # (wall, cpu) GB/s on each thread count
+    cases = [("positions + normals, float32", cores, out32, nrm32, 4),
+             ("positions only, float32", cores, out32, None, 4),
+             ("positions + normals, float64", cores, out64, nrm64, 8),
+             ("positions + normals, float32", 1, out32, nrm32, 4)]
     rows, fractions = [], []
     for name, threads, out, nrm, size in cases:
         skin = skins[threads]
         skin.deform(positions, rotations, out, nrm)
         seconds, cpu = _timed(lambda: skin.deform(positions, rotations, out, nrm), 21)
         moved = frame_bytes(VERTICES, NEIGHBORS, nrm is not None, size)
-        bound = moved / (bandwidth * 1e9)
-        used = cores if threads == "all" else 1
-        rows.append((name, f"{used}", f"{seconds * 1e3:.2f}", f"{cpu * 1e3:.2f}",
-                     f"{moved / 1e6:.0f}", f"{bound * 1e3:.2f}", f"{bound / seconds:.2f}", f"{bound * used / cpu:.2f}"))
-        fractions.append((bound / seconds, bound * used / cpu))
+        wall_bound, cpu_bound = (moved / (gbs * 1e9) for gbs in bandwidth[threads])
+        rows.append((name, f"{threads}", f"{seconds * 1e3:.2f}", f"{cpu * 1e3:.2f}", f"{moved / 1e6:.0f}",
+                     f"{wall_bound * 1e3:.2f}", f"{cpu_bound * 1e3:.2f}", f"{wall_bound / seconds:.2f}",
+                     f"{cpu_bound / cpu:.2f}"))
+        fractions.append((wall_bound / seconds, cpu_bound / cpu))
     after = copy_bandwidth(cores)
-    table(rows, ["skinning 1M vertices", "threads", "ms/frame", "cpu ms", "MB moved", "bandwidth ms", "fraction",
-                 "fraction (cpu)"])
-    print("cpu ms: processor time of all threads per frame; wall time near it with several threads means the "
-          "other cores were busy (load average above). fraction (cpu): the same with the processor time per "
-          "thread (cpu ms / threads) in place of the wall time, which other work on the machine stretches")
-    print(f"memory bandwidth (a 512 MB copy, bytes read + written): {every_core:.1f} GB/s on {cores} threads "
-          f"({after:.1f} after the skinning), {one_core:.1f} GB/s on one; the fractions use {bandwidth:.1f} GB/s")
+    table(rows, ["skinning 1M vertices", "threads", "ms/frame", "cpu ms", "MB moved", "copy ms", "copy cpu ms",
+                 "fraction, wall", "fraction, cpu"])
+    print("ms/frame: wall time; cpu ms: processor time of all threads per frame. copy ms, copy cpu ms: the same "
+          "bytes copied on the same number of threads, in wall and in processor time; fraction, wall = copy ms / "
+          "ms/frame; fraction, cpu = copy cpu ms / cpu ms (which other work on the machine does not stretch)")
+    print("memory bandwidth (a 512 MB copy, bytes read + written), wall / processor time: "
+          + "; ".join(f"{t} thread{'s' * (t > 1)} {w:.1f} / {c:.1f} GB/s" for t, (w, c) in bandwidth.items())
+          + f"; {cores} threads after the skinning {after[0]:.1f} / {after[1]:.1f} GB/s")
     print_aims([(f"1M vertices, positions + normals, float32, {cores} threads", f"{fractions[0][0]:.2f} of the copy "
-                 f"bandwidth ({rows[0][2]} ms; {fractions[0][1]:.2f} by processor time per thread)", ">= 0.5",
-                 fractions[0][0] >= 0.5)])
-    print(f"binding {VERTICES:,} vertices (grid search, all cores): {bind_s:.3f} s")
+                 f"bandwidth on {cores} threads, wall against wall ({rows[0][2]} ms; {fractions[0][1]:.2f} processor "
+                 "time against processor time)", ">= 0.5", fractions[0][0] >= 0.5)])
+    print(f"binding {VERTICES:,} vertices (grid search, all cores): {bind[0]:.3f} s wall, {bind[1]:.3f} s processor")
 
     big_v, big_t = meshes.subdivide(*meshes.creature(130))
-    build_s = _median_s(lambda: opdeform.Graph.from_mesh(big_v, big_t, particles=1000), 5)
+    build = _timed(lambda: opdeform.Graph.from_mesh(big_v, big_t, particles=1000), 5)
     g = opdeform.Graph.from_mesh(big_v, big_t, particles=1000)
     print(f"graph building: {len(big_t):,} triangles into {g.n_particles} particles ({g.n_edges} edges): "
-          f"{build_s:.3f} s (median of 5); load average {os.getloadavg()[0]:.1f}")
+          f"{build[0]:.3f} s wall, {build[1]:.3f} s processor (medians of 5)")
