@@ -2,6 +2,7 @@
 #include "test_macros.h"
 
 int test_polar(void);
+int test_svd4(void);
 int test_graph(void);
 int test_sim(void);
 int test_interrupt(void);
@@ -19,6 +20,7 @@ int main(void)
 {
 	int failures = 0, total = 0;
 	RUN_TEST(test_polar);
+	RUN_TEST(test_svd4);
 	RUN_TEST(test_graph);
 	RUN_TEST(test_sim);
 	RUN_TEST(test_interrupt);
