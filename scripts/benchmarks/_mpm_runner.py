@@ -5,8 +5,9 @@
 ENGINE is `opdeform` or `taichi` (Taichi's mpm99 kernel extended to 3-D, FP f32 or f64). Both simulate the
 same scene: a cube of PER_AXIS³ particles 2 per cell per axis in [0, 1]³ with N_GRID cells per axis,
 falling at 1 m/s, the seed's snow (Table 2), gravity, the domain's faces stopping outward motion within
-3 nodes, a fixed dt. Prints one JSON line: particles, steps, seconds (after one warm-up step) and, for
-opdeform, the grid blocks in use.
+3 nodes, a fixed dt. Prints one JSON line: particles, steps, seconds and cpu_seconds (wall and processor time of
+every thread of the process, after one warm-up step) and, for opdeform, the grid blocks in use, for Taichi its
+version. Taichi's runs use the interpreter of the benchmark's own virtual environment (benchmarks/mpm.py).
 """
 
 import json
@@ -36,11 +37,12 @@ def run_opdeform(per_axis, n_grid, dt, steps, threads):
     world.add_particles(pts, mpm.snow(), particle_volume=spacing ** 3,
                         velocities=np.broadcast_to([0.0, 0.0, -1.0], pts.shape))
     world.substep(dt)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     for _ in range(steps):
         world.substep(dt)
-    seconds = time.perf_counter() - t
-    return {"particles": len(pts), "steps": steps, "seconds": seconds, "blocks": world.stats["active_blocks"]}
+    seconds, cpu = time.perf_counter() - t, time.process_time() - c
+    return {"particles": len(pts), "steps": steps, "seconds": seconds, "cpu_seconds": cpu,
+            "blocks": world.stats["active_blocks"]}
 
 
 def run_taichi(per_axis, n_grid, dt, steps, threads, fp):
@@ -127,11 +129,12 @@ def run_taichi(per_axis, n_grid, dt, steps, threads, fp):
     init()
     substep()  # compiles
     ti.sync()
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     for _ in range(steps):
         substep()
     ti.sync()
-    return {"particles": n, "steps": steps, "seconds": time.perf_counter() - t}
+    return {"particles": n, "steps": steps, "seconds": time.perf_counter() - t, "cpu_seconds": time.process_time() - c,
+            "version": ".".join(str(part) for part in ti.__version__)}
 
 
 def main(argv):

@@ -1,24 +1,30 @@
 """Tumbling-particle MPM: particle-steps/s of a 3-D snow block on one core and all cores, side by side with
 Taichi's MLS-MPM on the CPU (same particles, grid, material, dt and steps), and bytes per particle-step
-against the memory bandwidth measured in the same run.
+against the memory bandwidth measured in the same run: a copy on as many threads as the all-core column, wall
+time against wall time and processor time against processor time. The rates are per second of wall time; a
+second table gives each column's processor time (every thread of its process) per particle-step.
 
 Options: --particles 100000,1000000 (cube sizes, rounded to a cube), --steps N (default: about 3e6
 particle-steps per run), --rounds N (default 3: every column run once a round, the columns interleaved, medians
-of the rates and of each round's ratio to Taichi, so a load that comes and goes moves both sides), --no-taichi. Taichi is installed with pip on first use (bench only); when it
-cannot be installed or imported the reason is printed instead of its columns.
+of the rates and of each round's ratio to Taichi, so a load that comes and goes moves both sides), --no-taichi.
+Taichi runs in the benchmark's own virtual environment, ~/.cache/opdeform/taichi-venv (made on first use, Taichi
+installed there with pip from the Python package index; the system's site-packages are never touched); when
+it cannot be installed or imported the reason is printed instead of its columns.
 """
 
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
-import time
 
-from .common import print_aims, table
+from .common import copy_bandwidth, print_aims, table
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+TAICHI_VENV = os.path.join(os.path.expanduser("~"), ".cache", "opdeform", "taichi-venv")
+TAICHI_PYTHON = os.path.join(TAICHI_VENV, "bin", "python")
 PARTICLE_BYTES = 256  # od_MpmParticle
 BLOCK_BYTES = 64 * 4 * 8  # a 4³ block of (m v, m) doubles
 
@@ -29,9 +35,11 @@ def _env():
     return env
 
 
-def _run(*args, timeout=900):
-    """Runs benchmarks._mpm_runner in a fresh process; returns its JSON or raises RuntimeError."""
-    cmd = [sys.executable, "-m", "benchmarks._mpm_runner"] + [str(a) for a in args]
+def _run(engine, *args, timeout=900):
+    """Runs benchmarks._mpm_runner in a fresh process (Taichi's in its virtual environment); returns its JSON or
+    raises RuntimeError."""
+    python = TAICHI_PYTHON if engine == "taichi" else sys.executable
+    cmd = [python, "-m", "benchmarks._mpm_runner", engine] + [str(a) for a in args]
     proc = subprocess.run(cmd, capture_output=True, text=True, env=_env(), timeout=timeout)
     lines = [line for line in proc.stdout.splitlines() if line.startswith("{")]
     if proc.returncode != 0 or not lines:
@@ -41,33 +49,25 @@ def _run(*args, timeout=900):
 
 
 def _taichi_status():
-    """None when taichi imports (after a pip install if needed), else the reason it cannot be used."""
-    probe = [sys.executable, "-c", "import taichi"]
-    if subprocess.run(probe, capture_output=True, env=_env()).returncode == 0:
+    """None when taichi imports in its virtual environment (made, and taichi installed with pip, on first use),
+    else the reason it cannot be used."""
+    probe = [TAICHI_PYTHON, "-c", "import taichi"]
+    if os.path.exists(TAICHI_PYTHON) and subprocess.run(probe, capture_output=True, env=_env()).returncode == 0:
         return None
-    print("installing taichi with pip (benchmark only) ...", flush=True)
-    pip = subprocess.run([sys.executable, "-m", "pip", "install", "-q", "taichi"], capture_output=True, text=True)
-    if pip.returncode != 0:
-        tail = (pip.stderr or pip.stdout).strip().splitlines()
-        return f"pip install taichi failed for Python {sys.version.split()[0]}: {tail[-1] if tail else pip.returncode}"
+    print(f"installing taichi with pip into {TAICHI_VENV} (benchmark only) ...", flush=True)
+    steps = ([sys.executable, "-m", "venv", "--clear", TAICHI_VENV],
+             [TAICHI_PYTHON, "-m", "pip", "install", "-q", "--disable-pip-version-check", "taichi"])
+    for cmd in steps:
+        done = subprocess.run(cmd, capture_output=True, text=True)
+        if done.returncode != 0:
+            tail = (done.stderr or done.stdout).strip().splitlines()
+            shutil.rmtree(TAICHI_VENV, ignore_errors=True)  # the next run tries again from nothing
+            return (f"{' '.join(cmd[1:4])} failed for Python {sys.version.split()[0]}: "
+                    f"{tail[-1] if tail else done.returncode}")
     imp = subprocess.run(probe, capture_output=True, text=True, env=_env())
     if imp.returncode != 0:
-        return f"taichi installed but does not import: {imp.stderr.strip().splitlines()[-1]}"
+        return f"taichi installed in {TAICHI_VENV} but does not import: {imp.stderr.strip().splitlines()[-1]}"
     return None
-
-
-def _bandwidth_gbs():
-    """Memory bandwidth of a large copy (numpy, one thread): bytes read + written per second."""
-    import numpy as np
-
-    a = np.ones(64 * 2 ** 20 // 8 * 4)  # 256 MiB
-    b = np.empty_like(a)
-    best = 0.0
-    for _ in range(5):
-        t = time.perf_counter()
-        np.copyto(b, a)
-        best = max(best, 2 * a.nbytes / (time.perf_counter() - t))
-    return best / 1e9
 
 
 def _bytes_per_step(particles, blocks):
@@ -97,7 +97,7 @@ def _interleaved(per_axis, n_grid, steps, cores, with_taichi, rounds):
                 runs[name, t].append(_run(name.split()[0], per_axis, n_grid, 2e-4, steps, t, *extra))
             except (RuntimeError, subprocess.TimeoutExpired) as exc:
                 print(f"{name} on {t} threads failed: {exc}")
-                runs[name, t].append({"seconds": float("nan"), "blocks": 0})
+                runs[name, t].append({"seconds": float("nan"), "cpu_seconds": float("nan"), "blocks": 0})
     return runs
 
 
@@ -110,13 +110,12 @@ def run(args):
     opts = parser.parse_args(args)
     cores = os.cpu_count() or 1
     taichi = "not requested (--no-taichi)" if opts.no_taichi else _taichi_status()
-    bandwidth = _bandwidth_gbs()
-    load = os.getloadavg()[0]
-    print(f"machine: {cores} cores; copy bandwidth {bandwidth:.1f} GB/s (numpy, 1 thread, read + write); "
-          f"load average {load:.1f} at the start (other work on the machine slows every column alike)")
+    copy_wall, copy_cpu = copy_bandwidth(cores, 256)
+    print(f"machine: {cores} cores; copy bandwidth on {cores} threads (numpy, read + write) {copy_wall:.1f} GB/s of "
+          f"wall time, {copy_cpu:.1f} GB/s of processor time (other work on the machine slows every column alike)")
     print("scene: snow block (seed's Table 2) falling at 1 m/s in [0,1]^3, 2 particles per cell per axis, "
           "gravity, dt = 2e-4 fixed, float64 (opdeform); taichi: mpm99 kernel in 3-D, dense grid\n")
-    rows, aims = [], []
+    rows, cpu_rows, aims, version = [], [], [], None
     for requested in (int(p) for p in opts.particles.split(",")):
         per_axis = round(requested ** (1 / 3))
         n_grid = _grid_for(per_axis)
@@ -124,6 +123,7 @@ def run(args):
         steps = opts.steps or max(5, int(3e6 / n))
         runs = _interleaved(per_axis, n_grid, steps, cores, taichi is None, max(1, opts.rounds))
         rate = {key: statistics.median(n * steps / r["seconds"] / 1e6 for r in rs) for key, rs in runs.items()}
+        cpu_ns = {key: statistics.median(r["cpu_seconds"] / (n * steps) * 1e9 for r in rs) for key, rs in runs.items()}
         per_step = _bytes_per_step(n, runs[("opdeform", cores)][0]["blocks"])
         row = [n, f"{n_grid}^3", steps, f"{rate['opdeform', 1]:.2f}", f"{rate['opdeform', cores]:.2f}"]
         if taichi is None:
@@ -134,17 +134,23 @@ def run(args):
                     f"{rate['taichi f32', cores]:.2f}", f"{rate['opdeform', cores] / rate['taichi f64', cores]:.1f}x",
                     f"{ratio:.1f}x ({min(ratios):.1f}-{max(ratios):.1f})"]
             aims.append((f"{n:,} particles, {cores} threads, against Taichi f32", f"{ratio:.1f}x", ">= 3x", ratio >= 3))
+            version = next((r["version"] for r in runs[("taichi f32", cores)] if "version" in r), version)
         gbs = per_step * rate["opdeform", cores] * 1e6 / 1e9
-        row += [f"{per_step:.0f}", f"{gbs:.2f}", f"{100 * gbs / bandwidth:.0f}%"]
+        cpu_gbs = per_step / cpu_ns["opdeform", cores]
+        row += [f"{per_step:.0f}", f"{gbs:.2f}", f"{100 * gbs / copy_wall:.0f}%", f"{100 * cpu_gbs / copy_cpu:.0f}%"]
         rows.append(row)
-    headers = ["particles", "grid", "steps", "ours 1 core", f"ours {cores} cores"]
-    if taichi is None:
-        headers += ["taichi f64 1", f"taichi f64 {cores}", f"taichi f32 {cores}", "ours/taichi f64",
-                    "ours/taichi f32"]
-    headers += ["bytes/p-step", "GB/s", "of bandwidth"]
-    print(f"million particle-steps per second (medians of {max(1, opts.rounds)} interleaved rounds, each run after a "
-          "warm-up substep; ours/taichi f32: the median of each round's ratio, with its range)")
-    table(rows, headers)
+        cpu_rows.append([n, steps] + [f"{ns:.0f}" for ns in cpu_ns.values()])
+    columns = ["ours 1 core", f"ours {cores} cores"]
+    columns += ["taichi f64 1", f"taichi f64 {cores}", f"taichi f32 {cores}"] if taichi is None else []
+    headers = ["particles", "grid", "steps"] + columns + (["ours/taichi f64", "ours/taichi f32"] if taichi is None
+                                                           else [])
+    print(f"million particle-steps per second of wall time (medians of {max(1, opts.rounds)} interleaved rounds, each "
+          "run after a warm-up substep; ours/taichi f32: the median of each round's ratio, with its range)")
+    table(rows, headers + ["bytes/p-step", "GB/s", "of copy, wall", "of copy, cpu"])
+    print(f"GB/s: bytes/p-step at ours {cores} cores' rate; of copy, wall: that against the copy's wall-time "
+          f"bandwidth on {cores} threads; of copy, cpu: bytes/p-step over ours {cores} cores' processor time per "
+          "particle-step, against the copy's processor-time bandwidth\n")
+    print("processor time per particle-step, ns (every thread of the run's process; medians of the rounds)")
+    table(cpu_rows, ["particles", "steps"] + columns)
     print_aims(aims[:1])  # the aim is set on the ~100k-particle block
-    if taichi is not None:
-        print(f"\ntaichi: {taichi}")
+    print(f"\ntaichi {version} in {TAICHI_VENV}" if taichi is None else f"\ntaichi: {taichi}")
