@@ -1,7 +1,8 @@
 """What each "leave it out" switch of the step costs and saves: ms/step of one scene without and with a feature.
 
 Every row times the same scene twice, side by side in one run (the two alternate, 21 repeats of 100 calls,
-5 for the 10,000-particle beam; medians of CPU time; one thread): without the feature and with it. Rows
+5 for the 10,000-particle beam; medians of CPU time, the wall time beside; one thread): without the feature
+and with it. Rows
 whose feature is inert (a floor 1 km below the body, direction constraints of negligible weight, a weight
 set again every frame) measure what the switch saves when the scene does not need the feature: their
 with/without ratio is what a step would cost without the switch. The others measure what the feature costs
@@ -11,31 +12,31 @@ of 20 calls)."""
 import math
 import os
 import statistics
-import time
 
 import numpy as np
 
 import opdeform
 from opdeform import meshes, scenes
 
-from .common import table
+from .common import median_times, table
 from .scale import beam
 
 
 def side_by_side(without, with_, repeats=15, inner=100):
-    """Medians in ms per call of the two functions, timed alternately in CPU time of this process (one
-    thread), which other work on a shared machine does not inflate the way it inflates wall time."""
-    a, b = [], []
+    """Medians in ms per call of the two functions, timed alternately: (processor time of this process without,
+    with; wall time without, with). Processor time is the measure (one thread): other work on a shared machine
+    does not inflate it the way it inflates wall time."""
+    samples = {fn: ([], []) for fn in (without, with_)}
     for fn in (without, with_):
         for _ in range(max(inner // 5, 1)):  # warm-up: factorizations, caches, a settled motion
             fn()
     for _ in range(repeats):
-        for fn, samples in ((without, a), (with_, b)):
-            t = time.process_time()
-            for _ in range(inner):
-                fn()
-            samples.append((time.process_time() - t) * 1e3 / inner)
-    return statistics.median(a), statistics.median(b)
+        for fn in (without, with_):
+            wall, cpu = median_times(fn, 1, inner)
+            samples[fn][0].append(cpu)
+            samples[fn][1].append(wall)
+    (cpu0, wall0), (cpu1, wall1) = ([statistics.median(x) for x in samples[fn]] for fn in (without, with_))
+    return cpu0, cpu1, wall0, wall1
 
 
 def twisted_bar(directions=True, direction_weight=None):
@@ -125,8 +126,9 @@ def rows(repeats, inner):
     out = []
 
     def row(switch, scene, kind, pair, scale=1):
-        ms0, ms1 = side_by_side(*pair, repeats=repeats, inner=max(inner // scale, 1))
-        out.append((switch, scene, kind, f"{ms0:.4f}", f"{ms1:.4f}", f"{ms1 / ms0:.2f}"))
+        ms0, ms1, wall0, wall1 = side_by_side(*pair, repeats=repeats, inner=max(inner // scale, 1))
+        out.append((switch, scene, kind, f"{ms0:.4f}", f"{ms1:.4f}", f"{ms1 / ms0:.2f}", f"{wall0:.4f}",
+                    f"{wall1:.4f}"))
 
     # Direction constraints: the code runs only when the set has one.
     _, plain = twisted_bar(directions=False)
@@ -182,4 +184,7 @@ def run(args):
     os.environ.setdefault("OMP_NUM_THREADS", "1")
     quick = "--quick" in args
     found = rows(3 if quick else 21, 20 if quick else 100)
-    table(found, ["switch", "scene", "with = ", "ms without", "ms with", "with/without"])
+    table(found, ["switch", "scene", "with = ", "ms without", "ms with", "with/without", "wall ms without",
+                  "wall ms with"])
+    print("ms: processor time, the measure (one thread); wall ms: the same calls' wall time, which other work on "
+          "the machine stretches")
