@@ -8,10 +8,11 @@ lying flat, clamped at the end of its long arm), the 2 x 0.2 m tail, the charact
 held by its torso (the drop of its tail's tip and of its left ear's, over their lengths), and a two-box body
 (two 1 x 0.1 x 0.1 m bars 0.3 m apart, one object, each clamped at x = 0).
 Prints the droops, max/min across counts per body, the plate against Euler-Bernoulli and Kirchhoff
-(cylindrical bending, nu = 0.3) theory at the body's effective E, and the calibration's cost (processor time).
+(cylindrical bending, nu = 0.3) theory at the body's effective E, and the calibration's cost (processor time,
+the measure, and wall time beside it).
 Options: --counts 50,100,200,400, --bodies plate,bracket, --calibration measured|bending|uniform,
---cost (the calibration's processor time at 100 and 1,000 particles of the plate, the tail, the bracket and
-the character).
+--cost (the calibration's processor and wall time at 100 and 1,000 particles of the plate, the tail, the
+bracket and the character).
 """
 
 import argparse
@@ -105,14 +106,12 @@ BODIES = {"plate": plate, "bracket": bracket, "tail": tail, "character_tail": ch
 
 
 def droop(body, particles, calibration="measured", iterations=4000):
-    """(droop of the tip region / the body's length, the graph's size used for E, calibration seconds); the
-    character under Jelly (under Rubber it droops 0.1-0.5 mm)."""
+    """(droop of the tip region / the body's length, the graph's size used for E, calibration (processor, wall)
+    seconds); the character under Jelly (under Rubber it droops 0.1-0.5 mm)."""
     v, t, held, tip, length = BODIES[body]()
     material = JELLY if body.startswith("character") else RUBBER
     g = opdeform.Graph.from_mesh(v, t, particles=particles)
-    start = time.process_time()
-    k = materials.stiffness_for(g, material.modulus, calibration=calibration)
-    cost = time.process_time() - start
+    k, cost = _timed(lambda: materials.stiffness_for(g, material.modulus, calibration=calibration))
     sim = opdeform.Simulation(g, k, density=material.density)
     opdeform.pin_vertices(sim, v, np.flatnonzero(held))
     sim.set_solver("chebyshev")
@@ -129,12 +128,18 @@ def plate_theory(size):
     return beam, beam * (1.0 - 0.3 ** 2)
 
 
+def _timed(fn):
+    """(fn(), (processor seconds, wall seconds) it took)."""
+    wall, cpu = time.perf_counter(), time.process_time()
+    out = fn()
+    return out, (time.process_time() - cpu, time.perf_counter() - wall)
+
+
 def cost(body, particles, calibration="measured"):
+    """(processor, wall) seconds of the calibration of ``body`` at ``particles``."""
     v, t = BODIES[body]()[:2]
     g = opdeform.Graph.from_mesh(v, t, particles=particles)
-    start = time.process_time()
-    materials.stiffness_for(g, RUBBER.modulus, calibration=calibration)
-    return time.process_time() - start
+    return _timed(lambda: materials.stiffness_for(g, RUBBER.modulus, calibration=calibration))[1]
 
 
 def run(args):
@@ -152,10 +157,14 @@ def run(args):
         row = [body] + [f"{100 * x:.2f} %" for x in d] + [f"{max(d) / min(d):.2f}"]
         row.append(" / ".join(f"{x / plate_theory(f[1])[0]:.2f}, {x / plate_theory(f[1])[1]:.2f}"
                               for x, f in zip(d, found)) if body == "plate" else "")
-        rows.append(row + [f"{max(f[2] for f in found):.2f} s"])
+        slowest = max((f[2] for f in found), key=lambda c: c[0])
+        rows.append(row + [f"{slowest[0]:.2f} s", f"{slowest[1]:.2f} s"])
         print(*rows[-1], flush=True)
-    table(rows, ["body"] + [f"{n}" for n in counts] + ["max/min", "plate / EB, / Kirchhoff", "calib. s"])
+    table(rows, ["body"] + [f"{n}" for n in counts] + ["max/min", "plate / EB, / Kirchhoff", "calib. cpu s",
+                                                     "wall s"])
+    print("calib. cpu s: the calibration's processor time at the count where it was longest; wall s: its wall time")
     if a.cost:
         for body in ("plate", "tail", "bracket", "character_tail"):
             for n in (100, 1000):
-                print(f"cost {body} {n} particles: {cost(body, n, a.calibration):.2f} s", flush=True)
+                cpu, wall = cost(body, n, a.calibration)
+                print(f"cost {body} {n} particles: {cpu:.2f} s processor, {wall:.2f} s wall", flush=True)
