@@ -1,0 +1,35 @@
+"""The benchmarks' own measuring (scripts/benchmarks, issue 26's "honest benchmarks"): the factorization timed by
+itself in the call that makes it (was a difference of two steps, negative under load), processor time kept apart
+from wall time, a copy's bandwidth in both, the load average. Correctness only: no speed is asserted here."""
+
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
+
+from benchmarks import common, scale  # noqa: E402  (scripts/ on the path first)
+
+
+def test_factorization_timed_by_itself():
+    for path in ("simplicial", "supernodal"):
+        wall, cpu, later = scale.factor_ms((10, 5, 2), path)  # raises unless the timed step factored once
+        assert wall > 0 and cpu > 0 and later > 0, (path, wall, cpu, later)
+
+
+def test_median_times_keeps_processor_time_apart():
+    wall, cpu = common.median_times(lambda: time.sleep(0.02), repeats=3)
+    assert wall >= 20.0 and cpu < 10.0, (wall, cpu)  # a sleep takes wall time, next to no processor time
+    wall, cpu = common.median_times(lambda: sum(range(20000)), repeats=3, inner=5)
+    assert wall > 0 and cpu > 0
+
+
+def test_copy_bandwidth_in_wall_and_processor_time():
+    wall, cpu = common.copy_bandwidth(2, megabytes=16, repeats=3)
+    assert wall > 0 and cpu > 0
+
+
+def test_load_gives_the_three_averages():
+    words = common.load().split()
+    assert words[:2] == ["load", "average"]
+    assert all(float(x.rstrip(",")) >= 0 for x in words[2:5])
