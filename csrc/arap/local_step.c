@@ -161,12 +161,52 @@ static bool od_ReachesOut(const od_Sim* sim, int i, int lo, int hi)
 	return false;
 }
 
-// The parallel sweep's partition: one contiguous block of particle indices per thread. A block's interior
-// (particles whose neighbours and constraint partners all lie in the block) is swept by its thread in index
-// order; the border particles, which reach into another block, are swept afterwards on one thread. Blocks
-// keep a serial sweep's memory locality; graphs in a spatial order (lattices, voxelized meshes) have thin
-// borders (the 10,000-particle beam: 200 of 10,000). A multicolour sweep was measured first: it touched
-// memory once per colour and ran slower on two threads than one at 100,000 particles.
+// The parallel sweep's partition: one contiguous block of particle indices per pool thread. A block's interior
+// (particles whose neighbours and constraint partners all lie in the block) is swept by one task in index order;
+// its border, the particles that reach into another block, after it in three phases that keep the result a
+// function of the pool's size alone:
+//   1. every block's interior, each even block's border right after its interior (in the same task);
+//   2. each odd block's border;
+//   3. on the calling thread, the far border: particles reaching past the blocks next to theirs (none on the
+//      lattices and voxelized meshes measured; thin blocks of a small or scattered graph have some).
+// Reach is symmetric (edges, constraint pairs and direction constraints list both ends), so an even block's
+// border in phase 1 reads of the blocks beside it only their borders, which no task writes in that phase; in
+// phase 2 the odd blocks' borders read even blocks, written in phase 1. Blocks keep a serial sweep's memory
+// locality; graphs in a spatial order have thin borders. The border swept on one thread after the interiors
+// (before issue 26) capped the sweep near 3x on 16 threads: the 10,000-particle beam's border is 32 % of it
+// with 16 blocks. A multicolour sweep was measured first: it touched memory once per colour and ran slower on
+// two threads than one at 100,000 particles.
+//
+// Layout: block b's interior is sweepOrder[sweepStart[2b]..sweepStart[2b+1]), its border up to
+// sweepStart[2b+2]; the far border from sweepStart[2 blocks] to sweepStart[2 blocks + 1] = n, in index order.
+static void od_PartitionBlock(od_Sim* sim, int blocks, int b, int* at, int* far)
+{
+	int n = sim->graph->n, lo, hi, nearLo, nearHi, unused;
+	od_TaskRange(n, blocks, b, &lo, &hi);
+	od_TaskRange(n, blocks, b > 0 ? b - 1 : b, &nearLo, &unused);
+	od_TaskRange(n, blocks, b + 1 < blocks ? b + 1 : b, &unused, &nearHi);
+	sim->sweepStart[2 * b] = *at;
+	for (int i = lo; i < hi; ++i)
+	{
+		if (!od_ReachesOut(sim, i, lo, hi))
+		{
+			sim->sweepOrder[(*at)++] = i;
+		}
+	}
+	sim->sweepStart[2 * b + 1] = *at;
+	for (int i = lo; i < hi; ++i)
+	{
+		if (od_ReachesOut(sim, i, nearLo, nearHi))
+		{
+			sim->sweepOrder[--*far] = i; // filled from the end, reversed below
+		}
+		else if (od_ReachesOut(sim, i, lo, hi))
+		{
+			sim->sweepOrder[(*at)++] = i;
+		}
+	}
+}
+
 od_Status od_LocalStep_PreparePartition(od_Sim* sim)
 {
 	if (!sim->partitionDirty)
@@ -174,33 +214,20 @@ od_Status od_LocalStep_PreparePartition(od_Sim* sim)
 		return OD_OK;
 	}
 	int n = sim->graph->n, blocks = od_Pool_Threads(sim->pool);
-	int* start = od_Realloc(sim->sweepStart, sizeof(int) * ((size_t)blocks + 2));
+	int* start = od_Realloc(sim->sweepStart, sizeof(int) * (2 * (size_t)blocks + 2));
 	sim->sweepStart = start ? start : sim->sweepStart;
 	if (!start || (!sim->sweepOrder && !(sim->sweepOrder = od_Alloc(sizeof(int) * (size_t)n))))
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory partitioning the graph");
 	}
-	int at = 0, border = n;
+	int at = 0, far = n;
 	for (int b = 0; b < blocks; ++b)
 	{
-		int lo, hi;
-		od_TaskRange(n, blocks, b, &lo, &hi);
-		start[b] = at;
-		for (int i = lo; i < hi; ++i)
-		{
-			if (od_ReachesOut(sim, i, lo, hi))
-			{
-				sim->sweepOrder[--border] = i; // filled from the end, reversed below
-			}
-			else
-			{
-				sim->sweepOrder[at++] = i;
-			}
-		}
+		od_PartitionBlock(sim, blocks, b, &at, &far);
 	}
-	start[blocks] = at;
-	start[blocks + 1] = n;
-	for (int a = at, z = n - 1; a < z; ++a, --z) // the border in index order
+	start[2 * blocks] = at;
+	start[2 * blocks + 1] = n;
+	for (int a = at, z = n - 1; a < z; ++a, --z) // the far border in index order
 	{
 		int t = sim->sweepOrder[a];
 		sim->sweepOrder[a] = sim->sweepOrder[z];
@@ -214,6 +241,7 @@ typedef struct od_SweepJob
 {
 	od_Sim* sim;
 	bool directions;
+	bool odd; // phase 2: the odd blocks' borders
 	long long fallbacks[OD_POOL_MAX_THREADS];
 } od_SweepJob;
 
@@ -223,13 +251,26 @@ typedef struct od_SweepJob
 // One particle's update on one thread, in nanoseconds: the pool's measure of a sweep's work (docs/speed.md).
 #define OD_SWEEP_NS 130.0
 
-static void od_SweepTask(void* ctx, int block, int thread)
+static void od_SweepRange(od_SweepJob* job, int begin, int end, int thread)
+{
+	for (int k = begin; k < end; ++k)
+	{
+		job->fallbacks[thread] += od_UpdateRotation(job->sim, job->sim->sweepOrder[k], job->directions);
+	}
+}
+
+// Phase 1, task b: block b's interior, and its border when b is even. Phase 2, task t: block 2t + 1's border.
+static void od_SweepTask(void* ctx, int task, int thread)
 {
 	od_SweepJob* job = ctx;
-	od_Sim* sim = job->sim;
-	for (int k = sim->sweepStart[block]; k < sim->sweepStart[block + 1]; ++k)
+	const int* start = job->sim->sweepStart;
+	if (job->odd)
 	{
-		job->fallbacks[thread] += od_UpdateRotation(sim, sim->sweepOrder[k], job->directions);
+		od_SweepRange(job, start[4 * task + 3], start[4 * task + 4], thread);
+	}
+	else
+	{
+		od_SweepRange(job, start[2 * task], start[2 * task + (task % 2 ? 1 : 2)], thread);
 	}
 }
 
@@ -259,8 +300,16 @@ static void od_Sweep(od_Sim* sim)
 	}
 	od_SweepJob job = { .sim = sim, .directions = directions };
 	int blocks = od_Pool_Threads(sim->pool);
-	od_Pool_Run(sim->pool, blocks, OD_SWEEP_NS * sim->graph->n, od_SweepTask, &job);
-	od_SweepTask(&job, blocks, 0); // the border
+	const int* start = sim->sweepStart;
+	int oddBorders = 0;
+	for (int b = 1; b < blocks; b += 2)
+	{
+		oddBorders += start[2 * b + 2] - start[2 * b + 1];
+	}
+	od_Pool_Run(sim->pool, blocks, OD_SWEEP_NS * (start[2 * blocks] - oddBorders), od_SweepTask, &job);
+	job.odd = true;
+	od_Pool_Run(sim->pool, blocks / 2, OD_SWEEP_NS * oddBorders, od_SweepTask, &job);
+	od_SweepRange(&job, start[2 * blocks], start[2 * blocks + 1], 0); // the far border
 	for (int t = 0; t < blocks; ++t)
 	{
 		sim->counters.polarFallbacks += job.fallbacks[t];

@@ -242,9 +242,10 @@ struct od_Sim
 	double* RInput; // 9n, the input R_k of an accelerated iteration (then the accelerated matrices)
 	double* RPlain; // 9n, its plain iterate local(global(R_k))
 	od_Pool* pool;  // local-step threads when solverDef.threads > 1
-	// The parallel sweep's partition (local_step.c): sweepOrder[sweepStart[b]..sweepStart[b+1]) is block b's
-	// interior, swept by one thread; the last range, up to n, the border. Rebuilt with the constraint terms.
-	int* sweepStart; // threads + 2
+	// The parallel sweep's partition (local_step.c): sweepOrder[sweepStart[2b]..sweepStart[2b+1]) is block b's
+	// interior, up to sweepStart[2b+2] its border; the last range, up to n, the far border. Rebuilt with the
+	// constraint terms.
+	int* sweepStart; // 2 threads + 2
 	int* sweepOrder; // n
 	bool partitionDirty;
 

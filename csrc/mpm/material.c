@@ -1,7 +1,8 @@
 // Materials of the MPM world: snow plasticity (Stomakhin 2013), fixed-corotated stress, jelly and flakes.
 //
 // Design: one SVD per particle and substep (od_Svd3, F = U Σ Vᵀ with proper U, V) serves the plasticity
-// projection and the stress. Every material is "clamp Σ, then fixed-corotated stress of the clamped F":
+// projection and the stress; G2P computes it for a batch of particles (od_Svd3Many, four at a time in AVX2
+// registers where the processor has them, the same bits) and hands each particle's to od_MpmMaterial_Update. Every material is "clamp Σ, then fixed-corotated stress of the clamped F":
 // - snow clamps each σ to [1 − θc, 1 + θs], moves the removed volume into Jp and hardens μ, λ by
 //   exp(ξ (1 − Jp));
 // - jelly clamps nothing;
@@ -13,7 +14,6 @@
 #include "world.h"
 
 #include "core.h"
-#include "polar.h"
 
 od_MpmMaterial od_MpmSnowMaterial(void)
 {
@@ -89,12 +89,10 @@ static double od_Clamp(double x, double lo, double hi)
 	return x < lo ? lo : (x > hi ? hi : x);
 }
 
-double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p)
+double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p, const od_Mat3* U, od_Vec3 sv,
+							 const od_Mat3* V)
 {
 	const od_MpmMaterial* m = &slot->def;
-	od_Mat3 F = od_M3Load(p->F), U, V;
-	od_Vec3 sv;
-	od_Svd3(&F, &U, &sv, &V);
 	double s[3] = { sv.x, sv.y, sv.z }, h = 1.0;
 	if (m->kind == OD_MPM_SNOW)
 	{
@@ -114,7 +112,7 @@ double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p)
 	if (m->kind != OD_MPM_JELLY)
 	{
 		// F = U diag(s) Vᵀ
-		od_Mat3 us = U;
+		od_Mat3 us = *U;
 		for (int r = 0; r < 3; ++r)
 		{
 			for (int k = 0; k < 3; ++k)
@@ -122,7 +120,7 @@ double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p)
 				us.m[3 * r + k] *= s[k];
 			}
 		}
-		F = od_M3MulNT(&us, &V);
+		od_Mat3 F = od_M3MulNT(&us, V);
 		od_M3Store(p->F, &F);
 	}
 	double J = s[0] * s[1] * s[2], mu = slot->mu0 * h, lambda = slot->lambda0 * h, d[3];
@@ -134,8 +132,8 @@ double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p)
 	static const int rows[6] = { 0, 1, 2, 0, 0, 1 }, cols[6] = { 0, 1, 2, 1, 2, 2 };
 	for (int e = 0; e < 6; ++e)
 	{
-		const double* a = &U.m[3 * rows[e]];
-		const double* b = &U.m[3 * cols[e]];
+		const double* a = &U->m[3 * rows[e]];
+		const double* b = &U->m[3 * cols[e]];
 		p->tau[e] = a[0] * d[0] * b[0] + a[1] * d[1] * b[1] + a[2] * d[2] * b[2];
 	}
 	return h;

@@ -1,8 +1,9 @@
 // Particle rotation from the polar decomposition of the deformation gradient (Song et al. 2022).
 //
-// Design: a particle's material rotation is R = U Vᵀ of F's SVD (od_PolarRotation). Its orientation is
-// advanced from one update (a frame) to the next by the increment ΔR = R_new R_oldᵀ with the angle
-// scaled by η in axis-angle form — the seed's spin exaggeration without an Euler axis order:
+// Design: a particle's material rotation is R = U Vᵀ of F's SVD (od_PolarRotation's product; the SVDs of a
+// batch of particles computed together by od_Svd3Many). Its orientation is advanced from one update (a frame)
+// to the next by the increment ΔR = R_new R_oldᵀ with the angle scaled by η in axis-angle form — the seed's
+// spin exaggeration without an Euler axis order:
 //     Q ← exp(η log ΔR) Q,    Q₀ = the rest orientation.
 // With η = 1 this is exactly R applied to the rest orientation; with η = 0 the particle keeps its rest
 // orientation (plain MLS-MPM, the seed's Fig. 9 comparison). Working with increments keeps the output
@@ -105,45 +106,67 @@ typedef struct od_RotationJob
 	double *quat, *polarQuat;
 } od_RotationJob;
 
-static void od_RotationTask(void* ctx, int task, int thread)
+// F scaled where FᵀF would over- or underflow: R ignores a positive scale.
+static od_Mat3 od_RotationInput(const od_MpmParticle* p)
 {
-	(void)thread;
-	const od_RotationJob* job = ctx;
-	const od_MpmWorld* w = job->w;
-	int begin, end;
-	od_TaskRange(job->count, OD_ROTATION_TASKS, task, &begin, &end);
-	for (int i = job->begin + begin; i < job->begin + end; ++i)
+	od_Mat3 F = od_M3Load(p->F);
+	double size = 0.0;
+	for (int k = 0; k < 9; ++k)
 	{
-		const od_MpmParticle* p = &w->state.particles[i];
-		od_Mat3 F = od_M3Load(p->F);
-		double size = 0.0;
+		size = fmax(size, fabs(F.m[k]));
+	}
+	if (size > 1e100 || (size > 0.0 && size < 1e-100))
+	{
 		for (int k = 0; k < 9; ++k)
 		{
-			size = fmax(size, fabs(F.m[k]));
+			F.m[k] /= size;
 		}
-		if (size > 1e100 || (size > 0.0 && size < 1e-100)) // R ignores a positive scale; FᵀF would over/underflow
+	}
+	return F;
+}
+
+// The particle's new orientation from R = U Vᵀ (od_PolarRotation's product), by id into the job's arrays.
+static void od_RotationWrite(const od_RotationJob* job, const od_MpmParticle* p, const od_Mat3* U, const od_Mat3* V)
+{
+	const od_MpmWorld* w = job->w;
+	od_Mat3 R = od_M3MulNT(U, V);
+	const double* old = w->state.polarQuat + 4 * p->id;
+	const double* q = w->state.quat + 4 * p->id;
+	double now[4], inverse[4] = { old[0], -old[1], -old[2], -old[3] }, delta[4], scaled[4];
+	od_QuatFromMatrix(&R, now);
+	if (now[0] * old[0] + now[1] * old[1] + now[2] * old[2] + now[3] * old[3] < 0.0)
+	{
+		for (int k = 0; k < 4; ++k)
 		{
-			for (int k = 0; k < 9; ++k)
-			{
-				F.m[k] /= size;
-			}
+			now[k] = -now[k];
 		}
-		od_Mat3 R = od_PolarRotation(&F);
-		const double* old = w->state.polarQuat + 4 * p->id;
-		const double* q = w->state.quat + 4 * p->id;
-		double now[4], inverse[4] = { old[0], -old[1], -old[2], -old[3] }, delta[4], scaled[4];
-		od_QuatFromMatrix(&R, now);
-		if (now[0] * old[0] + now[1] * old[1] + now[2] * old[2] + now[3] * old[3] < 0.0)
+	}
+	od_QuatMul(now, inverse, delta);
+	od_QuatScaleAngle(delta, w->model.def.spin, scaled);
+	od_QuatMul(scaled, q, job->quat + 4 * p->id);
+	memcpy(job->polarQuat + 4 * p->id, now, sizeof now);
+}
+
+// The task's particles OD_MPM_SVD_BATCH at a time: their SVDs together (od_Svd3Many), then each orientation.
+static void od_RotationTask(void* ctx, int task, int thread)
+{
+	const od_RotationJob* job = ctx;
+	const od_MpmParticle* particles = job->w->state.particles;
+	od_MpmSvdBatch* batch = &job->w->threadData[thread].svd;
+	int begin, end;
+	od_TaskRange(job->count, OD_ROTATION_TASKS, task, &begin, &end);
+	for (int first = job->begin + begin; first < job->begin + end; first += OD_MPM_SVD_BATCH)
+	{
+		int count = job->begin + end - first < OD_MPM_SVD_BATCH ? job->begin + end - first : OD_MPM_SVD_BATCH;
+		for (int b = 0; b < count; ++b)
 		{
-			for (int k = 0; k < 4; ++k)
-			{
-				now[k] = -now[k];
-			}
+			batch->F[b] = od_RotationInput(&particles[first + b]);
 		}
-		od_QuatMul(now, inverse, delta);
-		od_QuatScaleAngle(delta, w->model.def.spin, scaled);
-		od_QuatMul(scaled, q, job->quat + 4 * p->id);
-		memcpy(job->polarQuat + 4 * p->id, now, sizeof now);
+		od_Svd3Many(count, batch->F, batch->U, batch->s, batch->V);
+		for (int b = 0; b < count; ++b)
+		{
+			od_RotationWrite(job, &particles[first + b], &batch->U[b], &batch->V[b]);
+		}
 	}
 }
 

@@ -5,8 +5,12 @@
 // (colour by colour, see grid.c); G2P copies the region out of the grid and gathers from it. With
 // D⁻¹ = 4/Δx², P2G adds w (m v + (m C − Δt V D⁻¹ τ)(xᵢ − x)) and w m to each of the 27 nodes; G2P takes
 // v = Σ w vᵢ and C = D⁻¹ Σ w vᵢ (xᵢ − x)ᵀ, moves the particle, updates F ← (I + Δt C) F and runs the
-// material's plasticity and stress (material.c), whose τ the next P2G scatters.
+// material's plasticity and stress (material.c), whose τ the next P2G scatters. G2P takes a block's particles
+// OD_MPM_SVD_BATCH at a time: the gathers first, then the batch's SVDs together (od_Svd3Many: four at a time in
+// AVX2 registers where the processor has them, the same bits as one by one), then the material of each.
 #include "world.h"
+
+#include "polar.h"
 
 #include <string.h>
 
@@ -131,6 +135,67 @@ static void od_KeepInside(const od_MpmWorld* w, od_Vec3* x, od_Vec3* v)
 	*x = od_V3Load(xs);
 }
 
+// G2P's gather for one particle: its velocity and C from the region, the move (colliders, walls), and
+// F ← (I + Δt C) F, also left in *F for the batch's SVD.
+static void od_G2PMove(const od_MpmWorld* w, double* region, const int origin[3], double dt, od_MpmParticle* p,
+					   od_Mat3* F)
+{
+	double dinv = 4.0 * w->model.invDx * w->model.invDx, dx = 1.0 / w->model.invDx;
+	od_MpmStencil s;
+	od_MpmStencil_Make(w, p->x, &s);
+	int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
+	od_Vec3 v = od_V3(0, 0, 0);
+	od_Mat3 B = od_M3Zero();
+	for (int kk = 0; kk < 3; ++kk)
+	{
+		for (int j = 0; j < 3; ++j)
+		{
+			double wyz = s.w[1][j] * s.w[2][kk];
+			for (int i = 0; i < 3; ++i)
+			{
+				const double* node = od_RegionNode(region, local, i, j, kk);
+				od_Vec3 vi = od_V3Load(node);
+				double wt = s.w[0][i] * wyz;
+				v = od_MulAdd(v, wt, vi);
+				od_M3AddOuter(&B, wt, vi, od_V3((i - s.fx[0]) * dx, (j - s.fx[1]) * dx, (kk - s.fx[2]) * dx));
+			}
+		}
+	}
+	od_Vec3 x = od_MulAdd(od_V3Load(p->x), dt, v);
+	for (int c = 0; c < w->colliderCount; ++c)
+	{
+		od_MpmCollider_Particle(&w->colliders[c], &x, &v);
+	}
+	od_KeepInside(w, &x, &v);
+	od_V3Store(p->x, x);
+	od_V3Store(p->v, v);
+	// C = D⁻¹ B; F ← (I + Δt C) F
+	od_Mat3 C = B, G;
+	for (int e = 0; e < 9; ++e)
+	{
+		C.m[e] *= dinv;
+		G.m[e] = (e % 4 == 0) + dt * C.m[e];
+	}
+	od_M3Store(p->C, &C);
+	od_Mat3 F0 = od_M3Load(p->F);
+	*F = od_M3Mul(&G, &F0);
+	od_M3Store(p->F, F);
+}
+
+// The material's plasticity and stress from the particle's SVD, then the thread's reductions.
+static void od_G2PMaterial(const od_MpmWorld* w, od_MpmThreadData* td, od_MpmParticle* p, int b)
+{
+	double h = od_MpmMaterial_Update(&w->model.materials[p->material], p, &td->svd.U[b], td->svd.s[b], &td->svd.V[b]);
+	double speed = od_Length(od_V3Load(p->v)), health = p->Jp * 0.0;
+	for (int e = 0; e < 9; ++e)
+	{
+		health += p->F[e] * 0.0 + p->C[e] * 0.0; // NaN or infinity in F or C (a huge Δt) fails the step too
+	}
+	td->maxSpeed = fmax(td->maxSpeed, isfinite(speed + health) ? speed : INFINITY);
+	td->maxHardening = fmax(td->maxHardening, h);
+}
+
+// The block's particles a batch at a time: gather and move each, the batch's SVDs together, then the material.
 static void od_G2PTask(void* ctx, int ob, int thread)
 {
 	const od_TransferJob* job = ctx;
@@ -139,56 +204,19 @@ static void od_G2PTask(void* ctx, int ob, int thread)
 	int origin[3];
 	od_MpmGrid_RegionOrigin(w, ob, origin);
 	od_MpmGrid_Load(w, ob, td->region);
-	double dinv = 4.0 * w->model.invDx * w->model.invDx, dx = 1.0 / w->model.invDx, dt = job->dt;
-	for (int k = w->sort.occupiedStart[ob]; k < w->sort.occupiedStart[ob + 1]; ++k)
+	int end = w->sort.occupiedStart[ob + 1];
+	for (int first = w->sort.occupiedStart[ob]; first < end; first += OD_MPM_SVD_BATCH)
 	{
-		od_MpmParticle* p = &w->state.particles[w->sort.order[k]];
-		od_MpmStencil s;
-		od_MpmStencil_Make(w, p->x, &s);
-		int local[3] = { s.base[0] - origin[0], s.base[1] - origin[1], s.base[2] - origin[2] };
-		od_Vec3 v = od_V3(0, 0, 0);
-		od_Mat3 B = od_M3Zero();
-		for (int kk = 0; kk < 3; ++kk)
+		int count = end - first < OD_MPM_SVD_BATCH ? end - first : OD_MPM_SVD_BATCH;
+		for (int b = 0; b < count; ++b)
 		{
-			for (int j = 0; j < 3; ++j)
-			{
-				double wyz = s.w[1][j] * s.w[2][kk];
-				for (int i = 0; i < 3; ++i)
-				{
-					const double* node = od_RegionNode(td->region, local, i, j, kk);
-					od_Vec3 vi = od_V3Load(node);
-					double wt = s.w[0][i] * wyz;
-					v = od_MulAdd(v, wt, vi);
-					od_M3AddOuter(&B, wt, vi, od_V3((i - s.fx[0]) * dx, (j - s.fx[1]) * dx, (kk - s.fx[2]) * dx));
-				}
-			}
+			od_G2PMove(w, td->region, origin, job->dt, &w->state.particles[w->sort.order[first + b]], &td->svd.F[b]);
 		}
-		od_Vec3 x = od_MulAdd(od_V3Load(p->x), dt, v);
-		for (int c = 0; c < w->colliderCount; ++c)
+		od_Svd3Many(count, td->svd.F, td->svd.U, td->svd.s, td->svd.V);
+		for (int b = 0; b < count; ++b)
 		{
-			od_MpmCollider_Particle(&w->colliders[c], &x, &v);
+			od_G2PMaterial(w, td, &w->state.particles[w->sort.order[first + b]], b);
 		}
-		od_KeepInside(w, &x, &v);
-		od_V3Store(p->x, x);
-		od_V3Store(p->v, v);
-		// C = D⁻¹ B; F ← (I + Δt C) F
-		od_Mat3 C = B, F = od_M3Load(p->F), G;
-		for (int e = 0; e < 9; ++e)
-		{
-			C.m[e] *= dinv;
-			G.m[e] = (e % 4 == 0) + dt * C.m[e];
-		}
-		od_M3Store(p->C, &C);
-		F = od_M3Mul(&G, &F);
-		od_M3Store(p->F, &F);
-		double h = od_MpmMaterial_Update(&w->model.materials[p->material], p);
-		double speed = od_Length(v), health = p->Jp * 0.0;
-		for (int e = 0; e < 9; ++e)
-		{
-			health += p->F[e] * 0.0 + C.m[e] * 0.0; // NaN or infinity in F or C (a huge Δt) fails the step too
-		}
-		td->maxSpeed = fmax(td->maxSpeed, isfinite(speed + health) ? speed : INFINITY);
-		td->maxHardening = fmax(td->maxHardening, h);
 	}
 }
 

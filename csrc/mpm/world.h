@@ -7,7 +7,8 @@
 //
 // One substep: sort (grid.c) -> P2G (transfer.c) -> grid update with gravity, wind and colliders
 // (world.c, wind.c, collider.c) -> G2P, which also updates F, applies the plasticity and
-// computes the stress the next P2G scatters (material.c).
+// computes the stress the next P2G scatters (material.c), the SVDs of F computed a batch of particles at a
+// time (od_MpmSvdBatch) before the material uses them.
 #pragma once
 
 #include "opdeform/mpm.h"
@@ -88,10 +89,20 @@ typedef struct od_MpmSort
 	int colourStart[9];
 } od_MpmSort;
 
+// Particles whose deformation gradients get their SVDs together (od_Svd3Many: four at a time where AVX2 runs),
+// in G2P and in the orientation update, and the thread's room for them.
+#define OD_MPM_SVD_BATCH 16
+typedef struct od_MpmSvdBatch
+{
+	od_Mat3 F[OD_MPM_SVD_BATCH], U[OD_MPM_SVD_BATCH], V[OD_MPM_SVD_BATCH];
+	od_Vec3 s[OD_MPM_SVD_BATCH];
+} od_MpmSvdBatch;
+
 // Per-thread reductions of G2P and scratch regions.
 typedef struct od_MpmThreadData
 {
 	double region[OD_MPM_REGION * OD_MPM_REGION * OD_MPM_REGION * 4];
+	od_MpmSvdBatch svd;
 	double maxSpeed, maxHardening; // maxSpeed is infinite once a velocity is not finite
 	char pad[64];
 } od_MpmThreadData;
@@ -170,8 +181,10 @@ void od_MpmG2P(od_MpmWorld* w, double dt);
 // material.c
 od_Status od_MpmMaterial_Check(const od_MpmMaterial* m);
 void od_MpmMaterial_Derive(od_MpmMaterialSlot* slot);
-// Plasticity projection of p->F (and p->Jp), then p->tau; returns the hardening factor used.
-double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p);
+// Plasticity projection of p->F (and p->Jp), then p->tau, from p->F = U diag(s) Vᵀ (od_Svd3); returns the
+// hardening factor used.
+double od_MpmMaterial_Update(const od_MpmMaterialSlot* slot, od_MpmParticle* p, const od_Mat3* U, od_Vec3 s,
+							 const od_Mat3* V);
 // Largest elastic wave speed at hardening factor h.
 double od_MpmMaterial_WaveSpeed(const od_MpmMaterialSlot* slot, double h);
 

@@ -220,7 +220,10 @@ static int test_snow_clamp(void)
 		}
 		od_Mat3 before = od_M3Load(p.F);
 		double jBefore = od_M3Det(&before) * p.Jp;
-		double h = od_MpmMaterial_Update(&slot, &p);
+		od_Mat3 u0, v0;
+		od_Vec3 s0;
+		od_Svd3(&before, &u0, &s0, &v0);
+		double h = od_MpmMaterial_Update(&slot, &p, &u0, s0, &v0);
 		od_Mat3 after = od_M3Load(p.F), u, v;
 		od_Vec3 s;
 		od_Svd3(&after, &u, &s, &v);

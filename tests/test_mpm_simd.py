@@ -1,0 +1,76 @@
+"""MPM's SVDs four particles at a time (csrc/base/svd4.c, AVX2 on x86-64) against the scalar od_Svd3
+(OPDEFORM_NO_AVX2=1): the snow block of `scripts/bench mpm`, the README's scattered flakes and the car through a
+layer of flakes give the same trajectories bit for bit (positions, velocities, orientations, deformation
+gradients, affine matrices, plastic volume change) on every thread count. The 4-wide kernel itself is checked
+matrix by matrix in tests/c/test_svd4.c."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+FIELDS = ("positions", "velocities", "orientations", "deformation", "affine", "plastic_j")
+
+SCENES = {
+    # the snow block of scripts/benchmarks/_mpm_runner.py, small: hits the floor, so the snow turns plastic
+    "snow": """
+world = mpm.World((0, 0, 0), (1, 1, 1), 1 / 24, walls="separate", threads=THREADS)
+a = (np.arange(12) + 0.5) / 48
+x, y, z = np.meshgrid(0.375 + a, 0.375 + a, 0.2 + a, indexing="ij")
+pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+world.add_particles(pts, mpm.snow(), particle_volume=48.0 ** -3, velocities=np.broadcast_to([0, 0, -1.0], pts.shape))
+for frame in range(12):
+    world.step(1 / 60)
+    world.update_orientations()
+""",
+    "flakes": """
+scene = mpm_scenes.scattered_flakes(count=1500, threads=THREADS)
+world = scene.world
+for frame in range(12):
+    world.step(1 / 24)
+    world.update_orientations()
+""",
+    "car": """
+scene = mpm_scenes.car_collision(count=2000, threads=THREADS)
+world = scene.world
+for frame in range(8):
+    scene.on_frame(frame, world)
+    world.step(1 / 24)
+    world.update_orientations()
+""",
+}
+
+
+def run_scene(name, avx2, threads=1):
+    """The scene's fields after its frames, as one float64 array per field, in a fresh process."""
+    code = ("import sys, numpy as np\nfrom opdeform import mpm, mpm_scenes\n" + SCENES[name].replace(
+        "THREADS", str(threads)) + f"\nfor f in {FIELDS!r}:\n    sys.stdout.buffer.write(world.read(f).tobytes())\n"
+        "print(world.n_particles, file=sys.stderr)\n")
+    env = dict(os.environ, OPDEFORM_NO_AVX2="0" if avx2 else "1")
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True, timeout=600)
+    n = int(proc.stderr.split()[-1])
+    data = np.frombuffer(proc.stdout)
+    widths = (3, 3, 4, 9, 9, 1)
+    out, at = {}, 0
+    for field, width in zip(FIELDS, widths):
+        out[field] = data[at:at + n * width].reshape(n, width)
+        at += n * width
+    assert at == len(data)
+    return out
+
+
+@pytest.mark.parametrize("name", sorted(SCENES))
+def test_the_4_wide_svd_gives_the_scalar_trajectories(name):
+    scalar, wide = run_scene(name, avx2=False), run_scene(name, avx2=True)
+    moved = np.abs(scalar["positions"] - run_scene(name, avx2=False, threads=2)["positions"]).max()
+    assert moved == 0.0  # and the thread count changes nothing either
+    for field in FIELDS:
+        assert np.isfinite(scalar[field]).all()
+        np.testing.assert_array_equal(wide[field], scalar[field], err_msg=field)
+    # the scenes exercise the SVD: the snow turns plastic, the flakes and the car's layer turn
+    if name == "snow":
+        assert (scalar["plastic_j"] < 1.0 - 1e-3).any()
+    assert (np.abs(scalar["orientations"][:, 0]) < 0.999).any()
+
