@@ -173,23 +173,27 @@ def move_to(obj, scene):
 
 def play_interleaved(scenes, frames):
     """Benchmarks: each scene ({label: (scene, object)}) set to frames 1..frames, the scenes interleaved frame
-    by frame; per label the median process time of scene.frame_set and of opdeform's solver (None for other
-    solvers) over frames 2..frames, in ms. An opdeform object that reports an error fails."""
+    by frame; per label the median process time of scene.frame_set (ms), its wall time (wall_ms) and opdeform's
+    solver time (solver_ms, None for other solvers) over frames 2..frames, in ms. An opdeform object that
+    reports an error fails."""
     import statistics
     import time
 
     rt = runtime()
     times = {label: [] for label in scenes}
+    walls = {label: [] for label in scenes}
     solver = {label: [] for label in scenes}
     for f in range(1, frames + 1):
         for label, (scene, obj) in scenes.items():
-            t = time.process_time()
+            t, wall = time.process_time(), time.perf_counter()
             scene.frame_set(f)
             times[label].append(time.process_time() - t)
+            walls[label].append(time.perf_counter() - wall)
             if rt.get(obj) is not None:
                 assert not obj.opdeform.error, (label, obj.opdeform.error)
                 solver[label].append(rt.get(obj).engine.timing["solver"])
     return {label: dict(ms=1e3 * statistics.median(times[label][1:]),
+                        wall_ms=1e3 * statistics.median(walls[label][1:]),
                         solver_ms=1e3 * statistics.median(solver[label][1:]) if solver[label] else None)
             for label in scenes}
 
