@@ -77,9 +77,13 @@ def test_factor_once_per_change_and_targets_touch_only_the_right_side():
     c1 = sim.counters
     assert c1["factorizations"] == 1 and c1["analyses"] == 1
     assert c1["solves"] - c0["solves"] == 30 * 11
+    assert (c1["analyze_seconds"], c1["factor_seconds"]) == (c0["analyze_seconds"], c0["factor_seconds"])
     cid = sim.add_position_constraint((1.0, 0, 0))
     sim.step()
-    assert sim.counters["factorizations"] == 2
+    c2 = sim.counters
+    assert c2["factorizations"] == 2
+    assert c2["factor_seconds"] > c1["factor_seconds"] > 0 and c2["analyze_seconds"] > c1["analyze_seconds"] > 0
+    assert c2["analyze_seconds"] + c2["factor_seconds"] <= c2["global_seconds"]  # a part of the global steps
     sim.remove_constraint(cid)
     sim.set_params(stiffness=2 * sim.params["stiffness"])
     sim.step(3)

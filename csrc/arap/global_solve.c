@@ -231,6 +231,7 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	// is paid again on every change of stiffness, step or weights. AMD if METIS is not built in.
 	int threads = sim->pool ? od_Pool_Threads(sim->pool) : 1;
 	cc->method[0].ordering = threads > 1 || n >= OD_METIS_PARTICLES ? CHOLMOD_METIS : CHOLMOD_AMD;
+	double start = od_Clock();
 	cholmod_factor* factor = cholmod_analyze(a, cc);
 	if (!factor && cc->status == CHOLMOD_NOT_INSTALLED)
 	{
@@ -238,6 +239,8 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 		factor = cholmod_analyze(a, cc);
 	}
 	sim->counters.analyses++;
+	double analyzed = od_Clock();
+	sim->counters.analyzeSeconds += analyzed - start;
 	if (factor)
 	{
 		cholmod_factorize(a, factor, cc);
@@ -249,6 +252,7 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	{
 		status = od_Cholesky_Create(factor, cc, threads, &s->factor);
 	}
+	sim->counters.factorSeconds += od_Clock() - analyzed;
 	cholmod_free_factor(&factor, cc);
 	s->rhs = status == OD_OK ? od_Alloc(sizeof(double) * 3 * (size_t)n) : NULL;
 	if (status == OD_OK && !s->rhs)

@@ -662,10 +662,10 @@ static PyObject* Sim_counters(PyObject* obj, PyObject* unused)
 		return NULL;
 	}
 	od_SimCounters c = od_Sim_GetCounters(sim);
-	return Py_BuildValue("{sLsLsLsLsLsLsLsdsd}", "factorizations", c.factorizations, "analyses", c.analyses,
+	return Py_BuildValue("{sLsLsLsLsLsLsLsdsdsdsd}", "factorizations", c.factorizations, "analyses", c.analyses,
 						 "solves", c.solves, "steps", c.steps, "polar_fallbacks", c.polarFallbacks, "accelerated",
 						 c.accelerated, "rejected", c.rejected, "local_seconds", c.localSeconds, "global_seconds",
-						 c.globalSeconds);
+						 c.globalSeconds, "analyze_seconds", c.analyzeSeconds, "factor_seconds", c.factorSeconds);
 }
 
 // set_solver(accelerator: 0 none | 1 anderson | 2 chebyshev | 3 auto, window, rho, threads, factorization, tolerance,

@@ -124,7 +124,9 @@ class CoreObject:
 
     @property
     def counters(self) -> dict[str, float]:
-        """Factorizations, analyses, solves, steps, polar fallbacks, and accelerated / rejected iterations."""
+        """Factorizations, analyses, solves, steps, polar fallbacks, accelerated / rejected iterations, and wall
+        seconds: local_seconds, global_seconds, and of the global ones analyze_seconds (the ordering) and
+        factor_seconds (the numeric factorization)."""
         return self._core.counters()
 
 

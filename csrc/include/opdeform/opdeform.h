@@ -158,6 +158,9 @@ typedef struct od_SimCounters
 	long long rejected;       // iterations whose accelerated iterate raised the energy and was dropped
 	double localSeconds;      // wall time in local steps
 	double globalSeconds;     // wall time in global steps (right side, back-substitution, factorizations)
+	double analyzeSeconds;    // of which the symbolic analyses (ordering) took
+	double factorSeconds;     // of which the numeric factorizations took (with copying the factor for the
+	                          // substitutions)
 } od_SimCounters;
 
 od_SimCounters od_Sim_GetCounters(const od_Sim* sim);
