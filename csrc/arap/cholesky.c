@@ -7,12 +7,22 @@
 //
 // Threads: in postorder the subtree of column j is the column range [j - size_j + 1, j], and two disjoint
 // subtrees share no rows but their common ancestors'. The plan cuts the elimination tree into an antichain
-// of subtrees, packs them into one bin per thread (largest first) and leaves the columns above them, the
-// top, to one thread:
-//   forward  L y = b:  each bin runs its columns in order; updates of rows above a subtree go to the bin's
-//                      own accumulator, summed into the top rows in bin order afterwards; then the top;
-//   backward Lᵀ x = y: the top first, then each bin, reading only its own rows and the top's.
+// of subtrees and packs them into one bin per thread (largest first): a level. The columns above the cut form a
+// tree of their own (a column's ancestors are never in a subtree of the cut), which is cut again into the next
+// level, and so on while a level pays; the columns left, the top, go to one thread:
+//   forward  L y = b:  level by level, each bin runs its subtrees' columns in order; updates of rows above a
+//                      subtree go to the bin's own accumulator; a bin of a later level (and the top, last)
+//                      first takes its rows' sums from every accumulator in bin order, then runs in order;
+//   backward Lᵀ x = y: the top first, then the levels from the last down, each bin reading only its own rows
+//                      and those of later levels.
 // The order of every sum depends on the plan alone, so a given thread count gives the same bits each run.
+// Each level's cut is the one with the least estimated time, its heaviest bin plus the columns above it on one
+// thread. A nested-dissection tree is a tree of separators above its subtrees; with one level (before issue 26)
+// the separators above 8 subtrees (700 of the 10,000 beam's columns, 2,800 of the 100,000 beam's) all ran on
+// one thread, and od_Cholesky_Span bounded the 16-thread substitution at 3.9x and 5.0x; the second level runs
+// the lower separators of each half beside each other: 5.2x and 6.1x. Estimating the columns above a cut as
+// they would run on later levels (their heaviest path, or their work over the threads) cut too deep: its later
+// levels found only small subtrees and bounded the 4- and 16-thread plans at 1.2-2.9x.
 #include "cholesky.h"
 
 #include "core.h"
@@ -24,8 +34,11 @@
 
 typedef struct od_CholRange
 {
-	int lo, hi;
+	int begin, end; // positions in `order`; the subtree's root, its largest column, is order[end - 1]
 } od_CholRange;
+
+// Levels of a plan at most (each costs two pool jobs a solve).
+#define OD_PLAN_LEVELS 8
 
 struct od_Cholesky
 {
@@ -38,13 +51,14 @@ struct od_Cholesky
 	double* y;       // 3n, the right sides in factor order
 
 	// The parallel plan (threads > 1).
-	int threads;
-	int* binStart;        // threads + 1, into ranges
-	od_CholRange* ranges; // subtrees, ascending within a bin
-	int* top;             // the columns in no subtree, ascending
-	int topCount;
+	int threads, levels;
+	int* binStart;        // levels x threads + 1, into ranges: level l's bin b from binStart[l * threads + b]
+	od_CholRange* ranges; // subtrees, by level, bin and first column
+	int* order;           // n: the subtrees' columns, ascending in each, in the order of ranges; then the top's
+	int topStart;         // where the top begins in order
+	double levelWork[OD_PLAN_LEVELS]; // the level's share of a pass (od_ColumnsWork), for the pool
 	int* split;           // per column of a subtree: entries from split[j] on are rows above the subtree
-	double* acc;          // threads x 3n: a bin's updates of top rows
+	double* acc;          // threads x 3n: a bin's updates of rows above its subtrees
 };
 
 void od_Cholesky_Destroy(od_Cholesky* ch)
@@ -61,7 +75,7 @@ void od_Cholesky_Destroy(od_Cholesky* ch)
 	od_Free(ch->y);
 	od_Free(ch->binStart);
 	od_Free(ch->ranges);
-	od_Free(ch->top);
+	od_Free(ch->order);
 	od_Free(ch->split);
 	od_Free(ch->acc);
 	od_Free(ch);
@@ -70,6 +84,48 @@ void od_Cholesky_Destroy(od_Cholesky* ch)
 int od_Cholesky_Threads(const od_Cholesky* ch)
 {
 	return ch->threads;
+}
+
+// Column j's share of a substitution pass: one, and one per entry below the diagonal.
+static double od_ColumnWork(const od_Cholesky* ch, int j)
+{
+	return 1.0 + (double)(ch->colStart[j + 1] - ch->colStart[j]);
+}
+
+void od_Cholesky_Span(const od_Cholesky* ch, double* serial, double* span)
+{
+	double permute = 2.0 * ch->n; // b read and x written through the permutation, on the calling thread
+	*serial = permute + 2.0 * (double)(ch->n + ch->colStart[ch->n]);
+	*span = *serial;
+	if (ch->threads < 2)
+	{
+		return;
+	}
+	*span = permute;
+	for (int l = 0; l < ch->levels; ++l)
+	{
+		double forward = 0.0, backward = 0.0;
+		for (int b = 0; b < ch->threads; ++b)
+		{
+			double work = 0.0, columns = 0.0;
+			for (int r = ch->binStart[l * ch->threads + b]; r < ch->binStart[l * ch->threads + b + 1]; ++r)
+			{
+				for (int p = ch->ranges[r].begin; p < ch->ranges[r].end; ++p)
+				{
+					work += od_ColumnWork(ch, ch->order[p]);
+				}
+				columns += ch->ranges[r].end - ch->ranges[r].begin;
+			}
+			double pulls = l > 0 ? columns * ch->threads : 0.0; // the sums taken from every accumulator
+			forward = work + pulls > forward ? work + pulls : forward;
+			backward = work > backward ? work : backward;
+		}
+		*span += forward + backward;
+	}
+	for (int p = ch->topStart; p < ch->n; ++p)
+	{
+		*span += 2.0 * od_ColumnWork(ch, ch->order[p]) + ch->threads;
+	}
 }
 
 static void od_SortColumn(int* row, double* val, int count)
@@ -137,35 +193,39 @@ static od_Status od_CopyFactor(od_Cholesky* ch, const cholmod_factor* f)
 typedef struct od_Tree
 {
 	int* parent;
-	int* size;    // columns in the subtree
+	int* size;    // nodes in the subtree
 	double* work; // entries of L in the subtree, plus one per column: the substitutions' cost
 } od_Tree;
 
-// The elimination tree; false when the columns are not in postorder (the plan then stays serial).
-static bool od_Tree_Build(const od_Cholesky* ch, od_Tree* t)
+// The elimination tree of the columns cols[0..m) (ascending, every ancestor of one of them among them): node k
+// is column cols[k], node[cols[k]] = k. False when they are not in postorder (the plan then stays serial).
+static bool od_Tree_Build(const od_Cholesky* ch, const int* cols, int m, int* node, od_Tree* t)
 {
-	int n = ch->n;
-	for (int j = 0; j < n; ++j)
+	for (int k = 0; k < m; ++k)
 	{
-		int begin = ch->colStart[j], end = ch->colStart[j + 1];
-		t->parent[j] = begin < end ? ch->row[begin] : -1; // the first row below the diagonal
-		t->size[j] = 1;
-		t->work[j] = 1.0 + (double)(end - begin);
+		node[cols[k]] = k;
 	}
-	for (int j = 0; j < n; ++j)
+	for (int k = 0; k < m; ++k)
 	{
-		if (t->parent[j] >= 0)
+		int j = cols[k], begin = ch->colStart[j];
+		t->parent[k] = begin < ch->colStart[j + 1] ? node[ch->row[begin]] : -1; // the first row below the diagonal
+		t->size[k] = 1;
+		t->work[k] = od_ColumnWork(ch, j);
+	}
+	for (int k = 0; k < m; ++k)
+	{
+		if (t->parent[k] >= 0)
 		{
-			t->size[t->parent[j]] += t->size[j];
-			t->work[t->parent[j]] += t->work[j];
+			t->size[t->parent[k]] += t->size[k];
+			t->work[t->parent[k]] += t->work[k];
 		}
 	}
-	// Postorder: every subtree's first column lies inside its parent's range, so the size_p columns of p's
+	// Postorder: every subtree's first node lies inside its parent's range, so the size_p nodes of p's
 	// subtree fill [p - size_p + 1, p] exactly.
-	for (int j = 0; j < n; ++j)
+	for (int k = 0; k < m; ++k)
 	{
-		int p = t->parent[j];
-		if (p >= 0 && j - t->size[j] + 1 < p - t->size[p] + 1)
+		int p = t->parent[k];
+		if (p >= 0 && k - t->size[k] + 1 < p - t->size[p] + 1)
 		{
 			return false;
 		}
@@ -211,9 +271,9 @@ static double od_PackBins(const od_Tree* t, int* cut, int count, int bins, doubl
 #define OD_PLAN_STEPS 4096
 #define OD_PLAN_MAX_CUT 1024
 
-// Searches for the cut with the least estimated time (top work + heaviest bin) by splitting, again and
-// again, the heaviest subtree of the cut into its children. Returns that time, the serial time in *total
-// and the cut in best/bestCount (empty when nothing beats one thread).
+// Searches for the cut with the least estimated time (the columns above it on one thread + the heaviest bin) by
+// splitting, again and again, the heaviest subtree of the cut into its children. Returns that time, the serial
+// time in *total and the cut in best/bestCount (empty when nothing beats one thread).
 static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total)
 {
 	double load[OD_POOL_MAX_THREADS];
@@ -267,81 +327,93 @@ static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best,
 static int od_CompareRanges(const void* a, const void* b)
 {
 	const od_CholRange *ra = a, *rb = b;
-	return (ra->lo > rb->lo) - (ra->lo < rb->lo);
+	return (ra->begin > rb->begin) - (ra->begin < rb->begin);
 }
 
-// Lays the chosen cut out as per-bin column ranges, the top columns and each subtree column's split.
-static od_Status od_LayOut(od_Cholesky* ch, const od_Tree* t, int* cut, int count, int bins)
+// Lays out level l: the cut's subtrees (nodes of t over cols) packed into the bins, each bin's by first column,
+// their columns appended to order from *at; marks the columns covered and sets their splits.
+static void od_LayOutLevel(od_Cholesky* ch, const od_Tree* t, const int* cols, int* cut, int count, int l, int* binOf,
+						   char* covered, int* at)
 {
-	int n = ch->n;
+	int bins = ch->threads;
 	double load[OD_POOL_MAX_THREADS];
-	int* binOf = od_Alloc(sizeof(int) * (size_t)count);
-	char* covered = od_AllocZero((size_t)n, 1);
-	ch->binStart = od_AllocZero((size_t)bins + 1, sizeof(int));
-	ch->ranges = od_Alloc(sizeof(od_CholRange) * (size_t)count);
-	ch->split = od_Alloc(sizeof(int) * (size_t)n);
-	ch->acc = od_AllocZero(3 * (size_t)n * (size_t)bins, sizeof(double));
-	if (!binOf || !covered || !ch->binStart || !ch->ranges || !ch->split || !ch->acc)
-	{
-		od_Free(binOf);
-		od_Free(covered);
-		return od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
-	}
-	od_PackBins(t, cut, count, bins, load, binOf);
-	for (int a = 0; a < count; ++a)
-	{
-		ch->binStart[binOf[a] + 1]++;
-	}
-	for (int b = 0; b < bins; ++b)
-	{
-		ch->binStart[b + 1] += ch->binStart[b];
-	}
 	int cursor[OD_POOL_MAX_THREADS];
-	memcpy(cursor, ch->binStart, sizeof(int) * (size_t)bins);
-	for (int a = 0; a < count; ++a)
-	{
-		int hi = cut[a], lo = hi - t->size[hi] + 1;
-		ch->ranges[cursor[binOf[a]]++] = (od_CholRange){ lo, hi };
-		for (int j = lo; j <= hi; ++j)
-		{
-			covered[j] = 1;
-			int p = ch->colStart[j];
-			while (p < ch->colStart[j + 1] && ch->row[p] <= hi)
-			{
-				++p;
-			}
-			ch->split[j] = p;
-		}
-	}
+	int* binStart = ch->binStart + l * bins; // binStart[0]: where the level before ended
+	od_PackBins(t, cut, count, bins, load, binOf);
 	for (int b = 0; b < bins; ++b)
 	{
-		qsort(ch->ranges + ch->binStart[b], (size_t)(ch->binStart[b + 1] - ch->binStart[b]), sizeof(od_CholRange),
-			  od_CompareRanges);
-	}
-	ch->topCount = 0;
-	for (int j = 0; j < n; ++j)
-	{
-		ch->topCount += !covered[j];
-	}
-	ch->top = od_Alloc(sizeof(int) * ((size_t)ch->topCount + 1));
-	if (ch->top)
-	{
-		int k = 0;
-		for (int j = 0; j < n; ++j)
+		binStart[b + 1] = binStart[b];
+		for (int a = 0; a < count; ++a)
 		{
-			if (!covered[j])
+			binStart[b + 1] += binOf[a] == b;
+		}
+		cursor[b] = binStart[b];
+	}
+	for (int a = 0; a < count; ++a) // as node ranges first
+	{
+		ch->ranges[cursor[binOf[a]]++] = (od_CholRange){ cut[a] - t->size[cut[a]] + 1, cut[a] + 1 };
+	}
+	ch->levelWork[l] = 0.0;
+	for (int b = 0; b < bins; ++b)
+	{
+		qsort(ch->ranges + binStart[b], (size_t)(binStart[b + 1] - binStart[b]), sizeof(od_CholRange),
+			  od_CompareRanges);
+		for (int r = binStart[b]; r < binStart[b + 1]; ++r)
+		{
+			int begin = *at, root = cols[ch->ranges[r].end - 1];
+			for (int k = ch->ranges[r].begin; k < ch->ranges[r].end; ++k)
 			{
-				ch->top[k++] = j;
+				int j = cols[k], p = ch->colStart[j];
+				while (p < ch->colStart[j + 1] && ch->row[p] <= root)
+				{
+					++p;
+				}
+				ch->split[j] = p;
+				covered[j] = 1;
+				ch->order[(*at)++] = j;
+				ch->levelWork[l] += od_ColumnWork(ch, j);
 			}
+			ch->ranges[r] = (od_CholRange){ begin, *at };
 		}
 	}
-	od_Free(binOf);
-	od_Free(covered);
-	return ch->top ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
 }
 
-// A parallel plan is kept only when it promises at least OD_PLAN_GAIN of the serial time back.
+// A level is kept only when it promises at least OD_PLAN_GAIN of its columns' serial time back.
 #define OD_PLAN_GAIN 0.15
+
+// Cuts levels from the whole tree, then from the columns above each cut, while they pay; the rest is the top.
+// Returns the levels made.
+static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* node, int* cut, int* best, int* binOf,
+						char* covered)
+{
+	int m = ch->n, at = 0, levels = 0;
+	for (int j = 0; j < m; ++j)
+	{
+		cols[j] = j;
+	}
+	ch->binStart[0] = 0;
+	while (levels < OD_PLAN_LEVELS && od_Tree_Build(ch, cols, m, node, t))
+	{
+		int count = 0;
+		double total = 0.0;
+		double time = od_FindCut(t, m, ch->threads, cut, best, &count, &total);
+		if (count == 0 || time >= (1.0 - OD_PLAN_GAIN) * total)
+		{
+			break;
+		}
+		od_LayOutLevel(ch, t, cols, best, count, levels++, binOf, covered, &at);
+		int left = 0;
+		for (int k = 0; k < m; ++k)
+		{
+			cols[left] = cols[k];
+			left += !covered[cols[k]];
+		}
+		m = left;
+	}
+	ch->topStart = at;
+	memcpy(ch->order + at, cols, sizeof(int) * (size_t)m);
+	return levels;
+}
 
 static od_Status od_Plan(od_Cholesky* ch, int threads)
 {
@@ -356,25 +428,40 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 				  od_Alloc(sizeof(double) * (size_t)n) };
 	int* cut = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* best = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
-	od_Status status = t.parent && t.size && t.work && cut && best
-						   ? OD_OK
-						   : od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
-	if (status == OD_OK && od_Tree_Build(ch, &t))
+	int* binOf = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
+	int* cols = od_Alloc(sizeof(int) * (size_t)n);
+	int* node = od_Alloc(sizeof(int) * (size_t)n);
+	char* covered = od_AllocZero((size_t)n, 1);
+	ch->binStart = od_Alloc(sizeof(int) * ((size_t)OD_PLAN_LEVELS * (size_t)threads + 1));
+	ch->ranges = od_Alloc(sizeof(od_CholRange) * OD_PLAN_LEVELS * OD_PLAN_MAX_CUT);
+	ch->order = od_Alloc(sizeof(int) * (size_t)n);
+	ch->split = od_Alloc(sizeof(int) * (size_t)n);
+	od_Status status = OD_OK;
+	if (!t.parent || !t.size || !t.work || !cut || !best || !binOf || !cols || !node || !covered ||
+		!ch->binStart || !ch->ranges || !ch->order || !ch->split)
 	{
-		int count = 0;
-		double total = 0.0;
-		double time = od_FindCut(&t, n, threads, cut, best, &count, &total);
-		if (count > 0 && time < (1.0 - OD_PLAN_GAIN) * total)
+		status = od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
+	}
+	if (status == OD_OK)
+	{
+		ch->threads = threads;
+		ch->levels = od_CutLevels(ch, &t, cols, node, cut, best, binOf, covered);
+		ch->acc = ch->levels > 0 ? od_AllocZero(3 * (size_t)n * (size_t)threads, sizeof(double)) : NULL;
+		if (ch->levels > 0 && !ch->acc)
 		{
-			status = od_LayOut(ch, &t, best, count, threads);
-			ch->threads = status == OD_OK ? threads : 1;
+			status = od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
 		}
+		ch->threads = ch->acc ? threads : 1;
 	}
 	od_Free(t.parent);
 	od_Free(t.size);
 	od_Free(t.work);
 	od_Free(cut);
 	od_Free(best);
+	od_Free(binOf);
+	od_Free(cols);
+	od_Free(node);
+	od_Free(covered);
 	return status;
 }
 
@@ -471,16 +558,48 @@ static void od_Backward(od_Cholesky* ch, int j)
 	y[3 * j + 2] = (s[2] + s[5]) * d;
 }
 
+// Row j takes the sums of the bins' updates from every accumulator, in bin order, and clears them.
+static void od_Gather(od_Cholesky* ch, int j)
+{
+	double* r = ch->y + 3 * j;
+	double* a = ch->acc + 3 * j;
+	for (int b = 0; b < ch->threads; ++b, a += 3 * (size_t)ch->n)
+	{
+		for (int c = 0; c < 3; ++c)
+		{
+			r[c] -= a[c];
+			a[c] = 0.0;
+		}
+	}
+}
+
+typedef struct od_CholJob
+{
+	od_Cholesky* ch;
+	int level;
+} od_CholJob;
+
 static void od_ForwardBin(void* ctx, int bin, int thread)
 {
 	(void)thread;
-	od_Cholesky* ch = ctx;
+	const od_CholJob* job = ctx;
+	od_Cholesky* ch = job->ch;
 	double* acc = ch->acc + 3 * (size_t)ch->n * (size_t)bin;
-	for (int r = ch->binStart[bin]; r < ch->binStart[bin + 1]; ++r)
+	int at = job->level * ch->threads + bin;
+	const od_CholRange* first = ch->ranges + ch->binStart[at];
+	const od_CholRange* end = ch->ranges + ch->binStart[at + 1];
+	for (const od_CholRange* r = first; job->level > 0 && r < end; ++r) // rows with updates from earlier levels
 	{
-		for (int j = ch->ranges[r].lo; j <= ch->ranges[r].hi; ++j)
+		for (int p = r->begin; p < r->end; ++p)
 		{
-			od_Forward(ch, j, ch->split[j], acc);
+			od_Gather(ch, ch->order[p]);
+		}
+	}
+	for (const od_CholRange* r = first; r < end; ++r)
+	{
+		for (int p = r->begin; p < r->end; ++p)
+		{
+			od_Forward(ch, ch->order[p], ch->split[ch->order[p]], acc);
 		}
 	}
 }
@@ -488,47 +607,41 @@ static void od_ForwardBin(void* ctx, int bin, int thread)
 static void od_BackwardBin(void* ctx, int bin, int thread)
 {
 	(void)thread;
-	od_Cholesky* ch = ctx;
-	for (int r = ch->binStart[bin + 1] - 1; r >= ch->binStart[bin]; --r)
+	const od_CholJob* job = ctx;
+	od_Cholesky* ch = job->ch;
+	int at = job->level * ch->threads + bin;
+	for (int r = ch->binStart[at + 1] - 1; r >= ch->binStart[at]; --r)
 	{
-		for (int j = ch->ranges[r].hi; j >= ch->ranges[r].lo; --j)
+		for (int p = ch->ranges[r].end - 1; p >= ch->ranges[r].begin; --p)
 		{
-			od_Backward(ch, j);
+			od_Backward(ch, ch->order[p]);
 		}
 	}
 }
 
-// One entry of the factor in one substitution pass (three right sides), in nanoseconds: the pool's measure of a
-// pass's work (docs/speed.md).
-#define OD_ENTRY_NS 0.8
-
 static void od_SolveParallel(od_Cholesky* ch, od_Pool* pool)
 {
-	size_t stride = 3 * (size_t)ch->n;
-	double work = OD_ENTRY_NS * (ch->colStart[ch->n] + ch->n);
-	od_Pool_Run(pool, ch->threads, work, od_ForwardBin, ch);
-	for (int k = 0; k < ch->topCount; ++k) // the bins' updates of the top rows, in bin order
+	od_CholJob job = { ch, 0 };
+	for (job.level = 0; job.level < ch->levels; ++job.level)
 	{
-		double* r = ch->y + 3 * ch->top[k];
-		for (int b = 0; b < ch->threads; ++b)
-		{
-			double* a = ch->acc + stride * (size_t)b + 3 * ch->top[k];
-			for (int c = 0; c < 3; ++c)
-			{
-				r[c] -= a[c];
-				a[c] = 0.0;
-			}
-		}
+		od_Pool_Run(pool, ch->threads, OD_ENTRY_NS * ch->levelWork[job.level], od_ForwardBin, &job);
 	}
-	for (int k = 0; k < ch->topCount; ++k)
+	for (int p = ch->topStart; p < ch->n; ++p)
 	{
-		od_Forward(ch, ch->top[k], ch->colStart[ch->top[k] + 1], NULL);
+		od_Gather(ch, ch->order[p]);
 	}
-	for (int k = ch->topCount - 1; k >= 0; --k)
+	for (int p = ch->topStart; p < ch->n; ++p)
 	{
-		od_Backward(ch, ch->top[k]);
+		od_Forward(ch, ch->order[p], ch->colStart[ch->order[p] + 1], NULL);
 	}
-	od_Pool_Run(pool, ch->threads, work, od_BackwardBin, ch);
+	for (int p = ch->n - 1; p >= ch->topStart; --p)
+	{
+		od_Backward(ch, ch->order[p]);
+	}
+	for (job.level = ch->levels - 1; job.level >= 0; --job.level)
+	{
+		od_Pool_Run(pool, ch->threads, OD_ENTRY_NS * ch->levelWork[job.level], od_BackwardBin, &job);
+	}
 }
 
 void od_Cholesky_Solve(od_Cholesky* ch, od_Pool* pool, const double* b, double* x)

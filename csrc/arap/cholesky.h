@@ -15,6 +15,13 @@ od_Status od_Cholesky_Create(cholmod_factor* factor, cholmod_common* common, int
 void od_Cholesky_Destroy(od_Cholesky* chol);
 // The threads the plan splits the substitution over (1 when the elimination tree does not split well).
 int od_Cholesky_Threads(const od_Cholesky* chol);
+// One entry of the factor in one substitution pass (three right sides), in nanoseconds: the pool's measure of a
+// pass's work (docs/speed.md).
+#define OD_ENTRY_NS 0.8
+// A solve's work in factor entries (each column counts one more, each row of b and x read or written through
+// the permutation one): on one thread (*serial) and along the plan's longest chain (*span: the heaviest bin and
+// the top in both passes, the bins' sums into the top rows and the permutation; equal to *serial when serial).
+void od_Cholesky_Span(const od_Cholesky* chol, double* serial, double* span);
 // Solves A x = b; b and x hold n rows of (x, y, z) in particle order and may alias. With a pool whose
 // thread count matches the plan, independent subtrees of the elimination tree run in parallel; the
 // result does not depend on which thread ran what.

@@ -18,6 +18,7 @@
 #include "core.h"
 #include "energy.h"
 #include "goal.h"
+#include "local_step.h"
 #include "math3.h"
 #include "position_constraints.h"
 
@@ -407,6 +408,36 @@ static void od_FillResidual(const od_Sim* sim, double* r)
 {
 	od_FillRows(sim, r, true);
 	od_Positions_AddResidual(sim, r);
+}
+
+// The right side's rows on one thread and on the longest thread (chunks dealt evenly), then the substitution's
+// work (od_Cholesky_Span), in nanoseconds by the pool's per-item costs.
+static void od_GlobalSpan(const od_Sim* sim, double* serial, double* span)
+{
+	int n = sim->graph->n, threads = sim->pool ? od_Pool_Threads(sim->pool) : 1;
+	int tasks = (n + OD_RHS_CHUNK - 1) / OD_RHS_CHUNK;
+	int rows = (tasks + threads - 1) / threads * OD_RHS_CHUNK;
+	double solveSerial, solveSpan;
+	od_Cholesky_Span(sim->solver[sim->mode]->factor, &solveSerial, &solveSpan);
+	*serial = OD_RHS_NS * n + OD_ENTRY_NS * solveSerial;
+	*span = OD_RHS_NS * (rows < n ? rows : n) + OD_ENTRY_NS * solveSpan;
+}
+
+od_ThreadBound od_Sim_GetThreadBound(const od_Sim* sim)
+{
+	od_ThreadBound out = { sim->pool ? od_Pool_Threads(sim->pool) : 1, 0.0, 0.0 };
+	double serial, span;
+	if (!sim->pool || !sim->partitionDirty) // the partition is made by a step
+	{
+		od_LocalStep_Span(sim, &serial, &span);
+		out.local = serial / span;
+	}
+	if (sim->solver[sim->mode]->valid)
+	{
+		od_GlobalSpan(sim, &serial, &span);
+		out.global = serial / span;
+	}
+	return out;
 }
 
 od_Status od_GlobalStep(od_Sim* sim)

@@ -315,3 +315,24 @@ static void od_Sweep(od_Sim* sim)
 		sim->counters.polarFallbacks += job.fallbacks[t];
 	}
 }
+
+void od_LocalStep_Span(const od_Sim* sim, double* serial, double* span)
+{
+	int n = sim->graph->n;
+	*serial = *span = n;
+	if (!sim->pool || n < OD_SWEEP_SPLIT)
+	{
+		return;
+	}
+	int blocks = od_Pool_Threads(sim->pool);
+	const int* start = sim->sweepStart;
+	int first = 0, second = 0; // the longest task of each phase
+	for (int b = 0; b < blocks; ++b)
+	{
+		int task = start[2 * b + (b % 2 ? 1 : 2)] - start[2 * b];
+		first = task > first ? task : first;
+		int border = b % 2 ? start[2 * b + 2] - start[2 * b + 1] : 0;
+		second = border > second ? border : second;
+	}
+	*span = first + second + (n - start[2 * blocks]);
+}

@@ -698,6 +698,18 @@ static PyObject* Sim_solver(PyObject* obj, PyObject* unused)
 						 "max_iterations", d.maxIterations);
 }
 
+static PyObject* Sim_thread_bound(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	if (!sim)
+	{
+		return NULL;
+	}
+	od_ThreadBound b = od_Sim_GetThreadBound(sim);
+	return Py_BuildValue("{sisdsd}", "threads", b.threads, "local", b.local, "global", b.global);
+}
+
 static PyObject* Sim_step_report(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
@@ -759,6 +771,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_params", Sim_set_params, METH_VARARGS, NULL },
 	{ "counters", Sim_counters, METH_NOARGS, NULL },
 	{ "step_report", Sim_step_report, METH_NOARGS, NULL },
+	{ "thread_bound", Sim_thread_bound, METH_NOARGS,
+	  "thread_bound() -> {threads, local, global}: the speed-up the threads' plan allows each stage at most" },
 	{ "set_solver", Sim_set_solver, METH_VARARGS, NULL },
 	{ "solver", Sim_solver, METH_NOARGS, NULL },
 	{ NULL, NULL, 0, NULL },

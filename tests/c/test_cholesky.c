@@ -1,6 +1,7 @@
 // The factor's substitution (cholesky.c): it solves A x = b to round-off for lattices, chains, forests and a
-// single row, with AMD and METIS orderings; split over 2 and 3 threads it agrees with the serial solve and
-// gives the same bits on every run; a lattice ordered by METIS does split.
+// single row, with AMD and METIS orderings; split over 2, 3 and 8 threads it agrees with the serial solve and
+// gives the same bits on every run; a lattice ordered by METIS does split, and its plan's longest chain
+// (od_Cholesky_Span) is shorter than the serial work.
 #include "cholesky.h"
 #include "test_macros.h"
 
@@ -126,13 +127,18 @@ static int check_case(int nx, int ny, int nz, int pieces, int ordering, bool mus
 	memcpy(x, b, sizeof(double) * 3 * (size_t)n); // b and x may alias
 	od_Cholesky_Solve(one, NULL, x, x);
 	ENSURE(memcmp(x, serial, sizeof(double) * 3 * (size_t)n) == 0);
-	for (int threads = 2; threads <= 3; ++threads)
+	double serialWork, span;
+	od_Cholesky_Span(one, &serialWork, &span);
+	ENSURE(span == serialWork);
+	for (int threads = 2; threads <= 8; threads += threads < 3 ? 1 : 5)
 	{
 		od_Pool* pool = NULL;
 		ENSURE(od_Pool_Create(threads, &pool) == OD_OK);
 		od_Cholesky* ch = factor(a, ordering, od_Pool_Threads(pool), &cc);
 		ENSURE(ch);
 		ENSURE(!mustSplit || od_Cholesky_Threads(ch) == od_Pool_Threads(pool));
+		od_Cholesky_Span(ch, &serialWork, &span); // a split plan promises its gain (cholesky.c: OD_PLAN_GAIN)
+		ENSURE(od_Cholesky_Threads(ch) == 1 ? span == serialWork : span < 0.85 * serialWork);
 		od_Cholesky_Solve(ch, pool, b, x);
 		ENSURE_SMALL(residual(a, x, b, &cc), 1e-12);
 		for (int run = 0; run < 5; ++run)
