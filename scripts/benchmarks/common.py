@@ -97,8 +97,9 @@ def blender_json(script, marker, data):
         return json.load(f)
 
 
-def print_aims(aims):
-    """Prints issue 18's speed aims, each (what, measured, aim, met), with the load average beside them."""
+def print_aims(aims, issue=18):
+    """Prints an issue's speed aims, each (what, measured, aim, met), with the load average beside them."""
     load = os.getloadavg()[0]
     for what, measured, aim, met in aims:
-        print(f"aim (issue 18): {what}: {measured} (aim {aim}): {'met' if met else 'NOT met'}; load average {load:.1f}")
+        print(f"aim (issue {issue}): {what}: {measured} (aim {aim}): {'met' if met else 'NOT met'}; "
+              f"load average {load:.1f}")

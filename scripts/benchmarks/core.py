@@ -34,8 +34,12 @@ def run(args):
         paper = PAPER_MS[name]
         rows.append((name, f"{ms:.4f}", f"{cpu:.4f}", f"{paper:.2f}", f"{paper / ms:.1f}x",
                      "yes" if paper / ms >= 10 else "NO"))
-        times[name] = ms
+        times[name] = ms, cpu
     table(rows, ["scene", "ms/step", "cpu ms/step", "paper ms", "speed-up", ">=10x"])
-    body = times["fig4 body"]
+    body = times["fig4 body"][0]
     print_aims([("Fig. 4 body, one thread", f"{body:.4f} ms/step, {PAPER_MS['fig4 body'] / body:.1f}x the paper",
                  "<= 0.112 ms, 20x", body <= 0.112)])
+    # issue 26's aims, on processor time: one thread, so it is the step's own time however loaded the machine is
+    print_aims([(f"{name}, one thread, processor time", f"{cpu:.4f} ms/step, {PAPER_MS[name] / cpu:.1f}x the paper",
+                 f"<= {PAPER_MS[name] / 20:.4f} ms, 20x", PAPER_MS[name] / cpu >= 20)
+                for name, (_, cpu) in times.items()], issue=26)
