@@ -68,14 +68,15 @@ def snowflake_mesh(radius: float = 1.0, thickness: float = 0.08, arms: int = 6) 
 
 
 def scattered_flakes(spin: float = 1.0, count: int = 3000, seed: int = 0, threads: int = 0, fps: float = 24,
-                     frames: int = 72, wind: str = "noise") -> Scene:
+                     frames: int = 72, wind: str = "noise", material: mpm.Material | None = None) -> Scene:
     """Flakes released flat (all alike, as the seed's) over a 3 m × 3 m area at 2.5 m height fall through
     vortical Perlin wind whose strength grows with height; the air's drag (the wind's coupling) holds them
     near 1 m/s. With spin = 0 they stay flat (plain MLS-MPM). ``wind="potential"`` is the control: a
-    curl-free wind of the same mean speed, which barely turns them (docs/mpm.md)."""
+    curl-free wind of the same mean speed, which turns them a tenth as much (docs/mpm.md). ``material``
+    replaces mpm.flakes()."""
     world = mpm.World((0, 0, -0.2), (4, 4, 3), 0.05, spin=spin, threads=threads, max_dt=2e-3)
     positions = mpm.flake_layer((2.0, 2.0, 2.5), (3.0, 3.0), 0.3, count, seed)
-    world.add_particles(positions, mpm.flakes(), particle_volume=2e-6)
+    world.add_particles(positions, mpm.flakes() if material is None else material, particle_volume=2e-6)
     world.set_wind(wind, velocity=(0.6, 0.2, 0.0), amplitude=1.5, wavelength=1.5, octaves=4, persistence=0.6,
                    drift=(0.4, 0.1), drag=10.0, ground=0.0, ref_height=2.0, exponent=0.4, seed=seed + 7)
     world.add_floor(0.0, contact="sticky")
