@@ -16,13 +16,15 @@
 //   backward Lᵀ x = y: the top first, then the levels from the last down, each bin reading only its own rows
 //                      and those of later levels.
 // The order of every sum depends on the plan alone, so a given thread count gives the same bits each run.
-// Each level's cut is the one with the least estimated time, its heaviest bin plus the columns above it on one
-// thread. A nested-dissection tree is a tree of separators above its subtrees; with one level (before issue 26)
-// the separators above 8 subtrees (700 of the 10,000 beam's columns, 2,800 of the 100,000 beam's) all ran on
-// one thread, and od_Cholesky_Span bounded the 16-thread substitution at 3.9x and 5.0x; the second level runs
-// the lower separators of each half beside each other: 5.2x and 6.1x. Estimating the columns above a cut as
-// they would run on later levels (their heaviest path, or their work over the threads) cut too deep: its later
-// levels found only small subtrees and bounded the 4- and 16-thread plans at 1.2-2.9x.
+// Each level's cut is searched by its time: its heaviest bin plus the columns above it as the later levels would
+// run them, each of those cut by its heaviest bin plus the columns above it on one thread (od_FindCut, deep and
+// plain). A nested-dissection tree is a tree of separators above its subtrees; with one level (before issue 26)
+// the 16-thread plans stopped at 8 subtrees, whose 7 separators (700 of the 10,000 beam's columns, 2,800 of the
+// 100,000 beam's) ran on one thread, and od_Cholesky_Span bounded the substitution at 3.9x and 5.0x. Levels cut
+// by the plain time alone reached 5.2x and 6.1x (still 8 subtrees first); the deep search cuts 16 subtrees and
+// the separators above them in 4-5 levels: 6.9x and 9.7x, for 3 and 80 ms of planning. Counting the columns
+// above a cut as their heaviest path or their work over the threads cut too deep (1.2-2.9x): later levels found
+// only small subtrees.
 #include "cholesky.h"
 
 #include "core.h"
@@ -270,17 +272,85 @@ static double od_PackBins(const od_Tree* t, int* cut, int count, int bins, doubl
 
 #define OD_PLAN_STEPS 4096
 #define OD_PLAN_MAX_CUT 1024
+// A level is kept only when it promises at least OD_PLAN_GAIN of its columns' serial time back.
+#define OD_PLAN_GAIN 0.15
+// The deep search (od_FindCut) looks past the first cut only at cuts of at most this many subtrees a bin.
+#define OD_PLAN_DEEP 4
 
-// Searches for the cut with the least estimated time (the columns above it on one thread + the heaviest bin) by
-// splitting, again and again, the heaviest subtree of the cut into its children. Returns that time, the serial
-// time in *total and the cut in best/bestCount (empty when nothing beats one thread).
-static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total)
+// The search's view of the levels above a cut (od_FindCut with `deep`): the columns the tree is over, a second
+// tree for the columns above a cut and its own cut, and marks (n, zero between uses).
+typedef struct od_Deep
+{
+	const od_Cholesky* ch;
+	const int* cols;
+	od_Tree above;
+	int *aboveCols, *node, *cut, *best;
+	char* mark;
+	int levels; // the levels left for those above
+} od_Deep;
+
+static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total,
+						 double* bestTop, od_Deep* deep);
+
+// Drops the subtrees `cut` from the tree's columns cols[0..m); returns the columns left.
+static int od_DropSubtrees(const od_Tree* t, int* cols, int m, const int* cut, int count, char* mark)
+{
+	for (int a = 0; a < count; ++a)
+	{
+		memset(mark + cut[a] - t->size[cut[a]] + 1, 1, (size_t)t->size[cut[a]]);
+	}
+	int left = 0;
+	for (int k = 0; k < m; ++k)
+	{
+		cols[left] = cols[k];
+		left += !mark[k];
+		mark[k] = 0;
+	}
+	return left;
+}
+
+// The time of the columns above the cut of t, as od_CutLevels would run them: levels cut by their time on one
+// thread while they pay, then the top.
+static double od_AboveTime(od_Deep* deep, const od_Tree* t, const int* cut, int count, int n, int bins)
+{
+	memcpy(deep->aboveCols, deep->cols, sizeof(int) * (size_t)n);
+	int m = od_DropSubtrees(t, deep->aboveCols, n, cut, count, deep->mark);
+	double time = 0.0;
+	for (int level = 0; level < deep->levels && od_Tree_Build(deep->ch, deep->aboveCols, m, deep->node, &deep->above);
+		 ++level)
+	{
+		int found = 0;
+		double total = 0.0, top = 0.0;
+		double levelTime = od_FindCut(&deep->above, m, bins, deep->cut, deep->best, &found, &total, &top, NULL);
+		if (found == 0 || levelTime >= (1.0 - OD_PLAN_GAIN) * total)
+		{
+			break;
+		}
+		time += levelTime - top;
+		m = od_DropSubtrees(&deep->above, deep->aboveCols, m, deep->best, found, deep->mark);
+	}
+	for (int k = 0; k < m; ++k)
+	{
+		time += od_ColumnWork(deep->ch, deep->aboveCols[k]);
+	}
+	return time;
+}
+
+// Searches for the cut with the least estimated time by splitting, again and again, the heaviest subtree of the
+// cut into its children (below the chain of single children it starts with: a chain's columns run in order
+// wherever they go). The time: the heaviest bin plus the columns above the cut, on one thread, or with
+// `deep` as the levels after it would run them (evaluated where the cut grew). Returns that time, the serial
+// time in *total, the cut in best/bestCount (empty when nothing beats one thread) and the work above it.
+static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best, int* bestCount, double* total,
+						 double* bestTop, od_Deep* deep)
 {
 	double load[OD_POOL_MAX_THREADS];
 	int count = 0;
+	bool branched = true; // the last split left more subtrees than before: worth a deep look
 	double top = 0.0;
 	*bestCount = 0;
 	*total = 0.0;
+	*bestTop = 0.0;
 	for (int j = 0; j < n; ++j)
 	{
 		if (t->parent[j] < 0)
@@ -297,19 +367,31 @@ static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best,
 		}
 	}
 	double bestTime = *total;
-	for (int step = 0; step < OD_PLAN_STEPS && count > 0 && top < bestTime; ++step)
+	for (int step = 0;
+		 step < OD_PLAN_STEPS && count > 0 && (deep ? step == 0 || count <= OD_PLAN_DEEP * bins : top < bestTime);
+		 ++step)
 	{
 		double time = top + od_PackBins(t, cut, count, bins, load, NULL);
-		if (time < bestTime)
+		if (deep && branched)
+		{
+			time += od_AboveTime(deep, t, cut, count, n, bins) - top;
+		}
+		if ((!deep || branched) && time < bestTime)
 		{
 			bestTime = time;
 			memcpy(best, cut, sizeof(int) * (size_t)count);
 			*bestCount = count;
+			*bestTop = top;
 		}
 		int h = cut[0]; // the heaviest, after sorting
+		int before = count;
+		cut[0] = cut[--count];
+		for (; t->size[h] > 1 && t->size[h - 1] == t->size[h] - 1; --h) // one child: down the chain in one step
+		{
+			top += t->work[h] - t->work[h - 1];
+		}
 		int first = h - t->size[h] + 1;
 		double children = 0.0;
-		cut[0] = cut[--count];
 		for (int c = h - 1; c >= first; c -= t->size[c]) // h's children, last to first
 		{
 			if (count == OD_PLAN_MAX_CUT)
@@ -320,6 +402,7 @@ static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best,
 			children += t->work[c];
 		}
 		top += t->work[h] - children;
+		branched = count > before;
 	}
 	return bestTime;
 }
@@ -378,13 +461,10 @@ static void od_LayOutLevel(od_Cholesky* ch, const od_Tree* t, const int* cols, i
 	}
 }
 
-// A level is kept only when it promises at least OD_PLAN_GAIN of its columns' serial time back.
-#define OD_PLAN_GAIN 0.15
-
 // Cuts levels from the whole tree, then from the columns above each cut, while they pay; the rest is the top.
 // Returns the levels made.
-static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* node, int* cut, int* best, int* binOf,
-						char* covered)
+static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* cut, int* best, int* binOf, char* covered,
+						od_Deep* deep)
 {
 	int m = ch->n, at = 0, levels = 0;
 	for (int j = 0; j < m; ++j)
@@ -392,11 +472,12 @@ static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* node, int* 
 		cols[j] = j;
 	}
 	ch->binStart[0] = 0;
-	while (levels < OD_PLAN_LEVELS && od_Tree_Build(ch, cols, m, node, t))
+	while (levels < OD_PLAN_LEVELS && od_Tree_Build(ch, cols, m, deep->node, t))
 	{
 		int count = 0;
-		double total = 0.0;
-		double time = od_FindCut(t, m, ch->threads, cut, best, &count, &total);
+		double total = 0.0, top = 0.0;
+		deep->levels = OD_PLAN_LEVELS - levels - 1;
+		double time = od_FindCut(t, m, ch->threads, cut, best, &count, &total, &top, deep);
 		if (count == 0 || time >= (1.0 - OD_PLAN_GAIN) * total)
 		{
 			break;
@@ -415,6 +496,19 @@ static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* node, int* 
 	return levels;
 }
 
+static od_Tree od_Tree_Alloc(int n)
+{
+	return (od_Tree){ od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(int) * (size_t)n),
+					  od_Alloc(sizeof(double) * (size_t)n) };
+}
+
+static void od_Tree_Free(od_Tree* t)
+{
+	od_Free(t->parent);
+	od_Free(t->size);
+	od_Free(t->work);
+}
+
 static od_Status od_Plan(od_Cholesky* ch, int threads)
 {
 	ch->threads = 1;
@@ -424,28 +518,30 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 		return OD_OK;
 	}
 	threads = threads < OD_POOL_MAX_THREADS ? threads : OD_POOL_MAX_THREADS;
-	od_Tree t = { od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(int) * (size_t)n),
-				  od_Alloc(sizeof(double) * (size_t)n) };
+	od_Tree t = od_Tree_Alloc(n);
 	int* cut = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* best = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* binOf = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* cols = od_Alloc(sizeof(int) * (size_t)n);
-	int* node = od_Alloc(sizeof(int) * (size_t)n);
 	char* covered = od_AllocZero((size_t)n, 1);
+	od_Deep deep = { ch, cols, od_Tree_Alloc(n), od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(int) * (size_t)n),
+					 od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT), od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT),
+					 od_AllocZero((size_t)n, 1), 0 };
 	ch->binStart = od_Alloc(sizeof(int) * ((size_t)OD_PLAN_LEVELS * (size_t)threads + 1));
 	ch->ranges = od_Alloc(sizeof(od_CholRange) * OD_PLAN_LEVELS * OD_PLAN_MAX_CUT);
 	ch->order = od_Alloc(sizeof(int) * (size_t)n);
 	ch->split = od_Alloc(sizeof(int) * (size_t)n);
 	od_Status status = OD_OK;
-	if (!t.parent || !t.size || !t.work || !cut || !best || !binOf || !cols || !node || !covered ||
-		!ch->binStart || !ch->ranges || !ch->order || !ch->split)
+	if (!t.parent || !t.size || !t.work || !cut || !best || !binOf || !cols || !covered || !deep.above.parent ||
+		!deep.above.size || !deep.above.work || !deep.aboveCols || !deep.node || !deep.cut || !deep.best ||
+		!deep.mark || !ch->binStart || !ch->ranges || !ch->order || !ch->split)
 	{
 		status = od_Fail(OD_ERROR_MEMORY, "out of memory planning the parallel substitution");
 	}
 	if (status == OD_OK)
 	{
 		ch->threads = threads;
-		ch->levels = od_CutLevels(ch, &t, cols, node, cut, best, binOf, covered);
+		ch->levels = od_CutLevels(ch, &t, cols, cut, best, binOf, covered, &deep);
 		ch->acc = ch->levels > 0 ? od_AllocZero(3 * (size_t)n * (size_t)threads, sizeof(double)) : NULL;
 		if (ch->levels > 0 && !ch->acc)
 		{
@@ -453,15 +549,18 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 		}
 		ch->threads = ch->acc ? threads : 1;
 	}
-	od_Free(t.parent);
-	od_Free(t.size);
-	od_Free(t.work);
+	od_Tree_Free(&t);
+	od_Tree_Free(&deep.above);
 	od_Free(cut);
 	od_Free(best);
 	od_Free(binOf);
 	od_Free(cols);
-	od_Free(node);
 	od_Free(covered);
+	od_Free(deep.aboveCols);
+	od_Free(deep.node);
+	od_Free(deep.cut);
+	od_Free(deep.best);
+	od_Free(deep.mark);
 	return status;
 }
 
