@@ -48,10 +48,11 @@ def _option(args, name, default):
 
 class Case:
     """One kernel at one size: call(t) runs it on the object built for t threads; extra(t) optional stage
-    seconds (a dict) accumulated since the last read."""
+    seconds (a dict) accumulated since the last read; bound(t) optional text: what the threads' plan allows."""
 
-    def __init__(self, kernel, size, unit, calls, stages=None):
+    def __init__(self, kernel, size, unit, calls, stages=None, bound=None):
         self.kernel, self.size, self.unit, self.calls, self.stages = kernel, size, unit, calls, stages
+        self.bound = bound
 
 
 def measure(case, counts, repeats):
@@ -93,7 +94,11 @@ def beam_cases(counts, largest):
             c = sims[t].counters
             return {"local": c["local_seconds"], "global": c["global_seconds"]}
 
-        yield Case("ARAP step", n, "particles", {t: sims[t].step for t in counts}, stages)
+        def bound(t, sims=sims):
+            b = sims[t]._core.thread_bound()  # od_Sim_GetThreadBound: the plan's Amdahl bound per stage
+            return f"plan bound at {t} threads (every thread free): local {b['local']:.1f}x, global {b['global']:.1f}x"
+
+        yield Case("ARAP step", n, "particles", {t: sims[t].step for t in counts}, stages, bound)
 
 
 def skin_cases(counts, largest):
@@ -234,6 +239,8 @@ def run(args):
                 results.append((case, result))
                 rows += rows_of(case, result, counts)
                 print(f"  {case.kernel} {case.size:,} done; {load()}", flush=True)
+                if case.bound:
+                    print(f"    {case.bound(counts[-1])}", flush=True)
     finally:
         stop_busy(proc)
     after = load()
