@@ -534,8 +534,9 @@ class Simulation(CoreObject, ForceFields):
         on both of docs/settings.md's bars); without a tolerance "auto" is Chebyshev;
         ``threads`` (0..64; 0: the CPUs this process may use) for the local step (a block of particles per
         thread, the borders in phases), the right side and the substitution (levels of subtrees of a
-        METIS-ordered factor); results are the same bits run to run for a given thread count; CHOLMOD's ``factorization`` path ("auto": simplicial below 400
-        flops per factor entry, else supernodal; "simplicial"; "supernodal"). ``tolerance`` > 0: each step
+        METIS-ordered factor); results are the same bits run to run for a given thread count; CHOLMOD's
+        ``factorization`` path ("auto": simplicial below 400 flops per factor entry, else supernodal;
+        "simplicial"; "supernodal"). ``tolerance`` > 0: each step
         iterates until its residual (the largest displacement of a particle's material in the last pair, as
         a fraction of the body's size) is at most this, at most ``max_iterations`` pairs, and
         ``step_report`` says what it reached; 0: ``iterations`` pairs a step. None keeps the current value of
