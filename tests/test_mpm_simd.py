@@ -1,4 +1,4 @@
-"""MPM's SVDs four particles at a time (csrc/base/svd4.c, AVX2 on x86-64) against the scalar od_Svd3
+"""MPM's SVDs eight particles at a time (csrc/base/svd4.c, AVX2 on x86-64) against the scalar od_Svd3
 (OPDEFORM_NO_AVX2=1): the snow block of `scripts/bench mpm`, the README's scattered flakes and the car through a
 layer of flakes give the same trajectories bit for bit (positions, velocities, orientations, deformation
 gradients, affine matrices, plastic volume change) on every thread count. The 4-wide kernel itself is checked

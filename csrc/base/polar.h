@@ -6,8 +6,8 @@
 // a = u diag(s) vᵀ with u, v proper rotations and s1 >= s2 >= |s3|; s3 < 0 when det(a) < 0.
 void od_Svd3(const od_Mat3* a, od_Mat3* u, od_Vec3* s, od_Mat3* v);
 
-// od_Svd3 of a[0..count), bit-identical to calling it for each: four at a time in AVX2 registers where
-// od_Platform_HasAvx2Fma (svd4.c), one by one elsewhere and for the last count % 4.
+// od_Svd3 of a[0..count), bit-identical to calling it for each: eight at a time in AVX2 registers where
+// od_Platform_HasAvx2Fma (svd4.c), one by one elsewhere.
 void od_Svd3Many(int count, const od_Mat3* a, od_Mat3* u, od_Vec3* s, od_Mat3* v);
 
 // The rotation maximizing tr(rᵀ a): u vᵀ of od_Svd3 (the smallest singular vector flipped when det(a) < 0).

@@ -1,7 +1,7 @@
 // Materials of the MPM world: snow plasticity (Stomakhin 2013), fixed-corotated stress, jelly and flakes.
 //
 // Design: one SVD per particle and substep (od_Svd3, F = U Σ Vᵀ with proper U, V) serves the plasticity
-// projection and the stress; G2P computes it for a batch of particles (od_Svd3Many, four at a time in AVX2
+// projection and the stress; G2P computes it for a batch of particles (od_Svd3Many, eight at a time in AVX2
 // registers where the processor has them, the same bits) and hands each particle's to od_MpmMaterial_Update. Every material is "clamp Σ, then fixed-corotated stress of the clamped F":
 // - snow clamps each σ to [1 − θc, 1 + θs], moves the removed volume into Jp and hardens μ, λ by
 //   exp(ξ (1 − Jp));

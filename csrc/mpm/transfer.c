@@ -6,7 +6,7 @@
 // D⁻¹ = 4/Δx², P2G adds w (m v + (m C − Δt V D⁻¹ τ)(xᵢ − x)) and w m to each of the 27 nodes; G2P takes
 // v = Σ w vᵢ and C = D⁻¹ Σ w vᵢ (xᵢ − x)ᵀ, moves the particle, updates F ← (I + Δt C) F and runs the
 // material's plasticity and stress (material.c), whose τ the next P2G scatters. G2P takes a block's particles
-// OD_MPM_SVD_BATCH at a time: the gathers first, then the batch's SVDs together (od_Svd3Many: four at a time in
+// OD_MPM_SVD_BATCH at a time: the gathers first, then the batch's SVDs together (od_Svd3Many: eight at a time in
 // AVX2 registers where the processor has them, the same bits as one by one), then the material of each.
 #include "world.h"
 

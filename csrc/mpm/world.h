@@ -89,7 +89,7 @@ typedef struct od_MpmSort
 	int colourStart[9];
 } od_MpmSort;
 
-// Particles whose deformation gradients get their SVDs together (od_Svd3Many: four at a time where AVX2 runs),
+// Particles whose deformation gradients get their SVDs together (od_Svd3Many: eight at a time where AVX2 runs),
 // in G2P and in the orientation update, and the thread's room for them.
 #define OD_MPM_SVD_BATCH 16
 typedef struct od_MpmSvdBatch

@@ -7,7 +7,7 @@
 
 #include <string.h>
 
-#define SVD4_COUNT 4003 // four at a time, the last 3 one by one
+#define SVD4_COUNT 4003
 
 // Matrix k of the test set: 11 kinds in turn, each a random rotation times a diagonal times a random rotation
 // (or plain random entries), scaled.
@@ -92,8 +92,12 @@ int test_svd4(void)
 	{
 		a[k] = svd4_case(k, &seed);
 	}
-	printf("  od_Svd3Many: %s\n", od_Platform_HasAvx2Fma() ? "AVX2, four at a time" : "od_Svd3 one by one");
-	od_Svd3Many(SVD4_COUNT, a, u, s, v);
+	printf("  od_Svd3Many: %s\n", od_Platform_HasAvx2Fma() ? "AVX2, eight at a time" : "od_Svd3 one by one");
+	for (int first = 0, count = 1; first < SVD4_COUNT; first += count, count = count % 19 + 1) // every remainder
+	{
+		count = first + count > SVD4_COUNT ? SVD4_COUNT - first : count;
+		od_Svd3Many(count, a + first, u + first, s + first, v + first);
+	}
 	for (int k = 0; k < SVD4_COUNT; ++k)
 	{
 		od_Mat3 u1, v1;
