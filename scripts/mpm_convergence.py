@@ -1,9 +1,11 @@
 """The MPM figures of issue 27 (docs/mpm.md, "The step and the wind control"), measured afresh.
 
-step: a 0.3 m snow cube (the seed's Table 2, dx = 1/24, 2 particles per cell per axis) dropped from rest onto a
+step: a 0.3 m snow cube (the seed's Table 2, dx = 1/24, 2 particles per cell per axis) released at rest on a
       sticky floor; its height at 1 and 2 s per CFL number, then at fixed steps with transfer-only substeps
       (dt = 1e-12: a P2G + G2P that moves nothing in time) added after each, which change the height as
-      much as halving the step does: the step dependence comes from the number of transfers per second.
+      much as halving the step does: the step dependence comes from the number of transfers per second;
+      then its height at 1 s for five grid spacings and, at dx = 1/24, for five places of the floor between two
+      grid nodes.
 wind: the README's flake scene (mpm_scenes.scattered_flakes, 3000 flakes, first 0.5 s): the median turn of the
       flakes in the noise wind, the potential (curl-free) wind, a uniform wind and no wind, on three seeds;
       then the potential wind with flakes that have no stiffness, and with a tenth of the flakes.
@@ -22,22 +24,22 @@ FLOOR = 0.1
 DX = 1 / 24
 
 
-def snow_block(cfl=0.4):
-    world = mpm.World((0, 0, 0), (1, 1, 1), DX, cfl=cfl, max_dt=1.0, threads=1)
-    world.add_particles(mpm.fill_box((0.35, 0.35, FLOOR), (0.65, 0.65, FLOOR + 0.3), DX / 2), mpm.snow())
-    world.add_floor(FLOOR, contact="sticky")
+def snow_block(cfl=0.4, dx=DX, floor=FLOOR):
+    world = mpm.World((0, 0, 0), (1, 1, 1), dx, cfl=cfl, max_dt=1.0, threads=1)
+    world.add_particles(mpm.fill_box((0.35, 0.35, floor), (0.65, 0.65, floor + 0.3), dx / 2), mpm.snow())
+    world.add_floor(floor, contact="sticky")
     return world
 
 
-def heights(world):
+def heights(world, floor=FLOOR):
     """(top, centroid) above the floor in mm: the 99th percentile and the mean of the particles' heights."""
-    z = world.positions[:, 2] - FLOOR
+    z = world.positions[:, 2] - floor
     return 1000 * np.percentile(z, 99), 1000 * z.mean()
 
 
 def step_table():
     print("| CFL | substeps in 2 s | top at 1 s (mm) | centroid at 1 s | top at 2 s | centroid at 2 s | "
-          "centroid change from the row above |")
+          "change of the top, centroid at 2 s from the row above |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
     previous = None
     for cfl in (0.4, 0.2, 0.1):
@@ -47,9 +49,24 @@ def step_table():
             for _ in range(24):
                 world.step(1 / 24)
             row += heights(world)
-        change = "" if previous is None else f"{row[3] - previous:+.1f}"
-        previous = row[3]
+        change = "" if previous is None else f"{row[2] - previous[2]:+.1f}, {row[3] - previous[3]:+.1f}"
+        previous = row
         print(f"| {cfl} | {world.stats['substeps']} | " + " | ".join(f"{h:.1f}" for h in row) + f" | {change} |",
+              flush=True)
+
+
+def grid_table():
+    print("\n| dx (CFL 0.4) | the floor above the grid node below it (cells) | particles | top at 1 s (mm) | "
+          "centroid at 1 s |")
+    print("| --- | --- | --- | --- | --- |")
+    rows = [(cells, FLOOR) for cells in (20, 24, 30, 32, 40)]
+    rows += [(24, (4 + above) / 24) for above in (0.0, 0.2, 0.6, 0.8)]  # the floor moved between two nodes
+    for cells, floor in rows:
+        world = snow_block(dx=1 / cells, floor=floor)
+        for _ in range(24):
+            world.step(1 / 24)
+        top, centroid = heights(world, floor)
+        print(f"| 1/{cells} | {(floor * cells + 1e-9) % 1:.1f} | {world.n_particles} | {top:.1f} | {centroid:.1f} |",
               flush=True)
 
 
@@ -71,7 +88,8 @@ WINDS = {"noise": ("noise", {}, {}), "potential": ("potential", {}, {}),
          "uniform (potential, amplitude 0)": ("potential", {"amplitude": 0.0}, {}),
          "height profile only (noise, amplitude 0)": ("noise", {"amplitude": 0.0}, {}),
          "none (wind off)": ("off", {}, {}),
-         "potential, flakes without stiffness (E = 1e-3)": ("potential", {}, {"material": mpm.flakes(young_modulus=1e-3)}),
+         "potential, flakes without stiffness (E = 1e-3)":
+             ("potential", {}, {"material": mpm.flakes(young_modulus=1e-3)}),
          "potential, 300 flakes": ("potential", {}, {"count": 300})}
 
 
@@ -107,5 +125,6 @@ if __name__ == "__main__":
     if "step" in parts:
         step_table()
         transfer_table()
+        grid_table()
     if "wind" in parts:
         wind_table()

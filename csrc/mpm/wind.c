@@ -12,7 +12,9 @@
 // frequency, and in the README's flake scene its finest octave made it 1.75x faster than the noise wind and
 // turned flakes a median 16.3 degrees in 0.5 s against 7.5 in the noise wind), scaled by
 // od_potentialGain so that the mean speeds agree, and it drops the octaves shorter than
-// od_resolvedCells grid cells (measured in docs/mpm.md).
+// od_resolvedCells grid cells (measured in docs/mpm.md). Even so it turns the README's flakes a tenth as much
+// as NOISE, not zero (the flakes' pressure and the grid's mixing of their velocities; keeping only octaves of
+// 16 cells or more gives 4.5-6.9 %: docs/mpm.md, "The step and the wind control"); a uniform wind turns none.
 #include "world.h"
 
 #include "core.h"
