@@ -319,14 +319,17 @@ def test_parallel_sweep_stays_deterministic_and_within_the_iteration_error(threa
 
 def test_thread_bound_reads_the_plan():
     """The plan's bound (od_Sim_GetThreadBound): 0 before a step has made the partition and the factor, 1 on one
-    thread, and on 8 threads above 1 and at most 8 for both stages of the 720-particle beam."""
+    thread; on 8 threads above 1 and at most 8 for both stages of a 6,000-particle beam, and 1 for the 720-particle
+    beam's substitution (too little work for a second thread: the plan stays serial)."""
     from test_acceleration import pinned_beam
 
-    one, eight = pinned_beam(), pinned_beam()
+    one, eight, small = pinned_beam(60, 10, 10), pinned_beam(60, 10, 10), pinned_beam()
     eight.set_solver(threads=8)
+    small.set_solver(threads=8)
     assert eight._core.thread_bound() == {"threads": 8, "local": 0.0, "global": 0.0}
-    one.step(1)
-    eight.step(1)
+    for sim in (one, eight, small):
+        sim.step(1)
     assert one._core.thread_bound() == {"threads": 1, "local": 1.0, "global": 1.0}
     bound = eight._core.thread_bound()
     assert 1.5 < bound["local"] <= 8 and 1.5 < bound["global"] <= 8, bound
+    assert small._core.thread_bound()["global"] < 1.1

@@ -18,18 +18,21 @@
 // The order of every sum depends on the plan alone, so a given thread count gives the same bits each run.
 // Each level's cut is searched by its time: its heaviest bin plus the columns above it as the later levels would
 // run them, each of those cut by its heaviest bin plus the columns above it on one thread (od_FindCut, deep and
-// plain). A nested-dissection tree is a tree of separators above its subtrees; with one level (before issue 26)
-// the 16-thread plans stopped at 8 subtrees, whose 7 separators (700 of the 10,000 beam's columns, 2,800 of the
-// 100,000 beam's) ran on one thread, and od_Cholesky_Span bounded the substitution at 3.9x and 5.0x. Levels cut
-// by the plain time alone reached 5.2x and 6.1x (still 8 subtrees first); the deep search cuts 16 subtrees and
-// the separators above them in 4-5 levels: 6.9x and 9.7x, for 3 and 80 ms of planning. Counting the columns
-// above a cut as their heaviest path or their work over the threads cut too deep (1.2-2.9x): later levels found
-// only small subtrees.
+// plain). A level's time counts the threads the pool will give its job (one per OD_POOL_MIN_WORK of its work at
+// OD_ENTRY_NS an entry, at least 125,000 entries for two): small factors stay serial (a 1,080-particle beam's;
+// a 6,000-particle beam's splits), and the levels of a larger one stop where they would get too few threads. A nested-dissection tree is a tree of separators above its
+// subtrees; with one level (before issue 26) the 16-thread plans stopped at 8 subtrees, whose 7 separators (700
+// of the 10,000 beam's columns, 2,800 of the 100,000 beam's) ran on one thread, and od_Cholesky_Span bounded the
+// substitution at 3.9x and 5.0x. Now the 10,000 beam's plan has 2 levels (5.0x; 6.9x in 5 levels if the pool
+// gave every level all its threads), the 100,000 beam's 16 subtrees and the separators above them in 4 levels
+// (9.7x), for 3 and 80 ms of planning. Counting the columns above a cut as their heaviest path or their work
+// over the threads cut too deep (1.2-2.9x): later levels found only small subtrees.
 #include "cholesky.h"
 
 #include "core.h"
 #include "pool.h"
 
+#include <math.h>
 #include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
@@ -94,6 +97,15 @@ static double od_ColumnWork(const od_Cholesky* ch, int j)
 	return 1.0 + (double)(ch->colStart[j + 1] - ch->colStart[j]);
 }
 
+// A pool job's time, in entries: `work` entries in `tasks` tasks (the longest `longest`) on the threads the pool
+// gives it for `told` entries of work (pool.h: one per OD_POOL_MIN_WORK, at least one, at most one per task).
+static double od_JobTime(double told, double work, double longest, int tasks)
+{
+	double filled = floor(told * OD_ENTRY_NS / OD_POOL_MIN_WORK);
+	double threads = filled < 1.0 ? 1.0 : filled < tasks ? filled : tasks;
+	return longest > work / threads ? longest : work / threads;
+}
+
 void od_Cholesky_Span(const od_Cholesky* ch, double* serial, double* span)
 {
 	double permute = 2.0 * ch->n; // b read and x written through the permutation, on the calling thread
@@ -106,7 +118,7 @@ void od_Cholesky_Span(const od_Cholesky* ch, double* serial, double* span)
 	*span = permute;
 	for (int l = 0; l < ch->levels; ++l)
 	{
-		double forward = 0.0, backward = 0.0;
+		double forward = 0.0, backward = 0.0, pulls = 0.0;
 		for (int b = 0; b < ch->threads; ++b)
 		{
 			double work = 0.0, columns = 0.0;
@@ -118,11 +130,13 @@ void od_Cholesky_Span(const od_Cholesky* ch, double* serial, double* span)
 				}
 				columns += ch->ranges[r].end - ch->ranges[r].begin;
 			}
-			double pulls = l > 0 ? columns * ch->threads : 0.0; // the sums taken from every accumulator
-			forward = work + pulls > forward ? work + pulls : forward;
+			double pull = l > 0 ? columns * ch->threads : 0.0; // the sums taken from every accumulator
+			forward = work + pull > forward ? work + pull : forward;
 			backward = work > backward ? work : backward;
+			pulls += pull;
 		}
-		*span += forward + backward;
+		double work = ch->levelWork[l];
+		*span += od_JobTime(work, work + pulls, forward, ch->threads) + od_JobTime(work, work, backward, ch->threads);
 	}
 	for (int p = ch->topStart; p < ch->n; ++p)
 	{
@@ -371,7 +385,8 @@ static double od_FindCut(const od_Tree* t, int n, int bins, int* cut, int* best,
 		 step < OD_PLAN_STEPS && count > 0 && (deep ? step == 0 || count <= OD_PLAN_DEEP * bins : top < bestTime);
 		 ++step)
 	{
-		double time = top + od_PackBins(t, cut, count, bins, load, NULL);
+		double below = *total - top; // the cut's subtrees, one pool job
+		double time = top + od_JobTime(below, below, od_PackBins(t, cut, count, bins, load, NULL), bins);
 		if (deep && branched)
 		{
 			time += od_AboveTime(deep, t, cut, count, n, bins) - top;

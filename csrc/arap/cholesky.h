@@ -19,8 +19,9 @@ int od_Cholesky_Threads(const od_Cholesky* chol);
 // pass's work (docs/speed.md).
 #define OD_ENTRY_NS 0.8
 // A solve's work in factor entries (each column counts one more, each row of b and x read or written through
-// the permutation one): on one thread (*serial) and along the plan's longest chain (*span: the heaviest bin and
-// the top in both passes, the bins' sums into the top rows and the permutation; equal to *serial when serial).
+// the permutation one): on one thread (*serial) and along the plan's longest chain (*span: each level's job on
+// the threads the pool gives it, the top in both passes, the sums taken from the accumulators and the
+// permutation; equal to *serial when serial).
 void od_Cholesky_Span(const od_Cholesky* chol, double* serial, double* span);
 // Solves A x = b; b and x hold n rows of (x, y, z) in particle order and may alias. With a pool whose
 // thread count matches the plan, independent subtrees of the elimination tree run in parallel; the

@@ -410,12 +410,14 @@ static void od_FillResidual(const od_Sim* sim, double* r)
 	od_Positions_AddResidual(sim, r);
 }
 
-// The right side's rows on one thread and on the longest thread (chunks dealt evenly), then the substitution's
-// work (od_Cholesky_Span), in nanoseconds by the pool's per-item costs.
+// The right side's rows on one thread and on the longest of the threads the pool gives it (one per
+// OD_POOL_MIN_WORK, chunks dealt evenly), then the substitution's work (od_Cholesky_Span), in nanoseconds by the
+// pool's per-item costs.
 static void od_GlobalSpan(const od_Sim* sim, double* serial, double* span)
 {
 	int n = sim->graph->n, threads = sim->pool ? od_Pool_Threads(sim->pool) : 1;
-	int tasks = (n + OD_RHS_CHUNK - 1) / OD_RHS_CHUNK;
+	int tasks = (n + OD_RHS_CHUNK - 1) / OD_RHS_CHUNK, filled = (int)(OD_RHS_NS * n / OD_POOL_MIN_WORK);
+	threads = threads < filled ? threads : filled > 1 ? filled : 1;
 	int rows = (tasks + threads - 1) / threads * OD_RHS_CHUNK;
 	double solveSerial, solveSpan;
 	od_Cholesky_Span(sim->solver[sim->mode]->factor, &solveSerial, &solveSpan);

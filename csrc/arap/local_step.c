@@ -316,6 +316,16 @@ static void od_Sweep(od_Sim* sim)
 	}
 }
 
+// A phase of `count` updates in `tasks` tasks (the longest `longest`) on the threads the pool gives it (one per
+// OD_POOL_MIN_WORK of work, at least one, at most one per task), in updates.
+static double od_PhaseTime(int count, int longest, int tasks)
+{
+	int threads = (int)(OD_SWEEP_NS * count / OD_POOL_MIN_WORK);
+	threads = threads < tasks ? threads : tasks;
+	threads = threads > 1 ? threads : 1;
+	return longest > (double)count / threads ? longest : (double)count / threads;
+}
+
 void od_LocalStep_Span(const od_Sim* sim, double* serial, double* span)
 {
 	int n = sim->graph->n;
@@ -326,13 +336,15 @@ void od_LocalStep_Span(const od_Sim* sim, double* serial, double* span)
 	}
 	int blocks = od_Pool_Threads(sim->pool);
 	const int* start = sim->sweepStart;
-	int first = 0, second = 0; // the longest task of each phase
+	int first = 0, second = 0, oddBorders = 0; // the longest task of each phase
 	for (int b = 0; b < blocks; ++b)
 	{
 		int task = start[2 * b + (b % 2 ? 1 : 2)] - start[2 * b];
 		first = task > first ? task : first;
 		int border = b % 2 ? start[2 * b + 2] - start[2 * b + 1] : 0;
 		second = border > second ? border : second;
+		oddBorders += border;
 	}
-	*span = first + second + (n - start[2 * blocks]);
+	*span = od_PhaseTime(start[2 * blocks] - oddBorders, first, blocks) + od_PhaseTime(oddBorders, second, blocks / 2) +
+			(n - start[2 * blocks]);
 }

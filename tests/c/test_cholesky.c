@@ -168,10 +168,11 @@ static int check_case(int nx, int ny, int nz, int pieces, int ordering, bool mus
 
 int test_cholesky(void)
 {
-	ENSURE(check_case(30, 6, 6, 1, CHOLMOD_METIS, true) == 0);  // a beam: nested dissection splits it
+	// The plan splits only where each thread gets OD_POOL_MIN_WORK of the pool's estimate: 6,000 columns and more.
+	ENSURE(check_case(60, 10, 10, 1, CHOLMOD_METIS, true) == 0); // a beam: nested dissection splits it
 	ENSURE(check_case(30, 6, 6, 1, CHOLMOD_AMD, false) == 0);
-	ENSURE(check_case(500, 1, 1, 1, CHOLMOD_AMD, false) == 0);  // a chain: a path tree
-	ENSURE(check_case(4, 4, 4, 9, CHOLMOD_AMD, true) == 0);     // a forest of 9 pieces
+	ENSURE(check_case(500, 1, 1, 1, CHOLMOD_AMD, false) == 0);   // a chain: a path tree
+	ENSURE(check_case(10, 10, 10, 9, CHOLMOD_AMD, true) == 0);   // a forest of 9 pieces
 	ENSURE(check_case(1, 1, 1, 1, CHOLMOD_AMD, false) == 0);    // one row
 	ENSURE(check_case(1, 1, 1, 300, CHOLMOD_METIS, false) == 0); // a diagonal matrix
 	return 0;

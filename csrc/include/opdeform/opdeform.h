@@ -179,10 +179,11 @@ typedef struct od_StepReport
 od_StepReport od_Sim_GetStepReport(const od_Sim* sim);
 
 // What the threads' plan allows at most (docs/speed.md, "Threads"): per stage of an iteration, its work on one
-// thread over its longest chain of tasks at the solver's thread count, with every thread on a free CPU (an
-// Amdahl bound from the plan alone: the local sweep's phases, the right side's chunks and the substitution's
-// levels and top, costed by the pool's per-item times). 1 where a stage runs on one thread; 0 until a step
-// made the partition of the current constraints (local) or the factor of the current mode (global).
+// thread over its longest chain of tasks at the solver's thread count, each job on the threads the pool gives
+// it with every CPU free (an Amdahl bound from the plan alone: the local sweep's phases, the right side's chunks
+// and the substitution's levels and top, costed by the pool's per-item times). 1 where a stage runs on one
+// thread; 0 until a step made the partition of the current constraints (local) or the factor of the current
+// mode (global).
 typedef struct od_ThreadBound
 {
 	int threads;
