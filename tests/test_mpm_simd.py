@@ -13,41 +13,38 @@ import pytest
 
 FIELDS = ("positions", "velocities", "orientations", "deformation", "affine", "plastic_j")
 
+# name: (code that makes `world` and `on_frame`, frames, frame length)
 SCENES = {
     # the snow block of scripts/benchmarks/_mpm_runner.py, small: hits the floor, so the snow turns plastic
-    "snow": """
+    "snow": ("""
 world = mpm.World((0, 0, 0), (1, 1, 1), 1 / 24, walls="separate", threads=THREADS)
 a = (np.arange(12) + 0.5) / 48
 x, y, z = np.meshgrid(0.375 + a, 0.375 + a, 0.2 + a, indexing="ij")
 pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
 world.add_particles(pts, mpm.snow(), particle_volume=48.0 ** -3, velocities=np.broadcast_to([0, 0, -1.0], pts.shape))
-for frame in range(12):
-    world.step(1 / 60)
-    world.update_orientations()
-""",
-    "flakes": """
-scene = mpm_scenes.scattered_flakes(count=1500, threads=THREADS)
-world = scene.world
-for frame in range(12):
-    world.step(1 / 24)
-    world.update_orientations()
-""",
-    "car": """
-scene = mpm_scenes.car_collision(count=2000, threads=THREADS)
-world = scene.world
-for frame in range(8):
-    scene.on_frame(frame, world)
-    world.step(1 / 24)
-    world.update_orientations()
-""",
+on_frame = None
+""", 12, 1 / 60),
+    "flakes": ("scene = mpm_scenes.scattered_flakes(count=1500, threads=THREADS)", 12, 1 / 24),
+    "car": ("scene = mpm_scenes.car_collision(count=2000, threads=THREADS)", 8, 1 / 24),
 }
+RUN = """
+if "scene" in globals():
+    world, on_frame = scene.world, scene.on_frame
+for frame in range(FRAMES):
+    if on_frame:
+        on_frame(frame, world)
+    world.step(DT)
+    world.update_orientations()
+"""
 
 
 def run_scene(name, avx2, threads=1):
     """The scene's fields after its frames, as one float64 array per field, in a fresh process."""
-    code = ("import sys, numpy as np\nfrom opdeform import mpm, mpm_scenes\n" + SCENES[name].replace(
-        "THREADS", str(threads)) + f"\nfor f in {FIELDS!r}:\n    sys.stdout.buffer.write(world.read(f).tobytes())\n"
-        "print(world.n_particles, file=sys.stderr)\n")
+    setup, frames, dt = SCENES[name]
+    code = ("import sys, numpy as np\nfrom opdeform import mpm, mpm_scenes\n" + setup.replace("THREADS", str(threads))
+            + RUN.replace("FRAMES", str(frames)).replace("DT", repr(dt))
+            + f"\nfor f in {FIELDS!r}:\n    sys.stdout.buffer.write(world.read(f).tobytes())\n"
+            "print(world.n_particles, file=sys.stderr)\n")
     env = dict(os.environ, OPDEFORM_NO_AVX2="0" if avx2 else "1")
     proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True, timeout=600)
     n = int(proc.stderr.split()[-1])
