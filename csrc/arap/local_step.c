@@ -15,7 +15,9 @@
 #include "direction_constraints.h"
 #include "energy.h"
 #include "goal.h"
+#include "local_avx2.h"
 #include "math3.h"
+#include "platform.h"
 #include "polar.h"
 #include "position_constraints.h"
 
@@ -64,7 +66,22 @@ void od_LocalStep_PrepareEdges(od_Sim* sim)
 	sim->edgeStiffness = k;
 }
 
-static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
+#ifdef OD_LOCAL_AVX2
+// Whether C_i is summed by local_avx2.c's kernel (bit-identical to the scalar sum: docs/speed.md), read once
+// here: the platform's answer is a call into another file.
+static bool od_LocalUsesAvx2(void)
+{
+	static int known = -1; // a benign race: every thread finds the same answer
+	if (known < 0)
+	{
+		known = od_Platform_HasAvx2Fma();
+	}
+	return known == 1;
+}
+#endif
+
+// The edges' part of C_i into c (local_avx2.c has its AVX2 twin).
+static inline void od_LocalEdges(const od_Sim* sim, int i, double c[9])
 {
 	const od_Graph* g = sim->graph;
 	const double* x = sim->state.x;
@@ -90,20 +107,35 @@ static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
 		s7 += rj[6] * m[1] + rj[7] * m[4] + rj[8] * m[7] + d2 * a[1];
 		s8 += rj[6] * m[2] + rj[7] * m[5] + rj[8] * m[8] + d2 * a[2];
 	}
-	double c[9] = { s0, s1, s2, s3, s4, s5, s6, s7, s8 };
-	if (sim->mode == OD_DYNAMIC)
+	c[0] = s0, c[1] = s1, c[2] = s2, c[3] = s3, c[4] = s4, c[5] = s5, c[6] = s6, c[7] = s7, c[8] = s8;
+}
+
+static od_Mat3 od_LocalMatrix(const od_Sim* sim, int i, const od_Mat3* ri)
+{
+	od_Mat3 out; // summed in place: a copy of the just-written sum waited on store forwarding (docs/speed.md)
+	double* c = out.m;
+#ifdef OD_LOCAL_AVX2
+	if (od_LocalUsesAvx2())
 	{
-		const double* t = sim->inertiaTerm + 9 * i;
-		for (int k = 0; k < 9; ++k)
+		od_LocalAvx2_Sum(sim, i, c); // the edges and the inertia
+	}
+	else
+#endif
+	{
+		od_LocalEdges(sim, i, c);
+		if (sim->mode == OD_DYNAMIC)
 		{
-			c[k] += t[k];
+			const double* t = sim->inertiaTerm + 9 * i;
+			for (int k = 0; k < 9; ++k)
+			{
+				c[k] += t[k];
+			}
 		}
 	}
 	if (sim->goals.omega2)
 	{
 		od_Goals_AddLocal(sim, i, c);
 	}
-	od_Mat3 out = od_M3Load(c);
 	if (od_Constraints_Touches(sim, i))
 	{
 		od_Positions_AddLocal(sim, i, &out);
@@ -117,12 +149,11 @@ static int od_UpdateRotation(od_Sim* sim, int i, bool directions)
 	double* rot = sim->state.R + 9 * i;
 	od_Mat3 before = od_M3Load(rot);
 	od_Mat3 c = od_LocalMatrix(sim, i, &before);
-	od_Mat3 r = before;
-	int fallback = od_PolarRotationWarm(&c, &r);
-	od_M3Store(rot, &r);
+	od_Mat3* r = (od_Mat3*)rot; // updated in place: a copy of the polar's result waited on store forwarding
+	int fallback = od_PolarRotationWarm(&c, r);
 	if (directions)
 	{
-		od_Directions_RotationChanged(sim, i, &before, &r);
+		od_Directions_RotationChanged(sim, i, &before, r);
 	}
 	return fallback;
 }
