@@ -107,6 +107,8 @@ def meson_targets(build):
     native = os.path.join(build, "introspect")
     if not os.path.exists(os.path.join(native, "build.ninja")):
         run(["meson", "setup", native, "--buildtype=release", "-Dbaselines=false", "-Dtests=true"], cwd=ROOT)
+    else:  # ninja's regeneration rule: set up again where a meson.build changed (a new source file)
+        run(["ninja", "-C", native, "build.ninja"], cwd=ROOT)
     targets = json.loads(run(["meson", "introspect", "--targets", native]))
     return {t["name"].split(".")[0]: (native, t["target_sources"]) for t in targets
             if t["type"] in ("static library", "shared module", "executable")}
