@@ -18,6 +18,9 @@ int od_Cholesky_Threads(const od_Cholesky* chol);
 // One entry of the factor in one substitution pass (three right sides), in nanoseconds: the pool's measure of a
 // pass's work (docs/speed.md).
 #define OD_ENTRY_NS 0.8
+// A factor with fewer entries is substituted serially at any thread count: no job of it fills two of the pool's
+// threads (OD_POOL_MIN_WORK each).
+#define OD_CHOLESKY_SPLIT_ENTRIES (2.0 * OD_POOL_MIN_WORK / OD_ENTRY_NS)
 // A solve's work in factor entries (each column counts one more, each row of b and x read or written through
 // the permutation one): on one thread (*serial) and along the plan's longest chain (*span: each level's job on
 // the threads the pool gives it, the top in both passes, the sums taken from the accumulators and the

@@ -204,6 +204,38 @@ static od_Status od_CheckFactor(const cholmod_factor* factor, const cholmod_comm
 
 #define OD_METIS_PARTICLES 20000
 
+// The symbolic analysis. METIS's nested dissection when threads share the substitution (its balanced
+// elimination tree splits between them, cholesky.c) or the graph is large: on the beam lattices its factor has
+// the fill of AMD's at 10,000 particles but 38 % less at 100,000 (2.4e7 entries against 3.8e7, 2.7x fewer
+// flops), for 0.7 s of analysis against 0.07. Else AMD, whose analysis is 5x cheaper and is paid again on every
+// change of stiffness, step or weights: small graphs on one thread, and graphs whose AMD factor is too small to
+// split on any thread count (OD_CHOLESKY_SPLIT_ENTRIES; with METIS there the 100-particle step on 2 threads
+// was 1.05x the wall time of one thread's, its substitution 1.09x). AMD if METIS is not built in.
+static cholmod_factor* od_Analyze(cholmod_sparse* a, cholmod_common* cc, int n, int threads)
+{
+	bool large = n >= OD_METIS_PARTICLES;
+	cc->method[0].ordering = large ? CHOLMOD_METIS : CHOLMOD_AMD;
+	cholmod_factor* factor = cholmod_analyze(a, cc);
+	if (factor && !large && threads > 1 && cc->lnz >= OD_CHOLESKY_SPLIT_ENTRIES)
+	{
+		cc->method[0].ordering = CHOLMOD_METIS;
+		cholmod_factor* split = cholmod_analyze(a, cc);
+		if (!split && cc->status == CHOLMOD_NOT_INSTALLED)
+		{
+			cc->status = CHOLMOD_OK; // AMD's stays
+			return factor;
+		}
+		cholmod_free_factor(&factor, cc);
+		factor = split;
+	}
+	if (!factor && cc->status == CHOLMOD_NOT_INSTALLED)
+	{
+		cc->method[0].ordering = CHOLMOD_AMD;
+		factor = cholmod_analyze(a, cc);
+	}
+	return factor;
+}
+
 static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 {
 	int n = sim->graph->n;
@@ -225,20 +257,9 @@ static od_Status od_Factor(od_Sim* sim, od_GlobalSolver* s)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory assembling the global matrix");
 	}
-	// METIS's nested dissection when threads share the substitution (its balanced elimination tree splits
-	// between them, cholesky.c) or the graph is large: on the beam lattices its factor has the fill of AMD's
-	// at 10,000 particles but 38 % less at 100,000 (2.4e7 entries against 3.8e7, 2.7x fewer flops), for
-	// 0.7 s of analysis against 0.07. Small graphs on one thread keep AMD, whose analysis is 5x cheaper and
-	// is paid again on every change of stiffness, step or weights. AMD if METIS is not built in.
 	int threads = sim->pool ? od_Pool_Threads(sim->pool) : 1;
-	cc->method[0].ordering = threads > 1 || n >= OD_METIS_PARTICLES ? CHOLMOD_METIS : CHOLMOD_AMD;
 	double start = od_Clock();
-	cholmod_factor* factor = cholmod_analyze(a, cc);
-	if (!factor && cc->status == CHOLMOD_NOT_INSTALLED)
-	{
-		cc->method[0].ordering = CHOLMOD_AMD;
-		factor = cholmod_analyze(a, cc);
-	}
+	cholmod_factor* factor = od_Analyze(a, cc, n, threads);
 	sim->counters.analyses++;
 	double analyzed = od_Clock();
 	sim->counters.analyzeSeconds += analyzed - start;
