@@ -4,12 +4,10 @@ layer of flakes give the same trajectories bit for bit (positions, velocities, o
 gradients, affine matrices, plastic volume change) on every thread count. The 4-wide kernel itself is checked
 matrix by matrix in tests/c/test_svd4.c."""
 
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+
+import fresh_process
 
 FIELDS = ("positions", "velocities", "orientations", "deformation", "affine", "plastic_j")
 
@@ -41,14 +39,10 @@ for frame in range(FRAMES):
 def run_scene(name, avx2, threads=1):
     """The scene's fields after its frames, as one float64 array per field, in a fresh process."""
     setup, frames, dt = SCENES[name]
-    code = ("import sys, numpy as np\nfrom opdeform import mpm, mpm_scenes\n" + setup.replace("THREADS", str(threads))
+    code = ("import numpy as np\nfrom opdeform import mpm, mpm_scenes\n" + setup.replace("THREADS", str(threads))
             + RUN.replace("FRAMES", str(frames)).replace("DT", repr(dt))
-            + f"\nfor f in {FIELDS!r}:\n    sys.stdout.buffer.write(world.read(f).tobytes())\n"
-            "print(world.n_particles, file=sys.stderr)\n")
-    env = dict(os.environ, OPDEFORM_NO_AVX2="0" if avx2 else "1")
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True, timeout=600)
-    n = int(proc.stderr.split()[-1])
-    data = np.frombuffer(proc.stdout)
+            + f"\nwrite_out(world.n_particles, [world.read(f) for f in {FIELDS!r}])\n")
+    n, data = fresh_process.run(code, OPDEFORM_NO_AVX2="0" if avx2 else "1")
     widths = (3, 3, 4, 9, 9, 1)
     out, at = {}, 0
     for field, width in zip(FIELDS, widths):
