@@ -7,6 +7,15 @@
 // The energy is exactly -tr(R_iᵀ C_i) + const in R_i, so each update is an exact block-coordinate
 // minimization. Updates are Gauss-Seidel (each particle sees its neighbours' new rotations): with
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
+//
+// Batches (issue 26): where the polar decompositions run in AVX2 registers (local_avx2.c), each sweep's order is
+// rearranged once, when the partition is made, into batches of up to four particles updated together. A batch is
+// led by the first particle not yet updated; a later one, within OD_BATCH_WINDOW places, joins it when it touches
+// no constraint and none of its neighbours lies between the two still to be updated (or is in the batch). Updates
+// of particles that are not neighbours commute exactly (neither reads the other's rotation), so the batches give
+// the serial sweep's result bit for bit, where four consecutive particles would not: k+1 is a neighbour of k for
+// 90-100 % of the particles of the scenes measured (docs/speed.md). Particles touching constraints update alone,
+// as does every particle where the processor lacks AVX2.
 #include "local_step.h"
 
 #include "clock.h"
@@ -209,7 +218,8 @@ static bool od_ReachesOut(const od_Sim* sim, int i, int lo, int hi)
 // two threads than one at 100,000 particles.
 //
 // Layout: block b's interior is sweepOrder[sweepStart[2b]..sweepStart[2b+1]), its border up to
-// sweepStart[2b+2]; the far border from sweepStart[2 blocks] to sweepStart[2 blocks + 1] = n, in index order.
+// sweepStart[2b+2]; the far border from sweepStart[2 blocks] to sweepStart[2 blocks + 1] = n, in index order;
+// each range then in batches (od_Schedule).
 static void od_PartitionBlock(od_Sim* sim, int blocks, int b, int* at, int* far)
 {
 	int n = sim->graph->n, lo, hi, nearLo, nearHi, unused;
@@ -238,19 +248,155 @@ static void od_PartitionBlock(od_Sim* sim, int blocks, int b, int* at, int* far)
 	}
 }
 
-od_Status od_LocalStep_PreparePartition(od_Sim* sim)
+// Graphs smaller than this sweep on the calling thread: waking the others costs more than it saves
+// (measured: 100 particles stepped 1.6x slower on two threads than on one).
+#define OD_SWEEP_SPLIT 512
+// How far past a batch's first particle its other members are looked for, in places of the sweep's order.
+#define OD_BATCH_WINDOW 64
+
+static bool od_SweepsSerially(const od_Sim* sim)
 {
-	if (!sim->partitionDirty)
+	return !sim->pool || sim->graph->n < OD_SWEEP_SPLIT;
+}
+
+// The most particles a batch: 4 where the polar decompositions run in AVX2 registers, else 1 (the order kept).
+static int od_BatchWidth(void)
+{
+#ifdef OD_LOCAL_AVX2
+	if (od_LocalUsesAvx2())
 	{
-		return OD_OK;
+		return OD_LOCAL_LANES;
 	}
-	int n = sim->graph->n, blocks = od_Pool_Threads(sim->pool);
+#endif
+	return 1;
+}
+
+typedef struct od_ScheduleScratch
+{
+	int* place;  // n: each particle's place in sweepOrder
+	bool* taken; // n, by place: already in a batch
+	int* out;    // n: the batches' order
+} od_ScheduleScratch;
+
+// Whether particle i, at place q, may join the batch that particle at place p < q leads: i touches no constraint
+// (so its edges are all it shares with others), and no neighbour of i lies in [p, q) still to be updated (or in
+// the batch). Then updating i before them changes nothing: i reads none of them, none of them reads i.
+static bool od_MayJoin(const od_Sim* sim, int i, const od_ScheduleScratch* s, int p, int q)
+{
+	const od_Graph* g = sim->graph;
+	if (od_Constraints_Touches(sim, i))
+	{
+		return false;
+	}
+	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+	{
+		int at = s->place[g->adj[e]];
+		if (at >= p && at < q && !s->taken[at])
+		{
+			return false;
+		}
+	}
+	return true;
+}
+
+// Consecutive lone particles into runs of up to OD_RUN (sim.h's sweepBatch): a sweep steps through a run in a
+// plain loop (stepping batch by batch cost a chain of particles, all alone, 12 %).
+#define OD_RUN 127
+static void od_MarkRuns(signed char* batch, int count)
+{
+	for (int k = 0; k < count;)
+	{
+		int run = 0;
+		while (k + run < count && batch[k + run] == 1 && run < OD_RUN)
+		{
+			batch[k + run++] = 0;
+		}
+		batch[k] = (signed char)(run ? -run : batch[k]);
+		k += run ? run : batch[k];
+	}
+}
+
+// sweepOrder[begin..end) reordered into batches of up to `width` that give its serial sweep bit for bit: each
+// batch led by the first particle not yet taken, with the first that may join it within OD_BATCH_WINDOW places.
+static void od_ScheduleRange(od_Sim* sim, int begin, int end, int width, od_ScheduleScratch* s)
+{
+	const int* order = sim->sweepOrder;
+	int at = begin;
+	for (int p = begin; p < end; ++p)
+	{
+		if (s->taken[p])
+		{
+			continue;
+		}
+		int batch[OD_LOCAL_LANES] = { p }, size = 1;
+		bool alone = width == 1 || od_Constraints_Touches(sim, order[p]);
+		for (int q = p + 1; !alone && size < width && q < end && q <= p + OD_BATCH_WINDOW; ++q)
+		{
+			if (!s->taken[q] && od_MayJoin(sim, order[q], s, p, q))
+			{
+				batch[size++] = q;
+			}
+		}
+		for (int k = 0; k < size; ++k)
+		{
+			s->taken[batch[k]] = true;
+			s->out[at + k] = order[batch[k]];
+			sim->sweepBatch[at + k] = (signed char)(k ? 0 : size);
+		}
+		at += size;
+	}
+	memcpy(sim->sweepOrder + begin, s->out + begin, sizeof(int) * (size_t)(end - begin));
+	od_MarkRuns(sim->sweepBatch + begin, end - begin);
+}
+
+// Each range [bounds[r], bounds[r + 1]) of the sweep's order in batches (sim.h).
+static od_Status od_Schedule(od_Sim* sim, const int* bounds, int ranges)
+{
+	int n = sim->graph->n;
+	od_ScheduleScratch s = { od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(bool) * (size_t)n),
+							 od_Alloc(sizeof(int) * (size_t)n) };
+	od_Status status = OD_OK;
+	if (s.place && s.taken && s.out)
+	{
+		for (int k = 0; k < n; ++k)
+		{
+			s.place[sim->sweepOrder[k]] = k;
+			s.taken[k] = false;
+		}
+		for (int r = 0; r < ranges; ++r)
+		{
+			od_ScheduleRange(sim, bounds[r], bounds[r + 1], od_BatchWidth(), &s);
+		}
+	}
+	else
+	{
+		status = od_Fail(OD_ERROR_MEMORY, "out of memory scheduling the sweep");
+	}
+	od_Free(s.place);
+	od_Free(s.taken);
+	od_Free(s.out);
+	return status;
+}
+
+// The threaded sweep's blocks (above), or the serial sweep's index order.
+static od_Status od_Partition(od_Sim* sim)
+{
+	int n = sim->graph->n;
+	if (od_SweepsSerially(sim))
+	{
+		for (int i = 0; i < n; ++i)
+		{
+			sim->sweepOrder[i] = i;
+		}
+		return od_Schedule(sim, (const int[]){ 0, n }, 1);
+	}
+	int blocks = od_Pool_Threads(sim->pool);
 	int* start = od_Realloc(sim->sweepStart, sizeof(int) * (2 * (size_t)blocks + 2));
-	sim->sweepStart = start ? start : sim->sweepStart;
-	if (!start || (!sim->sweepOrder && !(sim->sweepOrder = od_Alloc(sizeof(int) * (size_t)n))))
+	if (!start)
 	{
 		return od_Fail(OD_ERROR_MEMORY, "out of memory partitioning the graph");
 	}
+	sim->sweepStart = start;
 	int at = 0, far = n;
 	for (int b = 0; b < blocks; ++b)
 	{
@@ -264,8 +410,24 @@ od_Status od_LocalStep_PreparePartition(od_Sim* sim)
 		sim->sweepOrder[a] = sim->sweepOrder[z];
 		sim->sweepOrder[z] = t;
 	}
-	sim->partitionDirty = false;
-	return OD_OK;
+	return od_Schedule(sim, start, 2 * blocks + 1);
+}
+
+od_Status od_LocalStep_PreparePartition(od_Sim* sim)
+{
+	if (!sim->partitionDirty)
+	{
+		return OD_OK;
+	}
+	size_t n = (size_t)sim->graph->n;
+	if ((!sim->sweepOrder && !(sim->sweepOrder = od_Alloc(sizeof(int) * n))) ||
+		(!sim->sweepBatch && !(sim->sweepBatch = od_Alloc(n))))
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory partitioning the graph");
+	}
+	od_Status status = od_Partition(sim);
+	sim->partitionDirty = status != OD_OK;
+	return status;
 }
 
 typedef struct od_SweepJob
@@ -276,18 +438,35 @@ typedef struct od_SweepJob
 	long long fallbacks[OD_POOL_MAX_THREADS];
 } od_SweepJob;
 
-// Graphs smaller than this sweep on the calling thread: waking the others costs more than it saves
-// (measured: 100 particles stepped 1.6x slower on two threads than on one).
-#define OD_SWEEP_SPLIT 512
 // One particle's update on one thread, in nanoseconds: the pool's measure of a sweep's work (docs/speed.md).
 #define OD_SWEEP_NS 130.0
 
+// sweepOrder[begin..end) batch by batch and run by run (sim.h); the polar decompositions that fell back to the SVD.
+static long long od_SweepBatches(od_Sim* sim, int begin, int end, bool directions)
+{
+	long long fallbacks = 0;
+	for (int k = begin; k < end;)
+	{
+		int count = sim->sweepBatch[k];
+#ifdef OD_LOCAL_AVX2
+		if (count > 0) // a batch (only where od_BatchWidth is 4): in the lanes of AVX2 registers, bit-identical
+		{
+			fallbacks += od_LocalAvx2_Batch(sim, sim->sweepOrder + k, count);
+			k += count;
+			continue;
+		}
+#endif
+		for (int stop = k - count; k < stop; ++k) // a run
+		{
+			fallbacks += od_UpdateRotation(sim, sim->sweepOrder[k], directions);
+		}
+	}
+	return fallbacks;
+}
+
 static void od_SweepRange(od_SweepJob* job, int begin, int end, int thread)
 {
-	for (int k = begin; k < end; ++k)
-	{
-		job->fallbacks[thread] += od_UpdateRotation(job->sim, job->sim->sweepOrder[k], job->directions);
-	}
+	job->fallbacks[thread] += od_SweepBatches(job->sim, begin, end, job->directions);
 }
 
 // Phase 1, task b: block b's interior, and its border when b is even. Phase 2, task t: block 2t + 1's border.
@@ -321,12 +500,9 @@ static void od_Sweep(od_Sim* sim)
 	{
 		od_Directions_BeginLocal(sim);
 	}
-	if (!sim->pool || sim->graph->n < OD_SWEEP_SPLIT)
+	if (od_SweepsSerially(sim))
 	{
-		for (int i = 0; i < sim->graph->n; ++i)
-		{
-			sim->counters.polarFallbacks += od_UpdateRotation(sim, i, directions);
-		}
+		sim->counters.polarFallbacks += od_SweepBatches(sim, 0, sim->graph->n, directions);
 		return;
 	}
 	od_SweepJob job = { .sim = sim, .directions = directions };
@@ -361,7 +537,7 @@ void od_LocalStep_Span(const od_Sim* sim, double* serial, double* span)
 {
 	int n = sim->graph->n;
 	*serial = *span = n;
-	if (!sim->pool || n < OD_SWEEP_SPLIT)
+	if (od_SweepsSerially(sim))
 	{
 		return;
 	}

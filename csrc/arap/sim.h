@@ -242,11 +242,14 @@ struct od_Sim
 	double* RInput; // 9n, the input R_k of an accelerated iteration (then the accelerated matrices)
 	double* RPlain; // 9n, its plain iterate local(global(R_k))
 	od_Pool* pool;  // local-step threads when solverDef.threads > 1
-	// The parallel sweep's partition (local_step.c): sweepOrder[sweepStart[2b]..sweepStart[2b+1]) is block b's
-	// interior, up to sweepStart[2b+2] its border; the last range, up to n, the far border. Rebuilt with the
-	// constraint terms.
-	int* sweepStart; // 2 threads + 2
-	int* sweepOrder; // n
+	// The sweep's order (local_step.c). Threaded: sweepOrder[sweepStart[2b]..sweepStart[2b+1]) is block b's
+	// interior, up to sweepStart[2b+2] its border; the last range, up to n, the far border. On one thread (no pool,
+	// or a small graph) the whole of sweepOrder. Each range in batches updated together and runs of particles
+	// updated one by one: sweepBatch[k] the size of the batch from k, or minus the length of the run; 0 inside
+	// either. Rebuilt with the constraint terms.
+	int* sweepStart;         // 2 threads + 2
+	int* sweepOrder;         // n
+	signed char* sweepBatch; // n
 	bool partitionDirty;
 
 	od_Tolerance tolerance;

@@ -308,6 +308,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->RPlain);
 	od_Free(sim->sweepStart);
 	od_Free(sim->sweepOrder);
+	od_Free(sim->sweepBatch);
 	od_GlobalSolver_Destroy(sim->solver[0]);
 	od_GlobalSolver_Destroy(sim->solver[1]);
 	od_Free(sim);

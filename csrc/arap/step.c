@@ -238,7 +238,7 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 	sim->mode = mode;
 	sim->partitionDirty = sim->partitionDirty || sim->constraints.pairsDirty || sim->constraints.incidenceDirty;
 	od_Status status = od_Constraints_Prepare(sim);
-	if (status == OD_OK && sim->pool)
+	if (status == OD_OK)
 	{
 		status = od_LocalStep_PreparePartition(sim);
 	}
