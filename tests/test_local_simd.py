@@ -6,12 +6,10 @@ goals, the parallel sweep and a scrambled lattice whose Newton steps fail (the S
 states and the same count of fallbacks, bit for bit. Each scene runs in a fresh process per mode (the choice is
 read once per process)."""
 
-import os
-import subprocess
-import sys
-
 import numpy as np
 import pytest
+
+import fresh_process
 
 # 1,000 particles in a 20 x 10 x 5 lattice, 4 edges each
 LATTICE = """
@@ -83,18 +81,15 @@ FALLBACKS = {"scrambled", "scrambled2"}
 
 
 def run_scene(name, avx2):
-    """The scene's positions, rotations, velocities and angular velocities, from a fresh process."""
-    code = ("import sys, numpy as np\nimport opdeform\nfrom opdeform import scenes\n" + SCENES[name] +
-            "for a in (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities):\n"
-            "    sys.stdout.buffer.write(np.ascontiguousarray(a, np.float64).tobytes())\n"
-            "print(sim.graph.n_particles, sim.counters['polar_fallbacks'], file=sys.stderr)\n")
-    env = dict(os.environ, OPDEFORM_NO_AVX2="0" if avx2 else "1", OPENBLAS_NUM_THREADS="1")
-    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, check=True, timeout=600)
-    n, fallbacks = (int(v) for v in proc.stderr.split()[-2:])
-    data = np.frombuffer(proc.stdout)
-    assert len(data) == n * (3 + 9 + 3 + 3)
+    """The scene's positions, rotations, velocities and angular velocities, and its count of SVD fallbacks, from a
+    fresh process."""
+    code = ("import numpy as np\nimport opdeform\nfrom opdeform import scenes\n" + SCENES[name] +
+            "write_out(sim.graph.n_particles, [sim.positions, sim.rotations, sim.velocities, sim.angular_velocities,"
+            " [sim.counters['polar_fallbacks']]])\n")
+    n, data = fresh_process.run(code, OPDEFORM_NO_AVX2="0" if avx2 else "1", OPENBLAS_NUM_THREADS="1")
+    assert len(data) == n * (3 + 9 + 3 + 3) + 1
     return {"positions": data[:3 * n].reshape(n, 3), "rotations": data[3 * n:12 * n].reshape(n, 3, 3),
-            "velocities": data[12 * n:15 * n].reshape(n, 3), "angular": data[15 * n:].reshape(n, 3)}, fallbacks
+            "velocities": data[12 * n:15 * n].reshape(n, 3), "angular": data[15 * n:18 * n].reshape(n, 3)}, data[-1]
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))
