@@ -3,12 +3,13 @@
 // od_Platform_HasAvx2Fma.
 #pragma once
 
+#include "platform.h"
 #include "sim.h"
 
 // The most particles a batch of the sweep (local_step.c), one a lane of a register of doubles.
 #define OD_LOCAL_LANES 4
 
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
+#ifdef OD_X86_AVX2
 #define OD_LOCAL_AVX2 1
 
 // The edges' and the inertia's part of particle i's matrix C_i (od_LocalMatrix), row-major into c:

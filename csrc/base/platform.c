@@ -8,8 +8,7 @@
 
 #include <stdlib.h>
 
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
-#define OD_PLATFORM_X86_CPUID 1
+#ifdef OD_X86_AVX2
 #include <cpuid.h>
 #endif
 
@@ -285,7 +284,7 @@ double od_Clock(void)
 
 bool od_Platform_HasAvx2Fma(void)
 {
-#ifdef OD_PLATFORM_X86_CPUID
+#ifdef OD_X86_AVX2
 	static int known = -1; // a benign race: every thread computes the same answer
 	if (known < 0)
 	{

@@ -5,6 +5,12 @@
 
 #include <stdbool.h>
 
+// Where the AVX2 kernels are compiled (target attributes, <immintrin.h>, cpuid): GCC or Clang on x86-64, unless
+// built with -DOD_NO_VECTOR_EXTENSIONS. The build targets the baseline; od_Platform_HasAvx2Fma picks at run time.
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
+#define OD_X86_AVX2 1
+#endif
+
 #ifdef _WIN32
 // The Win32 objects, each one pointer wide (HANDLE, SRWLOCK, CONDITION_VARIABLE, INIT_ONCE): <windows.h> stays
 // inside platform.c.

@@ -24,7 +24,7 @@
 #include <float.h>
 #include <string.h>
 
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
+#ifdef OD_X86_AVX2
 #define OD_SVD4 1
 #include <immintrin.h>
 #endif

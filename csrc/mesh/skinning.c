@@ -27,7 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(OD_NO_VECTOR_EXTENSIONS)
+#ifdef OD_X86_AVX2
 // x86-64 builds target the baseline (SSE2); the m = 4 blend has a second version for AVX2 + FMA, chosen at run
 // time (od_Platform_HasAvx2Fma) where the processor and the operating system support it.
 #define OD_SKIN_AVX2 1
