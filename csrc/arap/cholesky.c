@@ -429,9 +429,9 @@ static int od_CompareRanges(const void* a, const void* b)
 }
 
 // Lays out level l: the cut's subtrees (nodes of t over cols) packed into the bins, each bin's by first column,
-// their columns appended to order from *at; marks the columns covered and sets their splits.
+// their columns appended to order from *at; sets their splits.
 static void od_LayOutLevel(od_Cholesky* ch, const od_Tree* t, const int* cols, int* cut, int count, int l, int* binOf,
-						   char* covered, int* at)
+						   int* at)
 {
 	int bins = ch->threads;
 	double load[OD_POOL_MAX_THREADS];
@@ -467,7 +467,6 @@ static void od_LayOutLevel(od_Cholesky* ch, const od_Tree* t, const int* cols, i
 					++p;
 				}
 				ch->split[j] = p;
-				covered[j] = 1;
 				ch->order[(*at)++] = j;
 				ch->levelWork[l] += od_ColumnWork(ch, j);
 			}
@@ -478,8 +477,7 @@ static void od_LayOutLevel(od_Cholesky* ch, const od_Tree* t, const int* cols, i
 
 // Cuts levels from the whole tree, then from the columns above each cut, while they pay; the rest is the top.
 // Returns the levels made.
-static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* cut, int* best, int* binOf, char* covered,
-						od_Deep* deep)
+static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* cut, int* best, int* binOf, od_Deep* deep)
 {
 	int m = ch->n, at = 0, levels = 0;
 	for (int j = 0; j < m; ++j)
@@ -497,14 +495,8 @@ static int od_CutLevels(od_Cholesky* ch, od_Tree* t, int* cols, int* cut, int* b
 		{
 			break;
 		}
-		od_LayOutLevel(ch, t, cols, best, count, levels++, binOf, covered, &at);
-		int left = 0;
-		for (int k = 0; k < m; ++k)
-		{
-			cols[left] = cols[k];
-			left += !covered[cols[k]];
-		}
-		m = left;
+		od_LayOutLevel(ch, t, cols, best, count, levels++, binOf, &at);
+		m = od_DropSubtrees(t, cols, m, best, count, deep->mark);
 	}
 	ch->topStart = at;
 	memcpy(ch->order + at, cols, sizeof(int) * (size_t)m);
@@ -538,7 +530,6 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 	int* best = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* binOf = od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT);
 	int* cols = od_Alloc(sizeof(int) * (size_t)n);
-	char* covered = od_AllocZero((size_t)n, 1);
 	od_Deep deep = { ch, cols, od_Tree_Alloc(n), od_Alloc(sizeof(int) * (size_t)n), od_Alloc(sizeof(int) * (size_t)n),
 					 od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT), od_Alloc(sizeof(int) * OD_PLAN_MAX_CUT),
 					 od_AllocZero((size_t)n, 1), 0 };
@@ -547,7 +538,7 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 	ch->order = od_Alloc(sizeof(int) * (size_t)n);
 	ch->split = od_Alloc(sizeof(int) * (size_t)n);
 	od_Status status = OD_OK;
-	if (!t.parent || !t.size || !t.work || !cut || !best || !binOf || !cols || !covered || !deep.above.parent ||
+	if (!t.parent || !t.size || !t.work || !cut || !best || !binOf || !cols || !deep.above.parent ||
 		!deep.above.size || !deep.above.work || !deep.aboveCols || !deep.node || !deep.cut || !deep.best ||
 		!deep.mark || !ch->binStart || !ch->ranges || !ch->order || !ch->split)
 	{
@@ -556,7 +547,7 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 	if (status == OD_OK)
 	{
 		ch->threads = threads;
-		ch->levels = od_CutLevels(ch, &t, cols, cut, best, binOf, covered, &deep);
+		ch->levels = od_CutLevels(ch, &t, cols, cut, best, binOf, &deep);
 		ch->acc = ch->levels > 0 ? od_AllocZero(3 * (size_t)n * (size_t)threads, sizeof(double)) : NULL;
 		if (ch->levels > 0 && !ch->acc)
 		{
@@ -570,7 +561,6 @@ static od_Status od_Plan(od_Cholesky* ch, int threads)
 	od_Free(best);
 	od_Free(binOf);
 	od_Free(cols);
-	od_Free(covered);
 	od_Free(deep.aboveCols);
 	od_Free(deep.node);
 	od_Free(deep.cut);
