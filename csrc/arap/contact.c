@@ -35,6 +35,7 @@
 #include "check.h"
 #include "goal.h"
 #include "math3.h"
+#include "skin_shape.h"
 
 #include <math.h>
 
@@ -81,6 +82,44 @@ static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, dou
 	return depth;
 }
 
+// od_Depth for a particle's skin points (skin_shape.c: offsets and their lengths, 4 each) turned by the
+// particle's rotation `turn` and placed at centre l in the collider's frame R: the deepest point's, with the
+// normal there. A point that the centre's distance proves clear (a distance is 1-Lipschitz: no nearer than
+// φ(l) less the point's offset) is neither turned nor looked up, so a particle resting on a collider looks up
+// its lower points only.
+static double od_PointsDepth(const od_Collider* body, const double* offset, int count, double reach,
+							 const od_Mat3* turn, const od_Mat3* R, od_Vec3 l, double thickness, od_Vec3* n,
+							 bool clearNormal)
+{
+	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
+	if (phi >= reach + thickness)
+	{
+		return thickness + reach - phi;
+	}
+	od_Mat3 local = od_M3MulTN(R, turn);
+	double depth = 0.0;
+	od_Vec3 deepest = l;
+	for (int k = 0; k < count; ++k)
+	{
+		if (thickness - phi + offset[4 * k + 3] <= depth)
+		{
+			continue;
+		}
+		od_Vec3 p = od_Add(l, od_M3MulV(&local, od_V3Load(offset + 4 * k)));
+		double d = thickness - od_Collider_LocalDistance(body, p, NULL);
+		if (d > depth)
+		{
+			depth = d;
+			deepest = p;
+		}
+	}
+	if (depth > 0.0)
+	{
+		od_Collider_LocalDistance(body, deepest, n);
+	}
+	return depth;
+}
+
 // M in the frame R: Rᵀ M R.
 static od_Mat3 od_InFrame(const od_Mat3* M, const od_Mat3* R)
 {
@@ -90,7 +129,9 @@ static od_Mat3 od_InFrame(const od_Mat3* M, const od_Mat3* R)
 
 // A particle: its moment M (world), reach (largest radius), sampling step (half its smallest radius), how
 // far it may leave a collider it began the step inside and, with goals carrying the rest, its ellipsoid at
-// its goal frame (moment goalM, centre goalX).
+// its goal frame (moment goalM, centre goalX). With the skin as the contact shape: its points (count, their
+// offsets and lengths at offset, 4 each; NULL: the ellipsoid), turned by its rotation R (goalR at its goal
+// frame), and reach their farthest.
 typedef struct od_Body
 {
 	od_Mat3 M;
@@ -98,6 +139,9 @@ typedef struct od_Body
 	bool goal;
 	od_Mat3 goalM;
 	od_Vec3 goalX;
+	const double* offset;
+	int count;
+	od_Mat3 R, goalR;
 } od_Body;
 
 // Particle i's ellipsoid turned by `rotation`: (rotation Ē) diag(a², b², c²) (rotation Ē)ᵀ.
@@ -140,7 +184,27 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 		b.goalM = od_EllipsoidMoment(sim, i, sim->goals.R + 9 * i);
 		b.goalX = od_V3Load(sim->goals.x + 3 * i);
 	}
+	if (od_SkinShape_Used(sim))
+	{
+		b.offset = od_SkinShape_Points(sim, i, &b.count);
+		b.reach = od_SkinShape_Reach(sim, i);
+		b.R = od_M3Load(sim->state.R + 9 * i);
+		b.goalR = b.goal ? od_M3Load(sim->goals.R + 9 * i) : b.R;
+	}
 	return b;
+}
+
+// od_Depth of the particle's shape (its goal frame's with `goal`) centred at l in the collider's frame R: its
+// ellipsoid (moment M in that frame) or its skin points.
+static double od_BodyDepth(const od_Collider* body, const od_Body* b, bool goal, const od_Mat3* R, const od_Mat3* M,
+						   od_Vec3 l, double thickness, od_Vec3* n, bool clearNormal)
+{
+	if (b->offset)
+	{
+		return od_PointsDepth(body, b->offset, b->count, b->reach, goal ? &b->goalR : &b->R, R, l, thickness, n,
+							  clearNormal);
+	}
+	return od_Depth(body, M, l, thickness, b->reach, n, clearNormal);
 }
 
 // How deep the particle's ellipsoid at its goal frame is in collider c at its end frame, thickness included
@@ -153,7 +217,7 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 	}
 	od_Mat3 M = od_InFrame(&b->goalM, &c->Rb);
 	od_Vec3 n, l = od_M3MulTV(&c->Rb, od_Sub(b->goalX, c->tb));
-	return fmax(od_Depth(&c->body, &M, l, c->thickness, b->reach, &n, false), 0.0);
+	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, &n, false), 0.0);
 }
 
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
@@ -177,7 +241,7 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const 
 		}
 		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
 		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
-		if (od_Depth(&c->body, &M, l, thickness, b->reach, &n, false) > 0.0)
+		if (od_BodyDepth(&c->body, b, false, &R, &M, l, thickness, &n, false) > 0.0)
 		{
 			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, l), n), 0.0), n);
 		}
@@ -200,9 +264,9 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	double thickness = c->thickness - od_GoalDepth(c, b);
 	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
-	double left = od_Depth(&c->body, &Ma, la, thickness, b->reach, &n, false) - b->recovery; // began inside
+	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, &n, false) - b->recovery; // began inside
 	od_Vec3 l = od_FirstContact(c, b, &Ma, thickness, start, *x, la, lb);
-	double depth = od_Depth(&c->body, &Mb, l, thickness, b->reach, &n, true);
+	double depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, &n, true);
 	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
 	{
 		return;

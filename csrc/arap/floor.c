@@ -1,9 +1,11 @@
 // Collision with the floor plane z = height and friction (METHOD.md, "Collision with a floor").
 //
 // An ellipsoid with frame E = R Ē and radii r reaches down to x_z - s with s = sqrt(Σ_a (r_a e_a,z)²).
-// A particle below that is lifted by the difference. Friction is Coulomb-like and position based: the
-// tangential displacement of this step is cut by at most μ times the lift (the normal impulse of the
-// contact times h), and the angular velocity of the touching particle is scaled by the same ratio.
+// A particle below that is lifted by the difference. With the skin as the contact shape (skin_shape.c) s is
+// how far its lowest skin point reaches below its centre, so the skin, not the ellipsoid, rests on the floor.
+// Friction is Coulomb-like and position based: the tangential displacement of this step is cut by at most μ
+// times the lift (the normal impulse of the contact times h), and the angular velocity of the touching
+// particle is scaled by the same ratio.
 //
 // With goals carrying the rest (docs/goals.md, "Contact with goals") the lift is only what the particle is
 // deeper than its ellipsoid placed at its goal frame (g_i, G_i): a particle on its animation is never
@@ -14,10 +16,17 @@
 #include "contact.h"
 #include "goal.h"
 #include "math3.h"
+#include "skin_shape.h"
 
-// How far particle i's ellipsoid at frame (rotation, centre) reaches below the floor (<= 0: clear of it).
+// How far particle i's ellipsoid (or its skin points, skin_shape.c) at frame (rotation, centre) reaches below
+// the floor (<= 0: clear of it).
 static double od_FloorLift(const od_Sim* sim, int i, const double* rotation, const double* centre)
 {
+	if (od_SkinShape_Used(sim))
+	{
+		double above = centre[2] - sim->floorHeight, reach = od_SkinShape_Reach(sim, i);
+		return above >= reach ? reach - above : od_SkinShape_Below(sim, i, rotation) - above;
+	}
 	const od_Graph* g = sim->graph;
 	od_Mat3 r = od_M3Load(rotation), e0 = od_M3Load(g->axes + 9 * i);
 	od_Mat3 e = od_M3Mul(&r, &e0);

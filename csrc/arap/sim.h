@@ -113,6 +113,16 @@ typedef struct od_Colliders
 	int count, capacity, nextId;
 } od_Colliders;
 
+// The skinned surface as the particles' contact shape with the floor and the colliders (skin_shape.c): point k
+// is carried rigidly by its particle i, at x_i + R_i offset_k. count 0 (NULL arrays): the ellipsoids.
+typedef struct od_SkinShape
+{
+	int count, given; // points kept (a particle given none keeps its centre), points given
+	int* start;       // n + 1: particle i's points are [start[i], start[i + 1])
+	double* offset;   // 4 per point: v - X̄_i at rest, then its length
+	double* reach;    // n: the farthest of particle i's points from its centre
+} od_SkinShape;
+
 // Particle pairs in contact (body_contact.c): the broad phase's uniform grid over the particles' swept
 // bounding spheres (hashed cells, counting sort) and the candidate pairs. Sized for `capacity` particles
 // when self-contact is turned on or a group made; the pair list grows in the first steps only.
@@ -193,6 +203,7 @@ struct od_Sim
 	bool hasFloor;
 	double floorHeight, floorFriction;
 	od_Colliders colliders;
+	od_SkinShape skinShape; // the floor's and the colliders' contact shape (skin_shape.c)
 	od_FieldSet fields; // force fields (fields/field.c), entering the prediction (energy.c)
 	bool selfContact;
 	od_BodyContactDef selfDef;

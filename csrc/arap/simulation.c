@@ -20,6 +20,7 @@
 #include "math3.h"
 #include "polar.h"
 #include "scene_colliders.h"
+#include "skin_shape.h"
 #include "sim.h"
 #include "step.h"
 #include "tolerance.h"
@@ -298,6 +299,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
+	od_SkinShape_Destroy(&sim->skinShape);
 	od_FieldSet_Destroy(&sim->fields);
 	od_PairScratch_Destroy(&sim->selfPairs);
 	od_Goals_Destroy(&sim->goals);

@@ -463,6 +463,34 @@ static PyObject* Sim_collider_distances(PyObject* obj, PyObject* args)
 	return PointQuery(obj, args, 0);
 }
 
+// set_contact_skin(points, particles): points (float64, 3 each) carried by particles (int32, 1 each); none: off.
+static PyObject* Sim_set_contact_skin(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* arrays[2];
+	if (!sim || !PyArg_ParseTuple(args, "OO", &arrays[0], &arrays[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ItemCount(arrays[0], "points", 24);
+	const ArraySpec specs[2] = { { "points", 'd', 3 * n, 0 }, { "particles", 'i', n, 0 } };
+	Py_buffer views[2];
+	if (n < 0 || n > INT_MAX / 3 || GetArrays(arrays, specs, 2, views) < 0)
+	{
+		return n > INT_MAX / 3 ? PyErr_Format(PyExc_ValueError, "points: too many") : NULL;
+	}
+	od_Status status = od_Sim_SetContactSkin(sim, views[0].buf, views[1].buf, (int)n);
+	ReleaseArrays(views, 2);
+	return Binding_Done(obj, status);
+}
+
+static PyObject* Sim_contact_skin_count(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyLong_FromLong(od_Sim_GetContactSkinCount(sim)) : NULL;
+}
+
 // force_field(op, ...): the force fields (Binding_Field)
 static PyObject* Sim_force_field(PyObject* obj, PyObject* args)
 {
@@ -755,6 +783,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_collider_contact", Sim_set_collider_contact, METH_VARARGS, NULL },
 	{ "remove_collider", Sim_remove_collider, METH_VARARGS, NULL },
 	{ "collider_count", Sim_collider_count, METH_NOARGS, NULL },
+	{ "set_contact_skin", Sim_set_contact_skin, METH_VARARGS, NULL },
+	{ "contact_skin_count", Sim_contact_skin_count, METH_NOARGS, NULL },
 	{ "push_out", Sim_push_out, METH_VARARGS, "push_out(points) -> moved: points rewritten in place" },
 	{ "collider_distances", Sim_collider_distances, METH_VARARGS, "collider_distances(points, out)" },
 	{ "set_self_contact", Sim_set_self_contact, METH_VARARGS, NULL },

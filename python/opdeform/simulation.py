@@ -167,6 +167,7 @@ class Simulation(CoreObject, ForceFields):
         self._calls: list[tuple[str, tuple[Any, ...]]] = []
         self._colliders: dict[int, dict[str, Any]] = {}
         self._collider_ids = 0
+        self._contact_points: tuple[Floats, npt.NDArray[np.int32]] | None = None
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind: str = "position") -> float:
@@ -407,6 +408,39 @@ class Simulation(CoreObject, ForceFields):
         self._core.collider_distances(pts, out)
         return out
 
+    def set_contact_skin(self, skin: Any) -> None:
+        """The skinned surface as the contact shape of the floor and the colliders (docs/contact.md, "Contact on
+        the skin"): each rest vertex of ``skin`` (an ``opdeform.Skin`` of this graph) is carried rigidly by each
+        particle that skins it (weight > 0), and these points meet them instead of the particles' ellipsoids:
+        the skinned vertex, a blend of its carried copies, stays out of a plane that each copy stays out of, so
+        the skin, not the ellipsoids, rests on them. None: the ellipsoids again (the default). Contact between
+        particles keeps the ellipsoids."""
+        if skin is None:
+            self.set_contact_points(None)
+            return
+        if getattr(skin, "graph", None) is not self.graph:
+            raise ValueError("skin: an opdeform.Skin bound to this simulation's graph expected")
+        carried = skin.weights > 0.0
+        vertex = np.broadcast_to(np.arange(skin.n_vertices)[:, None], carried.shape)[carried]
+        self.set_contact_points(skin.rest_vertices[vertex], skin.indices[carried])
+
+    def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None) -> None:
+        """``set_contact_skin`` with any rest-space points (m,3) (a sampling of the skin), each carried by the
+        particle of ``particles`` (m,) int; a particle given none keeps its centre. None: the ellipsoids."""
+        if points is None:
+            self._core.set_contact_skin(np.empty((0, 3)), np.empty(0, np.int32))
+            self._contact_points = None
+            return
+        pts = as_array("points", points, (None, 3))
+        owner = as_array("particles", particles, (len(pts),), np.int32)
+        self._core.set_contact_skin(pts, owner)
+        self._contact_points = (pts.copy(), owner.copy())
+
+    @property
+    def n_contact_points(self) -> int:
+        """How many skin points meet the floor and the colliders (0: the particles' ellipsoids do)."""
+        return self._core.contact_skin_count()
+
     # -- contact between particles (docs/contact.md) -----------------------------------------------------
     def set_self_contact(self, enabled: bool = True, thickness: float = 0.005, friction: float = 0.5,
                          exclusion_ring: int = 2, exclusion_scale: float = 1.5) -> None:
@@ -448,7 +482,7 @@ class Simulation(CoreObject, ForceFields):
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
                 "state": (self.positions, self.rotations, self.velocities, self.angular_velocities),
                 "fields": self._calls, "colliders": self._colliders, "collider_ids": self._collider_ids,
-                "self_contact": self.self_contact}
+                "self_contact": self.self_contact, "contact_points": self._contact_points}
 
     def __setstate__(self, saved: dict[str, Any]) -> None:
         """Unpickling: the saved calls replayed after ``check_simulation`` bounds them. ``pickle.loads`` runs
@@ -478,6 +512,8 @@ class Simulation(CoreObject, ForceFields):
         self._replay_colliders(saved["collider_ids"], saved["colliders"])
         if saved["self_contact"] is not None:
             self.set_self_contact(True, **saved["self_contact"])
+        if saved.get("contact_points") is not None:
+            self.set_contact_points(*saved["contact_points"])
         self._core.restore_state(*saved["state"])
 
     def _replay(self, ids_before: int, history: list[int], constraints: dict[int, list[Any]],

@@ -55,6 +55,14 @@ od_Status od_Sim_SetColliderContact(od_Sim* sim, int id, double friction, double
 od_Status od_Sim_RemoveCollider(od_Sim* sim, int id);
 int od_Sim_GetColliderCount(const od_Sim* sim);
 
+// The skinned surface as the contact shape of the floor and the colliders (docs/contact.md, "Contact on the
+// skin"): point k (points: count*3, rest space, e.g. the skin's vertices) is carried rigidly by particle
+// particles[k] (e.g. its largest skinning weight's), at x_i + R_i (p_k - X̄_i), and those points meet the floor
+// and the colliders instead of the particles' ellipsoids (a particle given none: its centre). count 0: the
+// ellipsoids again (the default). Contact between particles (below) keeps the ellipsoids.
+od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count);
+int od_Sim_GetContactSkinCount(const od_Sim* sim); // the points given, 0: the ellipsoids
+
 // Moves each point (count*3) that is inside a collider (at its current frame) or below the floor to the
 // surface: the skinned mesh shown without passing into them. *moved: how many moved (may be NULL).
 od_Status od_Sim_PushOut(const od_Sim* sim, double* points, int count, int* moved);

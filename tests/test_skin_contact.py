@@ -1,0 +1,165 @@
+"""The skin as the contact shape of the floor and the colliders (docs/contact.md, "Contact on the skin", issue 27):
+Blender's 2.7 m Suzanne at 100 particles rests with its skin within 0.5 cm of the floor, a sphere and a ramp
+(with the ellipsoids 3-4 cm above) and never dips into them; a drop gains no energy; a box slides down a ramp
+as Coulomb says or sticks; without a skin the steps are those of before, bit for bit; a pickle keeps the skin; bad
+input raises naming the argument with nothing changed."""
+
+import math
+import pathlib
+import pickle
+
+import numpy as np
+import pytest
+
+import opdeform
+from opdeform import materials, meshes
+from opdeform.simulation import frame_from_normal
+
+FIXTURE = pathlib.Path(__file__).parent / "reference" / "suzanne_subdivided.npz"
+FPS = 24
+RAMP = math.radians(30.0)
+RAMP_NORMAL = np.array([-math.sin(RAMP), 0.0, math.cos(RAMP)])
+
+
+@pytest.fixture(scope="module")
+def suzanne():
+    data = np.load(FIXTURE)
+    return data["vertices"].astype(np.float64), data["triangles"]
+
+
+def _drop(suzanne, kind, skin_shape, seconds=2.5):
+    """Suzanne (the add-on's defaults, 100 particles) dropped 0.3 m onto the floor, a sphere or a ramp: the
+    simulation, its skin and the skin's least signed distance per frame (skinned, without the push-out)."""
+    rest, tris = suzanne
+    normal = {"floor": np.array([0.0, 0.0, 1.0]), "sphere": np.array([0.0, 0.0, 1.0]), "ramp": RAMP_NORMAL}[kind]
+    above = {"floor": 0.3, "sphere": 1.3, "ramp": 0.3}[kind]
+    start = rest + normal * (above - (rest @ normal).min())
+    graph = opdeform.Graph.from_mesh(start, tris, particles=100)
+    skin = opdeform.Skin(graph, start)
+    steps = materials.substeps_for(FPS)
+    sim = materials.make_simulation(graph, dt=1.0 / (FPS * steps))
+    if kind == "floor":
+        sim.set_floor(0.0, 0.5)
+    elif kind == "sphere":
+        sim.add_collider("sphere", radius=1.0)
+    else:
+        sim.add_collider("plane", normal=tuple(RAMP_NORMAL), friction=0.5)
+    if skin_shape:
+        sim.set_contact_skin(skin)
+    gaps = []
+    for _ in range(int(seconds * FPS)):
+        sim.step(steps)
+        shown = skin.deform_sim(sim, push_out=False)
+        gaps.append((shown[:, 2] if kind == "floor" else sim.collider_distances(shown)).min())
+    return sim, skin, np.array(gaps)
+
+
+@pytest.mark.parametrize("kind", ["floor", "sphere", "ramp"])
+def test_suzanne_rests_with_its_skin_within_half_a_centimetre(suzanne, kind):
+    """The skin's closest approach over 2.5 s (skinned, without the push-out): the floor keeps no gap, a
+    collider its thickness (5 mm); with the ellipsoids 3.4-3.9 cm (scripts/skin_contact.py). On the floor it
+    stays there (on the sphere it rolls off after 3 s, on the ramp, mu = 0.5 < tan 30 degrees, it slides)."""
+    sim, skin, gaps = _drop(suzanne, kind, True, seconds=3.0 if kind == "floor" else 2.5)
+    assert -1e-6 < gaps.min() < 0.0051  # never inside, even without the push-out
+    if kind == "floor":
+        assert np.abs(gaps[-FPS // 2:]).max() < 0.005
+    assert sim.n_contact_points == 4 * skin.n_vertices
+    _, _, ellipsoids = _drop(suzanne, kind, False)
+    assert ellipsoids.min() > 0.02  # the ellipsoids' overhang, what the skin removes
+
+
+def test_a_drop_on_the_skin_gains_no_energy(suzanne):
+    """Gravity's and the motion's energy of the centres never rises above the drop's start."""
+    sim, _, _ = _drop(suzanne, "floor", True, seconds=0.0)
+    mass = sim.graph.volumes * sim.params["density"]
+    energy = []
+    for _ in range(2 * FPS * materials.substeps_for(FPS)):
+        sim.step()
+        v, z = sim.velocities, sim.positions[:, 2]
+        energy.append(float((mass * (0.5 * (v ** 2).sum(axis=1) + 9.81 * z)).sum()))
+    start = float((mass * 9.81 * sim.graph.centers[:, 2]).sum())
+    assert max(energy) < start and energy[-1] < start - 0.5 * (start - min(energy))
+
+
+@pytest.fixture(scope="module")
+def blob():
+    v, t = meshes.capsule(radius=0.2, length=0.2)  # 0.6 x 0.4 x 0.4 m
+    return v, t, opdeform.Graph.from_mesh(v, t, particles=100)
+
+
+def _cube_on_a_ramp(mu, seconds=2.0, fps=240):
+    """A 0.3 m Rubber cube (64 particles) on its skin, set 1 cm above a 30-degree plane: (distance travelled,
+    degrees turned), as tests/test_contact.py's cube on its ellipsoids."""
+    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
+    v = v - v.mean(axis=0)
+    graph = opdeform.Graph.from_mesh(v, t, particles=64)
+    normal = np.array([0.0, -math.sin(RAMP), math.cos(RAMP)])
+    frame = frame_from_normal(normal)
+    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
+    shift = (0.0, 0.0, 0.01 - v[:, 2].min())
+    sim.set_state((graph.centers + shift) @ frame.T, np.tile(frame, (graph.n_particles, 1, 1)))
+    sim.set_contact_skin(opdeform.Skin(graph, v))
+    sim.add_collider("plane", normal=tuple(normal), friction=mu)
+    start = sim.positions.mean(axis=0)
+    sim.step(int(seconds * fps))
+    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
+    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
+    return float(np.linalg.norm(sim.positions.mean(axis=0) - start)), turned
+
+
+def test_a_box_on_its_skin_slides_down_a_ramp_as_coulomb_says_and_sticks_above_tan_theta():
+    """mu = 0.3: g (sin - mu cos) with the preset's damping (3.90 m in 2 s); mu = 1 (> tan 30 degrees) holds."""
+    a, c = 9.81 * (0.5 - 0.3 * math.cos(RAMP)), materials.PRESETS["Rubber"].damping
+    slid, turned = _cube_on_a_ramp(0.3)
+    assert slid == pytest.approx(a / c * (2.0 - (1.0 - math.exp(-2.0 * c)) / c), rel=0.03) and turned < 3.0
+    held, turned = _cube_on_a_ramp(1.0)
+    assert held < 0.03 and turned < 3.0
+
+
+def _scene(blob, skin=False):
+    v, t, g = blob
+    sim = opdeform.Simulation(g, 3e4, dt=1 / 60)
+    sim.set_state(g.centers + (0.0, 0.0, 1.35), np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    sim.add_collider("sphere", radius=1.0)
+    sim.set_floor(0.0, 0.5)
+    if skin:
+        sim.set_contact_skin(opdeform.Skin(g, v))
+    return sim
+
+
+def test_without_a_skin_the_steps_are_those_of_before(blob):
+    plain, cleared, skinned = _scene(blob), _scene(blob, True), _scene(blob, True)
+    cleared.set_contact_skin(None)
+    assert cleared.n_contact_points == 0 and skinned.n_contact_points > 0
+    for sim in (plain, cleared, skinned):
+        sim.step(60)
+    assert np.array_equal(plain.positions, cleared.positions)
+    assert np.array_equal(plain.rotations, cleared.rotations)
+    assert not np.allclose(plain.positions, skinned.positions, atol=1e-3)  # the skin is what touches
+
+
+def test_a_pickle_keeps_the_skin(blob):
+    sim = _scene(blob, True)
+    sim.step(20)
+    copy = pickle.loads(pickle.dumps(sim))
+    assert copy.n_contact_points == sim.n_contact_points
+    sim.step(20)
+    copy.step(20)
+    assert np.array_equal(sim.positions, copy.positions)
+
+
+def test_bad_skin_input_raises_and_changes_nothing(blob):
+    v, t, g = blob
+    sim = _scene(blob, True)
+    count = sim.n_contact_points
+    other = opdeform.Graph.from_mesh(v, t, particles=20)
+    cases = [((v, np.full(len(v), g.n_particles)), "particles\\[0\\] = 100 is out of range"),
+             ((np.where(np.arange(len(v))[:, None] == 3, np.nan, v), np.zeros(len(v))), "points"),
+             ((v, np.zeros(len(v) - 1)), "particles")]
+    for args, match in cases:
+        with pytest.raises(ValueError, match=match):
+            sim.set_contact_points(*args)
+        assert sim.n_contact_points == count
+    with pytest.raises(ValueError, match="skin"):
+        sim.set_contact_skin(opdeform.Skin(other, v))
+    assert sim.n_contact_points == count
