@@ -9,10 +9,16 @@ times over frames 1..96; process time of `scene.frame_set`, median of frames 2..
   OPDeform costs Blender in a frame whose offset is the one the mesh holds);
 - the offset attribute written and the mesh tagged (what OPDeform does);
 - a shape key written instead (before the Armature: not OPDeform's order, for its cost alone);
-- the offset read by the modifier from another object's points (Object Info), that object written.
+- the offset read by the modifier from another object's points (Object Info), that object written;
+- the object tagged, nothing written (its modifiers run again, the mesh not copied);
+- without any modifier, untagged and tagged (what any evaluation of this mesh costs: 3.4 computes its normals);
+- in frame_change_pre, before Blender's one evaluation of the frame: the offset attribute written; another
+  object's points written; and the goal ahead (the rig evaluated alone in a scene of its own at the new frame,
+  its deform bones skinned as the Armature does, in numpy: ``GoalAhead``) with the attribute written; its pieces
+  are timed in place and its input compared with the one Blender's Armature gives in that evaluation.
 
-Each written variant writes a new offset every frame. Whatever is written, Blender evaluates the character
-again after the handler: the Armature and the modifiers, not only what changed.
+Each written variant writes a new offset every frame. Whatever frame_change_post writes, Blender evaluates
+the character again after the handler: the Armature and the modifiers, not only what changed.
 """
 
 import os
@@ -22,6 +28,7 @@ import time
 
 REPEATS = 4
 FRAMES = 96
+AHEAD = "in frame_change_pre: goal ahead, attribute written"
 
 
 def _offset_object(obj, scene, modifier):
@@ -50,8 +57,70 @@ def _offset_object(obj, scene, modifier):
     return holder
 
 
+class GoalAhead:
+    """What the Armature will give the modifier at a frame not yet evaluated: the rig alone evaluated in a
+    scene of its own at that frame, linear blend skinning of the deform bones (weights normalised per vertex,
+    unweighted vertices kept) by blended matrices, float32. For a mesh parented to its rig with one Armature
+    before OPDeform: no shape keys, no Preserve Volume, no B-Bones."""
+
+    def __init__(self, obj):
+        import bpy
+        import numpy as np
+        self.obj, self.rig = obj, obj.parent
+        self.scene = bpy.data.scenes.new("goal ahead of " + obj.name)
+        self.scene.collection.objects.link(self.rig)
+        self.bones = [b for b in self.rig.data.bones if b.use_deform]
+        weights = np.zeros((len(obj.data.vertices), len(self.bones)), np.float32)
+        index = {obj.vertex_groups[b.name].index: j for j, b in enumerate(self.bones) if b.name in obj.vertex_groups}
+        for v in obj.data.vertices:
+            for g in v.groups:
+                if g.group in index:
+                    weights[v.index, index[g.group]] = g.weight
+        total = weights.sum(1, keepdims=True)
+        self.weights = weights / np.maximum(total, 1e-30)
+        self.unweighted = np.flatnonzero(total[:, 0] <= 1e-4)
+        rest = np.empty(len(obj.data.vertices) * 3, np.float32)
+        obj.data.vertices.foreach_get("co", rest)
+        self.rest = rest.reshape(-1, 3)
+        self.rest_inverse = np.stack([np.array(b.matrix_local.inverted()) for b in self.bones])
+        self.timing = {"the rig alone at the frame": [], "skinned": []}
+
+    def at(self, frame):
+        """Object-space positions (V, 3) float32 at frame; its pieces' process time in self.timing."""
+        import numpy as np
+        t0 = time.process_time()
+        self.scene.frame_set(frame)
+        rig = self.rig.evaluated_get(self.scene.view_layers[0].depsgraph)
+        pose = np.stack([np.array(rig.pose.bones[b.name].matrix) for b in self.bones])
+        rig_world = np.array(rig.matrix_world)
+        t1 = time.process_time()
+        out = self._skin(pose, rig_world)
+        self.timing["skinned"].append(time.process_time() - t1)
+        self.timing["the rig alone at the frame"].append(t1 - t0)
+        return out
+
+    def _skin(self, pose, rig_world):
+        """The rest mesh deformed by the pose (the deform bones' matrices in the rig's space) as the Armature
+        modifier does it, in the rig's space, then back in the object's."""
+        import numpy as np
+        world = rig_world @ np.array(self.obj.matrix_parent_inverse) @ np.array(self.obj.matrix_basis)
+        to_rig = (np.linalg.inv(rig_world) @ world).astype(np.float32)
+        at_rig = self.rest @ to_rig[:3, :3].T + to_rig[:3, 3]
+        blended = self.weights @ (pose @ self.rest_inverse)[:, :3].reshape(len(self.bones), 12).astype(np.float32)
+        out = np.empty_like(at_rig)
+        for i in range(3):
+            row = blended[:, 4 * i + 3].copy()
+            for k in range(3):
+                row += blended[:, 4 * i + k] * at_rig[:, k]
+            out[:, i] = row
+        out[self.unweighted] = at_rig[self.unweighted]
+        back = np.linalg.inv(to_rig)
+        return out @ back[:3, :3].T + back[:3, 3]
+
+
 def _variants(C, H):
-    """{label: (scene, object, write(obj, depsgraph, offset) or None)}."""
+    """({label: (scene, object, write(obj, depsgraph, offset) or None, "pre" or "post")}, {"goal": the
+    GoalAhead of the AHEAD variant; "frame", "predicted": the frame it is asked for and its answer})."""
     import importlib
     import numpy as np
     modifier = importlib.import_module(H.ADDON + ".blender.modifier")
@@ -59,10 +128,10 @@ def _variants(C, H):
     base = C.build()
     out = {}
 
-    def add(label, setup=None, write=None):
+    def add(label, setup=None, write=None, when="post"):
         scene, obj = C.variant_scene(label, base)
         extra = setup(obj, scene) if setup else None
-        out[label] = (scene, obj, None if write is None else (lambda o, dg, off: write(o, dg, off, extra)))
+        out[label] = (scene, obj, None if write is None else (lambda o, dg, off: write(o, dg, off, extra)), when)
 
     def read(obj, depsgraph):
         modifier.read_input(obj.evaluated_get(depsgraph).data, len(obj.data.vertices))
@@ -93,7 +162,26 @@ def _variants(C, H):
     add("attribute written (OPDeform)", with_offset, attribute)
     add("shape key written", keyed, shape_key)
     add("another object's points written", lambda o, s: _offset_object(o, s, modifier), holder)
-    return out
+    add("object tagged, nothing written", None, lambda o, dg, off, _: o.update_tag())
+
+    def bare(obj, scene):
+        obj.modifiers.clear()
+    add("no modifier", bare)
+    add("no modifier, mesh tagged", bare, lambda o, dg, off, _: o.data.update())
+    pre = "in frame_change_pre: "
+    add(pre + "attribute written", with_offset, lambda o, dg, off, _: modifier.write_offset(o.data, off), "pre")
+    add(pre + "another object's points written", lambda o, s: _offset_object(o, s, modifier), holder, "pre")
+    ahead = {}
+
+    def goal_ahead(obj, scene):
+        with_offset(obj, scene)
+        ahead["goal"] = GoalAhead(obj)
+
+    def predicted(obj, depsgraph, offset, _):
+        ahead["predicted"] = ahead["goal"].at(ahead["frame"])
+        modifier.write_offset(obj.data, offset)
+    add(AHEAD, goal_ahead, predicted, "pre")
+    return out, ahead
 
 
 def inside():
@@ -103,19 +191,28 @@ def inside():
     sys.path.insert(0, os.path.join(root, "tests", "blender"))
     import character_scene as C
     import helpers as H
-    variants = _variants(C, H)
-    by_scene = {scene.name: (obj, write) for scene, obj, write in variants.values()}
+    import importlib
+    modifier = importlib.import_module(H.ADDON + ".blender.modifier")
+    variants, ahead = _variants(C, H)
+    by_scene = {scene.name: (obj, write, when) for scene, obj, write, when in variants.values()}
     count = len(bpy.data.objects["Character"].data.vertices)
+    ahead_scene = variants[AHEAD][0]
+    differences = []
 
-    def handler(scene, depsgraph=None):
-        obj, write = by_scene.get(scene.name, (None, None))
-        if write is not None:
+    def handler(when, scene, depsgraph=None):
+        obj, write, at = by_scene.get(scene.name, (None, None, None))
+        if write is not None and at == when:
+            ahead["frame"] = scene.frame_current
             write(obj, depsgraph, np.full((count, 3), 1e-6 * scene.frame_current, np.float32))
-    bpy.app.handlers.frame_change_post.append(handler)
+        if when == "post" and scene == ahead_scene:  # the input Blender's Armature gave, against the goal ahead
+            given = modifier.read_input(obj.evaluated_get(depsgraph).data, count)[0]
+            differences.append(float(np.abs(given - ahead.pop("predicted")).max()))
+    bpy.app.handlers.frame_change_pre.append(lambda scene, depsgraph=None: handler("pre", scene, depsgraph))
+    bpy.app.handlers.frame_change_post.append(lambda scene, depsgraph=None: handler("post", scene, depsgraph))
     times = {label: [] for label in variants}
     for _ in range(REPEATS):
         for f in range(1, FRAMES + 1):
-            for label, (scene, obj, write) in variants.items():
+            for label, (scene, obj, write, when) in variants.items():
                 t = time.process_time()
                 scene.frame_set(f)
                 if f > 1:
@@ -124,7 +221,11 @@ def inside():
     print(f"{H.host()}: process time of frame_set, median of {REPEATS} x frames 2..{FRAMES}, interleaved")
     for label, t in times.items():
         ms = 1e3 * statistics.median(t)
-        print(f"  {label:36s} {ms:6.2f} ms  (+{ms - 1e3 * plain:.2f} over the armature only)")
+        print(f"  {label:56s} {ms:6.2f} ms  (+{ms - 1e3 * plain:.2f} over the armature only)")
+    for piece, t in ahead["goal"].timing.items():
+        print(f"  goal ahead, {piece}: {1e3 * statistics.median(t):.3f} ms")
+    print(f"  goal ahead against Blender's Armature: largest difference {max(differences):.2g} m over "
+          f"{len(differences)} frames")
     print("WRITES_DONE")
 
 
