@@ -26,6 +26,10 @@
 // end frame) meets that collider with the thickness less p_i, so it is pushed only by what it is deeper than
 // its goal, friction only on that excess, and a body on its animation is left where it is.
 //
+// With the skin as the contact shape (skin_shape.c, od_Sim_SetContactSkin) the particle's carried skin points
+// stand for its ellipsoid everywhere above: the deepest point and its normal give the depth (od_PointsDepth),
+// the centre is pushed by it, the rest (sweep, recovery, goals, friction) is the same.
+//
 // A particle that begins a step inside (placed there, or a collider that appeared over it) leaves at 1 m/s
 // at most, as PhysX's depenetration velocity: pushed out, never shot out. Measured on the blob of
 // tests/test_contact.py placed half inside a box: its fastest particle moves at 1.0 m/s while it comes out

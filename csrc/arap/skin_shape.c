@@ -3,11 +3,16 @@
 //
 // The particles' ellipsoids reach past the mesh they carry (a 2.7 m Suzanne's by 4.5 cm, median over 200
 // directions, at 100 particles), so a body whose ellipsoids touch rests with its skin above the collider by
-// that overhang. Here each skin point (a vertex of the rest mesh, or any sampling of it) is given to one
-// particle (the one of its largest skinning weight) and carried rigidly with it, at x_i + R_i (v - X̄_i); the
-// floor and the colliders meet those points instead of the ellipsoid, with the same push of the particle's
-// centre and the same friction (floor.c, contact.c). A particle given no point keeps its centre, so an
-// interior particle still stops at a collider once the skin has gone past. The ARAP solve is not touched.
+// that overhang (3-4 cm). Here the skin's points (the rest mesh's vertices, or any sampling of it) are carried
+// rigidly by particles, at x_i + R_i (v - X̄_i), and the floor and the colliders meet those points instead of
+// the ellipsoids, with the same push of the particle's centre and the same friction (floor.c, contact.c); the
+// ARAP solve is not touched. Which particles carry a vertex is the caller's choice: Simulation.set_contact_skin
+// gives it to every particle that skins it (weight > 0). A skinned vertex is a convex combination of those
+// carried copies, so where each copy is out of a plane the vertex is too: Suzanne's skin rests on the floor at
+// 0 and at the thickness (5 mm) on a sphere or a ramp, never inside. Given to its largest weight's particle
+// alone, the vertex dipped 4-7 mm into them (the other particles' copies lower), the push-out hiding it.
+// A particle given no point keeps its centre, so an interior particle still stops at a collider once the skin
+// has gone past.
 #include "skin_shape.h"
 
 #include "check.h"

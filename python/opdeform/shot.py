@@ -495,6 +495,7 @@ def build(shot: Shot, threads: int = 1) -> Rig:
         pin_vertices(sim, shot.vertices, shot.pins, weight=shot.section("pins")["strength"] * sim.default_weight())
     handle_ids = [_add_handle(sim, shot.vertices, h) for h in shot.section("handles")]
     rig = Rig(sim, Skin(graph, shot.vertices, neighbors=graph_settings["neighbors"]), handle_ids)
+    sim.set_contact_skin(rig.skin)  # as the engine: the skin meets the floor (docs/contact.md)
     if shot.section("goals"):
         rig.fit = GoalFit(graph, shot.vertices, neighbors=shot.section("goals")["neighbors"])
         sim.set_goal_strength(shot.section("goals")["strength"])

@@ -9,7 +9,8 @@ A group's frames depend on every member, so an engine remembers the group it was
 joining, leaving or a change of the group's contact outdates its whole cache. Before simulating, the members'
 plans are made the same: each cache is cut back to the shortest one (a member whose colliders moved outdates the
 others' frames after it too), so a bake of one member simulates the whole group again, bit for bit as playback.
-The group's gap is the largest of its members' Distance, its friction their mean.
+The group's gap is the largest of its members' Distance, its friction their mean. A member's floor and colliders
+meet its ellipsoids, as the other bodies do (alone: its skin, core/engine.py).
 """
 
 from .engine import simulate
@@ -46,10 +47,13 @@ def align(runs):
 
 
 def join(runs, key):
-    """Marks the group the runs' engines are simulated in (None: alone); another than before outdates a cache."""
+    """Marks the group the runs' engines are simulated in (None: alone); another than before outdates a cache.
+    Alone, the skin meets the floor and the colliders; in a group the particles' ellipsoids do, the shape their
+    contact with the other bodies has (docs/contact.md, "Contact on the skin")."""
     for r in runs:
         if r.engine.partners != key:
             r.engine.partners = key
+            r.engine.sim.set_contact_skin(r.engine.skin if key is None else None)
             _replan([r], clear=True)
 
 

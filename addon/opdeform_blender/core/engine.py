@@ -243,6 +243,7 @@ class Engine:
         changed = False
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
+            self.sim.set_contact_skin(self.skin)  # alone the skin meets the floor and colliders (core/contact.py)
             self.colliders = SceneColliders(self.sim)
             self.fields = SceneFields(self.sim)
             changed = True

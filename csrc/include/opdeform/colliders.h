@@ -57,7 +57,7 @@ int od_Sim_GetColliderCount(const od_Sim* sim);
 
 // The skinned surface as the contact shape of the floor and the colliders (docs/contact.md, "Contact on the
 // skin"): point k (points: count*3, rest space, e.g. the skin's vertices) is carried rigidly by particle
-// particles[k] (e.g. its largest skinning weight's), at x_i + R_i (p_k - X̄_i), and those points meet the floor
+// particles[k] (e.g. every particle that skins it), at x_i + R_i (p_k - X̄_i), and those points meet the floor
 // and the colliders instead of the particles' ellipsoids (a particle given none: its centre). count 0: the
 // ellipsoids again (the default). Contact between particles (below) keeps the ellipsoids.
 od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count);
