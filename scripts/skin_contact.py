@@ -2,30 +2,42 @@
 shape (docs/contact.md, "Contact on the skin"; issue 27).
 
     PYTHONPATH=build/python python3 scripts/skin_contact.py [--quick]
+    PYTHONPATH=build/python:scripts python3 scripts/skin_contact.py --blender   # the add-on in Debian's Blender
 
 Blender's Suzanne (tests/reference/suzanne_subdivided.npz: 2.66 m wide, 7,958 vertices), the add-on's
 defaults (materials.make_simulation: the default material, 1/24 s frames of materials.substeps_for(24) steps,
 Graph.from_mesh, Skin of 4 neighbours), dropped with its lowest vertex 0.3 m above the floor (z = 0), onto a
 sphere (radius 1 m at the origin) and onto a 30-degree plane ramp (friction 0.5, thickness 5 mm: the
-colliders' defaults); 3 s (--quick: 1 s). Printed per scene and particle count, with the ellipsoids and with
+colliders' defaults); 2 s (--quick: 1 s). Printed per scene and particle count, with the ellipsoids and with
 the skin as the contact shape: the skin's closest approach to the collider over the run (signed distance,
 < 0: inside) and its least distance over the last 0.5 s (on the floor it rests; off the top of the sphere
-it rolls after about 3 s, down the ramp it slides: mu 0.5 < tan 30 degrees), both without the push-out
+it rolls after 2-3 s, down the ramp it slides: mu 0.5 < tan 30 degrees), both without the push-out
 (the skin as skinned), and the process time of a step, also with no collider (free fall: the cost's
 baseline, as `scripts/bench colliders`'s "free").
+
+--blender: the same drops in Debian's Blender with the add-on (one thread): Suzanne (primitive_monkey_add, 2.7 m,
+a Subdivision of one level applied, 1,968 vertices), 100 and 1,000 particles, the add-on's defaults, onto its
+Floor, a UV sphere (radius 1, 48 x 24) or a 30-degree ramp (an 8 m grid) with a Collision modifier (Outer
+Thickness 0.02, Blender's default, and 0.005); the shown mesh's closest approach over 2 s (the sphere's distance
+from its sampled mesh, as the add-on's collider) and its least distance over the last 0.5 s, with the skin (the
+add-on's) and with the ellipsoids (``set_contact_skin(None)`` on the object's simulation).
 """
 
 import argparse
+import json
 import os
+import sys
 import time
 
 import numpy as np
 
-import opdeform as od
-from opdeform import materials
+if "--inside" not in sys.argv:
+    import opdeform as od
+    from opdeform import materials
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FPS = 24
+SECONDS = 2  # before the body reaches the ramp's rim in Blender (an 8 m grid), or rolls off the sphere's top
 
 
 def suzanne():
@@ -80,13 +92,92 @@ def run(kind, particles, shape, seconds):
     return closest, min(settled), 1e3 * cpu / (frames * steps)
 
 
+# -- inside Blender ------------------------------------------------------------------------------------------
+BLENDER_SCENES = [(kind, thickness) for kind in ("floor", "sphere", "ramp")
+                  for thickness in ((None,) if kind == "floor" else (0.02, 0.005))]
+
+
+def _blender_drop(kind, thickness, particles, skin_shape):
+    import bpy
+    import helpers as H
+    import suite_colliders
+    H.fresh()
+    normal = np.array([np.sin(np.radians(30.0)), 0.0, np.cos(np.radians(30.0))]) if kind == "ramp" else np.eye(3)[2]
+    if kind != "floor":
+        c = suite_colliders.collider(kind)
+        c.collision.thickness_outer = thickness
+        m = np.array(c.matrix_world)
+        verts = np.array([v.co[:] for v in c.data.vertices]) @ m[:3, :3].T + m[:3, 3]
+        c.data.calc_loop_triangles()
+        tris = np.array([t.vertices[:] for t in c.data.loop_triangles], np.int32)
+        if kind == "sphere":  # the distance from the sphere's mesh, sampled as the add-on's collider is
+            probe = od.Simulation(od.Graph.from_mesh(verts, tris, particles=20), 1.0)
+            probe.add_collider("mesh", vertices=verts, triangles=tris)
+    bpy.ops.mesh.primitive_monkey_add()
+    obj = bpy.context.active_object
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    rest = np.array([v.co[:] for v in obj.data.vertices])
+    above = 1.3 if kind == "sphere" else 0.3
+    obj.location = tuple(normal * (above - (rest @ normal).min()))
+    s = obj.opdeform
+    s.particles, s.use_floor = particles, kind == "floor"
+    bpy.ops.opdeform.enable(object=obj.name)
+    assert s.built and not s.error, s.error
+    if not skin_shape:
+        engine = H.runtime().get(obj).engine
+        engine.sim.set_contact_skin(None)
+        engine.invalidate()
+    gaps = []
+    for f in range(1, SECONDS * FPS + 1):
+        bpy.context.scene.frame_set(f)
+        assert not s.error, s.error
+        m = np.array(obj.matrix_world)
+        shown = H.positions(obj).astype(np.float64) @ m[:3, :3].T + m[:3, 3]
+        gaps.append(float((shown @ normal).min() if kind != "sphere" else probe.collider_distances(shown).min()))
+    return min(gaps), min(gaps[-FPS // 2:])
+
+
+def _inside_blender(out_path):
+    sys.path.insert(0, os.environ["OPDEFORM_PYTHONPATH"])
+    global od
+    import opdeform as od
+    result = []
+    for kind, thickness in BLENDER_SCENES:
+        for particles in (100, 1000):
+            row = [kind, thickness, particles]
+            for skin_shape in (False, True):
+                row += _blender_drop(kind, thickness, particles, skin_shape)
+            result.append(row)
+    with open(out_path, "w") as f:
+        json.dump(result, f)
+    print("SKIN_CONTACT", out_path)
+
+
+def blender():
+    from benchmarks.common import blender_json, out_dir
+    rows = blender_json(os.path.abspath(__file__), "SKIN_CONTACT", os.path.join(out_dir("skin_contact"), "blender.json"))
+    if rows is None:
+        return
+    print("| scene | Outer Thickness (m) | particles | closest (cm): ellipsoids | skin | last 0.5 s (cm): ellipsoids "
+          "| skin |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for kind, thickness, particles, c0, r0, c1, r1 in rows:
+        print(f"| {kind} | {thickness or ''} | {particles} | {100 * c0:.2f} | {100 * c1:.2f} | {100 * r0:.2f} | "
+              f"{100 * r1:.2f} |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--blender", action="store_true")
     parser.add_argument("--particles", type=int, nargs="*", default=[100, 1000])
     parser.add_argument("--scenes", nargs="*", default=["floor", "sphere", "ramp"])
     args = parser.parse_args()
-    seconds = 1.0 if args.quick else 3.0
+    if args.blender:
+        blender()
+        return
+    seconds = 1.0 if args.quick else SECONDS
     print("| scene | particles | closest (cm): ellipsoids | skin | last 0.5 s (cm): ellipsoids | skin | "
           "ms a step: no contact | ellipsoids | skin |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -98,5 +189,8 @@ def main():
                   f"{ms:.3f} | {ms0:.3f} | {ms1:.3f} |", flush=True)
 
 
-if __name__ == "__main__":
+if __name__ == "__main__" and "--inside" in sys.argv:
+    sys.path.insert(0, os.path.join(ROOT, "tests", "blender"))
+    _inside_blender(sys.argv[sys.argv.index("--inside") + 1])
+elif __name__ == "__main__":
     main()
