@@ -1,7 +1,7 @@
 """The skin as the contact shape of the floor and the colliders (docs/contact.md, "Contact on the skin", issue 27):
 Blender's 2.7 m Suzanne at 100 particles rests with its skin within 0.5 cm of the floor, a sphere and a ramp
 (with the ellipsoids 3-4 cm above) and never dips into them; a drop gains no energy; a box slides down a ramp
-as Coulomb says or sticks; without a skin the steps are those of before, bit for bit; a pickle keeps the skin; bad
+as Coulomb says or sticks; with goals carrying the rest it is pushed by its excess only; without a skin the steps are those of before, bit for bit; a pickle keeps the skin; bad
 input raises naming the argument with nothing changed."""
 
 import math
@@ -14,6 +14,8 @@ import pytest
 import opdeform
 from opdeform import materials, meshes
 from opdeform.simulation import frame_from_normal
+
+import test_goal_contact as gc
 
 FIXTURE = pathlib.Path(__file__).parent / "reference" / "suzanne_subdivided.npz"
 FPS = 24
@@ -163,3 +165,43 @@ def test_bad_skin_input_raises_and_changes_nothing(blob):
     with pytest.raises(ValueError, match="skin"):
         sim.set_contact_skin(opdeform.Skin(other, v))
     assert sim.n_contact_points == count
+
+
+@pytest.mark.parametrize("kind", ["floor", "plane"])
+def test_with_goals_carrying_the_rest_the_skin_is_pushed_by_its_excess_only(kind):
+    """tests/test_goal_contact.py's bar on its skin: on strength-1 goals lying on the surface it stays on them
+    (with the goals not carrying the rest the plane's 5 mm thickness lifts it); its free tip, swung down by
+    the animation's stop, stops with its skin at the surface."""
+    v, t = meshes.bar(length=gc.LENGTH, width=0.2, segments=20, cross=2)
+    g = opdeform.Graph.from_mesh(v, t, particles=40)
+    fit, skin = opdeform.GoalFit(g, v), opdeform.Skin(g, v)
+
+    def on_goals(carry):
+        sim = gc.simulation(g, np.full(g.n_particles, 1000.0), carry)
+        sim.set_state(*fit.fit(gc.lying(v, 0)))
+        gc.add_contact(sim, kind)
+        sim.set_contact_skin(skin)
+        worst = 0.0
+        for f in range(30):
+            goals = fit.fit(gc.lying(v, f))
+            sim.set_goals(*goals)
+            sim.step()
+            worst = max(worst, np.abs(sim.positions - goals[0]).max())
+        return worst
+
+    assert on_goals(True) < 1e-5 * gc.LENGTH
+    if kind == "plane":
+        assert on_goals(False) > 0.004
+    root = g.centers[:, 0] < gc.LENGTH / 2
+    sim = gc.simulation(g, np.where(root, 1000.0, 0.0), stiffness=1e5, gravity=(0.0, 0.0, 0.0))
+    start = fit.fit(gc.falling(v, -1))
+    sim.set_state(*start, velocities=np.tile([0.0, 0.0, -gc.SPEED], (g.n_particles, 1)))
+    sim.set_goals(*start)
+    gc.add_contact(sim, kind)
+    sim.set_contact_skin(skin)
+    tip, lowest = v[:, 0] > 1.5, np.inf
+    for f in range(gc.STOP + 60):
+        sim.set_goals(*fit.fit(gc.falling(v, f)))
+        sim.step()
+        lowest = min(lowest, skin.deform_sim(sim, push_out=False)[tip, 2].min())
+    assert gc.SURFACE[kind] - 1e-6 < lowest < gc.SURFACE[kind] + 1e-3  # the tip's skin reached it, not past
