@@ -1,8 +1,9 @@
 """The skin as the contact shape of the floor and the colliders (docs/contact.md, "Contact on the skin", issue 27):
 Blender's 2.7 m Suzanne at 100 particles rests with its skin within 0.5 cm of the floor, a sphere and a ramp
 (with the ellipsoids 3-4 cm above) and never dips into them; a drop gains no energy; a box slides down a ramp
-as Coulomb says or sticks; with goals carrying the rest it is pushed by its excess only; without a skin the steps are those of before, bit for bit; a pickle keeps the skin; bad
-input raises naming the argument with nothing changed."""
+as Coulomb says or sticks; with goals carrying the rest it is pushed by its excess only; without a skin the
+steps are those of before, bit for bit; a pickle keeps the skin; bad input raises naming the argument with
+nothing changed."""
 
 import math
 import pathlib
