@@ -88,12 +88,12 @@ static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, dou
 
 // od_Depth for a particle's skin points (skin_shape.c: offsets and their lengths, 4 each) turned by the
 // particle's rotation `turn` and placed at centre l in the collider's frame R: the deepest point's, with the
-// normal there. A point that the centre's distance proves clear (a distance is 1-Lipschitz: no nearer than
-// φ(l) less the point's offset) is neither turned nor looked up, so a particle resting on a collider looks up
-// its lower points only.
+// normal there, or `least` when none is deeper. A point that the centre's distance proves no deeper than that
+// (a distance is 1-Lipschitz: no nearer than φ(l) less the point's offset) is neither turned nor looked up,
+// and the points come longest first, so a particle resting on a collider looks up its far points only.
 static double od_PointsDepth(const od_Collider* body, const double* offset, int count, double reach,
-							 const od_Mat3* turn, const od_Mat3* R, od_Vec3 l, double thickness, od_Vec3* n,
-							 bool clearNormal)
+							 const od_Mat3* turn, const od_Mat3* R, od_Vec3 l, double thickness, double least,
+							 od_Vec3* n, bool clearNormal)
 {
 	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
 	if (phi >= reach + thickness)
@@ -101,14 +101,10 @@ static double od_PointsDepth(const od_Collider* body, const double* offset, int 
 		return thickness + reach - phi;
 	}
 	od_Mat3 local = od_M3MulTN(R, turn);
-	double depth = 0.0;
+	double depth = least;
 	od_Vec3 deepest = l;
-	for (int k = 0; k < count; ++k)
+	for (int k = 0; k < count && thickness - phi + offset[4 * k + 3] > depth; ++k)
 	{
-		if (thickness - phi + offset[4 * k + 3] <= depth)
-		{
-			continue;
-		}
 		od_Vec3 p = od_Add(l, od_M3MulV(&local, od_V3Load(offset + 4 * k)));
 		double d = thickness - od_Collider_LocalDistance(body, p, NULL);
 		if (d > depth)
@@ -117,7 +113,7 @@ static double od_PointsDepth(const od_Collider* body, const double* offset, int 
 			deepest = p;
 		}
 	}
-	if (depth > 0.0)
+	if (depth > least)
 	{
 		od_Collider_LocalDistance(body, deepest, n);
 	}
@@ -199,14 +195,14 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 }
 
 // od_Depth of the particle's shape (its goal frame's with `goal`) centred at l in the collider's frame R: its
-// ellipsoid (moment M in that frame) or its skin points.
+// ellipsoid (moment M in that frame) or its skin points, whose depth is only sought beyond `least` (>= 0).
 static double od_BodyDepth(const od_Collider* body, const od_Body* b, bool goal, const od_Mat3* R, const od_Mat3* M,
-						   od_Vec3 l, double thickness, od_Vec3* n, bool clearNormal)
+						   od_Vec3 l, double thickness, double least, od_Vec3* n, bool clearNormal)
 {
 	if (b->offset)
 	{
-		return od_PointsDepth(body, b->offset, b->count, b->reach, goal ? &b->goalR : &b->R, R, l, thickness, n,
-							  clearNormal);
+		return od_PointsDepth(body, b->offset, b->count, b->reach, goal ? &b->goalR : &b->R, R, l, thickness, least,
+							  n, clearNormal);
 	}
 	return od_Depth(body, M, l, thickness, b->reach, n, clearNormal);
 }
@@ -221,7 +217,7 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 	}
 	od_Mat3 M = od_InFrame(&b->goalM, &c->Rb);
 	od_Vec3 n, l = od_M3MulTV(&c->Rb, od_Sub(b->goalX, c->tb));
-	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, &n, false), 0.0);
+	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, 0.0, &n, false), 0.0);
 }
 
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
@@ -245,7 +241,7 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const 
 		}
 		od_Vec3 t = od_MulAdd(c->ta, s, od_Sub(c->tb, c->ta)), n;
 		od_Vec3 l = od_M3MulTV(&R, od_Sub(od_MulAdd(start, s, od_Sub(x, start)), t));
-		if (od_BodyDepth(&c->body, b, false, &R, &M, l, thickness, &n, false) > 0.0)
+		if (od_BodyDepth(&c->body, b, false, &R, &M, l, thickness, 0.0, &n, false) > 0.0)
 		{
 			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, l), n), 0.0), n);
 		}
@@ -268,9 +264,10 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	double thickness = c->thickness - od_GoalDepth(c, b);
 	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
-	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, &n, false) - b->recovery; // began inside
+	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, b->recovery, &n, false) -
+				  b->recovery; // began inside (what it is not beyond its recovery does not count)
 	od_Vec3 l = od_FirstContact(c, b, &Ma, thickness, start, *x, la, lb);
-	double depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, &n, true);
+	double depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true);
 	if (depth <= 0.0 && l.x == lb.x && l.y == lb.y && l.z == lb.z)
 	{
 		return;

@@ -19,6 +19,7 @@
 #include "core.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 void od_SkinShape_Destroy(od_SkinShape* shape)
@@ -52,7 +53,23 @@ static od_Status od_CheckSkin(const od_Sim* sim, const double* points, const int
 	return status;
 }
 
-// Points by particle (a counting sort), a particle given none at its centre (offset 0).
+// Longest offset first, then by its coordinates (a total order: the same on every platform).
+static int od_LongerFirst(const void* a, const void* b)
+{
+	const double *p = a, *q = b;
+	const int order[4] = { 3, 0, 1, 2 };
+	for (int k = 0; k < 4; ++k)
+	{
+		if (p[order[k]] != q[order[k]])
+		{
+			return p[order[k]] > q[order[k]] ? -1 : 1;
+		}
+	}
+	return 0;
+}
+
+// Points by particle (a counting sort), longest offset first (contact.c stops at the first point the centre's
+// distance proves clear), a particle given none at its centre (offset 0).
 static void od_FillSkin(od_SkinShape* s, const od_Graph* g, const double* points, const int* particles, int count,
 						int* next)
 {
@@ -76,11 +93,9 @@ static void od_FillSkin(od_SkinShape* s, const od_Graph* g, const double* points
 	}
 	for (int i = 0; i < n; ++i)
 	{
-		s->reach[i] = 0.0;
-		for (int k = s->start[i]; k < s->start[i + 1]; ++k)
-		{
-			s->reach[i] = fmax(s->reach[i], s->offset[4 * k + 3]);
-		}
+		int first = s->start[i];
+		qsort(s->offset + 4 * first, (size_t)(s->start[i + 1] - first), sizeof(double) * 4, od_LongerFirst);
+		s->reach[i] = s->offset[4 * first + 3];
 	}
 }
 
@@ -143,7 +158,7 @@ double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation)
 {
 	const od_SkinShape* s = &sim->skinShape;
 	double below = -INFINITY;
-	for (int k = s->start[i]; k < s->start[i + 1]; ++k)
+	for (int k = s->start[i]; k < s->start[i + 1] && s->offset[4 * k + 3] > below; ++k) // longest first
 	{
 		const double* o = s->offset + 4 * k;
 		below = fmax(below, -(rotation[6] * o[0] + rotation[7] * o[1] + rotation[8] * o[2]));
