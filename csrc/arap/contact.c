@@ -86,31 +86,45 @@ static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, dou
 	return depth;
 }
 
-// od_Depth for a particle's skin points (skin_shape.c: offsets and their lengths, 4 each) turned by the
-// particle's rotation `turn` and placed at centre l in the collider's frame R: the deepest point's, with the
-// normal there, or `least` when none is deeper. A point that the centre's distance proves no deeper than that
-// (a distance is 1-Lipschitz: no nearer than φ(l) less the point's offset) is neither turned nor looked up,
-// and the points come longest first, so a particle resting on a collider looks up its far points only.
-static double od_PointsDepth(const od_Collider* body, const double* offset, int count, double reach,
-							 const od_Mat3* turn, const od_Mat3* R, od_Vec3 l, double thickness, double least,
-							 od_Vec3* n, bool clearNormal)
+// od_Depth for particle i's skin points (skin_shape.c) turned by its rotation `turn` and placed at centre l in
+// the collider's frame R: the deepest point's, with the normal there, or `least` when none is deeper. A distance
+// is 1-Lipschitz, so a group of points is passed over when the centre's distance, then its own centre's,
+// proves it no deeper than that (a particle resting on a collider looks up the groups near it), and so is a
+// point by its group centre's.
+static double od_PointsDepth(const od_Collider* body, const od_SkinShape* skin, int i, const od_Mat3* turn,
+							 const od_Mat3* R, od_Vec3 l, double thickness, double least, od_Vec3* n,
+							 bool clearNormal)
 {
 	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
-	if (phi >= reach + thickness)
+	if (phi >= skin->reach[i] + thickness)
 	{
-		return thickness + reach - phi;
+		return thickness + skin->reach[i] - phi;
 	}
 	od_Mat3 local = od_M3MulTN(R, turn);
 	double depth = least;
 	od_Vec3 deepest = l;
-	for (int k = 0; k < count && thickness - phi + offset[4 * k + 3] > depth; ++k)
+	for (int g = skin->start[i]; g < skin->start[i + 1]; ++g)
 	{
-		od_Vec3 p = od_Add(l, od_M3MulV(&local, od_V3Load(offset + 4 * k)));
-		double d = thickness - od_Collider_LocalDistance(body, p, NULL);
-		if (d > depth)
+		const double* c = skin->group + 5 * g;
+		if (thickness - phi + c[4] <= depth)
 		{
-			depth = d;
-			deepest = p;
+			continue;
+		}
+		double near = od_Collider_LocalDistance(body, od_Add(l, od_M3MulV(&local, od_V3Load(c))), NULL);
+		for (int k = skin->first[g]; k < skin->first[g + 1]; ++k)
+		{
+			const double* o = skin->offset + 4 * k;
+			if (thickness - near + o[3] <= depth)
+			{
+				continue;
+			}
+			od_Vec3 p = od_Add(l, od_M3MulV(&local, od_V3Load(o)));
+			double d = thickness - od_Collider_LocalDistance(body, p, NULL);
+			if (d > depth)
+			{
+				depth = d;
+				deepest = p;
+			}
 		}
 	}
 	if (depth > least)
@@ -129,9 +143,8 @@ static od_Mat3 od_InFrame(const od_Mat3* M, const od_Mat3* R)
 
 // A particle: its moment M (world), reach (largest radius), sampling step (half its smallest radius), how
 // far it may leave a collider it began the step inside and, with goals carrying the rest, its ellipsoid at
-// its goal frame (moment goalM, centre goalX). With the skin as the contact shape: its points (count, their
-// offsets and lengths at offset, 4 each; NULL: the ellipsoid), turned by its rotation R (goalR at its goal
-// frame), and reach their farthest.
+// its goal frame (moment goalM, centre goalX). With the skin as the contact shape (skin: NULL for the
+// ellipsoid): its index i, rotation R (goalR at its goal frame), and reach its points' farthest.
 typedef struct od_Body
 {
 	od_Mat3 M;
@@ -139,8 +152,8 @@ typedef struct od_Body
 	bool goal;
 	od_Mat3 goalM;
 	od_Vec3 goalX;
-	const double* offset;
-	int count;
+	const od_SkinShape* skin;
+	int i;
 	od_Mat3 R, goalR;
 } od_Body;
 
@@ -186,7 +199,8 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 	}
 	if (od_SkinShape_Used(sim))
 	{
-		b.offset = od_SkinShape_Points(sim, i, &b.count);
+		b.skin = &sim->skinShape;
+		b.i = i;
 		b.reach = od_SkinShape_Reach(sim, i);
 		b.R = od_M3Load(sim->state.R + 9 * i);
 		b.goalR = b.goal ? od_M3Load(sim->goals.R + 9 * i) : b.R;
@@ -199,10 +213,9 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 static double od_BodyDepth(const od_Collider* body, const od_Body* b, bool goal, const od_Mat3* R, const od_Mat3* M,
 						   od_Vec3 l, double thickness, double least, od_Vec3* n, bool clearNormal)
 {
-	if (b->offset)
+	if (b->skin)
 	{
-		return od_PointsDepth(body, b->offset, b->count, b->reach, goal ? &b->goalR : &b->R, R, l, thickness, least,
-							  n, clearNormal);
+		return od_PointsDepth(body, b->skin, b->i, goal ? &b->goalR : &b->R, R, l, thickness, least, n, clearNormal);
 	}
 	return od_Depth(body, M, l, thickness, b->reach, n, clearNormal);
 }

@@ -114,12 +114,15 @@ typedef struct od_Colliders
 } od_Colliders;
 
 // The skinned surface as the particles' contact shape with the floor and the colliders (skin_shape.c): point k
-// is carried rigidly by its particle i, at x_i + R_i offset_k. count 0 (NULL arrays): the ellipsoids.
+// is carried rigidly by its particle i, at x_i + R_i offset_k, in groups of nearby points (a bounding sphere
+// each). count 0 (NULL arrays): the ellipsoids.
 typedef struct od_SkinShape
 {
 	int count, given; // points kept (a particle given none keeps its centre), points given
-	int* start;       // n + 1: particle i's points are [start[i], start[i + 1])
-	double* offset;   // 4 per point: v - X̄_i at rest, then its length
+	int* start;       // n + 1: particle i's groups are [start[i], start[i + 1])
+	int* first;       // groups + 1: group g's points are [first[g], first[g + 1])
+	double* group;    // 5 per group: its centre's offset, its radius, the farthest it reaches from the particle
+	double* offset;   // 4 per point: v - X̄_i at rest, then its distance from its group's centre
 	double* reach;    // n: the farthest of particle i's points from its centre
 } od_SkinShape;
 

@@ -25,6 +25,8 @@
 void od_SkinShape_Destroy(od_SkinShape* shape)
 {
 	od_Free(shape->start);
+	od_Free(shape->first);
+	od_Free(shape->group);
 	od_Free(shape->offset);
 	od_Free(shape->reach);
 	*shape = (od_SkinShape){ 0 };
@@ -53,50 +55,131 @@ static od_Status od_CheckSkin(const od_Sim* sim, const double* points, const int
 	return status;
 }
 
-// Longest offset first, then by its coordinates (a total order: the same on every platform).
-static int od_LongerFirst(const void* a, const void* b)
+#define OD_SKIN_GROUP 16 // points a group holds at most
+
+// A point while sorting: its place along a Morton curve over its particle's box, then its offset.
+typedef struct od_SkinPoint
 {
-	const double *p = a, *q = b;
-	const int order[4] = { 3, 0, 1, 2 };
-	for (int k = 0; k < 4; ++k)
+	unsigned long long key;
+	double o[3];
+} od_SkinPoint;
+
+// By key, then by the offset (a total order: the same on every platform).
+static int od_AlongCurve(const void* a, const void* b)
+{
+	const od_SkinPoint *p = a, *q = b;
+	if (p->key != q->key)
 	{
-		if (p[order[k]] != q[order[k]])
+		return p->key < q->key ? -1 : 1;
+	}
+	for (int k = 0; k < 3; ++k)
+	{
+		if (p->o[k] != q->o[k])
 		{
-			return p[order[k]] > q[order[k]] ? -1 : 1;
+			return p->o[k] < q->o[k] ? -1 : 1;
 		}
 	}
 	return 0;
 }
 
-// Points by particle (a counting sort), longest offset first (contact.c stops at the first point the centre's
-// distance proves clear), a particle given none at its centre (offset 0).
-static void od_FillSkin(od_SkinShape* s, const od_Graph* g, const double* points, const int* particles, int count,
-						int* next)
+// Interleaves the bits of three 10-bit cell indices.
+static unsigned long long od_Morton(const int cell[3])
 {
-	int n = g->n;
+	unsigned long long key = 0;
+	for (int bit = 9; bit >= 0; --bit)
+	{
+		for (int a = 0; a < 3; ++a)
+		{
+			key = (key << 1) | (unsigned long long)((cell[a] >> bit) & 1);
+		}
+	}
+	return key;
+}
+
+// Orders points [0, count) of one particle along a Morton curve over their box, so that runs of them are near.
+static void od_OrderPoints(od_SkinPoint* pts, int count)
+{
+	od_Vec3 lo = od_V3Load(pts[0].o), hi = lo;
+	for (int k = 1; k < count; ++k)
+	{
+		lo = od_V3(fmin(lo.x, pts[k].o[0]), fmin(lo.y, pts[k].o[1]), fmin(lo.z, pts[k].o[2]));
+		hi = od_V3(fmax(hi.x, pts[k].o[0]), fmax(hi.y, pts[k].o[1]), fmax(hi.z, pts[k].o[2]));
+	}
+	double size = fmax(fmax(hi.x - lo.x, hi.y - lo.y), fmax(hi.z - lo.z, 1e-300));
 	for (int k = 0; k < count; ++k)
 	{
-		s->start[particles[k] + 1]++;
+		int cell[3];
+		for (int a = 0; a < 3; ++a)
+		{
+			cell[a] = (int)fmin(1023.0, 1024.0 * (pts[k].o[a] - (&lo.x)[a]) / size);
+		}
+		pts[k].key = od_Morton(cell);
+	}
+	qsort(pts, (size_t)count, sizeof *pts, od_AlongCurve);
+}
+
+// One group: points pts[0, count) stored from point `at` on, its bounding sphere about its box's centre; returns
+// the farthest of them from the particle's centre.
+static double od_StoreGroup(od_SkinShape* s, int g, const od_SkinPoint* pts, int count, int at)
+{
+	od_Vec3 lo = od_V3Load(pts[0].o), hi = lo;
+	for (int k = 1; k < count; ++k)
+	{
+		lo = od_V3(fmin(lo.x, pts[k].o[0]), fmin(lo.y, pts[k].o[1]), fmin(lo.z, pts[k].o[2]));
+		hi = od_V3(fmax(hi.x, pts[k].o[0]), fmax(hi.y, pts[k].o[1]), fmax(hi.z, pts[k].o[2]));
+	}
+	od_Vec3 c = od_Scale(0.5, od_Add(lo, hi));
+	double radius = 0.0, far = 0.0;
+	for (int k = 0; k < count; ++k)
+	{
+		double* o = s->offset + 4 * (at + k);
+		memcpy(o, pts[k].o, sizeof pts[k].o);
+		o[3] = od_Length(od_Sub(od_V3Load(o), c));
+		radius = fmax(radius, o[3]);
+		far = fmax(far, od_Length(od_V3Load(o)));
+	}
+	od_V3Store(s->group + 5 * g, c);
+	s->group[5 * g + 3] = radius;
+	s->group[5 * g + 4] = od_Length(c) + radius;
+	s->first[g + 1] = at + count;
+	return far;
+}
+
+// Points by particle (a counting sort: `begin` the n + 1 bounds, pts the points), a particle given none at its
+// centre (offset 0); each particle's in groups of OD_SKIN_GROUP points that follow each other along a Morton
+// curve.
+static void od_FillSkin(od_SkinShape* s, const od_Graph* g, const double* points, const int* particles, int count,
+						int* begin, od_SkinPoint* pts)
+{
+	int n = g->n, groups = 0;
+	for (int k = 0; k < count; ++k)
+	{
+		begin[particles[k] + 1]++;
 	}
 	for (int i = 0; i < n; ++i)
 	{
-		s->start[i + 1] += s->start[i] + (s->start[i + 1] == 0);
+		begin[i + 1] += begin[i] + (begin[i + 1] == 0);
 	}
-	memcpy(next, s->start, sizeof(int) * (size_t)n);
-	memset(s->offset, 0, sizeof(double) * 4 * (size_t)s->count);
+	int* next = s->start; // the fill's cursors until the groups are known
+	memcpy(next, begin, sizeof(int) * (size_t)n);
+	memset(pts, 0, sizeof *pts * (size_t)s->count);
 	for (int k = 0; k < count; ++k)
 	{
 		int i = particles[k], at = next[i]++;
-		od_Vec3 d = od_Sub(od_V3Load(points + 3 * k), od_V3Load(g->centers + 3 * i));
-		od_V3Store(s->offset + 4 * at, d);
-		s->offset[4 * at + 3] = od_Length(d);
+		od_V3Store(pts[at].o, od_Sub(od_V3Load(points + 3 * k), od_V3Load(g->centers + 3 * i)));
 	}
 	for (int i = 0; i < n; ++i)
 	{
-		int first = s->start[i];
-		qsort(s->offset + 4 * first, (size_t)(s->start[i + 1] - first), sizeof(double) * 4, od_LongerFirst);
-		s->reach[i] = s->offset[4 * first + 3];
+		s->start[i] = groups;
+		s->reach[i] = 0.0;
+		od_OrderPoints(pts + begin[i], begin[i + 1] - begin[i]);
+		for (int at = begin[i]; at < begin[i + 1]; at += OD_SKIN_GROUP, ++groups)
+		{
+			int size = begin[i + 1] - at < OD_SKIN_GROUP ? begin[i + 1] - at : OD_SKIN_GROUP;
+			s->reach[i] = fmax(s->reach[i], od_StoreGroup(s, groups, pts + at, size, at));
+		}
 	}
+	s->start[n] = groups;
 }
 
 od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count)
@@ -126,18 +209,24 @@ od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* pa
 		kept += !given[i];
 	}
 	od_Free(given);
-	od_SkinShape s = { .count = kept, .given = count, .start = od_AllocZero((size_t)n + 1, sizeof(int)),
+	int groups = kept / OD_SKIN_GROUP + n;
+	od_SkinShape s = { .count = kept, .given = count, .start = od_Alloc(sizeof(int) * ((size_t)n + 1)),
+					   .first = od_AllocZero((size_t)groups + 1, sizeof(int)),
+					   .group = od_Alloc(sizeof(double) * 5 * (size_t)groups),
 					   .offset = od_Alloc(sizeof(double) * 4 * (size_t)kept),
 					   .reach = od_Alloc(sizeof(double) * (size_t)n) };
-	int* next = od_Alloc(sizeof(int) * (size_t)n);
-	if (!s.start || !s.offset || !s.reach || !next)
+	int* begin = od_AllocZero((size_t)n + 1, sizeof(int));
+	od_SkinPoint* pts = od_Alloc(sizeof(od_SkinPoint) * (size_t)kept);
+	if (!s.start || !s.first || !s.group || !s.offset || !s.reach || !begin || !pts)
 	{
-		od_Free(next);
+		od_Free(begin);
+		od_Free(pts);
 		od_SkinShape_Destroy(&s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for %d skin points", count);
 	}
-	od_FillSkin(&s, sim->graph, points, particles, count, next);
-	od_Free(next);
+	od_FillSkin(&s, sim->graph, points, particles, count, begin, pts);
+	od_Free(begin);
+	od_Free(pts);
 	sim->skinShape = s;
 	return OD_OK;
 }
@@ -147,21 +236,19 @@ int od_Sim_GetContactSkinCount(const od_Sim* sim)
 	return sim->skinShape.given;
 }
 
-const double* od_SkinShape_Points(const od_Sim* sim, int i, int* count)
-{
-	const od_SkinShape* s = &sim->skinShape;
-	*count = s->start[i + 1] - s->start[i];
-	return s->offset + 4 * s->start[i];
-}
-
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation)
 {
 	const od_SkinShape* s = &sim->skinShape;
 	double below = -INFINITY;
-	for (int k = s->start[i]; k < s->start[i + 1] && s->offset[4 * k + 3] > below; ++k) // longest first
+	for (int g = s->start[i]; g < s->start[i + 1]; ++g)
 	{
-		const double* o = s->offset + 4 * k;
-		below = fmax(below, -(rotation[6] * o[0] + rotation[7] * o[1] + rotation[8] * o[2]));
+		const double* c = s->group + 5 * g;
+		double centre = -(rotation[6] * c[0] + rotation[7] * c[1] + rotation[8] * c[2]);
+		for (int k = s->first[g]; k < s->first[g + 1] && centre + c[3] > below; ++k)
+		{
+			const double* o = s->offset + 4 * k;
+			below = fmax(below, -(rotation[6] * o[0] + rotation[7] * o[1] + rotation[8] * o[2]));
+		}
 	}
 	return below;
 }

@@ -9,8 +9,6 @@
 void od_SkinShape_Destroy(od_SkinShape* shape);
 // Whether the floor and the colliders touch the skin's points (else the ellipsoids).
 bool od_SkinShape_Used(const od_Sim* sim);
-// Particle i's points: their offsets from its rest centre and lengths (4 each), longest first, and *count.
-const double* od_SkinShape_Points(const od_Sim* sim, int i, int* count);
 // How far below its centre particle i's lowest point reaches when turned by `rotation` (the floor's support).
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation);
 // The distance from particle i's centre of its farthest point.
