@@ -947,9 +947,9 @@ def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: A
     continuum cantilever's; None where nothing holds it. It is held as the body holds it: the graph of it and
     _RINGS rings of particles round it (the first its root, the particles with an edge to it), the core's grid
     cells nearest the outermost ring held (``core``: (core cells, the particle nearest each)). Held instead at
-    its root's neighbours (their centres and axis ends), the character's tail was fitted 20 % stiffer at 150
-    particles than the whole graph held at its torso is, 11 % at 400, and its droop spread 1.37x over seven
-    counts from 50 to 400 particles; held so, 1.10x (docs/settings.md)."""
+    its root's neighbours (their centres and axis ends), the character's tail was fitted 25 % stiffer at 150
+    particles than the whole graph held at its torso is (16 % softer at 75), and its droop spread 1.37x over
+    seven counts from 50 to 400 particles; held so, 1.10x (docs/settings.md)."""
     e = graph.edges
     layers = [chosen, np.setdiff1d(e[np.isin(e, chosen).any(axis=1)], chosen)]
     root = layers[1]
