@@ -87,6 +87,15 @@ def test_the_continuum_frame_bends_a_straight_bar_as_beam_theory_and_twists_an_l
     assert 1.3 * bending < found < 2.5 * bending, (found, bending)  # 2.02: the long arm twists
 
 
+def test_a_levelling_against_no_continuum_compliance_leaves_the_k_as_it_was():
+    g = opdeform.Graph([[0.0, 0, 0], [0.2, 0, 0], [0.4, 0, 0]], np.full((3, 3), 0.1), [[0, 1], [1, 2]])
+    ratio = np.array([1.0, 2.0, 3.0])
+    held, tip = g.centers[:1], g.centers[2:]
+    for continuum in (0.0, np.nan):
+        ends = [(held, tip, [(np.array([0.0, 0.0, 1.0]), continuum)])] * 2
+        assert materials._levelled(g, ratio, np.array([0.0, 0.5, 1.0]), 0.4, ends, 1.0) is ratio
+
+
 def test_the_characters_tail_droops_alike_at_75_and_150_particles():
     """Its k is fitted held as the body holds it (two rings of particles round its root free, the core's grid cells
     nearest the next ring held): its tip drops 9.0 and 8.9 mm (scripts/bench calibration: 1.20 and 1.18 % of its length;

@@ -779,7 +779,10 @@ def _levelled(graph: Graph, ratio: Ratio, share: Arr, length: float,
     the graph held at each end deflects at the tip region as the continuum does, by ``weight`` (0 to 1).
     ``ends``: for the body held at its first and then its other end, (the rest points held, the tip's rest
     points, [(a load's direction, the continuum's tip compliance under it)]); the body's ``length``.
-    _LEVEL_ROUNDS rounds: the ends' errors move each other's."""
+    _LEVEL_ROUNDS rounds: the ends' errors move each other's. Unchanged where a continuum's compliance is not a
+    positive number (a load along the body), and from a round whose level is not."""
+    if not all(continuum > 0.0 and math.isfinite(continuum) for _, _, loads in ends for _, continuum in loads):
+        return ratio
     for _ in range(_LEVEL_ROUNDS):
         found = []
         for held, tip, loads in ends:
@@ -788,7 +791,7 @@ def _levelled(graph: Graph, ratio: Ratio, share: Arr, length: float,
                 load = _SAG * length / continuum
                 level.append(_tip_compliance(graph, ratio, held, tip, direction, load) / continuum)
             found.append(float(np.mean(level)))
-        if min(found) <= 0.0:
+        if not all(f > 0.0 and math.isfinite(f) for f in found):
             break
         ratio = ratio * (1.0 + weight * (found[0] * (1.0 - share) + found[1] * share - 1.0))
     return ratio
