@@ -229,3 +229,65 @@ def test_bad_input(bar):
         with pytest.raises(ValueError, match=match):
             group.restore_state((pairs, forces))
         assert group.save_state()[0].shape == (0, 2)
+
+
+def _preset_body(vertices, triangles, z, preset, density=None):
+    """A body of a materials preset (its density unless given) z above its rest, on a floor (μ = 0.5), 1/60 s."""
+    from opdeform import materials
+
+    m = materials.PRESETS[preset]
+    g = opdeform.Graph.from_mesh(vertices + (0.0, 0.0, z), triangles, particles=100)
+    m = materials.Material(m.name, m.modulus, m.density if density is None else density, m.damping, m.tolerance)
+    sim = materials.make_simulation(g, m, dt=1 / 60)
+    sim.set_floor(0.0, 0.5)
+    return sim
+
+
+def _stacked_seconds(lower, upper, seconds):
+    """Steps the two in a group (μ = 0.5) and yields, each second, (height of the upper's centre above the
+    lower's, distance aside, the upper's fastest particle, how far the energy of the particles' centres, kinetic
+    and potential, rose above its start at any step so far (J))."""
+    group = opdeform.ContactGroup([lower, upper], friction=0.5)
+
+    def energy():
+        return sum(s.params["density"] * (s.graph.volumes * (0.5 * (s.velocities ** 2).sum(axis=1) + 9.81 * s.positions[:, 2])).sum()
+                   for s in (lower, upper))
+
+    start, rise = energy(), -np.inf
+    for _ in range(seconds):
+        for _ in range(60):
+            group.step()
+            rise = max(rise, energy() - start)
+        above = upper.positions[:, 2].mean() - lower.positions[:, 2].mean()
+        aside = np.linalg.norm(upper.positions[:, :2].mean(axis=0) - lower.positions[:, :2].mean(axis=0))
+        yield above, aside, np.abs(upper.velocities).max(), rise
+
+
+def test_a_soft_round_body_dropped_on_a_like_one_stays_on_top():
+    """Issue 27: Rubber spheres (0.6 m), one dropped 0.1 m onto the other, rest on top from 3 s to 13 s (it rolled
+    off within 3 s: 0.69 m aside, 0.75 m/s): the members' rigid motions in each update of the forces
+    (docs/contact.md, stacks)."""
+    v, t = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
+    v = v + (0.0, 0.0, 0.3)
+    lower, upper = _preset_body(v, t, 0.0, "Rubber"), _preset_body(v, t, 0.7, "Rubber")
+    for second, (above, aside, fastest, _) in enumerate(_stacked_seconds(lower, upper, 13), 1):
+        if second >= 3:
+            assert above > 0.55 and aside < 0.1 and fastest < 0.05, (second, above, aside, fastest)
+
+
+def _slab():
+    v, t = meshes.bar(length=0.8, width=0.8, segments=8, cross=8)
+    v = v - v.mean(axis=0)
+    v[:, 2] *= 0.25  # 0.8 x 0.8 x 0.2 m
+    return v, t
+
+
+@pytest.mark.parametrize("preset", ["Rubber", "Stiff"])
+def test_a_slab_100_times_as_dense_dropped_on_another_stays_on_top(preset):
+    """Issue 27: the floor's reaction to the pairs inside the iterations holds the lower slab (it sank through
+    it: 0.036-0.041 m above it, the slabs 0.2 m thick), and the energy never rises above the drop's (dropped
+    0.25 m)."""
+    v, t = _slab()
+    lower, upper = _preset_body(v, t, 0.1, preset, 1000.0), _preset_body(v, t, 0.6, preset, 1e5)
+    for above, aside, _, rise in _stacked_seconds(lower, upper, 6):
+        assert rise <= 0.0 and above > 0.15 and aside < 0.05, (rise, above, aside)

@@ -139,7 +139,17 @@ typedef struct od_ContactPair
 	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
 	bool touching;    // near enough for a force in this iteration
 	int next;         // the next forced pair of the same first particle (od_CarryForces)
+	int interface;    // its interface in a group's update (od_Interfaces), -1: none
 } od_ContactPair;
+
+// The contacts between two members of a group in one update of its forces (od_Coarse, body_contact.c): their
+// count, mean normal (lower to upper member), mean gap and mean own compliance of their particles, and the
+// change of each one's normal force that the members' rigid motions ask for.
+typedef struct od_Interface
+{
+	int lower, upper, count;
+	double n[3], gap, local, change;
+} od_Interface;
 
 typedef struct od_PairScratch
 {
@@ -154,6 +164,11 @@ typedef struct od_PairScratch
 	int* pressing;    // the same, counted in this update
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
+	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)
+	double* mass;     // per member: its mass
+	od_Interface* interfaces; // of the current update (od_Interfaces)
+	int interfaceCount, interfaceCapacity;
+	double* system;   // their rigid system and right side, interfaceCapacity (interfaceCapacity + 1) (od_Coarse)
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
 	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)

@@ -2,14 +2,21 @@
 into each other and bars colliding head on, with contact inside the iterations (the default) and after them only
 (in_iterations=False). Measures, not timings: where the upper bar is at 3 and 6 s (height above the lower one,
 offset aside, the Kabsch turn of each bar's centres, its fastest particle, the skinned overlap as in
-tests/test_body_contact.py), the fastest particle of the overlapping bars, the least centre distance head on."""
+tests/test_body_contact.py), the fastest particle of the overlapping bars, the least centre distance head on.
+Stacks (issue 27): slabs of each preset with density ratios 1/1000 to 1e6, spheres of each preset and two
+creatures, one dropped on the other, 13 s: whether the upper one rests on top from 3 s on. `--stacks`: those
+alone."""
+
+import time
 
 import numpy as np
 
 import opdeform
-from opdeform import meshes
+from opdeform import materials, meshes
 
 from .common import table
+
+SECONDS = 13
 
 
 def bars():
@@ -79,7 +86,87 @@ def head_on_row(g, speed, inside):
         "", ""
 
 
+def preset_body(v, t, z, preset, density=None):
+    """A body of a materials preset (its density unless given) at height z above its rest, on a floor at 0 (μ =
+    0.5), stepping 1/60 s."""
+    m = materials.PRESETS[preset]
+    g = opdeform.Graph.from_mesh(v + (0.0, 0.0, z), t, particles=100)
+    m = materials.Material(m.name, m.modulus, m.density if density is None else density, m.damping, m.tolerance)
+    sim = materials.make_simulation(g, m, dt=1 / 60)
+    sim.set_floor(0.0, 0.5)
+    return sim
+
+
+def rests(lower, upper, height, width, seconds=SECONDS):
+    """Steps a group of `lower` and `upper` (upper dropped on lower) for `seconds` and measures each second:
+    whether the upper body is on top (its centre above the lower's by more than half the bodies' `height`, less
+    than a quarter of their `width` aside, its fastest particle under 0.05 m/s) from 3 s on, and the figures of
+    the worst second from 3 s on: (held, least height above, most aside, fastest particle, CPU seconds)."""
+    group = opdeform.ContactGroup([lower, upper], friction=0.5)
+    least, most, fastest, clock = np.inf, 0.0, 0.0, time.process_time()
+    for second in range(1, seconds + 1):
+        group.step(60)
+        above = upper.positions[:, 2].mean() - lower.positions[:, 2].mean()
+        aside = np.linalg.norm(upper.positions[:, :2].mean(axis=0) - lower.positions[:, :2].mean(axis=0))
+        if second >= 3:
+            least, most = min(least, above), max(most, aside)
+            fastest = max(fastest, np.abs(upper.velocities).max())
+    held = least > 0.5 * height and most < 0.25 * width and fastest < 0.05
+    return held, least, most, fastest, time.process_time() - clock
+
+
+def slab():
+    """A 0.8 x 0.8 x 0.2 m slab centred at the origin."""
+    v, t = meshes.bar(length=0.8, width=0.8, segments=8, cross=8)
+    v = v - v.mean(axis=0)
+    v[:, 2] *= 0.25
+    return v, t
+
+
+def slab_rows(presets, ratios):
+    """Two slabs of a preset, the upper dropped 0.05 m onto the lower, the upper `ratio` times as dense (a
+    ratio below 1: the lower one the denser): held from 3 to 13 s?"""
+    v, t = slab()
+    rows = []
+    for preset in presets:
+        for ratio in ratios:
+            light = materials.PRESETS[preset].density if ratio < 1e3 else 100.0  # densities up to 1e8
+            lower_density, upper_density = (light, light * ratio) if ratio >= 1 else (light / ratio, light)
+            lower = preset_body(v, t, 0.1, preset, lower_density)
+            upper = preset_body(v, t, 0.35, preset, upper_density)
+            held, least, most, fastest, cpu = rests(lower, upper, 0.2, 0.8)
+            rows.append((f"slabs, {preset}", f"{ratio:g}" if ratio >= 1 else f"1/{1 / ratio:g}",
+                         "yes" if held else "**no**", f"{least:.3f}", f"{most:.3f}", f"{fastest:.3f}", f"{cpu:.1f}"))
+    return rows
+
+
+def round_rows(presets):
+    """A 0.6 m sphere dropped 0.1 m onto a like one, of each preset; two creatures (Rubber, 1.6 m long, 0.96 m
+    tall, 0.54 m wide), one dropped 0.1 m onto the other."""
+    v, t = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
+    rows = []
+    cases = [(f"spheres, {p}", v + (0.0, 0.0, 0.3), t, 0.7, p, 0.6, 0.6) for p in presets]
+    cv, ct = meshes.creature(24)
+    cases.append(("creatures, Rubber", cv, ct, 1.06, "Rubber", 0.96, 0.54))
+    for name, mv, mt, lift, preset, height, width in cases:
+        lower, upper = preset_body(mv, mt, 0.0, preset), preset_body(mv, mt, lift, preset)
+        held, least, most, fastest, cpu = rests(lower, upper, height, width)
+        rows.append((name, "1", "yes" if held else "**no**", f"{least:.3f}", f"{most:.3f}", f"{fastest:.3f}",
+                     f"{cpu:.1f}"))
+    return rows
+
+
 def run(args):
+    print(f"stacks ({SECONDS} s at 1/60 s, 100 particles a body, μ = 0.5 between them and on the floor): held = "
+          "at every second from 3 s on, the upper body's centre above the lower's by more than half their height, "
+          "less than a quarter of their width aside, its fastest particle under 0.05 m/s; the figures are the "
+          "worst of those seconds")
+    columns = ["scene", "density ratio (upper / lower)", "held 3-13 s", "least height above (m)", "most aside (m)",
+               "fastest particle (m/s)", "CPU s"]
+    presets = ("Jelly", "Rubber", "Stiff")
+    table(slab_rows(presets, (2, 10, 100, 1000, 1e6, 1 / 10, 1 / 1000)) + round_rows(presets), columns)
+    if "--stacks" in args:
+        return
     v, t, g = bars()
     rows = [stack_row(v, t, g, mu, inside) for inside in (True, False) for mu in (0.5, 2.0, 0.0)]
     rows += [overlap_row(g, inside) for inside in (True, False)]
