@@ -185,8 +185,8 @@ def main():
         for particles in args.particles:
             (c0, r0, ms0), (c1, r1, ms1), (_, _, ms) = (run(kind, particles, shape, seconds)
                                                          for shape in ("ellipsoids", "skin", "none"))
-            print(f"| {kind} | {particles} | {100 * c0:.2f} | {100 * c1:.2f} | {100 * r0:.2f} | {100 * r1:.2f} | "
-                  f"{ms:.3f} | {ms0:.3f} | {ms1:.3f} |", flush=True)
+            cm = [f"{round(100 * d, 2) + 0.0:.2f}" for d in (c0, c1, r0, r1)]  # + 0.0: no "-0.00"
+            print(f"| {kind} | {particles} | {' | '.join(cm)} | {ms:.3f} | {ms0:.3f} | {ms1:.3f} |", flush=True)
 
 
 if __name__ == "__main__" and "--inside" in sys.argv:

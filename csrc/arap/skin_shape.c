@@ -96,15 +96,22 @@ static unsigned long long od_Morton(const int cell[3])
 	return key;
 }
 
+// The box of points [0, count).
+static void od_Box(const od_SkinPoint* pts, int count, od_Vec3* lo, od_Vec3* hi)
+{
+	*lo = *hi = od_V3Load(pts[0].o);
+	for (int k = 1; k < count; ++k)
+	{
+		*lo = od_V3(fmin(lo->x, pts[k].o[0]), fmin(lo->y, pts[k].o[1]), fmin(lo->z, pts[k].o[2]));
+		*hi = od_V3(fmax(hi->x, pts[k].o[0]), fmax(hi->y, pts[k].o[1]), fmax(hi->z, pts[k].o[2]));
+	}
+}
+
 // Orders points [0, count) of one particle along a Morton curve over their box, so that runs of them are near.
 static void od_OrderPoints(od_SkinPoint* pts, int count)
 {
-	od_Vec3 lo = od_V3Load(pts[0].o), hi = lo;
-	for (int k = 1; k < count; ++k)
-	{
-		lo = od_V3(fmin(lo.x, pts[k].o[0]), fmin(lo.y, pts[k].o[1]), fmin(lo.z, pts[k].o[2]));
-		hi = od_V3(fmax(hi.x, pts[k].o[0]), fmax(hi.y, pts[k].o[1]), fmax(hi.z, pts[k].o[2]));
-	}
+	od_Vec3 lo, hi;
+	od_Box(pts, count, &lo, &hi);
 	double size = fmax(fmax(hi.x - lo.x, hi.y - lo.y), fmax(hi.z - lo.z, 1e-300));
 	for (int k = 0; k < count; ++k)
 	{
@@ -122,12 +129,8 @@ static void od_OrderPoints(od_SkinPoint* pts, int count)
 // the farthest of them from the particle's centre.
 static double od_StoreGroup(od_SkinShape* s, int g, const od_SkinPoint* pts, int count, int at)
 {
-	od_Vec3 lo = od_V3Load(pts[0].o), hi = lo;
-	for (int k = 1; k < count; ++k)
-	{
-		lo = od_V3(fmin(lo.x, pts[k].o[0]), fmin(lo.y, pts[k].o[1]), fmin(lo.z, pts[k].o[2]));
-		hi = od_V3(fmax(hi.x, pts[k].o[0]), fmax(hi.y, pts[k].o[1]), fmax(hi.z, pts[k].o[2]));
-	}
+	od_Vec3 lo, hi;
+	od_Box(pts, count, &lo, &hi);
 	od_Vec3 c = od_Scale(0.5, od_Add(lo, hi));
 	double radius = 0.0, far = 0.0;
 	for (int k = 0; k < count; ++k)
