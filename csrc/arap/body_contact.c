@@ -602,13 +602,12 @@ static bool od_FloorInside(const od_Sim* sim)
 	return sim->hasFloor && !od_Goals_CarryRest(sim);
 }
 
-// How much particle i bears on its floor (od_FloorReaction): 1 where its ellipsoid touches it, more below it,
-// falling to 0 a quarter of its largest radius above it.
-static double od_FloorWeight(const od_Sim* sim, int i)
+// How much particle i (global g) bears on its floor (od_FloorReaction): 1 where its ellipsoid (the cached
+// moment) touches it, more below it, falling to 0 a quarter of its largest radius above it.
+static double od_FloorWeight(const od_PairScratch* s, const od_Sim* sim, int i, int g)
 {
-	od_Mat3 m = od_ParticleMoment(sim, i);
 	double slack = OD_NEAR_SLACK * od_ParticleReach(sim, i);
-	return fmax(1.0 + (sqrt(m.m[8]) - (sim->state.x[3 * i + 2] - sim->floorHeight)) / slack, 0.0);
+	return fmax(1.0 + (sqrt(s->moment[9 * g + 8]) - (sim->state.x[3 * i + 2] - sim->floorHeight)) / slack, 0.0);
 }
 
 // The floor's reaction to the pairs inside the iterations. The floor acts after them (floor.c), so in the
@@ -624,19 +623,19 @@ static double od_FloorWeight(const od_Sim* sim, int i)
 // Stiff slab under one 10 times as dense shook at 0.14 m/s (0.007 now).
 static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 {
-	for (int b = 0; b < count; ++b)
+	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
 	{
 		od_Sim* sim = sims[b];
 		double push = 0.0, bearing = 0.0;
 		for (int i = 0; od_FloorInside(sim) && i < sim->graph->n; ++i)
 		{
 			push += sim->contactForce[3 * i + 2];
-			bearing += od_FloorWeight(sim, i);
+			bearing += od_FloorWeight(s, sim, i, first + i);
 		}
 		s->grounded[b] = bearing > 0.0;
 		for (int i = 0; push < 0.0 && bearing > 0.0 && i < sim->graph->n; ++i)
 		{
-			sim->contactForce[3 * i + 2] -= push * od_FloorWeight(sim, i) / bearing;
+			sim->contactForce[3 * i + 2] -= push * od_FloorWeight(s, sim, i, first + i) / bearing;
 		}
 	}
 }
@@ -962,6 +961,7 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 // those near after it updated after every solve.
 static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
+	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
 	od_ApplyForces(s, sims, count);
 	od_Status status = OD_OK;
 	bool more = true, first = true;
