@@ -63,6 +63,8 @@ def _sim_case(scale):
         "set_collider_contact": lambda: sim.set_collider_contact(0), "remove_collider": lambda: sim.remove_collider(0),
         "n_colliders": lambda: sim.n_colliders, "push_out": lambda: sim.push_out([(0.0, 0.0, 0.0)]),
         "collider_distances": lambda: sim.collider_distances([(0.0, 0.0, 0.0)]),
+        "set_contact_skin": lambda: sim.set_contact_skin(None), "n_contact_points": lambda: sim.n_contact_points,
+        "set_contact_points": lambda: sim.set_contact_points([(0.0, 0.0, 0.0)], [0]),
         "set_self_contact": lambda: sim.set_self_contact(), "self_contact": lambda: sim.self_contact,
         "add_force_field": lambda: sim.add_force_field(), "move_force_field": lambda: sim.move_force_field(0, (0, 0, 0)),
         "remove_force_field": lambda: sim.remove_force_field(0), "n_force_fields": lambda: sim.n_force_fields,

@@ -84,11 +84,6 @@ class Skin(FromArguments):
         return self._core.n_vertices
 
     @property
-    def rest_vertices(self) -> Floats:
-        """(V,3) float64: the rest vertices bound (a copy)."""
-        return self._args[1].copy()
-
-    @property
     def neighbors(self) -> int:
         """Particles per vertex: the m asked for, or fewer when the graph has fewer particles."""
         return self._core.neighbors

@@ -422,7 +422,8 @@ class Simulation(CoreObject, ForceFields):
             raise ValueError("skin: an opdeform.Skin bound to this simulation's graph expected")
         carried = skin.weights > 0.0
         vertex = np.broadcast_to(np.arange(skin.n_vertices)[:, None], carried.shape)[carried]
-        self.set_contact_points(skin.rest_vertices[vertex], skin.indices[carried])
+        rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
+        self.set_contact_points(rest[vertex], skin.indices[carried])
 
     def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None) -> None:
         """``set_contact_skin`` with any rest-space points (m,3) (a sampling of the skin), each carried by the
