@@ -31,7 +31,8 @@ would, its particles' stiffness is raised, and the loads are solved again; the g
 as a continuum of rigidity c I(s), and k = E J / (c J_particles) makes that the material's (J the closed
 mesh's second moment, as above). Only the cross directions in which the body is a beam are measured (a
 plate across its thickness); a body in several connected pieces is calibrated piece by piece, a bent one (an
-L-bracket) straight part by straight part (its skeleton on a grid fill of the mesh), and thin appendages (a
+L-bracket) straight part by straight part (its skeleton on a grid fill of the mesh) and then levelled against
+the continuum frame along that skeleton, and thin appendages (a
 character's ears and tail) each as a cantilever of its own cross-sections (issue 24, docs/settings.md). The
 tail then droops 9.5 to 10.3 % (1.08x); the solver takes one stiffness per particle (``Simulation(graph,
 stiffness_for(...))``, ``Simulation.set_stiffness_scale``). Cost: eight static solves of the graph, once per
@@ -962,7 +963,8 @@ def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: A
         inner = np.concatenate(layers)
         layers.append(np.setdiff1d(e[np.isin(e, layers[-1]).any(axis=1)], inner))
     cells, nearest = core
-    held = cells[np.isin(nearest, layers[-1])]
+    outer = [layer for layer in layers[2:] if len(layer)]  # the outermost ring that has particles
+    held = cells[np.isin(nearest, outer[-1])] if outer else cells[:0]
     if len(held) == 0:
         return None
     axes = _cell_axes(samples)
