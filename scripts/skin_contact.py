@@ -3,6 +3,7 @@ shape (docs/contact.md, "Contact on the skin"; issue 27).
 
     PYTHONPATH=build/python python3 scripts/skin_contact.py [--quick]
     PYTHONPATH=build/python:scripts python3 scripts/skin_contact.py --blender   # the add-on in Debian's Blender
+    PYTHONPATH=build/python python3 scripts/skin_contact.py --picture docs/images   # contact_skin.png
 
 Blender's Suzanne (tests/reference/suzanne_subdivided.npz: 2.66 m wide, 7,958 vertices), the add-on's
 defaults (materials.make_simulation: the default material, 1/24 s frames of materials.substeps_for(24) steps,
@@ -65,6 +66,74 @@ def scene(sim, kind, rest, place=True):
 
 def distances(sim, kind, skinned):
     return skinned[:, 2] if kind == "floor" else sim.collider_distances(skinned)
+
+
+def settle(kind, particles, shape, seconds):
+    """The simulation and skin of a drop after `seconds`."""
+    rest, tris = suzanne()
+    probe = od.Simulation(od.Graph.from_mesh(rest, tris, particles=4), 1.0)
+    start = scene(probe, kind, rest)
+    graph = od.Graph.from_mesh(start, tris, particles=particles)
+    skin = od.Skin(graph, start)
+    steps = materials.substeps_for(FPS)
+    sim = materials.make_simulation(graph, dt=1.0 / (FPS * steps))
+    scene(sim, kind, rest, shape != "none")
+    if shape == "skin":
+        sim.set_contact_skin(skin)
+    sim.step(int(seconds * FPS) * steps)
+    return sim, skin
+
+
+def section(v, tris, y):
+    """The mesh's cut by the plane at y: segments (k, 2, 2) of (x, z)."""
+    d = v[tris][:, :, 1] - y
+    segments = []
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        cross = d[:, a] * d[:, b] < 0.0
+        s = d[cross, a] / (d[cross, a] - d[cross, b])
+        p = v[tris[cross, a]] + s[:, None] * (v[tris[cross, b]] - v[tris[cross, a]])
+        segments.append((np.flatnonzero(cross), p[:, [0, 2]]))
+    points = {}
+    for faces, p in segments:
+        for f, q in zip(faces, p):
+            points.setdefault(f, []).append(q)
+    return np.array([q[:2] for q in points.values() if len(q) >= 2])
+
+
+def picture(out):
+    """Suzanne at rest (100 particles) on the floor (3 s) and on the sphere (2 s, before it rolls off) with its
+    ellipsoids and with its skin as the contact shape: the skinned mesh (no push-out) cut through its lowest
+    vertex, and the surface cut by the same plane."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection
+    tris = suzanne()[1]
+    fig, axes = plt.subplots(2, 2, figsize=(9, 6))
+    for row, (kind, seconds) in enumerate((("floor", 3.0), ("sphere", 2.0))):
+        for col, shape in enumerate(("ellipsoids", "skin")):
+            sim, skin = settle(kind, 100, shape, seconds)
+            v = skin.deform_sim(sim, push_out=False)
+            gap = v[:, 2].min() if kind == "floor" else sim.collider_distances(v).min()
+            low = v[np.argmin(v[:, 2] if kind == "floor" else sim.collider_distances(v))]
+            ax = axes[row, col]
+            cut = low[1] + 1e-4  # not through the vertex itself: the cut would miss its triangles
+            ax.add_collection(LineCollection(section(v, tris, cut), colors="tab:blue", linewidths=1.0))
+            if kind == "floor":
+                ax.axhline(0.0, color="0.4")
+            else:
+                t = np.linspace(-np.pi, np.pi, 400)
+                r = np.sqrt(max(1.0 - cut ** 2, 0.0))
+                ax.plot(r * np.cos(t), r * np.sin(t), color="0.4")
+            ax.set_xlim(low[0] - 0.5, low[0] + 0.5)
+            ax.set_ylim(low[2] - 0.1, low[2] + 0.3)
+            ax.set_aspect("equal")
+            ax.set_title(f"{kind}, {shape}: the skin {round(100 * gap, 2) + 0.0:.2f} cm from it", fontsize=9)
+    fig.suptitle("Suzanne (2.7 m, 100 particles) at rest, cut through its vertex nearest the surface (m)")
+    fig.tight_layout()
+    path = os.path.join(out, "contact_skin.png")
+    fig.savefig(path, dpi=110)
+    print("wrote", path)
 
 
 def run(kind, particles, shape, seconds):
@@ -171,11 +240,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--blender", action="store_true")
+    parser.add_argument("--picture", metavar="DIR")
     parser.add_argument("--particles", type=int, nargs="*", default=[100, 1000])
     parser.add_argument("--scenes", nargs="*", default=["floor", "sphere", "ramp"])
     args = parser.parse_args()
     if args.blender:
         blender()
+        return
+    if args.picture:
+        picture(args.picture)
         return
     seconds = 1.0 if args.quick else SECONDS
     print("| scene | particles | closest (cm): ellipsoids | skin | last 0.5 s (cm): ellipsoids | skin | "
