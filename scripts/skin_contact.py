@@ -225,7 +225,8 @@ def _inside_blender(out_path):
 
 def blender():
     from benchmarks.common import blender_json, out_dir
-    rows = blender_json(os.path.abspath(__file__), "SKIN_CONTACT", os.path.join(out_dir("skin_contact"), "blender.json"))
+    data = os.path.join(out_dir("skin_contact"), "blender.json")
+    rows = blender_json(os.path.abspath(__file__), "SKIN_CONTACT", data)
     if rows is None:
         return
     print("| scene | Outer Thickness (m) | particles | closest (cm): ellipsoids | skin | last 0.5 s (cm): ellipsoids "
