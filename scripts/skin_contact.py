@@ -4,6 +4,7 @@ shape (docs/contact.md, "Contact on the skin"; issue 27).
     PYTHONPATH=build/python python3 scripts/skin_contact.py [--quick]
     PYTHONPATH=build/python:scripts python3 scripts/skin_contact.py --blender   # the add-on in Debian's Blender
     PYTHONPATH=build/python python3 scripts/skin_contact.py --picture docs/images   # contact_skin.png
+    PYTHONPATH=build/python python3 scripts/skin_contact.py --soft   # soft balls flattened on the floor
 
 Blender's Suzanne (tests/reference/suzanne_subdivided.npz: 2.66 m wide, 7,958 vertices), the add-on's
 defaults (materials.make_simulation: the default material, 1/24 s frames of materials.substeps_for(24) steps,
@@ -136,6 +137,31 @@ def picture(out):
     print("wrote", path)
 
 
+def soft():
+    """A 0.6 m ball (60 particles, 10 iterations) dropped 0.3 m on the floor, k = 1e4-1e6, at 1/24 and 1/240 s:
+    the skin's rest above the floor after 4 s with the ellipsoids and with the skin, and the ball's height."""
+    from opdeform import meshes
+    v, t = meshes.capsule(radius=0.3, length=0.0)
+    graph = od.Graph.from_mesh(v, t, particles=60)
+    skin = od.Skin(graph, v)
+    print("| k | step | skin above the floor (cm): ellipsoids | skin | height (m): ellipsoids | skin |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for k in (1e4, 1e5, 1e6):
+        for fps in (24, 240):
+            cells = []
+            for shape in ("ellipsoids", "skin"):
+                sim = od.Simulation(graph, k, dt=1.0 / fps)
+                sim.set_floor(0.0, 0.5)
+                start = graph.centers + (0, 0, 0.3 - v[:, 2].min())
+                sim.set_state(start, np.tile(np.eye(3), (graph.n_particles, 1, 1)))
+                if shape == "skin":
+                    sim.set_contact_skin(skin)
+                sim.step(4 * fps)
+                cells.append(skin.deform_sim(sim, push_out=False)[:, 2])
+            print(f"| {k:g} | 1/{fps} s | {round(100 * cells[0].min(), 2) + 0.0:.2f} | "
+                  f"{round(100 * cells[1].min(), 2) + 0.0:.2f} | {np.ptp(cells[0]):.3f} | {np.ptp(cells[1]):.3f} |")
+
+
 def run(kind, particles, shape, seconds):
     """(the skin's closest approach, its least distance over the last 0.5 s, ms a step) for shape
     "ellipsoids", "skin" or "none" (no collider: free fall, the cost's baseline)."""
@@ -242,6 +268,7 @@ def main():
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--blender", action="store_true")
     parser.add_argument("--picture", metavar="DIR")
+    parser.add_argument("--soft", action="store_true")
     parser.add_argument("--particles", type=int, nargs="*", default=[100, 1000])
     parser.add_argument("--scenes", nargs="*", default=["floor", "sphere", "ramp"])
     args = parser.parse_args()
@@ -250,6 +277,9 @@ def main():
         return
     if args.picture:
         picture(args.picture)
+        return
+    if args.soft:
+        soft()
         return
     seconds = 1.0 if args.quick else SECONDS
     print("| scene | particles | closest (cm): ellipsoids | skin | last 0.5 s (cm): ellipsoids | skin | "
