@@ -72,6 +72,24 @@ def test_blob_rests_on_a_collision_sphere():
     print("OPDEFORM_RESULT sphere_penetration_percent", round(100 * max(deepest, 0.0) / BLOB, 3))
 
 
+def test_the_skin_rests_at_the_outer_thickness_and_on_the_floor():
+    """The skin is a lone body's contact shape (docs/contact.md, "Contact on the skin"): the blob's shown mesh
+    rests at the Collision's Outer Thickness (0.5 cm here) from a sphere, and on the Floor, in its second
+    second: 0.48 and 0.00 cm; the particles' ellipsoids kept it 1.82 and 1.51 cm away (bpy 5.2)."""
+    sphere = collider("sphere")
+    sphere.collision.thickness_outer = 0.005
+    obj = blob()
+    frames = play_world(obj, range(1, 49))
+    sim = H.runtime().get(obj).engine.sim
+    gap = min(sim.collider_distances(frames[f].astype(np.float64)).min() for f in range(25, 49))
+    assert -1e-6 < gap < 0.0051, f"the skin rests {100 * gap:.2f} cm from the sphere"
+    H.fresh()
+    obj = blob(location=(0.0, 0.0, BLOB), use_floor=True)
+    low = min(play_world(obj, range(1, 49))[f][:, 2].min() for f in range(25, 49))
+    assert -1e-6 < low < 0.001, f"the skin rests {100 * low:.2f} cm from the floor"
+    print("OPDEFORM_RESULT skin_gap_cm sphere", round(100 * gap, 3), "floor", round(100 * low, 3))
+
+
 def _slide(friction):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     H.enable_addon()
