@@ -72,12 +72,13 @@ def test_blob_rests_on_a_collision_sphere():
     print("OPDEFORM_RESULT sphere_penetration_percent", round(100 * max(deepest, 0.0) / BLOB, 3))
 
 
-def test_the_skin_rests_at_the_outer_thickness_and_on_the_floor():
+def test_the_skin_rests_a_quarter_into_the_outer_thickness_and_on_the_floor():
     """The skin is a lone body's contact shape (docs/contact.md, "Contact on the skin"): the blob's shown mesh
-    rests at the Collision's Outer Thickness (0.5 cm here) from a sphere, and on the Floor, in its second
-    second: 0.48 and 0.00 cm; the particles' ellipsoids kept it 1.82 and 1.51 cm away (bpy 5.2)."""
+    rests a quarter into the Collision's Thickness Outer zone (0.5 cm at Blender's default 2 cm) from a sphere,
+    and on the Floor, in its second second: 0.48 and 0.00 cm; the particles' ellipsoids kept it 1.82 and 1.51
+    cm away (bpy 5.2, at 0.5 cm)."""
     sphere = collider("sphere")
-    sphere.collision.thickness_outer = 0.005
+    assert abs(sphere.collision.thickness_outer - 0.02) < 1e-6
     obj = blob()
     frames = play_world(obj, range(1, 49))
     sim = H.runtime().get(obj).engine.sim

@@ -17,6 +17,9 @@ from ..core import fields as field_logic
 from . import mesh_data
 
 FRICTION_SCALE = 0.1  # Coulomb mu = Collision's Friction (0..80, Blender's default 5) / 10
+# The skin rests a quarter into the Collision's Thickness Outer zone: 0.5 cm at Blender's default 2 cm, where
+# Soft Body's vertices rest 0.4-0.6 cm off on the same shot (docs/contact.md, "Contact on the skin").
+OUTER_ZONE_REST = 0.25
 _FIELD_WEIGHTS = {"WIND": "wind", "FORCE": "force", "VORTEX": "vortex", "TURBULENCE": "turbulence"}
 _reader = core.ColliderReader()  # an unchanged collider is read without its checks, as the same record
 # collider name -> ((its mesh's name and vertex, corner and face counts), its triangles): kept for a collider whose
@@ -77,7 +80,7 @@ def read_collider(obj, depsgraph):
     c = obj.collision
     resolution = core.DEFORMING_RESOLUTION if deforms else core.STATIC_RESOLUTION
     return _reader.frame(obj.name, vertices, triangles, np.array(evaluated.matrix_world),
-                         FRICTION_SCALE * c.cloth_friction, c.thickness_outer, resolution)
+                         FRICTION_SCALE * c.cloth_friction, OUTER_ZONE_REST * c.thickness_outer, resolution)
 
 
 def _field_weight(weights, kind):
