@@ -34,7 +34,8 @@
 // the mean. A particle's own rate alone (its m/h²) moves a stiff body by the share of its particles that
 // touch: two Rubber spheres stacked rolled off within 3 s (the lower one's pairs never caught up with the
 // upper's lean); with the rigid step they rest 13 s. A member on its floor pushed down by its pairs gets the
-// floor's reaction in the solves (od_FloorReaction) and is held vertically in the rigid step.
+// floor's reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only
+// between members within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -88,6 +89,7 @@
 #define OD_FORCE_RATE 1.0
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
+#define OD_COMPARABLE 10.0 // the largest ratio of two members' masses for the floor's reaction and rigid step
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -135,6 +137,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->outward);
 	od_Free(s->grounded);
 	od_Free(s->mass);
+	od_Free(s->load);
 	od_Free(s->interfaces);
 	od_Free(s->system);
 	od_Free(s->pairs);
@@ -166,7 +169,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->mass)
+	s->load = od_Alloc(sizeof(double) * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->mass || !s->load)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -466,6 +470,31 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
+// Whether a pair's two members' masses are within OD_COMPARABLE of each other (s->mass, od_MemberMasses): only
+// such pairs press a member onto its floor's reaction (od_FloorReaction), take the members' rigid step
+// (od_Coarse) and hold a push (od_Held). Beyond it the light member was squeezed out from under the heavy one
+// and the drop gained energy (the centres' kinetic and potential energy above its start: a Jelly slab under one
+// 100 times as dense +31 kJ of 35, Rubber and Stiff at 1,000 times +2.9-3.5 kJ, at 1e6 times +0.8-10.5 MJ;
+// none before the reaction), so heavier members press as before the reaction (the lower one sinks).
+static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
+	return fmax(ma, mb) <= OD_COMPARABLE * fmin(ma, mb);
+}
+
+// Each member's mass (s->mass), once a step.
+static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int b = 0; b < count; ++b)
+	{
+		s->mass[b] = 0.0;
+		for (int i = 0; i < sims[b]->graph->n; ++i)
+		{
+			s->mass[b] += sims[b]->def.density * sims[b]->graph->volumes[i];
+		}
+	}
+}
+
 // How much of a push along n (a to b) moves only its upper end (od_Separate): where it presses the lower end
 // down (n rising by more than OD_HELD_RISE) onto the floor that holds its member in the iterations
 // (od_FloorReaction), up to OD_HELD_PUSH of the sum of the two particles' largest radii; else 0 (split by
@@ -478,8 +507,9 @@ static double od_Held(const od_PairScratch* s, const od_ContactPair* pair, const
 {
 	bool pressed = (s->grounded[s->body[pair->a]] > 0 && n.z > OD_HELD_RISE) ||
 				   (s->grounded[s->body[pair->b]] > 0 && n.z < -OD_HELD_RISE);
-	return a->sim != b->sim && pressed ? OD_HELD_PUSH * (od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i))
-									   : 0.0;
+	return a->sim != b->sim && pressed && od_Comparable(s, pair)
+			   ? OD_HELD_PUSH * (od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i))
+			   : 0.0;
 }
 
 // One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
@@ -637,7 +667,8 @@ static double od_FloorWeight(const od_PairScratch* s, const od_Sim* sim, int i, 
 // lifted it back after the iterations, into the heavy one, deeper every step (a Rubber slab 100 times as dense
 // as the slab below sank to 0.040 m above it, the slabs 0.2 m thick: in the solves it moves 2.7 mm a step at
 // 1/60 s for each unit of the density ratio, the floor's projection sees none of it). So a member on its
-// floor whose pairs' forces add up to a push down gets that push back, spread over its particles by how much
+// floor whose pairs' forces (with members of comparable mass, od_Comparable) add up to a push down gets that
+// push back, spread over its particles by how much
 // each bears on the floor (od_FloorWeight; s->grounded > 0: some bear): held as the floor holds it after the
 // iterations, it is pressed between the load and the floor, not moved; its own weight stays the floor's
 // projection, and sideways the pairs' forces act as before. Spread evenly over the particles within reach
@@ -645,13 +676,23 @@ static double od_FloorWeight(const od_PairScratch* s, const od_Sim* sim, int i, 
 // Stiff slab under one 10 times as dense shook at 0.14 m/s (0.007 now).
 static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 {
+	memset(s->load, 0, sizeof(double) * (size_t)count);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		if (pair->force > 0.0 && od_Comparable(s, pair))
+		{
+			double fz = pair->tangent[2] + pair->force * pair->n[2];
+			s->load[s->body[pair->a]] -= fz;
+			s->load[s->body[pair->b]] += fz;
+		}
+	}
 	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
 	{
 		od_Sim* sim = sims[b];
-		double push = 0.0, bearing = 0.0;
+		double push = s->load[b], bearing = 0.0;
 		for (int i = 0; od_FloorInside(sim) && i < sim->graph->n; ++i)
 		{
-			push += sim->contactForce[3 * i + 2];
 			bearing += od_FloorWeight(s, sim, i, first + i);
 		}
 		s->grounded[b] = bearing > 0.0;
@@ -788,22 +829,15 @@ static bool od_InContact(const od_ContactPair* pair)
 }
 
 // The interfaces of this update: the near pairs in contact grouped by their members (each pair's index in its
-// `interface`, -1: none), with the members' masses.
-static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims, int count)
+// `interface`, -1: none; pairs of comparable members only, od_Comparable).
+static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 {
-	for (int b = 0; b < count; ++b)
-	{
-		s->mass[b] = 0.0;
-		for (int i = 0; i < sims[b]->graph->n; ++i)
-		{
-			s->mass[b] += sims[b]->def.density * sims[b]->graph->volumes[i];
-		}
-	}
 	s->interfaceCount = 0;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
-		int e = od_InContact(pair) ? od_InterfaceOf(s, s->body[pair->a], s->body[pair->b]) : -1;
+		int e = od_InContact(pair) && od_Comparable(s, pair) ? od_InterfaceOf(s, s->body[pair->a], s->body[pair->b])
+																: -1;
 		pair->interface = e;
 		if (e >= 0)
 		{
@@ -931,7 +965,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_MeasurePair(s, pair, &a, &b, between);
 	}
-	od_Interfaces(s, sims, count);
+	od_Interfaces(s, sims);
 	od_Coarse(s, h2);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
@@ -984,6 +1018,7 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
+	od_MemberMasses(s, sims, count);
 	od_ApplyForces(s, sims, count);
 	od_Status status = OD_OK;
 	bool more = true, first = true;

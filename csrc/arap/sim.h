@@ -165,7 +165,8 @@ typedef struct od_PairScratch
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)
-	double* mass;     // per member: its mass
+	double* mass;     // per member: its mass (od_MemberMasses)
+	double* load;     // per member: the vertical force of its comparable pairs (od_FloorReaction)
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
 	double* system;   // their rigid system and right side, interfaceCapacity (interfaceCapacity + 1) (od_Coarse)
