@@ -175,6 +175,49 @@ def test_a_tail_pulled_past_its_body_does_not_pass_through_it():
     assert least > -0.03 and height > 0.0
 
 
+def _goal_tail(strength, self_contact=True, sweep=1.2, steps=120):
+    """bent_rod's capsule held by goals instead of pins: its root end (0.15 m) on goals at rest at strength 1,
+    its tip end on goals carried rigidly about the middle through `sweep` half turns in 90 of `steps` steps
+    (1.2: past the root, beyond the body) at `strength`, the rest free. The least distance of the two ends'
+    particles less their largest radii over the motion, and the tip end's last height (the root at z = 0)."""
+    v, t = meshes.capsule(radius=0.06, length=1.2)
+    g = opdeform.Graph.from_mesh(v, t, particles=60)
+    sim = opdeform.Simulation(g, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)
+    if self_contact:
+        sim.set_self_contact()
+    x = g.centers[:, 0]
+    root, tip, middle = x < x.min() + 0.15, x > x.max() - 0.15, np.array([(x.min() + x.max()) / 2, 0.0, 0.0])
+    sim.set_goal_strength(np.where(root, 1.0, np.where(tip, strength, 0.0)))
+    reach = g.radii.max(axis=1)
+    within = reach[root][:, None] + reach[tip][None]
+    least = np.inf
+    for k in range(steps):
+        a = np.pi * sweep * min(1.0, (k + 1) / 90)
+        turn = np.array([[np.cos(a), 0.0, -np.sin(a)], [0.0, 1.0, 0.0], [np.sin(a), 0.0, np.cos(a)]])
+        goals, rotations = g.centers.copy(), np.tile(np.eye(3), (g.n_particles, 1, 1))
+        goals[tip], rotations[tip] = (g.centers[tip] - middle) @ turn.T + middle, turn
+        sim.set_goals(goals, rotations)
+        sim.step()
+        p = sim.positions
+        least = min(least, (np.linalg.norm(p[root][:, None] - p[tip][None], axis=2) - within).min())
+    return least, p[tip, 2].mean()
+
+
+def test_a_tail_pulled_past_its_body_by_goals_passes_through_it_without_self_contact():
+    for strength in (0.5, 0.9, 1.0):
+        assert _goal_tail(strength, self_contact=False)[0] < -0.09  # -0.099 to -0.100: through
+    assert _goal_tail(0.5)[1] > 0.0  # with self-contact a soft goal's tip stays above its root (0.089 m)
+
+
+@pytest.mark.xfail(reason="left: goals pull the tip into its root (least -0.042 / -0.088 / -0.070 m at strength "
+                   "0.5 / 0.9 / 1.0; the tip ends -0.22 / -0.21 m below the root at 0.9 / 1.0): self-contact is a "
+                   "projection after the iterations and the goals' pull re-enters every step's solve")
+@pytest.mark.parametrize("strength", [0.5, 0.9, 1.0])
+def test_a_tail_pulled_past_its_body_by_goals_does_not_pass_through_it(strength):
+    least, height = _goal_tail(strength)
+    assert least > -0.03 and height > 0.0
+
+
 def test_a_body_at_rest_with_self_contact_stays_at_rest_to_the_bit(bar):
     g = bar[2]
     plain, touching = (_body(g, (0.0, 0.0, 0.0), gravity=(0, 0, -9.81)) for _ in range(2))
