@@ -7,8 +7,8 @@ whose tip is carried on a half circle onto its held root (sweep 1) and past it (
 of strength 0.5, 0.9 and 1.0 (the root on goals of strength 1), with and without self-contact. Printed per
 case: the least distance of the two ends' particles less their largest radii over the motion (< 0: closer
 than their largest radii), the tip end's last height (the root at z = 0; < 0: the tip ended below it, round
-the root or through it) and the deepest overlap of the two ends' ellipsoids over the motion (along their centre
-lines; > 0: one inside the other, which going round never needs).
+the root or through it) and the deepest overlap of the tip end's ellipsoids with those of the far half of the
+body over the motion (along their centre lines; > 0: one inside the other, which going round never needs).
 """
 
 import os

@@ -2,8 +2,8 @@
 // distant parts of one simulation (self-contact).
 //
 // Between the bodies of a group, contact acts inside the iterations of a step, as forces on the right side of
-// every global solve (sim->contactForce, global_solve.c), and after them as a projection; self-contact only
-// as the projection (below: why).
+// every global solve (sim->contactForce, global_solve.c), and after them as a projection; so does self-contact,
+// with forces of its own (below).
 //
 // Narrow phase: ellipsoid i reaches s_i = sqrt(nᵀ M_i n) along a unit n (M_i = E diag(a², b², c²) Eᵀ), so
 // the half spaces n·(p - x_i) <= s_i and n·(p - x_j) >= -s_j hold the two ellipsoids: when n·(x_j - x_i) >=
@@ -48,10 +48,17 @@
 // its members' states. With forces, the group's pairs and forces are its state (od_ContactGroup_GetPairs /
 // SetPairs, contact_group.c): the Blender add-on caches them with each frame.
 //
-// Self-contact is the projection only: with forces the ends of a rod bent onto each other came nearer than
-// the test's bound in centre distance less radii (-0.036 m against -0.030; the ellipsoids' own clearance was
-// better, 4.5 mm against 3.3, but its particles turned their short axes to the contact), and a tail pulled
-// past its body still ended beyond it (it went round the root instead of through it).
+// Self-contact's forces (od_IterateSelf): a pin or a goal pulls a tail through its own body with a force that
+// re-enters every solve, which the projection after the iterations alone did not stop (a tail pulled past its
+// root went 21.5 mm into it, 54-73 mm under goals of strength 0.9-1.0). After a step's first solve, the pairs
+// near then each become a half-space along their centre line at the step's start, and their normal forces are
+// those that hold all of them at the centres of the next solve, computed exactly from the solve's response
+// between their particles (A⁻¹, od_SelfResponse: the matrix, pins and goals included, is fixed during a step)
+// by projected Gauss-Seidel: so a pull of any strength is met by the force that stops it, split between the
+// two sides as the solve's own stiffnesses split it. No friction inside (od_UpdateSelfForces: why). Nothing is
+// carried from step to step (no warm start): a step stays a function of the state, which is what the add-on
+// caches. Measured (docs/contact.md): the tails' deepest overlap 2.8 / 2.2 / 1.2 mm (a pin, goals of strength
+// 0.9, 1.0; 21.5 / 73 / 54 mm with the projection alone), the rod's ends held pressed 4.2 mm apart.
 //
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
 // `exclusionScale` times the sum of their largest radii, never collide: the overlaps a body has at rest are
@@ -70,6 +77,7 @@
 #include "contact.h"
 #include "core.h"
 #include "energy.h"
+#include "global_solve.h"
 #include "goal.h"
 #include "math3.h"
 #include "step.h"
@@ -123,6 +131,37 @@ od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self)
 	return OD_OK;
 }
 
+// Self-contact's forces inside the solves (od_IterateSelf): the near pairs' particles, the response of their
+// centres to forces (A⁻¹ between them, the same for x, y and z), and the pairs' normal gaps' response to
+// their normal forces. Grown, never shrunk.
+typedef struct od_SelfSolve
+{
+	int n;             // particles the arrays below are sized for
+	int* slot;         // n: a particle's place among `particles`, -1 for none
+	int* particles;    // n: those of the near pairs
+	int count;         // how many
+	double* column;    // 3n: three right sides of the global matrix, then their solutions
+	double* response;  // count × count
+	int responseCapacity;
+	double* coupling;  // pairs × pairs
+	double* applied;   // pairs: each pair's force in the last solve
+	int pairCapacity;
+} od_SelfSolve;
+
+static void od_SelfSolveDestroy(od_SelfSolve* q)
+{
+	if (q)
+	{
+		od_Free(q->slot);
+		od_Free(q->particles);
+		od_Free(q->column);
+		od_Free(q->response);
+		od_Free(q->coupling);
+		od_Free(q->applied);
+		od_Free(q);
+	}
+}
+
 void od_PairScratch_Destroy(od_PairScratch* s)
 {
 	od_Free(s->body);
@@ -142,6 +181,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->system);
 	od_Free(s->pairs);
 	od_Free(s->previous);
+	od_SelfSolveDestroy(s->self);
 	*s = (od_PairScratch){ 0 };
 }
 
@@ -436,7 +476,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
 	double supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	bool apart = l0 > 0.0 && l0 >= supports;
-	if (!apart && l1 > 0.0)
+	if (!apart && l1 > 0.0 && a->sim != b->sim)
 	{
 		p.c = od_Scale(1.0 / l1, d1);
 		// Two bodies that began overlapping: measured along the push direction, which the bodies' surfaces
@@ -448,7 +488,11 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	}
 	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
-	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
+	// Within one body, a pair within its largest reach at the end has not passed by: its particles are part of
+	// one continuum, and a tail slipped between its root's particles, each pair passing by (the tails' deepest
+	// overlap 5.0 / 6.7 / 11.2 mm under a pin and goals of strength 0.9 / 1.0 without this, 3.6 / 0.9 / 2.8 mm).
+	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach &&
+			   (a->sim != b->sim || l1 >= largest + d->thickness);
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_RecoveryLimit(a->sim),
 							 0.0);
@@ -632,7 +676,7 @@ static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, con
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_PairState p = od_Measure(s, pair, &a, &b, between);
 		double slack = OD_NEAR_SLACK * (od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i));
-		if (a.sim != b.sim && !p.passed && p.depth > -slack)
+		if ((count == 1 || a.sim != b.sim) && !p.passed && p.depth > -slack)
 		{
 			od_ContactPair swap = s->pairs[near];
 			s->pairs[near++] = *pair;
@@ -1054,6 +1098,265 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 	return status;
 }
 
+// Sizes s->self for a simulation of n particles and `pairs` near pairs (the response is sized by
+// od_SelfParticles).
+static od_Status od_SelfSolveReserve(od_PairScratch* s, int n, int pairs)
+{
+	od_SelfSolve* q = s->self ? s->self : od_AllocZero(1, sizeof *q);
+	s->self = q;
+	if (q && q->n < n)
+	{
+		od_Free(q->slot);
+		od_Free(q->particles);
+		od_Free(q->column);
+		q->slot = od_Alloc(sizeof(int) * (size_t)n);
+		q->particles = od_Alloc(sizeof(int) * (size_t)n);
+		q->column = od_Alloc(sizeof(double) * 3 * (size_t)n);
+		q->n = q->slot && q->particles && q->column ? n : 0;
+		for (int i = 0; i < q->n; ++i)
+		{
+			q->slot[i] = -1;
+		}
+	}
+	if (q && q->n >= n && q->pairCapacity < pairs)
+	{
+		od_Free(q->coupling);
+		od_Free(q->applied);
+		q->coupling = od_Alloc(sizeof(double) * (size_t)pairs * (size_t)pairs);
+		q->applied = od_Alloc(sizeof(double) * (size_t)pairs);
+		q->pairCapacity = q->coupling && q->applied ? pairs : 0;
+	}
+	if (!q || q->n < n || q->pairCapacity < pairs)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the self-contact of %d pairs", pairs);
+	}
+	return OD_OK;
+}
+
+// Lists the near pairs' particles (s->self's slots and particles) and sizes the response for them.
+static od_Status od_SelfParticles(od_PairScratch* s)
+{
+	od_SelfSolve* q = s->self;
+	for (int k = 0; k < q->count; ++k)
+	{
+		q->slot[q->particles[k]] = -1;
+	}
+	q->count = 0;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int ends[2] = { s->local[s->pairs[k].a], s->local[s->pairs[k].b] };
+		for (int e = 0; e < 2; ++e)
+		{
+			if (q->slot[ends[e]] < 0)
+			{
+				q->slot[ends[e]] = q->count;
+				q->particles[q->count++] = ends[e];
+			}
+		}
+	}
+	if (q->responseCapacity < q->count)
+	{
+		od_Free(q->response);
+		q->response = od_Alloc(sizeof(double) * (size_t)q->count * (size_t)q->count);
+		q->responseCapacity = q->response ? q->count : 0;
+	}
+	return q->response ? OD_OK : od_Fail(OD_ERROR_MEMORY, "out of memory for the self-contact of %d particles", q->count);
+}
+
+// The response of the near pairs' particles to a force on each (A⁻¹ between them): one substitution per
+// three particles, a unit force on each along its own axis. The matrix is fixed during a step.
+static void od_SelfResponse(od_Sim* sim, od_SelfSolve* q)
+{
+	int n = sim->graph->n, count = q->count;
+	for (int first = 0; first < count; first += 3)
+	{
+		memset(q->column, 0, sizeof(double) * 3 * (size_t)n);
+		for (int c = 0; c < 3 && first + c < count; ++c)
+		{
+			q->column[3 * q->particles[first + c] + c] = 1.0;
+		}
+		od_GlobalResponse(sim, q->column);
+		for (int c = 0; c < 3 && first + c < count; ++c)
+		{
+			for (int r = 0; r < count; ++r)
+			{
+				q->response[r * count + first + c] = q->column[3 * q->particles[r] + c];
+			}
+		}
+	}
+}
+
+// How far the pair (a, b) opens along its normal per newton of its normal force, from the response.
+static double od_PairResponse(const od_SelfSolve* q, const od_PairScratch* s, const od_ContactPair* k,
+							  const od_ContactPair* l)
+{
+	const double* z = q->response;
+	int c = q->count, ak = q->slot[s->local[k->a]], bk = q->slot[s->local[k->b]];
+	int al = q->slot[s->local[l->a]], bl = q->slot[s->local[l->b]];
+	double open = z[bk * c + bl] - z[bk * c + al] - z[ak * c + bl] + z[ak * c + al];
+	return open * od_Dot(od_V3Load(k->n), od_V3Load(l->n));
+}
+
+// A near pair of one body as a half-space for the step's solves: at the first measure its normal is its
+// centre line at the step's start, and how deep it may stay is set (a pair that began overlapping leaves at the
+// recovery speed); then its gap along that normal at the current centres and ellipsoids. Fixed for the step,
+// the constraints are linear and od_SolveNormals settles. Turned towards the bodies' surface normals as between
+// bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 2.2 m/s after 600
+// steps, 0.002 m/s not turned; docs/contact.md): a rod's end particles' outward directions lie along the rod.
+static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
+							   const od_BodyContactDef* d, bool first)
+{
+	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
+	if (first)
+	{
+		od_Vec3 d0 = od_Sub(b->x0, a->x0);
+		double l0 = od_Length(d0);
+		od_Vec3 c = l0 > 0.0 ? od_Scale(1.0 / l0, d0) : od_V3(0, 0, 1);
+		od_V3Store(pair->n, c);
+		double depth = od_Support(&ma, c) + od_Support(&mb, c) + d->thickness - l0;
+		pair->allowed = fmax(depth - od_RecoveryLimit(a->sim), 0.0);
+	}
+	od_Vec3 n = od_V3Load(pair->n);
+	pair->gap = od_Dot(n, od_Sub(b->x1, a->x1)) - (od_Support(&ma, n) + od_Support(&mb, n) + d->thickness) + pair->allowed;
+	pair->touching = true;
+}
+
+#define OD_SELF_SWEEPS 30
+// At most this many near pairs of one body get forces: their coupling is dense (pairs²) and each three of
+// their particles cost a substitution once a step (od_SelfResponse).
+#define OD_SELF_PAIRS 256
+
+// The normal forces that hold the near pairs of one body at the centres of the next solve, as far as the
+// response predicts them (projected Gauss-Seidel on the pairs' coupling, from the forces of the last solve):
+// each pair's gap plus the change its own and the other pairs' new forces make is >= 0, its force >= 0, and 0
+// where the gap stays open.
+static void od_SolveNormals(od_PairScratch* s, od_SelfSolve* q)
+{
+	int count = s->nearCount;
+	for (int k = 0; k < count; ++k)
+	{
+		for (int l = k; l < count; ++l)
+		{
+			double c = od_PairResponse(q, s, &s->pairs[k], &s->pairs[l]);
+			q->coupling[k * count + l] = c;
+			q->coupling[l * count + k] = c;
+		}
+	}
+	for (int sweep = 0; sweep < OD_SELF_SWEEPS; ++sweep)
+	{
+		for (int k = 0; k < count; ++k)
+		{
+			od_ContactPair* pair = &s->pairs[k];
+			const double* row = q->coupling + (size_t)k * (size_t)count;
+			if (!(row[k] > 0.0))
+			{
+				continue;
+			}
+			double gap = pair->gap;
+			for (int l = 0; l < count; ++l)
+			{
+				gap += row[l] * (s->pairs[l].force - q->applied[l]);
+			}
+			pair->force = fmax(pair->force - gap / row[k], 0.0);
+		}
+	}
+}
+
+// After a solve of a step's iterations with self-contact: measures the near pairs and sets their normal forces
+// for the next solve (od_SolveNormals). Friction stays the projection's, after the iterations: inside them (a
+// Newton step of each pair alone against its slip since the step's start, within μ times its force) the rod's
+// ends held pressed never settled (fastest particle 0.47 m/s after 600 steps, 0.002 m/s without it).
+static void od_UpdateSelfForces(od_PairScratch* s, od_Sim* sim, bool first)
+{
+	od_SelfSolve* q = s->self;
+	od_CacheMoments(s, &sim, 1);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, &sim, pair->a), b = od_EndOf(s, &sim, pair->b);
+		q->applied[k] = pair->force;
+		od_MeasureSelfPair(s, pair, &a, &b, &sim->selfDef, first);
+	}
+	od_SolveNormals(s, q);
+	od_ApplyForces(s, &sim, 1);
+}
+
+// How far beyond its path to the first solve's centre a particle's bounding sphere reaches in the broad phase
+// after a step's first solve (od_NearSelfPairs): where no particle then moved farther, its pairs are those of
+// the step's end too, and the projection takes them without a broad phase of its own (one broad phase a step
+// instead of two: a 10,000-particle beam at rest with self-contact took 1.29 times the plain step with two,
+// docs/contact.md).
+static double od_SelfSlack(const od_Sim* sim)
+{
+	return sim->selfDef.thickness;
+}
+
+// Whether every particle of sim ended within od_SelfSlack of where the step's first solve put it (its path
+// sphere's centre there, s->sphere, the midpoint of its start and that: od_Bin), so that the pairs found then
+// hold every pair of the step's end.
+static bool od_SelfPairsHold(const od_PairScratch* s, const od_Sim* sim)
+{
+	double slack = od_SelfSlack(sim);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Vec3 first = od_Sub(od_Scale(2.0, od_V3Load(s->sphere + 4 * i)), od_V3Load(sim->previous.x + 3 * i));
+		od_Vec3 moved = od_Sub(od_V3Load(sim->state.x + 3 * i), first);
+		if (od_Dot(moved, moved) > slack * slack)
+		{
+			return false;
+		}
+	}
+	return true;
+}
+
+// The near pairs of one body after a step's first solve (their forces 0): a broad phase over the paths since
+// the step's start (nothing is carried from step to step: a step stays a function of the state), then
+// od_GatherNear. More than OD_SELF_PAIRS get none (the projection alone, as before the forces).
+static od_Status od_NearSelfPairs(od_PairScratch* s, od_Sim* sim)
+{
+	od_Status status = od_NewPairs(s, &sim, 1, sim->selfDef.thickness + 2.0 * od_SelfSlack(sim));
+	s->nearCount = 0;
+	if (status == OD_OK && s->pairCount > 0)
+	{
+		od_GatherNear(s, &sim, 1, &sim->selfDef);
+	}
+	s->nearCount = s->nearCount > OD_SELF_PAIRS ? 0 : s->nearCount;
+	status = status == OD_OK && s->nearCount > 0 ? od_BodyContact_ReserveForces(sim) : status;
+	status = status == OD_OK && s->nearCount > 0 ? od_SelfSolveReserve(s, sim->graph->n, s->nearCount) : status;
+	return status == OD_OK && s->nearCount > 0 ? od_SelfParticles(s) : status;
+}
+
+// The iterations of a step of one simulation with self-contact: after the first solve, the pairs near then
+// get forces that hold them in every later solve (see the top of the file). Without near pairs the step is
+// the plain one, bit for bit.
+static od_Status od_IterateSelf(od_PairScratch* s, od_Sim* sim, bool* found)
+{
+	bool more = true;
+	od_Status status = od_Step_Advance(sim, &more);
+	*found = status == OD_OK && more;
+	status = *found ? od_NearSelfPairs(s, sim) : status;
+	bool forces = status == OD_OK && more && s->nearCount > 0;
+	if (forces)
+	{
+		od_Tolerance_PlainPlan(&sim->iteration.plan);
+		od_SelfResponse(sim, s->self);
+		od_UpdateSelfForces(s, sim, true);
+	}
+	while (more && status == OD_OK)
+	{
+		status = od_Step_Advance(sim, &more);
+		if (status == OD_OK && forces && more)
+		{
+			od_UpdateSelfForces(s, sim, false);
+		}
+	}
+	if (forces)
+	{
+		memset(sim->contactForce, 0, sizeof(double) * 3 * (size_t)sim->graph->n);
+	}
+	return status;
+}
+
 od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	// With forces between the bodies, each member starts from its previous rotations, takes plain pairs and
@@ -1068,11 +1371,16 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 		od_Step_Start(sims[b], !forces);
 	}
 	od_Status status = OD_OK;
+	bool found = false; // self-contact's pairs found after the first solve (od_IterateSelf)
 	if (forces)
 	{
 		status = od_IterateWithForces(s, sims, count, between);
 	}
-	else // self-contact alone, or a group with contact after the iterations only: no forces
+	else if (count == 1)
+	{
+		status = od_IterateSelf(s, sims[0], &found);
+	}
+	else // a group with contact after the iterations only: no forces
 	{
 		for (int b = 0; b < count && status == OD_OK; ++b)
 		{
@@ -1083,7 +1391,8 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 			}
 		}
 	}
-	status = status == OD_OK ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between)) : status;
+	bool again = status == OD_OK && !(found && od_SelfPairsHold(s, sims[0]));
+	status = again ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between)) : status;
 	return status == OD_OK ? od_ProjectPairs(s, sims, count, between) : status;
 }
 

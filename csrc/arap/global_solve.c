@@ -471,6 +471,11 @@ od_Status od_GlobalStep(od_Sim* sim)
 	return status;
 }
 
+void od_GlobalResponse(od_Sim* sim, double* b)
+{
+	od_Cholesky_Solve(sim->solver[sim->mode]->factor, sim->pool, b, b);
+}
+
 static od_Status od_GlobalSolve(od_Sim* sim)
 {
 	od_GlobalSolver* s = sim->solver[sim->mode];

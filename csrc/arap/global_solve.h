@@ -8,3 +8,6 @@ void od_GlobalSolver_Destroy(od_GlobalSolver* solver);
 // Refactors first when the matrix's inputs changed since the last factorization (constraint version, k,
 // ρ, h, threads, CHOLMOD path), then solves.
 od_Status od_GlobalStep(od_Sim* sim);
+// Solves A x = b in place with the factor of the last solve (its three right sides: x, y, z), for the response
+// of the centres to forces (self-contact, body_contact.c). Call only after a solve of the current mode.
+void od_GlobalResponse(od_Sim* sim, double* b);

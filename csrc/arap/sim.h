@@ -137,6 +137,7 @@ typedef struct od_ContactPair
 	double force;     // the normal force on b (N, >= 0; -force on a), inside the iterations, kept step to step
 	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
 	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
+	double allowed;   // self-contact: how deep it may stay this step (od_MeasureSelfPair)
 	bool touching;    // near enough for a force in this iteration
 	int next;         // the next forced pair of the same first particle (od_CarryForces)
 	int interface;    // its interface in a group's update (od_Interfaces), -1: none
@@ -175,6 +176,7 @@ typedef struct od_PairScratch
 	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)
 	od_ContactPair* previous; // the last step's pairs, sorted: their forces start this step's (warm start)
 	int previousCount, previousCapacity;
+	struct od_SelfSolve* self; // self-contact's forces in the solves (body_contact.c), made when first needed
 } od_PairScratch;
 
 typedef enum od_Mode
