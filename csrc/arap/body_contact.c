@@ -57,7 +57,7 @@
 // by projected Gauss-Seidel: so a pull of any strength is met by the force that stops it, split between the
 // two sides as the solve's own stiffnesses split it. No friction inside (od_UpdateSelfForces: why). Nothing is
 // carried from step to step (no warm start): a step stays a function of the state, which is what the add-on
-// caches. Measured (docs/contact.md): the tails' deepest overlap 2.8 / 2.2 / 1.2 mm (a pin, goals of strength
+// caches. Measured (docs/contact.md): the tails' deepest overlap 2.9 / 2.2 / 1.2 mm (a pin, goals of strength
 // 0.9, 1.0; 21.5 / 73 / 54 mm with the projection alone), the rod's ends held pressed 4.2 mm apart.
 //
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
@@ -490,7 +490,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	p.depth = reach - od_Dot(p.c, d1);
 	// Within one body, a pair within its largest reach at the end has not passed by: its particles are part of
 	// one continuum, and a tail slipped between its root's particles, each pair passing by (the tails' deepest
-	// overlap 5.0 / 6.7 / 11.2 mm under a pin and goals of strength 0.9 / 1.0 without this, 3.6 / 0.9 / 2.8 mm).
+	// overlap 5.6 / 2.2 / 2.8 mm under a pin and goals of strength 0.9 / 1.0 without this, 2.9 / 2.2 / 1.2 mm).
 	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach &&
 			   (a->sim != b->sim || l1 >= largest + d->thickness);
 	p.allowed = apart ? 0.0
