@@ -55,10 +55,13 @@
 // those that hold all of them at the centres of the next solve, computed exactly from the solve's response
 // between their particles (A⁻¹, od_SelfResponse: the matrix, pins and goals included, is fixed during a step)
 // by projected Gauss-Seidel: so a pull of any strength is met by the force that stops it, split between the
-// two sides as the solve's own stiffnesses split it. No friction inside (od_UpdateSelfForces: why). Nothing is
+// two sides as the solve's own stiffnesses split it. Friction is solved with them (od_SolveForces): with the
+// normal held by forces the projection pushes almost nothing, so its friction, bounded by its push, held nothing
+// (a hook's tail slid off its own body, tests/blender/suite_colliders.py); each pair's own Newton step, not
+// coupled, never let the rod's ends held pressed settle (fastest particle 0.47 m/s after 10 s). Nothing is
 // carried from step to step (no warm start): a step stays a function of the state, which is what the add-on
-// caches. Measured (docs/contact.md): the tails' deepest overlap 2.9 / 2.2 / 1.2 mm (a pin, goals of strength
-// 0.9, 1.0; 21.5 / 73 / 54 mm with the projection alone), the rod's ends held pressed 4.2 mm apart.
+// caches. Measured (docs/contact.md): the tails' deepest overlap 2.9 / 0.6 / 1.1 mm (a pin, goals of strength
+// 0.9, 1.0; 21.5 / 73 / 54 mm with the projection alone), the rod's ends held pressed 4.5 mm apart.
 //
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
 // `exclusionScale` times the sum of their largest radii, never collide: the overlaps a body has at rest are
@@ -144,7 +147,8 @@ typedef struct od_SelfSolve
 	double* response;  // count × count
 	int responseCapacity;
 	double* coupling;  // pairs × pairs
-	double* applied;   // pairs: each pair's force in the last solve
+	double* applied;   // 3 per pair: its force (normal and friction) in the last solve
+	double* slip;      // 3 per pair: its relative tangential displacement since the step's start
 	int pairCapacity;
 } od_SelfSolve;
 
@@ -158,6 +162,7 @@ static void od_SelfSolveDestroy(od_SelfSolve* q)
 		od_Free(q->response);
 		od_Free(q->coupling);
 		od_Free(q->applied);
+		od_Free(q->slip);
 		od_Free(q);
 	}
 }
@@ -490,7 +495,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	p.depth = reach - od_Dot(p.c, d1);
 	// Within one body, a pair within its largest reach at the end has not passed by: its particles are part of
 	// one continuum, and a tail slipped between its root's particles, each pair passing by (the tails' deepest
-	// overlap 5.6 / 2.2 / 2.8 mm under a pin and goals of strength 0.9 / 1.0 without this, 2.9 / 2.2 / 1.2 mm).
+	// overlap 5.4 / 26.0 / 0.6 mm under a pin and goals of strength 0.9 / 1.0 without this, 2.9 / 0.6 / 1.1 mm).
 	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach &&
 			   (a->sim != b->sim || l1 >= largest + d->thickness);
 	p.allowed = apart ? 0.0
@@ -1122,9 +1127,11 @@ static od_Status od_SelfSolveReserve(od_PairScratch* s, int n, int pairs)
 	{
 		od_Free(q->coupling);
 		od_Free(q->applied);
+		od_Free(q->slip);
 		q->coupling = od_Alloc(sizeof(double) * (size_t)pairs * (size_t)pairs);
-		q->applied = od_Alloc(sizeof(double) * (size_t)pairs);
-		q->pairCapacity = q->coupling && q->applied ? pairs : 0;
+		q->applied = od_Alloc(sizeof(double) * 3 * (size_t)pairs);
+		q->slip = od_Alloc(sizeof(double) * 3 * (size_t)pairs);
+		q->pairCapacity = q->coupling && q->applied && q->slip ? pairs : 0;
 	}
 	if (!q || q->n < n || q->pairCapacity < pairs)
 	{
@@ -1186,23 +1193,29 @@ static void od_SelfResponse(od_Sim* sim, od_SelfSolve* q)
 	}
 }
 
-// How far the pair (a, b) opens along its normal per newton of its normal force, from the response.
+// How far pair k's ends move apart per newton of a force on pair l (on l's b, its negative on l's a), along
+// the force: the response is the same along x, y and z.
 static double od_PairResponse(const od_SelfSolve* q, const od_PairScratch* s, const od_ContactPair* k,
 							  const od_ContactPair* l)
 {
 	const double* z = q->response;
 	int c = q->count, ak = q->slot[s->local[k->a]], bk = q->slot[s->local[k->b]];
 	int al = q->slot[s->local[l->a]], bl = q->slot[s->local[l->b]];
-	double open = z[bk * c + bl] - z[bk * c + al] - z[ak * c + bl] + z[ak * c + al];
-	return open * od_Dot(od_V3Load(k->n), od_V3Load(l->n));
+	return z[bk * c + bl] - z[bk * c + al] - z[ak * c + bl] + z[ak * c + al];
+}
+
+// A pair's whole force on its b: the normal force along n and the friction force.
+static od_Vec3 od_PairForce(const od_ContactPair* pair)
+{
+	return od_MulAdd(od_V3Load(pair->tangent), pair->force, od_V3Load(pair->n));
 }
 
 // A near pair of one body as a half-space for the step's solves: at the first measure its normal is its
 // centre line at the step's start, and how deep it may stay is set (a pair that began overlapping leaves at the
 // recovery speed); then its gap along that normal at the current centres and ellipsoids. Fixed for the step,
-// the constraints are linear and od_SolveNormals settles. Turned towards the bodies' surface normals as between
-// bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 2.2 m/s after 600
-// steps, 0.002 m/s not turned; docs/contact.md): a rod's end particles' outward directions lie along the rod.
+// the constraints are linear and od_SolveForces settles. Turned towards the bodies' surface normals as between
+// bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 1.7 m/s over the last
+// of 10 s, 0.026 m/s not turned; docs/contact.md): a rod's end particles' outward directions lie along it.
 static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
 							   const od_BodyContactDef* d, bool first)
 {
@@ -1222,15 +1235,18 @@ static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od
 }
 
 #define OD_SELF_SWEEPS 30
+// A sweep that moved no pair's ends by more than this (m) ends them.
+#define OD_SELF_SETTLED 1e-6
 // At most this many near pairs of one body get forces: their coupling is dense (pairs²) and each three of
 // their particles cost a substitution once a step (od_SelfResponse).
 #define OD_SELF_PAIRS 256
 
-// The normal forces that hold the near pairs of one body at the centres of the next solve, as far as the
-// response predicts them (projected Gauss-Seidel on the pairs' coupling, from the forces of the last solve):
-// each pair's gap plus the change its own and the other pairs' new forces make is >= 0, its force >= 0, and 0
-// where the gap stays open.
-static void od_SolveNormals(od_PairScratch* s, od_SelfSolve* q)
+// The forces that hold the near pairs of one body at the centres of the next solve, as far as the response
+// predicts them (projected Gauss-Seidel on the pairs' coupling, from the forces of the last solve): each pair's
+// gap plus the change that its own and the other pairs' new forces make is >= 0, its normal force >= 0 and 0
+// where the gap stays open; its friction force cancels its slip since the step's start with the same changes,
+// within μ times its normal force (Coulomb: static friction over the whole step, as between bodies).
+static void od_SolveForces(od_PairScratch* s, od_SelfSolve* q, double mu)
 {
 	int count = s->nearCount;
 	for (int k = 0; k < count; ++k)
@@ -1242,8 +1258,10 @@ static void od_SolveNormals(od_PairScratch* s, od_SelfSolve* q)
 			q->coupling[l * count + k] = c;
 		}
 	}
-	for (int sweep = 0; sweep < OD_SELF_SWEEPS; ++sweep)
+	double change = INFINITY; // the most a sweep moved a pair's ends by its own force's change
+	for (int sweep = 0; sweep < OD_SELF_SWEEPS && change > OD_SELF_SETTLED; ++sweep)
 	{
+		change = 0.0;
 		for (int k = 0; k < count; ++k)
 		{
 			od_ContactPair* pair = &s->pairs[k];
@@ -1252,20 +1270,26 @@ static void od_SolveNormals(od_PairScratch* s, od_SelfSolve* q)
 			{
 				continue;
 			}
-			double gap = pair->gap;
+			od_Vec3 before = od_PairForce(pair);
+			od_Vec3 moved = od_V3(0, 0, 0); // how far the forces' changes move the pair's ends apart
 			for (int l = 0; l < count; ++l)
 			{
-				gap += row[l] * (s->pairs[l].force - q->applied[l]);
+				moved = od_MulAdd(moved, row[l], od_Sub(od_PairForce(&s->pairs[l]), od_V3Load(q->applied + 3 * l)));
 			}
-			pair->force = fmax(pair->force - gap / row[k], 0.0);
+			od_Vec3 n = od_V3Load(pair->n);
+			pair->force = fmax(pair->force - (pair->gap + od_Dot(n, moved)) / row[k], 0.0);
+			od_Vec3 slip = od_Add(od_V3Load(q->slip + 3 * k), moved);
+			od_Vec3 t = od_MulAdd(od_V3Load(pair->tangent), -1.0 / row[k], slip);
+			t = od_MulAdd(t, -od_Dot(t, n), n);
+			double length = od_Length(t), limit = mu * pair->force;
+			od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
+			change = fmax(change, row[k] * od_Length(od_Sub(od_PairForce(pair), before)));
 		}
 	}
 }
 
-// After a solve of a step's iterations with self-contact: measures the near pairs and sets their normal forces
-// for the next solve (od_SolveNormals). Friction stays the projection's, after the iterations: inside them (a
-// Newton step of each pair alone against its slip since the step's start, within μ times its force) the rod's
-// ends held pressed never settled (fastest particle 0.47 m/s after 600 steps, 0.002 m/s without it).
+// After a solve of a step's iterations with self-contact: measures the near pairs (their gaps and slips) and
+// sets their forces for the next solve (od_SolveForces).
 static void od_UpdateSelfForces(od_PairScratch* s, od_Sim* sim, bool first)
 {
 	od_SelfSolve* q = s->self;
@@ -1274,10 +1298,12 @@ static void od_UpdateSelfForces(od_PairScratch* s, od_Sim* sim, bool first)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, &sim, pair->a), b = od_EndOf(s, &sim, pair->b);
-		q->applied[k] = pair->force;
+		od_V3Store(q->applied + 3 * k, od_PairForce(pair));
 		od_MeasureSelfPair(s, pair, &a, &b, &sim->selfDef, first);
+		od_Vec3 n = od_V3Load(pair->n), rel = od_Sub(od_Sub(b.x1, b.x0), od_Sub(a.x1, a.x0));
+		od_V3Store(q->slip + 3 * k, od_MulAdd(rel, -od_Dot(rel, n), n));
 	}
-	od_SolveNormals(s, q);
+	od_SolveForces(s, q, sim->selfDef.friction);
 	od_ApplyForces(s, &sim, 1);
 }
 
