@@ -58,9 +58,10 @@
 // two sides as the solve's own stiffnesses split it. Friction is solved with them (od_SolveForces): with the
 // normal held by forces the projection pushes almost nothing, so its friction, bounded by its push, held nothing
 // (a hook's tail slid off its own body, tests/blender/suite_colliders.py); each pair's own Newton step, not
-// coupled, never let the rod's ends held pressed settle (fastest particle 0.47 m/s after 10 s). Nothing is
+// coupled, never let the rod's ends held pressed settle (fastest particle 0.47 m/s after 10 s, measured with
+// two details since dropped). Nothing is
 // carried from step to step (no warm start): a step stays a function of the state, which is what the add-on
-// caches. Measured (docs/contact.md): the tails' deepest overlap 2.9 / 0.6 / 1.1 mm (a pin, goals of strength
+// caches. Measured (docs/contact.md): the tails' deepest overlap 2.1 / 0.9 / 0.6 mm (a pin, goals of strength
 // 0.9, 1.0; 21.5 / 73 / 54 mm with the projection alone), the rod's ends held pressed 4.5 mm apart.
 //
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
@@ -481,7 +482,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
 	double supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
 	bool apart = l0 > 0.0 && l0 >= supports;
-	if (!apart && l1 > 0.0 && a->sim != b->sim)
+	if (!apart && l1 > 0.0)
 	{
 		p.c = od_Scale(1.0 / l1, d1);
 		// Two bodies that began overlapping: measured along the push direction, which the bodies' surfaces
@@ -493,11 +494,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	}
 	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
-	// Within one body, a pair within its largest reach at the end has not passed by: its particles are part of
-	// one continuum, and a tail slipped between its root's particles, each pair passing by (the tails' deepest
-	// overlap 5.4 / 26.0 / 0.6 mm under a pin and goals of strength 0.9 / 1.0 without this, 2.9 / 0.6 / 1.1 mm).
-	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach &&
-			   (a->sim != b->sim || l1 >= largest + d->thickness);
+	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_RecoveryLimit(a->sim),
 							 0.0);
@@ -1214,7 +1211,7 @@ static od_Vec3 od_PairForce(const od_ContactPair* pair)
 // centre line at the step's start, and how deep it may stay is set (a pair that began overlapping leaves at the
 // recovery speed); then its gap along that normal at the current centres and ellipsoids. Fixed for the step,
 // the constraints are linear and od_SolveForces settles. Turned towards the bodies' surface normals as between
-// bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 1.7 m/s over the last
+// bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 2.2 m/s over the last
 // of 10 s, 0.026 m/s not turned; docs/contact.md): a rod's end particles' outward directions lie along it.
 static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
 							   const od_BodyContactDef* d, bool first)
