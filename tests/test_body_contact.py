@@ -194,7 +194,7 @@ def test_a_rods_end_bent_onto_its_other_end_does_not_pass_into_it():
 
 
 def test_a_rods_end_held_pressed_onto_its_other_end_comes_to_rest():
-    """Self-contact's forces hold the pinned ends pressed without shaking them (fastest particle 0.026 m/s over
+    """Self-contact's forces hold the pinned ends pressed without shaking them (fastest particle 0.015 m/s over
     the last second of 10 s; 0.046 with the projection alone, 2.2 with the pairs' normals turned as between
     bodies)."""
     sim, _, _, tip, targets = scenes.bent_rod(True, 1.0, steps=600)

@@ -1212,7 +1212,8 @@ static od_Vec3 od_PairForce(const od_ContactPair* pair)
 // recovery speed); then its gap along that normal at the current centres and ellipsoids. Fixed for the step,
 // the constraints are linear and od_SolveForces settles. Turned towards the bodies' surface normals as between
 // bodies (od_PushDirection), the rod's ends held pressed never settled (fastest particle 2.2 m/s over the last
-// of 10 s, 0.026 m/s not turned; docs/contact.md): a rod's end particles' outward directions lie along it.
+// of 10 s, 0.026 m/s not turned, both at 30 sweeps; docs/contact.md): a rod's end particles' outward
+// directions lie along it.
 static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b,
 							   const od_BodyContactDef* d, bool first)
 {
@@ -1231,7 +1232,10 @@ static void od_MeasureSelfPair(od_PairScratch* s, od_ContactPair* pair, const od
 	pair->touching = true;
 }
 
-#define OD_SELF_SWEEPS 30
+// Gauss-Seidel sweeps over a body's near pairs after each solve (od_SolveForces). 10 and 30 gave the same
+// tails within 0.1 mm and the rod's ends at rest (0.015 / 0.026 m/s), at 0.25 / 0.37 ms a step; 5 shook them
+// (0.18 m/s; docs/contact.md).
+#define OD_SELF_SWEEPS 10
 // A sweep that moved no pair's ends by more than this (m) ends them.
 #define OD_SELF_SETTLED 1e-6
 // At most this many near pairs of one body get forces: their coupling is dense (pairs²) and each three of
