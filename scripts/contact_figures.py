@@ -1,0 +1,89 @@
+"""The figures of docs/contact.md's "Contact inside the iterations" (issue 27): the 0.3 m cube on a 30-degree
+plane at 1/24, 1/60 and 1/240 s (mu = 1 and 0.3), the k = 1e15 capsule at rest on the floor and on a plane, and
+the blob's rebound from a 1 m drop. `PYTHONPATH=build/python python3 scripts/contact_figures.py [ramp|stiff|drop]`."""
+import math, sys, time
+import numpy as np
+import opdeform
+from opdeform import materials, meshes
+from opdeform.simulation import frame_from_normal
+
+def cube():
+    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
+    return opdeform.Graph.from_mesh(v - v.mean(axis=0), t, particles=64)
+
+def cube_on_ramp(graph, mu, fps, seconds=2.0):
+    theta = math.radians(30.0)
+    normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
+    frame = frame_from_normal(normal)
+    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
+    lowest = (graph.centers[:, 2] - np.sqrt(((graph.radii * graph.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+    start = (graph.centers + (0.0, 0.0, 0.01 - lowest)) @ frame.T
+    sim.set_state(start, np.tile(frame, (graph.n_particles, 1, 1)))
+    sim.add_collider("plane", normal=normal, friction=mu)
+    sim.step(int(seconds * fps))
+    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
+    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
+    return float(np.linalg.norm(sim.positions.mean(axis=0) - start.mean(axis=0))), turned
+
+def rigid_error(sim, g):
+    x = sim.positions; X = g.centers
+    xc, Xc = x.mean(0), X.mean(0)
+    H = (X - Xc).T @ (x - xc)
+    u, s, vt = np.linalg.svd(H)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    R = vt.T @ np.diag([1, 1, d]) @ u.T
+    return np.abs((X - Xc) @ R.T + xc - x).max()
+
+def stiff_capsule(where="floor", dt=1/24, its=10, seconds=2.0):
+    v, t = meshes.capsule(radius=0.1, length=0.4)
+    g = opdeform.Graph.from_mesh(v, t, particles=100)
+    sim = opdeform.Simulation(g, 1e15, dt=dt, iterations=its)
+    lowest = (g.centers[:, 2] - np.sqrt(((g.radii * g.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+    sim.set_state(g.centers + (0, 0, 0.005 - lowest), np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    if where == "floor":
+        sim.set_floor(0.0)
+    else:
+        sim.add_collider("plane", normal=(0, 0, 1))
+    worst = 0.0
+    for k in range(int(seconds / dt)):
+        sim.step()
+        if k > seconds / dt / 2:
+            worst = max(worst, rigid_error(sim, g))
+    return worst, np.ptp(v, axis=0).max()
+
+def drop(where="floor", h=1.0, fps=60):
+    v, t = meshes.capsule(radius=0.2, length=0.2)
+    g = opdeform.Graph.from_mesh(v, t, particles=100)
+    sim = opdeform.Simulation(g, 3e4, dt=1 / fps)
+    lowest = (g.centers[:, 2] - np.sqrt(((g.radii * g.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+    sim.set_state(g.centers + (0, 0, h - lowest), np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    if where == "floor":
+        sim.set_floor(0.0)
+    else:
+        sim.add_collider("plane", normal=(0, 0, 1))
+    z0 = sim.positions.mean(0)[2]
+    zs = []
+    for k in range(int(3 * fps)):
+        sim.step()
+        zs.append(sim.positions.mean(0)[2])
+    zs = np.array(zs)
+    i = zs.argmin()
+    return (zs[i:].max() - zs[i]) / (z0 - zs[i])
+
+if __name__ == "__main__":
+    what = sys.argv[1:] or ["ramp", "stiff", "drop"]
+    g = cube()
+    t0 = time.time()
+    if "ramp" in what:
+        for fps in (24, 60, 240):
+            for mu in (1.0, 0.3):
+                print(f"plane ramp fps {fps} mu {mu}: %.3f m, %.1f deg" % cube_on_ramp(g, mu, fps), flush=True)
+    if "stiff" in what:
+        for where in ("floor", "plane"):
+            for dt in (1/24, 1/60):
+                e, size = stiff_capsule(where, dt)
+                print(f"stiff capsule on {where} dt 1/{round(1/dt)}: {e*1000:.2f} mm ({100*e/size:.2f} % of {size:.2f} m)", flush=True)
+    if "drop" in what:
+        for where in ("floor", "plane"):
+            print(f"drop on {where}: rebound {drop(where):.3f} of the drop", flush=True)
+    print("%.1f s" % (time.time() - t0))
