@@ -157,8 +157,7 @@ typedef struct od_Body
 	od_Mat3 R, goalR;
 } od_Body;
 
-// Particle i's ellipsoid turned by `rotation`: (rotation Ē) diag(a², b², c²) (rotation Ē)ᵀ.
-static od_Mat3 od_EllipsoidMoment(const od_Sim* sim, int i, const double* rotation)
+od_Mat3 od_EllipsoidMoment(const od_Sim* sim, int i, const double* rotation)
 {
 	const double* r = sim->graph->radii + 3 * i;
 	od_Mat3 rot = od_M3Load(rotation), e0 = od_M3Load(sim->graph->axes + 9 * i);
@@ -231,6 +230,31 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 	od_Mat3 M = od_InFrame(&b->goalM, &c->Rb);
 	od_Vec3 n, l = od_M3MulTV(&c->Rb, od_Sub(b->goalX, c->tb));
 	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, 0.0, &n, false), 0.0);
+}
+
+double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x, bool end,
+						od_Vec3* normal)
+{
+	const od_Mat3* R = end ? &c->Rb : &c->Ra;
+	od_Vec3 n, l = od_M3MulTV(R, od_Sub(x, end ? c->tb : c->ta));
+	double thickness = c->thickness;
+	if (od_Goals_CarryRest(sim))
+	{
+		od_Body b = od_BodyOf(sim, i);
+		thickness -= od_GoalDepth(c, &b);
+	}
+	od_Mat3 local = od_InFrame(M, R);
+	double depth = od_Depth(&c->body, &local, l, thickness, od_ParticleReach(sim, i), &n, true);
+	*normal = od_M3MulV(R, n);
+	return depth;
+}
+
+void od_ColliderFrames(od_SimCollider* c, double s0, double s1)
+{
+	od_Collider_FrameAt(&c->body, s0, &c->Ra, &c->ta);
+	od_Collider_FrameAt(&c->body, s1, &c->Rb, &c->tb);
+	od_Mat3 delta = od_M3MulNT(&c->Rb, &c->Ra);
+	c->turn = od_M3LogRotation(&delta);
 }
 
 // Where the particle's path (start -> x) ends relative to the collider, in the collider's frame at the step's
@@ -308,10 +332,7 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1)
 	for (int k = 0; k < sim->colliders.count; ++k)
 	{
 		od_SimCollider* c = &sim->colliders.items[k];
-		od_Collider_FrameAt(&c->body, s0, &c->Ra, &c->ta);
-		od_Collider_FrameAt(&c->body, s1, &c->Rb, &c->tb);
-		od_Mat3 delta = od_M3MulNT(&c->Rb, &c->Ra);
-		c->turn = od_M3LogRotation(&delta);
+		od_ColliderFrames(c, s0, s1);
 		od_Collider_Place(&c->body, s1);
 	}
 	for (int i = 0; i < sim->graph->n; ++i)

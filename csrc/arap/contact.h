@@ -11,9 +11,17 @@ double od_CoulombKeep(double slide, double limit);
 // Contact over the fraction [s0, s1] of the current call (before: the state at the step's start): moves the
 // particles out of the colliders, with friction (scaling angularScale).
 void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);
+// Collider c's frames at the fractions s0 and s1 of the call (Ra, ta, Rb, tb and the turn between them).
+void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
+// How deep particle i's ellipsoid (world moment M, centre x) is within the thickness of collider c at its frame
+// at the step's end (end) or start, less what its goal frame is (goals carrying the rest); the world normal.
+double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x, bool end,
+						od_Vec3* normal);
 // Particle i's ellipsoid as its moment M = E diag(a², b², c²) Eᵀ (current frame), its largest radius, and how
 // far a particle that began a step inside something may leave it per step (1 m/s).
 od_Mat3 od_ParticleMoment(const od_Sim* sim, int i);
+// Particle i's ellipsoid turned by `rotation`: (rotation Ē) diag(a², b², c²) (rotation Ē)ᵀ.
+od_Mat3 od_EllipsoidMoment(const od_Sim* sim, int i, const double* rotation);
 double od_ParticleReach(const od_Sim* sim, int i);
 double od_RecoveryLimit(const od_Sim* sim);
 // How far an ellipsoid of moment M reaches along unit n: sqrt(nᵀ M n).

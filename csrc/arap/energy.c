@@ -158,13 +158,18 @@ static double od_GravityEnergy(const od_Sim* sim)
 	return e;
 }
 
-// The potential of the contact forces held during a step's iterations (body_contact.c): -Σ f_i·x_i.
+// The potential of the contact forces held during a step's iterations (body_contact.c, surface_contact.c):
+// -Σ f_i·x_i.
 static double od_ContactEnergy(const od_Sim* sim)
 {
 	double e = 0.0;
 	for (int k = 0; sim->contactForce && k < 3 * sim->graph->n; ++k)
 	{
 		e -= sim->contactForce[k] * sim->state.x[k];
+	}
+	for (int k = 0; sim->surface.force && k < 3 * sim->graph->n; ++k)
+	{
+		e -= sim->surface.force[k] * sim->state.x[k];
 	}
 	return e;
 }

@@ -40,19 +40,24 @@ static double od_FloorLift(const od_Sim* sim, int i, const double* rotation, con
 	return sqrt(s2) - (centre[2] - sim->floorHeight);
 }
 
+double od_FloorDepth(const od_Sim* sim, int i, const double* rotation, const double* centre)
+{
+	double lift = od_FloorLift(sim, i, rotation, centre);
+	if (od_Goals_CarryRest(sim))
+	{
+		lift -= fmax(od_FloorLift(sim, i, sim->goals.R + 9 * i, sim->goals.x + 3 * i), 0.0);
+	}
+	return lift;
+}
+
 void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 {
 	const od_Graph* g = sim->graph;
 	double* x = sim->state.x;
 	double mu = sim->floorFriction;
-	bool goals = od_Goals_CarryRest(sim);
 	for (int i = 0; i < g->n; ++i)
 	{
-		double lift = od_FloorLift(sim, i, sim->state.R + 9 * i, x + 3 * i);
-		if (goals)
-		{
-			lift -= fmax(od_FloorLift(sim, i, sim->goals.R + 9 * i, sim->goals.x + 3 * i), 0.0);
-		}
+		double lift = od_FloorDepth(sim, i, sim->state.R + 9 * i, x + 3 * i);
 		angularScale[i] = 1.0;
 		if (!(lift > 0.0))
 		{

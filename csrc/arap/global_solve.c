@@ -383,6 +383,10 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	{
 		f = od_Add(f, od_V3Load(sim->contactForce + 3 * i));
 	}
+	if (sim->surface.force && sim->mode == OD_DYNAMIC) // the floor and colliders inside the iterations (surface_contact.c)
+	{
+		f = od_Add(f, od_V3Load(sim->surface.force + 3 * i));
+	}
 	return residual ? f : od_Add(f, od_Positions_RhsRow(sim, i));
 }
 

@@ -126,6 +126,26 @@ typedef struct od_SkinShape
 	double* reach;    // n: the farthest of particle i's points from its centre
 } od_SkinShape;
 
+// Contact with the floor and the colliders inside a step's iterations (surface_contact.c), per particle: the
+// force on the right side, its normal part and direction, its friction part, the depth it may keep (began
+// inside), the surface it presses (-1 the floor, k collider k); the particles near a surface after a step's
+// first solve. Made at the first step with a floor or a collider; NULL before.
+typedef struct od_SurfaceContact
+{
+	double* force;   // n*3, zero outside a step's iterations
+	double* normal;  // n*3
+	double* tangent; // n*3
+	double* push;    // n
+	double* allowed; // n
+	double* excess;  // n, the depth beyond the allowed one at the last update
+	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
+	int* source;     // n
+	int* near;       // nearCount particles
+	int nearCount, callSteps, callStep;
+	bool gathered;
+	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)
+} od_SurfaceContact;
+
 // Particle pairs in contact (body_contact.c): the broad phase's uniform grid over the particles' swept
 // bounding spheres (hashed cells, counting sort) and the candidate pairs. Sized for `capacity` particles
 // when self-contact is turned on or a group made; the pair list grows in the first steps only.
@@ -225,6 +245,7 @@ struct od_Sim
 	double floorHeight, floorFriction;
 	od_Colliders colliders;
 	od_SkinShape skinShape; // the floor's and the colliders' contact shape (skin_shape.c)
+	od_SurfaceContact surface;
 	od_FieldSet fields; // force fields (fields/field.c), entering the prediction (energy.c)
 	bool selfContact;
 	od_BodyContactDef selfDef;

@@ -23,6 +23,7 @@
 #include "skin_shape.h"
 #include "sim.h"
 #include "step.h"
+#include "surface_contact.h"
 #include "tolerance.h"
 
 #include <math.h>
@@ -291,6 +292,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->angularScale);
 	od_Free(sim->damping);
 	od_Free(sim->contactForce);
+	od_SurfaceContact_Destroy(&sim->surface);
 	od_Free(sim->edgeMoment);
 	od_Free(sim->edgeArm);
 	od_Free(sim->rowArm);

@@ -23,6 +23,7 @@
 #include "polar.h"
 #include "position_constraints.h"
 #include "scene_colliders.h"
+#include "surface_contact.h"
 #include "tolerance.h"
 
 #include <math.h>
@@ -282,9 +283,15 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 od_Status od_Step_Begin(od_Sim* sim, int steps)
 {
 	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	status = status == OD_OK ? od_SurfaceContact_Reserve(sim) : status;
+	if (status == OD_ERROR_MEMORY)
+	{
+		return od_End(sim, status);
+	}
 	if (status == OD_OK)
 	{
 		sim->report = (od_StepReport){ .error = -1.0 };
+		od_SurfaceContact_BeginCall(sim, steps);
 		od_Colliders_BeginCall(sim, steps);
 		od_Goals_BeginCall(sim, steps);
 	}
@@ -298,7 +305,11 @@ void od_Step_Start(od_Sim* sim, bool chooseStart)
 	memcpy(sim->previous.R, sim->state.R, sizeof(double) * 9 * n);
 	od_Goals_Place(sim);
 	od_Predict(sim);
-	if (chooseStart && sim->solverDef.tolerance > 0.0)
+	// Near the floor or a collider a step starts from the previous rotations, as a group's with forces: the
+	// start chosen by global solves without the contact forces turned a 0.3 m cube sliding down a 30-degree
+	// ramp 8.8 degrees about the ramp's normal in 2 s at 240 Hz, frictionless (0.75 from the previous ones).
+	bool touching = od_SurfaceContact_Start(sim);
+	if (chooseStart && sim->solverDef.tolerance > 0.0 && !touching)
 	{
 		od_Tolerance_ChooseStart(sim);
 	}
@@ -309,7 +320,8 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 {
 	od_Status status;
 	bool finished = sim->iteration.started && sim->iteration.finished; // a group's extra pair: reported already
-	if (!sim->iteration.started)
+	bool first = !sim->iteration.started;
+	if (first)
 	{
 		status = od_IterateStart(sim, sim->def.iterations);
 		sim->iteration.started = true;
@@ -319,6 +331,12 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 		status = od_IterateNext(sim);
 	}
 	*more = !sim->iteration.finished;
+	// Contact with the floor and the colliders for the next solve (surface_contact.c); while it acts, plain
+	// pairs (an accelerator's extrapolation and energy test would see the forces change, as a group's).
+	if (status == OD_OK && *more && od_SurfaceContact_Update(sim) && first)
+	{
+		od_Tolerance_PlainPlan(&sim->iteration.plan);
+	}
 	if (!*more && !finished)
 	{
 		od_IterateEnd(sim);
@@ -340,6 +358,7 @@ od_Status od_Step_Solve(od_Sim* sim)
 
 void od_Step_Finish(od_Sim* sim, int k, int steps)
 {
+	od_SurfaceContact_Finish(sim);
 	if (sim->hasFloor)
 	{
 		od_FloorStep(sim, &sim->previous, sim->angularScale);

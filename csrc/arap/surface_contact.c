@@ -1,0 +1,330 @@
+// Contact with the floor and the scene colliders inside a step's iterations (issue 27, docs/contact.md).
+//
+// Design: as between the bodies of a contact group (body_contact.c), each particle near a surface carries a
+// normal force f >= 0 along the surface's normal and a friction force t, |t| <= μ f, on the right side of
+// every global solve (sim->surface.force, global_solve.c): the objective gains -F·x, the matrix is unchanged,
+// nothing is refactored. After each solve the forces move towards the constraints (dual ascent): f grows by a
+// rate times the depth of the particle's ellipsoid in the surface (beyond what one that began inside may keep)
+// and shrinks while it is clear; t grows against the particle's displacement along the surface since the
+// step's start (relative to the surface's own motion), so that friction holds the whole step, not one
+// iteration. The local step then fits the rotations to centres that already hold the contact; the projection
+// after the iterations (floor.c, contact.c) stays, for what the forces leave (at rest nearly nothing) and for
+// fast particles (its sweep keeps them from tunnelling; the forces see the step's end only).
+//
+// Why not the other designs the brief names, measured or reasoned on the same scenes: a projection target
+// with a weight folded into the matrix for the active particles re-analyses and refactors the matrix at
+// every change of the set (global_solve.c refactors from the triplets: a body landing changes it every
+// step); one weight added to the diagonal of every particle once drags every free particle towards its last
+// iterate (a falling body's centres converge as w / (w + m/h²) per iteration: for a stiff contact, w >> m/h²,
+// barely at all). The forces cost a right side only and keep the step a function of the state: they start at
+// zero each step (no warm start, unlike a group's, whose forces are its saved state), so a set_state and a
+// step replay bit for bit.
+//
+// The rate is that of a free particle, m / h² (the group's OD_FORCE_RATE 1): a particle bound to its body
+// moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes
+// (1 - c/N) of the remaining depth per solve.
+//
+// A particle counts as near a surface after the step's first solve (within a quarter of its largest radius);
+// a collider it began clear of counts only on the side it began (a fast particle beyond a thin collider is the
+// sweep's). Its surface is the deepest of the floor and the colliders at every update.
+#include "surface_contact.h"
+
+#include "contact.h"
+#include "core.h"
+#include "floor.h"
+#include "math3.h"
+
+#include <math.h>
+#include <string.h>
+
+#define OD_SURFACE_RATE 1.0 // over m / h², a free particle's
+#define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
+#define OD_FLOOR (-1)
+#define OD_SURFACE_PIECE 1.0 // the piece's share of a step, over a rigid piece's
+
+void od_SurfaceContact_Destroy(od_SurfaceContact* s)
+{
+	od_Free(s->force);
+	od_Free(s->normal);
+	od_Free(s->tangent);
+	od_Free(s->push);
+	od_Free(s->allowed);
+	od_Free(s->excess);
+	od_Free(s->piece);
+	od_Free(s->source);
+	od_Free(s->near);
+	*s = (od_SurfaceContact){ 0 };
+}
+
+od_Status od_SurfaceContact_Reserve(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (s->force || !(sim->hasFloor || sim->colliders.count))
+	{
+		return OD_OK;
+	}
+	size_t n = (size_t)sim->graph->n;
+	s->force = od_AllocZero(3 * n, sizeof(double));
+	s->normal = od_AllocZero(3 * n, sizeof(double));
+	s->tangent = od_AllocZero(3 * n, sizeof(double));
+	s->push = od_AllocZero(n, sizeof(double));
+	s->allowed = od_AllocZero(n, sizeof(double));
+	s->excess = od_AllocZero(n, sizeof(double));
+	s->piece = od_AllocZero(3 * (size_t)sim->graph->pieceCount, sizeof(double));
+	s->source = od_AllocZero(n, sizeof(int));
+	s->near = od_AllocZero(n, sizeof(int));
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->piece || !s->source ||
+		!s->near)
+	{
+		od_SurfaceContact_Destroy(s);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", sim->graph->n);
+	}
+	return OD_OK;
+}
+
+void od_SurfaceContact_BeginCall(od_Sim* sim, int steps)
+{
+	sim->surface.after = false;
+	sim->surface.callSteps = steps;
+	sim->surface.callStep = 0;
+}
+
+// Whether particle i may touch a surface in this step: its predicted centre within its largest radius, the
+// thickness and its predicted motion of one (conservative: a sphere about the ellipsoid).
+static bool od_MayTouch(const od_Sim* sim, int i)
+{
+	od_Vec3 y = od_V3Load(sim->y + 3 * i);
+	double reach = od_ParticleReach(sim, i) + od_Length(od_Sub(y, od_V3Load(sim->state.x + 3 * i)));
+	if (sim->hasFloor && y.z - sim->floorHeight < reach)
+	{
+		return true;
+	}
+	for (int k = 0; k < sim->colliders.count; ++k)
+	{
+		const od_SimCollider* c = &sim->colliders.items[k];
+		od_Vec3 l = od_M3MulTV(&c->Rb, od_Sub(y, c->tb));
+		double moved = od_Length(od_Sub(c->tb, c->ta)) + od_Length(c->turn) * od_Length(l); // its surface's motion
+		if (od_Collider_LocalDistance(&c->body, l, NULL) < reach + c->thickness + moved)
+		{
+			return true;
+		}
+	}
+	return false;
+}
+
+bool od_SurfaceContact_Start(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	s->gathered = false;
+	s->nearCount = 0;
+	if (!s->force || s->after)
+	{
+		s->gathered = s->force != NULL; // nothing near: no forces
+		return false;
+	}
+	double s0 = (double)s->callStep / s->callSteps, s1 = (double)(s->callStep + 1) / s->callSteps;
+	for (int k = 0; k < sim->colliders.count; ++k)
+	{
+		od_ColliderFrames(&sim->colliders.items[k], s0, s1);
+	}
+	memset(s->piece, 0, sizeof(double) * 3 * (size_t)sim->graph->pieceCount);
+	memset(s->push, 0, sizeof(double) * (size_t)sim->graph->n);
+	memset(s->tangent, 0, sizeof(double) * 3 * (size_t)sim->graph->n);
+	bool touching = false;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		s->piece[3 * sim->graph->piece[i]] += sim->def.density * sim->graph->volumes[i];
+		touching = touching || od_MayTouch(sim, i);
+	}
+	return touching;
+}
+
+// Where particle i (centre x, moment M) meets a surface: how deep (<= 0: clear), the normal, its displacement
+// along the surface since the step's start (the surface's own motion taken out).
+typedef struct od_Touch
+{
+	double depth;
+	od_Vec3 normal, slip;
+} od_Touch;
+
+static od_Touch od_FloorTouch(const od_Sim* sim, int i, od_Vec3 x)
+{
+	const double* x0 = sim->previous.x + 3 * i;
+	double centre[3] = { x.x, x.y, x.z };
+	return (od_Touch){ .depth = od_FloorDepth(sim, i, sim->state.R + 9 * i, centre),
+					   .normal = od_V3(0, 0, 1),
+					   .slip = od_V3(x.x - x0[0], x.y - x0[1], 0.0) };
+}
+
+static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x)
+{
+	od_Touch t = { 0 };
+	t.depth = od_ColliderDepth(sim, c, i, M, x, true, &t.normal);
+	od_Vec3 start = od_V3Load(sim->previous.x + 3 * i);
+	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta)), lb = od_M3MulTV(&c->Rb, od_Sub(x, c->tb));
+	od_Vec3 slip = od_M3MulV(&c->Rb, od_Sub(lb, la));
+	t.slip = od_MulAdd(slip, -od_Dot(slip, t.normal), t.normal);
+	return t;
+}
+
+// The deepest surface particle i meets at its current centre and rotation (source: OD_FLOOR or a collider's
+// index; -2 and depth -inf when there is none).
+static od_Touch od_Deepest(const od_Sim* sim, int i, int* source)
+{
+	od_Vec3 x = od_V3Load(sim->state.x + 3 * i);
+	od_Touch best = { .depth = -INFINITY };
+	*source = -2;
+	if (sim->hasFloor)
+	{
+		best = od_FloorTouch(sim, i, x);
+		*source = OD_FLOOR;
+	}
+	if (!sim->colliders.count)
+	{
+		return best;
+	}
+	od_Mat3 M = od_ParticleMoment(sim, i);
+	for (int k = 0; k < sim->colliders.count; ++k)
+	{
+		od_Touch t = od_ColliderTouch(sim, &sim->colliders.items[k], i, &M, x);
+		if (t.depth > best.depth)
+		{
+			best = t;
+			*source = k;
+		}
+	}
+	return best;
+}
+
+// How deep particle i began the step in its surface (previous centre and rotation, the collider's start frame),
+// and that surface's normal there.
+static double od_StartDepth(const od_Sim* sim, int i, int source, od_Vec3* normal)
+{
+	const double* x0 = sim->previous.x + 3 * i;
+	if (source == OD_FLOOR)
+	{
+		*normal = od_V3(0, 0, 1);
+		return od_FloorDepth(sim, i, sim->previous.R + 9 * i, x0);
+	}
+	od_Mat3 M = od_EllipsoidMoment(sim, i, sim->previous.R + 9 * i);
+	return od_ColliderDepth(sim, &sim->colliders.items[source], i, &M, od_V3Load(x0), false, normal);
+}
+
+// Whether particle i is near a surface at its current centre (see the top of the file), and the depth it may
+// keep there (one that began inside leaves at the recovery speed).
+static bool od_Near(od_Sim* sim, int i)
+{
+	int source;
+	od_Touch t = od_Deepest(sim, i, &source);
+	double slack = OD_SURFACE_SLACK * od_ParticleReach(sim, i);
+	if (!(t.depth > -slack))
+	{
+		return false;
+	}
+	od_Vec3 n0;
+	double began = od_StartDepth(sim, i, source, &n0);
+	if (began <= 0.0 && od_Dot(n0, t.normal) <= 0.0)
+	{
+		return false; // passed a thin collider in the first solve: the sweep's
+	}
+	sim->surface.allowed[i] = fmax(began - od_RecoveryLimit(sim), 0.0);
+	return true;
+}
+
+// After the step's first solve: the particles near a surface (no force yet).
+static void od_Gather(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	s->nearCount = 0;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		if (od_Near(sim, i))
+		{
+			s->near[s->nearCount++] = i;
+		}
+	}
+	s->gathered = true;
+}
+
+// Particle i's surface now (the deepest), its depth beyond the allowed one (s->excess), normal (s->normal) and
+// slip (s->force, until od_Push writes the force); a pressing particle's mass and excess summed per piece.
+static void od_Measure(od_Sim* sim, int i)
+{
+	od_SurfaceContact* s = &sim->surface;
+	od_Touch t = od_Deepest(sim, i, &s->source[i]);
+	s->excess[i] = t.depth - s->allowed[i];
+	od_V3Store(s->normal + 3 * i, t.normal);
+	od_V3Store(s->force + 3 * i, t.slip);
+	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
+	{
+		double m = sim->def.density * sim->graph->volumes[i], *piece = s->piece + 3 * sim->graph->piece[i];
+		piece[1] += m;
+		piece[2] += m * s->excess[i];
+	}
+}
+
+static double od_FrictionOf(const od_Sim* sim, int source)
+{
+	return source == OD_FLOOR ? sim->floorFriction : sim->colliders.items[source].friction;
+}
+
+// One update of particle i's forces (dual ascent, see the top of the file): its own step, m/h² times its
+// excess, and its share (by mass) of its piece's: what moves the piece, rigid, by its pressing particles' mean
+// excess, less what their own steps do.
+static void od_Push(od_Sim* sim, int i, double h2)
+{
+	od_SurfaceContact* s = &sim->surface;
+	double m = sim->def.density * sim->graph->volumes[i];
+	const double* piece = s->piece + 3 * sim->graph->piece[i];
+	double f = s->push[i] + OD_SURFACE_RATE * m * s->excess[i] / h2;
+	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
+	{
+		f += OD_SURFACE_PIECE * m / piece[1] * (piece[0] - piece[1]) * (piece[2] / piece[1]) / h2;
+	}
+	f = fmax(f, 0.0);
+	od_Vec3 n = od_V3Load(s->normal + 3 * i), slip = od_V3Load(s->force + 3 * i);
+	od_Vec3 tangent = od_MulAdd(od_V3Load(s->tangent + 3 * i), -OD_SURFACE_RATE * m / h2, slip);
+	tangent = od_MulAdd(tangent, -od_Dot(tangent, n), n);
+	double length = od_Length(tangent), limit = od_FrictionOf(sim, s->source[i]) * f;
+	tangent = length > limit ? od_Scale(length > 0.0 ? limit / length : 0.0, tangent) : tangent;
+	s->push[i] = f;
+	od_V3Store(s->tangent + 3 * i, tangent);
+	od_V3Store(s->force + 3 * i, od_MulAdd(tangent, f, n));
+}
+
+bool od_SurfaceContact_Update(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (!s->force || s->after)
+	{
+		return false;
+	}
+	if (!s->gathered)
+	{
+		od_Gather(sim);
+	}
+	for (int p = 0; p < sim->graph->pieceCount; ++p)
+	{
+		s->piece[3 * p + 1] = s->piece[3 * p + 2] = 0.0;
+	}
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		od_Measure(sim, s->near[k]);
+	}
+	double h2 = sim->def.dt * sim->def.dt;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		od_Push(sim, s->near[k], h2);
+	}
+	return s->nearCount > 0;
+}
+
+void od_SurfaceContact_Finish(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	for (int k = 0; s->force && k < s->nearCount; ++k)
+	{
+		memset(s->force + 3 * s->near[k], 0, sizeof(double) * 3);
+	}
+	s->callStep++;
+}

@@ -1,0 +1,17 @@
+// Contact with the floor and the scene colliders inside a step's iterations (surface_contact.c): forces on
+// the right side of every global solve, updated after each solve; the projection after the iterations
+// (floor.c, contact.c) stays for what they leave.
+#pragma once
+
+#include "sim.h"
+
+// The per-particle arrays, made at the first step of a simulation with a floor or a collider (none after).
+od_Status od_SurfaceContact_Reserve(od_Sim* sim);
+void od_SurfaceContact_Destroy(od_SurfaceContact* s);
+// A call of `steps` steps begins; a step begins (no forces, the colliders' frames over it; whether a particle
+// may reach a surface in it); after each global solve of its iterations (the forces the next solve sees, the
+// first finds the particles near a surface; whether any is); the iterations are over (no forces left).
+void od_SurfaceContact_BeginCall(od_Sim* sim, int steps);
+bool od_SurfaceContact_Start(od_Sim* sim);
+bool od_SurfaceContact_Update(od_Sim* sim);
+void od_SurfaceContact_Finish(od_Sim* sim);
