@@ -17,6 +17,7 @@
 #include "goal.h"
 #include "math3.h"
 #include "skin_shape.h"
+#include "surface_contact.h"
 
 // How far particle i's ellipsoid (or its skin points, skin_shape.c) at frame (rotation, centre) reaches below
 // the floor (<= 0: clear of it).
@@ -58,18 +59,20 @@ void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 	for (int i = 0; i < g->n; ++i)
 	{
 		double lift = od_FloorDepth(sim, i, sim->state.R + 9 * i, x + 3 * i);
+		double hold = od_SurfaceContact_Hold(sim, i, OD_SURFACE_FLOOR);
 		angularScale[i] = 1.0;
-		if (!(lift > 0.0))
+		if (!(lift > 0.0) && !(hold > 0.0))
 		{
 			continue;
 		}
+		lift = lift > 0.0 ? lift : 0.0;
 		x[3 * i + 2] += lift;
 		if (mu <= 0.0)
 		{
 			continue;
 		}
 		double dx = x[3 * i] - before->x[3 * i], dy = x[3 * i + 1] - before->x[3 * i + 1];
-		double keep = od_CoulombKeep(sqrt(dx * dx + dy * dy), mu * lift);
+		double keep = od_CoulombKeep(sqrt(dx * dx + dy * dy), mu * lift + hold);
 		x[3 * i] = before->x[3 * i] + keep * dx;
 		x[3 * i + 1] = before->x[3 * i + 1] + keep * dy;
 		angularScale[i] = keep;

@@ -138,6 +138,7 @@ typedef struct od_SurfaceContact
 	double* push;    // n
 	double* allowed; // n
 	double* excess;  // n, the depth beyond the allowed one at the last update
+	double* hold;    // n, the friction its forces left unused at the step's end, as a slide: (μ f - |t|) h²/m
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
 	int* source;     // n
 	int* near;       // nearCount particles

@@ -39,7 +39,7 @@
 
 #define OD_SURFACE_RATE 1.0 // over m / h², a free particle's
 #define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
-#define OD_FLOOR (-1)
+#define OD_FLOOR OD_SURFACE_FLOOR
 #define OD_SURFACE_PIECE 1.0 // the piece's share of a step, over a rigid piece's
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
@@ -50,6 +50,7 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->push);
 	od_Free(s->allowed);
 	od_Free(s->excess);
+	od_Free(s->hold);
 	od_Free(s->piece);
 	od_Free(s->source);
 	od_Free(s->near);
@@ -70,11 +71,12 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->push = od_AllocZero(n, sizeof(double));
 	s->allowed = od_AllocZero(n, sizeof(double));
 	s->excess = od_AllocZero(n, sizeof(double));
+	s->hold = od_AllocZero(n, sizeof(double));
 	s->piece = od_AllocZero(3 * (size_t)sim->graph->pieceCount, sizeof(double));
 	s->source = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
-	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->piece || !s->source ||
-		!s->near)
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->hold || !s->piece ||
+		!s->source || !s->near)
 	{
 		od_SurfaceContact_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", sim->graph->n);
@@ -117,6 +119,10 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	od_SurfaceContact* s = &sim->surface;
 	s->gathered = false;
 	s->nearCount = 0;
+	if (s->force)
+	{
+		memset(s->hold, 0, sizeof(double) * (size_t)sim->graph->n);
+	}
 	if (!s->force || s->after)
 	{
 		s->gathered = s->force != NULL; // nothing near: no forces
@@ -322,9 +328,19 @@ bool od_SurfaceContact_Update(od_Sim* sim)
 void od_SurfaceContact_Finish(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
+	double h2 = sim->def.dt * sim->def.dt;
 	for (int k = 0; s->force && k < s->nearCount; ++k)
 	{
-		memset(s->force + 3 * s->near[k], 0, sizeof(double) * 3);
+		int i = s->near[k];
+		double spare = od_FrictionOf(sim, s->source[i]) * s->push[i] - od_Length(od_V3Load(s->tangent + 3 * i));
+		s->hold[i] = fmax(spare, 0.0) * h2 / (sim->def.density * sim->graph->volumes[i]);
+		memset(s->force + 3 * i, 0, sizeof(double) * 3);
 	}
 	s->callStep++;
+}
+
+double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
 }

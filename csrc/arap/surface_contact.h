@@ -5,6 +5,8 @@
 
 #include "sim.h"
 
+#define OD_SURFACE_FLOOR (-1) // the floor as a particle's surface (a collider's: its index)
+
 // The per-particle arrays, made at the first step of a simulation with a floor or a collider (none after).
 od_Status od_SurfaceContact_Reserve(od_Sim* sim);
 void od_SurfaceContact_Destroy(od_SurfaceContact* s);
@@ -15,3 +17,6 @@ void od_SurfaceContact_BeginCall(od_Sim* sim, int steps);
 bool od_SurfaceContact_Start(od_Sim* sim);
 bool od_SurfaceContact_Update(od_Sim* sim);
 void od_SurfaceContact_Finish(od_Sim* sim);
+// How far particle i's slide along `source` may still be cut after the iterations (floor.c, contact.c): the
+// friction its forces held within μ f but did not use (0 when it pressed another surface or none).
+double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source);
