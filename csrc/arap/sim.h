@@ -140,6 +140,7 @@ typedef struct od_SurfaceContact
 	double* excess;  // n, the depth beyond the allowed one at the last update
 	double* hold;    // n, the friction its forces left unused at the step's end, as a slide: (μ f - |t|) h²/m
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
+	struct od_Patch* patch; // per connected piece: its contact patch and rigid motion at a step's end (rolling)
 	int* source;     // n
 	int* near;       // nearCount particles
 	int nearCount, callSteps, callStep;

@@ -32,7 +32,9 @@
 #include "contact.h"
 #include "core.h"
 #include "floor.h"
+#include "goal.h"
 #include "math3.h"
+#include "polar.h"
 
 #include <math.h>
 #include <string.h>
@@ -41,6 +43,20 @@
 #define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
 #define OD_FLOOR OD_SURFACE_FLOOR
 #define OD_SURFACE_PIECE 1.0 // the piece's share of a step, over a rigid piece's
+
+// A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
+// force-weighted centre, normal and spread) and its particles' mass, momentum and second moments (rolling).
+typedef struct od_Patch
+{
+	double force, friction, spare, spread; // N, Σ μ f, Σ (μ f - |t|), a²
+	od_Vec3 centre, normal;                // force-weighted
+	double mass;                           // of the piece
+	bool held;                             // by a goal or a constraint: not turned
+	od_Vec3 moment, lever, drift;          // Σ m r × d, Σ m r, Σ m d (r = x - centre, d the step's displacement)
+	od_Mat3 second;                        // Σ m r rᵀ
+	od_Mat3 turn;                          // what od_SurfaceContact_Roll applies: x -> centre + turn (x - centre) + shift
+	od_Vec3 shift;
+} od_Patch;
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 {
@@ -52,6 +68,7 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->excess);
 	od_Free(s->hold);
 	od_Free(s->piece);
+	od_Free(s->patch);
 	od_Free(s->source);
 	od_Free(s->near);
 	*s = (od_SurfaceContact){ 0 };
@@ -73,9 +90,10 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->excess = od_AllocZero(n, sizeof(double));
 	s->hold = od_AllocZero(n, sizeof(double));
 	s->piece = od_AllocZero(3 * (size_t)sim->graph->pieceCount, sizeof(double));
+	s->patch = od_AllocZero((size_t)sim->graph->pieceCount, sizeof(od_Patch));
 	s->source = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
-	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->hold || !s->piece ||
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->hold || !s->piece || !s->patch ||
 		!s->source || !s->near)
 	{
 		od_SurfaceContact_Destroy(s);
@@ -343,4 +361,149 @@ double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source)
 {
 	const od_SurfaceContact* s = &sim->surface;
 	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
+}
+
+// Rolling resistance (see the top of the file), first: the patches of the pieces that press a surface. False
+// when none presses.
+static bool od_Patches(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	memset(s->patch, 0, sizeof(od_Patch) * (size_t)sim->graph->pieceCount);
+	bool any = false;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		double f = s->push[i], mu = od_FrictionOf(sim, s->source[i]);
+		od_Patch* p = &s->patch[sim->graph->piece[i]];
+		if (f > 0.0)
+		{
+			p->force += f;
+			p->friction += mu * f;
+			p->spare += fmax(mu * f - od_Length(od_V3Load(s->tangent + 3 * i)), 0.0);
+			p->centre = od_MulAdd(p->centre, f, od_V3Load(sim->state.x + 3 * i));
+			p->normal = od_MulAdd(p->normal, f, od_V3Load(s->normal + 3 * i));
+			any = true;
+		}
+	}
+	for (int p = 0; any && p < sim->graph->pieceCount; ++p)
+	{
+		od_Patch* patch = &s->patch[p];
+		if (patch->force > 0.0)
+		{
+			patch->centre = od_Scale(1.0 / patch->force, patch->centre);
+			patch->normal = od_Scale(1.0 / od_Length(patch->normal), patch->normal);
+		}
+	}
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[sim->graph->piece[i]];
+		od_Vec3 d = od_Sub(od_V3Load(sim->state.x + 3 * i), p->centre);
+		d = od_MulAdd(d, -od_Dot(d, p->normal), p->normal);
+		p->spread += s->push[i] > 0.0 ? s->push[i] * od_Dot(d, d) / p->force : 0.0;
+	}
+	return any;
+}
+
+// Second: each pressing piece's mass and moments about its patch centre; whether a goal or a constraint holds
+// it (it is then left as it is: turned, it would leave them).
+static void od_PatchMoments(od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	for (int c = 0; c < sim->constraints.count; ++c)
+	{
+		const od_Constraint* con = &sim->constraints.items[c];
+		for (int k = 0; k < con->count; ++k)
+		{
+			sim->surface.patch[g->piece[con->idx[k]]].held = true;
+		}
+	}
+	for (int i = 0; i < g->n; ++i)
+	{
+		od_Patch* p = &sim->surface.patch[g->piece[i]];
+		p->held = p->held || od_Goals_Hold(sim, i);
+		if (p->force > 0.0)
+		{
+			double m = sim->def.density * g->volumes[i];
+			od_Vec3 x = od_V3Load(sim->state.x + 3 * i), r = od_Sub(x, p->centre);
+			od_Vec3 d = od_Sub(x, od_V3Load(sim->previous.x + 3 * i));
+			p->mass += m;
+			p->moment = od_MulAdd(p->moment, m, od_Cross(r, d));
+			p->lever = od_MulAdd(p->lever, m, r);
+			p->drift = od_MulAdd(p->drift, m, d);
+			od_M3AddOuter(&p->second, m, r, r);
+		}
+	}
+}
+
+// The inertia tensor of point masses of second moment S: tr(S) I - S.
+static od_Mat3 od_Inertia(od_Mat3 second)
+{
+	double trace = od_M3Trace(&second);
+	for (int k = 0; k < 9; ++k)
+	{
+		second.m[k] = (k % 4 == 0 ? trace : 0.0) - second.m[k];
+	}
+	return second;
+}
+
+// Third: piece p's turn over the step about its centre of mass c (its spin: a piece that slides without
+// turning has none) taken back by at most the patch's moment μ N a times the step (k ≤ 1 of it: the kinetic
+// energy of the spin only drops), then shifted so that the patch stays where it was, by at most what the
+// friction its forces left unused moves the piece in a step (spare h² / M) and never so that the energy rises.
+static void od_RollBack(od_Patch* p, double h)
+{
+	od_Vec3 c = od_Scale(1.0 / p->mass, p->lever); // from the patch centre
+	od_Mat3 second = p->second;
+	od_M3AddOuter(&second, -p->mass, c, c);
+	od_Mat3 inertia = od_Inertia(second);
+	od_Vec3 spin = od_Sub(p->moment, od_Cross(c, p->drift)), turn; // angular momentum about c, times h
+	double size = od_Length(spin);
+	p->turn = od_M3ExpSkew(od_V3(0, 0, 0));
+	p->shift = od_V3(0, 0, 0);
+	if (!(size > 0.0) || !od_SolveSpd3(&inertia, spin, 1e-12 * od_M3Trace(&inertia), &turn))
+	{
+		return;
+	}
+	double k = fmin(1.0, h * h * sqrt(p->spread) * p->friction / size);
+	p->turn = od_M3ExpSkew(od_Scale(-k, turn));
+	// The turn is about c: x -> centre + turn (x - centre) + (c - turn c); the shift that keeps the patch centre
+	// is turn c - c, cut to the spare friction's reach and to lowering the energy (drift·s + M |s|² / 2 <= 0).
+	od_Vec3 keep = od_Sub(od_M3MulV(&p->turn, c), c);
+	double reach = od_Length(keep), along = reach > 0.0 ? -od_Dot(p->drift, keep) / reach : 0.0;
+	double cut = fmin(fmin(reach, p->spare * h * h / p->mass), fmax(along, 0.0) / p->mass);
+	od_Vec3 shift = reach > 0.0 ? od_Scale(cut / reach, keep) : keep;
+	p->shift = od_Add(od_Sub(c, od_M3MulV(&p->turn, c)), shift);
+}
+
+void od_SurfaceContact_Roll(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (!s->force || s->after || !s->nearCount || !od_Patches(sim))
+	{
+		return;
+	}
+	od_PatchMoments(sim);
+	const od_Graph* g = sim->graph;
+	for (int p = 0; p < g->pieceCount; ++p)
+	{
+		od_Patch* patch = &s->patch[p];
+		patch->force = patch->held ? 0.0 : patch->force;
+		if (patch->force > 0.0)
+		{
+			od_RollBack(patch, sim->def.dt);
+		}
+	}
+	for (int i = 0; i < g->n; ++i)
+	{
+		const od_Patch* p = &s->patch[g->piece[i]];
+		if (p->force > 0.0)
+		{
+			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->centre);
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_Add(p->centre, od_M3MulV(&p->turn, x)), p->shift));
+			od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
+			r = od_M3Mul(&p->turn, &r);
+			od_M3Store(sim->state.R + 9 * i, &r);
+		}
+	}
 }

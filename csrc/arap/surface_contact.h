@@ -17,6 +17,9 @@ void od_SurfaceContact_BeginCall(od_Sim* sim, int steps);
 bool od_SurfaceContact_Start(od_Sim* sim);
 bool od_SurfaceContact_Update(od_Sim* sim);
 void od_SurfaceContact_Finish(od_Sim* sim);
+// After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
+// patch's moment μ N a over the step (see surface_contact.c).
+void od_SurfaceContact_Roll(od_Sim* sim);
 // How far particle i's slide along `source` may still be cut after the iterations (floor.c, contact.c): the
 // friction its forces held within μ f but did not use (0 when it pressed another surface or none).
 double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source);

@@ -145,9 +145,7 @@ od_Mat3 od_PolarRotation(const od_Mat3* a)
 	return od_M3MulNT(&u, &v);
 }
 
-// Solves h x = b for symmetric h by its adjugate; returns 0 unless h is clearly positive definite
-// (Sylvester's criterion with the Cholesky pivots h00, minor2 / h00, det / minor2 all above tiny).
-static int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
+int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
 {
 	const double* m = h->m;
 	double c00 = m[4] * m[8] - m[5] * m[7], c01 = m[2] * m[7] - m[1] * m[8], c02 = m[1] * m[5] - m[2] * m[4];

@@ -19,5 +19,9 @@ od_Mat3 od_PolarRotation(const od_Mat3* a);
 // rotations, so callers re-orthonormalize once in a while (once per step) against drift.
 int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r);
 
+// Solves h x = b for symmetric h by its adjugate; returns 0 unless h is clearly positive definite
+// (Sylvester's criterion with the Cholesky pivots h00, minor2 / h00, det / minor2 all above tiny).
+int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x);
+
 // Re-orthonormalizes a nearly orthonormal matrix (one Newton step of the polar iteration).
 void od_Orthonormalize(od_Mat3* r);

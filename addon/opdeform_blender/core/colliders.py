@@ -124,13 +124,20 @@ def _blend_rotation(a, b, u):
 
 def blend(a, b, u):
     """The surroundings of a frame skipped by a jump, a share u of the way from a to b: collider frames and
-    vertices linearly (rotations made proper again), fields and any changed set as b's."""
+    vertices linearly (rotations made proper again), fields and any changed set as b's. A collider that did not
+    move stays as it is, to the bit (blended, its re-sampled distances differ in the last bits, and contact
+    inside the iterations carries that into the frames a jump simulates: tests/test_addon_colliders.py)."""
     if len(a.colliders) != len(b.colliders) or not all(same_shape(p, q) for p, q in zip(a.colliders, b.colliders)):
         return b
-    return Surroundings(tuple(q._replace(vertices=(1.0 - u) * p.vertices + u * q.vertices,
+    return Surroundings(tuple(q if _still(p, q) else
+                              q._replace(vertices=(1.0 - u) * p.vertices + u * q.vertices,
                                          rotation=_blend_rotation(p.rotation, q.rotation, u),
                                          translation=(1.0 - u) * p.translation + u * q.translation)
                               for p, q in zip(a.colliders, b.colliders)), b.fields)
+
+
+def _still(p, q):
+    return all(np.array_equal(getattr(p, k), getattr(q, k)) for k in ("vertices", "rotation", "translation"))
 
 
 class Kept:

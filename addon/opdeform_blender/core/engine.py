@@ -430,7 +430,7 @@ class Engine:
     def _restore(self, frame):
         self.colliders.place(self.colliders.at(frame, NOTHING).colliders)
         state = self.cache.state(frame)
-        self.sim.set_state(*state[:4])
+        self.sim._core.restore_state(*state[:4])  # as kept: set_state's re-orthonormalising moves a contact's replay
         self._apply_goals(self.cache.goals(frame))
         self.sim.set_goal_motion(state[4])
         self.solver_frame = frame
