@@ -136,7 +136,8 @@ typedef struct od_SurfaceContact
 	double* normal;  // n*3
 	double* tangent; // n*3
 	double* push;    // n
-	double* allowed; // n
+	double* level;   // n, the particle's plane for the step (surface_contact.c, od_Near)
+	double* anchor;  // n*3, where its slide is measured from
 	double* excess;  // n, the depth beyond the allowed one at the last update
 	double* hold;    // n, the friction its forces left unused at the step's end, as a slide: (μ f - |t|) h²/m
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those

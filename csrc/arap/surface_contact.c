@@ -64,7 +64,8 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->normal);
 	od_Free(s->tangent);
 	od_Free(s->push);
-	od_Free(s->allowed);
+	od_Free(s->level);
+	od_Free(s->anchor);
 	od_Free(s->excess);
 	od_Free(s->hold);
 	od_Free(s->piece);
@@ -86,14 +87,15 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->normal = od_AllocZero(3 * n, sizeof(double));
 	s->tangent = od_AllocZero(3 * n, sizeof(double));
 	s->push = od_AllocZero(n, sizeof(double));
-	s->allowed = od_AllocZero(n, sizeof(double));
+	s->level = od_AllocZero(n, sizeof(double));
+	s->anchor = od_AllocZero(3 * n, sizeof(double));
 	s->excess = od_AllocZero(n, sizeof(double));
 	s->hold = od_AllocZero(n, sizeof(double));
 	s->piece = od_AllocZero(3 * (size_t)sim->graph->pieceCount, sizeof(double));
 	s->patch = od_AllocZero((size_t)sim->graph->pieceCount, sizeof(od_Patch));
 	s->source = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
-	if (!s->force || !s->normal || !s->tangent || !s->push || !s->allowed || !s->excess || !s->hold || !s->piece || !s->patch ||
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold || !s->piece || !s->patch ||
 		!s->source || !s->near)
 	{
 		od_SurfaceContact_Destroy(s);
@@ -163,31 +165,28 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	return touching;
 }
 
-// Where particle i (centre x, moment M) meets a surface: how deep (<= 0: clear), the normal, its displacement
-// along the surface since the step's start (the surface's own motion taken out).
+// Where particle i (centre x, moment M) meets a surface: how deep (<= 0: clear) and the normal; where the
+// particle's step started on it, carried with the surface to its end frame (its slide is measured from there).
 typedef struct od_Touch
 {
 	double depth;
-	od_Vec3 normal, slip;
+	od_Vec3 normal, anchor;
 } od_Touch;
 
 static od_Touch od_FloorTouch(const od_Sim* sim, int i, od_Vec3 x)
 {
-	const double* x0 = sim->previous.x + 3 * i;
 	double centre[3] = { x.x, x.y, x.z };
 	return (od_Touch){ .depth = od_FloorDepth(sim, i, sim->state.R + 9 * i, centre),
 					   .normal = od_V3(0, 0, 1),
-					   .slip = od_V3(x.x - x0[0], x.y - x0[1], 0.0) };
+					   .anchor = od_V3Load(sim->previous.x + 3 * i) };
 }
 
 static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x)
 {
 	od_Touch t = { 0 };
 	t.depth = od_ColliderDepth(sim, c, i, M, x, true, &t.normal);
-	od_Vec3 start = od_V3Load(sim->previous.x + 3 * i);
-	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta)), lb = od_M3MulTV(&c->Rb, od_Sub(x, c->tb));
-	od_Vec3 slip = od_M3MulV(&c->Rb, od_Sub(lb, la));
-	t.slip = od_MulAdd(slip, -od_Dot(slip, t.normal), t.normal);
+	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(od_V3Load(sim->previous.x + 3 * i), c->ta));
+	t.anchor = od_Add(od_M3MulV(&c->Rb, la), c->tb);
 	return t;
 }
 
@@ -234,10 +233,21 @@ static double od_StartDepth(const od_Sim* sim, int i, int source, od_Vec3* norma
 	return od_ColliderDepth(sim, &sim->colliders.items[source], i, &M, od_V3Load(x0), false, normal);
 }
 
-// Whether particle i is near a surface at its current centre (see the top of the file), and the depth it may
-// keep there (one that began inside leaves at the recovery speed).
+// How far particle i's ellipsoid reaches along unit n at its current rotation R: |diag(r) Ēᵀ Rᵀ n|.
+static double od_Reach(const od_Sim* sim, int i, od_Vec3 n)
+{
+	od_Mat3 rotation = od_M3Load(sim->state.R + 9 * i), axes = od_M3Load(sim->graph->axes + 9 * i);
+	od_Vec3 w = od_M3MulTV(&axes, od_M3MulTV(&rotation, n));
+	const double* r = sim->graph->radii + 3 * i;
+	return sqrt(r[0] * r[0] * w.x * w.x + r[1] * r[1] * w.y * w.y + r[2] * r[2] * w.z * w.z);
+}
+
+// Whether particle i is near a surface at its current centre (see the top of the file); if so, that surface
+// taken as its tangent plane for the step: the depth beyond what it may keep (one that began inside leaves at
+// the recovery speed) is then level + reach along the normal - normal·x.
 static bool od_Near(od_Sim* sim, int i)
 {
+	od_SurfaceContact* s = &sim->surface;
 	int source;
 	od_Touch t = od_Deepest(sim, i, &source);
 	double slack = OD_SURFACE_SLACK * od_ParticleReach(sim, i);
@@ -251,7 +261,11 @@ static bool od_Near(od_Sim* sim, int i)
 	{
 		return false; // passed a thin collider in the first solve: the sweep's
 	}
-	sim->surface.allowed[i] = fmax(began - od_RecoveryLimit(sim), 0.0);
+	double allowed = fmax(began - od_RecoveryLimit(sim), 0.0);
+	s->source[i] = source;
+	s->level[i] = t.depth - allowed - od_Reach(sim, i, t.normal) + od_Dot(t.normal, od_V3Load(sim->state.x + 3 * i));
+	od_V3Store(s->normal + 3 * i, t.normal);
+	od_V3Store(s->anchor + 3 * i, t.anchor);
 	return true;
 }
 
@@ -270,15 +284,15 @@ static void od_Gather(od_Sim* sim)
 	s->gathered = true;
 }
 
-// Particle i's surface now (the deepest), its depth beyond the allowed one (s->excess), normal (s->normal) and
-// slip (s->force, until od_Push writes the force); a pressing particle's mass and excess summed per piece.
+// Particle i's depth beyond the allowed one in its plane (s->excess) and slide along it since the step's start
+// (s->force, until od_Push writes the force); a pressing particle's mass and excess summed per piece.
 static void od_Measure(od_Sim* sim, int i)
 {
 	od_SurfaceContact* s = &sim->surface;
-	od_Touch t = od_Deepest(sim, i, &s->source[i]);
-	s->excess[i] = t.depth - s->allowed[i];
-	od_V3Store(s->normal + 3 * i, t.normal);
-	od_V3Store(s->force + 3 * i, t.slip);
+	od_Vec3 x = od_V3Load(sim->state.x + 3 * i), n = od_V3Load(s->normal + 3 * i);
+	s->excess[i] = s->level[i] + od_Reach(sim, i, n) - od_Dot(n, x);
+	od_Vec3 slip = od_Sub(x, od_V3Load(s->anchor + 3 * i));
+	od_V3Store(s->force + 3 * i, od_MulAdd(slip, -od_Dot(slip, n), n));
 	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
 	{
 		double m = sim->def.density * sim->graph->volumes[i], *piece = s->piece + 3 * sim->graph->piece[i];
