@@ -42,7 +42,7 @@
 #define OD_SURFACE_RATE 1.0 // over m / h², a free particle's
 #define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
 #define OD_FLOOR OD_SURFACE_FLOOR
-#define OD_SURFACE_PIECE 1.0 // the piece's share of a step, over a rigid piece's
+#define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
 // force-weighted centre, normal and spread) and its particles' mass, momentum and second moments (rolling).
@@ -91,7 +91,7 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->anchor = od_AllocZero(3 * n, sizeof(double));
 	s->excess = od_AllocZero(n, sizeof(double));
 	s->hold = od_AllocZero(n, sizeof(double));
-	s->piece = od_AllocZero(3 * (size_t)sim->graph->pieceCount, sizeof(double));
+	s->piece = od_AllocZero(OD_PIECE * (size_t)sim->graph->pieceCount, sizeof(double));
 	s->patch = od_AllocZero((size_t)sim->graph->pieceCount, sizeof(od_Patch));
 	s->source = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
@@ -153,13 +153,17 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	{
 		od_ColliderFrames(&sim->colliders.items[k], s0, s1);
 	}
-	memset(s->piece, 0, sizeof(double) * 3 * (size_t)sim->graph->pieceCount);
+	memset(s->piece, 0, sizeof(double) * OD_PIECE * (size_t)sim->graph->pieceCount);
+	for (int p = 0; p < sim->graph->pieceCount; ++p)
+	{
+		s->piece[OD_PIECE * p + 4] = 1.0;
+	}
 	memset(s->push, 0, sizeof(double) * (size_t)sim->graph->n);
 	memset(s->tangent, 0, sizeof(double) * 3 * (size_t)sim->graph->n);
 	bool touching = false;
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		s->piece[3 * sim->graph->piece[i]] += sim->def.density * sim->graph->volumes[i];
+		s->piece[OD_PIECE * sim->graph->piece[i]] += sim->def.density * sim->graph->volumes[i];
 		touching = touching || od_MayTouch(sim, i);
 	}
 	return touching;
@@ -295,7 +299,7 @@ static void od_Measure(od_Sim* sim, int i)
 	od_V3Store(s->force + 3 * i, od_MulAdd(slip, -od_Dot(slip, n), n));
 	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
 	{
-		double m = sim->def.density * sim->graph->volumes[i], *piece = s->piece + 3 * sim->graph->piece[i];
+		double m = sim->def.density * sim->graph->volumes[i], *piece = s->piece + OD_PIECE * sim->graph->piece[i];
 		piece[1] += m;
 		piece[2] += m * s->excess[i];
 	}
@@ -313,11 +317,11 @@ static void od_Push(od_Sim* sim, int i, double h2)
 {
 	od_SurfaceContact* s = &sim->surface;
 	double m = sim->def.density * sim->graph->volumes[i];
-	const double* piece = s->piece + 3 * sim->graph->piece[i];
+	const double* piece = s->piece + OD_PIECE * sim->graph->piece[i];
 	double f = s->push[i] + OD_SURFACE_RATE * m * s->excess[i] / h2;
 	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
 	{
-		f += OD_SURFACE_PIECE * m / piece[1] * (piece[0] - piece[1]) * (piece[2] / piece[1]) / h2;
+		f += piece[4] * m / piece[1] * (piece[0] - piece[1]) * (piece[2] / piece[1]) / h2;
 	}
 	f = fmax(f, 0.0);
 	od_Vec3 n = od_V3Load(s->normal + 3 * i), slip = od_V3Load(s->force + 3 * i);
@@ -343,11 +347,18 @@ bool od_SurfaceContact_Update(od_Sim* sim)
 	}
 	for (int p = 0; p < sim->graph->pieceCount; ++p)
 	{
-		s->piece[3 * p + 1] = s->piece[3 * p + 2] = 0.0;
+		double* piece = s->piece + OD_PIECE * p;
+		piece[3] = piece[1] > 0.0 ? piece[2] / piece[1] : 0.0;
+		piece[1] = piece[2] = 0.0;
 	}
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_Measure(sim, s->near[k]);
+	}
+	for (int p = 0; p < sim->graph->pieceCount; ++p)
+	{
+		double* piece = s->piece + OD_PIECE * p; // overshot: the piece's share halved for the rest of the step
+		piece[4] *= piece[1] > 0.0 && piece[2] * piece[3] < 0.0 ? 0.5 : 1.0;
 	}
 	double h2 = sim->def.dt * sim->def.dt;
 	for (int k = 0; k < s->nearCount; ++k)

@@ -145,23 +145,6 @@ od_Mat3 od_PolarRotation(const od_Mat3* a)
 	return od_M3MulNT(&u, &v);
 }
 
-int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)
-{
-	const double* m = h->m;
-	double c00 = m[4] * m[8] - m[5] * m[7], c01 = m[2] * m[7] - m[1] * m[8], c02 = m[1] * m[5] - m[2] * m[4];
-	double minor2 = m[0] * m[4] - m[1] * m[3];
-	double det = m[0] * c00 + m[3] * c01 + m[6] * c02;
-	if (!(m[0] > tiny) || !(minor2 > tiny * m[0]) || !(det > tiny * minor2))
-	{
-		return 0;
-	}
-	double c11 = m[0] * m[8] - m[2] * m[6], c12 = m[2] * m[3] - m[0] * m[5], c22 = minor2;
-	double inv = 1.0 / det;
-	*x = od_V3(inv * (c00 * b.x + c01 * b.y + c02 * b.z), inv * (c01 * b.x + c11 * b.y + c12 * b.z),
-			   inv * (c02 * b.x + c12 * b.y + c22 * b.z));
-	return 1;
-}
-
 // The Cayley rotation (I - [a]x)⁻¹ (I + [a]x) with a = w/2: exactly orthogonal, equal to exp([w]x) to second
 // order, and free of transcendental functions. Newton's fixed point does not depend on the retraction.
 static od_Mat3 od_Cayley(od_Vec3 w)
