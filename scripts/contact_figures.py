@@ -1,7 +1,8 @@
 """The figures of docs/contact.md's "Contact inside the iterations" (issue 27): the 0.3 m cube on a 30-degree
 plane at 1/24, 1/60 and 1/240 s (mu = 1 and 0.3), the k = 1e15 capsule at rest on the floor and on a plane, and
-the blob's rebound from a 1 m drop. `PYTHONPATH=build/python python3 scripts/contact_figures.py [ramp|stiff|drop]`."""
-import math, sys, time
+the blob's rebound from a 1 m drop, and the add-on test's soft blob dropped on a sphere at 24 fps (its skin's mean
+height over 10 s). `PYTHONPATH=build/python python3 scripts/contact_figures.py [ramp|stiff|drop|blob]`."""
+import math, os, sys, time
 import numpy as np
 import opdeform
 from opdeform import materials, meshes
@@ -70,8 +71,25 @@ def drop(where="floor", h=1.0, fps=60):
     i = zs.argmin()
     return (zs[i:].max() - zs[i]) / (z0 - zs[i])
 
+def blob_on_sphere(seconds=(1, 2, 3, 5, 10), fps=24):
+    """tests/test_addon_colliders.py's blob (60 particles, k = 1e5, undamped) dropped 0.3 m onto a unit sphere
+    (mu = 0.5): the mean height of its shown vertices at each time (the test wants > 1.1 m at 2 s)."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    sys.path[:0] = [os.path.join(root, "addon"), os.path.join(root, "tests")]
+    from opdeform_blender.core import colliders
+    from test_addon_colliders import blob_engine, sphere_collider
+    e, _ = blob_engine()
+    e.configure(dict(e._params), end=max(seconds) * fps + 1)
+    around = colliders.Surroundings((sphere_collider(),), ())
+    heights = {}
+    for f in range(1, max(seconds) * fps + 1):
+        out = e.goto(f, surroundings=around)
+        if f % fps == 0 and f // fps in seconds:
+            heights[f // fps] = float(out[:, 2].mean())
+    return heights
+
 if __name__ == "__main__":
-    what = sys.argv[1:] or ["ramp", "stiff", "drop"]
+    what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob"]
     g = cube()
     t0 = time.time()
     if "ramp" in what:
@@ -86,4 +104,6 @@ if __name__ == "__main__":
     if "drop" in what:
         for where in ("floor", "plane"):
             print(f"drop on {where}: rebound {drop(where):.3f} of the drop", flush=True)
+    if "blob" in what:
+        print("blob on a sphere, mean height: " + ", ".join(f"{t} s {z:.3f} m" for t, z in blob_on_sphere().items()))
     print("%.1f s" % (time.time() - t0))

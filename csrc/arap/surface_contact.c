@@ -21,12 +21,29 @@
 // step replay bit for bit.
 //
 // The rate is that of a free particle, m / h² (the group's OD_FORCE_RATE 1): a particle bound to its body
-// moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes
-// (1 - c/N) of the remaining depth per solve.
+// moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes only
+// c/N of the remaining depth per solve. So each pressing particle also takes its share (by mass) of what moves
+// its connected piece, rigid, by the pressing particles' mean depth. A soft piece moves more than that where
+// it is pushed (a 100-particle creature resting on a sphere swung 3 cm between solves, every solve): when the
+// mean depth changes sign between updates, the piece's share is halved for the rest of the step.
 //
 // A particle counts as near a surface after the step's first solve (within a quarter of its largest radius);
 // a collider it began clear of counts only on the side it began (a fast particle beyond a thin collider is the
-// sweep's). Its surface is the deepest of the floor and the colliders at every update.
+// sweep's). Its surface is the deepest of the floor and the colliders then, taken for the rest of the step as
+// its tangent plane there (normal n, level): the depth at an update is level + (reach of its ellipsoid along n
+// at its current rotation) - n·x, and its slide is measured from where its step began, carried with the surface
+// (anchor). One distance query a step, not one per solve: the creature on a sphere at 100 particles went from
+// 1.72x to 1.44x free fall; the surface moves a few millimetres within a step at rest.
+//
+// Rolling resistance (od_SurfaceContact_Roll, after the projections). Rolling without slipping costs a round
+// elastic body no work, so friction cannot stop it: a soft blob dropped on a sphere rolled off in 2 s (a rigid
+// ball balanced there does, at the same rate). What holds a real one is its contact patch: the pressure moves
+// towards the patch's front edge, a moment of at most N a (a the patch's size). Each piece pressing a surface
+// has its spin over the step (angular momentum about its centre of mass, so a piece that slides without
+// turning is left alone) taken back by at most μ N a h per step (N its particles' normal forces, Σ μ f their
+// friction, a the force-weighted spread of their centres along the surface), turned about the patch centre as
+// far as the friction its forces left unused allows (so the patch stays put, as in rolling), never so that the
+// kinetic energy rises. Pieces held by a goal or a constraint are left as they are.
 #include "surface_contact.h"
 
 #include "contact.h"
