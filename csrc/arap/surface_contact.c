@@ -35,11 +35,6 @@
 // (anchor). One distance query a step, not one per solve: the creature on a sphere at 100 particles went from
 // 1.72x to 1.44x free fall; the surface moves a few millimetres within a step at rest.
 //
-// Under a tolerance a step may run many more solves than the fixed count's default 10; the forces are updated
-// after the first OD_SURFACE_UPDATES only and then held, so that the rest converge the body under them (what
-// they leave is the projection's). A 1,000-particle creature resting on a mesh sphere at the add-on's tolerance
-// (2e-5, auto) took 84 pairs a step with the forces updated after every solve, 57 with them held after 10.
-//
 // Rolling resistance (od_SurfaceContact_Roll, after the projections). Rolling without slipping costs a round
 // elastic body no work, so friction cannot stop it: a soft blob dropped on a sphere rolled off in 2 s (a rigid
 // ball balanced there does, at the same rate). What holds a real one is its contact patch: the pressure moves
@@ -64,7 +59,6 @@
 #define OD_SURFACE_RATE 1.0 // over m / h², a free particle's
 #define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
 #define OD_FLOOR OD_SURFACE_FLOOR
-#define OD_SURFACE_UPDATES 10 // the forces' updates in a step at most (then held; see the top of the file)
 #define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
@@ -162,7 +156,6 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	od_SurfaceContact* s = &sim->surface;
 	s->gathered = false;
 	s->nearCount = 0;
-	s->updates = 0;
 	if (s->force)
 	{
 		memset(s->hold, 0, sizeof(double) * (size_t)sim->graph->n);
@@ -368,10 +361,6 @@ bool od_SurfaceContact_Update(od_Sim* sim)
 	if (!s->gathered)
 	{
 		od_Gather(sim);
-	}
-	if (++s->updates > OD_SURFACE_UPDATES)
-	{
-		return s->nearCount > 0;
 	}
 	for (int p = 0; p < sim->graph->pieceCount; ++p)
 	{
