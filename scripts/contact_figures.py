@@ -1,7 +1,8 @@
 """The figures of docs/contact.md's "Contact inside the iterations" (issue 27): the 0.3 m cube on a 30-degree
 plane at 1/24, 1/60 and 1/240 s (mu = 1 and 0.3), the k = 1e15 capsule at rest on the floor and on a plane, and
 the blob's rebound from a 1 m drop, and the add-on test's soft blob dropped on a sphere at 24 fps (its skin's mean
-height over 10 s). `PYTHONPATH=build/python python3 scripts/contact_figures.py [ramp|stiff|drop|blob]`."""
+height over 10 s), and the pairs a step takes under the presets' tolerance (the cube, Rubber). `PYTHONPATH=build/python
+python3 scripts/contact_figures.py [ramp|stiff|drop|blob|tolerance]`."""
 import math, os, sys, time
 import numpy as np
 import opdeform
@@ -88,8 +89,55 @@ def blob_on_sphere(seconds=(1, 2, 3, 5, 10), fps=24):
             heights[f // fps] = float(out[:, 2].mean())
     return heights
 
+def pairs_under_tolerance(graph, mu, fps=24, seconds=2.0):
+    """The Rubber cube on the 30-degree plane at its preset's tolerance (auto, 2e-5, at most 100 pairs): mean
+    pairs a step and how many steps stopped at the most."""
+    theta = math.radians(30.0)
+    normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
+    frame = frame_from_normal(normal)
+    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
+    lowest = (graph.centers[:, 2] - np.sqrt(((graph.radii * graph.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+    sim.set_state((graph.centers + (0.0, 0.0, 0.01 - lowest)) @ frame.T, np.tile(frame, (graph.n_particles, 1, 1)))
+    sim.add_collider("plane", normal=normal, friction=mu)
+    pairs = []
+    for k in range(int(seconds * fps)):
+        sim.step()
+        pairs.append(sim.step_report["iterations"])
+    return np.mean(pairs), sum(p >= sim.max_iterations for p in pairs), len(pairs)
+
+def suzanne_pairs(particles=100, kind="sphere", frames=48):
+    """Suzanne (tests/reference, subdivided twice) set 0.1 m above a mesh sphere (radius 1, 48 x 24) or a 30-degree
+    plane, the add-on's defaults (15 MPa, 0.3/s damping, auto to 2e-5, at most 100 pairs, 24 fps): mean pairs a
+    step with and without the collider."""
+    d = np.load(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests", "reference",
+                             "suzanne_subdivided.npz"))
+    v, t = d["vertices"] - d["vertices"].mean(axis=0), d["triangles"]
+    g = opdeform.Graph.from_mesh(v, t, particles=particles)
+    reach = g.radii.max(axis=1)
+    if kind == "sphere":
+        n, base = np.array([0.0, 0.0, 1.0]), 1.0
+        sv, st = meshes.capsule(radius=1.0, length=0.0, segments=48, rings=24)
+    else:
+        n, base = np.array([math.sin(math.radians(30.0)), 0.0, math.cos(math.radians(30.0))]), 0.0
+        sv, st = np.array([[-4, -4, 0], [4, -4, 0], [4, 4, 0], [-4, 4, 0]], float) @ frame_from_normal(n).T, [[0, 1, 2], [0, 2, 3]]
+    lift = base + 0.1 - ((g.centers - reach[:, None] * n) @ n).min()
+    out = []
+    for collide in (False, True):
+        sim = opdeform.Simulation(g, materials.stiffness_for(g, 15e6), dt=1 / 24, density=1000.0,
+                                  damping=materials.step_damping(0.3, 1 / 24))
+        sim.set_solver(accelerator=materials.DEFAULT_ACCELERATOR, tolerance=2e-5, max_iterations=100)
+        sim.set_state(g.centers + lift * n, np.tile(np.eye(3), (g.n_particles, 1, 1)))
+        if collide:
+            sim.add_collider("mesh", vertices=sv, triangles=st, friction=0.5, thickness=0.02)
+        pairs = []
+        for k in range(frames):
+            sim.step()
+            pairs.append(sim.step_report["iterations"])
+        out.append(np.mean(pairs))
+    return out
+
 if __name__ == "__main__":
-    what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob"]
+    what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob", "tolerance"]
     g = cube()
     t0 = time.time()
     if "ramp" in what:
@@ -106,4 +154,11 @@ if __name__ == "__main__":
             print(f"drop on {where}: rebound {drop(where):.3f} of the drop", flush=True)
     if "blob" in what:
         print("blob on a sphere, mean height: " + ", ".join(f"{t} s {z:.3f} m" for t, z in blob_on_sphere().items()))
+    if "tolerance" in what:
+        for mu in (1.0, 0.3):
+            print("cube on the ramp at the preset's tolerance, mu %.1f: %.1f pairs a step, %d of %d steps at the most" %
+                  (mu, *pairs_under_tolerance(g, mu)))
+        for kind in ("sphere", "ramp"):
+            print("Suzanne, 100 particles, on a mesh %s at the add-on's defaults: %.1f pairs a step free, %.1f with it" %
+                  (kind, *suzanne_pairs(100, kind)))
     print("%.1f s" % (time.time() - t0))
