@@ -144,7 +144,7 @@ typedef struct od_SurfaceContact
 	struct od_Patch* patch; // per connected piece: its contact patch and rigid motion at a step's end (rolling)
 	int* source;     // n
 	int* near;       // nearCount particles
-	int nearCount, callSteps, callStep;
+	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)
 } od_SurfaceContact;

@@ -155,6 +155,19 @@ static od_Status od_IterateStart(od_Sim* sim, int iterations)
 	return status;
 }
 
+// The forces of contact are held from now on: the step's plan starts again from the current iterate.
+static void od_RestartPlan(od_Sim* sim)
+{
+	od_Iteration* r = &sim->iteration;
+	r->plan = od_Tolerance_Plan(sim);
+	if (r->plan.accelerate)
+	{
+		od_Accelerator_Restart(&sim->accelerator);
+		r->accepted = od_Energy(sim);
+	}
+	od_Tolerance_Start(sim);
+}
+
 static od_Status od_IterateNext(od_Sim* sim)
 {
 	od_Iteration* r = &sim->iteration;
@@ -333,9 +346,14 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 	*more = !sim->iteration.finished;
 	// Contact with the floor and the colliders for the next solve (surface_contact.c); while it acts, plain
 	// pairs (an accelerator's extrapolation and energy test would see the forces change, as a group's).
-	if (status == OD_OK && *more && od_SurfaceContact_Update(sim) && first)
+	od_SurfaceUpdate forces = status == OD_OK && *more ? od_SurfaceContact_Update(sim, sim->iteration.plan.tolerance > 0.0) : OD_SURFACE_NONE;
+	if (forces == OD_SURFACE_MOVED && first)
 	{
 		od_Tolerance_PlainPlan(&sim->iteration.plan);
+	}
+	else if (forces == OD_SURFACE_HELD)
+	{
+		od_RestartPlan(sim);
 	}
 	if (!*more && !finished)
 	{

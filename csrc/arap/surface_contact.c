@@ -59,6 +59,7 @@
 #define OD_SURFACE_RATE 1.0 // over m / h², a free particle's
 #define OD_SURFACE_SLACK 0.25 // of the largest radius: how far beyond contact a particle after the first solve is near
 #define OD_FLOOR OD_SURFACE_FLOOR
+#define OD_SURFACE_UPDATES 3 // under a tolerance, the forces' updates in a step (then held: see the top of the file)
 #define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
@@ -156,6 +157,7 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	od_SurfaceContact* s = &sim->surface;
 	s->gathered = false;
 	s->nearCount = 0;
+	s->updates = 0;
 	if (s->force)
 	{
 		memset(s->hold, 0, sizeof(double) * (size_t)sim->graph->n);
@@ -351,16 +353,24 @@ static void od_Push(od_Sim* sim, int i, double h2)
 	od_V3Store(s->force + 3 * i, od_MulAdd(tangent, f, n));
 }
 
-bool od_SurfaceContact_Update(od_Sim* sim)
+od_SurfaceUpdate od_SurfaceContact_Update(od_Sim* sim, bool tolerance)
 {
 	od_SurfaceContact* s = &sim->surface;
 	if (!s->force || s->after)
 	{
-		return false;
+		return OD_SURFACE_NONE;
 	}
 	if (!s->gathered)
 	{
 		od_Gather(sim);
+	}
+	if (!s->nearCount || (tolerance && s->updates > OD_SURFACE_UPDATES))
+	{
+		return OD_SURFACE_NONE;
+	}
+	if (tolerance && ++s->updates > OD_SURFACE_UPDATES)
+	{
+		return OD_SURFACE_HELD;
 	}
 	for (int p = 0; p < sim->graph->pieceCount; ++p)
 	{
@@ -382,7 +392,7 @@ bool od_SurfaceContact_Update(od_Sim* sim)
 	{
 		od_Push(sim, s->near[k], h2);
 	}
-	return s->nearCount > 0;
+	return OD_SURFACE_MOVED;
 }
 
 void od_SurfaceContact_Finish(od_Sim* sim)

@@ -15,7 +15,13 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s);
 // first finds the particles near a surface; whether any is); the iterations are over (no forces left).
 void od_SurfaceContact_BeginCall(od_Sim* sim, int steps);
 bool od_SurfaceContact_Start(od_Sim* sim);
-bool od_SurfaceContact_Update(od_Sim* sim);
+typedef enum od_SurfaceUpdate
+{
+	OD_SURFACE_NONE,  // no force acts, or they were held before
+	OD_SURFACE_MOVED, // the forces changed
+	OD_SURFACE_HELD,  // held from now on (under a tolerance)
+} od_SurfaceUpdate;
+od_SurfaceUpdate od_SurfaceContact_Update(od_Sim* sim, bool tolerance);
 void od_SurfaceContact_Finish(od_Sim* sim);
 // After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
 // patch's moment μ N a over the step (see surface_contact.c).
