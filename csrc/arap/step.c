@@ -345,7 +345,8 @@ od_Status od_Step_Advance(od_Sim* sim, bool* more)
 	}
 	*more = !sim->iteration.finished;
 	// Contact with the floor and the colliders for the next solve (surface_contact.c); while it acts, plain
-	// pairs (an accelerator's extrapolation and energy test would see the forces change, as a group's).
+	// pairs (an accelerator's extrapolation and energy test would see the forces change, as a group's); once
+	// they are held (under a tolerance) the plan starts again.
 	od_SurfaceUpdate forces = status == OD_OK && *more ? od_SurfaceContact_Update(sim, sim->iteration.plan.tolerance > 0.0) : OD_SURFACE_NONE;
 	if (forces == OD_SURFACE_MOVED && first)
 	{
