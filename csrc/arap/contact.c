@@ -183,15 +183,21 @@ double od_ParticleReach(const od_Sim* sim, int i)
 	return fmax(fmax(r[0], r[1]), r[2]);
 }
 
+double od_ContactReach(const od_Sim* sim, int i)
+{
+	return od_SkinShape_Used(sim) ? od_SkinShape_Reach(sim, i) : od_ParticleReach(sim, i);
+}
+
 double od_RecoveryLimit(const od_Sim* sim)
 {
 	return OD_RECOVERY_SPEED * sim->def.dt;
 }
 
-static od_Body od_BodyOf(const od_Sim* sim, int i)
+// Particle i's shape turned by `rotation` (its centre aside).
+static od_Body od_BodyAt(const od_Sim* sim, int i, const double* rotation)
 {
 	const double* r = sim->graph->radii + 3 * i;
-	od_Body b = { .M = od_ParticleMoment(sim, i), .reach = od_ParticleReach(sim, i),
+	od_Body b = { .M = od_EllipsoidMoment(sim, i, rotation), .reach = od_ParticleReach(sim, i),
 				  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = od_RecoveryLimit(sim),
 				  .goal = od_Goals_CarryRest(sim) };
 	if (b.goal)
@@ -204,10 +210,15 @@ static od_Body od_BodyOf(const od_Sim* sim, int i)
 		b.skin = &sim->skinShape;
 		b.i = i;
 		b.reach = od_SkinShape_Reach(sim, i);
-		b.R = od_M3Load(sim->state.R + 9 * i);
+		b.R = od_M3Load(rotation);
 		b.goalR = b.goal ? od_M3Load(sim->goals.R + 9 * i) : b.R;
 	}
 	return b;
+}
+
+static od_Body od_BodyOf(const od_Sim* sim, int i)
+{
+	return od_BodyAt(sim, i, sim->state.R + 9 * i);
 }
 
 // od_Depth of the particle's shape (its goal frame's with `goal`) centred at l in the collider's frame R: its
@@ -235,19 +246,15 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, 0.0, &n, false), 0.0);
 }
 
-double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x, bool end,
+double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
 						od_Vec3* normal)
 {
 	const od_Mat3* R = end ? &c->Rb : &c->Ra;
 	od_Vec3 n, l = od_M3MulTV(R, od_Sub(x, end ? c->tb : c->ta));
-	double thickness = c->thickness;
-	if (od_Goals_CarryRest(sim))
-	{
-		od_Body b = od_BodyOf(sim, i);
-		thickness -= od_GoalDepth(c, &b);
-	}
-	od_Mat3 local = od_InFrame(M, R);
-	double depth = od_Depth(&c->body, &local, l, thickness, od_ParticleReach(sim, i), &n, true);
+	od_Body b = od_BodyAt(sim, i, rotation);
+	double thickness = c->thickness - od_GoalDepth(c, &b);
+	od_Mat3 local = od_InFrame(&b.M, R);
+	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, &n, true);
 	*normal = od_M3MulV(R, n);
 	return depth;
 }

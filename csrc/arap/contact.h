@@ -13,9 +13,10 @@ double od_CoulombKeep(double slide, double limit);
 void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);
 // Collider c's frames at the fractions s0 and s1 of the call (Ra, ta, Rb, tb and the turn between them).
 void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
-// How deep particle i's ellipsoid (world moment M, centre x) is within the thickness of collider c at its frame
-// at the step's end (end) or start, less what its goal frame is (goals carrying the rest); the world normal.
-double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const od_Mat3* M, od_Vec3 x, bool end,
+// How deep particle i's shape (its ellipsoid or its skin points, skin_shape.c) turned by `rotation` and centred at
+// x is within the thickness of collider c at its frame at the step's end (end) or start, less what its goal frame
+// is (goals carrying the rest); the world normal.
+double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
 						od_Vec3* normal);
 // Particle i's ellipsoid as its moment M = E diag(a², b², c²) Eᵀ (current frame), its largest radius, and how
 // far a particle that began a step inside something may leave it per step (1 m/s).
@@ -23,6 +24,8 @@ od_Mat3 od_ParticleMoment(const od_Sim* sim, int i);
 // Particle i's ellipsoid turned by `rotation`: (rotation Ē) diag(a², b², c²) (rotation Ē)ᵀ.
 od_Mat3 od_EllipsoidMoment(const od_Sim* sim, int i, const double* rotation);
 double od_ParticleReach(const od_Sim* sim, int i);
+// The farthest particle i's contact shape reaches from its centre: its skin points' (skin_shape.c) or its ellipsoid's.
+double od_ContactReach(const od_Sim* sim, int i);
 double od_RecoveryLimit(const od_Sim* sim);
 // How far an ellipsoid of moment M reaches along unit n: sqrt(nᵀ M n).
 double od_Support(const od_Mat3* M, od_Vec3 n);

@@ -256,6 +256,19 @@ double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation)
 	return below;
 }
 
+double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n)
+{
+	const od_SkinShape* s = &sim->skinShape;
+	od_Mat3 r = od_M3Load(rotation);
+	od_Vec3 m = od_M3MulTV(&r, n); // -n·(R o) = -(Rᵀ n)·o
+	double below = -INFINITY;
+	for (int k = s->start[i]; k < s->start[i + 1]; ++k)
+	{
+		below = fmax(below, -od_Dot(m, od_V3Load(s->offset + 4 * k)));
+	}
+	return below;
+}
+
 double od_SkinShape_Reach(const od_Sim* sim, int i)
 {
 	return sim->skinShape.reach[i];

@@ -11,5 +11,7 @@ void od_SkinShape_Destroy(od_SkinShape* shape);
 bool od_SkinShape_Used(const od_Sim* sim);
 // How far below its centre particle i's lowest point reaches when turned by `rotation` (the floor's support).
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation);
+// The same along unit n: the largest -n·(rotation o) of its points (contact inside the iterations, surface_contact.c).
+double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n);
 // The distance from particle i's centre of its farthest point.
 double od_SkinShape_Reach(const od_Sim* sim, int i);
