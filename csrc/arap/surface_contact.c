@@ -312,6 +312,10 @@ static void od_Gather(od_Sim* sim)
 		{
 			s->near[s->nearCount++] = i;
 		}
+		else
+		{
+			s->source[i] = -2; // none (od_SurfaceContact_Near)
+		}
 	}
 	s->gathered = true;
 }
@@ -416,6 +420,12 @@ void od_SurfaceContact_Finish(od_Sim* sim)
 		memset(s->force + 3 * i, 0, sizeof(double) * 3);
 	}
 	s->callStep++;
+}
+
+bool od_SurfaceContact_Near(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->source && !s->after && s->gathered && s->source[i] == source;
 }
 
 double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source)

@@ -29,3 +29,6 @@ void od_SurfaceContact_Roll(od_Sim* sim);
 // How far particle i's slide along `source` may still be cut after the iterations (floor.c, contact.c): the
 // friction its forces held within μ f but did not use (0 when it pressed another surface or none).
 double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source);
+// Whether particle i was near `source` in this step's iterations (from the first solve on, on the side it began:
+// the sweep after the iterations need not look for where its path met it).
+bool od_SurfaceContact_Near(const od_Sim* sim, int i, int source);
