@@ -9,23 +9,12 @@ import opdeform
 from opdeform import materials, meshes
 from opdeform.simulation import frame_from_normal
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
+from test_contact import _cube_on_a_ramp as cube_on_ramp  # the tests' cube on the ramp: (distance, degrees)
+
 def cube():
     v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
     return opdeform.Graph.from_mesh(v - v.mean(axis=0), t, particles=64)
-
-def cube_on_ramp(graph, mu, fps, seconds=2.0):
-    theta = math.radians(30.0)
-    normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
-    frame = frame_from_normal(normal)
-    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
-    lowest = (graph.centers[:, 2] - np.sqrt(((graph.radii * graph.axes[:, 2, :]) ** 2).sum(axis=1))).min()
-    start = (graph.centers + (0.0, 0.0, 0.01 - lowest)) @ frame.T
-    sim.set_state(start, np.tile(frame, (graph.n_particles, 1, 1)))
-    sim.add_collider("plane", normal=normal, friction=mu)
-    sim.step(int(seconds * fps))
-    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
-    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
-    return float(np.linalg.norm(sim.positions.mean(axis=0) - start.mean(axis=0))), turned
 
 def rigid_error(sim, g):
     x = sim.positions; X = g.centers
