@@ -255,7 +255,7 @@ double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const
 	od_Body b = od_BodyAt(sim, i, rotation);
 	double thickness = c->thickness - od_GoalDepth(c, &b);
 	od_Mat3 local = od_InFrame(&b.M, R);
-	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, &n, true);
+	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, 0.0, &n, true);
 	*normal = od_M3MulV(R, n);
 	return depth;
 }

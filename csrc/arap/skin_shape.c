@@ -241,19 +241,7 @@ int od_Sim_GetContactSkinCount(const od_Sim* sim)
 
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation)
 {
-	const od_SkinShape* s = &sim->skinShape;
-	double below = -INFINITY;
-	for (int g = s->start[i]; g < s->start[i + 1]; ++g)
-	{
-		const double* c = s->group + 5 * g;
-		double centre = -(rotation[6] * c[0] + rotation[7] * c[1] + rotation[8] * c[2]);
-		for (int k = s->first[g]; k < s->first[g + 1] && centre + c[3] > below; ++k)
-		{
-			const double* o = s->offset + 4 * k;
-			below = fmax(below, -(rotation[6] * o[0] + rotation[7] * o[1] + rotation[8] * o[2]));
-		}
-	}
-	return below;
+	return od_SkinShape_Support(sim, i, rotation, (od_Vec3){ 0.0, 0.0, 1.0 });
 }
 
 double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n)
@@ -262,9 +250,13 @@ double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od
 	od_Mat3 r = od_M3Load(rotation);
 	od_Vec3 m = od_M3MulTV(&r, n); // -n·(R o) = -(Rᵀ n)·o
 	double below = -INFINITY;
-	for (int k = s->start[i]; k < s->start[i + 1]; ++k)
+	for (int g = s->start[i]; g < s->start[i + 1]; ++g)
 	{
-		below = fmax(below, -od_Dot(m, od_V3Load(s->offset + 4 * k)));
+		double centre = -od_Dot(m, od_V3Load(s->group + 5 * g));
+		for (int k = s->first[g]; k < s->first[g + 1] && centre + s->group[5 * g + 3] > below; ++k)
+		{
+			below = fmax(below, -od_Dot(m, od_V3Load(s->offset + 4 * k)));
+		}
 	}
 	return below;
 }
