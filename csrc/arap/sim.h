@@ -143,6 +143,7 @@ typedef struct od_SurfaceContact
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
 	struct od_Patch* patch; // per connected piece: its contact patch and rigid motion at a step's end (rolling)
 	int* source;     // n
+	int* point;      // n, with the skin as the shape: the point reaching farthest along its normal (od_Near)
 	int* near;       // nearCount particles
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;

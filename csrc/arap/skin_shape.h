@@ -11,7 +11,10 @@ void od_SkinShape_Destroy(od_SkinShape* shape);
 bool od_SkinShape_Used(const od_Sim* sim);
 // How far below its centre particle i's lowest point reaches when turned by `rotation` (the floor's support).
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation);
-// The same along unit n: the largest -n·(rotation o) of its points (contact inside the iterations, surface_contact.c).
-double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n);
+// The same along unit n: the largest -n·(rotation o) of its points (contact inside the iterations, surface_contact.c),
+// and which point that is in *point (global index; NULL: not wanted).
+double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n, int* point);
+// -n·(rotation o) of that one point.
+double od_SkinShape_PointSupport(const od_Sim* sim, int point, const double* rotation, od_Vec3 n);
 // The distance from particle i's centre of its farthest point.
 double od_SkinShape_Reach(const od_Sim* sim, int i);
