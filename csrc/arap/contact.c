@@ -181,7 +181,8 @@ od_Mat3 od_ParticleMoment(const od_Sim* sim, int i)
 double od_ParticleReach(const od_Sim* sim, int i)
 {
 	const double* r = sim->graph->radii + 3 * i;
-	return fmax(fmax(r[0], r[1]), r[2]);
+	double largest = r[0] > r[1] ? r[0] : r[1]; // not fmax: a call to libm (the contact forces' updates ask often)
+	return largest > r[2] ? largest : r[2];
 }
 
 double od_ContactReach(const od_Sim* sim, int i)

@@ -374,9 +374,9 @@ static void od_Push(od_Sim* sim, int i, double h2)
 	{
 		double share = piece[4] * m / piece[1] * (piece[0] - piece[1]) * (piece[2] / piece[1]);
 		double most = OD_SHARE_MOVE * m * od_ParticleReach(sim, i); // as a move of the particle: times m / h²
-		f += fmin(fmax(share, -most), most) / h2;
+		f += (share > most ? most : share < -most ? -most : share) / h2; // not fmin / fmax: calls to libm
 	}
-	f = fmax(f, 0.0);
+	f = f > 0.0 ? f : 0.0;
 	od_Vec3 n = od_V3Load(s->normal + 3 * i), slip = od_V3Load(s->force + 3 * i);
 	od_Vec3 tangent = od_MulAdd(od_V3Load(s->tangent + 3 * i), -OD_SURFACE_RATE * m / h2, slip);
 	tangent = od_MulAdd(tangent, -od_Dot(tangent, n), n);
