@@ -252,14 +252,14 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 }
 
 double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
-						od_Vec3* normal)
+						double least, od_Vec3* normal)
 {
 	const od_Mat3* R = end ? &c->Rb : &c->Ra;
 	od_Vec3 n, l = od_M3MulTV(R, od_Sub(x, end ? c->tb : c->ta));
 	od_Body b = od_BodyAt(sim, i, rotation);
 	double thickness = c->thickness - od_GoalDepth(c, &b);
 	od_Mat3 local = b.skin ? b.M : od_InFrame(&b.M, R);
-	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, 0.0, &n, true);
+	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, least, &n, true);
 	*normal = od_M3MulV(R, n);
 	return depth;
 }

@@ -15,9 +15,10 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);
 void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
 // How deep particle i's shape (its ellipsoid or its skin points, skin_shape.c) turned by `rotation` and centred at
 // x is within the thickness of collider c at its frame at the step's end (end) or start, less what its goal frame
-// is (goals carrying the rest); the world normal.
+// is (goals carrying the rest); the world normal. Skin points are only sought deeper than `least` (>= 0; `least`
+// when none is).
 double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
-						od_Vec3* normal);
+						double least, od_Vec3* normal);
 // Particle i's ellipsoid as its moment M = E diag(a², b², c²) Eᵀ (current frame), its largest radius, and how
 // far a particle that began a step inside something may leave it per step (1 m/s).
 od_Mat3 od_ParticleMoment(const od_Sim* sim, int i);

@@ -220,7 +220,7 @@ static od_Touch od_FloorTouch(const od_Sim* sim, int i, od_Vec3 x)
 static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x)
 {
 	od_Touch t = { 0 };
-	t.depth = od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, &t.normal);
+	t.depth = od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, 0.0, &t.normal);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(od_V3Load(sim->previous.x + 3 * i), c->ta));
 	t.anchor = od_Add(od_M3MulV(&c->Rb, la), c->tb);
 	return t;
@@ -251,8 +251,8 @@ static od_Touch od_Deepest(const od_Sim* sim, int i, int* source)
 }
 
 // How deep particle i began the step in its surface (previous centre and rotation, the collider's start frame),
-// and that surface's normal there.
-static double od_StartDepth(const od_Sim* sim, int i, int source, od_Vec3* normal)
+// and that surface's normal there; skin points only sought deeper than `least`.
+static double od_StartDepth(const od_Sim* sim, int i, int source, double least, od_Vec3* normal)
 {
 	const double* x0 = sim->previous.x + 3 * i;
 	if (source == OD_FLOOR)
@@ -260,7 +260,8 @@ static double od_StartDepth(const od_Sim* sim, int i, int source, od_Vec3* norma
 		*normal = od_V3(0, 0, 1);
 		return od_FloorDepth(sim, i, sim->previous.R + 9 * i, x0);
 	}
-	return od_ColliderDepth(sim, &sim->colliders.items[source], i, sim->previous.R + 9 * i, od_V3Load(x0), false, normal);
+	return od_ColliderDepth(sim, &sim->colliders.items[source], i, sim->previous.R + 9 * i, od_V3Load(x0), false, least,
+							normal);
 }
 
 // How far particle i's ellipsoid reaches along -n at its current rotation R: |diag(r) Ēᵀ Rᵀ n|.
@@ -303,13 +304,16 @@ static bool od_Near(od_Sim* sim, int i)
 	{
 		return false;
 	}
+	// Only what it began deeper than the recovery counts (it may keep the rest), so the skin's points are sought
+	// beyond that alone: sought beyond 0, the start's depth took 0.16 ms a step of the colliders bench's
+	// 1,000-particle Suzanne on the ramp (2.2 ms), its 870 particles near.
 	od_Vec3 n0;
-	double began = od_StartDepth(sim, i, source, &n0);
-	if (began <= 0.0 && od_Dot(n0, t.normal) <= 0.0)
+	double recovery = od_RecoveryLimit(sim), began = od_StartDepth(sim, i, source, recovery, &n0);
+	if (began <= recovery && od_Dot(n0, t.normal) <= 0.0)
 	{
 		return false; // passed a thin collider in the first solve: the sweep's
 	}
-	double allowed = fmax(began - od_RecoveryLimit(sim), 0.0);
+	double allowed = fmax(began - recovery, 0.0);
 	s->source[i] = source;
 	s->level[i] = t.depth - allowed - od_Reach(sim, i, t.normal, s->point + i) + od_Dot(t.normal, od_V3Load(sim->state.x + 3 * i));
 	od_V3Store(s->normal + 3 * i, t.normal);
