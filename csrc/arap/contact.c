@@ -202,7 +202,8 @@ static od_Body od_BodyAt(const od_Sim* sim, int i, const double* rotation)
 {
 	const double* r = sim->graph->radii + 3 * i;
 	bool skin = od_SkinShape_Used(sim);
-	od_Body b = { .M = skin ? (od_Mat3){ { 0 } } : od_EllipsoidMoment(sim, i, rotation), .reach = od_ParticleReach(sim, i),
+	od_Body b = { .M = skin ? (od_Mat3){ { 0 } } : od_EllipsoidMoment(sim, i, rotation),
+				  .reach = od_ParticleReach(sim, i),
 				  .step = 0.5 * fmin(fmin(r[0], r[1]), r[2]), .recovery = od_RecoveryLimit(sim),
 				  .goal = od_Goals_CarryRest(sim) };
 	if (b.goal)

@@ -126,8 +126,8 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->source = od_AllocZero(n, sizeof(int));
 	s->point = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
-	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold || !s->piece || !s->patch ||
-		!s->source || !s->point || !s->near)
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold ||
+		!s->piece || !s->patch || !s->source || !s->point || !s->near)
 	{
 		od_SurfaceContact_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", sim->graph->n);
@@ -315,7 +315,8 @@ static bool od_Near(od_Sim* sim, int i)
 	}
 	double allowed = fmax(began - recovery, 0.0);
 	s->source[i] = source;
-	s->level[i] = t.depth - allowed - od_Reach(sim, i, t.normal, s->point + i) + od_Dot(t.normal, od_V3Load(sim->state.x + 3 * i));
+	s->level[i] = t.depth - allowed - od_Reach(sim, i, t.normal, s->point + i) +
+				  od_Dot(t.normal, od_V3Load(sim->state.x + 3 * i));
 	od_V3Store(s->normal + 3 * i, t.normal);
 	od_V3Store(s->anchor + 3 * i, t.anchor);
 	return true;
