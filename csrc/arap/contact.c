@@ -40,7 +40,6 @@
 #include "goal.h"
 #include "math3.h"
 #include "skin_shape.h"
-#include "surface_contact.h"
 
 #include <math.h>
 

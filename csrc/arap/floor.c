@@ -17,7 +17,6 @@
 #include "goal.h"
 #include "math3.h"
 #include "skin_shape.h"
-#include "surface_contact.h"
 
 // How far particle i's ellipsoid (or its skin points, skin_shape.c) at frame (rotation, centre) reaches below
 // the floor (<= 0: clear of it).

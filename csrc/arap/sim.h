@@ -314,3 +314,22 @@ struct od_Sim
 	od_SimCounters counters;
 	_Atomic int busy;
 };
+
+#define OD_SURFACE_FLOOR (-1) // the floor as a particle's surface in od_SurfaceContact (a collider's: its index)
+
+// How far particle i's slide along `source` may still be cut after the iterations (floor.c, contact.c): the
+// friction the forces inside the iterations (surface_contact.c) held within μ f but did not use (0 when it pressed
+// another surface or none).
+static inline double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
+}
+
+// Whether particle i was near `source` in this step's iterations (from the first solve on, on the side it began:
+// the sweep after the iterations need not look for where its path met it).
+static inline bool od_SurfaceContact_Near(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->source && !s->after && s->gathered && s->source[i] == source;
+}

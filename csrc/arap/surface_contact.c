@@ -448,18 +448,6 @@ void od_SurfaceContact_Finish(od_Sim* sim)
 	s->callStep++;
 }
 
-bool od_SurfaceContact_Near(const od_Sim* sim, int i, int source)
-{
-	const od_SurfaceContact* s = &sim->surface;
-	return s->source && !s->after && s->gathered && s->source[i] == source;
-}
-
-double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source)
-{
-	const od_SurfaceContact* s = &sim->surface;
-	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
-}
-
 // Rolling resistance (see the top of the file), first: the patches of the pieces that press a surface. False
 // when none presses.
 static bool od_Patches(od_Sim* sim)

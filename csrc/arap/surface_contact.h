@@ -5,8 +5,6 @@
 
 #include "sim.h"
 
-#define OD_SURFACE_FLOOR (-1) // the floor as a particle's surface (a collider's: its index)
-
 // The per-particle arrays, made at the first step of a simulation with a floor or a collider (none after).
 od_Status od_SurfaceContact_Reserve(od_Sim* sim);
 void od_SurfaceContact_Destroy(od_SurfaceContact* s);
@@ -26,9 +24,5 @@ void od_SurfaceContact_Finish(od_Sim* sim);
 // After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
 // patch's moment μ N a over the step (see surface_contact.c).
 void od_SurfaceContact_Roll(od_Sim* sim);
-// How far particle i's slide along `source` may still be cut after the iterations (floor.c, contact.c): the
-// friction its forces held within μ f but did not use (0 when it pressed another surface or none).
-double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source);
-// Whether particle i was near `source` in this step's iterations (from the first solve on, on the side it began:
-// the sweep after the iterations need not look for where its path met it).
-bool od_SurfaceContact_Near(const od_Sim* sim, int i, int source);
+// (What the projections after the iterations read of it, od_SurfaceContact_Hold and _Near, is in sim.h: floor.c
+// and contact.c, below this file, read it there.)
