@@ -69,8 +69,9 @@ def distances(sim, kind, skinned):
     return skinned[:, 2] if kind == "floor" else sim.collider_distances(skinned)
 
 
-def settle(kind, particles, shape, seconds):
-    """The simulation and skin of a drop after `seconds`."""
+def drop(kind, particles, shape):
+    """(the simulation, its skin, substeps a frame) of a drop onto `kind` before its first step; shape
+    "ellipsoids", "skin" or "none" (no collider)."""
     rest, tris = suzanne()
     probe = od.Simulation(od.Graph.from_mesh(rest, tris, particles=4), 1.0)
     start = scene(probe, kind, rest)
@@ -81,6 +82,12 @@ def settle(kind, particles, shape, seconds):
     scene(sim, kind, rest, shape != "none")
     if shape == "skin":
         sim.set_contact_skin(skin)
+    return sim, skin, steps
+
+
+def settle(kind, particles, shape, seconds):
+    """The simulation and skin of a drop after `seconds`."""
+    sim, skin, steps = drop(kind, particles, shape)
     sim.step(int(seconds * FPS) * steps)
     return sim, skin
 
@@ -165,16 +172,7 @@ def soft():
 def run(kind, particles, shape, seconds):
     """(the skin's closest approach, its least distance over the last 0.5 s, ms a step) for shape
     "ellipsoids", "skin" or "none" (no collider: free fall, the cost's baseline)."""
-    rest, tris = suzanne()
-    probe = od.Simulation(od.Graph.from_mesh(rest, tris, particles=4), 1.0)
-    start = scene(probe, kind, rest)
-    graph = od.Graph.from_mesh(start, tris, particles=particles)
-    skin = od.Skin(graph, start)
-    steps = materials.substeps_for(FPS)
-    sim = materials.make_simulation(graph, dt=1.0 / (FPS * steps))
-    scene(sim, kind, rest, shape != "none")
-    if shape == "skin":
-        sim.set_contact_skin(skin)
+    sim, skin, steps = drop(kind, particles, shape)
     frames, settled, closest, cpu = int(seconds * FPS), [], np.inf, 0.0
     for f in range(frames):
         t0 = time.process_time()

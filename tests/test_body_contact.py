@@ -6,6 +6,7 @@ pulled past its body by a pin or by goals of any strength goes round it, never t
 self-contact on stays at rest to the bit, contact after the iterations only stays an option, and bad input
 raises."""
 
+import dataclasses
 import pickle
 
 import numpy as np
@@ -313,9 +314,10 @@ def _preset_body(vertices, triangles, z, preset, density=None):
     from opdeform import materials
 
     m = materials.PRESETS[preset]
-    g = opdeform.Graph.from_mesh(vertices + (0.0, 0.0, z), triangles, particles=100)
-    m = materials.Material(m.name, m.modulus, m.density if density is None else density, m.damping, m.tolerance)
-    sim = materials.make_simulation(g, m, dt=1 / 60)
+    if density is not None:
+        m = dataclasses.replace(m, density=density)
+    sim = materials.make_simulation(opdeform.Graph.from_mesh(vertices + (0.0, 0.0, z), triangles, particles=100), m,
+                                    dt=1 / 60)
     sim.set_floor(0.0, 0.5)
     return sim
 
