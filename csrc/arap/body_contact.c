@@ -963,6 +963,10 @@ static bool od_SolveDense(double* a, double* x, int n)
 static void od_Coarse(od_PairScratch* s, double h2)
 {
 	int n = s->interfaceCount;
+	if (n == 0)
+	{
+		return; // no interface, and no system allocated
+	}
 	double *a = s->system, *x = s->system + (size_t)n * (size_t)n;
 	for (int e = 0; e < n; ++e)
 	{
@@ -985,7 +989,7 @@ static void od_Coarse(od_PairScratch* s, double h2)
 						   (e == f ? ie->local / ie->count : 0.0);
 		}
 	}
-	bool solved = n > 0 && od_SolveDense(a, x, n);
+	bool solved = od_SolveDense(a, x, n);
 	for (int e = 0; e < n; ++e)
 	{
 		s->interfaces[e].change = solved ? x[e] / s->interfaces[e].count : 0.0;
