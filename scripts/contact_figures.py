@@ -6,15 +6,14 @@ python3 scripts/contact_figures.py [ramp|stiff|drop|blob|tolerance]`."""
 import math, os, sys, time
 import numpy as np
 import opdeform
-from opdeform import materials, meshes
+from opdeform import materials, meshes, scenes
 from opdeform.simulation import frame_from_normal
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 from test_contact import _cube_on_a_ramp as cube_on_ramp  # the tests' cube on the ramp: (distance, degrees)
 
 def cube():
-    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
-    return opdeform.Graph.from_mesh(v - v.mean(axis=0), t, particles=64)
+    return scenes.RampCube(0.0, 24).graph
 
 def rigid_error(sim, g):
     x = sim.positions; X = g.centers

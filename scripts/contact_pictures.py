@@ -1,6 +1,7 @@
 """Pictures of contact (docs/contact.md, issue 13), rendered with matplotlib from the simulations themselves:
 a bar dropped on another at rest on it (a ContactGroup), a tail pulled onto its own body (self-contact), a blob
-sliding down a 30-degree ramp with and without friction, and wind pushing a blob along a floor. Each scene runs
+sliding down a 30-degree ramp with and without friction, a box on that ramp at one step a frame (24 fps) holding
+and sliding, soft spheres and creatures stacked, and wind pushing a blob along a floor. Each scene runs
 here (a few seconds of CPU); the skinned meshes are drawn as flat-shaded triangles, sorted back to front.
 
 Usage: PYTHONPATH=build/python python3 scripts/contact_pictures.py [OUT_DIR]   (default docs/images)
@@ -19,6 +20,9 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 
 import opdeform  # noqa: E402
 from opdeform import meshes, scenes  # noqa: E402
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from benchmarks import stacking  # noqa: E402  (the stacking benchmark's bodies)
 
 LIGHT = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
 
@@ -145,6 +149,60 @@ def ramp(out):
     save(fig, out, "contact_ramp.png")
 
 
+def box_ramp(out):
+    """Issue 27's 0.3 m Rubber cube on a 30-degree plane at one step a frame (1/24 s), μ = 1 and μ = 0.3:
+    where it is at 0, 1 and 2 s (scenes.RampCube; tests/test_contact.py)."""
+    camera = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # from the side: downhill to the right
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.4), gridspec_kw={"width_ratios": (1, 3)})
+    for ax, mu, length in zip(axes, (1.0, 0.3), (0.6, 4.6)):
+        scene = scenes.RampCube(mu, 24)
+        downhill = np.cross((1.0, 0.0, 0.0), scene.normal)
+        centre = scene.start.mean(axis=0)
+        foot = centre - (centre @ scene.normal) * scene.normal - 0.3 * downhill  # the plane passes through 0
+        ends = np.array([foot, foot + length * downhill]) @ camera.T
+        ground = [ends[0, :2], ends[1, :2], (ends[1, 0], ends[1, 1] - 0.2), (ends[0, 0], ends[1, 1] - 0.2)]
+        ax.add_collection(PolyCollection([ground], facecolors=["0.85"], edgecolors="0.6"))
+        shown = []
+        for frames, shade in ((0, 0.45), (24, 0.7), (24, 1.0)):
+            scene.sim.step(frames) if frames else None
+            shown.append(scene.skin.deform_sim(scene.sim))
+            draw_mesh(ax, shown[-1], scene.triangles, np.array([0.85, 0.45, 0.3]) * shade + (1 - shade) * 0.9,
+                      camera, alpha=0.9)
+        moved, turned = scene.moved()
+        finish(ax, f"μ = {mu:g}: {moved:.3f} m and {turned:.1f}° in 2 s", shown, camera, pad=0.15)
+        ax.set_xlim(ends[:, 0].min() - 0.1, ends[:, 0].max() + 0.1)
+        ax.set_ylim(ends[:, 1].min() - 0.3, ends[:, 1].max() + 0.4)
+    fig.suptitle("A 0.3 m box on a 30° ramp at 24 fps, one step a frame: at 0, 1 and 2 s (light to dark)",
+                 fontsize=10)
+    save(fig, out, "contact_box_ramp.png")
+
+
+def soft_stacks(out):
+    """Soft bodies dropped onto like ones (the stacking benchmark's scenes, `scripts/bench stacking --stacks`):
+    Rubber spheres and Rubber creatures, 100 particles each, μ = 0.5, at 0, 1 and 13 s."""
+    sphere = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
+    cases = (("Rubber spheres", sphere[0] + (0.0, 0.0, 0.3), sphere[1], 0.7),
+             ("Rubber creatures", *meshes.creature(24), 1.06))
+    camera = view(-25, 12)
+    fig, axes = plt.subplots(2, 3, figsize=(9, 6.4))
+    for row, (name, v, t, lift) in zip(axes, cases):
+        sims = [stacking.preset_body(v, t, 0.0, "Rubber"), stacking.preset_body(v, t, lift, "Rubber")]
+        group = opdeform.ContactGroup(sims, friction=0.5)
+        skins = [opdeform.Skin(sim.graph, v + (0.0, 0.0, z)) for sim, z in zip(sims, (0.0, lift))]
+        done = 0
+        for ax, seconds in zip(row, (0, 1, 13)):
+            group.step(60 * (seconds - done)) if seconds > done else None
+            done = seconds
+            shown = [skin.deform_sim(sim) for skin, sim in zip(skins, sims)]
+            draw_plane(ax, np.array([0.0, 0.0, 0.0]), (0, 0, 1), 1.6, camera)
+            for vertices, colour in zip(shown, ((0.45, 0.6, 0.85), (0.9, 0.55, 0.35))):
+                draw_mesh(ax, vertices, t, colour, camera)
+            speed = np.abs(sims[1].velocities).max()
+            finish(ax, f"{name}, {seconds} s\nupper's fastest particle {speed:.3f} m/s", shown, camera)
+    fig.suptitle("Soft bodies dropped onto like ones rest on top (ContactGroup, μ = 0.5)", fontsize=10)
+    save(fig, out, "contact_soft_stacks.png")
+
+
 def wind(out):
     """A blob on a floor (μ = 0.3) in a wind of 6 m/s² along +x with drag 1/s: at 0, 0.5, 1 and 1.5 s."""
     v, t = meshes.capsule(radius=0.2, length=0.2)
@@ -184,7 +242,7 @@ def save(fig, out, name):
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), "..", "docs", "images")
     os.makedirs(out, exist_ok=True)
-    for scene in (stack, tail, ramp, wind):
+    for scene in (stack, tail, ramp, box_ramp, soft_stacks, wind):
         scene(out)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import opdeform
-from opdeform import materials, meshes
+from opdeform import materials, meshes, scenes
 from opdeform.simulation import frame_from_normal
 
 RAMP = math.radians(30.0)
@@ -96,24 +96,14 @@ def _board_through_limb(move):
 
 @pytest.fixture(scope="module")
 def cube():
-    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
-    return opdeform.Graph.from_mesh(v - v.mean(axis=0), t, particles=64)
+    return scenes.RampCube(0.0, 24).graph
 
 
 def _cube_on_a_ramp(graph, mu, fps, seconds=2.0):
-    """A 0.3 m Rubber cube set 1 cm above a 30-degree plane (it lands flat): (distance travelled, degrees turned)."""
-    theta = math.radians(30.0)
-    normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
-    frame = frame_from_normal(normal)
-    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
-    lowest = (graph.centers[:, 2] - np.sqrt(((graph.radii * graph.axes[:, 2, :]) ** 2).sum(axis=1))).min()
-    start = (graph.centers + (0.0, 0.0, 0.01 - lowest)) @ frame.T
-    sim.set_state(start, np.tile(frame, (graph.n_particles, 1, 1)))
-    sim.add_collider("plane", normal=normal, friction=mu)
-    sim.step(int(seconds * fps))
-    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
-    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
-    return float(np.linalg.norm(sim.positions.mean(axis=0) - start.mean(axis=0))), turned
+    """The 0.3 m Rubber cube on a 30-degree plane (scenes.RampCube): (distance travelled, degrees turned)."""
+    scene = scenes.RampCube(mu, fps, graph=graph)
+    scene.sim.step(int(seconds * fps))
+    return scene.moved()
 
 
 def test_a_box_slides_down_a_ramp_below_tan_theta_and_sticks_above_it(cube):

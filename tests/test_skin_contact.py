@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 import opdeform
-from opdeform import materials, meshes
-from opdeform.simulation import frame_from_normal
+from opdeform import materials, meshes, scenes
 
 import test_goal_contact as gc
 
@@ -91,23 +90,11 @@ def blob():
 
 
 def _cube_on_a_ramp(mu, seconds=2.0, fps=240):
-    """A 0.3 m Rubber cube (64 particles) on its skin, set 1 cm above a 30-degree plane: (distance travelled,
-    degrees turned), as tests/test_contact.py's cube on its ellipsoids."""
-    v, t = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
-    v = v - v.mean(axis=0)
-    graph = opdeform.Graph.from_mesh(v, t, particles=64)
-    normal = np.array([0.0, -math.sin(RAMP), math.cos(RAMP)])
-    frame = frame_from_normal(normal)
-    sim = materials.make_simulation(graph, "Rubber", dt=1 / fps)
-    shift = (0.0, 0.0, 0.01 - v[:, 2].min())
-    sim.set_state((graph.centers + shift) @ frame.T, np.tile(frame, (graph.n_particles, 1, 1)))
-    sim.set_contact_skin(opdeform.Skin(graph, v))
-    sim.add_collider("plane", normal=tuple(normal), friction=mu)
-    start = sim.positions.mean(axis=0)
-    sim.step(int(seconds * fps))
-    u, _, vt = np.linalg.svd(sim.rotations.mean(axis=0))
-    turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ frame.T) - 1.0) / 2.0, -1.0, 1.0)))
-    return float(np.linalg.norm(sim.positions.mean(axis=0) - start)), turned
+    """The 0.3 m Rubber cube on its skin on a 30-degree plane (scenes.RampCube): (distance travelled, degrees
+    turned), as tests/test_contact.py's cube on its ellipsoids."""
+    scene = scenes.RampCube(mu, fps, skin=True)
+    scene.sim.step(int(seconds * fps))
+    return scene.moved()
 
 
 def test_a_box_on_its_skin_slides_down_a_ramp_as_coulomb_says_and_sticks_above_tan_theta():

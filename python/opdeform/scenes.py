@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 
 from ._arguments import ArrayLike, Floats, Ints, Vector
+from . import materials, meshes
 from .graph import Graph
-from .simulation import Simulation
+from .mesh import Skin
+from .simulation import Simulation, frame_from_normal
 
 BAR_LENGTH = 2.0
 BAR_WIDTH = 0.2
@@ -112,14 +114,45 @@ def lowest_point(sim: Simulation) -> float:
     return float((sim.positions[:, 2] - s).min())
 
 
+class RampCube:
+    """Issue 27's box on a ramp: a 0.3 m Rubber cube (64 particles) set 1 cm above a 30-degree plane collider of
+    friction ``mu`` (it lands flat), stepping 1/``fps`` s; with ``skin`` its mesh, not its ellipsoids, meets the
+    plane. Used by tests/test_contact.py, tests/test_skin_contact.py and scripts/contact_figures.py /
+    contact_pictures.py."""
+
+    DEGREES = 30.0
+
+    def __init__(self, mu: float, fps: float, skin: bool = False, graph: Graph | None = None) -> None:
+        vertices, self.triangles = meshes.bar(length=0.3, width=0.3, segments=4, cross=4)
+        self.vertices = vertices - vertices.mean(axis=0)
+        self.graph = Graph.from_mesh(self.vertices, self.triangles, particles=64) if graph is None else graph
+        theta = math.radians(self.DEGREES)
+        self.normal = np.array([0.0, -math.sin(theta), math.cos(theta)])
+        self.frame = frame_from_normal(self.normal)
+        self.sim = materials.make_simulation(self.graph, "Rubber", dt=1 / fps)
+        self.skin = Skin(self.graph, self.vertices)
+        g = self.graph
+        lowest = self.vertices[:, 2].min() if skin else \
+            (g.centers[:, 2] - np.sqrt(((g.radii * g.axes[:, 2, :]) ** 2).sum(axis=1))).min()
+        self.start = (g.centers + (0.0, 0.0, 0.01 - lowest)) @ self.frame.T
+        self.sim.set_state(self.start, np.tile(self.frame, (g.n_particles, 1, 1)))
+        if skin:
+            self.sim.set_contact_skin(self.skin)
+        self.sim.add_collider("plane", normal=tuple(self.normal), friction=mu)
+
+    def moved(self) -> tuple[float, float]:
+        """(distance its centre travelled, degrees it turned) since the start."""
+        u, _, vt = np.linalg.svd(self.sim.rotations.mean(axis=0))
+        turned = math.degrees(math.acos(np.clip((np.trace(u @ vt @ self.frame.T) - 1.0) / 2.0, -1.0, 1.0)))
+        return float(np.linalg.norm(self.sim.positions.mean(axis=0) - self.start.mean(axis=0))), turned
+
+
 def bent_rod(self_contact: bool, sweep: float = 1.0,
              steps: int = 120) -> tuple[Simulation, Floats, Ints, int, list[tuple[float, float, float]]]:
     """A 1.2 m rod along x (a capsule mesh, 60 particles) held at its root end by two pins, and the targets
     of the pin on its tip, one a step: a half circle about the middle through ``sweep`` half turns in 90 of
     ``steps`` steps (1: onto the root; more: past it). Returns (sim, vertices, triangles, tip's constraint id,
     targets). Used by tests/test_body_contact.py and scripts/contact_pictures.py."""
-    from . import meshes
-
     vertices, triangles = meshes.capsule(radius=0.06, length=1.2)
     graph = Graph.from_mesh(vertices, triangles, particles=60)
     sim = Simulation(graph, 1e5, dt=1 / 60, gravity=(0, 0, 0), damping=0.05)

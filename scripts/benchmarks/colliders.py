@@ -65,7 +65,7 @@ def _opdeform(scene, kind, particles, contact):
     return obj
 
 
-def _soft_body(scene, kind):
+def soft_body(scene, kind):
     obj = suzanne(scene, kind)
     obj.modifiers.new("Softbody", 'SOFT_BODY')
     obj.soft_body.use_goal = False
@@ -86,7 +86,7 @@ def _scenes(kind):
             out[(particles, contact)] = (scene, _opdeform(scene, kind, particles, contact))
     scene = bpy.context.scene
     _collider(kind, scene)
-    out[SOFT_BODY] = (scene, _soft_body(scene, kind))
+    out[SOFT_BODY] = (scene, soft_body(scene, kind))
     return out
 
 
