@@ -61,14 +61,18 @@ class Measure:
 
     def __init__(self, obj, twin, floor_z=0.0):
         self.obj, self.twin, self.floor_z = obj, twin, floor_z
-        groups = C.skin_weights(obj, ["follow"] + ["region_" + r for r in C.REGIONS])
-        self.core = np.where(groups["follow"] >= CORE_FOLLOW)[0]
-        self.regions = {r: np.where(groups["region_" + r] > 0.0)[0] for r in C.REGIONS}
+        self.core, self.regions = self.parts()
         self.loose = np.concatenate(list(self.regions.values()))
         self.edges = _edges(obj.data)
         self.base = H.base_positions(obj)
         self.size = float((self.base.max(0) - self.base.min(0)).max())
         self.frames, self.rows, self.offsets = [], [], []
+
+    def parts(self):
+        """(the core's vertex indices, {region: vertex indices}) from the character's painted groups."""
+        groups = C.skin_weights(self.obj, ["follow"] + ["region_" + r for r in C.REGIONS])
+        regions = {r: np.where(groups["region_" + r] > 0.0)[0] for r in C.REGIONS}
+        return np.where(groups["follow"] >= CORE_FOLLOW)[0], regions
 
     def record(self, frame, shown, animated):
         """One frame: the character's and the twin's world positions (world_positions)."""
@@ -84,6 +88,11 @@ class Measure:
 
     def summary(self):
         """The figures over the frames recorded (see the module's docstring); lengths in metres."""
+        col, common = self.common()
+        return dict(common, ear=col["ear_tips"].max(), belly=col["belly_front"].max(), tail=col["tail_tip"].max())
+
+    def common(self):
+        """(each recorded figure by frame, the figures that do not name a region)."""
         col = {k: np.array([r[k] for r in self.rows]) for k in self.rows[0]}
         frames = np.array(self.frames)
         after = np.where(frames >= C.MOTION_END)[0]
@@ -96,12 +105,11 @@ class Measure:
         hops = np.where(frames <= C.MOTION_END)[0]
         last = self.offsets[-1]
         secondary = max(np.linalg.norm(self.offsets[i] - last, axis=1).max() for i in hops)
-        return dict(core=col["core"].max(), ear=col["ear_tips"].max(), belly=col["belly_front"].max(),
-                    tail=col["tail_tip"].max(), stretch=col["stretch"].max(), lowest=col["lowest"].min(),
-                    settle_s=settle, secondary=secondary / self.size, size=self.size,
-                    base_kept=bool(np.array_equal(H.base_positions(self.obj), self.base)),
-                    settled_after_1s=bool(col["all"][after[C.FPS:]].max() <= SETTLED) if len(after) > C.FPS
-                    else None)
+        return col, dict(core=col["core"].max(), stretch=col["stretch"].max(), lowest=col["lowest"].min(),
+                         settle_s=settle, secondary=secondary / self.size, size=self.size,
+                         base_kept=bool(np.array_equal(H.base_positions(self.obj), self.base)),
+                         settled_after_1s=bool(col["all"][after[C.FPS:]].max() <= SETTLED) if len(after) > C.FPS
+                         else None)
 
 
 def row(label, s):

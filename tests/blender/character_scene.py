@@ -90,7 +90,7 @@ def maps(points, bones, skin):
     return follow, softness, regions
 
 
-def _rig(scene, bones):
+def armature(scene, bones):
     rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
     scene.collection.objects.link(rig)
     bpy.context.view_layer.objects.active = rig
@@ -104,7 +104,7 @@ def _rig(scene, bones):
     return rig
 
 
-def _key(bone, path, index, frame, value):
+def key(bone, path, index, frame, value):
     getattr(bone, path)[index] = value
     bone.keyframe_insert(path, index=index, frame=frame)
 
@@ -118,10 +118,10 @@ def _animate(rig):
         start = 1 + hop * HOP
         for frame, height, lean in ((start, 0.0, 0.0), (start + HOP // 2, HOP_HEIGHT, 12.0), (start + HOP, 0.0, 0.0)):
             # the bones point up: a bone's y is world z, its z is world -y (forward), its x is world x
-            _key(pose["root"], "location", 1, frame, height)
-            _key(pose["root"], "location", 2, frame, HOP_FORWARD * (frame - 1) / HOP)
-            _key(pose["body"], "rotation_euler", 0, frame, math.radians(lean))
-            _key(pose["head"], "rotation_euler", 0, frame, math.radians(-lean))
+            key(pose["root"], "location", 1, frame, height)
+            key(pose["root"], "location", 2, frame, HOP_FORWARD * (frame - 1) / HOP)
+            key(pose["body"], "rotation_euler", 0, frame, math.radians(lean))
+            key(pose["head"], "rotation_euler", 0, frame, math.radians(-lean))
     for fc in H.action_fcurves(rig.animation_data.action):
         for k in fc.keyframe_points:
             if fc.data_path.endswith("location") and fc.array_index == 2:
@@ -131,7 +131,7 @@ def _animate(rig):
         fc.update()
 
 
-def _paint(obj, name, weights):
+def paint(obj, name, weights):
     group = obj.vertex_groups.new(name=name)
     for value in np.unique(weights):
         group.add([int(i) for i in np.where(weights == value)[0]], float(value), 'REPLACE')
@@ -168,15 +168,15 @@ def build(scene=None):
     for p in obj.data.polygons:
         p.use_smooth = True
     bones = _bones(meshes.CHARACTER_PARTS)
-    rig = _rig(scene, bones)
+    rig = armature(scene, bones)
     bpy.ops.object.select_all(action='DESELECT')
     obj.select_set(True)
     rig.select_set(True)
     bpy.context.view_layer.objects.active = rig
     bpy.ops.object.parent_set(type='ARMATURE_AUTO')
     follow, softness, regions = maps(vertices, bones, skin_weights(obj, bones))
-    _paint(obj, "follow", follow)
-    _paint(obj, "softness", softness)
+    paint(obj, "follow", follow)
+    paint(obj, "softness", softness)
     for name, index in regions.items():
         assert len(index), f"the character has no {name} vertices"
         obj.vertex_groups.new(name="region_" + name).add([int(i) for i in index], 1.0, 'REPLACE')

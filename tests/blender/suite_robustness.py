@@ -123,6 +123,31 @@ def test_frame_handler_errors_become_reports_and_pause():
         _call_every_handler(bpy.context.scene)
 
 
+def test_an_object_hidden_from_renders_or_viewports_waits_without_an_error():
+    """An object hidden from renders is not in a render's evaluation, nor one disabled in viewports in the
+    viewport's: the frame handler has no mesh of it to read ("the OPDeform modifier is missing", and the object
+    paused, before). It waits, with no error, and plays on when it is shown again."""
+    obj = _enable_bar()
+    scene = bpy.context.scene
+    with watched():
+        _frames(range(1, 4))
+        before = H.positions(obj)
+        obj.hide_render = True
+        scene.camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+        scene.collection.objects.link(scene.camera)
+        from opdeform.blender_render import cycles
+        cycles(scene, resolution=(8, 8), samples=1)
+        bpy.ops.render.render()  # frame 3 evaluated for the render, without the object
+        assert not obj.opdeform.error, obj.opdeform.error
+        obj.hide_viewport = True
+        _frames(range(4, 7))
+        assert not obj.opdeform.error, obj.opdeform.error
+        obj.hide_viewport = False
+        _frames(range(7, 10))
+        assert not obj.opdeform.error, obj.opdeform.error
+        assert _finite(obj) and np.abs(H.positions(obj) - before).max() > 1e-4, "it did not play on"
+
+
 def _posing_bar():
     """The bar in posing mode with a handle at its free end: (object, the handle's empty)."""
     obj = _enable_bar(mode='POSE')

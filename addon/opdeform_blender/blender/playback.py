@@ -142,6 +142,15 @@ def live_dynamic(scene):
     return [o for o in enabled_objects(scene) if is_live(o) and o.opdeform.mode == 'DYNAMIC']
 
 
+def in_evaluation(obj, depsgraph=None):
+    """Whether this evaluation has obj: an object hidden from renders (in a render's evaluation) or disabled in
+    viewports, or in an excluded collection, has no evaluated mesh to read; it waits, and its frames catch up
+    when an evaluation has it again."""
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    return obj.evaluated_get(depsgraph).is_evaluated
+
+
 def replay_to_current(scene):
     """A file just opened: its live objects simulated frame by frame from the start of their caches to the
     scene's frame, as playback made them (a jump would blend the animation over the frames it skips), so the
@@ -158,7 +167,8 @@ def replay_to_current(scene):
 def simulate_frame(scene, depsgraph=None):
     """Every live object to the scene's frame: those that can step together in contact (core/contact.py), the
     others alone. A failure pauses the objects it concerns."""
-    started = [(obj, r) for obj in live_dynamic(scene) if (r := safely(obj, frame_run, scene, depsgraph))]
+    objects = [obj for obj in live_dynamic(scene) if in_evaluation(obj, depsgraph)]
+    started = [(obj, r) for obj in objects if (r := safely(obj, frame_run, scene, depsgraph))]
     by_run = {id(run): (obj, rt) for obj, (rt, run) in started}
     for runs in contact.partition([run for _, (_, run) in started]):
         objects, runtimes = zip(*(by_run[id(r)] for r in runs))
