@@ -65,7 +65,8 @@ class Measure:
         self.loose = np.concatenate(list(self.regions.values()))
         self.edges = _edges(obj.data)
         self.base = H.base_positions(obj)
-        self.size = float((self.base.max(0) - self.base.min(0)).max())
+        rest = self.base @ np.array(obj.matrix_world)[:3, :3].T  # in world units (an object or rig scaled)
+        self.size = float((rest.max(0) - rest.min(0)).max())
         self.frames, self.rows, self.offsets = [], [], []
 
     def parts(self):

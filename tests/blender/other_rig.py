@@ -13,7 +13,7 @@ second after the motion stops, no edge over 1.5x, nothing under the floor, the b
 With a directory (and $OPDEFORM_PYTHONPATH, for opdeform.blender_render): the frame where the top lags most in
 Cycles, OPDeform with the armature-only pose as a ghost over it, DIR/other_rig_worm.png.
 
-    blender -b --factory-startup --python-exit-code 1 -P tests/blender/other_rig.py -- [--set NAME=VALUE] [DIR]
+    blender -b --factory-startup --python-exit-code 1 -P tests/blender/other_rig.py -- [--set NAME=VALUE] [--units U] [DIR]
 """
 
 import math
@@ -33,8 +33,9 @@ HEIGHT, BONES = 1.6, 4
 EYE_VERTICES = 162  # an icosphere of 2 subdivisions
 
 
-def worm():
-    """The tube (radius 0.2 at the foot to 0.1 at the top, capped) and two eyeballs, one mesh object."""
+def worm(units):
+    """The tube (radius 0.2 at the foot to 0.1 at the top, capped) and two eyeballs, one mesh object, its
+    coordinates in 1/units of a metre (100: centimetres, as an FBX from Maya or Mixamo)."""
     bm = bmesh.new()
     bmesh.ops.create_cone(bm, cap_ends=True, segments=24, radius1=0.2, radius2=0.1, depth=HEIGHT)
     bmesh.ops.translate(bm, verts=bm.verts, vec=(0.0, 0.0, HEIGHT / 2))
@@ -44,6 +45,7 @@ def worm():
     for side in (-1.0, 1.0):
         eye = bmesh.ops.create_icosphere(bm, subdivisions=2, radius=0.05)
         bmesh.ops.translate(bm, verts=eye["verts"], vec=(0.06 * side, -0.12, HEIGHT - 0.12))
+    bmesh.ops.scale(bm, verts=bm.verts, vec=(units, units, units))
     mesh = bpy.data.meshes.new("Worm")
     bm.to_mesh(mesh)
     bm.free()
@@ -54,8 +56,10 @@ def worm():
     return obj
 
 
-def rig(obj, scene):
-    step = HEIGHT / BONES
+def rig(obj, scene, units):
+    """The 4-bone chain in the worm's units, the worm parented to it with automatic weights, the armature
+    object scaled by 1/units (the world size in metres), the sway keyed."""
+    step = units * HEIGHT / BONES
     bones = {f"b{i}": ((0.0, 0.0, i * step), (0.0, 0.0, (i + 1) * step), f"b{i - 1}" if i else None)
              for i in range(BONES)}
     arm = C.armature(scene, bones)
@@ -64,6 +68,7 @@ def rig(obj, scene):
     arm.select_set(True)
     bpy.context.view_layer.objects.active = arm
     bpy.ops.object.parent_set(type='ARMATURE_AUTO')
+    arm.scale = (1.0 / units,) * 3
     for b in arm.pose.bones:
         b.rotation_mode = 'XYZ'
     for frame in range(1, C.MOTION_END + 1, 6):  # four sways a second, 15 degrees a bone, the foot's bone still
@@ -73,10 +78,15 @@ def rig(obj, scene):
     return arm
 
 
+def heights(obj):
+    """Each vertex's height on the worm at rest, in metres."""
+    z = np.array([v.co.z for v in obj.data.vertices])
+    return z * HEIGHT / z.max()
+
+
 def follow_weights(obj):
     """1 up to half the height, a smoothstep down to 0.1 at the top."""
-    z = np.array([v.co.z for v in obj.data.vertices])
-    u = np.clip((z - HEIGHT / 2) / (HEIGHT / 2), 0.0, 1.0)
+    u = np.clip((heights(obj) - HEIGHT / 2) / (HEIGHT / 2), 0.0, 1.0)
     return 1.0 - 0.9 * u * u * (3.0 - 2.0 * u)
 
 
@@ -84,7 +94,7 @@ class Measure(M.Measure):
     """character_measure's figures with the worm's regions: the top fifth of the tube and the eyes."""
 
     def parts(self):
-        z = np.array([v.co.z for v in self.obj.data.vertices])
+        z = heights(self.obj)
         eyes = np.arange(len(z)) >= len(z) - 2 * EYE_VERTICES  # the two icospheres, added last
         regions = {"top": np.where((z > 0.8 * HEIGHT) & ~eyes)[0], "eyes": np.where(eyes)[0]}
         return np.where(follow_weights(self.obj) >= M.CORE_FOLLOW)[0], regions
@@ -94,12 +104,12 @@ class Measure(M.Measure):
         return dict(common, top=col["top"].max(), eyes=col["eyes"].max())
 
 
-def shot(**settings):
+def shot(units=1.0, **settings):
     H.fresh()
     scene = bpy.context.scene
     scene.render.fps, scene.frame_start, scene.frame_end = C.FPS, 1, C.FRAMES
-    obj = worm()
-    rig(obj, scene)
+    obj = worm(units)
+    rig(obj, scene, units)
     C.paint(obj, "follow", follow_weights(obj))
     C.floor(scene)
     twin = C.armature_only(obj)
@@ -135,12 +145,13 @@ def main(argv):
     import argparse
     p = argparse.ArgumentParser()
     p.add_argument("--set", action="append", default=[])
+    p.add_argument("--units", type=float, default=1.0, help="the mesh and bones in 1/UNITS m, the rig scaled back")
     p.add_argument("out", nargs="?")
     args = p.parse_args(argv)
     settings = {k: M._value(v) for k, v in (s.split("=", 1) for s in args.set)}
     out = args.out
     import suite_character as S
-    measure = shot(**settings)
+    measure = shot(args.units, **settings)
     s = S.summary(measure)
     print({k: (round(v, 5) if isinstance(v, float) else v) for k, v in s.items()})
     for check in S.CHECKS:
