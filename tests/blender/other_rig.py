@@ -13,7 +13,7 @@ second after the motion stops, no edge over 1.5x, nothing under the floor, the b
 With a directory (and $OPDEFORM_PYTHONPATH, for opdeform.blender_render): the frame where the top lags most in
 Cycles, OPDeform with the armature-only pose as a ghost over it, DIR/other_rig_worm.png.
 
-    blender -b --factory-startup --python-exit-code 1 -P tests/blender/other_rig.py -- [--set NAME=VALUE] [--units U] [DIR]
+    blender -b --factory-startup --python-exit-code 1 -P tests/blender/other_rig.py -- [--set NAME=VALUE] [--units U] [--y-up] [DIR]
 """
 
 import math
@@ -23,6 +23,7 @@ import sys
 import bmesh
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import character_measure as M  # noqa: E402
@@ -33,9 +34,10 @@ HEIGHT, BONES = 1.6, 4
 EYE_VERTICES = 162  # an icosphere of 2 subdivisions
 
 
-def worm(units):
+def worm(units, y_up):
     """The tube (radius 0.2 at the foot to 0.1 at the top, capped) and two eyeballs, one mesh object, its
-    coordinates in 1/units of a metre (100: centimetres, as an FBX from Maya or Mixamo)."""
+    coordinates in 1/units of a metre (100: centimetres, as an FBX from Maya or Mixamo), standing along +y
+    with ``y_up`` (as such an FBX's mesh, its rig turned 90 degrees about x)."""
     bm = bmesh.new()
     bmesh.ops.create_cone(bm, cap_ends=True, segments=24, radius1=0.2, radius2=0.1, depth=HEIGHT)
     bmesh.ops.translate(bm, verts=bm.verts, vec=(0.0, 0.0, HEIGHT / 2))
@@ -46,6 +48,8 @@ def worm(units):
         eye = bmesh.ops.create_icosphere(bm, subdivisions=2, radius=0.05)
         bmesh.ops.translate(bm, verts=eye["verts"], vec=(0.06 * side, -0.12, HEIGHT - 0.12))
     bmesh.ops.scale(bm, verts=bm.verts, vec=(units, units, units))
+    if y_up:
+        bmesh.ops.rotate(bm, verts=bm.verts, matrix=Matrix.Rotation(-math.pi / 2, 3, 'X'))
     mesh = bpy.data.meshes.new("Worm")
     bm.to_mesh(mesh)
     bm.free()
@@ -56,11 +60,12 @@ def worm(units):
     return obj
 
 
-def rig(obj, scene, units):
-    """The 4-bone chain in the worm's units, the worm parented to it with automatic weights, the armature
-    object scaled by 1/units (the world size in metres), the sway keyed."""
+def rig(obj, scene, units, y_up):
+    """The 4-bone chain in the worm's units and axes, the worm parented to it with automatic weights, the
+    armature object scaled by 1/units (the world size in metres) and turned upright, the sway keyed."""
     step = units * HEIGHT / BONES
-    bones = {f"b{i}": ((0.0, 0.0, i * step), (0.0, 0.0, (i + 1) * step), f"b{i - 1}" if i else None)
+    up = np.array((0.0, 1.0, 0.0) if y_up else (0.0, 0.0, 1.0))
+    bones = {f"b{i}": (tuple(i * step * up), tuple((i + 1) * step * up), f"b{i - 1}" if i else None)
              for i in range(BONES)}
     arm = C.armature(scene, bones)
     bpy.ops.object.select_all(action='DESELECT')
@@ -69,6 +74,7 @@ def rig(obj, scene, units):
     bpy.context.view_layer.objects.active = arm
     bpy.ops.object.parent_set(type='ARMATURE_AUTO')
     arm.scale = (1.0 / units,) * 3
+    arm.rotation_euler.x = math.pi / 2 if y_up else 0.0
     for b in arm.pose.bones:
         b.rotation_mode = 'XYZ'
     for frame in range(1, C.MOTION_END + 1, 6):  # four sways a second, 15 degrees a bone, the foot's bone still
@@ -80,7 +86,8 @@ def rig(obj, scene, units):
 
 def heights(obj):
     """Each vertex's height on the worm at rest, in metres."""
-    z = np.array([v.co.z for v in obj.data.vertices])
+    z = np.array([v.co for v in obj.data.vertices])
+    z = z[:, 1] if abs(z[:, 1]).max() > abs(z[:, 2]).max() else z[:, 2]  # the worm stands along y or z
     return z * HEIGHT / z.max()
 
 
@@ -104,12 +111,12 @@ class Measure(M.Measure):
         return dict(common, top=col["top"].max(), eyes=col["eyes"].max())
 
 
-def shot(units=1.0, **settings):
+def shot(units=1.0, y_up=False, **settings):
     H.fresh()
     scene = bpy.context.scene
     scene.render.fps, scene.frame_start, scene.frame_end = C.FPS, 1, C.FRAMES
-    obj = worm(units)
-    rig(obj, scene, units)
+    obj = worm(units, y_up)
+    rig(obj, scene, units, y_up)
     C.paint(obj, "follow", follow_weights(obj))
     C.floor(scene)
     twin = C.armature_only(obj)
@@ -146,12 +153,13 @@ def main(argv):
     p = argparse.ArgumentParser()
     p.add_argument("--set", action="append", default=[])
     p.add_argument("--units", type=float, default=1.0, help="the mesh and bones in 1/UNITS m, the rig scaled back")
+    p.add_argument("--y-up", action="store_true", help="the mesh and bones along +y, the rig turned upright")
     p.add_argument("out", nargs="?")
     args = p.parse_args(argv)
     settings = {k: M._value(v) for k, v in (s.split("=", 1) for s in args.set)}
     out = args.out
     import suite_character as S
-    measure = shot(args.units, **settings)
+    measure = shot(args.units, args.y_up, **settings)
     s = S.summary(measure)
     print({k: (round(v, 5) if isinstance(v, float) else v) for k, v in s.items()})
     for check in S.CHECKS:
