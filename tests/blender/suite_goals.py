@@ -113,6 +113,27 @@ def test_looks_and_goal_out_of_the_box():
     assert presets.current_name(other.opdeform) == "Stiff" and presets.current_look(other.opdeform) == "Custom"
 
 
+def test_enable_on_a_rigged_mesh_ticks_goal():
+    """Enable on a mesh that an Armature deforms ticks Goal (with the default material: the Fleshy look), so it
+    rides its animation, as Soft Body's Goal is on by default; a Goal unticked by hand before Enable stays off,
+    and a mesh without an Armature keeps it off."""
+    v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
+    rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
+    bpy.context.scene.collection.objects.link(rig)
+    settings = {}
+    for name, armature, unticked in (("Rigged", True, False), ("Unticked", True, True), ("Plain", False, False)):
+        obj = H.mesh_object(name, v, t)
+        if armature:
+            obj.modifiers.new("Armature", 'ARMATURE').object = rig
+        if unticked:
+            obj.opdeform.use_goal = False
+        bpy.ops.opdeform.enable(object=obj.name)
+        settings[name] = obj.opdeform
+    presets = importlib.import_module(H.ADDON + ".blender.presets")
+    assert settings["Rigged"].use_goal and presets.current_look(settings["Rigged"]) == "Fleshy"
+    assert not settings["Unticked"].use_goal and not settings["Plain"].use_goal
+
+
 def test_base_mesh_unchanged_after_play_bake_disable_reload():
     tail = H.tail_rig(0.5)
     tail.opdeform.frame_end = 24

@@ -105,5 +105,12 @@ def stamp(s):
             pass
         if not s.is_property_set("use_frame_rate_substeps") and not s.is_property_set("substeps"):
             s.use_frame_rate_substeps = True
+    if not s.is_property_set("use_goal") and rigged(s.id_data):
+        s.use_goal = True  # it rides its animation, as Soft Body's Goal (on by default) would have it
     s.settings_version = core_settings.SETTINGS_VERSION
     goal_ticked(s)
+
+
+def rigged(obj):
+    """Whether an Armature modifier (shown in viewports) deforms the object's mesh."""
+    return obj.type == 'MESH' and any(m.type == 'ARMATURE' and m.show_viewport for m in obj.modifiers)
