@@ -36,6 +36,9 @@
 // upper's lean); with the rigid step they rest 13 s. A member on its floor pushed down by its pairs gets the
 // floor's reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only
 // between members within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
+// Beyond it, a member on its floor stands immovable to a heavier one resting on it (shock propagation,
+// od_Braced): its pairs' forces and pushes move the heavy one alone, so it is never pushed through the floor
+// and passed through (slabs 100 to 1e6 times as dense as the one below stay on top).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -181,6 +184,8 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->moment);
 	od_Free(s->outward);
 	od_Free(s->grounded);
+	od_Free(s->bearing);
+	od_Free(s->rise);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->interfaces);
@@ -214,9 +219,11 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
 	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
+	s->bearing = od_Alloc(sizeof(double) * (size_t)particles);
+	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->mass || !s->load)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->mass || !s->load)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -412,7 +419,7 @@ static od_End od_EndOf(const od_PairScratch* s, od_Sim* const* sims, int p)
 // the upper end alone (od_Held; 0 for none): b where n rises, else a.
 static void od_Separate(od_End* a, od_End* b, od_Vec3 n, double by, double held)
 {
-	double share = b->mass / (a->mass + b->mass);
+	double share = isinf(b->mass) ? 1.0 : b->mass / (a->mass + b->mass); // an immovable end (od_Brace) stays
 	double alone = copysign(fmin(fabs(by), held), by), split = by - alone;
 	bool rises = n.z > 0.0;
 	a->x1 = od_MulAdd(a->x1, -share * split - (rises ? 0.0 : alone), n);
@@ -521,7 +528,8 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 // (od_Coarse) and hold a push (od_Held). Beyond it the light member was squeezed out from under the heavy one
 // and the drop gained energy (the centres' kinetic and potential energy above its start: a Jelly slab under one
 // 100 times as dense +31 kJ of 35, Rubber and Stiff at 1,000 times +2.9-3.5 kJ, at 1e6 times +0.8-10.5 MJ;
-// none before the reaction), so heavier members press as before the reaction (the lower one sinks).
+// none before the reaction), so a much heavier member resting on a light one on the floor is held by bracing
+// the light one instead (od_Braced).
 static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
@@ -539,6 +547,37 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 			s->mass[b] += sims[b]->def.density * sims[b]->graph->volumes[i];
 		}
 	}
+}
+
+// Whether member `lower` may brace member `upper` (od_Braced): it bears on its floor (s->grounded) and is the
+// lighter, beyond OD_COMPARABLE. (A heavy member on the floor under a light one moves little when split by
+// mass; braced too, a light Rubber slab on one 1,000 times as dense shook more: 0.053 m/s, 0.044 split.)
+static bool od_Bears(const od_PairScratch* s, int lower, int upper)
+{
+	return s->grounded[lower] > 0 && OD_COMPARABLE * s->mass[lower] < s->mass[upper];
+}
+
+// Shock propagation (Guendelman, Bridson and Fedkiw 2003): a member on its floor stands immovable to every pair
+// with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears, od_Resting), in the solves (the
+// force acts on the upper end alone, at that end's rate) and in the projection (the upper end takes the whole
+// push and the friction). Split by mass, a heavy member pushed a light one on the floor through it in the solves
+// and the floor lifted it back into the heavy one after them, deeper every step (docs/contact.md, stacks).
+// Which end: 'a', 'b' or 0 (none).
+static char od_Braced(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	int ma = s->body[pair->a], mb = s->body[pair->b];
+	return ma == mb ? 0
+		   : od_Bears(s, ma, mb) && s->rise[2 * mb] > OD_HELD_RISE * s->rise[2 * mb + 1] ? 'a'
+		   : od_Bears(s, mb, ma) && s->rise[2 * ma] > OD_HELD_RISE * s->rise[2 * ma + 1] ? 'b'
+																						   : 0;
+}
+
+// The end od_Braced names made immovable: its mass infinite.
+static void od_Brace(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b)
+{
+	char braced = od_Braced(s, pair);
+	a->mass = braced == 'a' ? INFINITY : a->mass;
+	b->mass = braced == 'b' ? INFINITY : b->mass;
 }
 
 // How much of a push along n (a to b) moves only its upper end (od_Separate): where it presses the lower end
@@ -569,15 +608,17 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
 	od_Vec3 n = od_PushDirection(s, pair, p.c);
+	od_Brace(s, pair, a, b);
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
 }
 
 // Coulomb friction of a pair that was pushed: its relative tangential displacement cut by μ times the push.
-static void od_PairFriction(const od_ContactPair* pair, od_End* a, od_End* b, double mu)
+static void od_PairFriction(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b, double mu)
 {
 	od_Vec3 n = od_V3Load(pair->n);
+	od_Brace(s, pair, a, b);
 	od_Vec3 rel = od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
 	od_Vec3 slip = od_MulAdd(rel, -od_Dot(rel, n), n);
 	double length = od_Length(slip), cut = 1.0 - od_CoulombKeep(length, mu * pair->push);
@@ -736,12 +777,7 @@ static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
 	{
 		od_Sim* sim = sims[b];
-		double push = s->load[b], bearing = 0.0;
-		for (int i = 0; od_FloorInside(sim) && i < sim->graph->n; ++i)
-		{
-			bearing += od_FloorWeight(s, sim, i, first + i);
-		}
-		s->grounded[b] = bearing > 0.0;
+		double push = s->load[b], bearing = s->bearing[b];
 		for (int i = 0; push < 0.0 && bearing > 0.0 && i < sim->graph->n; ++i)
 		{
 			sim->contactForce[3 * i + 2] -= push * od_FloorWeight(s, sim, i, first + i) / bearing;
@@ -749,10 +785,50 @@ static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// Writes the pairs' forces onto their particles' right sides (each sim's contactForce), with the floor's
-// reaction to them (od_FloorReaction).
+// Whether each member bears on its floor (s->grounded) and how much (s->bearing: od_FloorWeight summed over its
+// particles).
+static void od_Grounded(od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
+	{
+		s->bearing[b] = 0.0;
+		for (int i = 0; od_FloorInside(sims[b]) && i < sims[b]->graph->n; ++i)
+		{
+			s->bearing[b] += od_FloorWeight(s, sims[b], i, first + i);
+		}
+		s->grounded[b] = s->bearing[b] > 0.0;
+	}
+}
+
+// Whether each member rests on the members that may brace it (od_Bears): s->rise holds, per member, the vertical
+// parts of its pairs' normals (towards it) with a force from such members, summed, and their count; it rests
+// on them where their mean rises by more than OD_HELD_RISE (od_Braced). Per member, not per pair: decided by
+// each pair's own normal, a slab's edge pairs, sideways, pushed the light slab under it out with the heavy one's
+// weight, and a pair whose normal turned gave its light end that weight at once (a Stiff slab 1e6 times as
+// dense spreading over a light one threw it at 70 m/s).
+static void od_Resting(od_PairScratch* s, int count)
+{
+	memset(s->rise, 0, sizeof(double) * 2 * (size_t)count);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		int ma = s->body[pair->a], mb = s->body[pair->b];
+		bool fromA = od_Bears(s, ma, mb), fromB = od_Bears(s, mb, ma);
+		if (pair->force > 0.0 && (fromA || fromB))
+		{
+			double* rest = s->rise + 2 * (fromA ? mb : ma);
+			rest[0] += fromA ? pair->n[2] : -pair->n[2];
+			rest[1] += 1.0;
+		}
+	}
+}
+
+// Writes the pairs' forces onto their particles' right sides (each sim's contactForce; not on an end braced
+// immovable, od_Brace), with the floor's reaction to them (od_FloorReaction).
 static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 {
+	od_Grounded(s, sims, count);
+	od_Resting(s, count);
 	for (int b = 0; b < count; ++b)
 	{
 		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
@@ -764,11 +840,12 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 		{
 			continue; // its friction is bounded by μ times this: none
 		}
-		od_Vec3 f = od_MulAdd(od_V3Load(pair->tangent), pair->force, od_V3Load(pair->n));
+		od_Vec3 n = od_V3Load(pair->n), f = od_MulAdd(od_V3Load(pair->tangent), pair->force, n);
+		char braced = od_Braced(s, pair);
 		double* fa = sims[s->body[pair->a]]->contactForce + 3 * s->local[pair->a];
 		double* fb = sims[s->body[pair->b]]->contactForce + 3 * s->local[pair->b];
-		od_V3Store(fa, od_Sub(od_V3Load(fa), f));
-		od_V3Store(fb, od_Add(od_V3Load(fb), f));
+		od_V3Store(fa, braced == 'a' ? od_V3Load(fa) : od_Sub(od_V3Load(fa), f));
+		od_V3Store(fb, braced == 'b' ? od_V3Load(fb) : od_Add(od_V3Load(fb), f));
 	}
 	od_FloorReaction(s, sims, count);
 }
@@ -1021,6 +1098,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
 		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
@@ -1055,7 +1133,7 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 			}
 			else if (pair->push > 0.0 && d->friction > 0.0)
 			{
-				od_PairFriction(pair, &a, &b, d->friction);
+				od_PairFriction(s, pair, &a, &b, d->friction);
 			}
 		}
 	}

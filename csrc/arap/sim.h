@@ -190,7 +190,10 @@ typedef struct od_PairScratch
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)
+	double* bearing;  // per member: how much its particles bear on its floor then (od_Grounded)
 	double* mass;     // per member: its mass (od_MemberMasses)
+	double* rise;     // 2 per member: how much its pairs with heavier or lighter members on their floor rise
+	                  // towards it, summed, and their count (od_Resting)
 	double* load;     // per member: the vertical force of its comparable pairs (od_FloorReaction)
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
