@@ -186,6 +186,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->grounded);
 	od_Free(s->bearing);
 	od_Free(s->rise);
+	od_Free(s->supported);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->interfaces);
@@ -221,9 +222,10 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
 	s->bearing = od_Alloc(sizeof(double) * (size_t)particles);
 	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
+	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->mass || !s->load)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->mass || !s->load)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -549,16 +551,24 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// Whether member `lower` may brace member `upper` (od_Braced): it bears on its floor (s->grounded) and is the
-// lighter, beyond OD_COMPARABLE. (A heavy member on the floor under a light one moves little when split by
-// mass; braced too, a light Rubber slab on one 1,000 times as dense shook more: 0.053 m/s, 0.044 split.)
-static bool od_Bears(const od_PairScratch* s, int lower, int upper)
+// Whether member m rests on the members its pairs counted in s->rise lead to (od_Rise): their normals' mean
+// rises towards it by more than OD_HELD_RISE.
+static bool od_Rests(const od_PairScratch* s, int m)
 {
-	return s->grounded[lower] > 0 && OD_COMPARABLE * s->mass[lower] < s->mass[upper];
+	return s->rise[2 * m] > OD_HELD_RISE * s->rise[2 * m + 1];
 }
 
-// Shock propagation (Guendelman, Bridson and Fedkiw 2003): a member on its floor stands immovable to every pair
-// with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears, od_Resting), in the solves (the
+// Whether member `lower` may brace member `upper` (od_Braced): it is supported (on its floor or on supported
+// members, od_Supports) and the lighter, beyond OD_COMPARABLE. (A heavy member on the floor under a light one
+// moves little when split by mass; braced too, a light Rubber slab on one 1,000 times as dense shook more:
+// 0.053 m/s, 0.044 split.)
+static bool od_Bears(const od_PairScratch* s, int lower, int upper)
+{
+	return s->supported[lower] > 0 && OD_COMPARABLE * s->mass[lower] < s->mass[upper];
+}
+
+// Shock propagation (Guendelman, Bridson and Fedkiw 2003): a supported member stands immovable to every pair
+// with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears, od_Supports), in the solves (the
 // force acts on the upper end alone, at that end's rate) and in the projection (the upper end takes the whole
 // push and the friction). Split by mass, a heavy member pushed a light one on the floor through it in the solves
 // and the floor lifted it back into the heavy one after them, deeper every step (docs/contact.md, stacks).
@@ -566,10 +576,7 @@ static bool od_Bears(const od_PairScratch* s, int lower, int upper)
 static char od_Braced(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	int ma = s->body[pair->a], mb = s->body[pair->b];
-	return ma == mb ? 0
-		   : od_Bears(s, ma, mb) && s->rise[2 * mb] > OD_HELD_RISE * s->rise[2 * mb + 1] ? 'a'
-		   : od_Bears(s, mb, ma) && s->rise[2 * ma] > OD_HELD_RISE * s->rise[2 * ma + 1] ? 'b'
-																						   : 0;
+	return ma == mb ? 0 : od_Bears(s, ma, mb) && od_Rests(s, mb) ? 'a' : od_Bears(s, mb, ma) && od_Rests(s, ma) ? 'b' : 0;
 }
 
 // The end od_Braced names made immovable: its mass infinite.
@@ -800,27 +807,60 @@ static void od_Grounded(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// Whether each member rests on the members that may brace it (od_Bears): s->rise holds, per member, the vertical
-// parts of its pairs' normals (towards it) with a force from such members, summed, and their count; it rests
-// on them where their mean rises by more than OD_HELD_RISE (od_Braced). Per member, not per pair: decided by
-// each pair's own normal, a slab's edge pairs, sideways, pushed the light slab under it out with the heavy one's
-// weight, and a pair whose normal turned gave its light end that weight at once (a Stiff slab 1e6 times as
-// dense spreading over a light one threw it at 70 m/s).
-static void od_Resting(od_PairScratch* s, int count)
+// Counts each pair with a force for the member of its two that `to` names (-1: none) in s->rise (2 per
+// member: the vertical parts of the counted pairs' normals towards it, summed, and their count; od_Rests).
+static void od_Rise(od_PairScratch* s, int count, int (*to)(const od_PairScratch* s, int a, int b))
 {
 	memset(s->rise, 0, sizeof(double) * 2 * (size_t)count);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		const od_ContactPair* pair = &s->pairs[k];
-		int ma = s->body[pair->a], mb = s->body[pair->b];
-		bool fromA = od_Bears(s, ma, mb), fromB = od_Bears(s, mb, ma);
-		if (pair->force > 0.0 && (fromA || fromB))
+		int ma = s->body[pair->a], mb = s->body[pair->b], m = pair->force > 0.0 ? to(s, ma, mb) : -1;
+		if (m >= 0)
 		{
-			double* rest = s->rise + 2 * (fromA ? mb : ma);
-			rest[0] += fromA ? pair->n[2] : -pair->n[2];
-			rest[1] += 1.0;
+			s->rise[2 * m] += m == mb ? pair->n[2] : -pair->n[2];
+			s->rise[2 * m + 1] += 1.0;
 		}
 	}
+}
+
+// The member of a and b that a supported one may hold up (od_Supports), -1 for none.
+static int od_SupportedTo(const od_PairScratch* s, int a, int b)
+{
+	return s->supported[a] > 0 && !(s->supported[b] > 0) ? b : s->supported[b] > 0 && !(s->supported[a] > 0) ? a : -1;
+}
+
+// The member of a and b that the other may brace (od_Bears), -1 for none.
+static int od_BracedTo(const od_PairScratch* s, int a, int b)
+{
+	return a == b ? -1 : od_Bears(s, a, b) ? b : od_Bears(s, b, a) ? a : -1;
+}
+
+// Which members are supported (s->supported): on their floor (s->grounded), or resting on supported members
+// (their pairs' mean normal rising: od_Rise), from the floor up; then which rest on members that may brace
+// them (s->rise, od_Braced). Per member, not per pair: decided by each pair's own normal, a slab's edge pairs,
+// sideways, pushed the light slab under it out with the heavy one's weight, and a pair whose normal turned
+// gave its light end that weight at once (a Stiff slab 1e6 times as dense spreading over a light one threw it
+// at 70 m/s).
+static void od_Supports(od_PairScratch* s, int count)
+{
+	bool more = true;
+	for (int b = 0; b < count; ++b)
+	{
+		s->supported[b] = s->grounded[b];
+	}
+	for (int level = 0; level < count && more; ++level)
+	{
+		more = false;
+		od_Rise(s, count, od_SupportedTo);
+		for (int b = 0; b < count; ++b)
+		{
+			bool rests = !(s->supported[b] > 0) && od_Rests(s, b);
+			s->supported[b] = s->supported[b] > 0 || rests;
+			more = more || rests;
+		}
+	}
+	od_Rise(s, count, od_BracedTo);
 }
 
 // Writes the pairs' forces onto their particles' right sides (each sim's contactForce; not on an end braced
@@ -828,7 +868,7 @@ static void od_Resting(od_PairScratch* s, int count)
 static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	od_Grounded(s, sims, count);
-	od_Resting(s, count);
+	od_Supports(s, count);
 	for (int b = 0; b < count; ++b)
 	{
 		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
