@@ -396,12 +396,13 @@ def test_a_slab_100_to_1000_times_as_dense_dropped_on_another_rests_on_top(prese
 @pytest.mark.parametrize("preset", ["Jelly", "Rubber", "Stiff"])
 def test_a_slab_1e6_times_as_dense_never_passes_through_the_one_below(preset):
     """Issue 27: a slab 1e6 times as dense dropped 0.05 m onto another stays above it for 13 s (its centre more
-    than half their height above the lower's; it spreads over the lower one under its own weight, so it does not
-    come to rest) without gaining energy. It passed through within 2 s (0.22-0.25 m below)."""
+    than half their height above the lower's) without gaining energy, at rest from 3 s (it spreads over the lower
+    one under its own weight). It passed through within 2 s (0.22-0.25 m below)."""
     v, t = _slab()
     lower, upper = _preset_body(v, t, 0.1, preset, 100.0), _preset_body(v, t, 0.35, preset, 1e8)
-    for second, (above, aside, _, rise) in enumerate(_stacked_seconds(lower, upper, 13), 1):
-        assert rise <= 0.0 and above > 0.1 and aside < 0.2, (second, rise, above, aside)
+    for second, (above, aside, fastest, rise) in enumerate(_stacked_seconds(lower, upper, 13), 1):
+        assert rise <= 0.0 and above > 0.1 and aside < 0.05, (second, rise, above, aside)
+        assert second < 3 or fastest < 0.05, (second, fastest)
 
 
 @pytest.mark.parametrize("preset, densities", [("Stiff", (1000.0, 1000.0, 1e5)), ("Rubber", (100.0, 1e4, 1e6))])

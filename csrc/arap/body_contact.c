@@ -36,9 +36,10 @@
 // upper's lean); with the rigid step they rest 13 s. A member on its floor pushed down by its pairs gets the
 // floor's reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only
 // between members within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
-// Beyond it, a member on its floor stands immovable to a heavier one resting on it (shock propagation,
-// od_Braced): its pairs' forces and pushes move the heavy one alone, so it is never pushed through the floor
-// and passed through (slabs 100 to 1e6 times as dense as the one below stay on top).
+// Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
+// (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
+// never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
+// top).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -187,6 +188,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->bearing);
 	od_Free(s->rise);
 	od_Free(s->supported);
+	od_Free(s->climbing);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->interfaces);
@@ -223,9 +225,10 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->bearing = od_Alloc(sizeof(double) * (size_t)particles);
 	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
+	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->mass || !s->load)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->mass || !s->load)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -415,19 +418,26 @@ static od_End od_EndOf(const od_PairScratch* s, od_Sim* const* sims, int p)
 					 od_V3Load(sim->state.x + 3 * i) };
 }
 
-// Moves the two ends apart by `by` along n, a's share by b's mass fraction (momentum kept), at once: the
+// Moves the two ends apart by `by` along n, a's share by b's mass fraction (momentum kept; an immovable end,
+// od_Brace, neither moves nor is written), at once: the
 // passes are Gauss-Seidel. (Jacobi, each particle moved by the mean of its pairs' pushes, let a 20 m/s body
 // through another and lost momentum, as a particle's pairs share its push unequally.) Up to `held` of it moves
 // the upper end alone (od_Held; 0 for none): b where n rises, else a.
 static void od_Separate(od_End* a, od_End* b, od_Vec3 n, double by, double held)
 {
-	double share = isinf(b->mass) ? 1.0 : b->mass / (a->mass + b->mass); // an immovable end (od_Brace) stays
+	double share = isinf(b->mass) ? 1.0 : b->mass / (a->mass + b->mass);
 	double alone = copysign(fmin(fabs(by), held), by), split = by - alone;
 	bool rises = n.z > 0.0;
 	a->x1 = od_MulAdd(a->x1, -share * split - (rises ? 0.0 : alone), n);
 	b->x1 = od_MulAdd(b->x1, (1.0 - share) * split + (rises ? alone : 0.0), n);
-	od_V3Store(a->sim->state.x + 3 * a->i, a->x1);
-	od_V3Store(b->sim->state.x + 3 * b->i, b->x1);
+	if (!isinf(a->mass))
+	{
+		od_V3Store(a->sim->state.x + 3 * a->i, a->x1);
+	}
+	if (!isinf(b->mass))
+	{
+		od_V3Store(b->sim->state.x + 3 * b->i, b->x1);
+	}
 }
 
 // The smallest distance of the relative path d0 -> d1 from zero.
@@ -476,6 +486,13 @@ typedef struct od_PairState
 	bool passed;
 } od_PairState;
 
+// How far a pair that began overlapping may leave it in a step (the recovery speed, contact.c); none against
+// an immovable end (od_Brace), which would throw the heavy end off it.
+static double od_Recovery(const od_End* a, const od_End* b)
+{
+	return isinf(a->mass) || isinf(b->mass) ? 0.0 : od_RecoveryLimit(a->sim);
+}
+
 static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
 								const od_BodyContactDef* d)
 {
@@ -505,8 +522,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	p.depth = reach - od_Dot(p.c, d1);
 	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
 	p.allowed = apart ? 0.0
-					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_RecoveryLimit(a->sim),
-							 0.0);
+					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
 }
 
@@ -538,16 +554,25 @@ static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 	return fmax(ma, mb) <= OD_COMPARABLE * fmin(ma, mb);
 }
 
-// Each member's mass (s->mass), once a step.
+// Each member's mass (s->mass) and whether it rises at the step's start faster than its gravity takes away in a
+// step (s->climbing: its mean vertical velocity above |g| h), once a step. A rising member (popped up by its
+// floor, bouncing) braces nothing (od_Supports): braced, a light slab popped up by the floor threw a slab 100
+// times as dense resting on it (+20 kJ at 240 steps a second).
 static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0; b < count; ++b)
 	{
+		const od_Sim* sim = sims[b];
+		double up = 0.0;
 		s->mass[b] = 0.0;
-		for (int i = 0; i < sims[b]->graph->n; ++i)
+		for (int i = 0; i < sim->graph->n; ++i)
 		{
-			s->mass[b] += sims[b]->def.density * sims[b]->graph->volumes[i];
+			double m = sim->def.density * sim->graph->volumes[i];
+			s->mass[b] += m;
+			up += m * sim->state.v[3 * i + 2];
 		}
+		const double* g = sim->def.gravity;
+		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * sim->def.dt;
 	}
 }
 
@@ -567,10 +592,10 @@ static bool od_Bears(const od_PairScratch* s, int lower, int upper)
 	return s->supported[lower] > 0 && OD_COMPARABLE * s->mass[lower] < s->mass[upper];
 }
 
-// Shock propagation (Guendelman, Bridson and Fedkiw 2003): a supported member stands immovable to every pair
-// with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears, od_Supports), in the solves (the
-// force acts on the upper end alone, at that end's rate) and in the projection (the upper end takes the whole
-// push and the friction). Split by mass, a heavy member pushed a light one on the floor through it in the solves
+// Shock propagation (Guendelman, Bridson and Fedkiw 2003): a supported member stands immovable and still
+// (od_Brace) to every pair with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears,
+// od_Supports), in the solves (the force acts on the upper end alone, at that end's rate) and in the
+// projection (the upper end takes the whole push and the friction). Split by mass, a heavy member pushed a light one on the floor through it in the solves
 // and the floor lifted it back into the heavy one after them, deeper every step (docs/contact.md, stacks).
 // Which end: 'a', 'b' or 0 (none).
 static char od_Braced(const od_PairScratch* s, const od_ContactPair* pair)
@@ -579,12 +604,15 @@ static char od_Braced(const od_PairScratch* s, const od_ContactPair* pair)
 	return ma == mb ? 0 : od_Bears(s, ma, mb) && od_Rests(s, mb) ? 'a' : od_Bears(s, mb, ma) && od_Rests(s, ma) ? 'b' : 0;
 }
 
-// The end od_Braced names made immovable: its mass infinite.
+// The end od_Braced names made immovable and still: its mass infinite, where it stood at the step's start, so
+// that its own motion in the step, which nothing opposes, never throws the heavy end (braced where it was, a
+// Rubber slab 1e6 times as dense on a light one at 240 steps a second gained 2.6 GJ; od_Measure then allows
+// no recovery against it and od_ResolvePair caps the push, so the heavy end is stopped, never thrown).
 static void od_Brace(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b)
 {
 	char braced = od_Braced(s, pair);
-	a->mass = braced == 'a' ? INFINITY : a->mass;
-	b->mass = braced == 'b' ? INFINITY : b->mass;
+	*a = braced == 'a' ? (od_End){ a->sim, a->i, INFINITY, a->x0, a->x0 } : *a;
+	*b = braced == 'b' ? (od_End){ b->sim, b->i, INFINITY, b->x0, b->x0 } : *b;
 }
 
 // How much of a push along n (a to b) moves only its upper end (od_Separate): where it presses the lower end
@@ -608,6 +636,7 @@ static double od_Held(const od_PairScratch* s, const od_ContactPair* pair, const
 static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
 						   const od_BodyContactDef* d)
 {
+	od_Brace(s, pair, a, b);
 	od_PairState p = od_Measure(s, pair, a, b, d);
 	if (p.depth <= 0.0 || p.passed)
 	{
@@ -615,7 +644,12 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
 	od_Vec3 n = od_PushDirection(s, pair, p.c);
-	od_Brace(s, pair, a, b);
+	// Against an immovable end (od_Brace), at most back to where the other end started along n: the push along
+	// n, not along the measured line, and several pairs' pushes went beyond (the Rubber slab 1e6 times as dense
+	// at 240 steps a second gained 86 MJ).
+	push = isinf(a->mass) ? fmin(push, fmax(-od_Dot(n, od_Sub(b->x1, b->x0)), 0.0))
+		   : isinf(b->mass) ? fmin(push, fmax(od_Dot(n, od_Sub(a->x1, a->x0)), 0.0))
+							: push;
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
@@ -847,7 +881,7 @@ static void od_Supports(od_PairScratch* s, int count)
 	bool more = true;
 	for (int b = 0; b < count; ++b)
 	{
-		s->supported[b] = s->grounded[b];
+		s->supported[b] = s->grounded[b] && !s->climbing[b];
 	}
 	for (int level = 0; level < count && more; ++level)
 	{
@@ -855,7 +889,7 @@ static void od_Supports(od_PairScratch* s, int count)
 		od_Rise(s, count, od_SupportedTo);
 		for (int b = 0; b < count; ++b)
 		{
-			bool rests = !(s->supported[b] > 0) && od_Rests(s, b);
+			bool rests = !(s->supported[b] > 0) && !s->climbing[b] && od_Rests(s, b);
 			s->supported[b] = s->supported[b] > 0 || rests;
 			more = more || rests;
 		}
@@ -1130,6 +1164,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_Brace(s, pair, &a, &b);
 		od_MeasurePair(s, pair, &a, &b, between);
 	}
 	od_Interfaces(s, sims);

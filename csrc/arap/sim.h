@@ -195,6 +195,7 @@ typedef struct od_PairScratch
 	double* rise;     // 2 per member: how much its pairs with the members below it rise towards it, summed, and
 	                  // their count (od_Supports)
 	int* supported;   // per member: on its floor or resting on supported members (od_Supports)
+	int* climbing;    // per member: rising at the step's start faster than gravity stops in a step (od_MemberMasses)
 	double* load;     // per member: the vertical force of its comparable pairs (od_FloorReaction)
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
