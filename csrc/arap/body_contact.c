@@ -419,10 +419,10 @@ static od_End od_EndOf(const od_PairScratch* s, od_Sim* const* sims, int p)
 }
 
 // Moves the two ends apart by `by` along n, a's share by b's mass fraction (momentum kept; an immovable end,
-// od_Brace, neither moves nor is written), at once: the
-// passes are Gauss-Seidel. (Jacobi, each particle moved by the mean of its pairs' pushes, let a 20 m/s body
-// through another and lost momentum, as a particle's pairs share its push unequally.) Up to `held` of it moves
-// the upper end alone (od_Held; 0 for none): b where n rises, else a.
+// od_Brace, neither moves nor is written), at once: the passes are Gauss-Seidel. (Jacobi, each particle moved
+// by the mean of its pairs' pushes, let a 20 m/s body through another and lost momentum, as a particle's pairs
+// share its push unequally.) Up to `held` of it moves the upper end alone (od_Held; 0 for none): b where n
+// rises, else a.
 static void od_Separate(od_End* a, od_End* b, od_Vec3 n, double by, double held)
 {
 	double share = isinf(b->mass) ? 1.0 : b->mass / (a->mass + b->mass);
@@ -595,9 +595,9 @@ static bool od_Bears(const od_PairScratch* s, int lower, int upper)
 // Shock propagation (Guendelman, Bridson and Fedkiw 2003): a supported member stands immovable and still
 // (od_Brace) to every pair with a member beyond OD_COMPARABLE of its mass that rests on it (od_Bears,
 // od_Supports), in the solves (the force acts on the upper end alone, at that end's rate) and in the
-// projection (the upper end takes the whole push and the friction). Split by mass, a heavy member pushed a light one on the floor through it in the solves
-// and the floor lifted it back into the heavy one after them, deeper every step (docs/contact.md, stacks).
-// Which end: 'a', 'b' or 0 (none).
+// projection (the upper end takes the whole push, at most back to where it started, and the friction). Split
+// by mass, a heavy member pushed a light one on the floor through it in the solves and the floor lifted it back
+// into the heavy one after them, deeper every step (docs/contact.md, stacks). Which end: 'a', 'b' or 0 (none).
 static char od_Braced(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	int ma = s->body[pair->a], mb = s->body[pair->b];
@@ -875,7 +875,7 @@ static int od_BracedTo(const od_PairScratch* s, int a, int b)
 // them (s->rise, od_Braced). Per member, not per pair: decided by each pair's own normal, a slab's edge pairs,
 // sideways, pushed the light slab under it out with the heavy one's weight, and a pair whose normal turned
 // gave its light end that weight at once (a Stiff slab 1e6 times as dense spreading over a light one threw it
-// at 70 m/s).
+// at 213 m/s).
 static void od_Supports(od_PairScratch* s, int count)
 {
 	bool more = true;
