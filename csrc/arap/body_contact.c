@@ -84,6 +84,7 @@
 #include "global_solve.h"
 #include "goal.h"
 #include "math3.h"
+#include "skin_shape.h"
 #include "step.h"
 
 #include <math.h>
@@ -252,7 +253,7 @@ static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double t
 		for (int i = 0; i < sim->graph->n; ++i, ++g)
 		{
 			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
-			double r = od_ParticleReach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
+			double r = od_SkinShape_PairReach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
 			od_V3Store(s->sphere + 4 * g, od_Scale(0.5, od_Add(x0, x1)));
 			s->sphere[4 * g + 3] = r;
 			s->body[g] = b;
@@ -467,21 +468,55 @@ typedef struct od_PairState
 	bool passed;
 } od_PairState;
 
+// The sum of two ends' largest reaches: their ellipsoids', or between bodies with a contact skin the larger of
+// each end's skin and ellipsoid (skin_shape.c).
+static double od_Reaches(const od_End* a, const od_End* b)
+{
+	bool skin = od_SkinShape_Pair(a->sim, b->sim);
+	return skin ? od_SkinShape_PairReach(a->sim, a->i) + od_SkinShape_PairReach(b->sim, b->i)
+				: od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i);
+}
+
+// How far the two ends' shapes reach towards each other along unit c (a to b): their ellipsoids (the cached
+// moments), or between bodies a member's skin points (skin_shape.c).
+static double od_Supports(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+						  od_Vec3 c)
+{
+	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
+	if (!od_SkinShape_Pair(a->sim, b->sim))
+	{
+		return od_Support(&ma, c) + od_Support(&mb, c);
+	}
+	return od_SkinShape_PairSupport(a->sim, a->i, &ma, c) + od_SkinShape_PairSupport(b->sim, b->i, &mb, od_Scale(-1.0, c));
+}
+
+// A skin pair's normal (its centre line c, b's centre at d from a's; skin_shape.c), from c, its push direction
+// and the two particles' outward directions.
+static od_Vec3 od_SkinNormal(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+							 od_Vec3 d, od_Vec3 c)
+{
+	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
+	od_Vec3 directions[4] = { c, od_PushDirection(s, pair, c), od_V3Load(s->outward + 3 * pair->a),
+							  od_Scale(-1.0, od_V3Load(s->outward + 3 * pair->b)) };
+	return od_SkinShape_PairNormal(&(od_SkinPair){ a->sim, b->sim, a->i, b->i, &ma, &mb, d }, directions);
+}
+
 static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
 								const od_BodyContactDef* d)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0), d1 = od_Sub(b->x1, a->x1);
 	double l0 = od_Length(d0), l1 = od_Length(d1);
 	od_PairState p = { .c = l0 > 0.0 ? od_Scale(1.0 / l0, d0) : od_V3(0, 0, 1) };
-	double largest = od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i);
+	double largest = od_Reaches(a, b);
 	if (l0 >= largest && od_ClosestApproach(d0, d1) >= largest + d->thickness) // far: its spheres never met
 	{
 		p.passed = true;
 		return p;
 	}
-	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
-	double supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
-	bool apart = l0 > 0.0 && l0 >= supports;
+	bool skin = od_SkinShape_Pair(a->sim, b->sim);
+	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c) : p.c;
+	double supports = od_Supports(s, pair, a, b, p.c);
+	bool apart = l0 > 0.0 && (skin ? od_Dot(p.c, d0) : l0) >= supports;
 	if (!apart && l1 > 0.0)
 	{
 		p.c = od_Scale(1.0 / l1, d1);
@@ -490,7 +525,8 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
 		// 3.0 m/s, 1.2 m/s along the push direction).
 		p.c = a->sim != b->sim && d->inIterations ? od_PushDirection(s, pair, p.c) : p.c;
-		supports = od_Support(&ma, p.c) + od_Support(&mb, p.c);
+		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c) : p.c;
+		supports = od_Supports(s, pair, a, b, p.c);
 	}
 	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
@@ -568,7 +604,7 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 		return;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
-	od_Vec3 n = od_PushDirection(s, pair, p.c);
+	od_Vec3 n = od_SkinShape_Pair(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
@@ -802,7 +838,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 						   const od_BodyContactDef* d)
 {
 	od_Vec3 d1 = od_Sub(b->x1, a->x1);
-	double near = od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i) + d->thickness;
+	double near = od_Reaches(a, b) + d->thickness;
 	if (od_Dot(d1, d1) >= near * near)
 	{
 		// Far now: a force it carries fades by the rate times how far it is beyond reach (it was dropped at
@@ -822,7 +858,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 		s->pressing[pair->b]++;
 		// Re-aimed at every update: round bodies' pairs turn within a step (a blob on a blob: skinned
 		// overlap -0.026 m with the normal set once a step, -0.018 m re-aimed; the bars alike).
-		od_V3Store(pair->n, od_PushDirection(s, pair, p.c));
+		od_V3Store(pair->n, od_SkinShape_Pair(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c));
 	}
 }
 
