@@ -19,11 +19,13 @@ each body's skin as skinned (Skin of 4 neighbours, no push-out) against the othe
 (a mesh collider's signed distance, resolution 64, as the add-on tests' `_skinned_overlap`); the deepest vertex
 of either body inside the other, as a fraction of its size (`materials.body_size`: the rest mesh's largest
 extent) and in cm, or "apart" and the skins' least distance. "ellipsoids": the members as they are (the
-default); "skin": each member given `set_contact_skin(skin)`. `--quick`: the blobs and the bars only.
+default); "skin": each member given `set_contact_skin(skin)`. `--quick`: the blobs and the bars only. `--cost`:
+the process time of a group step with the upper body at rest on the lower one (2-3 s after the drop), per shape.
 """
 
 import argparse
 import os
+import time
 
 import numpy as np
 
@@ -111,8 +113,14 @@ def pair(body, shape, falls):
     return members, od.ContactGroup([m.sim for m in members], friction=0.5)
 
 
+def off(members):
+    """Whether the upper body has left the lower one's top: its centre aside by more than half their size."""
+    lower, upper = (m.sim.positions.mean(axis=0) for m in members)
+    return np.linalg.norm((upper - lower)[:2]) > 0.5 * members[0].size
+
+
 def drop(body, shape):
-    """(deepest over the drop, over its last second)."""
+    """(deepest over the drop, over its last second, whether the upper body rolled off)."""
     members, group = pair(body, shape, True)
     steps = round(DROP_SECONDS / members[0].sim.params["dt"])
     worst, last = -np.inf, -np.inf
@@ -121,7 +129,7 @@ def drop(body, shape):
         d = deepest(members)
         worst = max(worst, d)
         last = max(last, d) if step >= steps - round(1.0 / members[0].sim.params["dt"]) else last
-    return worst, last
+    return worst, last, off(members)
 
 
 def head_on(body, shape, speed):
@@ -142,15 +150,35 @@ def cell(c, size):
 
 def row(body, shape):
     size = Member(body, 0.0, shape, True).size
-    cells = [*drop(body, shape), *(head_on(body, shape, s) for s in SPEEDS)]
-    return body, shape, f"{size:.2f} m", *(cell(c, size) for c in cells)
+    worst, last, rolled = drop(body, shape)
+    cells = [cell(c, size) for c in (worst, last, *(head_on(body, shape, s) for s in SPEEDS))]
+    cells[1] += ", rolled off" if rolled else ""
+    return body, shape, f"{size:.2f} m", *cells
+
+
+def cost(body):
+    """Process time of a group step (ms) at rest on each other (steps 2-3 s of the drop), per contact shape."""
+    out = []
+    for shape in ("ellipsoids", "skin"):
+        members, group = pair(body, shape, True)
+        steps = round(1.0 / members[0].sim.params["dt"])
+        group.step(2 * steps)
+        clock = time.process_time()
+        group.step(steps)
+        out.append(f"{shape} {1e3 * (time.process_time() - clock) / steps:.3f} ms")
+    return f"{body}: " + ", ".join(out) + (" (rolled off)" if off(members) else "")
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="the blobs and the bars only")
     parser.add_argument("--shape", choices=("ellipsoids", "skin", "both"), default="both")
+    parser.add_argument("--cost", action="store_true", help="the process time of a group step at rest instead")
     args = parser.parse_args()
+    if args.cost:
+        for body in BODIES:
+            print(cost(body), flush=True)
+        return
     shapes = ("ellipsoids", "skin") if args.shape == "both" else (args.shape,)
     print("| bodies | contact shape | size | drop 0.1 m, deepest | at rest (last second) | 10 m/s | 20 m/s |")
     print("| --- | --- | --- | --- | --- | --- | --- |")

@@ -13,6 +13,8 @@
 // pass through another, whatever its speed. A pair that began overlapping (placed so, or excluded before)
 // uses the end's centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Pairs push along
 // the centre line turned towards the bodies' surface normals there (od_PushDirection).
+// Between two bodies either of which has a contact skin (Simulation.set_contact_skin), the shapes are its carried
+// skin points and the pair is measured and pushed along a separating axis instead (od_SkinNormal, skin_shape.c).
 //
 // Forces (od_IterateWithForces): each pair in contact carries a normal force f >= 0 and a friction force t,
 // |t| <= μ f, on b (their negatives on a). After every global solve of the step (all members of the group at

@@ -13,6 +13,16 @@
 // alone, the vertex dipped 4-7 mm into them (the other particles' copies lower), the push-out hiding it.
 // A particle given no point keeps its centre, so an interior particle still stops at a collider once the skin
 // has gone past.
+//
+// Between the bodies of a group (body_contact.c, od_SkinShape_Pair*), a pair of particles with a contact skin
+// on either side meets on the skin too: its shapes' supports along the pair's normal are their carried points'
+// (or an ellipsoid's, for a member without a skin), so the pair's forces and projection hold the points, not
+// the ellipsoids, apart. A particle's patch of skin is as wide as the body's curvature, not the particle, so the
+// normal matters: two 0.6 m spheres touching, measured along a line 20° off their common normal, overlap by
+// R (1 - cos 20°) = 2 cm. The normal is the best separating axis of a few (the centre line, its push direction,
+// the particles' outward directions and their mean), refined by a few halving steps along the gradient of the
+// distance (the supporting points' difference): 0.6 m spheres at rest on each other 2.4 cm apart along the push
+// direction alone, 1.8 cm with the candidates, 0.2-0.8 cm refined (scripts/skin_pairs.py; docs/contact.md).
 #include "skin_shape.h"
 
 #include "check.h"
