@@ -14,7 +14,7 @@
 // uses the end's centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Pairs push along
 // the centre line turned towards the bodies' surface normals there (od_PushDirection).
 // Between two bodies either of which has a contact skin (Simulation.set_contact_skin), the shapes are its carried
-// skin points and the pair is measured and pushed along a separating axis instead (od_SkinNormal, skin_shape.c).
+// skin points and the pair is measured and pushed along a separating axis instead (od_SkinNormal, skin_pairs.c).
 //
 // Forces (od_IterateWithForces): each pair in contact carries a normal force f >= 0 and a friction force t,
 // |t| <= μ f, on b (their negatives on a). After every global solve of the step (all members of the group at
@@ -86,7 +86,7 @@
 #include "global_solve.h"
 #include "goal.h"
 #include "math3.h"
-#include "skin_shape.h"
+#include "skin_pairs.h"
 #include "step.h"
 
 #include <math.h>
@@ -255,7 +255,7 @@ static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double t
 		for (int i = 0; i < sim->graph->n; ++i, ++g)
 		{
 			od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
-			double r = od_SkinShape_PairReach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
+			double r = od_SkinPair_Reach(sim, i) + 0.5 * (od_Length(od_Sub(x1, x0)) + thickness);
 			od_V3Store(s->sphere + 4 * g, od_Scale(0.5, od_Add(x0, x1)));
 			s->sphere[4 * g + 3] = r;
 			s->body[g] = b;
@@ -471,28 +471,28 @@ typedef struct od_PairState
 } od_PairState;
 
 // The sum of two ends' largest reaches: their ellipsoids', or between bodies with a contact skin the larger of
-// each end's skin and ellipsoid (skin_shape.c).
+// each end's skin and ellipsoid (skin_pairs.c).
 static double od_Reaches(const od_End* a, const od_End* b)
 {
-	bool skin = od_SkinShape_Pair(a->sim, b->sim);
-	return skin ? od_SkinShape_PairReach(a->sim, a->i) + od_SkinShape_PairReach(b->sim, b->i)
+	bool skin = od_SkinPair_Used(a->sim, b->sim);
+	return skin ? od_SkinPair_Reach(a->sim, a->i) + od_SkinPair_Reach(b->sim, b->i)
 				: od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i);
 }
 
 // How far the two ends' shapes reach towards each other along unit c (a to b): their ellipsoids (the cached
-// moments), or between bodies a member's skin points (skin_shape.c).
+// moments), or between bodies a member's skin points (skin_pairs.c).
 static double od_Supports(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
 						  od_Vec3 c)
 {
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
-	if (!od_SkinShape_Pair(a->sim, b->sim))
+	if (!od_SkinPair_Used(a->sim, b->sim))
 	{
 		return od_Support(&ma, c) + od_Support(&mb, c);
 	}
-	return od_SkinShape_PairSupport(a->sim, a->i, &ma, c) + od_SkinShape_PairSupport(b->sim, b->i, &mb, od_Scale(-1.0, c));
+	return od_SkinPair_Support(a->sim, a->i, &ma, c) + od_SkinPair_Support(b->sim, b->i, &mb, od_Scale(-1.0, c));
 }
 
-// A skin pair's normal (its centre line c, b's centre at d from a's; skin_shape.c), from c, its push direction
+// A skin pair's normal (its centre line c, b's centre at d from a's; skin_pairs.c), from c, its push direction
 // and the two particles' outward directions.
 static od_Vec3 od_SkinNormal(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
 							 od_Vec3 d, od_Vec3 c)
@@ -500,7 +500,7 @@ static od_Vec3 od_SkinNormal(const od_PairScratch* s, const od_ContactPair* pair
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
 	od_Vec3 directions[4] = { c, od_PushDirection(s, pair, c), od_V3Load(s->outward + 3 * pair->a),
 							  od_Scale(-1.0, od_V3Load(s->outward + 3 * pair->b)) };
-	return od_SkinShape_PairNormal(&(od_SkinPair){ a->sim, b->sim, a->i, b->i, &ma, &mb, d }, directions);
+	return od_SkinPair_Normal(&(od_SkinPair){ a->sim, b->sim, a->i, b->i, &ma, &mb, d }, directions);
 }
 
 static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
@@ -515,7 +515,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		p.passed = true;
 		return p;
 	}
-	bool skin = od_SkinShape_Pair(a->sim, b->sim);
+	bool skin = od_SkinPair_Used(a->sim, b->sim);
 	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c) : p.c;
 	double supports = od_Supports(s, pair, a, b, p.c);
 	bool apart = l0 > 0.0 && (skin ? od_Dot(p.c, d0) : l0) >= supports;
@@ -606,7 +606,7 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 		return;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
-	od_Vec3 n = od_SkinShape_Pair(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
+	od_Vec3 n = od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
@@ -860,7 +860,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 		s->pressing[pair->b]++;
 		// Re-aimed at every update: round bodies' pairs turn within a step (a blob on a blob: skinned
 		// overlap -0.026 m with the normal set once a step, -0.018 m re-aimed; the bars alike).
-		od_V3Store(pair->n, od_SkinShape_Pair(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c));
+		od_V3Store(pair->n, od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c));
 	}
 }
 

@@ -18,24 +18,3 @@ double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od
 double od_SkinShape_PointSupport(const od_Sim* sim, int point, const double* rotation, od_Vec3 n);
 // The distance from particle i's centre of its farthest point.
 double od_SkinShape_Reach(const od_Sim* sim, int i);
-// Contact between the bodies of a group (body_contact.c): whether a pair of particles of sims a and b meets on
-// a member's skin (two bodies, either with a contact skin; self-contact keeps the ellipsoids).
-bool od_SkinShape_Pair(const od_Sim* a, const od_Sim* b);
-// How far particle i's shape reaches along unit n in such a pair: its skin points' at its current rotation, or
-// its ellipsoid's (moment M) where its simulation has no contact skin.
-double od_SkinShape_PairSupport(const od_Sim* sim, int i, const od_Mat3* moment, od_Vec3 n);
-// The farthest from its centre either of particle i's shapes reaches (the broad phase's spheres).
-double od_SkinShape_PairReach(const od_Sim* sim, int i);
-// A pair of particles of two bodies: i of a (moment ma), j of b (mb), b's centre at d from a's.
-typedef struct od_SkinPair
-{
-	const od_Sim *a, *b;
-	int i, j;
-	const od_Mat3 *ma, *mb;
-	od_Vec3 d;
-} od_SkinPair;
-// The pair's normal, as a separating axis: of the unit centre line directions[0], the unit push direction
-// directions[1] and the particles' outward directions (directions[2] of a, directions[3] of b turned inwards; any
-// length, 0 for none), the one along which the pair is the farthest apart (d·n less their supports towards each
-// other), then refined along that distance's gradient.
-od_Vec3 od_SkinShape_PairNormal(const od_SkinPair* q, const od_Vec3 directions[4]);
