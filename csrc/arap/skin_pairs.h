@@ -14,16 +14,18 @@ bool od_SkinPair_Used(const od_Sim* a, const od_Sim* b);
 double od_SkinPair_Support(const od_Sim* sim, int i, const od_Mat3* moment, od_Vec3 n);
 // The farthest from its centre either of particle i's shapes reaches (the broad phase's spheres).
 double od_SkinPair_Reach(const od_Sim* sim, int i);
-// A pair of particles of two bodies: i of a (moment ma), j of b (mb), b's centre at d from a's.
+// A pair of particles of two bodies: i of a (moment ma), j of b (mb), b's centre at d from a's, in contact
+// within `thickness`.
 typedef struct od_SkinPair
 {
 	const od_Sim *a, *b;
 	int i, j;
 	const od_Mat3 *ma, *mb;
 	od_Vec3 d;
+	double thickness;
 } od_SkinPair;
-// The pair's normal, as a separating axis: of the unit centre line directions[0], the unit push direction
-// directions[1] and the particles' outward directions (directions[2] of a, directions[3] of b turned inwards; any
-// length, 0 for none), the one along which the pair is the farthest apart (d·n less their supports towards each
-// other), then refined along that distance's gradient.
-od_Vec3 od_SkinPair_Normal(const od_SkinPair* q, const od_Vec3 directions[4]);
+// The pair's normal, as a separating axis: of `count` directions (directions[0] unit, the others of any length, 0
+// for none), the one along which the pair is the farthest apart (d·n less their supports towards each other), then
+// refined along that distance's gradient. A pair clear of contact along directions[0] (farther than the thickness
+// and half its ellipsoids' largest radii) is taken along it at once.
+od_Vec3 od_SkinPair_Normal(const od_SkinPair* q, const od_Vec3* directions, int count);
