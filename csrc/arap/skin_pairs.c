@@ -6,10 +6,11 @@
 // so the pair's forces and projection hold the points, not the ellipsoids, apart. A particle's patch of skin is as wide
 // as the body's curvature, not the particle, so the normal matters: two 0.6 m spheres touching, measured along a line
 // 20° off their common normal, overlap by R (1 - cos 20°) = 2 cm. The normal is the best separating axis of a few (the
-// centre line, its push direction, the particles' outward directions and their mean), refined by a few halving steps
-// along the gradient of the distance (the supporting points' difference): 0.6 m spheres at rest on each other 2.4 cm
-// apart along the push direction alone, 1.8 cm with the candidates, 0.2-0.8 cm refined (scripts/skin_pairs.py;
-// docs/contact.md).
+// centre line, the pair's last normal, its push direction, the particles' outward directions), refined by a few halving
+// steps along the gradient of the distance (the supporting points' difference): 0.6 m spheres at rest on each other 2.4
+// cm apart along the push direction alone, 1.8-2.0 cm with the candidates, 0.6-1.0 cm refined. A group's iterations
+// keep the normal found after their first solve (body_contact.c, od_SkinNormal). Measured: scripts/skin_pairs.py,
+// docs/contact.md.
 #include "skin_pairs.h"
 
 #include "contact.h"
@@ -69,8 +70,8 @@ static bool od_MakeUnit(od_Vec3* u)
 
 // Refinement steps of a pair's normal (od_SkinPair_Normal), and how far apart along its centre line (of its
 // ellipsoids' largest radii, beyond the thickness) a pair is taken along it at once: farther than contact and than
-// the forces' near pairs (body_contact.c, OD_NEAR_SLACK: 0.25). The bars at rest on each other: 6.0 ms a step
-// without it, 0.51 with the ellipsoids (scripts/skin_pairs.py --cost).
+// the forces' near pairs (body_contact.c, OD_NEAR_SLACK: 0.25). The bars at rest on each other took 6.0 ms a step
+// without it, 5.3 with it (0.60 on the ellipsoids; scripts/skin_pairs.py --cost).
 #define OD_NORMAL_STEPS 4
 #define OD_CLEAR 0.5
 
