@@ -8,9 +8,9 @@
 // 20° off their common normal, overlap by R (1 - cos 20°) = 2 cm. The normal is the best separating axis of a few (the
 // centre line, the pair's last normal, its push direction, the particles' outward directions), refined by a few halving
 // steps along the gradient of the distance (the supporting points' difference): 0.6 m spheres at rest on each other 2.4
-// cm apart along the push direction alone, 1.8-2.0 cm with the candidates, 0.6-1.0 cm refined. A group's iterations
-// keep the normal found after their first solve (body_contact.c, od_SkinNormal). Measured: scripts/skin_pairs.py,
-// docs/contact.md.
+// cm apart along the push direction alone, 1.8-2.0 cm with the candidates, 0.1 cm refined. In a group's iterations a
+// pair is re-aimed at every update from its last normal and its centre line alone (body_contact.c, od_SkinNormal).
+// Measured: scripts/skin_pairs.py, docs/contact.md.
 #include "skin_pairs.h"
 
 #include "contact.h"
