@@ -203,6 +203,7 @@ typedef struct od_PairScratch
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
 	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)
+	bool warmNormals;         // skin pairs' normals sought from their last one (a group's iterations, skin_pairs.c)
 	od_ContactPair* previous; // the last step's pairs, sorted: their forces start this step's (warm start)
 	int previousCount, previousCapacity;
 	struct od_SelfSolve* self; // self-contact's forces in the solves (body_contact.c), made when first needed

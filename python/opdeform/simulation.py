@@ -413,8 +413,9 @@ class Simulation(CoreObject, ForceFields):
         the skin"): each rest vertex of ``skin`` (an ``opdeform.Skin`` of this graph) is carried rigidly by each
         particle that skins it (weight > 0), and these points meet them instead of the particles' ellipsoids:
         the skinned vertex, a blend of its carried copies, stays out of a plane that each copy stays out of, so
-        the skin, not the ellipsoids, rests on them. None: the ellipsoids again (the default). Contact between
-        particles keeps the ellipsoids."""
+        the skin, not the ellipsoids, rests on them. None: the ellipsoids again (the default). In a ContactGroup
+        these points also meet the other members (their skin points, or their ellipsoids where they have none);
+        self-contact keeps the ellipsoids."""
         if skin is None:
             self.set_contact_points(None)
             return
