@@ -397,6 +397,7 @@ od_Status od_Step_End(od_Sim* sim, od_Status status)
 	od_Goals_EndCall(sim);
 	status = od_End(sim, status);
 	od_Colliders_EndCall(sim, status == OD_OK);
+	od_SurfaceContact_EndCall(sim, status == OD_OK);
 	return status;
 }
 
