@@ -151,6 +151,7 @@ typedef struct od_SurfaceContact
 	int* carriedSource; // n
 	double* keptCarried; // n*3
 	int* keptSource; // n
+	double* impulse; // nearCount, od_SurfaceContact_Turn's
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)

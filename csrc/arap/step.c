@@ -378,6 +378,7 @@ od_Status od_Step_Solve(od_Sim* sim)
 void od_Step_Finish(od_Sim* sim, int k, int steps)
 {
 	od_SurfaceContact_Finish(sim);
+	od_SurfaceContact_Turn(sim);
 	if (sim->hasFloor)
 	{
 		od_FloorStep(sim, &sim->previous, sim->angularScale);

@@ -18,17 +18,27 @@
 // iterate (a falling body's centres converge as w / (w + m/h²) per iteration: for a stiff contact, w >> m/h²,
 // barely at all). The forces cost a right side only.
 //
-// Warm start: each particle that pressed a surface at a step's end carries its normal force to the next step
-// (carried, part of the state: od_Sim_GetSurfaceForces / RestoreSurfaceForces, pickles, the add-on's frame
-// cache, a shot's checkpoint), and starts the dual ascent from it when it is near the same surface after the
-// first solve; friction starts from zero. Without it a stiff body at rest had ten updates a step to rebuild its
-// weight's support from zero: a k = 1e15 capsule on the floor stayed 6.1 mm (1 %) off its rigid shape at 1/24
-// s, 3.8 at 1/60; now 1.3 and 0.0. The first solve still sees no force (the carried forces there too turned a
-// cube sliding down a 30-degree ramp 21 degrees at 1/60 s and let it slide 4.07 m at 1/240 s, Coulomb 3.90;
-// now 2.9 degrees, 3.93 m), and carrying the friction forces too locked a stiff body's shape (6.45 mm). What
-// is left at 1/24 s is the projection after the iterations: the forces move a stiff body only as a whole
-// within a step (its rotations are held in each global solve), so a particle the body's pose leaves 1.35 mm
-// deep is lifted alone after the iterations, every step (docs/contact.md).
+// Warm start (fixed counts): each particle that pressed a surface at a step's end carries its normal force to
+// the next step (carried, part of the state: od_Sim_GetSurfaceForces / RestoreSurfaceForces, pickles, the
+// add-on's frame cache, a shot's checkpoint), and starts the dual ascent from it when it is near the same surface
+// after the first solve; friction starts from zero. Without it a stiff body at rest had ten updates a step to
+// rebuild its weight's support from zero: a k = 1e15 capsule on the floor stayed 6.1 mm (1 %) off its rigid
+// shape at 1/24 s, 3.8 at 1/60; with it 1.3 and 0.0. The first solve still sees no force (the carried forces
+// there too turned the Rubber cube sliding down a 30-degree ramp 21 degrees at 1/60 s), and carrying the
+// friction forces too locked a stiff body's shape (6.45 mm). Under a tolerance (3 updates, then held) nothing
+// is carried: there the warm start rolled the add-on's Suzanne off a mesh sphere within 3 s, which stays on
+// without it.
+//
+// Turn (od_SurfaceContact_Turn, after the iterations, before the projections): the forces move a stiff body
+// only as a whole within a step (the global solves hold the rotations, and k = 1e15 lets a force at one particle
+// move it only with the body), so the pose it lands in left one particle of the capsule 1.35 mm deep, lifted
+// alone by the projection every step and put back by the next step's rotations, fitted before the lift. So each
+// piece with a particle still inside its surface's plane is turned as a rigid body would be to come out: the
+// translation and rotation about its centre of mass that bring its near particles out with impulses >= 0
+// (projected Gauss-Seidel, OD_TURN_SWEEPS sweeps), its rotation applied to centres and rotations (the translation
+// is the forces' share's and the projection's: applied as well, it took the projection's lift, and with it the
+// friction the projection gives, and the cube slid 4.7 m at μ = 0.3 against Coulomb's 3.90). The capsule then
+// stays within 0.73 mm at 1/24 s.
 //
 // The rate is that of a free particle, m / h² (the group's OD_FORCE_RATE 1): a particle bound to its body
 // moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes only
@@ -82,6 +92,7 @@
 #define OD_FLOOR OD_SURFACE_FLOOR
 #define OD_SURFACE_UPDATES 3 // under a tolerance, the forces' updates in a step (then held: see the top of the file)
 #define OD_SHARE_MOVE 0.5 // of the largest radius: how far a piece's share moves a pressing particle at most (od_Push)
+#define OD_TURN_SWEEPS 10 // of the pieces' rigid corrections after the iterations (od_SurfaceContact_Turn)
 #define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
@@ -96,6 +107,8 @@ typedef struct od_Patch
 	od_Mat3 second;                        // Σ m r rᵀ
 	od_Mat3 turn;                          // what od_SurfaceContact_Roll applies: x -> centre + turn (x - centre) + shift
 	od_Vec3 shift;
+	od_Mat3 inverse;                       // od_SurfaceContact_Turn: the inverse inertia about the centre of mass,
+	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation
 } od_Patch;
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
@@ -117,6 +130,7 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->carriedSource);
 	od_Free(s->keptCarried);
 	od_Free(s->keptSource);
+	od_Free(s->impulse);
 	*s = (od_SurfaceContact){ 0 };
 }
 
@@ -145,9 +159,10 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->carriedSource = od_AllocZero(n, sizeof(int));
 	s->keptCarried = od_AllocZero(3 * n, sizeof(double));
 	s->keptSource = od_AllocZero(n, sizeof(int));
+	s->impulse = od_AllocZero(n, sizeof(double));
 	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold ||
 		!s->piece || !s->patch || !s->source || !s->point || !s->near || !s->carried || !s->carriedSource ||
-		!s->keptCarried || !s->keptSource)
+		!s->keptCarried || !s->keptSource || !s->impulse)
 	{
 		od_SurfaceContact_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", sim->graph->n);
@@ -525,6 +540,7 @@ void od_SurfaceContact_Finish(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
 	double h2 = sim->def.dt * sim->def.dt;
+	bool fixed = !(sim->solverDef.tolerance > 0.0); // under a tolerance none (see the top of the file)
 	od_SurfaceContact_Forget(sim);
 	for (int k = 0; s->force && k < s->nearCount; ++k)
 	{
@@ -532,7 +548,7 @@ void od_SurfaceContact_Finish(od_Sim* sim)
 		double spare = od_FrictionOf(sim, s->source[i]) * s->push[i] - od_Length(od_V3Load(s->tangent + 3 * i));
 		s->hold[i] = fmax(spare, 0.0) * h2 / (sim->def.density * sim->graph->volumes[i]);
 		memset(s->force + 3 * i, 0, sizeof(double) * 3);
-		if (s->push[i] > 0.0) // carried to the next step (warm start)
+		if (s->push[i] > 0.0 && fixed) // carried to the next step (warm start)
 		{
 			od_V3Store(s->carried + 3 * i, od_Scale(s->push[i], od_V3Load(s->normal + 3 * i)));
 			s->carriedSource[i] = s->source[i];
@@ -675,6 +691,108 @@ static void od_KeepOut(od_Sim* sim)
 		if (s->patch[sim->graph->piece[i]].force > 0.0 && lift > 0.0)
 		{
 			od_V3Store(sim->state.x + 3 * i, od_MulAdd(od_V3Load(sim->state.x + 3 * i), lift, od_V3Load(s->normal + 3 * i)));
+		}
+	}
+}
+
+// The turn's frame for piece p (its centre of mass and inverse inertia about it); false when there is none (a
+// piece of one particle on a line).
+static bool od_TurnFrame(od_Patch* p)
+{
+	od_Vec3 c = od_Scale(1.0 / p->mass, p->lever), column[3];
+	od_Mat3 second = p->second;
+	od_M3AddOuter(&second, -p->mass, c, c);
+	od_Mat3 inertia = od_Inertia(second);
+	for (int k = 0; k < 3; ++k)
+	{
+		if (!od_SolveSpd3(&inertia, od_V3(k == 0, k == 1, k == 2), 1e-12 * od_M3Trace(&inertia), &column[k]))
+		{
+			return false;
+		}
+	}
+	p->inverse = (od_Mat3){ { column[0].x, column[1].x, column[2].x, column[0].y, column[1].y, column[2].y,
+							  column[0].z, column[1].z, column[2].z } };
+	p->middle = od_Add(p->centre, c);
+	p->move = p->spin = od_V3(0, 0, 0);
+	return true;
+}
+
+// The pieces with a particle left inside its surface's plane after the iterations; false when there is none.
+static bool od_TurnPieces(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	const od_Graph* g = sim->graph;
+	memset(s->patch, 0, sizeof(od_Patch) * (size_t)g->pieceCount);
+	bool any = false;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[g->piece[i]];
+		s->excess[i] = od_PlaneDepth(sim, i);
+		s->impulse[k] = 0.0;
+		if (s->excess[i] > 0.0 && !(p->force > 0.0))
+		{
+			p->force = 1.0; // marks it (od_PatchMoments); the centre only keeps the moments' sums small
+			p->centre = od_V3Load(sim->state.x + 3 * i);
+			any = true;
+		}
+	}
+	if (any)
+	{
+		od_PatchMoments(sim);
+	}
+	for (int p = 0; any && p < g->pieceCount; ++p)
+	{
+		od_Patch* patch = &s->patch[p];
+		patch->force = patch->force > 0.0 && !patch->held && od_TurnFrame(patch) ? 1.0 : 0.0;
+	}
+	return any;
+}
+
+// One projected Gauss-Seidel sweep of the pieces' rigid corrections (see od_SurfaceContact_Turn).
+static void od_TurnSweep(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[sim->graph->piece[i]];
+		if (!(p->force > 0.0))
+		{
+			continue;
+		}
+		od_Vec3 n = od_V3Load(s->normal + 3 * i), r = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
+		od_Vec3 u = od_Cross(r, n), turned = od_M3MulV(&p->inverse, u);
+		double gap = s->excess[i] - od_Dot(n, od_Add(p->move, od_Cross(p->spin, r)));
+		double next = fmax(s->impulse[k] + gap / (1.0 / p->mass + od_Dot(u, turned)), 0.0);
+		p->move = od_MulAdd(p->move, (next - s->impulse[k]) / p->mass, n);
+		p->spin = od_MulAdd(p->spin, next - s->impulse[k], turned);
+		s->impulse[k] = next;
+	}
+}
+
+void od_SurfaceContact_Turn(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (!s->force || s->after || !s->nearCount || !od_TurnPieces(sim))
+	{
+		return;
+	}
+	for (int sweep = 0; sweep < OD_TURN_SWEEPS; ++sweep)
+	{
+		od_TurnSweep(sim);
+	}
+	const od_Graph* g = sim->graph;
+	for (int i = 0; i < g->n; ++i)
+	{
+		const od_Patch* p = &s->patch[g->piece[i]];
+		if (p->force > 0.0)
+		{
+			od_Mat3 turn = od_M3ExpSkew(p->spin), r = od_M3Load(sim->state.R + 9 * i);
+			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
+			od_V3Store(sim->state.x + 3 * i, od_Add(p->middle, od_M3MulV(&turn, x)));
+			r = od_M3Mul(&turn, &r);
+			od_M3Store(sim->state.R + 9 * i, &r);
 		}
 	}
 }
