@@ -151,7 +151,7 @@ typedef struct od_SurfaceContact
 	int* carriedSource; // n
 	double* keptCarried; // n*3
 	int* keptSource; // n
-	double* impulse; // nearCount, od_SurfaceContact_Turn's
+	double* impulse; // OD_TURN_ROW per near particle, od_SurfaceContact_Turn's (surface_contact.c)
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)
