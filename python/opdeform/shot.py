@@ -689,7 +689,7 @@ def _read_checkpoint(shot: Shot, rig: Rig, threads: int) -> dict[str, Any] | Non
     try:
         header, arrays = _checkpoint_arrays(shot, rig.sim.graph.n_particles)
         rig.sim._core.restore_state(*arrays[:4])
-        rig.sim.set_surface_forces(arrays[4:6])
+        rig.sim.set_surface_forces((arrays[4], arrays[5]))
     except (OSError, ValueError) as exc:
         log.warning("%s: cannot resume from it (%s); baking from the first frame (bake --restart ignores "
                     "checkpoints)", shot.checkpoint, exc)
