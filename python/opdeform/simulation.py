@@ -311,9 +311,10 @@ class Simulation(CoreObject, ForceFields):
     def surface_forces(self) -> tuple[Floats, Ints] | None:
         """(forces (n, 3), surfaces (n,) int32) or None: the normal force each particle pressed the floor or a
         collider with at the last step's end, which the next step starts from (docs/contact.md, warm start), and
-        that surface (-1 the floor, k the k-th collider present, -2 none). A step reads them besides the state:
-        ``set_state`` drops them, so a saved state continues to the same bits only with them put back after it
-        (``set_surface_forces``; pickles and the add-on's frame cache carry them). None when none is carried."""
+        that surface (-1 the floor, k the k-th collider present, -2 none); kept under fixed iteration counts only
+        (none under a tolerance). A step reads them besides the state: ``set_state`` drops them, so a saved state
+        continues to the same bits only with them put back after it (``set_surface_forces``; pickles and the
+        add-on's frame cache carry them). None when none is carried."""
         n = self.graph.n_particles
         forces, surfaces = np.empty((n, 3)), np.empty(n, np.int32)
         self._core.surface_forces(forces, surfaces)
