@@ -118,7 +118,7 @@ def _cube_on_a_ramp(graph, mu, fps, seconds=2.0):
 
 def test_a_box_slides_down_a_ramp_below_tan_theta_and_sticks_above_it(cube):
     """At the add-on's steps (1/240 s): with mu = 0.3 it slides as g (sin - mu cos) with the preset's damping
-    of 0.3/s predicts (3.90 m in 2 s; measured 3.91) without turning; with mu = 1 (> tan 30) it stays."""
+    of 0.3/s predicts (3.90 m in 2 s; measured 3.87) without turning; with mu = 1 (> tan 30) it stays."""
     a, c = 9.81 * (0.5 - 0.3 * math.cos(math.radians(30.0))), materials.PRESETS["Rubber"].damping
     slid, turned = _cube_on_a_ramp(cube, 0.3, 240)
     assert slid == pytest.approx(a / c * (2.0 - (1.0 - math.exp(-2.0 * c)) / c), rel=0.03) and turned < 3.0

@@ -40,7 +40,11 @@
 // friction the projection gives, and the cube slid 4.7 m at μ = 0.3 against Coulomb's 3.90). The capsule then
 // stays within 0.73 mm at 1/24 s. Each particle's depth there, and in the rolling resistance's turn, is its
 // held point's (od_HeldDepth), not a search of its skin points: the search was 5.7 % of the colliders bench's
-// 1,000-particle Suzanne's step on the sphere.
+// 1,000-particle Suzanne's step on the sphere. The support the projection then gives (its lift) carries its
+// friction to the piece as a whole too (od_TurnFriction): on single particles of a stiff body it was undone, and
+// the colliders bench's Suzanne (k = 1e6) slid down the ramp at 0.89 m/s² (Coulomb 0.66; its forces inside the
+// iterations carry 0.90-0.94 of its weight); now 0.79, 0.70 from 1.2 s on; the soft cube's projection keeps its
+// own friction as well, 3.79-3.96 m against Coulomb's 3.90.
 //
 // The rate is that of a free particle, m / h² (the group's OD_FORCE_RATE 1): a particle bound to its body
 // moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes only
@@ -111,7 +115,9 @@ typedef struct od_Patch
 	od_Mat3 turn;                          // what od_SurfaceContact_Roll applies: x -> centre + turn (x - centre) + shift
 	od_Vec3 shift;
 	od_Mat3 inverse;                       // od_SurfaceContact_Turn: the inverse inertia about the centre of mass,
-	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation
+	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation,
+	od_Vec3 slip;                          // Σ m l s over its particles the projection will lift by l, s their slide,
+	double lifted, grip;                   // Σ m l and Σ μ m l
 } od_Patch;
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
@@ -786,6 +792,38 @@ static void od_TurnSweep(od_Sim* sim)
 	}
 }
 
+// The friction of what the projection will lift (its part of the support), for each turned piece as a whole: the
+// piece's mean slide along its surfaces, weighted by m l (l the lift after the turn), taken back by at most
+// Σ μ m l / M (Coulomb's bound on that support, as a move of the piece). The projection's own friction, μ l on
+// each particle alone, is what a stiff body's next step undoes (docs/contact.md, the Suzanne on the ramp).
+static void od_TurnFriction(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	const od_Graph* g = sim->graph;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[g->piece[i]];
+		double weight = (s->excess[i] - od_Dot(p->spin, od_V3Load(s->impulse + OD_TURN_ROW * k + 2))) *
+						sim->def.density * g->volumes[i]; // m l
+		if (p->force > 0.0 && weight > 0.0)
+		{
+			od_Vec3 n = od_V3Load(s->normal + 3 * i);
+			od_Vec3 slide = od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(s->anchor + 3 * i));
+			p->slip = od_MulAdd(p->slip, weight, od_MulAdd(slide, -od_Dot(slide, n), n));
+			p->lifted += weight;
+			p->grip += od_FrictionOf(sim, s->source[i]) * weight;
+		}
+	}
+	for (int q = 0; q < g->pieceCount; ++q)
+	{
+		od_Patch* p = &s->patch[q];
+		od_Vec3 mean = p->lifted > 0.0 ? od_Scale(1.0 / p->lifted, p->slip) : od_V3(0, 0, 0);
+		double size = od_Length(mean), cut = p->grip / p->mass;
+		p->move = size > cut ? od_Scale(-cut / size, mean) : od_Scale(-1.0, mean); // now the piece's move
+	}
+}
+
 void od_SurfaceContact_Turn(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
@@ -797,6 +835,7 @@ void od_SurfaceContact_Turn(od_Sim* sim)
 	{
 		od_TurnSweep(sim);
 	}
+	od_TurnFriction(sim);
 	const od_Graph* g = sim->graph;
 	for (int i = 0; i < g->n; ++i)
 	{
@@ -805,7 +844,7 @@ void od_SurfaceContact_Turn(od_Sim* sim)
 		{
 			od_Mat3 turn = od_M3ExpSkew(p->spin), r = od_M3Load(sim->state.R + 9 * i);
 			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
-			od_V3Store(sim->state.x + 3 * i, od_Add(p->middle, od_M3MulV(&turn, x)));
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_Add(p->middle, od_M3MulV(&turn, x)), p->move));
 			r = od_M3Mul(&turn, &r);
 			od_M3Store(sim->state.R + 9 * i, &r);
 		}
