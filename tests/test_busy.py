@@ -74,6 +74,8 @@ def _sim_case(scale):
         "set_goals_carry_rest": lambda: sim.set_goals_carry_rest(), "goals_carry_rest": lambda: sim.goals_carry_rest,
         "goal_motion": lambda: sim.goal_motion,
         "set_goal_motion": lambda: sim.set_goal_motion((np.zeros((n, 3)), np.zeros((n, 3)), -1)),
+        "surface_forces": lambda: sim.surface_forces,
+        "set_surface_forces": lambda: sim.set_surface_forces((np.zeros((n, 3)), np.full(n, -2))),
         "set_particle_damping": lambda: sim.set_particle_damping(0.1), "particle_damping": lambda: sim.particle_damping,
         "set_stiffness_scale": lambda: sim.set_stiffness_scale(np.ones(n)),
         "stiffness_scale": lambda: sim.stiffness_scale,

@@ -163,7 +163,13 @@ od_Status od_Sim_RemoveCollider(od_Sim* sim, int id)
 	od_Collider_Destroy(&c->body);
 	od_Free(c->triangles);
 	od_SimCollider* end = sim->colliders.items + --sim->colliders.count;
+	int index = (int)(c - sim->colliders.items);
 	memmove(c, c + 1, sizeof *c * (size_t)(end - c));
+	for (int i = 0; sim->surface.carried && i < sim->graph->n; ++i) // the carried forces (surface_contact.c)
+	{
+		int* source = &sim->surface.carriedSource[i];
+		*source = *source == index ? -2 : *source > index ? *source - 1 : *source;
+	}
 	return OD_OK;
 }
 

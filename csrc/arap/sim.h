@@ -145,6 +145,13 @@ typedef struct od_SurfaceContact
 	int* source;     // n
 	int* point;      // n, with the skin as the shape: the point reaching farthest along its normal (od_Near)
 	int* near;       // nearCount particles
+	// The warm start, part of the simulation's state (od_Sim_GetSurfaceForces): the normal force each particle
+	// pressed its surface with at the last step's end, and that surface (-2: none); kept at a call's start.
+	double* carried; // n*3
+	int* carriedSource; // n
+	double* keptCarried; // n*3
+	int* keptSource; // n
+	double* impulse; // OD_TURN_ROW per near particle, od_SurfaceContact_Turn's (surface_contact.c)
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)

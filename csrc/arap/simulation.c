@@ -407,12 +407,14 @@ od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)
 	sim->hasFloor = true;
 	sim->floorHeight = height;
 	sim->floorFriction = friction;
+	od_SurfaceContact_Forget(sim);
 	return OD_OK;
 }
 
 void od_Sim_ClearFloor(od_Sim* sim)
 {
 	sim->hasFloor = false;
+	od_SurfaceContact_Forget(sim);
 }
 
 od_FieldSet* od_Sim_GetForceFields(od_Sim* sim)
@@ -474,6 +476,7 @@ static od_Status od_PutState(od_Sim* sim, const double* positions, const double*
 		memset(s->omega, 0, sizeof(double) * 3 * n);
 	}
 	sim->predictionValid = false;
+	od_SurfaceContact_Forget(sim);
 	return OD_OK;
 }
 

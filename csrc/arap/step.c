@@ -378,6 +378,7 @@ od_Status od_Step_Solve(od_Sim* sim)
 void od_Step_Finish(od_Sim* sim, int k, int steps)
 {
 	od_SurfaceContact_Finish(sim);
+	od_SurfaceContact_Turn(sim);
 	if (sim->hasFloor)
 	{
 		od_FloorStep(sim, &sim->previous, sim->angularScale);
@@ -397,6 +398,7 @@ od_Status od_Step_End(od_Sim* sim, od_Status status)
 	od_Goals_EndCall(sim);
 	status = od_End(sim, status);
 	od_Colliders_EndCall(sim, status == OD_OK);
+	od_SurfaceContact_EndCall(sim, status == OD_OK);
 	return status;
 }
 

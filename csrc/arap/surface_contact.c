@@ -16,9 +16,35 @@
 // every change of the set (global_solve.c refactors from the triplets: a body landing changes it every
 // step); one weight added to the diagonal of every particle once drags every free particle towards its last
 // iterate (a falling body's centres converge as w / (w + m/h²) per iteration: for a stiff contact, w >> m/h²,
-// barely at all). The forces cost a right side only and keep the step a function of the state: they start at
-// zero each step (no warm start, unlike a group's, whose forces are its saved state), so a set_state and a
-// step replay bit for bit.
+// barely at all). The forces cost a right side only.
+//
+// Warm start (fixed counts): each particle that pressed a surface at a step's end carries its normal force to
+// the next step (carried, part of the state: od_Sim_GetSurfaceForces / RestoreSurfaceForces, pickles, the
+// add-on's frame cache, a shot's checkpoint), and starts the dual ascent from it when it is near the same surface
+// after the first solve; friction starts from zero. Without it a stiff body at rest had ten updates a step to
+// rebuild its weight's support from zero: a k = 1e15 capsule on the floor stayed 6.1 mm (1 %) off its rigid
+// shape at 1/24 s, 3.8 at 1/60; with it 1.3 and 0.0. The first solve still sees no force (the carried forces
+// there too turned the Rubber cube sliding down a 30-degree ramp 21 degrees at 1/60 s), and carrying the
+// friction forces too locked a stiff body's shape (6.45 mm). Under a tolerance (3 updates, then held) nothing
+// is carried: there the warm start rolled the add-on's Suzanne off a mesh sphere within 3 s, which stays on
+// without it.
+//
+// Turn (od_SurfaceContact_Turn, after the iterations, before the projections): the forces move a stiff body
+// only as a whole within a step (the global solves hold the rotations, and k = 1e15 lets a force at one particle
+// move it only with the body), so the pose it lands in left one particle of the capsule 1.35 mm deep, lifted
+// alone by the projection every step and put back by the next step's rotations, fitted before the lift. So each
+// piece with a particle still inside its surface's plane is turned as a rigid body would be to come out: the
+// translation and rotation about its centre of mass that bring its near particles out with impulses >= 0
+// (projected Gauss-Seidel, OD_TURN_SWEEPS sweeps), its rotation applied to centres and rotations (the translation
+// is the forces' share's and the projection's: applied as well, it took the projection's lift, and with it the
+// friction the projection gives, and the cube slid 4.7 m at μ = 0.3 against Coulomb's 3.90). The capsule then
+// stays within 0.73 mm at 1/24 s. Each particle's depth there, and in the rolling resistance's turn, is its
+// held point's (od_HeldDepth), not a search of its skin points: the search was 5.7 % of the colliders bench's
+// 1,000-particle Suzanne's step on the sphere. The support the projection then gives (its lift) carries its
+// friction to the piece as a whole too (od_TurnFriction): on single particles of a stiff body it was undone, and
+// the colliders bench's Suzanne (k = 1e6) slid down the ramp at 0.89 m/s² (Coulomb 0.66; its forces inside the
+// iterations carry 0.90-0.94 of its weight); now 0.79, 0.70 from 1.2 s on; the soft cube's projection keeps its
+// own friction as well, 3.79-3.96 m against Coulomb's 3.90.
 //
 // The rate is that of a free particle, m / h² (the group's OD_FORCE_RATE 1): a particle bound to its body
 // moves less, so this under-relaxes: with c of a body's N particles touching, its rigid motion closes only
@@ -55,6 +81,7 @@
 // kinetic energy rises. Pieces held by a goal or a constraint are left as they are.
 #include "surface_contact.h"
 
+#include "check.h"
 #include "contact.h"
 #include "core.h"
 #include "floor.h"
@@ -71,6 +98,8 @@
 #define OD_FLOOR OD_SURFACE_FLOOR
 #define OD_SURFACE_UPDATES 3 // under a tolerance, the forces' updates in a step (then held: see the top of the file)
 #define OD_SHARE_MOVE 0.5 // of the largest radius: how far a piece's share moves a pressing particle at most (od_Push)
+#define OD_TURN_SWEEPS 10 // of the pieces' rigid corrections after the iterations (od_SurfaceContact_Turn)
+#define OD_TURN_ROW 8 // per near particle in od_SurfaceContact_Turn: impulse, 1 / (its rigid response), r × n, I⁻¹ (r × n)
 #define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
@@ -85,6 +114,10 @@ typedef struct od_Patch
 	od_Mat3 second;                        // Σ m r rᵀ
 	od_Mat3 turn;                          // what od_SurfaceContact_Roll applies: x -> centre + turn (x - centre) + shift
 	od_Vec3 shift;
+	od_Mat3 inverse;                       // od_SurfaceContact_Turn: the inverse inertia about the centre of mass,
+	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation,
+	od_Vec3 slip;                          // Σ m l s over its particles the projection will lift by l, s their slide,
+	double lifted, grip;                   // Σ m l and Σ μ m l
 } od_Patch;
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
@@ -102,6 +135,11 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->source);
 	od_Free(s->point);
 	od_Free(s->near);
+	od_Free(s->carried);
+	od_Free(s->carriedSource);
+	od_Free(s->keptCarried);
+	od_Free(s->keptSource);
+	od_Free(s->impulse);
 	*s = (od_SurfaceContact){ 0 };
 }
 
@@ -126,11 +164,69 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->source = od_AllocZero(n, sizeof(int));
 	s->point = od_AllocZero(n, sizeof(int));
 	s->near = od_AllocZero(n, sizeof(int));
+	s->carried = od_AllocZero(3 * n, sizeof(double));
+	s->carriedSource = od_AllocZero(n, sizeof(int));
+	s->keptCarried = od_AllocZero(3 * n, sizeof(double));
+	s->keptSource = od_AllocZero(n, sizeof(int));
+	s->impulse = od_AllocZero(OD_TURN_ROW * n, sizeof(double));
 	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold ||
-		!s->piece || !s->patch || !s->source || !s->point || !s->near)
+		!s->piece || !s->patch || !s->source || !s->point || !s->near || !s->carried || !s->carriedSource ||
+		!s->keptCarried || !s->keptSource || !s->impulse)
 	{
 		od_SurfaceContact_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", sim->graph->n);
+	}
+	od_SurfaceContact_Forget(sim);
+	return OD_OK;
+}
+
+void od_SurfaceContact_Forget(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	for (int i = 0; s->carried && i < sim->graph->n; ++i)
+	{
+		od_V3Store(s->carried + 3 * i, od_V3(0, 0, 0));
+		s->carriedSource[i] = -2;
+	}
+}
+
+void od_Sim_GetSurfaceForces(const od_Sim* sim, double* forces, int* surfaces)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_V3Store(forces + 3 * i, s->carried ? od_V3Load(s->carried + 3 * i) : od_V3(0, 0, 0));
+		surfaces[i] = s->carried ? s->carriedSource[i] : -2;
+	}
+}
+
+od_Status od_Sim_RestoreSurfaceForces(od_Sim* sim, const double* forces, const int* surfaces)
+{
+	int n = sim->graph->n;
+	if (!forces || !surfaces)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "surface forces: forces and surfaces are required");
+	}
+	od_Status status = od_CheckFinite("surface forces", forces, 3 * n);
+	for (int i = 0; status == OD_OK && i < n; ++i)
+	{
+		bool known = surfaces[i] == -2 || (surfaces[i] == OD_FLOOR && sim->hasFloor) ||
+					 (surfaces[i] >= 0 && surfaces[i] < sim->colliders.count);
+		status = known ? OD_OK
+					   : od_Fail(OD_ERROR_ARGUMENT, "surface forces: particle %d presses surface %d, which is not there "
+													"(-2 none, -1 the floor, 0..%d the colliders)",
+								 i, surfaces[i], sim->colliders.count - 1);
+	}
+	status = status == OD_OK ? od_SurfaceContact_Reserve(sim) : status;
+	if (status != OD_OK || !sim->surface.carried)
+	{
+		return status; // no floor and no collider: every surface is -2, nothing to carry
+	}
+	for (int i = 0; i < n; ++i)
+	{
+		bool pressed = surfaces[i] != -2;
+		od_V3Store(sim->surface.carried + 3 * i, pressed ? od_V3Load(forces + 3 * i) : od_V3(0, 0, 0));
+		sim->surface.carriedSource[i] = surfaces[i];
 	}
 	return OD_OK;
 }
@@ -140,6 +236,20 @@ void od_SurfaceContact_BeginCall(od_Sim* sim, int steps)
 	sim->surface.after = false;
 	sim->surface.callSteps = steps;
 	sim->surface.callStep = 0;
+	if (sim->surface.carried)
+	{
+		memcpy(sim->surface.keptCarried, sim->surface.carried, sizeof(double) * 3 * (size_t)sim->graph->n);
+		memcpy(sim->surface.keptSource, sim->surface.carriedSource, sizeof(int) * (size_t)sim->graph->n);
+	}
+}
+
+void od_SurfaceContact_EndCall(od_Sim* sim, bool ok)
+{
+	if (!ok && sim->surface.carried)
+	{
+		memcpy(sim->surface.carried, sim->surface.keptCarried, sizeof(double) * 3 * (size_t)sim->graph->n);
+		memcpy(sim->surface.carriedSource, sim->surface.keptSource, sizeof(int) * (size_t)sim->graph->n);
+	}
 }
 
 // Whether particle i may touch a surface in this step: its predicted centre within its largest radius, the
@@ -196,7 +306,7 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
 		s->piece[OD_PIECE * sim->graph->piece[i]] += sim->def.density * sim->graph->volumes[i];
-		touching = touching || od_MayTouch(sim, i);
+		touching = touching || s->carriedSource[i] != -2 || od_MayTouch(sim, i);
 	}
 	return touching;
 }
@@ -291,6 +401,14 @@ static double od_HeldReach(const od_Sim* sim, int i, od_Vec3 n)
 								  : od_EllipsoidReach(sim, i, n);
 }
 
+// Particle i's depth beyond the allowed one in its plane, by the point held for the step (od_HeldReach).
+static double od_HeldDepth(const od_Sim* sim, int i)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	od_Vec3 n = od_V3Load(s->normal + 3 * i);
+	return s->level[i] + od_HeldReach(sim, i, n) - od_Dot(n, od_V3Load(sim->state.x + 3 * i));
+}
+
 // Whether particle i is near a surface at its current centre (see the top of the file); if so, that surface
 // taken as its tangent plane for the step: the depth beyond what it may keep (one that began inside leaves at
 // the recovery speed) is then level + reach along the normal - normal·x.
@@ -331,7 +449,8 @@ static void od_Gather(od_Sim* sim)
 	{
 		if (od_Near(sim, i))
 		{
-			s->near[s->nearCount++] = i;
+			s->near[s->nearCount++] = i; // it keeps its warm start while it presses the same surface
+			s->push[i] = s->carriedSource[i] == s->source[i] ? od_Length(od_V3Load(s->carried + 3 * i)) : 0.0;
 		}
 		else
 		{
@@ -347,7 +466,7 @@ static void od_Measure(od_Sim* sim, int i)
 {
 	od_SurfaceContact* s = &sim->surface;
 	od_Vec3 x = od_V3Load(sim->state.x + 3 * i), n = od_V3Load(s->normal + 3 * i);
-	s->excess[i] = s->level[i] + od_HeldReach(sim, i, n) - od_Dot(n, x);
+	s->excess[i] = od_HeldDepth(sim, i);
 	od_Vec3 slip = od_Sub(x, od_V3Load(s->anchor + 3 * i));
 	od_V3Store(s->force + 3 * i, od_MulAdd(slip, -od_Dot(slip, n), n));
 	if (s->excess[i] > 0.0 || s->push[i] > 0.0)
@@ -438,12 +557,19 @@ void od_SurfaceContact_Finish(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
 	double h2 = sim->def.dt * sim->def.dt;
+	bool fixed = !(sim->solverDef.tolerance > 0.0); // under a tolerance none (see the top of the file)
+	od_SurfaceContact_Forget(sim);
 	for (int k = 0; s->force && k < s->nearCount; ++k)
 	{
 		int i = s->near[k];
 		double spare = od_FrictionOf(sim, s->source[i]) * s->push[i] - od_Length(od_V3Load(s->tangent + 3 * i));
 		s->hold[i] = fmax(spare, 0.0) * h2 / (sim->def.density * sim->graph->volumes[i]);
 		memset(s->force + 3 * i, 0, sizeof(double) * 3);
+		if (s->push[i] > 0.0 && fixed) // carried to the next step (warm start)
+		{
+			od_V3Store(s->carried + 3 * i, od_Scale(s->push[i], od_V3Load(s->normal + 3 * i)));
+			s->carriedSource[i] = s->source[i];
+		}
 	}
 	s->callStep++;
 }
@@ -561,14 +687,6 @@ static void od_RollBack(od_Patch* p, double h)
 	p->shift = od_Add(od_Sub(c, od_M3MulV(&p->turn, c)), shift);
 }
 
-// How deep particle i is in its surface's plane beyond what it may keep (> 0: inside).
-static double od_PlaneDepth(const od_Sim* sim, int i)
-{
-	const od_SurfaceContact* s = &sim->surface;
-	od_Vec3 n = od_V3Load(s->normal + 3 * i);
-	return s->level[i] + od_Reach(sim, i, n, NULL) - od_Dot(n, od_V3Load(sim->state.x + 3 * i));
-}
-
 // The turn may not take a particle deeper into its surface's plane than the projections left it (turned
 // about the patch centre, the skin of a Suzanne on the floor went 0.14 mm into it): lifted back by the
 // difference along the normal.
@@ -578,10 +696,157 @@ static void od_KeepOut(od_Sim* sim)
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		int i = s->near[k];
-		double lift = od_PlaneDepth(sim, i) - fmax(s->excess[i], 0.0);
+		double lift = od_HeldDepth(sim, i) - fmax(s->excess[i], 0.0);
 		if (s->patch[sim->graph->piece[i]].force > 0.0 && lift > 0.0)
 		{
 			od_V3Store(sim->state.x + 3 * i, od_MulAdd(od_V3Load(sim->state.x + 3 * i), lift, od_V3Load(s->normal + 3 * i)));
+		}
+	}
+}
+
+// The turn's frame for piece p (its centre of mass and inverse inertia about it); false when there is none (a
+// piece of one particle on a line).
+static bool od_TurnFrame(od_Patch* p)
+{
+	od_Vec3 c = od_Scale(1.0 / p->mass, p->lever), column[3];
+	od_Mat3 second = p->second;
+	od_M3AddOuter(&second, -p->mass, c, c);
+	od_Mat3 inertia = od_Inertia(second);
+	for (int k = 0; k < 3; ++k)
+	{
+		if (!od_SolveSpd3(&inertia, od_V3(k == 0, k == 1, k == 2), 1e-12 * od_M3Trace(&inertia), &column[k]))
+		{
+			return false;
+		}
+	}
+	p->inverse = (od_Mat3){ { column[0].x, column[1].x, column[2].x, column[0].y, column[1].y, column[2].y,
+							  column[0].z, column[1].z, column[2].z } };
+	p->middle = od_Add(p->centre, c);
+	p->move = p->spin = od_V3(0, 0, 0);
+	return true;
+}
+
+// The pieces with a particle left inside its surface's plane after the iterations; false when there is none.
+static bool od_TurnPieces(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	const od_Graph* g = sim->graph;
+	memset(s->patch, 0, sizeof(od_Patch) * (size_t)g->pieceCount);
+	bool any = false;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[g->piece[i]];
+		s->excess[i] = od_HeldDepth(sim, i); // the point held for the step: the projection takes the rest
+		if (s->excess[i] > 0.0 && !(p->force > 0.0))
+		{
+			p->force = 1.0; // marks it (od_PatchMoments); the centre only keeps the moments' sums small
+			p->centre = od_V3Load(sim->state.x + 3 * i);
+			any = true;
+		}
+	}
+	if (any)
+	{
+		od_PatchMoments(sim);
+	}
+	for (int p = 0; any && p < g->pieceCount; ++p)
+	{
+		od_Patch* patch = &s->patch[p];
+		patch->force = patch->force > 0.0 && !patch->held && od_TurnFrame(patch) ? 1.0 : 0.0;
+	}
+	for (int k = 0; any && k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		const od_Patch* p = &s->patch[g->piece[i]];
+		double* row = s->impulse + OD_TURN_ROW * k;
+		od_Vec3 r = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
+		od_Vec3 u = od_Cross(r, od_V3Load(s->normal + 3 * i)), turned = od_M3MulV(&p->inverse, u);
+		row[0] = 0.0;
+		row[1] = p->force > 0.0 ? 1.0 / (1.0 / p->mass + od_Dot(u, turned)) : 0.0;
+		od_V3Store(row + 2, u);
+		od_V3Store(row + 5, turned);
+	}
+	return any;
+}
+
+// One projected Gauss-Seidel sweep of the pieces' rigid corrections (see od_SurfaceContact_Turn).
+static void od_TurnSweep(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[sim->graph->piece[i]];
+		double* row = s->impulse + OD_TURN_ROW * k;
+		if (!(row[1] > 0.0))
+		{
+			continue;
+		}
+		od_Vec3 n = od_V3Load(s->normal + 3 * i); // n·(move + spin × r) = n·move + spin·(r × n)
+		double gap = s->excess[i] - od_Dot(n, p->move) - od_Dot(p->spin, od_V3Load(row + 2));
+		double next = row[0] + gap * row[1];
+		next = next > 0.0 ? next : 0.0; // not fmax: a call to libm
+		p->move = od_MulAdd(p->move, (next - row[0]) / p->mass, n);
+		p->spin = od_MulAdd(p->spin, next - row[0], od_V3Load(row + 5));
+		row[0] = next;
+	}
+}
+
+// The friction of what the projection will lift (its part of the support), for each turned piece as a whole: the
+// piece's mean slide along its surfaces, weighted by m l (l the lift after the turn), taken back by at most
+// Σ μ m l / M (Coulomb's bound on that support, as a move of the piece). The projection's own friction, μ l on
+// each particle alone, is what a stiff body's next step undoes (docs/contact.md, the Suzanne on the ramp).
+static void od_TurnFriction(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	const od_Graph* g = sim->graph;
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int i = s->near[k];
+		od_Patch* p = &s->patch[g->piece[i]];
+		double weight = (s->excess[i] - od_Dot(p->spin, od_V3Load(s->impulse + OD_TURN_ROW * k + 2))) *
+						sim->def.density * g->volumes[i]; // m l
+		if (p->force > 0.0 && weight > 0.0)
+		{
+			od_Vec3 n = od_V3Load(s->normal + 3 * i);
+			od_Vec3 slide = od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(s->anchor + 3 * i));
+			p->slip = od_MulAdd(p->slip, weight, od_MulAdd(slide, -od_Dot(slide, n), n));
+			p->lifted += weight;
+			p->grip += od_FrictionOf(sim, s->source[i]) * weight;
+		}
+	}
+	for (int q = 0; q < g->pieceCount; ++q)
+	{
+		od_Patch* p = &s->patch[q];
+		od_Vec3 mean = p->lifted > 0.0 ? od_Scale(1.0 / p->lifted, p->slip) : od_V3(0, 0, 0);
+		double size = od_Length(mean), cut = p->grip / p->mass;
+		p->move = size > cut ? od_Scale(-cut / size, mean) : od_Scale(-1.0, mean); // now the piece's move
+	}
+}
+
+void od_SurfaceContact_Turn(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (!s->force || s->after || !s->nearCount || !od_TurnPieces(sim))
+	{
+		return;
+	}
+	for (int sweep = 0; sweep < OD_TURN_SWEEPS; ++sweep)
+	{
+		od_TurnSweep(sim);
+	}
+	od_TurnFriction(sim);
+	const od_Graph* g = sim->graph;
+	for (int i = 0; i < g->n; ++i)
+	{
+		const od_Patch* p = &s->patch[g->piece[i]];
+		if (p->force > 0.0)
+		{
+			od_Mat3 turn = od_M3ExpSkew(p->spin), r = od_M3Load(sim->state.R + 9 * i);
+			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_Add(p->middle, od_M3MulV(&turn, x)), p->move));
+			r = od_M3Mul(&turn, &r);
+			od_M3Store(sim->state.R + 9 * i, &r);
 		}
 	}
 }
@@ -606,7 +871,7 @@ void od_SurfaceContact_Roll(od_Sim* sim)
 	}
 	for (int k = 0; k < s->nearCount; ++k)
 	{
-		s->excess[s->near[k]] = od_PlaneDepth(sim, s->near[k]);
+		s->excess[s->near[k]] = od_HeldDepth(sim, s->near[k]);
 	}
 	for (int i = 0; i < g->n; ++i)
 	{

@@ -21,8 +21,15 @@ typedef enum od_SurfaceUpdate
 } od_SurfaceUpdate;
 od_SurfaceUpdate od_SurfaceContact_Update(od_Sim* sim, bool tolerance);
 void od_SurfaceContact_Finish(od_Sim* sim);
+// A call ends (a failed one puts the carried forces back as they were at its start).
+void od_SurfaceContact_EndCall(od_Sim* sim, bool ok);
+// Drops the carried forces (a new state, floor or set of colliders).
+void od_SurfaceContact_Forget(od_Sim* sim);
 // After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
 // patch's moment μ N a over the step (see surface_contact.c).
 void od_SurfaceContact_Roll(od_Sim* sim);
+// After the iterations, before the projections: each piece left inside a surface's plane turned as a rigid body
+// would be to come out (see surface_contact.c).
+void od_SurfaceContact_Turn(od_Sim* sim);
 // (What the projections after the iterations read of it, od_SurfaceContact_Hold and _Near, is in sim.h: floor.c
 // and contact.c, below this file, read it there.)

@@ -43,6 +43,7 @@ def check_simulation(saved: object) -> None:
     _check_colliders(saved["collider_ids"], saved["colliders"])
     _check_fields(saved["fields"])
     _check_goal_motion(saved.get("goal_motion"))
+    _check_surface_forces(saved.get("surface_forces"))
 
 
 def _check_history(ids_before: object, history: object) -> set[int]:
@@ -92,6 +93,11 @@ def _check_goal_motion(motion: object) -> None:
     if not (isinstance(motion, (tuple, list)) and len(motion) == 3):
         raise ValueError("goal_motion: (velocities, angular_velocities, steps) or None expected")
     integer("goal_motion steps", motion[2], (-1, 2**31 - 1))
+
+
+def _check_surface_forces(carried: object) -> None:
+    if carried is not None and not (isinstance(carried, (tuple, list)) and len(carried) == 2):
+        raise ValueError("surface_forces: (forces, surfaces) or None expected")
 
 
 def int32_pairs(pairs: Any) -> Ints:

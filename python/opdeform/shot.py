@@ -672,12 +672,12 @@ def report_row(frame: int, sim: Simulation, stepped: bool, step_seconds: float, 
 
 # -- checkpoints: data, never code ----------------------------------------------------------------------------
 # A checkpoint holds what a bake cannot make again from its spec: the simulation's state (positions, rotations,
-# velocities, angular velocities) after a frame and the report rows so far, as float64 arrays, behind a JSON
+# velocities, angular velocities, the floor's carried normal forces and their surfaces) after a frame and the report rows so far, as float64 arrays, behind a JSON
 # header (format version, the shot's digest, the frame, the counts, the partial PC2's name and the payload's
 # SHA-256). It is read only once the header matches this shot and the payload its digest; the rig itself comes
 # from the spec. Nothing in an output folder is unpickled: the folder may be shared farm storage.
 CHECKPOINT_MAGIC = b"OPDEFORM CHECKPOINT\n"
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2  # 2: with the carried normal forces (Simulation.surface_forces)
 CHECKPOINT_HEADER = 4096  # bytes at most
 
 
@@ -689,12 +689,13 @@ def _read_checkpoint(shot: Shot, rig: Rig, threads: int) -> dict[str, Any] | Non
     try:
         header, arrays = _checkpoint_arrays(shot, rig.sim.graph.n_particles)
         rig.sim._core.restore_state(*arrays[:4])
+        rig.sim.set_surface_forces((arrays[4], arrays[5]))
     except (OSError, ValueError) as exc:
         log.warning("%s: cannot resume from it (%s); baking from the first frame (bake --restart ignores "
                     "checkpoints)", shot.checkpoint, exc)
         rig.sim = build(shot, threads).sim  # whatever a failed restore left
         return None
-    rows = [dict(zip(REPORT_COLUMNS, row)) for row in arrays[4].tolist()]
+    rows = [dict(zip(REPORT_COLUMNS, row)) for row in arrays[6].tolist()]
     for row in rows:
         row["frame"], row["over_tolerance"] = int(row["frame"]), int(row["over_tolerance"])
     return {"frame": header["frame"], "rows": rows,
@@ -713,19 +714,20 @@ def _checkpoint_arrays(shot: Shot, particles: int) -> tuple[dict[str, Any], list
         line = head[len(CHECKPOINT_MAGIC):].split(b"\n", 1)[0]
         header = _checkpoint_header(shot, line, particles)
         f.seek(len(CHECKPOINT_MAGIC) + len(line) + 1)
-        size = 8 * (particles * 18 + header["rows"] * len(REPORT_COLUMNS))
+        size = 8 * (particles * 22 + header["rows"] * len(REPORT_COLUMNS))
         payload = f.read(size + 1)
     if len(payload) != size:
         raise ValueError(f"{len(payload)} bytes of data where the header says {size}")
     if hashlib.sha256(payload).hexdigest() != header["sha256"]:
         raise ValueError("its data does not match its SHA-256")
     data = np.frombuffer(payload, "<f8")
-    shapes = [(particles, 3), (particles, 3, 3), (particles, 3), (particles, 3), (header["rows"], len(REPORT_COLUMNS))]
+    shapes = [(particles, 3), (particles, 3, 3), (particles, 3), (particles, 3), (particles, 3), (particles,),
+              (header["rows"], len(REPORT_COLUMNS))]
     arrays, at = [], 0
     for shape in shapes:
         arrays.append(data[at:at + int(np.prod(shape))].reshape(shape).copy())
         at += int(np.prod(shape))
-    if not np.array_equal(arrays[4][:, 0], np.arange(shot.first, header["frame"] + 1)):
+    if not np.array_equal(arrays[6][:, 0], np.arange(shot.first, header["frame"] + 1)):
         raise ValueError("its report rows are not the frames before it")
     return header, arrays
 
@@ -755,7 +757,9 @@ def _checkpoint_header(shot: Shot, line: bytes, particles: int) -> dict[str, Any
 
 def _write_checkpoint(shot: Shot, frame: int, sim: Simulation, rows: list[Row], partial: str) -> None:
     table = np.array([[row[c] for c in REPORT_COLUMNS] for row in rows], "<f8")
-    arrays = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities, table)
+    n = sim.graph.n_particles
+    forces, surfaces = sim.surface_forces or (np.zeros((n, 3)), np.full(n, -2))
+    arrays = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities, forces, surfaces, table)
     payload = b"".join(np.ascontiguousarray(a, "<f8").tobytes() for a in arrays)
     header = {"version": CHECKPOINT_VERSION, "digest": shot.digest, "frame": frame,
               "particles": sim.graph.n_particles, "rows": len(rows), "partial": os.path.basename(partial),

@@ -306,6 +306,53 @@ static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// surface_forces(forces_out, surfaces_out): the floor's and colliders' normal forces carried to the next step
+// (od_Sim_GetSurfaceForces: n*3 doubles, n int32)
+static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	Py_buffer views[2];
+	if (GetArray(objs[0], "forces", 'd', 3 * n, 1, &views[0]) < 0)
+	{
+		return NULL;
+	}
+	if (GetArray(objs[1], "surfaces", 'i', n, 1, &views[1]) < 0)
+	{
+		ReleaseArray(&views[0]);
+		return NULL;
+	}
+	od_Sim_GetSurfaceForces(sim, views[0].buf, views[1].buf);
+	ReleaseArrays(views, 2);
+	Py_RETURN_NONE;
+}
+
+// restore_surface_forces(forces, surfaces)
+static PyObject* Sim_restore_surface_forces(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	const ArraySpec specs[2] = { { "forces", 'd', 3 * n, 0 }, { "surfaces", 'i', n, 0 } };
+	Py_buffer views[2];
+	if (GetArrays(objs, specs, 2, views) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_RestoreSurfaceForces(sim, views[0].buf, views[1].buf);
+	ReleaseArrays(views, 2);
+	return Binding_Done(obj, status);
+}
+
 static PyObject* Sim_clear_floor(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
@@ -776,6 +823,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "goal_motion", Sim_goal_motion, METH_VARARGS, "goal_motion(velocities_out, angular_velocities_out) -> steps" },
 	{ "restore_goal_motion", Sim_restore_goal_motion, METH_VARARGS,
 	  "restore_goal_motion(velocities, angular_velocities, steps)" },
+	{ "surface_forces", Sim_surface_forces, METH_VARARGS, "surface_forces(forces_out, surfaces_out)" },
+	{ "restore_surface_forces", Sim_restore_surface_forces, METH_VARARGS, "restore_surface_forces(forces, surfaces)" },
 	{ "set_particle_damping", Sim_set_particle_damping, METH_VARARGS, "set_particle_damping(damping or None)" },
 	{ "add_collider", Sim_add_collider, METH_VARARGS, NULL },
 	{ "move_collider", Sim_move_collider, METH_VARARGS, NULL },

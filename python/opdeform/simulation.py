@@ -7,7 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import _core
-from ._arguments import ArrayLike, Floats, Vector, as_array, choice, integer, number, vector
+from ._arguments import ArrayLike, Floats, Ints, Vector, as_array, choice, integer, number, vector
 from ._saved import check_simulation
 from .fields import ForceFields
 from .goals import goal_frequency
@@ -307,6 +307,26 @@ class Simulation(CoreObject, ForceFields):
         if motion is not None:
             self._core.restore_goal_motion(*motion)
 
+    @property
+    def surface_forces(self) -> tuple[Floats, Ints] | None:
+        """(forces (n, 3), surfaces (n,) int32) or None: the normal force each particle pressed the floor or a
+        collider with at the last step's end, which the next step starts from (docs/contact.md, warm start), and
+        that surface (-1 the floor, k the k-th collider present, -2 none); kept under fixed iteration counts only
+        (none under a tolerance). A step reads them besides the state: ``set_state`` drops them, so a saved state
+        continues to the same bits only with them put back after it (``set_surface_forces``; pickles and the
+        add-on's frame cache carry them). None when none is carried."""
+        n = self.graph.n_particles
+        forces, surfaces = np.empty((n, 3)), np.empty(n, np.int32)
+        self._core.surface_forces(forces, surfaces)
+        return None if np.all(surfaces == -2) else (forces, surfaces)
+
+    def set_surface_forces(self, carried: tuple[ArrayLike, ArrayLike] | None) -> None:
+        """Puts back ``surface_forces`` (None: nothing to put back), after the floor, colliders and state."""
+        if carried is not None:
+            n = self.graph.n_particles
+            self._core.restore_surface_forces(as_array("surface forces", carried[0], (n, 3)),
+                                              as_array("surfaces", carried[1], (n,), np.int32))
+
     # -- damping per particle ---------------------------------------------------------------------------
     def set_particle_damping(self, damping: float | ArrayLike | None) -> None:
         """Velocity damping per step per particle, a number or one value per particle in [0, 1], in place of the
@@ -479,6 +499,7 @@ class Simulation(CoreObject, ForceFields):
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
                 "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self.goal_motion,
+                "surface_forces": self.surface_forces,
                 "particle_damping": self.particle_damping,
                 "constraints": self._constraints, "history": self._history, "ids_before": self._ids_before,
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
@@ -517,6 +538,7 @@ class Simulation(CoreObject, ForceFields):
         if saved.get("contact_points") is not None:
             self.set_contact_points(*saved["contact_points"])
         self._core.restore_state(*saved["state"])
+        self.set_surface_forces(saved.get("surface_forces"))
 
     def _replay(self, ids_before: int, history: list[int], constraints: dict[int, list[Any]],
                 targets: dict[int, Any]) -> None:

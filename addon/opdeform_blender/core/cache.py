@@ -1,5 +1,5 @@
-"""In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities, and the
-goals' motion while they carry the rest) and the handle targets and goal frames that produced them, and for a
+"""In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities, the
+goals' motion while they carry the rest and the floor's and colliders' carried normal forces) and the handle targets and goal frames that produced them, and for a
 member of a contact group the group's state after that frame (``opdeform.ContactGroup.save_state``: the pairs
 and forces its next step starts from; 170-310 kB a frame for two stacked 1,000-particle bodies, shared by the
 members' caches), and the skinned vertices that the frame's colliders and floor pushed out (indices and

@@ -405,10 +405,11 @@ class Engine:
 
     # -- state ----------------------------------------------------------------------------------------
     def _state(self):
-        """What a cached frame continues from: the state, and the goals' motion while they carry the rest (their
-        velocities damp the step: a frame simulated again after a jump back needs them for the same bits)."""
+        """What a cached frame continues from: the state, the goals' motion while they carry the rest (their
+        velocities damp the step: a frame simulated again after a jump back needs them for the same bits) and the
+        floor's and colliders' normal forces the next step starts from (``Simulation.surface_forces``)."""
         s = self.sim
-        return (s.positions, s.rotations, s.velocities, s.angular_velocities, s.goal_motion)
+        return (s.positions, s.rotations, s.velocities, s.angular_velocities, s.goal_motion, s.surface_forces)
 
     def reset(self, targets=None, goals=None, surroundings=NOTHING):
         """The start frame: the rest state, or the goal frames at rest (velocity 0) with a goal, the colliders
@@ -422,7 +423,7 @@ class Engine:
         if goals is not None:  # the goals start still, whatever was simulated before
             n = self.graph.n_particles
             self.sim.set_goal_motion((np.zeros((n, 3)), np.zeros((n, 3)), -1))
-        state = (*state, self.sim.goal_motion)
+        state = (*state, self.sim.goal_motion, self.sim.surface_forces)
         self.solver_frame = self.start
         self.cache.store(self.start, state, targets, goals)
         self._push_out(self.start)
@@ -433,6 +434,7 @@ class Engine:
         self.sim._core.restore_state(*state[:4])  # as kept: set_state's re-orthonormalising moves a contact's replay
         self._apply_goals(self.cache.goals(frame))
         self.sim.set_goal_motion(state[4])
+        self.sim.set_surface_forces(state[5])
         self.solver_frame = frame
 
     def _apply_goals(self, goals):

@@ -84,6 +84,14 @@ bool od_Sim_GetGoalRest(const od_Sim* sim);
 // (after its goal frames) to continue to the same bits. OD_ERROR_ARGUMENT while the goals do not carry the rest.
 od_Status od_Sim_GetGoalMotion(const od_Sim* sim, double* velocities, double* angularVelocities, int* steps);
 od_Status od_Sim_RestoreGoalMotion(od_Sim* sim, const double* velocities, const double* angularVelocities, int steps);
+// The floor's and colliders' normal forces a step starts from (warm start, docs/contact.md): per particle the
+// force (n*3) it pressed its surface with at the last step's end and that surface (n: -1 the floor, k >= 0 the
+// collider of index k in the order they were added, -2 none). Part of the state: a saved state continues to the
+// same bits only with them. od_Sim_SetState and RestoreState, od_Sim_SetFloor and ClearFloor drop them,
+// od_Sim_RemoveCollider those of the removed collider (the later ones renumbered); Restore sets them after those.
+// Recorded under fixed iteration counts only (docs/contact.md, "Warm start and turn").
+void od_Sim_GetSurfaceForces(const od_Sim* sim, double* forces, int* surfaces);
+od_Status od_Sim_RestoreSurfaceForces(od_Sim* sim, const double* forces, const int* surfaces);
 // A damping per particle: c_i in [0, 1] per step replaces def.damping for particle i (relative to the goals when
 // they carry the rest); NULL = def.damping for all (the same bits as never set). Get: NULL when none.
 od_Status od_Sim_SetParticleDamping(od_Sim* sim, const double* damping);
