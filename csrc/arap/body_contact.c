@@ -109,6 +109,10 @@
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
 #define OD_COMPARABLE 10.0 // the largest ratio of two members' masses for the floor's reaction and rigid step
+// A member rising faster than gravity stops in this time (or in a step, if longer) braces nothing (od_MemberMasses).
+// A step's |g| h at 240 steps a second (0.04 m/s) is within a resting member's own motion: it crossed that and
+// back, letting its brace go and taking it again, and the slabs above buzzed (docs/contact.md, stacks).
+#define OD_CLIMB_TIME (1.0 / 60.0)
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -597,9 +601,9 @@ static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 }
 
 // Each member's mass (s->mass) and whether it rises at the step's start faster than its gravity takes away in a
-// step (s->climbing: its mean vertical velocity above |g| h), once a step. A rising member (popped up by its
-// floor, bouncing) braces nothing (od_Supports): braced, a light slab popped up by the floor threw a slab 100
-// times as dense resting on it (+20 kJ at 240 steps a second).
+// step or OD_CLIMB_TIME, the longer (s->climbing: its mean vertical velocity above |g| max(h, OD_CLIMB_TIME)),
+// once a step. A rising member (popped up by its floor, bouncing) braces nothing (od_Supports): braced, a light
+// slab popped up by the floor threw a slab 100 times as dense resting on it (+20 kJ at 240 steps a second).
 static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0; b < count; ++b)
@@ -614,7 +618,8 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 			up += m * sim->state.v[3 * i + 2];
 		}
 		const double* g = sim->def.gravity;
-		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * sim->def.dt;
+		double stop = sim->def.dt > OD_CLIMB_TIME ? sim->def.dt : OD_CLIMB_TIME;
+		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * stop;
 	}
 }
 

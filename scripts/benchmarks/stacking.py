@@ -5,7 +5,8 @@ offset aside, the Kabsch turn of each bar's centres, its fastest particle, the s
 tests/test_body_contact.py), the fastest particle of the overlapping bars, the least centre distance head on.
 Stacks (issue 27): slabs of each preset with density ratios 1/1000 to 1e6, spheres of each preset and two
 creatures, one dropped on the other, 13 s: whether the upper one rests on top from 3 s on. `--stacks`: those
-alone."""
+alone; `--rate N`: the stacks at N steps a second (60 unless given; the add-on's Match Frame Rate substeps give
+240)."""
 
 import time
 
@@ -86,26 +87,27 @@ def head_on_row(g, speed, inside):
         "", ""
 
 
-def preset_body(v, t, z, preset, density=None):
+def preset_body(v, t, z, preset, density=None, rate=60):
     """A body of a materials preset (its density unless given) at height z above its rest, on a floor at 0 (μ =
-    0.5), stepping 1/60 s."""
+    0.5), stepping 1/rate s."""
     m = materials.PRESETS[preset]
     g = opdeform.Graph.from_mesh(v + (0.0, 0.0, z), t, particles=100)
     m = materials.Material(m.name, m.modulus, m.density if density is None else density, m.damping, m.tolerance)
-    sim = materials.make_simulation(g, m, dt=1 / 60)
+    sim = materials.make_simulation(g, m, dt=1 / rate)
     sim.set_floor(0.0, 0.5)
     return sim
 
 
-def rests(lower, upper, height, width, seconds=SECONDS):
+def rests(lower, upper, height, width, rate=60, seconds=SECONDS):
     """Steps a group of `lower` and `upper` (upper dropped on lower) for `seconds` and measures each second:
     whether the upper body is on top (its centre above the lower's by more than half the bodies' `height`, less
     than a quarter of their `width` aside, its fastest particle under 0.05 m/s) from 3 s on, and the figures of
-    the worst second from 3 s on: (held, least height above, most aside, fastest particle, CPU seconds)."""
+    the worst second from 3 s on: (held, least height above, most aside, fastest particle, CPU seconds). The
+    bodies step 1/rate s."""
     group = opdeform.ContactGroup([lower, upper], friction=0.5)
     least, most, fastest, clock = np.inf, 0.0, 0.0, time.process_time()
     for second in range(1, seconds + 1):
-        group.step(60)
+        group.step(rate)
         above = upper.positions[:, 2].mean() - lower.positions[:, 2].mean()
         aside = np.linalg.norm(upper.positions[:, :2].mean(axis=0) - lower.positions[:, :2].mean(axis=0))
         if second >= 3:
@@ -123,7 +125,7 @@ def slab():
     return v, t
 
 
-def slab_rows(presets, ratios):
+def slab_rows(presets, ratios, rate=60):
     """Two slabs of a preset, the upper dropped 0.05 m onto the lower, the upper `ratio` times as dense (a
     ratio below 1: the lower one the denser): held from 3 to 13 s?"""
     v, t = slab()
@@ -132,15 +134,15 @@ def slab_rows(presets, ratios):
         for ratio in ratios:
             light = materials.PRESETS[preset].density if ratio < 1e3 else 100.0  # densities up to 1e8
             lower_density, upper_density = (light, light * ratio) if ratio >= 1 else (light / ratio, light)
-            lower = preset_body(v, t, 0.1, preset, lower_density)
-            upper = preset_body(v, t, 0.35, preset, upper_density)
-            held, least, most, fastest, cpu = rests(lower, upper, 0.2, 0.8)
+            lower = preset_body(v, t, 0.1, preset, lower_density, rate)
+            upper = preset_body(v, t, 0.35, preset, upper_density, rate)
+            held, least, most, fastest, cpu = rests(lower, upper, 0.2, 0.8, rate)
             rows.append((f"slabs, {preset}", f"{ratio:g}" if ratio >= 1 else f"1/{1 / ratio:g}",
                          "yes" if held else "**no**", f"{least:.3f}", f"{most:.3f}", f"{fastest:.3f}", f"{cpu:.1f}"))
     return rows
 
 
-def round_rows(presets):
+def round_rows(presets, rate=60):
     """A 0.6 m sphere dropped 0.1 m onto a like one, of each preset; two creatures (Rubber, 1.6 m long, 0.96 m
     tall, 0.54 m wide), one dropped 0.1 m onto the other."""
     v, t = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
@@ -149,22 +151,33 @@ def round_rows(presets):
     cv, ct = meshes.creature(24)
     cases.append(("creatures, Rubber", cv, ct, 1.06, "Rubber", 0.96, 0.54))
     for name, mv, mt, lift, preset, height, width in cases:
-        lower, upper = preset_body(mv, mt, 0.0, preset), preset_body(mv, mt, lift, preset)
-        held, least, most, fastest, cpu = rests(lower, upper, height, width)
+        lower, upper = preset_body(mv, mt, 0.0, preset, rate=rate), preset_body(mv, mt, lift, preset, rate=rate)
+        held, least, most, fastest, cpu = rests(lower, upper, height, width, rate)
         rows.append((name, "1", "yes" if held else "**no**", f"{least:.3f}", f"{most:.3f}", f"{fastest:.3f}",
                      f"{cpu:.1f}"))
     return rows
 
 
+def rate_of(args):
+    """The steps a second `--rate N` asks for (60 without it)."""
+    if "--rate" not in args:
+        return 60
+    at = args.index("--rate") + 1
+    if at >= len(args) or not args[at].isdigit() or int(args[at]) < 1:
+        raise SystemExit("stacking: --rate needs a whole number of steps a second, e.g. --rate 240")
+    return int(args[at])
+
+
 def run(args):
-    print(f"stacks ({SECONDS} s at 1/60 s, 100 particles a body, μ = 0.5 between them and on the floor): held = "
+    rate = rate_of(args)
+    print(f"stacks ({SECONDS} s at 1/{rate} s, 100 particles a body, μ = 0.5 between them and on the floor): held = "
           "at every second from 3 s on, the upper body's centre above the lower's by more than half their height, "
           "less than a quarter of their width aside, its fastest particle under 0.05 m/s; the figures are the "
           "worst of those seconds")
     columns = ["scene", "density ratio (upper / lower)", "held 3-13 s", "least height above (m)", "most aside (m)",
                "fastest particle (m/s)", "CPU s"]
     presets = ("Jelly", "Rubber", "Stiff")
-    table(slab_rows(presets, (2, 10, 100, 1000, 1e6, 1 / 10, 1 / 1000)) + round_rows(presets), columns)
+    table(slab_rows(presets, (2, 10, 100, 1000, 1e6, 1 / 10, 1 / 1000), rate) + round_rows(presets, rate), columns)
     if "--stacks" in args:
         return
     v, t, g = bars()
