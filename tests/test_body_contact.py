@@ -414,12 +414,14 @@ def _on_a_settled_slab(preset, lower_density, upper_density, rate):
     return lower, _preset_body(v, t, lower.positions[:, 2].mean() + 0.25, preset, upper_density, rate)
 
 
-@pytest.mark.parametrize("preset, ratio", [("Rubber", 100), ("Stiff", 100), ("Rubber", 1000), ("Stiff", 1000)])
-def test_at_240_steps_a_second_a_slab_100_to_1000_times_as_dense_rests_on_top(preset, ratio):
-    """Issue 27, at the add-on's steps (1/240 s): a slab 100 or 1,000 times as dense dropped 0.05 m onto one resting
-    on the floor rests on top from 3 s to 13 s without gaining energy. A step's |g| h (0.04 m/s) as the speed
-    beyond which a rising member braces nothing let the lower slab's own motion cross it and back: the upper one
-    buzzed (docs/contact.md, stacks)."""
+@pytest.mark.parametrize("preset, ratio", [("Jelly", 10), ("Rubber", 10), ("Rubber", 100), ("Stiff", 100),
+                                           ("Rubber", 1000), ("Stiff", 1000)])
+def test_at_240_steps_a_second_a_slab_10_to_1000_times_as_dense_rests_on_top(preset, ratio):
+    """Issue 27, at the add-on's steps (1/240 s): a slab 10, 100 or 1,000 times as dense dropped 0.05 m onto one
+    resting on the floor rests on top from 3 s to 13 s without gaining energy. A step's |g| h (0.04 m/s) as the
+    speed beyond which a rising member braces nothing let the lower slab's own motion cross it and back: the upper
+    one buzzed; at 10:1 the pushes of members of comparable mass, per step, slid it off (docs/contact.md,
+    stacks)."""
     light = 1000.0 if ratio < 1e3 else 100.0
     lower, upper = _on_a_settled_slab(preset, light, light * ratio, 240)
     for second, (above, aside, fastest, rise) in enumerate(_stacked_seconds(lower, upper, 13, 240), 1):

@@ -108,7 +108,11 @@
 #define OD_FORCE_RATE 1.0
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
-#define OD_COMPARABLE 10.0 // the largest ratio of two members' masses for the floor's reaction and rigid step
+// The largest ratio of two members' masses for the floor's reaction and rigid step, at steps of OD_CLIMB_TIME or
+// longer; at shorter ones it shrinks with the step (od_MemberMasses: 2.5 at 240 steps a second). That path's pushes
+// act per step (the held push, the floor's projection after the iterations): at 240 steps a second slabs 10 times
+// as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ), braced they rest.
+#define OD_COMPARABLE 10.0
 // A member rising faster than gravity stops in this time (or in a step, if longer) braces nothing (od_MemberMasses).
 // A step's |g| h at 240 steps a second (0.04 m/s) is within a resting member's own motion: it crossed that and
 // back, letting its brace go and taking it again, and the slabs above buzzed (docs/contact.md, stacks).
@@ -587,7 +591,7 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// Whether a pair's two members' masses are within OD_COMPARABLE of each other (s->mass, od_MemberMasses): only
+// Whether a pair's two members' masses are within s->comparable of each other (od_MemberMasses): only
 // such pairs press a member onto its floor's reaction (od_FloorReaction), take the members' rigid step
 // (od_Coarse) and hold a push (od_Held). Beyond it the light member was squeezed out from under the heavy one
 // and the drop gained energy (the centres' kinetic and potential energy above its start: a Jelly slab under one
@@ -597,10 +601,11 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
-	return fmax(ma, mb) <= OD_COMPARABLE * fmin(ma, mb);
+	return fmax(ma, mb) <= s->comparable * fmin(ma, mb);
 }
 
-// Each member's mass (s->mass) and whether it rises at the step's start faster than its gravity takes away in a
+// The ratio of masses beyond which members are not comparable this step (s->comparable, OD_COMPARABLE), each
+// member's mass (s->mass) and whether it rises at the step's start faster than its gravity takes away in a
 // step or OD_CLIMB_TIME, the longer (s->climbing: its mean vertical velocity above |g| max(h, OD_CLIMB_TIME)),
 // once a step. A rising member (popped up by its floor, bouncing) braces nothing (od_Supports): braced, a light
 // slab popped up by the floor threw a slab 100 times as dense resting on it (+20 kJ at 240 steps a second).
@@ -621,6 +626,8 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 		double stop = sim->def.dt > OD_CLIMB_TIME ? sim->def.dt : OD_CLIMB_TIME;
 		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * stop;
 	}
+	double share = count > 0 ? sims[0]->def.dt / OD_CLIMB_TIME : 1.0; // a group's members step alike
+	s->comparable = OD_COMPARABLE * (share < 1.0 ? share : 1.0);
 }
 
 // Whether member m rests on the members its pairs counted in s->rise lead to (od_Rise): their normals' mean
@@ -636,7 +643,7 @@ static bool od_Rests(const od_PairScratch* s, int m)
 // 0.053 m/s, 0.044 split.)
 static bool od_Bears(const od_PairScratch* s, int lower, int upper)
 {
-	return s->supported[lower] > 0 && OD_COMPARABLE * s->mass[lower] < s->mass[upper];
+	return s->supported[lower] > 0 && s->comparable * s->mass[lower] < s->mass[upper];
 }
 
 // Shock propagation (Guendelman, Bridson and Fedkiw 2003): a supported member stands immovable and still

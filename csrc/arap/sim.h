@@ -199,6 +199,7 @@ typedef struct od_PairScratch
 	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)
 	double* bearing;  // per member: how much its particles bear on its floor then (od_Grounded)
 	double* mass;     // per member: its mass (od_MemberMasses)
+	double comparable; // the largest ratio of two members' masses that counts as comparable this step (od_MemberMasses)
 	double* rise;     // 2 per member: how much its pairs with the members below it rise towards it, summed, and
 	                  // their count (od_Supports)
 	int* supported;   // per member: on its floor or resting on supported members (od_Supports)
