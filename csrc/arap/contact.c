@@ -264,6 +264,14 @@ double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const
 	return depth;
 }
 
+// Where this is <= 0 the particle is clear by its reach, and od_Depth's and od_PointsDepth's first test returns
+// this less the goal's depth (>= 0): so below any margin < 0 the full depth is too, for any rotation and goal.
+double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x)
+{
+	od_Vec3 l = od_M3MulTV(&c->Rb, od_Sub(x, c->tb));
+	return c->thickness + od_ContactReach(sim, i) - od_Collider_LocalDistance(&c->body, l, NULL);
+}
+
 void od_ColliderFrames(od_SimCollider* c, double s0, double s1)
 {
 	od_Collider_FrameAt(&c->body, s0, &c->Ra, &c->ta);

@@ -19,6 +19,9 @@ void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
 // when none is).
 double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
 						double least, od_Vec3* normal);
+// Collider c's thickness plus particle i's contact reach less the distance of centre x at c's end frame (one
+// lookup): where it is <= 0, no less than what od_ColliderDepth gives there, whatever the rotation or goal.
+double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x);
 // Particle i's ellipsoid as its moment M = E diag(a², b², c²) Eᵀ (current frame), its largest radius, and how
 // far a particle that began a step inside something may leave it per step (1 m/s).
 od_Mat3 od_ParticleMoment(const od_Sim* sim, int i);

@@ -365,8 +365,10 @@ static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int
 }
 
 // The deepest surface particle i meets at its current centre and rotation (source: OD_FLOOR or a collider's
-// index; -2 and depth -inf when there is none).
-static od_Touch od_Deepest(const od_Sim* sim, int i, int* source)
+// index; -2 and depth -inf when there is none). A collider that the particle is surely more than `slack` clear of
+// is passed over by one distance lookup (od_ColliderDepthBound): its depth and normal, with the goal frame's
+// depth, took 15 % of a step of the character bench's 1,000-particle creature, nearly all of it clear of its floor.
+static od_Touch od_Deepest(const od_Sim* sim, int i, double slack, int* source)
 {
 	od_Vec3 x = od_V3Load(sim->state.x + 3 * i);
 	od_Touch best = { .depth = -INFINITY };
@@ -378,6 +380,10 @@ static od_Touch od_Deepest(const od_Sim* sim, int i, int* source)
 	}
 	for (int k = 0; k < sim->colliders.count; ++k)
 	{
+		if (!(od_ColliderDepthBound(sim, &sim->colliders.items[k], i, x) > -slack))
+		{
+			continue; // its depth is no more: it cannot make the particle near
+		}
 		od_Touch t = od_ColliderTouch(sim, &sim->colliders.items[k], i, x);
 		if (t.depth > best.depth)
 		{
@@ -444,8 +450,8 @@ static bool od_Near(od_Sim* sim, int i)
 {
 	od_SurfaceContact* s = &sim->surface;
 	int source;
-	od_Touch t = od_Deepest(sim, i, &source);
 	double slack = OD_SURFACE_SLACK * od_ParticleReach(sim, i);
+	od_Touch t = od_Deepest(sim, i, slack, &source);
 	if (!(t.depth > -slack))
 	{
 		return false;
