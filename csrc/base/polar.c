@@ -154,7 +154,7 @@ static od_Mat3 od_Cayley(od_Vec3 w)
 	return od_M3SkewSeries(a, f, f);
 }
 
-int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
+int od_PolarRotationNewton(const od_Mat3* a, od_Mat3* r, double stepSquared)
 {
 	double norm2 = od_M3Inner(a, a);
 	if (norm2 == 0.0)
@@ -178,9 +178,7 @@ int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
 		}
 		od_Mat3 e = od_Cayley(w);
 		rr = od_M3Mul(&rr, &e);
-		// Quadratic convergence: after a step of 1e-3 rad the remaining error is of order 1e-6 rad, which
-		// changes tr(RᵀC) only at second order (it is stationary there): ~1e-12 of its size.
-		if (od_Dot(w, w) < 1e-6)
+		if (od_Dot(w, w) < stepSquared)
 		{
 			*r = rr;
 			return 0;
@@ -188,6 +186,13 @@ int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
 	}
 	*r = od_PolarRotation(a);
 	return 1;
+}
+
+int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r)
+{
+	// Quadratic convergence: after a step of 1e-3 rad the remaining error is of order 1e-6 rad, which
+	// changes tr(RᵀC) only at second order (it is stationary there): ~1e-12 of its size.
+	return od_PolarRotationNewton(a, r, 1e-6);
 }
 
 void od_Orthonormalize(od_Mat3* r)

@@ -19,6 +19,10 @@ od_Mat3 od_PolarRotation(const od_Mat3* a);
 // rotations, so callers re-orthonormalize once in a while (once per step) against drift.
 int od_PolarRotationWarm(const od_Mat3* a, od_Mat3* r);
 
+// od_PolarRotationWarm's Newton steps until one is shorter than sqrt(stepSquared) radians (the warm variant's
+// 1e-6 leaves ~1e-6 rad; 1e-20 leaves rounding), with its fallback and return value.
+int od_PolarRotationNewton(const od_Mat3* a, od_Mat3* r, double stepSquared);
+
 // Solves h x = b for symmetric h by its adjugate; returns 0 unless h is clearly positive definite
 // (Sylvester's criterion with the Cholesky pivots h00, minor2 / h00, det / minor2 all above tiny).
 static inline int od_SolveSpd3(const od_Mat3* h, od_Vec3 b, double tiny, od_Vec3* x)

@@ -1,5 +1,7 @@
 // Goal frames fitted to an animated mesh: a rigid motion of the mesh gives every particle that motion,
-// exactly; a non-finite vertex that a fit reads fails it and nothing is written.
+// exactly, turned a little or nearly half a turn (beyond Newton's reach from the identity: the SVD's fallback),
+// and the same bits whatever was fitted before; a non-finite vertex that a fit reads fails it and nothing is
+// written.
 #include "opdeform/mesh.h"
 #include "test_macros.h"
 #include "test_mesh_util.h"
@@ -17,7 +19,8 @@ static void turn_point(double angle, const double t[3], const double* p, double*
 int test_goal_fit(void)
 {
 	int n[3] = { 12, 3, 3 };
-	double size[3] = { 1.2, 0.3, 0.3 }, origin[3] = { 0.0, -0.15, -0.15 }, t[3] = { 0.3, -2.0, 1.0 }, angle = 1.1;
+	double size[3] = { 1.2, 0.3, 0.3 }, origin[3] = { 0.0, -0.15, -0.15 }, t[3] = { 0.3, -2.0, 1.0 };
+	double angles[3] = { 1.1, 3.1, 1.1 };
 	test_Mesh box = test_box(n, size, origin);
 	od_MeshGraphDef gdef = test_graph_def(&box, 12);
 	od_Graph* g = NULL;
@@ -28,26 +31,36 @@ int test_goal_fit(void)
 	od_GoalFit* fit = NULL;
 	ENSURE(od_GoalFit_Create(g, &def, &fit) == OD_OK && od_GoalFit_GetVertexCount(fit) == box.vertexCount);
 	double* moved = malloc(sizeof(double) * 3 * box.vertexCount);
-	for (int v = 0; v < box.vertexCount; ++v)
-	{
-		turn_point(angle, t, box.vertices + 3 * v, moved + 3 * v);
-	}
 	int np = od_Graph_GetParticleCount(g);
 	double* x = malloc(sizeof(double) * 3 * np);
 	double* r = malloc(sizeof(double) * 9 * np);
-	ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_OK);
-	for (int j = 0; j < np; ++j)
+	double* first = malloc(sizeof(double) * 9 * np);
+	for (int k = 0; k < 3; ++k)
 	{
-		double want[3];
-		turn_point(angle, t, od_Graph_GetCenters(g) + 3 * j, want);
-		for (int a = 0; a < 3; ++a)
+		double angle = angles[k];
+		for (int v = 0; v < box.vertexCount; ++v)
 		{
-			ENSURE_SMALL(x[3 * j + a] - want[a], 1e-12);
+			turn_point(angle, t, box.vertices + 3 * v, moved + 3 * v);
 		}
-		ENSURE_SMALL(r[9 * j] - cos(angle), 1e-12);
-		ENSURE_SMALL(r[9 * j + 3] - sin(angle), 1e-12);
-		ENSURE_SMALL(r[9 * j + 8] - 1.0, 1e-12);
+		ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_OK);
+		for (int j = 0; j < np; ++j)
+		{
+			double want[3];
+			turn_point(angle, t, od_Graph_GetCenters(g) + 3 * j, want);
+			for (int a = 0; a < 3; ++a)
+			{
+				ENSURE_SMALL(x[3 * j + a] - want[a], 1e-12);
+			}
+			ENSURE_SMALL(r[9 * j] - cos(angle), 1e-12);
+			ENSURE_SMALL(r[9 * j + 3] - sin(angle), 1e-12);
+			ENSURE_SMALL(r[9 * j + 8] - 1.0, 1e-12);
+		}
+		if (k == 0)
+		{
+			memcpy(first, r, sizeof(double) * 9 * np);
+		}
 	}
+	ENSURE(memcmp(first, r, sizeof(double) * 9 * np) == 0);
 	for (int v = 0; v < box.vertexCount; ++v)
 	{
 		moved[3 * v + 1] = NAN;
@@ -60,6 +73,7 @@ int test_goal_fit(void)
 	free(moved);
 	free(x);
 	free(r);
+	free(first);
 	od_GoalFit_Destroy(fit);
 	od_Graph_Destroy(g);
 	test_free_mesh(&box);

@@ -175,7 +175,9 @@ class Engine:
         self.fit = None
         self.goal_strength = None  # per-particle goal strengths, None: no goal
         self.follow = None  # per-vertex follow values of the goal, None: no goal
-        self._lock = None  # (V, 1) share of the simulated offset each vertex shows: 0 where follow is 1
+        # (V, 3) share of the simulated offset each vertex shows, 0 where follow is 1: one value a vertex repeated
+        # on its three axes, as a (V, 1) column broadcast costs 5x a plain product (0.018 -> 0.004 ms, 5.2)
+        self._lock = None
         self._softness = None  # set_regions' per-particle stiffness scale (None: 1)
         self._damping = None  # set_regions' per-particle damping per step (None: the body's)
         self._given = None  # configure's last parameters, before the softness map
@@ -357,7 +359,8 @@ class Engine:
         self.sim.set_goal_strength(values)
         self.sim.set_goals_carry_rest(values is not None)
         self.goal_strength, self.follow = values, follow
-        self._lock = None if follow is None else np.clip(LOCK_RAMP * (1.0 - follow), 0.0, 1.0)[:, None]
+        self._lock = None if follow is None else np.repeat(np.clip(LOCK_RAMP * (1.0 - follow), 0.0, 1.0)[:, None], 3,
+                                                           axis=1)
         self.invalidate()
         return True
 
