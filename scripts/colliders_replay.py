@@ -11,9 +11,11 @@ then, with any build (builds compared one after another, in turns):
     PYTHONPATH=build/python python3 scripts/colliders_replay.py /tmp/ramp1000.pkl
 
 prints the median process time of its 47 steps with and without the collider (best of 3 each), the local step's
-SVD fallbacks, the mean centre, and (--slide, the ramp) the centre of mass's speed along and across the ramp.
+SVD fallbacks, the mean centre, a hash of the positions and rotations after each step with contact (equal hashes:
+the same trajectory), and (--slide, the ramp) the centre of mass's speed along and across the ramp.
 """
 
+import hashlib
 import math
 import os
 import pickle
@@ -40,17 +42,20 @@ def dump(kind, path):
 
 
 def replay(path, collide):
+    """(median ms a step, the simulation after the steps, digest of the states after each step)."""
     with open(path, "rb") as f:
         sim = pickle.load(f)
     if not collide:
         for cid in list(sim._colliders):
             sim.remove_collider(cid)
-    times = []
+    times, digest = [], hashlib.sha256()
     for _ in range(STEPS):
         t = time.process_time()
         sim.step()
         times.append(time.process_time() - t)
-    return np.median(times) * 1e3, sim
+        for a in (sim.positions, sim.rotations):
+            digest.update(np.ascontiguousarray(a).tobytes())
+    return np.median(times) * 1e3, sim, digest.hexdigest()[:16]
 
 
 def slide(path):
@@ -71,9 +76,10 @@ def main():
     path = sys.argv[1]
     free = min(replay(path, False)[0] for _ in range(3))
     contact = min(replay(path, True)[0] for _ in range(3))
-    sim = replay(path, True)[1]
+    _, sim, state = replay(path, True)
     print(f"load {os.getloadavg()[0]:.2f}: free {free:.3f} ms, contact {contact:.3f} ms a step, ratio "
-          f"{contact / free:.2f}, SVD fallbacks {sim.counters['polar_fallbacks']}, centre {sim.positions.mean(0)}")
+          f"{contact / free:.2f}, SVD fallbacks {sim.counters['polar_fallbacks']}, centre {sim.positions.mean(0)}, "
+          f"state {state}")
     if "--slide" in sys.argv:
         slide(path)
 
