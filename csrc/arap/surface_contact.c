@@ -115,7 +115,7 @@ typedef struct od_Patch
 	bool held;                             // by a goal or a constraint: not turned
 	od_Vec3 moment, lever, drift;          // Σ m r × d, Σ m r, Σ m d (r = x - centre, d the step's displacement)
 	od_Mat3 second;                        // Σ m r rᵀ
-	od_Mat3 turn;                          // what od_SurfaceContact_Roll applies: x -> centre + turn (x - centre) + shift
+	od_Mat3 turn;                          // Roll's x -> centre + turn (x - centre) + shift; Turn's rotation
 	od_Vec3 shift;
 	od_Mat3 inverse;                       // od_SurfaceContact_Turn: the inverse inertia about the centre of mass,
 	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation,
@@ -871,15 +871,19 @@ void od_SurfaceContact_Turn(od_Sim* sim)
 	}
 	od_TurnFriction(sim);
 	const od_Graph* g = sim->graph;
+	for (int q = 0; q < g->pieceCount; ++q)
+	{
+		s->patch[q].turn = od_M3ExpSkew(s->patch[q].spin); // once a piece (od_SurfaceContact_Roll makes its own)
+	}
 	for (int i = 0; i < g->n; ++i)
 	{
 		const od_Patch* p = &s->patch[g->piece[i]];
 		if (p->force > 0.0)
 		{
-			od_Mat3 turn = od_M3ExpSkew(p->spin), r = od_M3Load(sim->state.R + 9 * i);
+			od_Mat3 r = od_M3Load(sim->state.R + 9 * i);
 			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->middle);
-			od_V3Store(sim->state.x + 3 * i, od_Add(od_Add(p->middle, od_M3MulV(&turn, x)), p->move));
-			r = od_M3Mul(&turn, &r);
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_Add(p->middle, od_M3MulV(&p->turn, x)), p->move));
+			r = od_M3Mul(&p->turn, &r);
 			od_M3Store(sim->state.R + 9 * i, &r);
 		}
 	}
