@@ -316,10 +316,8 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 		return;
 	}
 	double thickness = c->thickness - od_GoalDepth(c, b);
-	od_Mat3 Ma = od_InFrame(&b->M, &c->Ra), Mb = od_InFrame(&b->M, &c->Rb);
+	od_Mat3 Ma = b->skin ? b->M : od_InFrame(&b->M, &c->Ra), Mb = b->skin ? b->M : od_InFrame(&b->M, &c->Rb);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
-	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, b->recovery, &n, false) -
-				  b->recovery; // began inside (what it is not beyond its recovery does not count)
 	// A particle near a still collider since the step's first solve (held by the forces inside the iterations)
 	// met it where it ends: sweeping its slide cost a 1,000-particle Suzanne sliding down a mesh ramp 1.5 ms a step
 	// (the forces keep it a hair outside, so no sample found the contact). A moving one is swept: it may pass.
@@ -330,6 +328,8 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	{
 		return;
 	}
+	od_Vec3 m; // began inside (what it is not beyond its recovery does not count); sought only here, where it counts
+	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, b->recovery, &m, false) - b->recovery;
 	l = od_MulAdd(l, fmax(depth - fmax(left, 0.0), 0.0), n);
 	od_Vec3 moved = od_Add(od_M3MulV(&c->Rb, l), c->tb);
 	od_Vec3 nb = od_M3MulV(&c->Rb, n);
