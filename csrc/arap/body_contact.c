@@ -26,7 +26,9 @@
 // forces start each step where the last one left them (warm start: matched by particle pair), so a resting
 // contact carries its weight from the first solve. Why (docs/contact.md, stacking): the projection after the
 // iterations strained the bodies and the next solve gave the strain back as motion; a bar on a bar turned
-// and rolled off at any friction, with the forces it rests.
+// and rolled off at any friction, with the forces it rests. A force never vanishes at once between members that
+// press each other (comparable or braced): a pair the broad phase no longer finds, or pushed beyond reach in the
+// first solve, keeps it to fade by the rate times how far it is beyond reach (od_CarryForces, od_GatherNear).
 //
 // Each update first takes one Newton step of the members' rigid motions (od_Coarse): the contacts between
 // two members form an interface whose mean gap, with the members as rigid bodies (mass M, h²/M per newton)
@@ -738,10 +740,21 @@ static double od_Thickness(od_Sim* const* sims, int count, const od_BodyContactD
 	return thickness;
 }
 
+// Sets pair p's force, friction and normal to those of `from` (the last step's same pair), or to none (NULL).
+static void od_TakeForce(od_ContactPair* p, const od_ContactPair* from)
+{
+	p->force = from ? from->force : 0.0;
+	memcpy(p->tangent, from ? from->tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
+	memcpy(p->n, from ? from->n : (double[3]){ 0, 0, 1 }, sizeof p->n);
+}
+
 // The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
 // pairs at zero. The last step's pairs with a force are chained per first particle (head: s->active, which
-// od_GatherNear clears), so the match costs the pairs and the forced ones, not a sort.
-static void od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int count, int total)
+// od_GatherNear clears), so the match costs the pairs and the forced ones, not a sort. A pair with a force that
+// the broad phase no longer finds is kept with it, to fade as a pair beyond reach does (od_MeasurePair): dropped
+// at once, a Stiff slab resting on a few pairs lost one pair's force every other step, when the last iterations
+// had left that pair 0.9 mm apart, and rocked at 0.16 m/s at 240 steps a second (docs/contact.md, stacks).
+static od_Status od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int count, int total)
 {
 	int* head = s->active;
 	for (int p = 0; p < total; ++p)
@@ -764,10 +777,22 @@ static void od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int coun
 		{
 			m = previous[m].next;
 		}
-		p->force = m >= 0 ? previous[m].force : 0.0;
-		memcpy(p->tangent, m >= 0 ? previous[m].tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
-		memcpy(p->n, m >= 0 ? previous[m].n : (double[3]){ 0, 0, 1 }, sizeof p->n);
+		od_TakeForce(p, m >= 0 ? &previous[m] : NULL);
+		if (m >= 0)
+		{
+			previous[m].force = 0.0; // carried: not kept again below
+		}
 	}
+	od_Status status = OD_OK;
+	for (int m = 0; m < count && status == OD_OK; ++m)
+	{
+		status = previous[m].force > 0.0 ? od_AddPair(s, previous[m].a, previous[m].b) : OD_OK;
+		if (previous[m].force > 0.0 && status == OD_OK)
+		{
+			od_TakeForce(&s->pairs[s->pairCount - 1], &previous[m]);
+		}
+	}
+	return status;
 }
 
 // Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over where
@@ -786,7 +811,8 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 	od_Status status = od_FindPairs(s, sims, total, size);
 	if (count > 1)
 	{
-		od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0, total);
+		od_Status carried = od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0, total);
+		status = status == OD_OK ? carried : status;
 		// The next step's first solve sees every carried force (od_IterateWithForces), then od_GatherNear keeps
 		// the near ones. (It saw the first nearCount pairs of this new list, nearCount left by the last step's
 		// gather: an arbitrary part of the warm start. A blob dropped on a blob overlapped -0.319 m, -0.104 m
@@ -803,7 +829,12 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 
 // Moves the pairs near after a step's first solve (OD_NEAR_SLACK) to the front of the list (s->nearCount).
 // The list is the broad phase's of the last step's end, whose spheres held each particle's path; on two
-// stacked 1,000-particle creatures about a tenth of its pairs are near.
+// stacked 1,000-particle creatures about a tenth of its pairs are near. A pair with a force between members of
+// comparable mass or braced (od_Comparable, od_Braced) that its force pushed beyond reach in the first solve
+// stays near by distance, so that its force fades (od_MeasurePair) rather than vanishing (with od_CarryForces:
+// a Stiff slab on one half as dense rocked at 0.16 m/s at 240 steps a second, at rest now). Between a light
+// member and a much heavier one below, a pair's impact force kept so pushed a light Jelly slab
+// (on one 1,000 times as dense, 240 steps a second) 0.68 m aside.
 static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_CacheMoments(s, sims, count);
@@ -814,9 +845,12 @@ static void od_GatherNear(od_PairScratch* s, od_Sim* const* sims, int count, con
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_PairState p = od_Measure(s, pair, &a, &b, between);
 		double slack = OD_NEAR_SLACK * (od_ParticleReach(a.sim, a.i) + od_ParticleReach(b.sim, b.i));
-		if ((count == 1 || a.sim != b.sim) && !p.passed && p.depth > -slack)
+		bool close = !p.passed && p.depth > -slack;
+		bool held = pair->force > 0.0 && (od_Comparable(s, pair) || od_Braced(s, pair)) &&
+					od_Length(od_Sub(b.x1, a.x1)) < od_Reaches(&a, &b) + between->thickness + slack;
+		if ((count == 1 || a.sim != b.sim) && (close || held))
 		{
-			if (od_SkinPair_Used(a.sim, b.sim))
+			if (close && od_SkinPair_Used(a.sim, b.sim))
 			{
 				od_V3Store(pair->n, p.c); // the iterations' search starts from it (od_SkinNormal)
 			}
