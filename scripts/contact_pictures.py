@@ -70,7 +70,8 @@ def finish(ax, title, points, camera, pad=0.1):
 
 
 def stack(out):
-    """Two 0.6 m bars (100 particles, k = 1e6), the upper dropped 0.15 m onto the lower, μ = 0.5, at 0, 0.5 and 10 s (a pair starting or stopping to press jolts it briefly, up to 0.12 m/s at 6 s)."""
+    """Two 0.6 m bars (100 particles, k = 1e6), the upper dropped 0.15 m onto the lower, μ = 0.5, at 0, 0.5 and
+    10 s (a pair starting or stopping to press jolts it briefly: 0.12 m/s at 6 s)."""
     v, t = meshes.bar(length=0.6, width=0.3, segments=12, cross=4)
     v = v - v.mean(axis=0)
     g = opdeform.Graph.from_mesh(v, t, particles=100)
