@@ -203,14 +203,14 @@ void ReleaseArrays(Py_buffer* views, int count)
 	}
 }
 
-int GetArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views)
+static int GetSpecArrays(PyObject* const* objs, const ArraySpec* specs, int count, int writable, Py_buffer* views)
 {
 	memset(views, 0, (size_t)count * sizeof *views);
 	for (int k = 0; k < count; ++k)
 	{
 		const ArraySpec* s = &specs[k];
 		int rc = s->optional ? GetOptionalArray(objs[k], s->name, s->fmt, s->count, &views[k])
-							 : GetArray(objs[k], s->name, s->fmt, s->count, 0, &views[k]);
+							 : GetArray(objs[k], s->name, s->fmt, s->count, writable, &views[k]);
 		if (rc < 0)
 		{
 			ReleaseArrays(views, count);
@@ -218,6 +218,16 @@ int GetArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffe
 		}
 	}
 	return 0;
+}
+
+int GetArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views)
+{
+	return GetSpecArrays(objs, specs, count, 0, views);
+}
+
+int GetOutArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views)
+{
+	return GetSpecArrays(objs, specs, count, 1, views);
 }
 
 void* ArrayData(const Py_buffer* view)

@@ -89,6 +89,8 @@ typedef struct
 
 // GetArray / GetOptionalArray for each of count objects by its spec; on failure none is held.
 int GetArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views);
+// The same for arrays written into (outputs; the specs not optional).
+int GetOutArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views);
 // The buffer's data, or NULL for an optional array that was None.
 void* ArrayData(const Py_buffer* view);
 // Copies count items into a writable buffer.

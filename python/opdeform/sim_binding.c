@@ -258,24 +258,41 @@ static PyObject* Sim_set_particle_damping(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "damping", od_Sim_SetParticleDamping);
 }
 
+static void Sim_GoalMotionSpecs(Py_ssize_t n, ArraySpec specs[2])
+{
+	specs[0] = (ArraySpec){ "velocities", 'd', 3 * n, 0 };
+	specs[1] = (ArraySpec){ "angular_velocities", 'd', 3 * n, 0 };
+}
+
+static void Sim_SurfaceForceSpecs(Py_ssize_t n, ArraySpec specs[2])
+{
+	specs[0] = (ArraySpec){ "forces", 'd', 3 * n, 0 };
+	specs[1] = (ArraySpec){ "surfaces", 'i', n, 0 };
+}
+
+// The two per-particle arrays (specsOf's, for the object's n) of a getter (out: written into) or a restore,
+// the first two arguments of args (format "OO", or "OOi" with *extra): their views, 0; or -1 with an exception
+// and nothing held.
+static int Sim_TwoArrays(PyObject* obj, PyObject* args, const char* format, void (*specsOf)(Py_ssize_t, ArraySpec*),
+						 int out, Py_buffer views[2], int* extra)
+{
+	PyObject* objs[2];
+	if (!PyArg_ParseTuple(args, format, &objs[0], &objs[1], extra))
+	{
+		return -1;
+	}
+	ArraySpec specs[2];
+	specsOf(((SimObject*)obj)->n, specs);
+	return out ? GetOutArrays(objs, specs, 2, views) : GetArrays(objs, specs, 2, views);
+}
+
 // goal_motion(velocities_out, angular_velocities_out) -> steps since the last set_goals (-1: none)
 static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
-	PyObject* objs[2];
-	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
-	{
-		return NULL;
-	}
-	Py_ssize_t n = ((SimObject*)obj)->n;
 	Py_buffer views[2];
-	if (GetArray(objs[0], "velocities", 'd', 3 * n, 1, &views[0]) < 0)
+	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_GoalMotionSpecs, 1, views, NULL) < 0)
 	{
-		return NULL;
-	}
-	if (GetArray(objs[1], "angular_velocities", 'd', 3 * n, 1, &views[1]) < 0)
-	{
-		ReleaseArray(&views[0]);
 		return NULL;
 	}
 	int steps = 0;
@@ -288,16 +305,9 @@ static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
 static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
-	PyObject* objs[2];
-	int steps;
-	if (!sim || !PyArg_ParseTuple(args, "OOi", &objs[0], &objs[1], &steps))
-	{
-		return NULL;
-	}
-	Py_ssize_t n = ((SimObject*)obj)->n;
-	const ArraySpec specs[2] = { { "velocities", 'd', 3 * n, 0 }, { "angular_velocities", 'd', 3 * n, 0 } };
 	Py_buffer views[2];
-	if (GetArrays(objs, specs, 2, views) < 0)
+	int steps;
+	if (!sim || Sim_TwoArrays(obj, args, "OOi", Sim_GoalMotionSpecs, 0, views, &steps) < 0)
 	{
 		return NULL;
 	}
@@ -311,20 +321,9 @@ static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
-	PyObject* objs[2];
-	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
-	{
-		return NULL;
-	}
-	Py_ssize_t n = ((SimObject*)obj)->n;
 	Py_buffer views[2];
-	if (GetArray(objs[0], "forces", 'd', 3 * n, 1, &views[0]) < 0)
+	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_SurfaceForceSpecs, 1, views, NULL) < 0)
 	{
-		return NULL;
-	}
-	if (GetArray(objs[1], "surfaces", 'i', n, 1, &views[1]) < 0)
-	{
-		ReleaseArray(&views[0]);
 		return NULL;
 	}
 	od_Sim_GetSurfaceForces(sim, views[0].buf, views[1].buf);
@@ -336,15 +335,8 @@ static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
 static PyObject* Sim_restore_surface_forces(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
-	PyObject* objs[2];
-	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]))
-	{
-		return NULL;
-	}
-	Py_ssize_t n = ((SimObject*)obj)->n;
-	const ArraySpec specs[2] = { { "forces", 'd', 3 * n, 0 }, { "surfaces", 'i', n, 0 } };
 	Py_buffer views[2];
-	if (GetArrays(objs, specs, 2, views) < 0)
+	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_SurfaceForceSpecs, 0, views, NULL) < 0)
 	{
 		return NULL;
 	}
