@@ -270,17 +270,11 @@ static void Sim_SurfaceForceSpecs(Py_ssize_t n, ArraySpec specs[2])
 	specs[1] = (ArraySpec){ "surfaces", 'i', n, 0 };
 }
 
-// The two per-particle arrays (specsOf's, for the object's n) of a getter (out: written into) or a restore,
-// the first two arguments of args (format "OO", or "OOi" with *extra): their views, 0; or -1 with an exception
-// and nothing held.
-static int Sim_TwoArrays(PyObject* obj, PyObject* args, const char* format, void (*specsOf)(Py_ssize_t, ArraySpec*),
-						 int out, Py_buffer views[2], int* extra)
+// The views of two per-particle arrays (specsOf's, for the object's n) of a getter (out: written into) or a
+// restore: 0; or -1 with an exception and nothing held.
+static int Sim_TwoArrays(PyObject* obj, PyObject* const objs[2], void (*specsOf)(Py_ssize_t, ArraySpec*), int out,
+						 Py_buffer views[2])
 {
-	PyObject* objs[2];
-	if (!PyArg_ParseTuple(args, format, &objs[0], &objs[1], extra))
-	{
-		return -1;
-	}
 	ArraySpec specs[2];
 	specsOf(((SimObject*)obj)->n, specs);
 	return out ? GetOutArrays(objs, specs, 2, views) : GetArrays(objs, specs, 2, views);
@@ -290,8 +284,10 @@ static int Sim_TwoArrays(PyObject* obj, PyObject* args, const char* format, void
 static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
 	Py_buffer views[2];
-	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_GoalMotionSpecs, 1, views, NULL) < 0)
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
+		Sim_TwoArrays(obj, objs, Sim_GoalMotionSpecs, 1, views) < 0)
 	{
 		return NULL;
 	}
@@ -305,9 +301,11 @@ static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
 static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
 	Py_buffer views[2];
 	int steps;
-	if (!sim || Sim_TwoArrays(obj, args, "OOi", Sim_GoalMotionSpecs, 0, views, &steps) < 0)
+	if (!sim || !PyArg_ParseTuple(args, "OOi", &objs[0], &objs[1], &steps) ||
+		Sim_TwoArrays(obj, objs, Sim_GoalMotionSpecs, 0, views) < 0)
 	{
 		return NULL;
 	}
@@ -321,8 +319,10 @@ static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
 	Py_buffer views[2];
-	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_SurfaceForceSpecs, 1, views, NULL) < 0)
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
+		Sim_TwoArrays(obj, objs, Sim_SurfaceForceSpecs, 1, views) < 0)
 	{
 		return NULL;
 	}
@@ -335,8 +335,10 @@ static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
 static PyObject* Sim_restore_surface_forces(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
+	PyObject* objs[2];
 	Py_buffer views[2];
-	if (!sim || Sim_TwoArrays(obj, args, "OO", Sim_SurfaceForceSpecs, 0, views, NULL) < 0)
+	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
+		Sim_TwoArrays(obj, objs, Sim_SurfaceForceSpecs, 0, views) < 0)
 	{
 		return NULL;
 	}
