@@ -79,6 +79,29 @@ def test_a_skin_set_and_removed_steps_as_none_bit_for_bit():
     assert all(np.array_equal(a, b) for a, b in zip(*runs))
 
 
+def test_a_skin_kept_from_the_other_bodies_meets_them_with_its_ellipsoids_and_pickles():
+    # bodies=False (the add-on's groups): between the bodies the steps are the ellipsoids', bit for bit (no
+    # floor: there the skin meets it); a pickled member keeps the choice
+    runs = []
+    for shape in ("ellipsoids", "skin"):
+        members, group = skin_pairs.pair("bars", "ellipsoids", False)
+        members[1].sim.set_state(members[1].sim.positions, members[1].sim.rotations,
+                                 np.tile((0.0, 0.0, -2.0), (members[1].sim.graph.n_particles, 1)))
+        for m in members if shape == "skin" else ():
+            m.sim.set_contact_skin(m.skin, bodies=False)
+        if shape == "skin":
+            group = opdeform.ContactGroup(pickle.loads(pickle.dumps([m.sim for m in members])), friction=0.5)
+        lowest = group.sims[0].positions[:, 2].mean()
+        group.step(40)
+        runs.append([sim.positions.copy() for sim in group.sims])
+    assert all(np.array_equal(a, b) for a, b in zip(*runs))
+    assert runs[0][0][:, 2].mean() < lowest - 0.5  # the upper one (2 m/s down) pushed the lower one
+    (lower, _), _ = skin_pairs.pair("bars", "ellipsoids", True)
+    lower.sim.set_contact_skin(lower.skin, bodies=False)
+    lower.sim.step(120)
+    assert -1e-3 < lower.shown()[:, 2].min() < 0.005  # the skin on its floor (the ellipsoids': 1.1 cm above)
+
+
 def test_a_member_with_a_skin_meets_one_without():
     members, group = skin_pairs.pair("bars", "ellipsoids", True)
     members[1].sim.set_contact_skin(members[1].skin)

@@ -124,6 +124,7 @@ typedef struct od_SkinShape
 	double* group;    // 5 per group: its centre's offset, its radius, the farthest it reaches from the particle
 	double* offset;   // 4 per point: v - X̄_i at rest, then its distance from its group's centre
 	double* reach;    // n: the farthest of particle i's points from its centre
+	bool bodies;      // the points meet the other bodies of a group too (skin_pairs.c), else the ellipsoids do
 } od_SkinShape;
 
 // Contact with the floor and the colliders inside a step's iterations (surface_contact.c), per particle: the

@@ -18,28 +18,34 @@
 
 #include <math.h>
 
+// Whether sim's skin points are its shape between bodies (od_Sim_SetContactSkin's bodies).
+static bool od_MeetsBodies(const od_Sim* sim)
+{
+	return od_SkinShape_Used(sim) && sim->skinShape.bodies;
+}
+
 bool od_SkinPair_Used(const od_Sim* a, const od_Sim* b)
 {
-	return a != b && (od_SkinShape_Used(a) || od_SkinShape_Used(b));
+	return a != b && (od_MeetsBodies(a) || od_MeetsBodies(b));
 }
 
 double od_SkinPair_Support(const od_Sim* sim, int i, const od_Mat3* moment, od_Vec3 n)
 {
-	return od_SkinShape_Used(sim) ? od_SkinShape_Support(sim, i, sim->state.R + 9 * i, od_Scale(-1.0, n), NULL)
+	return od_MeetsBodies(sim) ? od_SkinShape_Support(sim, i, sim->state.R + 9 * i, od_Scale(-1.0, n), NULL)
 								  : od_Support(moment, n);
 }
 
 double od_SkinPair_Reach(const od_Sim* sim, int i)
 {
 	double ellipsoid = od_ParticleReach(sim, i);
-	return od_SkinShape_Used(sim) && sim->skinShape.reach[i] > ellipsoid ? sim->skinShape.reach[i] : ellipsoid;
+	return od_MeetsBodies(sim) && sim->skinShape.reach[i] > ellipsoid ? sim->skinShape.reach[i] : ellipsoid;
 }
 
 // The point of particle i's shape farthest along unit n, from its centre: its skin point's at its current
 // rotation, or its ellipsoid's (moment M: M n / sqrt(nᵀ M n)).
 static od_Vec3 od_PairPoint(const od_Sim* sim, int i, const od_Mat3* moment, od_Vec3 n)
 {
-	if (!od_SkinShape_Used(sim))
+	if (!od_MeetsBodies(sim))
 	{
 		od_Vec3 m = od_M3MulV(moment, n);
 		double s = sqrt(od_Dot(n, m));

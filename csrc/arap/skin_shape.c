@@ -185,7 +185,7 @@ static void od_FillSkin(od_SkinShape* s, const od_Graph* g, const double* points
 	s->start[n] = groups;
 }
 
-od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count)
+od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count, int bodies)
 {
 	od_Status status = od_CheckSkin(sim, points, particles, count);
 	if (status != OD_OK)
@@ -217,7 +217,7 @@ od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* pa
 					   .first = od_AllocZero((size_t)groups + 1, sizeof(int)),
 					   .group = od_Alloc(sizeof(double) * 5 * (size_t)groups),
 					   .offset = od_Alloc(sizeof(double) * 4 * (size_t)kept),
-					   .reach = od_Alloc(sizeof(double) * (size_t)n) };
+					   .reach = od_Alloc(sizeof(double) * (size_t)n), .bodies = bodies != 0 };
 	int* begin = od_AllocZero((size_t)n + 1, sizeof(int));
 	od_SkinPoint* pts = od_Alloc(sizeof(od_SkinPoint) * (size_t)kept);
 	if (!s.start || !s.first || !s.group || !s.offset || !s.reach || !begin || !pts)

@@ -504,12 +504,14 @@ static PyObject* Sim_collider_distances(PyObject* obj, PyObject* args)
 	return PointQuery(obj, args, 0);
 }
 
-// set_contact_skin(points, particles): points (float64, 3 each) carried by particles (int32, 1 each); none: off.
+// set_contact_skin(points, particles, bodies): points (float64, 3 each) carried by particles (int32, 1 each);
+// none: off; bodies: whether they meet the other bodies of a group too.
 static PyObject* Sim_set_contact_skin(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
 	PyObject* arrays[2];
-	if (!sim || !PyArg_ParseTuple(args, "OO", &arrays[0], &arrays[1]))
+	int bodies;
+	if (!sim || !PyArg_ParseTuple(args, "OOp", &arrays[0], &arrays[1], &bodies))
 	{
 		return NULL;
 	}
@@ -520,7 +522,7 @@ static PyObject* Sim_set_contact_skin(PyObject* obj, PyObject* args)
 	{
 		return n > INT_MAX / 3 ? PyErr_Format(PyExc_ValueError, "points: too many") : NULL;
 	}
-	od_Status status = od_Sim_SetContactSkin(sim, views[0].buf, views[1].buf, (int)n);
+	od_Status status = od_Sim_SetContactSkin(sim, views[0].buf, views[1].buf, (int)n, bodies);
 	ReleaseArrays(views, 2);
 	return Binding_Done(obj, status);
 }

@@ -428,14 +428,15 @@ class Simulation(CoreObject, ForceFields):
         self._core.collider_distances(pts, out)
         return out
 
-    def set_contact_skin(self, skin: Any) -> None:
+    def set_contact_skin(self, skin: Any, bodies: bool = True) -> None:
         """The skinned surface as the contact shape of the floor and the colliders (docs/contact.md, "Contact on
         the skin"): each rest vertex of ``skin`` (an ``opdeform.Skin`` of this graph) is carried rigidly by each
         particle that skins it (weight > 0), and these points meet them instead of the particles' ellipsoids:
         the skinned vertex, a blend of its carried copies, stays out of a plane that each copy stays out of, so
         the skin, not the ellipsoids, rests on them. None: the ellipsoids again (the default). In a ContactGroup
         these points also meet the other members (their skin points, or their ellipsoids where they have none);
-        self-contact keeps the ellipsoids."""
+        ``bodies=False``: the other members meet this body's ellipsoids (the add-on's groups). Self-contact keeps
+        the ellipsoids."""
         if skin is None:
             self.set_contact_points(None)
             return
@@ -444,19 +445,20 @@ class Simulation(CoreObject, ForceFields):
         carried = skin.weights > 0.0
         vertex = np.broadcast_to(np.arange(skin.n_vertices)[:, None], carried.shape)[carried]
         rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
-        self.set_contact_points(rest[vertex], skin.indices[carried])
+        self.set_contact_points(rest[vertex], skin.indices[carried], bodies)
 
-    def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None) -> None:
+    def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None,
+                           bodies: bool = True) -> None:
         """``set_contact_skin`` with any rest-space points (m,3) (a sampling of the skin), each carried by the
         particle of ``particles`` (m,) int; a particle given none keeps its centre. None: the ellipsoids."""
         if points is None:
-            self._core.set_contact_skin(np.empty((0, 3)), np.empty(0, np.int32))
+            self._core.set_contact_skin(np.empty((0, 3)), np.empty(0, np.int32), False)
             self._contact_points = None
             return
         pts = as_array("points", points, (None, 3))
         owner = as_array("particles", particles, (len(pts),), np.int32)
-        self._core.set_contact_skin(pts, owner)
-        self._contact_points = (pts.copy(), owner.copy())
+        self._core.set_contact_skin(pts, owner, bool(bodies))
+        self._contact_points = (pts.copy(), owner.copy(), bool(bodies))
 
     @property
     def n_contact_points(self) -> int:

@@ -91,6 +91,25 @@ def test_the_skin_rests_a_quarter_into_the_outer_thickness_and_on_the_floor():
     print("OPDEFORM_RESULT skin_gap_cm sphere", round(100 * gap, 3), "floor", round(100 * low, 3))
 
 
+def test_beside_another_object_the_skin_still_meets_the_collider_and_the_floor():
+    """Two simulated objects in one scene step as a contact group: each keeps its skin for the colliders and the
+    floor, as alone (the ellipsoids there left a Suzanne 4.4 cm above a Collision plane beside another object);
+    they meet each other with their ellipsoids (docs/contact.md, "Contact on the skin")."""
+    collider("sphere")
+    on_sphere = blob()
+    on_floor = blob(location=(3.0, 0.0, BLOB), name="Beside", use_floor=True)
+    sim = H.runtime().get(on_sphere).engine.sim
+    gap, low = np.inf, np.inf
+    for f in range(1, 49):
+        bpy.context.scene.frame_set(f)
+        assert not on_sphere.opdeform.error and not on_floor.opdeform.error
+        if f > 24:
+            gap = min(gap, sim.collider_distances(world(on_sphere).astype(np.float64)).min())
+            low = min(low, world(on_floor)[:, 2].min())
+    assert H.runtime().get(on_sphere).engine.partners is not None, "the two objects did not step as a group"
+    assert -1e-6 < gap < 0.0051 and -1e-6 < low < 0.001, f"the skins rest {100 * gap:.2f} and {100 * low:.2f} cm off"
+
+
 def _slide(friction):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     H.enable_addon()

@@ -9,8 +9,9 @@ A group's frames depend on every member, so an engine remembers the group it was
 joining, leaving or a change of the group's contact outdates its whole cache. Before simulating, the members'
 plans are made the same: each cache is cut back to the shortest one (a member whose colliders moved outdates the
 others' frames after it too), so a bake of one member simulates the whole group again, bit for bit as playback.
-The group's gap is the largest of its members' Distance, its friction their mean. A member's floor and colliders
-meet its ellipsoids, as the other bodies do (alone: its skin, core/engine.py).
+The group's gap is the largest of its members' Distance, its friction their mean. A member's skin meets its floor
+and colliders, as alone; the bodies meet each other's ellipsoids (core/engine.py; docs/contact.md, "Contact on the
+skin": round bodies roll off each other's skins).
 """
 
 from .engine import simulate
@@ -47,13 +48,10 @@ def align(runs):
 
 
 def join(runs, key):
-    """Marks the group the runs' engines are simulated in (None: alone); another than before outdates a cache.
-    Alone, the skin meets the floor and the colliders; in a group the particles' ellipsoids do, the shape their
-    contact with the other bodies has (docs/contact.md, "Contact on the skin")."""
+    """Marks the group the runs' engines are simulated in (None: alone); another than before outdates a cache."""
     for r in runs:
         if r.engine.partners != key:
             r.engine.partners = key
-            r.engine.sim.set_contact_skin(r.engine.skin if key is None else None)
             _replan([r], clear=True)
 
 

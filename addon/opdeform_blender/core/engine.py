@@ -245,7 +245,8 @@ class Engine:
         changed = False
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
-            self.sim.set_contact_skin(self.skin)  # alone the skin meets the floor and colliders (core/contact.py)
+            # the skin meets the floor and colliders; in a group the other bodies meet the ellipsoids (core/contact.py)
+            self.sim.set_contact_skin(self.skin, bodies=False)
             self.colliders = SceneColliders(self.sim)
             self.fields = SceneFields(self.sim)
             changed = True

@@ -59,8 +59,9 @@ int od_Sim_GetColliderCount(const od_Sim* sim);
 // skin"): point k (points: count*3, rest space, e.g. the skin's vertices) is carried rigidly by particle
 // particles[k] (e.g. every particle that skins it), at x_i + R_i (p_k - X̄_i), and those points meet the floor
 // and the colliders instead of the particles' ellipsoids (a particle given none: its centre). count 0: the
-// ellipsoids again (the default). Contact between particles (below) keeps the ellipsoids.
-od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count);
+// ellipsoids again (the default). bodies 1: in a group (below) the points meet the other bodies too; 0: the
+// other bodies meet this one's ellipsoids (and it theirs). Self-contact keeps the ellipsoids.
+od_Status od_Sim_SetContactSkin(od_Sim* sim, const double* points, const int* particles, int count, int bodies);
 int od_Sim_GetContactSkinCount(const od_Sim* sim); // the points given, 0: the ellipsoids
 
 // Moves each point (count*3) that is inside a collider (at its current frame) or below the floor to the
