@@ -258,25 +258,20 @@ static PyObject* Sim_set_particle_damping(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "damping", od_Sim_SetParticleDamping);
 }
 
-static void Sim_GoalMotionSpecs(Py_ssize_t n, ArraySpec specs[2])
+// The views of goal motion's two arrays (n*3 doubles each) of a getter (out: written into) or a restore: 0; or
+// -1 with an exception and nothing held.
+static int Sim_GoalMotionViews(PyObject* obj, PyObject* const objs[2], int out, Py_buffer views[2])
 {
-	specs[0] = (ArraySpec){ "velocities", 'd', 3 * n, 0 };
-	specs[1] = (ArraySpec){ "angular_velocities", 'd', 3 * n, 0 };
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	const ArraySpec specs[2] = { { "velocities", 'd', 3 * n, 0 }, { "angular_velocities", 'd', 3 * n, 0 } };
+	return out ? GetOutArrays(objs, specs, 2, views) : GetArrays(objs, specs, 2, views);
 }
 
-static void Sim_SurfaceForceSpecs(Py_ssize_t n, ArraySpec specs[2])
+// The same for the surface forces' (n*3 doubles, n int32).
+static int Sim_SurfaceForceViews(PyObject* obj, PyObject* const objs[2], int out, Py_buffer views[2])
 {
-	specs[0] = (ArraySpec){ "forces", 'd', 3 * n, 0 };
-	specs[1] = (ArraySpec){ "surfaces", 'i', n, 0 };
-}
-
-// The views of two per-particle arrays (specsOf's, for the object's n) of a getter (out: written into) or a
-// restore: 0; or -1 with an exception and nothing held.
-static int Sim_TwoArrays(PyObject* obj, PyObject* const objs[2], void (*specsOf)(Py_ssize_t, ArraySpec*), int out,
-						 Py_buffer views[2])
-{
-	ArraySpec specs[2];
-	specsOf(((SimObject*)obj)->n, specs);
+	Py_ssize_t n = ((SimObject*)obj)->n;
+	const ArraySpec specs[2] = { { "forces", 'd', 3 * n, 0 }, { "surfaces", 'i', n, 0 } };
 	return out ? GetOutArrays(objs, specs, 2, views) : GetArrays(objs, specs, 2, views);
 }
 
@@ -287,7 +282,7 @@ static PyObject* Sim_goal_motion(PyObject* obj, PyObject* args)
 	PyObject* objs[2];
 	Py_buffer views[2];
 	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
-		Sim_TwoArrays(obj, objs, Sim_GoalMotionSpecs, 1, views) < 0)
+		Sim_GoalMotionViews(obj, objs, 1, views) < 0)
 	{
 		return NULL;
 	}
@@ -305,7 +300,7 @@ static PyObject* Sim_restore_goal_motion(PyObject* obj, PyObject* args)
 	Py_buffer views[2];
 	int steps;
 	if (!sim || !PyArg_ParseTuple(args, "OOi", &objs[0], &objs[1], &steps) ||
-		Sim_TwoArrays(obj, objs, Sim_GoalMotionSpecs, 0, views) < 0)
+		Sim_GoalMotionViews(obj, objs, 0, views) < 0)
 	{
 		return NULL;
 	}
@@ -322,7 +317,7 @@ static PyObject* Sim_surface_forces(PyObject* obj, PyObject* args)
 	PyObject* objs[2];
 	Py_buffer views[2];
 	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
-		Sim_TwoArrays(obj, objs, Sim_SurfaceForceSpecs, 1, views) < 0)
+		Sim_SurfaceForceViews(obj, objs, 1, views) < 0)
 	{
 		return NULL;
 	}
@@ -338,7 +333,7 @@ static PyObject* Sim_restore_surface_forces(PyObject* obj, PyObject* args)
 	PyObject* objs[2];
 	Py_buffer views[2];
 	if (!sim || !PyArg_ParseTuple(args, "OO", &objs[0], &objs[1]) ||
-		Sim_TwoArrays(obj, objs, Sim_SurfaceForceSpecs, 0, views) < 0)
+		Sim_SurfaceForceViews(obj, objs, 0, views) < 0)
 	{
 		return NULL;
 	}

@@ -142,12 +142,10 @@ def live_dynamic(scene):
     return [o for o in enabled_objects(scene) if is_live(o) and o.opdeform.mode == 'DYNAMIC']
 
 
-def in_evaluation(obj, depsgraph=None):
+def in_evaluation(obj, depsgraph):
     """Whether this evaluation has obj: an object hidden from renders (in a render's evaluation) or disabled in
     viewports, or in an excluded collection, has no evaluated mesh to read; it waits, and its frames catch up
     when an evaluation has it again."""
-    if depsgraph is None:
-        depsgraph = bpy.context.evaluated_depsgraph_get()
     return obj.evaluated_get(depsgraph).is_evaluated
 
 
@@ -167,7 +165,8 @@ def replay_to_current(scene):
 def simulate_frame(scene, depsgraph=None):
     """Every live object to the scene's frame: those that can step together in contact (core/contact.py), the
     others alone. A failure pauses the objects it concerns."""
-    objects = [obj for obj in live_dynamic(scene) if in_evaluation(obj, depsgraph)]
+    evaluation = depsgraph or bpy.context.evaluated_depsgraph_get()  # once a frame, not once an object
+    objects = [obj for obj in live_dynamic(scene) if in_evaluation(obj, evaluation)]
     started = [(obj, r) for obj in objects if (r := safely(obj, frame_run, scene, depsgraph))]
     by_run = {id(run): (obj, rt) for obj, (rt, run) in started}
     for runs in contact.partition([run for _, (_, run) in started]):
