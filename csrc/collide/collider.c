@@ -8,8 +8,9 @@
 // A mesh is turned once into distance samples on a local grid: exact distances to the triangles in a
 // narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x. An open mesh
 // (a ramp, a terrain, a table top: no inside to count crossings into) takes its sign from the side of its
-// nearest triangle instead, carried through the sweep with the distance; beyond its rim that side extends,
-// so behind a rim counts as inside. New vertices (a deforming collider) are sampled into new memory that
+// nearest triangle instead, carried through the sweep with the distance, to OD_OPEN_DEPTH samples deep: a slab
+// behind its faces, rounded at its rim (where the side extended behind the rim, a body that slid off a ramp
+// was inside and was flung up). New vertices (a deforming collider) are sampled into new memory that
 // replaces the old only once complete, so that a call stopped part-way (od_CheckInterrupt: Ctrl-C, polled
 // every 64 triangles and every plane of samples) or out of memory leaves the collider as it was. Cost: about
 // 8 us a triangle at resolution 64 (a 998,000-triangle sphere: 8.3 s to add, 7.8 s a vertex update, one core
@@ -29,6 +30,9 @@
 #define OD_MESH_MAX_DIM 96 // distance samples per axis at most
 #define OD_MESH_BAND 3     // samples around each triangle that get the exact distance
 #define OD_MESH_POLL 63    // triangles between interrupt checks, less one (a power of two less one)
+// How deep behind its faces an open mesh counts as inside, in samples: less than the sample box's margin
+// (OD_MESH_BAND + 1), so that every sample on the box's faces is outside and so is all beyond it.
+#define OD_OPEN_DEPTH 3.5
 
 // ---------------------------------------------------------------------------------------------------------
 // Mesh distance samples
@@ -358,12 +362,15 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 	return status;
 }
 
-// Makes an open mesh's samples behind their nearest triangle negative.
+// Makes an open mesh's samples behind their nearest triangle negative, to OD_OPEN_DEPTH samples deep; deeper ones
+// are outside, by their distance beyond that depth (a lower bound of their distance, as a culling test needs).
 static void od_SdfSide(od_Collider* c, size_t total)
 {
+	double depth = OD_OPEN_DEPTH * c->spacing;
 	for (size_t i = 0; i < total; ++i)
 	{
-		c->sdf[i] = c->side[i] < 0.0 ? -c->sdf[i] : c->sdf[i];
+		double d = c->sdf[i];
+		c->sdf[i] = !(c->side[i] < 0.0) ? d : (d <= depth ? -d : d - depth);
 	}
 }
 

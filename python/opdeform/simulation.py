@@ -167,7 +167,7 @@ class Simulation(CoreObject, ForceFields):
         self._calls: list[tuple[str, tuple[Any, ...]]] = []
         self._colliders: dict[int, dict[str, Any]] = {}
         self._collider_ids = 0
-        self._contact_points: tuple[Floats, npt.NDArray[np.int32]] | None = None
+        self._contact_points: tuple[Floats, npt.NDArray[np.int32], bool] | None = None
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind: str = "position") -> float:
