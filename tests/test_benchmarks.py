@@ -8,7 +8,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 
-from benchmarks import common, scale  # noqa: E402  (scripts/ on the path first)
+from benchmarks import calibration, common, scale  # noqa: E402  (scripts/ on the path first)
 
 
 def test_factorization_timed_by_itself():
@@ -33,3 +33,10 @@ def test_load_gives_the_three_averages():
     words = common.load().split()
     assert words[:2] == ["load", "average"]
     assert all(float(x.rstrip(",")) >= 0 for x in words[2:5])
+
+
+def test_part_drops_split_the_characters_ear_into_head_root_and_tip():
+    """scripts/bench calibration --parts (docs/settings.md): at 50 particles the ear is one particle, and its root
+    (above the head's middle) drops more than the head and less than its tip: 0.82, 0.92 and 1.27 mm."""
+    head, root, tip, count = calibration.part_drops("character_ear", 50)
+    assert 0.0 < head < root < tip and count == 1, (head, root, tip, count)

@@ -12,7 +12,8 @@ Prints the droops, max/min across counts per body, the plate against Euler-Berno
 the measure, and wall time beside it).
 Options: --counts 50,100,200,400, --bodies plate,bracket, --calibration measured|bending|uniform,
 --cost (the calibration's processor and wall time at 100 and 1,000 particles of the plate, the tail, the
-bracket and the character).
+bracket and the character), --parts (for the character's bodies: its head's drop and the part's axis root and tip
+drops, part_drops).
 """
 
 import argparse
@@ -86,12 +87,15 @@ def _capsule(p, a, b, ra, rb):
     return np.linalg.norm(p - (a + h[:, None] * (b - a)), axis=1) - (ra + (rb - ra) * h), h
 
 
+PARTS = {"character_tail": "tail", "character_ear": "ear.L"}  # the part whose tip each character body measures
+
+
 def character_tail():
-    return _character("tail")
+    return _character(PARTS["character_tail"])
 
 
 def character_ear():
-    return _character("ear.L")
+    return _character(PARTS["character_ear"])
 
 
 def two_boxes():
@@ -108,6 +112,14 @@ BODIES = {"plate": plate, "bracket": bracket, "tail": tail, "character_tail": ch
 def droop(body, particles, calibration="measured", iterations=4000):
     """(droop of the tip region / the body's length, the graph's size used for E, calibration (processor, wall)
     seconds); the character under Jelly (under Rubber it droops 0.1-0.5 mm)."""
+    sim, v, tip, length, cost = _solved(body, particles, calibration, iterations)
+    drop = -(sim.skin_points(v[tip])[:, 2] - v[tip, 2]).mean()
+    return float(drop / length), materials.body_size(sim.graph), cost
+
+
+def _solved(body, particles, calibration, iterations):
+    """(the static Simulation of ``body`` held as the bench holds it, its rest vertices, its tip vertices, its
+    length, the calibration's (processor, wall) seconds)."""
     v, t, held, tip, length = BODIES[body]()
     material = JELLY if body.startswith("character") else RUBBER
     g = opdeform.Graph.from_mesh(v, t, particles=particles)
@@ -116,8 +128,26 @@ def droop(body, particles, calibration="measured", iterations=4000):
     opdeform.pin_vertices(sim, v, np.flatnonzero(held))
     sim.set_solver("chebyshev")
     sim.solve_static(iterations)
-    drop = -(sim.skin_points(v[tip])[:, 2] - v[tip, 2]).mean()
-    return float(drop / length), materials.body_size(g), cost
+    return sim, v, tip, length, cost
+
+
+def part_drops(body, particles, calibration="measured", iterations=4000):
+    """Where a character part's droop comes from (mm, down): the head's translation (the mean drop of the closed
+    mesh's grid cells within 0.2 m of the head's axis middle: their rigid motion's), the drop of the part's axis
+    root and of its axis tip (skinned), and the particles of the part (whose centres lie in the thin part of
+    materials' grid that holds the point 3/4 along the axis)."""
+    sim = _solved(body, particles, calibration, iterations)[0]
+    a, b = (np.array(x) for x in meshes.CHARACTER_PARTS[PARTS[body]][:2])
+    grid = materials._Grid(*meshes.character())
+    label = grid.appendages()
+    cells = grid.centres(np.flatnonzero(grid.inside.ravel()))
+    head = np.mean(meshes.CHARACTER_PARTS["head"][:2], axis=0)
+    rest = cells[np.linalg.norm(cells - head, axis=1) < 0.2]
+    moved = sim.skin_points(rest)
+    axis = sim.skin_points(np.array([a, b]))
+    mine = label[grid.cell_of((a + 0.75 * (b - a))[None])[0]]
+    count = int((label[grid.cell_of(sim.graph.centers)] == mine).sum())
+    return 1e3 * (rest - moved).mean(axis=0)[2], 1e3 * (a - axis[0])[2], 1e3 * (b - axis[1])[2], count
 
 
 def plate_theory(size):
@@ -148,6 +178,7 @@ def run(args):
     p.add_argument("--bodies", default=",".join(BODIES))
     p.add_argument("--calibration", default="measured", choices=materials.CALIBRATIONS)
     p.add_argument("--cost", action="store_true")
+    p.add_argument("--parts", action="store_true")
     a = p.parse_args(args)
     counts = [int(c) for c in a.counts.split(",")]
     rows = []
@@ -168,3 +199,9 @@ def run(args):
             for n in (100, 1000):
                 cpu, wall = cost(body, n, a.calibration)
                 print(f"cost {body} {n} particles: {cpu:.2f} s processor, {wall:.2f} s wall", flush=True)
+    if a.parts:
+        for body in (b for b in a.bodies.split(",") if b in PARTS):
+            for n in counts:
+                head, root, tip, count = part_drops(body, n, a.calibration)
+                print(f"parts {body} {n} particles: head {head:.2f} mm, {PARTS[body]}'s axis root {root:.2f} mm, "
+                      f"its tip {tip:.2f} mm (own {tip - root:.2f} mm), {count} particles", flush=True)
