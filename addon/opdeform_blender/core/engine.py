@@ -37,6 +37,7 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # particle's strength is a mean over its vertices, so a core vertex near a soft region would otherwise take
 # that region's lag), follow 0.9 and below the whole offset.
 LOCK_RAMP = 10.0
+SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
 
 class EngineError(ValueError):
@@ -94,6 +95,11 @@ def original_input(positions, index, n):
     raise EngineError(f"a modifier after OPDeform changes the vertex count ({count} where the mesh has {n}) "
                       "without keeping the mesh's vertices first (Subdivision, Mirror and Array keep them): turn "
                       "it off while playing and baking, or apply it before enabling")
+
+
+def _same_points(a, b):
+    """Whether two (V, 3) arrays are equal, rows a stride apart compared first (a moving input differs there)."""
+    return a.shape == b.shape and np.array_equal(a[::SAMPLE_STRIDE], b[::SAMPLE_STRIDE]) and np.array_equal(a, b)
 
 
 def _same(a, b):
@@ -207,6 +213,8 @@ class Engine:
         self.shown_state = self._rest_state[:2]
         self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
         self._buffers = {}  # name -> (V, 3) array (_buffer)
+        self._fitted = None  # (the input, the transform, the goal frames) of the last fit (goal_frames)
+        self._referenced = None  # the goal frames whose skin the "reference" buffer holds (_reference)
 
     # -- configuration ---------------------------------------------------------------------------------
     @property
@@ -403,8 +411,18 @@ class Engine:
         return True
 
     def goal_frames(self, incoming, matrix):
-        """The goal frames fitted to this frame's input (object-space vertices placed by matrix)."""
-        return self.fit.fit(to_world(incoming, matrix, self._buffer("world_input")))
+        """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input and
+        transform equal to the last fit's give its goal frames again, the same objects, so their skin is kept
+        too (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits)."""
+        incoming = np.asarray(incoming)
+        kept = self._fitted
+        if kept is not None and np.array_equal(kept[1], matrix) and _same_points(kept[0], incoming):
+            return kept[2]
+        goals = self.fit.fit(to_world(incoming, matrix, self._buffer("world_input")))
+        before = self._buffer(f"fit_input {incoming.dtype}", incoming.dtype)
+        np.copyto(before, incoming)
+        self._fitted = (before, np.array(matrix, dtype=np.float64), goals)
+        return goals
 
     # -- state ----------------------------------------------------------------------------------------
     def _state(self):
@@ -499,7 +517,13 @@ class Engine:
         return self.out
 
     def _reference(self, goals):
-        return self._rest_skin if goals is None else self.skin.deform(*goals, out=self._buffer("reference"))
+        """The skin of the goal frames (the rest's without a goal), made again only for other goal frames."""
+        if goals is None:
+            return self._rest_skin
+        if goals is not self._referenced:
+            self.skin.deform(*goals, out=self._buffer("reference"))
+            self._referenced = goals
+        return self._buffer("reference")
 
     def overlay_matrix(self, matrix):
         """What carries the simulation's world to where the object shows it now (its transform matrix): the
