@@ -34,7 +34,9 @@ adds beyond its solver, what the aim is checked on. Process time leaves out what
 this one (wall times count it: the wall ms column, read beside the load average); in bpy 5.2 it counts
 Blender's worker threads too. Each variant's figures against
 the armature-only pose (tests/blender/character_measure.py) follow: core, ear, belly, tail, stretch, lowest,
-settle. Aims (issue 24), printed with the load average: what OPDeform adds beyond its solver <= 1 ms a frame;
+settle. Aims (issue 24), printed with the load average: what OPDeform adds beyond its solver <= 1 ms a frame
+(over frames 2..N, and frame by frame during the hops and standing apart: a held pose reuses its goal frames,
+core/engine.py, so the clip's median alone would sit between the two; met when the clip's and the hops' are);
 >= 60 frames a second (<= 16.7 ms per frame_set) at 1,000 particles. Results: out/bench/character/<host>.json.
 
 `scripts/bench character --writes [--hosts ...]` instead times what Blender takes for each way a frame handler
@@ -125,8 +127,15 @@ def _split(rt, frame_s):
                 blender=frame_s - t["total"])
 
 
-def _play(scenes, frames, H, M):
-    """Interleaved frames; per label the medians (ms) and the figures against the armature-only pose."""
+def _median_ms(values):
+    return 1e3 * statistics.median(values) if values else None
+
+
+def _play(scenes, frames, H, M, motion_end):
+    """Interleaved frames; per label the medians (ms) and the figures against the armature-only pose; for
+    OPDeform also what it adds beyond its solver frame by frame (its frame_set minus the armature-only's of the
+    same frame minus its solve), its median during the hops (frames 2..motion_end - 1) and standing (after
+    motion_end, whose input is the first still one)."""
     rt_of = {label: H.runtime().get(obj) for label, (scene, obj) in scenes.items()}
     twin = scenes[PLAIN][1]
     measures = {label: M.Measure(obj, twin) for label, (scene, obj) in scenes.items()}
@@ -153,6 +162,8 @@ def _play(scenes, frames, H, M):
         if splits[label]:
             r.update({k: 1e3 * statistics.median(s[k] for s in splits[label][1:]) for k in splits[label][0]})
             r["particles"] = rt_of[label].engine.graph.n_particles
+            added = [t - p - s["solve"] for t, p, s in zip(times[label], times[PLAIN], splits[label])]
+            r["added_hops"], r["added_still"] = _median_ms(added[1:motion_end - 1]), _median_ms(added[motion_end:])
         out[label] = r
     return out
 
@@ -166,7 +177,7 @@ def inside(out_path, frames):
     result = {"host": H.host(), "frames": frames, "passes": {}}
     for kind in ("Soft Body", "Cloth Dynamics") + tuple(f"alone {n}" for n in PARTICLES):
         scenes = _scenes(C, H, kind)
-        result["passes"][kind] = None if scenes is None else _play(scenes, frames, H, M)
+        result["passes"][kind] = None if scenes is None else _play(scenes, frames, H, M, C.MOTION_END)
         print(kind, "done", flush=True)
     result["vertices"] = len(bpy.data.objects["Character"].data.vertices)
     with open(out_path, "w") as f:
@@ -221,6 +232,10 @@ def _figures(r):
             f"{s['stretch']:.2f}", f"{1e3 * s['lowest']:.1f}", settle)
 
 
+def _ms_text(ms):
+    return "-" if ms is None else f"{ms:.2f} ms"
+
+
 def report(result):
     """Prints one host's table; the aims (what, measured, aim, met)."""
     from .common import table
@@ -240,10 +255,12 @@ def report(result):
             if added is not None and kind in ("Soft Body", f"alone {r['particles']}"):
                 floor = scenes[FLOOR]["ms"] - scenes[PLAIN]["ms"]
                 where = "alone" if kind.startswith("alone") else "beside Soft Body, caches cold"
+                hops, still = (_ms_text(r.get(k)) for k in ("added_hops", "added_still"))
                 aims.append((f"{result['host']}: what OPDeform adds beyond its solver, {r['particles']} particles, "
-                             f"{where}", f"{added:.2f} ms (the handler's own part {r['beyond_solver']:.2f} ms; "
-                             f"Blender's own for an offset written each frame {floor:.2f} ms)",
-                             f"<= {AIM_BEYOND_MS:g} ms", added <= AIM_BEYOND_MS))
+                             f"{where}", f"{added:.2f} ms; during the hops {hops}, standing {still} (the handler's "
+                             f"own part {r['beyond_solver']:.2f} ms; Blender's own for an offset written each "
+                             f"frame {floor:.2f} ms)", f"<= {AIM_BEYOND_MS:g} ms in every part",
+                             max(added, r.get("added_hops") or added) <= AIM_BEYOND_MS))
                 if r["particles"] >= 1000 and kind == "Soft Body":
                     aims.append((f"{result['host']}: frame_set at {r['particles']} particles", f"{r['ms']:.1f} ms "
                                  f"({1e3 / r['ms']:.0f} fps)", f"<= {AIM_FRAME_MS:.1f} ms", r["ms"] <= AIM_FRAME_MS))

@@ -22,7 +22,9 @@ STRETCH_LIMIT = 2.0  # warn beyond twice the rest length
 class Stretch:
     """A graph's largest edge length / rest length for given particle positions: the ratio of
     ``materials.stretch_warning`` with the edges' ends and rest lengths kept from the graph (0.016 ms a frame
-    for the character's 447 edges at 100 particles, where the warning took 0.044 ms)."""
+    for the character's 447 edges at 100 particles, where the warning took 0.044 ms). The ends' positions are
+    gathered by ``np.take`` (the same rows; indexing took 0.045 ms a gather for its 5,495 edges at 1,000
+    particles, take 0.008)."""
 
     def __init__(self, graph):
         e, c = graph.edges, graph.centers
@@ -30,7 +32,7 @@ class Stretch:
         self.rest = np.linalg.norm(c[self.ends[0]] - c[self.ends[1]], axis=1)
 
     def __call__(self, positions):
-        d = positions[self.ends[0]] - positions[self.ends[1]]
+        d = np.take(positions, self.ends[0], axis=0) - np.take(positions, self.ends[1], axis=0)
         return float((np.sqrt(np.einsum("ij,ij->i", d, d)) / self.rest).max(initial=0.0))
 
 
