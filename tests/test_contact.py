@@ -80,8 +80,8 @@ def test_blob_slides_down_a_ramp_slower_with_friction(blob, shape):
 
 
 def test_a_body_sliding_off_an_open_ramp_falls_past_its_rim(blob):
-    # a 2 m open ramp: the blob slides off its lower rim and falls on, gaining no energy (behind the rim counted as
-    # inside, at any depth: it was flung 24 m up)
+    # a 2 m open ramp: the blob slides off its lower rim and falls on, gaining no energy (the region behind the rim
+    # counted as inside: it was flung 24 m up)
     g = blob[2]
     sim = _sim(g, np.asarray(RAMP_NORMAL) * 0.21 - g.centers.mean(axis=0))
     sv, st = meshes.sheet((2.0, 2.0), (3, 3))
@@ -355,17 +355,15 @@ def test_capsule_and_mesh_distances_and_removal():
     np.testing.assert_allclose(sim.collider_distances([(2, 0, 0), (0, 0, 2), (0, 0, 0.2)]), [1.5, 0.5, -0.5])
     sv, st = meshes.sheet((2.0, 2.0), (2, 2))
     sim.remove_collider(cap)
-    sim.add_collider("mesh", vertices=sv, triangles=st)  # open: behind the sheet (-z) is inside, 3.5 samples deep
-    depth = 3.5 * 2.0 / 64
-    d = sim.collider_distances([(0.1, 0.2, 0.3), (0.1, 0.2, -0.05), (0.1, 0.2, -0.3), (1.5, 0.0, -0.3)])
-    np.testing.assert_allclose(d[:3], [0.3, -0.05, 0.3 - depth], atol=0.01)
-    assert d[3] > 0.3  # behind, beyond the rim: outside (a body falling past the rim falls on)
-    np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.05)]), [(0.1, 0.2, 0.0)], atol=0.01)
+    sim.add_collider("mesh", vertices=sv, triangles=st)  # open: behind the sheet (-z) is inside, not beyond its rim
+    d = sim.collider_distances([(0.1, 0.2, 0.3), (0.1, 0.2, -0.3), (1.3, 0.0, -0.2), (1.3, 1.3, -0.2)])
+    np.testing.assert_allclose(d, [0.3, -0.3, np.hypot(0.3, 0.2), np.hypot(np.hypot(0.3, 0.3), 0.2)], atol=0.01)
+    np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.3)]), [(0.1, 0.2, 0.0)], atol=0.01)
     assert sim.n_colliders == 1
-    points = np.array([(0.1, 0.2, -0.05), (0.1, 0.2, 0.3)])
+    points = np.array([(0.1, 0.2, -0.3), (0.1, 0.2, 0.3)])
     out = np.empty_like(points)
     assert sim.push_out(points, out=out) is out and np.array_equal(out, sim.push_out(points))
-    assert points[0, 2] == -0.05  # the input left as it was
+    assert points[0, 2] == -0.3  # the input left as it was
     assert sim.push_out(points, out=points) is points and np.array_equal(points, out)  # in place
     for bad in (np.empty((2, 3), np.float32), np.empty((3, 3)), np.empty((3, 2))[:2, :].T[:2]):
         with pytest.raises(ValueError, match="out must be"):

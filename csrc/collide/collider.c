@@ -8,9 +8,9 @@
 // A mesh is turned once into distance samples on a local grid: exact distances to the triangles in a
 // narrow band, a chamfer sweep beyond it, and the sign from the parity of ray crossings along x. An open mesh
 // (a ramp, a terrain, a table top: no inside to count crossings into) takes its sign from the side of its
-// nearest triangle instead, carried through the sweep with the distance, to OD_OPEN_DEPTH samples deep: a slab
-// behind its faces, rounded at its rim (where the side extended behind the rim, a body that slid off a ramp
-// was inside and was flung up). New vertices (a deforming collider) are sampled into new memory that
+// nearest triangle instead, carried through the sweep with the distance: inside is what lies behind its faces,
+// not what lies beyond its rim (the edges of one triangle), where the side extended until 2026-11-27 and a body
+// that slid off a ramp was inside at any depth behind it and flung up. New vertices (a deforming collider) are sampled into new memory that
 // replaces the old only once complete, so that a call stopped part-way (od_CheckInterrupt: Ctrl-C, polled
 // every 64 triangles and every plane of samples) or out of memory leaves the collider as it was. Cost: about
 // 8 us a triangle at resolution 64 (a 998,000-triangle sphere: 8.3 s to add, 7.8 s a vertex update, one core
@@ -30,50 +30,67 @@
 #define OD_MESH_MAX_DIM 96 // distance samples per axis at most
 #define OD_MESH_BAND 3     // samples around each triangle that get the exact distance
 #define OD_MESH_POLL 63    // triangles between interrupt checks, less one (a power of two less one)
-// How deep behind its faces an open mesh counts as inside, in samples: less than the sample box's margin
-// (OD_MESH_BAND + 1), so that every sample on the box's faces is outside and so is all beyond it.
-#define OD_OPEN_DEPTH 3.5
 
 // ---------------------------------------------------------------------------------------------------------
 // Mesh distance samples
 
-// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
-static od_Vec3 od_ClosestOnTriangle(od_Vec3 p, od_Vec3 a, od_Vec3 b, od_Vec3 c)
+// A triangle's features, as bits of od_RimFeatures' masks: its corners a, b, c and its edges ab, bc, ca.
+enum
+{
+	OD_AT_A,
+	OD_AT_B,
+	OD_AT_C,
+	OD_ON_AB,
+	OD_ON_BC,
+	OD_ON_CA,
+	OD_WITHIN
+};
+
+// Closest point of triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5), and in *feature the corner
+// or edge it lies on (OD_WITHIN: inside the triangle).
+static od_Vec3 od_ClosestOnTriangle(od_Vec3 p, od_Vec3 a, od_Vec3 b, od_Vec3 c, int* feature)
 {
 	od_Vec3 ab = od_Sub(b, a), ac = od_Sub(c, a), ap = od_Sub(p, a);
 	double d1 = od_Dot(ab, ap), d2 = od_Dot(ac, ap);
 	if (d1 <= 0.0 && d2 <= 0.0)
 	{
+		*feature = OD_AT_A;
 		return a;
 	}
 	od_Vec3 bp = od_Sub(p, b);
 	double d3 = od_Dot(ab, bp), d4 = od_Dot(ac, bp);
 	if (d3 >= 0.0 && d4 <= d3)
 	{
+		*feature = OD_AT_B;
 		return b;
 	}
 	double vc = d1 * d4 - d3 * d2;
 	if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0)
 	{
+		*feature = OD_ON_AB;
 		return od_MulAdd(a, d1 / (d1 - d3), ab);
 	}
 	od_Vec3 cp = od_Sub(p, c);
 	double d5 = od_Dot(ab, cp), d6 = od_Dot(ac, cp);
 	if (d6 >= 0.0 && d5 <= d6)
 	{
+		*feature = OD_AT_C;
 		return c;
 	}
 	double vb = d5 * d2 - d1 * d6;
 	if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0)
 	{
+		*feature = OD_ON_CA;
 		return od_MulAdd(a, d2 / (d2 - d6), ac);
 	}
 	double va = d3 * d6 - d5 * d4;
 	if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0)
 	{
+		*feature = OD_ON_BC;
 		return od_MulAdd(b, (d4 - d3) / ((d4 - d3) + (d5 - d6)), od_Sub(c, b));
 	}
 	double denom = 1.0 / (va + vb + vc);
+	*feature = OD_WITHIN;
 	return od_Add(a, od_Add(od_Scale(vb * denom, ab), od_Scale(vc * denom, ac)));
 }
 
@@ -88,6 +105,7 @@ typedef struct od_MeshView
 	const double* v;
 	const int* t;
 	int triangles;
+	const unsigned char* rim; // an open mesh's: per triangle, its features on the rim (od_RimFeatures)
 } od_MeshView;
 
 static od_Vec3 od_MeshVertex(const od_MeshView* m, int tri, int corner)
@@ -149,12 +167,16 @@ static od_Status od_SdfBand(od_Collider* c, const od_MeshView* m)
 				{
 					od_Vec3 p = od_V3(c->origin[0] + i * c->spacing, c->origin[1] + j * c->spacing,
 									  c->origin[2] + k * c->spacing);
-					od_Vec3 q = od_ClosestOnTriangle(p, a, b, cc);
+					int feature;
+					od_Vec3 q = od_ClosestOnTriangle(p, a, b, cc, &feature);
 					double d = od_Length(od_Sub(p, q));
 					size_t at = od_SdfIndex(c->dims, i, j, k);
 					if (c->side)
 					{
-						od_KeepSide(c, at, d, d > 0.0 ? od_Dot(od_Sub(p, q), normal) / d : 0.0);
+						// beyond the rim is outside, on either side of the faces' plane
+						double cosine = d > 0.0 ? od_Dot(od_Sub(p, q), normal) / d : 0.0;
+						bool rim = feature != OD_WITHIN && (m->rim[tri] >> feature & 1);
+						od_KeepSide(c, at, d, rim ? fabs(cosine) : cosine);
 					}
 					else
 					{
@@ -362,15 +384,12 @@ static od_Status od_SdfSign(od_Collider* c, const od_MeshView* m)
 	return status;
 }
 
-// Makes an open mesh's samples behind their nearest triangle negative, to OD_OPEN_DEPTH samples deep; deeper ones
-// are outside, by their distance beyond that depth (a lower bound of their distance, as a culling test needs).
+// Makes an open mesh's samples behind their nearest triangle negative.
 static void od_SdfSide(od_Collider* c, size_t total)
 {
-	double depth = OD_OPEN_DEPTH * c->spacing;
 	for (size_t i = 0; i < total; ++i)
 	{
-		double d = c->sdf[i];
-		c->sdf[i] = !(c->side[i] < 0.0) ? d : (d <= depth ? -d : d - depth);
+		c->sdf[i] = c->side[i] < 0.0 ? -c->sdf[i] : c->sdf[i];
 	}
 }
 
@@ -400,6 +419,69 @@ static od_Status od_MeshBounds(od_Collider* c, const od_MeshView* m, int vertexC
 		}
 	}
 	return OD_OK;
+}
+
+typedef struct od_Edge
+{
+	int a, b; // a < b
+	int forward; // whether the triangle runs a -> b
+	int triangle;
+	int corner; // the edge runs from the triangle's corner `corner` to the next
+} od_Edge;
+
+static int od_CompareEdge(const void* x, const void* y)
+{
+	const od_Edge *p = x, *q = y;
+	return p->a != q->a ? (p->a > q->a) - (p->a < q->a) : (p->b > q->b) - (p->b < q->b);
+}
+
+// The mesh's edges, three a triangle, sorted by their ends (ties in input order), into *out (freed by the caller).
+static od_Status od_SortedEdges(const int* triangles, int triangleCount, od_Edge** out)
+{
+	od_Edge* e = *out = od_Alloc(sizeof(od_Edge) * 3 * (size_t)triangleCount);
+	if (!e)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
+	}
+	for (int k = 0; k < 3 * triangleCount; ++k)
+	{
+		int from = triangles[k], to = triangles[k % 3 == 2 ? k - 2 : k + 1];
+		e[k] = (od_Edge){ .a = from < to ? from : to, .b = from < to ? to : from, .forward = from < to, .triangle = k / 3,
+						  .corner = k % 3 };
+	}
+	return od_Sort(e, 3 * (size_t)triangleCount, sizeof *e, od_CompareEdge); // stable: ties in input order
+}
+
+// Per triangle, which of its features lie on an open mesh's rim (an edge of one triangle, or a corner at the end
+// of one), into *out (freed by the caller): bit OD_ON_AB + k for its edge from corner k, bit k for corner k.
+static od_Status od_RimFeatures(const int* triangles, int triangleCount, int vertexCount, unsigned char** out)
+{
+	od_Edge* e;
+	od_Status status = od_SortedEdges(triangles, triangleCount, &e);
+	unsigned char* rim = *out = od_AllocZero((size_t)triangleCount, 1);
+	bool* onRim = od_AllocZero((size_t)vertexCount, sizeof(bool));
+	status = status == OD_OK && !(rim && onRim) ? od_Fail(OD_ERROR_MEMORY, "collider: out of memory") : status;
+	for (int k = 0, next; status == OD_OK && k < 3 * triangleCount; k = next)
+	{
+		for (next = k + 1; next < 3 * triangleCount && od_CompareEdge(&e[k], &e[next]) == 0; ++next)
+		{
+		}
+		if (next - k == 1)
+		{
+			rim[e[k].triangle] |= (unsigned char)(1 << (OD_ON_AB + e[k].corner));
+			onRim[e[k].a] = onRim[e[k].b] = true;
+		}
+	}
+	for (int t = 0; status == OD_OK && t < triangleCount; ++t)
+	{
+		for (int corner = 0; corner < 3; ++corner)
+		{
+			rim[t] |= (unsigned char)(onRim[triangles[3 * t + corner]] << corner);
+		}
+	}
+	od_Free(e);
+	od_Free(onRim);
+	return status;
 }
 
 // Distance samples of a mesh at the finest spacing its bounds allow (not finer than minSpacing), into c's
@@ -451,7 +533,11 @@ static od_Status od_MeshSample(od_Collider* c, const od_MeshView* m, int vertexC
 	{
 		memset(c->side, 0, total * sizeof(double));
 	}
-	status = od_SdfBand(c, m);
+	unsigned char* rim = NULL; // an open mesh's features on its rim
+	status = c->side ? od_RimFeatures(m->t, m->triangles, vertexCount, &rim) : OD_OK;
+	od_MeshView view = { m->v, m->t, m->triangles, rim };
+	status = status == OD_OK ? od_SdfBand(c, &view) : status;
+	od_Free(rim);
 	status = status == OD_OK ? od_SdfSweep(c) : status;
 	if (status != OD_OK || !c->side)
 	{
@@ -479,32 +565,10 @@ static od_Status od_MeshResample(od_Collider* c, const od_MeshView* m, int verte
 	return OD_OK;
 }
 
-typedef struct od_Edge
-{
-	int a, b; // a < b
-	int forward; // whether the triangle runs a -> b
-	int triangle;
-} od_Edge;
-
-static int od_CompareEdge(const void* x, const void* y)
-{
-	const od_Edge *p = x, *q = y;
-	return p->a != q->a ? (p->a > q->a) - (p->a < q->a) : (p->b > q->b) - (p->b < q->b);
-}
-
 od_Status od_Collider_MeshTopology(const int* triangles, int triangleCount, bool* closed, int* flipped)
 {
-	od_Edge* e = od_Alloc(sizeof(od_Edge) * 3 * (size_t)triangleCount);
-	if (!e)
-	{
-		return od_Fail(OD_ERROR_MEMORY, "collider: out of memory");
-	}
-	for (int k = 0; k < 3 * triangleCount; ++k)
-	{
-		int from = triangles[k], to = triangles[k % 3 == 2 ? k - 2 : k + 1];
-		e[k] = (od_Edge){ .a = from < to ? from : to, .b = from < to ? to : from, .forward = from < to, .triangle = k / 3 };
-	}
-	od_Status status = od_Sort(e, 3 * (size_t)triangleCount, sizeof *e, od_CompareEdge); // stable: ties in input order
+	od_Edge* e;
+	od_Status status = od_SortedEdges(triangles, triangleCount, &e);
 	*closed = true;
 	*flipped = -1;
 	for (int k = 0, next; status == OD_OK && k < 3 * triangleCount; k = next)
