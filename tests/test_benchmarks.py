@@ -2,6 +2,8 @@
 itself in the call that makes it (was a difference of two steps, negative under load), processor time kept apart
 from wall time, a copy's bandwidth in both, the load average. Correctness only: no speed is asserted here."""
 
+import importlib
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -40,3 +42,13 @@ def test_part_drops_split_the_characters_ear_into_head_root_and_tip():
     (above the head's middle) drops more than the head and less than its tip: 0.82, 0.92 and 1.27 mm."""
     head, root, tip, count = calibration.part_drops("character_ear", 50)
     assert 0.0 < head < root < tip and count == 1, (head, root, tip, count)
+
+
+def test_every_suite_listed_runs():
+    """scripts/bench --help lists the suites that `scripts/bench all` runs; each must have a run (common.py, the
+    shared helpers, was listed and `all` stopped at it with an AttributeError)."""
+    bench = Path(__file__).resolve().parent.parent / "scripts" / "bench"
+    listed = subprocess.run([str(bench), "--help"], capture_output=True, text=True, check=True).stdout
+    names = [line.split()[0] for line in listed.splitlines()[2:] if line.startswith("  ")]
+    assert "core" in names and "common" not in names, names
+    assert all(callable(getattr(importlib.import_module("benchmarks." + n), "run", None)) for n in names), names

@@ -356,9 +356,9 @@ class Simulation(CoreObject, ForceFields):
         """A scene collider; returns its id. ``shape``: "plane" (z < 0 of its frame; or give ``normal``: the
         plane through ``translation`` facing it), "box" (``half_extents``), "sphere" (``radius``), "capsule"
         (``radius`` about the segment |z| <= ``half_length``) or "mesh" (``vertices`` (V,3), ``triangles``
-        (T,3) in its frame; closed, or open with its faces wound counter-clockwise seen from outside; sampled
-        at ``resolution`` samples along its longest side). Particles keep ``thickness`` (> 0) from the surface,
-        with Coulomb ``friction``."""
+        (T,3) in its frame; closed, or open with its faces wound counter-clockwise seen from outside, inside
+        behind them, not beyond its rim; sampled at ``resolution`` samples along its longest side). Particles keep
+        ``thickness`` (> 0) from the surface, with Coulomb ``friction``."""
         index = choice("shape", shape, self.COLLIDER_SHAPES)
         verts = tris = None
         if index == 4:

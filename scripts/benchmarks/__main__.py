@@ -17,7 +17,9 @@ REPORT = ("error", "stability", "features", "scale")
 
 
 def suites():
-    return sorted(m.name for m in pkgutil.iter_modules(benchmarks.__path__) if not m.name.startswith("_"))
+    """The suites: the package's modules but the private ones and common.py, the suites' shared helpers."""
+    return sorted(m.name for m in pkgutil.iter_modules(benchmarks.__path__)
+                  if not m.name.startswith("_") and m.name != "common")
 
 
 def main(argv):

@@ -25,7 +25,8 @@ typedef enum od_ColliderShape
 	OD_COLLIDER_SPHERE = 2,  // radius
 	OD_COLLIDER_CAPSULE = 3, // radius about the segment |z| <= halfLength of the frame's z axis
 	OD_COLLIDER_MESH = 4     // triangles: closed (inside by the parity of crossings) or open (inside is behind
-	                         // the nearest triangle, whose winding gives its front: counter-clockwise)
+	                         // the nearest triangle, whose winding gives its front: counter-clockwise; not
+	                         // beyond the rim, the edges of one triangle)
 } od_ColliderShape;
 
 typedef struct od_ColliderDef
