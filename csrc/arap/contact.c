@@ -281,8 +281,10 @@ void od_ColliderFrames(od_SimCollider* c, double s0, double s1)
 // A sample whose centre is clear of the collider by its reach is clear (od_Depth's and od_PointsDepth's first
 // test); where the collider does not turn, the samples are evenly spaced on a line in its frame, and those
 // nearer than its centre's margin are passed over (a trilinear sample of a mesh's distances, each within one
-// spacing of its neighbours, changes by at most |Δ|₁ <= √3 |Δ|). The projection of the colliders bench's
-// 1,000-particle Suzanne on the ramp (scripts/colliders_replay.py) took 2.78 M instructions a step, 1.98 M so.
+// spacing of its neighbours, changes by at most |Δ|₁ <= √3 |Δ|; but for the step into an open mesh's slab from
+// behind it, where a path may so be caught a sample or two later, as by od_Touch's first test). The projection of
+// the colliders bench's 1,000-particle Suzanne on the ramp (scripts/colliders_replay.py) took 2.78 M instructions
+// a step, 1.98 M so.
 static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const od_Mat3* Ma, double thickness,
 							   od_Vec3 start, od_Vec3 x, od_Vec3 la, od_Vec3 lb)
 {
