@@ -32,11 +32,6 @@ void od_SkinShape_Destroy(od_SkinShape* shape)
 	*shape = (od_SkinShape){ 0 };
 }
 
-bool od_SkinShape_Used(const od_Sim* sim)
-{
-	return sim->skinShape.count > 0;
-}
-
 static od_Status od_CheckSkin(const od_Sim* sim, const double* points, const int* particles, int count)
 {
 	if (count < 0 || (count > 0 && (!points || !particles)))
@@ -271,13 +266,3 @@ double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od
 	return below;
 }
 
-double od_SkinShape_PointSupport(const od_Sim* sim, int point, const double* rotation, od_Vec3 n)
-{
-	od_Mat3 r = od_M3Load(rotation);
-	return -od_Dot(od_M3MulTV(&r, n), od_V3Load(sim->skinShape.offset + 4 * point));
-}
-
-double od_SkinShape_Reach(const od_Sim* sim, int i)
-{
-	return sim->skinShape.reach[i];
-}

@@ -7,14 +7,26 @@
 #include <stdbool.h>
 
 void od_SkinShape_Destroy(od_SkinShape* shape);
-// Whether the floor and the colliders touch the skin's points (else the ellipsoids).
-bool od_SkinShape_Used(const od_Sim* sim);
+// Whether the floor and the colliders touch the skin's points (else the ellipsoids). This, PointSupport and Reach
+// are inline: called from the other files for each near particle at each of the forces' updates, as calls they
+// took the colliders bench's 1,000-particle Suzanne on the ramp 28.39 M instructions a step, 28.01 M inline.
+static inline bool od_SkinShape_Used(const od_Sim* sim)
+{
+	return sim->skinShape.count > 0;
+}
 // How far below its centre particle i's lowest point reaches when turned by `rotation` (the floor's support).
 double od_SkinShape_Below(const od_Sim* sim, int i, const double* rotation);
 // The same along unit n: the largest -n·(rotation o) of its points (contact inside the iterations, surface_contact.c),
 // and which point that is in *point (global index; NULL: not wanted).
 double od_SkinShape_Support(const od_Sim* sim, int i, const double* rotation, od_Vec3 n, int* point);
 // -n·(rotation o) of that one point.
-double od_SkinShape_PointSupport(const od_Sim* sim, int point, const double* rotation, od_Vec3 n);
+static inline double od_SkinShape_PointSupport(const od_Sim* sim, int point, const double* rotation, od_Vec3 n)
+{
+	od_Mat3 r = od_M3Load(rotation);
+	return -od_Dot(od_M3MulTV(&r, n), od_V3Load(sim->skinShape.offset + 4 * point));
+}
 // The distance from particle i's centre of its farthest point.
-double od_SkinShape_Reach(const od_Sim* sim, int i);
+static inline double od_SkinShape_Reach(const od_Sim* sim, int i)
+{
+	return sim->skinShape.reach[i];
+}
