@@ -53,7 +53,8 @@
 // member on its floor that its comparable pairs push down takes a couple about horizontal axes in the solves
 // against its rotation since the step's start, at most OD_ROLL_REACH times that push times its bearing particles'
 // mean largest radius (the patch each stands for), as a rigid rotation's forces (no net force, no strain); it
-// starts at none each step (so it is no part of the group's state) and is held after OD_ROLL_UPDATES updates.
+// starts at none each step (so it is no part of the group's state), is held after OD_ROLL_UPDATES updates and
+// is left out at an impact (OD_ROLL_LANDING).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -138,6 +139,12 @@
 // updates the Jelly spheres rolled off.
 #define OD_ROLL_REACH 0.5
 #define OD_ROLL_UPDATES 3
+// No rolling couple in a step that starts with a member, or one pressing it, moving up or down faster than this
+// (m/s; od_Landing): an impact, not a rest. Two 1,000-particle creatures (k = 2e5), one dropped on the other at
+// 3.1 m/s (scripts/benchmarks/contact.py's stacked pair), gained 92 kJ at its impact with the couple in 3 of 5 runs
+// started 0 to 1 cm apart (none without it); at 1 m/s the Jelly spheres' landing (1.4 m/s) went without it and
+// they rolled off at 60 Hz.
+#define OD_ROLL_LANDING 2.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -221,6 +228,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->rise);
 	od_Free(s->supported);
 	od_Free(s->climbing);
+	od_Free(s->fast);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->pose);
@@ -260,11 +268,12 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
+	s->fast = od_AllocZero((size_t)particles, sizeof(int));
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
-	s->pose = od_Alloc(sizeof(double) * 12 * (size_t)particles);
-	s->roll = od_Alloc(sizeof(double) * 3 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->mass || !s->load || !s->pose || !s->roll)
+	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
+	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -655,16 +664,19 @@ static void od_Pose(od_PairScratch* s, const od_Sim* sim, int b)
 		centre = od_MulAdd(centre, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(x + 3 * i));
 	}
 	od_Mat3 inertia = od_M3Zero(), identity = od_M3Identity();
+	double height = 0.0;
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
 		double m = sim->def.density * sim->graph->volumes[i];
 		od_Vec3 r = od_Sub(od_V3Load(x + 3 * i), centre);
 		od_M3AddScaled(&inertia, m * od_Dot(r, r), &identity);
 		od_M3AddOuter(&inertia, -m, r, r);
+		height += m * r.z * r.z;
 	}
 	od_Mat3 inverse = od_SymmetricInverse(&inertia);
-	od_V3Store(s->pose + 12 * b, centre);
-	od_M3Store(s->pose + 12 * b + 3, &inverse);
+	od_V3Store(s->pose + 13 * b, centre);
+	od_M3Store(s->pose + 13 * b + 3, &inverse);
+	s->pose[13 * b + 12] = height;
 }
 
 // The ratio of masses beyond which members are not comparable this step (s->comparable, OD_COMPARABLE), each
@@ -688,6 +700,7 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 		const double* g = sim->def.gravity;
 		double stop = sim->def.dt > OD_CLIMB_TIME ? sim->def.dt : OD_CLIMB_TIME;
 		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * stop;
+		s->fast[b] = fabs(up / s->mass[b]) > OD_ROLL_LANDING;
 		od_Pose(s, sim, b);
 	}
 	double share = count > 0 ? sims[0]->def.dt / OD_CLIMB_TIME : 1.0; // a group's members step alike
@@ -1055,21 +1068,36 @@ static void od_Supports(od_PairScratch* s, int count)
 // from the member's centre at the step's start, x̄_i where it was then (s->pose).
 static od_Vec3 od_Turn(const od_PairScratch* s, const od_Sim* sim, int b)
 {
-	od_Vec3 centre = od_V3Load(s->pose + 12 * b), moment = od_V3(0, 0, 0);
+	od_Vec3 centre = od_V3Load(s->pose + 13 * b), moment = od_V3(0, 0, 0);
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
 		od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
 		moment = od_MulAdd(moment, sim->def.density * sim->graph->volumes[i], od_Cross(od_Sub(x0, centre), od_Sub(x1, x0)));
 	}
-	od_Mat3 inverse = od_M3Load(s->pose + 12 * b + 3);
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
 	return od_M3MulV(&inverse, moment);
+}
+
+// Whether member b, or a member pressing it with a comparable pair, moves up or down at the step's start faster than
+// OD_ROLL_LANDING (s->fast): an impact, not a rest (od_Rolls).
+static bool od_Landing(const od_PairScratch* s, int b)
+{
+	bool landing = s->fast[b] > 0;
+	for (int k = 0; !landing && k < s->nearCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		int ma = s->body[pair->a], mb = s->body[pair->b];
+		landing = pair->force > 0.0 && (ma == b || mb == b) && od_Comparable(s, pair) && s->fast[ma == b ? mb : ma] > 0;
+	}
+	return landing;
 }
 
 // The floor's rolling resistance (see the top of the file): the couple on a member on its floor that its comparable
 // pairs push down (s->load < 0) grows against its rotation since the step's start about horizontal axes (dual
 // ascent at the rate of the member as a rigid body: h² I⁻¹ per newton metre, across the floor's normal), within
 // OD_ROLL_REACH times that push times the mean largest radius of its particles bearing on the floor
-// (od_FloorWeight); after the first OD_ROLL_UPDATES solves of a step it is held. Other members have none.
+// (od_FloorWeight); after the first OD_ROLL_UPDATES solves of a step it is held. Other members have none, nor any in
+// a step that starts at an impact (od_Landing).
 static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h2)
 {
 	if (s->rollUpdates >= OD_ROLL_UPDATES)
@@ -1081,14 +1109,14 @@ static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h
 	{
 		const od_Sim* sim = sims[b];
 		od_Vec3 couple = od_V3(0, 0, 0);
-		if (s->grounded[b] > 0 && s->load[b] < 0.0)
+		if (s->grounded[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b))
 		{
 			double reach = 0.0;
 			for (int i = 0; i < sim->graph->n; ++i)
 			{
 				reach += od_FloorWeight(s, sim, i, first + i) * od_ParticleReach(sim, i);
 			}
-			od_Mat3 across = od_M3Load(s->pose + 12 * b + 3); // I⁻¹ across the floor's normal (z)
+			od_Mat3 across = od_M3Load(s->pose + 13 * b + 3); // I⁻¹ across the floor's normal (z)
 			across.m[2] = across.m[5] = across.m[6] = across.m[7] = 0.0;
 			across.m[8] = 1.0;
 			od_Mat3 rate = od_SymmetricInverse(&across);
@@ -1110,8 +1138,8 @@ static void od_ApplyRolls(const od_PairScratch* s, od_Sim* const* sims, int coun
 	for (int b = 0; b < count; ++b)
 	{
 		od_Sim* sim = sims[b];
-		od_Mat3 inverse = od_M3Load(s->pose + 12 * b + 3);
-		od_Vec3 spin = od_M3MulV(&inverse, od_V3Load(s->roll + 3 * b)), centre = od_V3Load(s->pose + 12 * b);
+		od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
+		od_Vec3 spin = od_M3MulV(&inverse, od_V3Load(s->roll + 3 * b)), centre = od_V3Load(s->pose + 13 * b);
 		for (int i = 0; od_Length(spin) > 0.0 && i < sim->graph->n; ++i)
 		{
 			od_Vec3 arm = od_Sub(od_V3Load(sim->previous.x + 3 * i), centre);
