@@ -61,9 +61,11 @@ void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 	double mu = sim->floorFriction;
 	for (int i = 0; i < g->n; ++i)
 	{
-		// One that began the step inside the floor deeper than the recovery leaves at the recovery speed.
-		double began = od_FloorDepth(sim, i, before->R + 9 * i, before->x + 3 * i);
-		double lift = od_FloorDepth(sim, i, sim->state.R + 9 * i, x + 3 * i) - fmax(began - od_RecoveryLimit(sim), 0.0);
+		double lift = od_FloorDepth(sim, i, sim->state.R + 9 * i, x + 3 * i);
+		if (lift > 0.0) // one that began the step inside deeper than the recovery leaves at the recovery speed
+		{
+			lift -= fmax(od_FloorDepth(sim, i, before->R + 9 * i, before->x + 3 * i) - od_RecoveryLimit(sim), 0.0);
+		}
 		double hold = od_SurfaceContact_Hold(sim, i, OD_SURFACE_FLOOR);
 		angularScale[i] = 1.0;
 		if (!(lift > 0.0) && !(hold > 0.0))
