@@ -361,6 +361,42 @@ def test_a_soft_round_body_dropped_on_a_like_one_stays_on_top():
             assert above > 0.55 and aside < 0.1 and fastest < 0.05, (second, above, aside, fastest)
 
 
+@pytest.mark.parametrize("rate", [60, 240])
+def test_jelly_spheres_stacked_rest_on_top_without_gaining_energy(rate):
+    """Issue 27: Jelly spheres (0.6 m), one dropped 0.1 m onto the other settled on the floor, rest on top from 3 s
+    to 13 s at 60 and 240 steps a second without gaining energy. They tipped over as one, the lower rolling on its
+    floor, and were off it at 3 s (1.0-1.1 m aside): a round member rolls over the particles its floor's friction
+    pins, with nothing of a contact patch's rolling resistance (docs/contact.md, stacks, ninth round)."""
+    v, t = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
+    lower = _preset_body(v, t, 0.31, "Jelly", rate=rate)
+    lower.step(rate)
+    upper = _preset_body(v, t, lower.positions[:, 2].mean() + 0.7, "Jelly", rate=rate)
+    for second, (above, aside, fastest, rise) in enumerate(_stacked_seconds(lower, upper, 13, rate), 1):
+        assert rise <= 0.0, (second, rise)
+        if second >= 3:
+            assert above > 0.55 and aside < 0.1 and fastest < 0.05, (second, above, aside, fastest)
+
+
+def test_two_creatures_dropped_one_on_the_other_never_gain_energy():
+    """Issue 27: two 1,000-particle creatures (k = 2e5), one dropped onto the other on the floor (3.1 m/s at the
+    impact; the contact bench's stacked pair), 4 s: the energy of the particles' centres never rises above its
+    start. With the floor's rolling couple at the impact it rose 92 kJ in 3 of 5 starts 0 to 1 cm apart (it is left
+    out at impacts, docs/contact.md, stacks, ninth round)."""
+    v, t = meshes.creature(64)
+    g = opdeform.Graph.from_mesh(v, t, particles=1000)
+    lift = np.ptp(g.centers[:, 2]) + 2.0 * g.radii.max()
+    for apart in (0.0, 0.003):
+        sims = [opdeform.Simulation(g, 2e5, damping=0.02) for _ in range(2)]
+        for k, sim in enumerate(sims):
+            sim.set_state(g.centers + (apart * k, 0.0, k * lift), np.tile(np.eye(3), (g.n_particles, 1, 1)))
+            sim.set_floor(g.centers[:, 2].min() - g.radii.max(), 0.5)
+        group = opdeform.ContactGroup(sims)
+        start = _centres_energy(sims)
+        for step in range(240):
+            group.step()
+            assert _centres_energy(sims) <= start, (apart, step)
+
+
 def _slab():
     v, t = meshes.bar(length=0.8, width=0.8, segments=8, cross=8)
     v = v - v.mean(axis=0)

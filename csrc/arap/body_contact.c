@@ -45,6 +45,17 @@
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
 // top).
 //
+// Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
+// particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
+// as over bumps. Two Jelly spheres stacked tipped over as one, the lower rolling on its floor (both turning the same
+// way, 0.005 rad a step at 60 Hz; held from turning relative to each other by a couple between them they fell as
+// before). What holds a real one is its contact patch, the pressure moving towards the patch's front edge. So a
+// member on its floor that its comparable pairs push down takes a couple about horizontal axes in the solves
+// against its rotation since the step's start, at most OD_ROLL_REACH times that push times its bearing particles'
+// mean largest radius (the patch each stands for), as a rigid rotation's forces (no net force, no strain); it
+// starts at none each step (so it is no part of the group's state), is held after OD_ROLL_UPDATES updates and
+// is left out at an impact (OD_ROLL_LANDING).
+//
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
 // displacement is cut by at most μ times the push (Coulomb, position based, as the floor). A stack of two
@@ -119,6 +130,21 @@
 // A step's |g| h at 240 steps a second (0.04 m/s) is within a resting member's own motion: it crossed that and
 // back, letting its brace go and taking it again, and the slabs above buzzed (docs/contact.md, stacks).
 #define OD_CLIMB_TIME (1.0 / 60.0)
+// Rolling resistance on the floor (od_Rolls): a member's couple is at most OD_ROLL_REACH times the mean largest
+// radius of its particles bearing on the floor times the push down of its comparable pairs, and is updated after
+// the first OD_ROLL_UPDATES solves of a step only, then held. Measured on the stacking bench (docs/contact.md, ninth
+// round): at 0.3 Jelly spheres rolled off at 60 Hz, at 0.7 and 1 a creature on a like one went 0.14-0.15 m aside
+// (0.12 before, 0.135 the bench's bound); updated after every solve (0.7), a Rubber slab under one twice as dense at
+// 24 Hz met the iterations' cap (202 solves a step, the couple at its bound) and shook at 0.1 m/s; held after 2
+// updates the Jelly spheres rolled off.
+#define OD_ROLL_REACH 0.5
+#define OD_ROLL_UPDATES 3
+// No rolling couple in a step that starts with a member, or one pressing it, moving up or down faster than this
+// (m/s; od_Landing): an impact, not a rest. Two 1,000-particle creatures (k = 2e5), one dropped on the other at
+// 3.1 m/s (scripts/benchmarks/contact.py's stacked pair), gained 92 kJ at its impact with the couple in 3 of 5 runs
+// started 0 to 1 cm apart (none without it); at 1 m/s the Jelly spheres' landing (1.4 m/s) went without it and
+// they rolled off at 60 Hz.
+#define OD_ROLL_LANDING 2.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -202,8 +228,11 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->rise);
 	od_Free(s->supported);
 	od_Free(s->climbing);
+	od_Free(s->fast);
 	od_Free(s->mass);
 	od_Free(s->load);
+	od_Free(s->pose);
+	od_Free(s->roll);
 	od_Free(s->interfaces);
 	od_Free(s->system);
 	od_Free(s->pairs);
@@ -239,9 +268,12 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
+	s->fast = od_AllocZero((size_t)particles, sizeof(int));
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->mass || !s->load)
+	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
+	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -606,6 +638,47 @@ static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 	return fmax(ma, mb) <= s->comparable * fmin(ma, mb);
 }
 
+// The inverse of a symmetric 3 × 3 matrix a (its adjugate over its determinant), zero where a is singular.
+static od_Mat3 od_SymmetricInverse(const od_Mat3* a)
+{
+	od_Vec3 r0 = od_V3(a->m[0], a->m[1], a->m[2]), r1 = od_V3(a->m[3], a->m[4], a->m[5]);
+	od_Vec3 r2 = od_V3(a->m[6], a->m[7], a->m[8]);
+	od_Vec3 c0 = od_Cross(r1, r2), c1 = od_Cross(r2, r0), c2 = od_Cross(r0, r1);
+	double det = od_Dot(r0, c0);
+	if (!(fabs(det) > 0.0) || !isfinite(det))
+	{
+		return od_M3Zero();
+	}
+	return (od_Mat3){ { c0.x / det, c1.x / det, c2.x / det, c0.y / det, c1.y / det, c2.y / det, c0.z / det,
+						c1.z / det, c2.z / det } };
+}
+
+// Member b's centre of mass at the step's start and the inverse of its particles' inertia about it (s->pose), for
+// its turn (od_Turn) and the floor's rolling couple on it (od_ApplyRolls).
+static void od_Pose(od_PairScratch* s, const od_Sim* sim, int b)
+{
+	const double* x = sim->previous.x;
+	od_Vec3 centre = od_V3(0, 0, 0);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		centre = od_MulAdd(centre, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(x + 3 * i));
+	}
+	od_Mat3 inertia = od_M3Zero(), identity = od_M3Identity();
+	double height = 0.0;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		double m = sim->def.density * sim->graph->volumes[i];
+		od_Vec3 r = od_Sub(od_V3Load(x + 3 * i), centre);
+		od_M3AddScaled(&inertia, m * od_Dot(r, r), &identity);
+		od_M3AddOuter(&inertia, -m, r, r);
+		height += m * r.z * r.z;
+	}
+	od_Mat3 inverse = od_SymmetricInverse(&inertia);
+	od_V3Store(s->pose + 13 * b, centre);
+	od_M3Store(s->pose + 13 * b + 3, &inverse);
+	s->pose[13 * b + 12] = height;
+}
+
 // The ratio of masses beyond which members are not comparable this step (s->comparable, OD_COMPARABLE), each
 // member's mass (s->mass) and whether it rises at the step's start faster than its gravity takes away in a
 // step or OD_CLIMB_TIME, the longer (s->climbing: its mean vertical velocity above |g| max(h, OD_CLIMB_TIME)),
@@ -627,6 +700,8 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 		const double* g = sim->def.gravity;
 		double stop = sim->def.dt > OD_CLIMB_TIME ? sim->def.dt : OD_CLIMB_TIME;
 		s->climbing[b] = up / s->mass[b] > sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * stop;
+		s->fast[b] = fabs(up / s->mass[b]) > OD_ROLL_LANDING;
+		od_Pose(s, sim, b);
 	}
 	double share = count > 0 ? sims[0]->def.dt / OD_CLIMB_TIME : 1.0; // a group's members step alike
 	s->comparable = OD_COMPARABLE * (share < 1.0 ? share : 1.0);
@@ -989,6 +1064,91 @@ static void od_Supports(od_PairScratch* s, int count)
 	od_Rise(s, count, od_BracedTo);
 }
 
+// Member b's rotation since the step's start, linearised: I⁻¹ Σ m_i r_i × (x_i - x̄_i), r_i particle i's offset
+// from the member's centre at the step's start, x̄_i where it was then (s->pose).
+static od_Vec3 od_Turn(const od_PairScratch* s, const od_Sim* sim, int b)
+{
+	od_Vec3 centre = od_V3Load(s->pose + 13 * b), moment = od_V3(0, 0, 0);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Vec3 x0 = od_V3Load(sim->previous.x + 3 * i), x1 = od_V3Load(sim->state.x + 3 * i);
+		moment = od_MulAdd(moment, sim->def.density * sim->graph->volumes[i], od_Cross(od_Sub(x0, centre), od_Sub(x1, x0)));
+	}
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
+	return od_M3MulV(&inverse, moment);
+}
+
+// Whether member b, or a member pressing it with a comparable pair, moves up or down at the step's start faster than
+// OD_ROLL_LANDING (s->fast): an impact, not a rest (od_Rolls).
+static bool od_Landing(const od_PairScratch* s, int b)
+{
+	bool landing = s->fast[b] > 0;
+	for (int k = 0; !landing && k < s->nearCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		int ma = s->body[pair->a], mb = s->body[pair->b];
+		landing = pair->force > 0.0 && (ma == b || mb == b) && od_Comparable(s, pair) && s->fast[ma == b ? mb : ma] > 0;
+	}
+	return landing;
+}
+
+// The floor's rolling resistance (see the top of the file): the couple on a member on its floor that its comparable
+// pairs push down (s->load < 0) grows against its rotation since the step's start about horizontal axes (dual
+// ascent at the rate of the member as a rigid body: h² I⁻¹ per newton metre, across the floor's normal), within
+// OD_ROLL_REACH times that push times the mean largest radius of its particles bearing on the floor
+// (od_FloorWeight); after the first OD_ROLL_UPDATES solves of a step it is held. Other members have none, nor any in
+// a step that starts at an impact (od_Landing).
+static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h2)
+{
+	if (s->rollUpdates >= OD_ROLL_UPDATES)
+	{
+		return;
+	}
+	s->rollUpdates++;
+	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
+	{
+		const od_Sim* sim = sims[b];
+		od_Vec3 couple = od_V3(0, 0, 0);
+		if (s->grounded[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b))
+		{
+			double reach = 0.0;
+			for (int i = 0; i < sim->graph->n; ++i)
+			{
+				reach += od_FloorWeight(s, sim, i, first + i) * od_ParticleReach(sim, i);
+			}
+			od_Mat3 across = od_M3Load(s->pose + 13 * b + 3); // I⁻¹ across the floor's normal (z)
+			across.m[2] = across.m[5] = across.m[6] = across.m[7] = 0.0;
+			across.m[8] = 1.0;
+			od_Mat3 rate = od_SymmetricInverse(&across);
+			od_Vec3 turn = od_Turn(s, sim, b);
+			turn.z = 0.0;
+			couple = od_MulAdd(od_V3Load(s->roll + 3 * b), -1.0 / h2, od_M3MulV(&rate, turn));
+			couple.z = 0.0;
+			double length = od_Length(couple), limit = -OD_ROLL_REACH * reach / s->bearing[b] * s->load[b];
+			couple = length > limit ? od_Scale(limit / length, couple) : couple;
+		}
+		od_V3Store(s->roll + 3 * b, couple);
+	}
+}
+
+// The floor's rolling couples (od_Rolls) on the particles' right sides: a couple τ on a member as the forces
+// m_i (I⁻¹ τ) × r_i (r_i from its centre at the step's start), which turn it rigidly and add up to no force.
+static void od_ApplyRolls(const od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int b = 0; b < count; ++b)
+	{
+		od_Sim* sim = sims[b];
+		od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
+		od_Vec3 spin = od_M3MulV(&inverse, od_V3Load(s->roll + 3 * b)), centre = od_V3Load(s->pose + 13 * b);
+		for (int i = 0; od_Length(spin) > 0.0 && i < sim->graph->n; ++i)
+		{
+			od_Vec3 arm = od_Sub(od_V3Load(sim->previous.x + 3 * i), centre);
+			double* f = sim->contactForce + 3 * i;
+			od_V3Store(f, od_MulAdd(od_V3Load(f), sim->def.density * sim->graph->volumes[i], od_Cross(spin, arm)));
+		}
+	}
+}
+
 // Writes the pairs' forces onto their particles' right sides (each sim's contactForce; not on an end braced
 // immovable, od_Brace), with the floor's reaction to them (od_FloorReaction).
 static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
@@ -1013,6 +1173,7 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 		od_V3Store(fa, braced == 'a' ? od_V3Load(fa) : od_Sub(od_V3Load(fa), f));
 		od_V3Store(fb, braced == 'b' ? od_V3Load(fb) : od_Add(od_V3Load(fb), f));
 	}
+	od_ApplyRolls(s, sims, count);
 	od_FloorReaction(s, sims, count);
 }
 
@@ -1270,6 +1431,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
 		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
 	}
+	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;
 	s->active = s->pressing;
 	s->pressing = swap;
@@ -1314,6 +1476,8 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 {
 	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
 	od_MemberMasses(s, sims, count);
+	memset(s->roll, 0, sizeof(double) * 3 * (size_t)count); // none at a step's start: not part of the group's state
+	s->rollUpdates = 0;
 	od_ApplyForces(s, sims, count);
 	od_Status status = OD_OK;
 	bool more = true, first = true;

@@ -205,7 +205,12 @@ typedef struct od_PairScratch
 	                  // their count (od_Supports)
 	int* supported;   // per member: on its floor or resting on supported members (od_Supports)
 	int* climbing;    // per member: rising at the step's start faster than gravity stops in a step (od_MemberMasses)
+	int* fast;        // per member: moving up or down at the step's start faster than OD_ROLL_LANDING (od_MemberMasses)
 	double* load;     // per member: the vertical force of its comparable pairs (od_FloorReaction)
+	double* pose;     // 13 per member: its centre of mass at the step's start, the inverse of its inertia about it
+	                  // (row-major; zero where it has none) and Σ m r_z² about it (od_MemberMasses)
+	double* roll;     // 3 per member: the floor's rolling couple on it this step (od_Rolls)
+	int rollUpdates;  // how many times this step's rolling couples were updated (od_Rolls)
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
 	double* system;   // their rigid system and right side, interfaceCapacity (interfaceCapacity + 1) (od_Coarse)
