@@ -259,3 +259,42 @@ def colliders_tmp(tmp_path_factory):
 @pytest.mark.parametrize("name", suite_names("suite_colliders"))
 def test_colliders_in_blender(host, name, colliders_tmp):
     check_suite_test(host, "suite_colliders", name, colliders_tmp)
+
+
+def _suzanne_engine(mesh, lift):
+    """A subdivided Suzanne lifted by ``lift`` at the panel's defaults (the Rubber preset, 24 fps, 10 substeps)."""
+    from opdeform_blender.core import settings
+
+    matrix = np.eye(4)
+    matrix[2, 3] = lift
+    e = Engine(opdeform, mesh["vertices"], mesh["triangles"], matrix, particles=100)
+    u = settings.Units(False, stiffness=1e5, damping=0.0, max_iterations=100, iterations=10, substeps=10,
+                       **settings.preset_values(opdeform.materials, "Rubber"))
+    params, solver = settings.solver_settings(opdeform, e.graph, u, 24, (0.0, 0.0, -9.81))
+    e.configure(params, substeps=10, end=13 * 24, solver=solver)
+    return e
+
+
+def test_a_suzanne_dropped_on_another_stays_on_top():
+    """Issue 27's stack in the add-on's terms (tests/blender/suite_colliders.py has it in Blender): two subdivided
+    Suzannes at the panel's defaults, their skins on a Collision plane (Blender's default Friction and Thickness
+    Outer), the ellipsoids between them, the upper dropped 1 m onto the lower; from 3 to 13 s the upper's centre
+    stays above the lower's highest vertex, at rest (the rolling couple between members; docs/contact.md,
+    "Stacks", tenth round: 0.64-0.66 m above it, 0.27-0.30 m aside; before it, at 3 s 0.48 m above, 0.58 m aside
+    and sliding at 0.165 m/s)."""
+    mesh = np.load(Path(__file__).resolve().parent / "reference" / "suzanne_subdivided.npz")
+    z = mesh["vertices"][:, 2]
+    lifts = (0.005 - z.min(), 1.005 + z.max() - 2 * z.min())
+    low, high = (_suzanne_engine(mesh, lift) for lift in lifts)
+    plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
+    around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
+                                                              0.5, 0.005),), ())
+    bodies = contact.Bodies()
+    for f in range(1, 13 * 24 + 1):
+        shown = bodies.simulate(opdeform, [e.begin(f, surroundings=around) for e in (low, high)])
+        if f >= 3 * 24 and f % 24 == 0:
+            lower, upper = (out[:, 2] + lift for out, lift in zip(shown, lifts))
+            above = upper.mean() - lower.max()
+            assert above > 0.2, f"at {f // 24} s the upper's centre is {above:.3f} m above the lower's top"
+            fastest = max(np.abs(e.sim.velocities).max() for e in (low, high))
+            assert fastest < 0.05, f"at {f // 24} s a particle moves at {fastest:.3f} m/s"

@@ -57,6 +57,11 @@
 // is left out at an impact (OD_ROLL_LANDING). A member that meets its floor with its skin (od_Sim_SetContactSkin:
 // the add-on's) takes none: the bound is its ellipsoids' patch, and the add-on's firm blobs (k = 1e7, 24 fps) crept
 // 0.097 m apart in 4 s with it, 0.036 without (test_two_firm_blobs_dropped_one_on_the_other_come_to_rest_stacked).
+// Between two comparable members in contact (od_MemberRolls) a couple of the same kind and bound acts against their
+// relative turn, on the upper one and its negative on the lower (no net force or torque), the interface's normal
+// force as the push: a subdivided Suzanne dropped on another at the add-on's defaults (240 steps a second, the
+// ellipsoids between them) slid 0.58-0.74 m aside over the lower's head in bpy 5.2, at 0.18 m/s at 3 s; with it
+// it rests at 0.26-0.29 m (docs/contact.md, "Stacks", tenth round). Not at steps longer than OD_MEMBER_ROLL_STEP.
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -148,6 +153,11 @@
 // started 0 to 1 cm apart (none without it); at 1 m/s the Jelly spheres' landing (1.4 m/s) went without it and
 // they rolled off at 60 Hz.
 #define OD_ROLL_LANDING 2.0
+// The longest step with rolling couples between members (od_MemberRolls). At 1/24 s they jolted a Stiff slab on one a
+// tenth as dense (0.076 m/s at 8 s, 0.010 without) and the add-on's firm blobs stacked at one step a frame crept
+// 0.061 m apart in 4 s (0.036 without; the test's bound 0.05); at 1/60 and 1/240 s the stacking bench held as many
+// (docs/contact.md, "Stacks", tenth round).
+#define OD_MEMBER_ROLL_STEP (1.0 / 60.0)
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -236,6 +246,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->load);
 	od_Free(s->pose);
 	od_Free(s->roll);
+	od_Free(s->couples);
 	od_Free(s->interfaces);
 	od_Free(s->system);
 	od_Free(s->pairs);
@@ -1095,6 +1106,71 @@ static bool od_Landing(const od_PairScratch* s, int b)
 	return landing;
 }
 
+// Member pair (lower, upper)'s couple this step (od_MemberRolls), added at none if new; NULL when the list cannot
+// grow (out of memory: that pair then has none).
+static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
+{
+	for (int c = 0; c < s->coupleCount; ++c)
+	{
+		if (s->couples[c].lower == lower && s->couples[c].upper == upper)
+		{
+			return &s->couples[c];
+		}
+	}
+	if (s->coupleCount == s->coupleCapacity)
+	{
+		int capacity = s->coupleCapacity ? 2 * s->coupleCapacity : 8;
+		od_MemberCouple* grown = od_Realloc(s->couples, sizeof *grown * (size_t)capacity);
+		if (!grown)
+		{
+			return NULL;
+		}
+		s->couples = grown;
+		s->coupleCapacity = capacity;
+	}
+	s->couples[s->coupleCount] = (od_MemberCouple){ .lower = lower, .upper = upper };
+	return &s->couples[s->coupleCount++];
+}
+
+// Rolling resistance between members (see the top of the file): each interface's couple on its upper member (its
+// negative on the lower) grows against their relative rotation since the step's start about axes across the
+// interface's normal (dual ascent at the rate of the two as rigid bodies, h² (I_l⁻¹ + I_u⁻¹) per newton metre),
+// within OD_ROLL_REACH times the interface's normal force times its particles' mean largest radius. Not between
+// skins (od_SkinPair_Used: the bound is the ellipsoids' patch), at an impact (od_Landing) nor at steps longer than
+// OD_MEMBER_ROLL_STEP (a group's members step alike).
+static void od_MemberRolls(od_PairScratch* s, od_Sim* const* sims, double h2)
+{
+	for (int e = 0; e < s->interfaceCount && sims[0]->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9); ++e)
+	{
+		const od_Interface* ie = &s->interfaces[e];
+		int l = ie->lower, u = ie->upper;
+		od_MemberCouple* mc = od_SkinPair_Used(sims[l], sims[u]) || od_Landing(s, l) || od_Landing(s, u) ? NULL
+																										  : od_CoupleOf(s, l, u);
+		double push = 0.0, reach = 0.0;
+		for (int k = 0; mc && k < s->nearCount; ++k)
+		{
+			const od_ContactPair* pair = &s->pairs[k];
+			if (pair->interface == e)
+			{
+				push += pair->force;
+				reach += 0.5 * (od_ParticleReach(sims[l], s->local[pair->a]) + od_ParticleReach(sims[u], s->local[pair->b]));
+			}
+		}
+		if (!mc || !(push > 0.0))
+		{
+			continue;
+		}
+		od_Mat3 compliance = od_M3Load(s->pose + 13 * l + 3), upper = od_M3Load(s->pose + 13 * u + 3);
+		od_M3AddScaled(&compliance, 1.0, &upper);
+		od_Mat3 rate = od_SymmetricInverse(&compliance);
+		od_Vec3 n = od_V3Load(ie->n), turn = od_Sub(od_Turn(s, sims[u], u), od_Turn(s, sims[l], l));
+		od_Vec3 couple = od_MulAdd(od_V3Load(mc->couple), -1.0 / h2, od_M3MulV(&rate, turn));
+		couple = od_MulAdd(couple, -od_Dot(couple, n), n);
+		double length = od_Length(couple), limit = OD_ROLL_REACH * push * reach / ie->count;
+		od_V3Store(mc->couple, length > limit ? od_Scale(limit / length, couple) : couple);
+	}
+}
+
 // The floor's rolling resistance (see the top of the file): the couple on a member on its floor that its comparable
 // pairs push down (s->load < 0) grows against its rotation since the step's start about horizontal axes (dual
 // ascent at the rate of the member as a rigid body: h² I⁻¹ per newton metre, across the floor's normal), within
@@ -1108,6 +1184,7 @@ static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h
 		return;
 	}
 	s->rollUpdates++;
+	od_MemberRolls(s, sims, h2);
 	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
 	{
 		const od_Sim* sim = sims[b];
@@ -1134,21 +1211,32 @@ static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h
 	}
 }
 
-// The floor's rolling couples (od_Rolls) on the particles' right sides: a couple τ on a member as the forces
-// m_i (I⁻¹ τ) × r_i (r_i from its centre at the step's start), which turn it rigidly and add up to no force.
+// A couple τ on member b (od_Rolls, od_MemberRolls) on its particles' right sides, as the forces m_i (I⁻¹ τ) × r_i
+// (r_i from its centre at the step's start), which turn it rigidly and add up to no force.
+static void od_ApplyCouple(const od_PairScratch* s, od_Sim* sim, int b, od_Vec3 couple)
+{
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
+	od_Vec3 spin = od_M3MulV(&inverse, couple), centre = od_V3Load(s->pose + 13 * b);
+	for (int i = 0; od_Length(spin) > 0.0 && i < sim->graph->n; ++i)
+	{
+		od_Vec3 arm = od_Sub(od_V3Load(sim->previous.x + 3 * i), centre);
+		double* f = sim->contactForce + 3 * i;
+		od_V3Store(f, od_MulAdd(od_V3Load(f), sim->def.density * sim->graph->volumes[i], od_Cross(spin, arm)));
+	}
+}
+
+// The floor's rolling couples (od_Rolls) and those between members (od_MemberRolls) on the particles' right sides.
 static void od_ApplyRolls(const od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0; b < count; ++b)
 	{
-		od_Sim* sim = sims[b];
-		od_Mat3 inverse = od_M3Load(s->pose + 13 * b + 3);
-		od_Vec3 spin = od_M3MulV(&inverse, od_V3Load(s->roll + 3 * b)), centre = od_V3Load(s->pose + 13 * b);
-		for (int i = 0; od_Length(spin) > 0.0 && i < sim->graph->n; ++i)
-		{
-			od_Vec3 arm = od_Sub(od_V3Load(sim->previous.x + 3 * i), centre);
-			double* f = sim->contactForce + 3 * i;
-			od_V3Store(f, od_MulAdd(od_V3Load(f), sim->def.density * sim->graph->volumes[i], od_Cross(spin, arm)));
-		}
+		od_ApplyCouple(s, sims[b], b, od_V3Load(s->roll + 3 * b));
+	}
+	for (int c = 0; c < s->coupleCount; ++c)
+	{
+		const od_MemberCouple* mc = &s->couples[c];
+		od_ApplyCouple(s, sims[mc->upper], mc->upper, od_V3Load(mc->couple));
+		od_ApplyCouple(s, sims[mc->lower], mc->lower, od_Scale(-1.0, od_V3Load(mc->couple)));
 	}
 }
 
@@ -1480,6 +1568,7 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
 	od_MemberMasses(s, sims, count);
 	memset(s->roll, 0, sizeof(double) * 3 * (size_t)count); // none at a step's start: not part of the group's state
+	s->coupleCount = 0;
 	s->rollUpdates = 0;
 	od_ApplyForces(s, sims, count);
 	od_Status status = OD_OK;

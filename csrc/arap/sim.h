@@ -184,6 +184,14 @@ typedef struct od_Interface
 	double n[3], gap, local, change;
 } od_Interface;
 
+// The rolling couple between two members in contact this step (od_MemberRolls, body_contact.c): on `upper`, its
+// negative on `lower` (an interface's members).
+typedef struct od_MemberCouple
+{
+	int lower, upper;
+	double couple[3];
+} od_MemberCouple;
+
 typedef struct od_PairScratch
 {
 	int capacity, tableSize;
@@ -210,7 +218,9 @@ typedef struct od_PairScratch
 	double* pose;     // 13 per member: its centre of mass at the step's start, the inverse of its inertia about it
 	                  // (row-major; zero where it has none) and Σ m r_z² about it (od_MemberMasses)
 	double* roll;     // 3 per member: the floor's rolling couple on it this step (od_Rolls)
-	int rollUpdates;  // how many times this step's rolling couples were updated (od_Rolls)
+	int rollUpdates;  // how many times this step's rolling couples (the floor's, the members') were updated (od_Rolls)
+	od_MemberCouple* couples; // the rolling couples between members this step (od_MemberRolls)
+	int coupleCount, coupleCapacity;
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
 	double* system;   // their rigid system and right side, interfaceCapacity (interfaceCapacity + 1) (od_Coarse)
