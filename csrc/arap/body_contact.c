@@ -567,19 +567,19 @@ static double od_ShapeReaches(const od_PairScratch* s, const od_ContactPair* pai
 // push direction and the two particles' outward directions; in a group's iterations after od_GatherNear, from c
 // and its last normal alone (re-aimed at every update as the ellipsoids' pairs are: held from the gather on, the
 // add-on tests' blob dropped on a blob went 1.9 % of its size into it, apart by 0.1-0.3 cm re-aimed; the full
-// search at every update cost the bars at rest 5.3 ms a step, 3.3 held).
+// search at every update cost the bars at rest 5.3 ms a step, 3.3 held). `settle`: q->settle (skin_pairs.h).
 static od_Vec3 od_SkinNormal(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
-							 od_Vec3 d, od_Vec3 c, double thickness)
+							 od_Vec3 d, od_Vec3 c, double thickness, bool settle)
 {
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
 	od_Vec3 directions[5] = { c, od_V3Load(pair->n), od_PushDirection(s, pair, c), od_V3Load(s->outward + 3 * pair->a),
 							  od_Scale(-1.0, od_V3Load(s->outward + 3 * pair->b)) };
-	od_SkinPair q = { a->sim, b->sim, a->i, b->i, &ma, &mb, d, thickness };
+	od_SkinPair q = { a->sim, b->sim, a->i, b->i, &ma, &mb, d, thickness, settle };
 	return od_SkinPair_Normal(&q, directions, s->warmNormals ? 2 : 5);
 }
 
-static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
-								const od_BodyContactDef* d)
+static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a,
+									const od_End* b, const od_BodyContactDef* d, bool settle)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0), d1 = od_Sub(b->x1, a->x1);
 	double l0 = od_Length(d0), l1 = od_Length(d1);
@@ -591,7 +591,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		return p;
 	}
 	bool skin = od_SkinPair_Used(a->sim, b->sim);
-	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c, d->thickness) : p.c;
+	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c, d->thickness, settle) : p.c;
 	double supports = od_ShapeReaches(s, pair, a, b, p.c);
 	bool apart = l0 > 0.0 && (skin ? od_Dot(p.c, d0) : l0) >= supports;
 	if (!apart && l1 > 0.0)
@@ -602,7 +602,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
 		// 3.0 m/s, 1.2 m/s along the push direction).
 		p.c = a->sim != b->sim && d->inIterations ? od_PushDirection(s, pair, p.c) : p.c;
-		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c, d->thickness) : p.c;
+		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c, d->thickness, settle) : p.c;
 		supports = od_ShapeReaches(s, pair, a, b, p.c);
 	}
 	double reach = supports + d->thickness;
@@ -616,6 +616,19 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
+}
+
+// A pair's state now: its shapes' overlap along its normal, how much of it a step may leave, whether it passed.
+// Outside a group's iterations (its gather, the projection after them) a skin pair found apart along a direction
+// that settles its search (skin_pairs.h) is apart; one in contact along it is measured again with the whole search,
+// which its push needs (settled there too, the projection pushed the skins of the skin_pairs.py spheres at 10 m/s
+// 5.2 cm apart, not 1.0).
+static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+								const od_BodyContactDef* d)
+{
+	bool settle = !s->warmNormals && od_SkinPair_Used(a->sim, b->sim);
+	od_PairState p = od_MeasureAlong(s, pair, a, b, d, settle);
+	return settle && !p.passed && p.depth > 0.0 ? od_MeasureAlong(s, pair, a, b, d, false) : p;
 }
 
 // Every particle's ellipsoid (od_ParticleMoment) and outward direction (od_Outward) at its current rotation,
