@@ -224,6 +224,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->sphere);
 	od_Free(s->active);
 	od_Free(s->pressing);
+	od_Free(s->moved);
 	od_Free(s->moment);
 	od_Free(s->outward);
 	od_Free(s->grounded);
@@ -264,6 +265,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->sphere = od_Alloc(sizeof(double) * 4 * (size_t)particles);
 	s->active = od_Alloc(sizeof(int) * (size_t)particles);
 	s->pressing = od_Alloc(sizeof(int) * (size_t)particles);
+	s->moved = od_Alloc(sizeof(int) * (size_t)particles);
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
 	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
@@ -276,7 +278,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -785,14 +787,14 @@ static double od_Held(const od_PairScratch* s, const od_ContactPair* pair, const
 }
 
 // One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
-static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
+static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
 						   const od_BodyContactDef* d)
 {
 	od_Brace(s, pair, a, b);
 	od_PairState p = od_Measure(s, pair, a, b, d);
 	if (p.depth <= 0.0 || p.passed)
 	{
-		return;
+		return false;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
 	od_Vec3 n = od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
@@ -805,6 +807,7 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
+	return true;
 }
 
 // Coulomb friction of a pair that was pushed: its relative tangential displacement cut by μ times the push.
@@ -1465,21 +1468,36 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_Status status = OD_OK;
+	int total = 0, tick = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		total += sims[b]->graph->n;
+	}
 	if (s->pairCount > 0) // a body alone with self-contact and nothing near pays nothing
 	{
 		od_CacheMoments(s, sims, count);
+		memset(s->moved, 0, sizeof(int) * (size_t)total);
 	}
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
 		for (int k = 0; k < s->pairCount; ++k)
 		{
 			od_ContactPair* pair = &s->pairs[k];
+			pair->clear = pass == 0 ? 0 : pair->clear;
+			if (pass < OD_PAIR_PASSES && pair->clear > s->moved[pair->a] && pair->clear > s->moved[pair->b])
+			{
+				continue; // measured clear, and nothing of it moved since: the same measure again
+			}
 			od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 			const od_BodyContactDef* d = od_DefOf(&a, &b, between);
 			pair->push = pass == 0 ? 0.0 : pair->push;
 			if (pass < OD_PAIR_PASSES)
 			{
-				od_ResolvePair(s, pair, &a, &b, d);
+				++tick;
+				bool pushed = od_ResolvePair(s, pair, &a, &b, d);
+				pair->clear = pushed ? 0 : tick;
+				s->moved[pair->a] = pushed ? tick : s->moved[pair->a];
+				s->moved[pair->b] = pushed ? tick : s->moved[pair->b];
 			}
 			else if (pair->push > 0.0 && d->friction > 0.0)
 			{
