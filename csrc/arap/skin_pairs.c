@@ -77,11 +77,10 @@ static bool od_MakeUnit(od_Vec3* u)
 // Refinement steps of a pair's normal (od_SkinPair_Normal), and how far apart along its centre line (of its
 // ellipsoids' largest radii, beyond the thickness) a pair is taken along it at once: farther than contact and than
 // the forces' near pairs (body_contact.c, OD_NEAR_SLACK: 0.25). The bars at rest on each other took 6.0 ms a step
-// without it, 5.3 with it (0.60 on the ellipsoids; scripts/skin_pairs.py --cost). Outside a group's iterations (its
-// gather and the projection after them) only whether a pair is in contact matters, so a pair apart beyond the
-// thickness along its centre line or last normal settles there: the add-on's two Suzannes at rest on each other on
-// their skins (7,958 vertices, 10 steps a frame), 88 -> 56 ms a frame, the projection's measures 912 -> 327 M
-// instructions (callgrind), the iterations a step the same.
+// without it, 5.3 with it (0.60 on the ellipsoids; scripts/skin_pairs.py --cost). Where only whether a pair is in
+// contact matters (body_contact.c, od_Measure), a pair apart beyond the thickness along its centre line or last
+// normal settles there: the add-on's two Suzannes at rest on each other on their skins (7,958 vertices, 10 steps a
+// frame), the projection's measures 912 -> 327 M instructions (callgrind).
 #define OD_NORMAL_STEPS 4
 #define OD_CLEAR 0.5
 
