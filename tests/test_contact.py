@@ -114,6 +114,40 @@ def test_a_body_dropped_on_a_small_open_table_top_stays_on_it(blob, drop):
     assert (sim.positions[:, 2] < 0.99).sum() <= 5  # 3 of 100: the blob's sag over the edge
 
 
+@pytest.mark.parametrize("drop", [0.1, 0.3, 1.5])
+def test_a_body_dropped_on_a_thin_closed_box_top_stays_on_it(blob, drop):
+    # a closed box top 0.6 m wide and 2 cm thick at 24 fps: the blob's skin points went beyond its middle in one
+    # step, its far face nearer, and were pushed through (100 of 100 particles below from each height)
+    v, _, g = blob
+    sim = opdeform.Simulation(g, 3e4, dt=1 / 24)
+    sim.set_state(g.centers + (0.0, 0.0, 1.01 + drop - v[:, 2].min()), np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    sim.add_collider("box", half_extents=(0.3, 0.3, 0.01), translation=(0.0, 0.0, 0.99), friction=0.3)
+    sim.set_contact_skin(opdeform.Skin(g, v))
+    sim.step(48)
+    assert (sim.positions[:, 2] < 0.99).sum() <= 5  # 0-3 of 100
+
+
+@pytest.mark.parametrize("speed", [2.0, 4.0])
+def test_a_body_thrown_up_under_an_open_table_top_bounces_down(blob, speed):
+    # behind an open mesh's faces within its rim was inside at any depth: thrown up at its underside, the blob
+    # was pushed through to the top (97-100 of its 100 particles); now inside is a slab behind the faces
+    v, _, g = blob
+    sim = opdeform.Simulation(g, 3e4, dt=1 / 24)
+    velocities = np.tile((0.0, 0.0, speed), (g.n_particles, 1))
+    sim.set_state(g.centers + (0.0, 0.0, 0.65 - v[:, 2].max()), np.tile(np.eye(3), (g.n_particles, 1, 1)),
+                  velocities=velocities)
+    sv, st = meshes.sheet((1.0, 1.0), (8, 8))
+    sim.add_collider("mesh", vertices=sv + (0.0, 0.0, 1.0), triangles=st, friction=0.3)
+    sim.set_contact_skin(opdeform.Skin(g, v))
+    highest, falling = 0.0, False
+    for _ in range(24):
+        sim.step()
+        highest = max(highest, sim.positions[:, 2].max())
+        falling = falling or sim.velocities[:, 2].mean() < -0.5
+    assert highest < 1.0 and falling  # it rose to the underside and came down
+    assert sim.positions[:, 2].max() < 1.0
+
+
 def _board_through_limb(move):
     """A 2 cm board 0.8 m wide crossing a 10 cm limb at 30 km/h, 24 fps; how many particles it left behind."""
     v, t = meshes.capsule(radius=0.05, length=0.5)
@@ -369,10 +403,13 @@ def test_capsule_and_mesh_distances_and_removal():
     np.testing.assert_allclose(sim.collider_distances([(2, 0, 0), (0, 0, 2), (0, 0, 0.2)]), [1.5, 0.5, -0.5])
     sv, st = meshes.sheet((2.0, 2.0), (2, 2))
     sim.remove_collider(cap)
-    sim.add_collider("mesh", vertices=sv, triangles=st)  # open: behind the sheet (-z) is inside, not beyond its rim
-    d = sim.collider_distances([(0.1, 0.2, 0.3), (0.1, 0.2, -0.3), (1.3, 0.0, -0.2), (1.3, 1.3, -0.2)])
-    np.testing.assert_allclose(d, [0.3, -0.3, np.hypot(0.3, 0.2), np.hypot(np.hypot(0.3, 0.3), 0.2)], atol=0.01)
-    np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.3)]), [(0.1, 0.2, 0.0)], atol=0.01)
+    # open: inside is a slab behind the sheet (-z), 3.5 samples deep (2 m / 64 each), not beyond its rim
+    sim.add_collider("mesh", vertices=sv, triangles=st)
+    behind = [(0.1, 0.2, 0.3), (0.1, 0.2, -0.02), (0.1, 0.2, -0.08), (0.1, 0.2, -0.3)]
+    d, slab = sim.collider_distances(behind + [(1.3, 0.0, -0.2), (1.3, 1.3, -0.2)]), 3.5 * 2.0 / 64
+    beyond_rim = [np.hypot(0.3, 0.2), np.hypot(np.hypot(0.3, 0.3), 0.2)]
+    np.testing.assert_allclose(d, [0.3, -0.02, 0.08 - slab, 0.3 - slab] + beyond_rim, atol=0.01)
+    np.testing.assert_allclose(sim.push_out([(0.1, 0.2, -0.02)]), [(0.1, 0.2, 0.0)], atol=0.01)
     assert sim.n_colliders == 1
     points = np.array([(0.1, 0.2, -0.3), (0.1, 0.2, 0.3)])
     out = np.empty_like(points)
