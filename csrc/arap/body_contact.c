@@ -234,6 +234,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->sphere);
 	od_Free(s->active);
 	od_Free(s->pressing);
+	od_Free(s->moved);
 	od_Free(s->moment);
 	od_Free(s->outward);
 	od_Free(s->grounded);
@@ -275,6 +276,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->sphere = od_Alloc(sizeof(double) * 4 * (size_t)particles);
 	s->active = od_Alloc(sizeof(int) * (size_t)particles);
 	s->pressing = od_Alloc(sizeof(int) * (size_t)particles);
+	s->moved = od_Alloc(sizeof(int) * (size_t)particles);
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
 	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
@@ -287,7 +289,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -578,19 +580,19 @@ static double od_ShapeReaches(const od_PairScratch* s, const od_ContactPair* pai
 // push direction and the two particles' outward directions; in a group's iterations after od_GatherNear, from c
 // and its last normal alone (re-aimed at every update as the ellipsoids' pairs are: held from the gather on, the
 // add-on tests' blob dropped on a blob went 1.9 % of its size into it, apart by 0.1-0.3 cm re-aimed; the full
-// search at every update cost the bars at rest 5.3 ms a step, 3.3 held).
+// search at every update cost the bars at rest 5.3 ms a step, 3.3 held). `settle`: q->settle (skin_pairs.h).
 static od_Vec3 od_SkinNormal(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
-							 od_Vec3 d, od_Vec3 c, double thickness)
+							 od_Vec3 d, od_Vec3 c, double thickness, bool settle)
 {
 	od_Mat3 ma = od_M3Load(s->moment + 9 * pair->a), mb = od_M3Load(s->moment + 9 * pair->b);
 	od_Vec3 directions[5] = { c, od_V3Load(pair->n), od_PushDirection(s, pair, c), od_V3Load(s->outward + 3 * pair->a),
 							  od_Scale(-1.0, od_V3Load(s->outward + 3 * pair->b)) };
-	od_SkinPair q = { a->sim, b->sim, a->i, b->i, &ma, &mb, d, thickness };
+	od_SkinPair q = { a->sim, b->sim, a->i, b->i, &ma, &mb, d, thickness, settle };
 	return od_SkinPair_Normal(&q, directions, s->warmNormals ? 2 : 5);
 }
 
-static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
-								const od_BodyContactDef* d)
+static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a,
+									const od_End* b, const od_BodyContactDef* d, bool settle)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0), d1 = od_Sub(b->x1, a->x1);
 	double l0 = od_Length(d0), l1 = od_Length(d1);
@@ -602,7 +604,7 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		return p;
 	}
 	bool skin = od_SkinPair_Used(a->sim, b->sim);
-	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c, d->thickness) : p.c;
+	p.c = skin ? od_SkinNormal(s, pair, a, b, d0, p.c, d->thickness, settle) : p.c;
 	double supports = od_ShapeReaches(s, pair, a, b, p.c);
 	bool apart = l0 > 0.0 && (skin ? od_Dot(p.c, d0) : l0) >= supports;
 	if (!apart && l1 > 0.0)
@@ -613,15 +615,35 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
 		// 3.0 m/s, 1.2 m/s along the push direction).
 		p.c = a->sim != b->sim && d->inIterations ? od_PushDirection(s, pair, p.c) : p.c;
-		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c, d->thickness) : p.c;
+		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c, d->thickness, settle) : p.c;
 		supports = od_ShapeReaches(s, pair, a, b, p.c);
 	}
 	double reach = supports + d->thickness;
 	p.depth = reach - od_Dot(p.c, d1);
-	p.passed = apart && p.depth > 0.0 && od_ClosestApproach(d0, d1) >= reach;
+	// Passed: apart at the start, overlapping along c now, but the centres never within reach of each other (they
+	// slid past). A skin pair's c is its separating axis, not its centre line, so its centres' distance says
+	// nothing of its overlap along c: two 0.6 m Rubber spheres at rest on each other on their skins had pairs
+	// overlapping along c yet passed, their forces dropped and taken up every other update (a particle jumping 4-6
+	// mm, 100 iterations a step under the preset's tolerance, 8.4 ms a step); counted in contact, 2 (0.95 ms).
+	p.passed = apart && p.depth > 0.0 && !skin && od_ClosestApproach(d0, d1) >= reach;
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
+}
+
+// A pair's state now: its shapes' overlap along its normal, how much of it a step may leave, whether it passed.
+// A skin pair carrying no force found apart along a direction that settles its search (skin_pairs.h) is apart; one
+// in contact along it is measured again with the whole search, which its push needs (settled there too, the
+// projection pushed the skins of the skin_pairs.py spheres at 10 m/s 5.2 cm apart, not 1.0); one carrying a force
+// keeps the whole search for its force's normal (settled, the bars at rest 0.8 cm apart, not 0.6). The add-on's two
+// Suzannes at rest on their skins, 10 steps a frame: 58 -> 42 ms a frame outside the iterations (the gather and the
+// projection), -> 25 ms in them too, the same iterations and the same bits in that scene.
+static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+								const od_BodyContactDef* d)
+{
+	bool settle = od_SkinPair_Used(a->sim, b->sim) && (!s->warmNormals || !(pair->force > 0.0));
+	od_PairState p = od_MeasureAlong(s, pair, a, b, d, settle);
+	return settle && !p.passed && p.depth > 0.0 ? od_MeasureAlong(s, pair, a, b, d, false) : p;
 }
 
 // Every particle's ellipsoid (od_ParticleMoment) and outward direction (od_Outward) at its current rotation,
@@ -778,14 +800,14 @@ static double od_Held(const od_PairScratch* s, const od_ContactPair* pair, const
 }
 
 // One pass over one pair: pushes it apart as far as it is in contact (see the top of the file).
-static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
+static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End* a, od_End* b,
 						   const od_BodyContactDef* d)
 {
 	od_Brace(s, pair, a, b);
 	od_PairState p = od_Measure(s, pair, a, b, d);
 	if (p.depth <= 0.0 || p.passed)
 	{
-		return;
+		return false;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
 	od_Vec3 n = od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
@@ -798,6 +820,7 @@ static void od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	od_Separate(a, b, n, push, od_Held(s, pair, a, b, n));
 	pair->push += push;
 	od_V3Store(pair->n, n);
+	return true;
 }
 
 // Coulomb friction of a pair that was pushed: its relative tangential displacement cut by μ times the push.
@@ -1535,21 +1558,36 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_Status status = OD_OK;
+	int total = 0, tick = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		total += sims[b]->graph->n;
+	}
 	if (s->pairCount > 0) // a body alone with self-contact and nothing near pays nothing
 	{
 		od_CacheMoments(s, sims, count);
+		memset(s->moved, 0, sizeof(int) * (size_t)total);
 	}
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
 		for (int k = 0; k < s->pairCount; ++k)
 		{
 			od_ContactPair* pair = &s->pairs[k];
+			pair->clear = pass == 0 ? 0 : pair->clear;
+			if (pass < OD_PAIR_PASSES && pair->clear > s->moved[pair->a] && pair->clear > s->moved[pair->b])
+			{
+				continue; // measured clear, and nothing of it moved since: the same measure again
+			}
 			od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 			const od_BodyContactDef* d = od_DefOf(&a, &b, between);
 			pair->push = pass == 0 ? 0.0 : pair->push;
 			if (pass < OD_PAIR_PASSES)
 			{
-				od_ResolvePair(s, pair, &a, &b, d);
+				++tick;
+				bool pushed = od_ResolvePair(s, pair, &a, &b, d);
+				pair->clear = pushed ? 0 : tick;
+				s->moved[pair->a] = pushed ? tick : s->moved[pair->a];
+				s->moved[pair->b] = pushed ? tick : s->moved[pair->b];
 			}
 			else if (pair->push > 0.0 && d->friction > 0.0)
 			{

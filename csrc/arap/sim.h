@@ -173,6 +173,7 @@ typedef struct od_ContactPair
 	bool touching;    // near enough for a force in this iteration
 	int next;         // the next forced pair of the same first particle (od_CarryForces)
 	int interface;    // its interface in a group's update (od_Interfaces), -1: none
+	int clear;        // the projection's tick at which it was last measured clear, 0: not (od_ProjectPairs)
 } od_ContactPair;
 
 // The contacts between two members of a group in one update of its forces (od_Coarse, body_contact.c): their
@@ -203,6 +204,7 @@ typedef struct od_PairScratch
 	double* sphere;   // 4 per particle: centre of the swept path and radius
 	int* active;      // per particle: how many pairs pressed it at the last update (their forces share its response)
 	int* pressing;    // the same, counted in this update
+	int* moved;       // per particle: the projection's tick at which a push last moved it (od_ProjectPairs)
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)

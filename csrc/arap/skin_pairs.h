@@ -23,9 +23,11 @@ typedef struct od_SkinPair
 	const od_Mat3 *ma, *mb;
 	od_Vec3 d;
 	double thickness;
+	bool settle; // any direction along which the pair is apart beyond the thickness will do (od_SkinPair_Normal)
 } od_SkinPair;
 // The pair's normal, as a separating axis: of `count` directions (directions[0] unit, the others of any length, 0
 // for none), the one along which the pair is the farthest apart (d·n less their supports towards each other), then
 // refined along that distance's gradient. A pair clear of contact along directions[0] (farther than the thickness
-// and half its ellipsoids' largest radii) is taken along it at once.
+// and half its ellipsoids' largest radii) is taken along it at once; with q->settle, so is one apart beyond the
+// thickness along any of the directions (no refinement).
 od_Vec3 od_SkinPair_Normal(const od_SkinPair* q, const od_Vec3* directions, int count);
