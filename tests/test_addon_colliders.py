@@ -219,6 +219,33 @@ def test_two_blobs_stepped_together_do_not_pass_through():
     assert all(np.array_equal(a, b) for a, b in zip(jumped[24], frames[24]))
 
 
+def _skin_gap(shape):
+    """How far apart the skins of two firm blobs (k = 1e7) are at 2 s, the upper dropped on the lower, their
+    Object Shape ``shape`` (Engine.set_contact's skin: True), and each set_contact's answer (changed, again)."""
+    _, triangles = _octasphere(0.3, 10)
+    (low, _), (high, _) = blob_engine(z=0.3), blob_engine(z=1.0)
+    answers = []
+    for e in (low, high):
+        e.configure(dict(e._params, stiffness=1e7), floor=(0.0, 0.5), end=60)
+        answers += [e.set_contact(None, (0.005, 0.5, shape)), e.set_contact(None, (0.005, 0.5, shape))]
+    bodies = contact.Bodies()
+    for f in range(1, 49):
+        lower, upper = bodies.simulate(opdeform, [e.begin(f) for e in (low, high)])
+    probe = opdeform.Simulation(opdeform.Graph.from_mesh(lower, triangles, particles=20), 1e6)
+    probe.add_collider("mesh", vertices=lower, triangles=triangles, resolution=64)
+    return probe.collider_distances(upper).min(), answers
+
+
+def test_the_skin_meets_the_other_bodies_where_the_object_says_so():
+    """Object Shape (docs/blender.md, "Contact between objects"): Skin, the firm blobs' skins rest within the
+    object distance (5 mm) of each other; the default, their ellipsoids, hold them about 4 cm apart. A changed shape
+    says so (the cache is outdated), the same one again does not."""
+    skin, answers = _skin_gap(True)
+    assert -0.001 < skin < 0.0075 and answers == [True, False] * 2, (skin, answers)
+    ellipsoids, answers = _skin_gap(False)
+    assert ellipsoids > 0.01 and answers == [False, False] * 2, (ellipsoids, answers)
+
+
 def test_two_firm_blobs_dropped_one_on_the_other_come_to_rest_stacked():
     """Contact forces inside the iterations (docs/contact.md): firm blobs (k = 1e7) rest stacked after 4 s (with
     the projection alone the upper one kept jittering at 0.9 m/s, 0.065 m aside). Soft ones (k = 1e5, 1e6) still

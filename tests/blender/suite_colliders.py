@@ -437,8 +437,9 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
             assert speed < 0.05, f"at {f // H.FPS} s a vertex moves at {speed:.3f} m/s"
 
 
-def box(location, name, **settings):
-    """A 0.6 m cube, its faces cut in 8 x 8 (a skin to rest on), enabled with the panel's defaults and these."""
+def box(location, name, shape, **settings):
+    """A 0.6 m cube, its faces cut in 8 x 8 (a skin to rest on), enabled with the panel's defaults and these, its
+    Object Shape ``shape``."""
     bpy.ops.mesh.primitive_cube_add(size=BLOB, location=location)
     obj = bpy.context.active_object
     obj.name = name
@@ -447,25 +448,36 @@ def box(location, name, **settings):
     bpy.ops.object.modifier_apply(modifier=cut.name)
     for k, v in settings.items():
         setattr(obj.opdeform, k, v)
+    obj.opdeform_contact.object_shape = shape
     bpy.ops.opdeform.enable(object=obj.name)
     assert obj.opdeform.built and not obj.opdeform.error, obj.opdeform.error
     return obj
 
 
-def test_a_box_dropped_on_a_box_rests_skin_on_skin():
-    """Objects in one scene meet each other's skin (docs/blender.md, "Contact between objects"): a box dropped on a
-    box on the Floor rests with their skins within the contact distance (5.3 mm), where the particles' ellipsoids
-    held it 4.9 cm above (stop 35, Blender 3.4.1), and never in it."""
-    low = box((0.0, 0.0, BLOB / 2), "LowBox", use_floor=True, frame_end=48)
-    high = box((0.05, 0.0, 1.5 * BLOB + 0.2), "HighBox", use_floor=True, frame_end=48)
+def _box_gaps(low, high):
+    """The gap between the upper box's lowest and the lower box's highest vertex at each of frames 1-48."""
     gaps = []
     for f in range(1, 49):
         bpy.context.scene.frame_set(f)
         assert not (low.opdeform.error or high.opdeform.error), (low.opdeform.error, high.opdeform.error)
         gaps.append(float(world(high)[:, 2].min() - world(low)[:, 2].max()))
-    assert min(gaps) > -0.002, f"the upper box's skin went {-min(gaps):.4f} m into the lower one's"
-    assert gaps[-1] < 0.01, f"the upper box rests {gaps[-1]:.4f} m above the lower one's skin"
-    print("OPDEFORM_RESULT box_gap_m", round(gaps[-1], 4))
+    return gaps
+
+
+def test_a_box_dropped_on_a_box_rests_skin_on_skin():
+    """Object Shape Skin (docs/blender.md, "Contact between objects"): a box dropped 0.2 m on a box on the Floor
+    rests with their skins within the Object Distance (5 mm), never in it; switched to the default Particles, the
+    frames are simulated again and the ellipsoids hold it about 5 cm above."""
+    low = box((0.0, 0.0, BLOB / 2), "LowBox", 'SKIN', use_floor=True, frame_end=48)
+    high = box((0.05, 0.0, 1.5 * BLOB + 0.2), "HighBox", 'SKIN', use_floor=True, frame_end=48)
+    skin = _box_gaps(low, high)
+    assert min(skin) > -0.002, f"the upper box's skin went {-min(skin):.4f} m into the lower one's"
+    assert skin[-1] < 0.01, f"the upper box rests {skin[-1]:.4f} m above the lower one's skin"
+    for obj in (low, high):
+        obj.opdeform_contact.object_shape = 'PARTICLES'
+    particles = _box_gaps(low, high)
+    assert particles[-1] > 0.02, f"on the particles the upper box rests {particles[-1]:.4f} m above"
+    print("OPDEFORM_RESULT box_gap_m skin", round(skin[-1], 4), "particles", round(particles[-1], 4))
 
 
 def hook_mesh(step=0.1, half=0.1, neck=0.7, body=2.0, tail=1.6):

@@ -20,6 +20,7 @@ def draw_collisions(layout, settings, bodies=False):
     col = layout.column(align=True)
     col.prop(settings, "object_distance")
     col.prop(settings, "object_friction")
+    col.prop(settings, "object_shape")
     layout.prop(settings, "use_self_collision")
     col = layout.column(align=True)
     col.active = settings.use_self_collision

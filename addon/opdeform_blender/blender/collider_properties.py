@@ -4,7 +4,7 @@ only), with its effector weights (OPDEFORM_EffectorWeights, Soft Body's and
 Cloth's ``effector_weights`` for the fields opdeform reads). blender/colliders.py reads them."""
 
 import bpy
-from bpy.props import BoolProperty, FloatProperty, PointerProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, PointerProperty
 
 
 def _weight(name):
@@ -39,6 +39,13 @@ class OPDEFORM_ContactSettings(bpy.types.PropertyGroup):
     object_friction: FloatProperty(name="Object Friction", default=5.0, min=0.0, max=80.0,
                                    description="Friction with other opdeform objects (Coulomb mu = Friction / 10; "
                                                "the mean of the two)")
+    object_shape: EnumProperty(
+        name="Object Shape", default='PARTICLES',
+        items=(('PARTICLES', "Particles", "Other opdeform objects meet this one's particles (their ellipsoids): "
+                                          "round bodies stack, flat faces rest a few centimetres apart"),
+               ('SKIN', "Skin", "Other opdeform objects meet this one's skin: flat faces rest the Object Distance "
+                                "apart; round bodies roll off each other (slower to simulate in contact)")),
+        description="What other opdeform objects touch of this one (the floor and colliders always meet its skin)")
     use_self_collision: BoolProperty(name="Self Collision", default=False,
                                      description="Distant parts of this object collide with each other (a tail "
                                                  "against its own body); neighbouring particles never do")

@@ -54,7 +54,8 @@ def self_contact(contact):
 
 
 def body_contact(contact):
-    return contact.object_distance, FRICTION_SCALE * contact.object_friction
+    """Engine.set_contact's (gap, friction, skin) with the other opdeform objects."""
+    return contact.object_distance, FRICTION_SCALE * contact.object_friction, contact.object_shape == 'SKIN'
 
 
 def goal_strength(settings):

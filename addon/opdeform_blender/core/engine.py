@@ -192,6 +192,7 @@ class Engine:
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
         self.fields = None  # the scene's force fields in the simulation (core/fields.py)
         self.self_contact = None  # set_self_contact's arguments (None: off)
+        self.skin_between = False  # whether the skin meets the other bodies too (set_contact)
         self.body_contact = (0.005, 0.5)  # (gap m, friction) with other engines' bodies (core/contact.py)
         self.partners = None  # the contact group this engine's cache was simulated in (None: alone)
         self._params = None
@@ -227,19 +228,28 @@ class Engine:
         """(dt per substep, substeps per frame): what engines stepping together must share."""
         return self._params["dt"], self._substeps
 
-    def set_contact(self, self_contact=None, body_contact=(0.005, 0.5)):
-        """Self-contact (``Simulation.set_self_contact``'s arguments, None: off) and the (gap, friction) with
-        other bodies. A change of self-contact outdates the cache (of the bodies' contact: core/contact.py)."""
-        self.body_contact = tuple(float(v) for v in body_contact)
-        if self_contact == self.self_contact:
-            return False
-        try:
-            self.sim.set_self_contact(self_contact is not None, **(self_contact or {}))
-        except ValueError as exc:
-            raise EngineError(f"self collision: {exc}") from None
-        self.self_contact = self_contact
-        self.invalidate()
-        return True
+    def set_contact(self, self_contact=None, body_contact=(0.005, 0.5, False)):
+        """Self-contact (``Simulation.set_self_contact``'s arguments, None: off) and the (gap, friction, skin) with
+        other bodies: skin, this body's skin meets them (else its particles' ellipsoids do; its skin meets the floor
+        and colliders either way). A change of self-contact or of the shape outdates the cache (of the bodies'
+        contact: core/contact.py)."""
+        gap, friction, skin = body_contact
+        self.body_contact = (float(gap), float(friction))
+        changed = False
+        if self_contact != self.self_contact:
+            try:
+                self.sim.set_self_contact(self_contact is not None, **(self_contact or {}))
+            except ValueError as exc:
+                raise EngineError(f"self collision: {exc}") from None
+            self.self_contact = self_contact
+            changed = True
+        if bool(skin) != self.skin_between:
+            self.sim.set_contact_skin(self.skin, bodies=bool(skin))
+            self.skin_between = bool(skin)
+            changed = True
+        if changed:
+            self.invalidate()
+        return changed
 
     def configure(self, params, substeps=1, floor=None, start=1, end=250, solver=None):
         """params: stiffness, density, dt (per substep), iterations, gravity, damping. floor: (height, friction)
@@ -254,8 +264,9 @@ class Engine:
         changed = False
         if self.sim is None:
             self.sim = self.od.Simulation(self.graph, **params)
-            # the skin meets the floor and colliders; in a group the other bodies meet the ellipsoids (core/contact.py)
-            self.sim.set_contact_skin(self.skin, bodies=False)
+            # the skin meets the floor and colliders; in a group the other bodies meet the ellipsoids unless
+            # set_contact says skin (core/contact.py)
+            self.sim.set_contact_skin(self.skin, bodies=self.skin_between)
             self.colliders = SceneColliders(self.sim)
             self.fields = SceneFields(self.sim)
             changed = True
