@@ -236,3 +236,22 @@ def test_the_baseline_blend_gives_the_same_mesh():
         runs.append(np.frombuffer(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                                                  check=True).stdout).reshape(2, -1, 3))
     np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-13)
+
+
+def test_shown_offset_is_the_numpy_passes_bit_for_bit(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v)
+    rng = np.random.default_rng(3)
+    skinned, reference = v + rng.normal(0, 0.1, v.shape), v + rng.normal(0, 0.1, v.shape)
+    lock = np.repeat(rng.uniform(0, 1, (len(v), 1)), 3, axis=1)
+    incoming = (v + rng.normal(0, 1.0, v.shape)).astype(np.float32)
+    for weights in (lock, None):
+        offset, out = np.empty_like(incoming), np.empty_like(incoming)
+        skin.shown_offset(skinned, reference, weights, incoming, offset, out)
+        expected = (skinned - reference) * (1.0 if weights is None else weights)
+        np.testing.assert_array_equal(offset, expected.astype(np.float32))
+        np.testing.assert_array_equal(out, incoming + expected.astype(np.float32))
+    with pytest.raises(ValueError, match="input"):  # a float64 input: numpy would add in float64
+        skin.shown_offset(skinned, reference, lock, incoming.astype(np.float64), offset, out)
+    with pytest.raises(ValueError, match="lock"):
+        skin.shown_offset(skinned, reference, lock[:-1], incoming, offset, out)

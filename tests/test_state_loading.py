@@ -269,6 +269,24 @@ def test_goal_fit_that_overflows_is_refused(bar):
             fit.fit(animated)
 
 
+def test_goal_fit_names_a_vertex_it_reads_that_is_not_finite_before_an_overflow(bar):
+    """The vertices are checked where a particle's centroid is not finite: the message is that of a check before
+    the fit (the first vertex read, in the particles' order), also where an earlier particle overflows; a vertex
+    no particle reads is never looked at."""
+    v, _, graph = bar
+    fit = opdeform.GoalFit(graph, v)
+    order = fit.indices.reshape(-1)
+    for animated in (v.copy(), np.where(v > 0.5 * v.max(axis=0), 1.5e308, -1.5e308)):
+        animated[order[-1]] = np.nan
+        with pytest.raises(ValueError, match=rf"animated vertices\[{order[-1]}\] is not finite"):
+            fit.fit(animated)
+    unread = np.setdiff1d(np.arange(len(v)), order)
+    if len(unread):
+        animated = v.copy()
+        animated[unread] = np.nan
+        assert np.all(np.isfinite(fit.fit(animated)[0]))
+
+
 @pytest.mark.parametrize("scale", [1e-185, 1e-300])
 def test_goal_fit_of_a_tiny_flat_rest_mesh_binds(bar, scale):
     """Found by fuzz_goal_fit: the search grid's cell underflowed to 0 (NaN cast to int under UBSan; here a

@@ -637,3 +637,15 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 #endif
 	return OD_OK;
 }
+
+void od_ShownOffset(int count, const double* skinned, const double* reference, const double* lock,
+					const float* input, float* offset, float* out)
+{
+	for (size_t k = 0; k < 3 * (size_t)count; ++k)
+	{
+		double d = skinned[k] - reference[k];
+		float f = (float)(lock ? d * lock[k] : d);
+		offset[k] = f;
+		out[k] = input[k] + f;
+	}
+}

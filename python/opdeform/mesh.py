@@ -126,6 +126,14 @@ class Skin(FromArguments):
         self._core.deform(positions, rotations, out, normals_out, rest_normals)
         return out
 
+    def shown_offset(self, skinned: Buffer, reference: Buffer, lock: Buffer | None, incoming: Buffer,
+                     offset: Buffer, out: Buffer) -> None:
+        """What a frame shows of the mesh over its input, in one pass (C): ``offset`` = float32((``skinned`` -
+        ``reference``) * ``lock``) and ``out`` = ``incoming`` + ``offset``, added in float32 (``lock`` None: 1).
+        skinned, reference and lock are float64, incoming, offset and out float32, each V x 3 values,
+        C-contiguous (ValueError otherwise). The same bits as numpy's subtract, multiply, cast and add."""
+        self._core.shown_offset(skinned, reference, lock, incoming, offset, out)
+
     def deform_sim(self, sim: Simulation, out: Buffer | None = None, normals_out: Buffer | None = None,
                    push_out: bool = True) -> npt.NDArray[Any]:
         """``deform`` with the simulation's current positions and rotations; with ``push_out`` the vertices

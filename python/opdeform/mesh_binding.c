@@ -283,6 +283,37 @@ static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// shown_offset(skinned, reference, lock, input, offset, out): od_ShownOffset over the skin's vertices
+static PyObject* Skin_shown_offset(PyObject* obj, PyObject* args)
+{
+	od_Skin* skin = Skin_Enter(obj);
+	PyObject* arrays[6];
+	if (!skin || !PyArg_ParseTuple(args, "OOOOOO", &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4],
+								   &arrays[5]))
+	{
+		return NULL;
+	}
+	Py_ssize_t count = 3 * (Py_ssize_t)od_Skin_GetVertexCount(skin);
+	const ArraySpec specs[4] = { { "skinned", 'd', count, 0 }, { "reference", 'd', count, 0 },
+								 { "lock", 'd', count, 1 }, { "input", 'f', count, 0 } };
+	const ArraySpec outSpecs[2] = { { "offset", 'f', count, 0 }, { "out", 'f', count, 0 } };
+	Py_buffer views[4], outViews[2];
+	if (GetArrays(arrays, specs, 4, views) < 0)
+	{
+		return NULL;
+	}
+	if (GetOutArrays(arrays + 4, outSpecs, 2, outViews) < 0)
+	{
+		ReleaseArrays(views, 4);
+		return NULL;
+	}
+	od_ShownOffset((int)(count / 3), views[0].buf, views[1].buf, ArrayData(&views[2]), views[3].buf,
+				   outViews[0].buf, outViews[1].buf);
+	ReleaseArrays(views, 4);
+	ReleaseArrays(outViews, 2);
+	Py_RETURN_NONE;
+}
+
 static PyGetSetDef Skin_getset[] = {
 	{ "n_vertices", Skin_get_count, NULL, "number of bound vertices", (void*)&SkinCounts[0] },
 	{ "n_particles", Skin_get_count, NULL, "number of particles of the graph", (void*)&SkinCounts[1] },
@@ -294,6 +325,9 @@ static PyGetSetDef Skin_getset[] = {
 static PyMethodDef Skin_methods[] = {
 	{ "read", Skin_read, METH_VARARGS, "read(name, out): copy 'indices', 'weights' or 'rest_normals'" },
 	{ "deform", Skin_deform, METH_VARARGS, "deform(positions, rotations, out, normals_out=None, rest_normals=None)" },
+	{ "shown_offset", Skin_shown_offset, METH_VARARGS,
+	  "shown_offset(skinned, reference, lock, input, offset, out): offset = float32((skinned - reference) * lock), "
+	  "out = input + offset" },
 	{ NULL, NULL, 0, NULL },
 };
 

@@ -122,6 +122,12 @@ typedef struct od_SkinTarget
 od_Status od_Skin_Deform(const od_Skin* skin, const double* positions, const double* rotations,
 						 const od_SkinTarget* target);
 
+// What a frame shows of a skinned mesh over its animated input, in one pass over count vertices (count*3 values):
+// offset = float32((skinned - reference) * lock) and out = input + offset, added in float32 (lock NULL: 1). The
+// same operations, one per value, as numpy's np.subtract, *=, a float32 cast and np.add, so the same bits.
+void od_ShownOffset(int count, const double* skinned, const double* reference, const double* lock,
+					const float* input, float* offset, float* out);
+
 // ---------------------------------------------------------------------------------------------------------
 // OBJ and PLY
 
