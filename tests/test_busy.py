@@ -158,10 +158,12 @@ def _skin_case(big_mesh):
     sim = opdeform.Simulation(graph, 1e5)
     x, r = sim.positions, sim.rotations
     normals = np.empty((skin.n_vertices, 3), np.float32)
+    skinned, shown = np.zeros((skin.n_vertices, 3)), np.zeros((3, skin.n_vertices, 3), np.float32)
     probes = {
         "n_vertices": lambda: skin.n_vertices, "neighbors": lambda: skin.neighbors, "indices": lambda: skin.indices,
         "weights": lambda: skin.weights, "rest_normals": lambda: skin.rest_normals,
         "deform": lambda: skin.deform(x, r), "deform_sim": lambda: skin.deform_sim(sim),
+        "shown_offset": lambda: skin.shown_offset(skinned, skinned, None, *shown),
     }
 
     def snapshot():
