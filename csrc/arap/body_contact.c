@@ -646,6 +646,17 @@ static od_PairState od_Measure(const od_PairScratch* s, const od_ContactPair* pa
 	return settle && !p.passed && p.depth > 0.0 ? od_MeasureAlong(s, pair, a, b, d, false) : p;
 }
 
+// How many particles the group's members have together (the per-particle scratch arrays' length).
+static int od_GroupParticles(od_Sim* const* sims, int count)
+{
+	int total = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		total += sims[b]->graph->n;
+	}
+	return total;
+}
+
 // Every particle's ellipsoid (od_ParticleMoment) and outward direction (od_Outward) at its current rotation,
 // for the measures of its pairs: once per particle, not per pair.
 static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
@@ -1519,13 +1530,8 @@ static void od_Coarse(od_PairScratch* s, double h2)
 // last update (s->active; none at the first), so that one pass does it.
 static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
-	int total = 0;
-	for (int b = 0; b < count; ++b)
-	{
-		total += sims[b]->graph->n;
-	}
 	od_CacheMoments(s, sims, count);
-	memset(s->pressing, 0, sizeof(int) * (size_t)total);
+	memset(s->pressing, 0, sizeof(int) * (size_t)od_GroupParticles(sims, count));
 	double h2 = sims[0]->def.dt * sims[0]->def.dt;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
@@ -1558,15 +1564,11 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	od_Status status = OD_OK;
-	int total = 0, tick = 0;
-	for (int b = 0; b < count; ++b)
-	{
-		total += sims[b]->graph->n;
-	}
+	int tick = 0;
 	if (s->pairCount > 0) // a body alone with self-contact and nothing near pays nothing
 	{
 		od_CacheMoments(s, sims, count);
-		memset(s->moved, 0, sizeof(int) * (size_t)total);
+		memset(s->moved, 0, sizeof(int) * (size_t)od_GroupParticles(sims, count));
 	}
 	for (int pass = 0; pass <= OD_PAIR_PASSES && status == OD_OK; ++pass)
 	{
