@@ -37,8 +37,10 @@
 // and the change spread evenly over each interface's contacts, whose own updates then act on their gaps less
 // the mean. A particle's own rate alone (its m/h²) moves a stiff body by the share of its particles that
 // touch: two Rubber spheres stacked rolled off within 3 s (the lower one's pairs never caught up with the
-// upper's lean); with the rigid step they rest 13 s. A member on its floor pushed down by its pairs gets the
-// floor's reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only
+// upper's lean); with the rigid step they rest 13 s. Friction takes the same step (od_CoarseFriction): a Stiff
+// slab on one half as dense at 1/24 s, resting on 5 of its particles, crept off as their friction lagged their
+// leaning normals. A member on its floor pushed down by its pairs gets the floor's reaction in the solves
+// (od_FloorReaction) and is held vertically in the rigid step. Both only
 // between members within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
 // Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
@@ -1302,6 +1304,12 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 	od_FloorReaction(s, sims, count);
 }
 
+// How far a pair's end b moved since the step's start less its end a (its friction's measure).
+static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
+{
+	return od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
+}
+
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
 // relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
@@ -1316,10 +1324,13 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 		memset(pair->tangent, 0, sizeof pair->tangent);
 		return;
 	}
+	double share = e && e->load > 0.0 ? pair->force * e->count / e->load : 1.0;
 	pair->force = e ? fmax(pair->force + e->change - rate * (pair->gap - e->gap), 0.0)
 					: fmax(pair->force - rate * pair->gap, 0.0);
-	od_Vec3 n = od_V3Load(pair->n), rel = od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
-	od_Vec3 t = od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
+	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
+	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
+							  od_Sub(rel, od_V3Load(e->slip)))
+				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
@@ -1385,7 +1396,8 @@ static int od_InterfaceOf(od_PairScratch* s, int lower, int upper)
 		int capacity = s->interfaceCapacity ? 2 * s->interfaceCapacity : 8;
 		od_Interface* grown = od_Realloc(s->interfaces, sizeof *grown * (size_t)capacity);
 		s->interfaces = grown ? grown : s->interfaces;
-		double* system = grown ? od_Realloc(s->system, sizeof(double) * (size_t)capacity * (size_t)(capacity + 1)) : NULL;
+		size_t size = sizeof(double) * 2 * (size_t)capacity * (size_t)(2 * capacity + 1); // od_CoarseFriction's
+		double* system = grown ? od_Realloc(s->system, size) : NULL;
 		s->system = system ? system : s->system;
 		if (!system)
 		{
@@ -1422,6 +1434,11 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			ie->gap += pair->gap;
 			ie->local += od_OwnCompliance(sims[s->body[pair->a]], s->local[pair->a]) +
 						 od_OwnCompliance(sims[s->body[pair->b]], s->local[pair->b]);
+			od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+			od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
+			od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
+			od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
+			ie->load += pair->force;
 		}
 	}
 }
@@ -1525,6 +1542,80 @@ static void od_Coarse(od_PairScratch* s, double h2)
 	}
 }
 
+// Two unit directions across unit n, each across the other.
+static void od_Across(od_Vec3 n, od_Vec3* t)
+{
+	t[0] = od_Unit(od_Cross(n, fabs(n.x) < 0.9 ? od_V3(1, 0, 0) : od_V3(0, 1, 0)));
+	t[1] = od_Cross(n, t[0]);
+}
+
+// How far member m moves interface e's point along u per newton along v at interface f's point, as a rigid body
+// that also turns: od_RigidCompliance's plus h² (r_e × u)ᵀ I⁻¹ (r_f × v), r from its centre at the step's start.
+static double od_TurningCompliance(const od_PairScratch* s, int m, const od_Interface* e, od_Vec3 u,
+								   const od_Interface* f, od_Vec3 v, double h2)
+{
+	od_Vec3 centre = od_V3Load(s->pose + 13 * m);
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * m + 3);
+	od_Vec3 ru = od_Cross(od_Sub(od_V3Load(e->point), centre), u);
+	od_Vec3 rv = od_Cross(od_Sub(od_V3Load(f->point), centre), v);
+	return od_RigidCompliance(s, m, u, v, h2) + h2 * od_Dot(ru, od_M3MulV(&inverse, rv));
+}
+
+// The members' rigid motions for friction, after od_Coarse (its normals): one Newton step of every interface's mean
+// slip across its normal, the members rigid bodies that turn, each contact's particles adding their own compliance,
+// spread over its contacts by their normal forces (e->shift, od_UpdatePair; spread evenly, a Stiff slab 10 times as
+// dense as the one below at 1/60 s crept off its lighter pairs' Coulomb bounds, 0.102 m/s at 13 s); each contact's
+// own update then acts on its slip less the mean. A contact's own rate moves a stiff member by the share of its
+// particles that touch: a Stiff slab on one half as dense at 1/24 s, resting on 5 of its 100 particles, crept aside
+// at 0.007 m/s, the pairs' turned normals leaning more as it went (150-220 N aside of its 2,750 N weight), its
+// friction lagging them by a few newtons, and slid off at 6 s (docs/contact.md, "Stacks", eleventh round). Not
+// between skins (od_SkinPair_Used: no bumps to lean on; the bars of tests/test_skin_pairs.py rested 7.6 mm apart
+// with it, 6.1 without).
+static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
+{
+	int n = 2 * s->interfaceCount;
+	if (n == 0)
+	{
+		return; // no interface, and no system allocated
+	}
+	double *a = s->system, *x = s->system + (size_t)n * (size_t)n;
+	od_Vec3 across[2];
+	for (int e = 0; e < s->interfaceCount; ++e)
+	{
+		od_Interface* ie = &s->interfaces[e];
+		od_V3Store(ie->slip, od_Scale(1.0 / ie->count, od_V3Load(ie->slip)));
+		od_V3Store(ie->point, od_Scale(1.0 / ie->count, od_V3Load(ie->point)));
+		od_Across(od_V3Load(ie->n), across);
+		x[2 * e] = -od_Dot(od_V3Load(ie->slip), across[0]);
+		x[2 * e + 1] = -od_Dot(od_V3Load(ie->slip), across[1]);
+	}
+	for (int r = 0; r < n; ++r)
+	{
+		const od_Interface* ie = &s->interfaces[r / 2];
+		od_Across(od_V3Load(ie->n), across);
+		od_Vec3 u = across[r % 2];
+		for (int c = 0; c < n; ++c)
+		{
+			const od_Interface* jf = &s->interfaces[c / 2];
+			od_Across(od_V3Load(jf->n), across);
+			od_Vec3 v = across[c % 2];
+			a[r * n + c] = od_Side(jf, ie->upper) * od_TurningCompliance(s, ie->upper, ie, u, jf, v, h2) -
+						   od_Side(jf, ie->lower) * od_TurningCompliance(s, ie->lower, ie, u, jf, v, h2) +
+						   (r == c ? ie->local / ie->count : 0.0);
+		}
+	}
+	bool solved = od_SolveDense(a, x, n);
+	for (int e = 0; e < s->interfaceCount; ++e)
+	{
+		od_Interface* ie = &s->interfaces[e];
+		od_Across(od_V3Load(ie->n), across);
+		od_Vec3 shift = od_MulAdd(od_Scale(x[2 * e], across[0]), x[2 * e + 1], across[1]);
+		bool used = solved && !od_SkinPair_Used(sims[ie->lower], sims[ie->upper]);
+		od_V3Store(ie->shift, used ? od_Scale(1.0 / ie->count, shift) : od_V3(0, 0, 0));
+		od_V3Store(ie->slip, used ? od_V3Load(ie->slip) : od_V3(0, 0, 0));
+	}
+}
+
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
 // the particles' right sides for the next solve. The pairs pressing a particle are those counted at the
 // last update (s->active; none at the first), so that one pass does it.
@@ -1542,6 +1633,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	}
 	od_Interfaces(s, sims);
 	od_Coarse(s, h2);
+	od_CoarseFriction(s, sims, h2);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];

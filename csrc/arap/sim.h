@@ -178,11 +178,13 @@ typedef struct od_ContactPair
 
 // The contacts between two members of a group in one update of its forces (od_Coarse, body_contact.c): their
 // count, mean normal (lower to upper member), mean gap and mean own compliance of their particles, and the
-// change of each one's normal force that the members' rigid motions ask for.
+// change of each one's normal force that the members' rigid motions ask for; likewise their mean slip (the
+// upper end's tangential displacement since the step's start less the lower's), mean point and the change of each
+// one's friction force (od_CoarseFriction).
 typedef struct od_Interface
 {
 	int lower, upper, count;
-	double n[3], gap, local, change;
+	double n[3], gap, local, change, slip[3], point[3], shift[3], load;
 } od_Interface;
 
 // The rolling couple between two members in contact this step (od_MemberRolls, body_contact.c): on `upper`, its
@@ -225,7 +227,7 @@ typedef struct od_PairScratch
 	int coupleCount, coupleCapacity;
 	od_Interface* interfaces; // of the current update (od_Interfaces)
 	int interfaceCount, interfaceCapacity;
-	double* system;   // their rigid system and right side, interfaceCapacity (interfaceCapacity + 1) (od_Coarse)
+	double* system;   // their rigid system and right side, 2 interfaceCapacity (2 interfaceCapacity + 1) (od_Coarse)
 	od_ContactPair* pairs;
 	int pairCount, pairCapacity;
 	int nearCount;            // the first nearCount pairs get forces in a group's iterations (od_GatherNear)
