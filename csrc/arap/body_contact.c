@@ -37,11 +37,11 @@
 // and the change spread evenly over each interface's contacts, whose own updates then act on their gaps less
 // the mean. A particle's own rate alone (its m/h²) moves a stiff body by the share of its particles that
 // touch: two Rubber spheres stacked rolled off within 3 s (the lower one's pairs never caught up with the
-// upper's lean); with the rigid step they rest 13 s. Friction takes the same step (od_CoarseFriction): a Stiff
-// slab on one half as dense at 1/24 s, resting on 5 of its particles, crept off as their friction lagged their
-// leaning normals. A member on its floor pushed down by its pairs gets the floor's reaction in the solves
-// (od_FloorReaction) and is held vertically in the rigid step. Both only
-// between members within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
+// upper's lean); with the rigid step they rest 13 s. Friction takes the same step at steps longer than 1/60 s
+// (od_CoarseFriction): a Stiff slab on one half as dense at 1/24 s, resting on 5 of its particles, crept off as
+// their friction lagged their leaning normals. A member on its floor pushed down by its pairs gets the floor's
+// reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only between members
+// within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
 // Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
@@ -160,6 +160,12 @@
 // 0.061 m apart in 4 s (0.036 without; the test's bound 0.05); at 1/60 and 1/240 s the stacking bench held as many
 // (docs/contact.md, "Stacks", tenth round).
 #define OD_MEMBER_ROLL_STEP (1.0 / 60.0)
+// The shortest step whose friction between members takes their rigid step (od_CoarseFriction): at 1/24 s a pair's own
+// rate (m/h²) is 6.25 times smaller than at 1/60 s and lagged a Stiff slab's leaning pairs until it slid off; at 1/60 s
+// the rigid step let a Stiff slab 3 times as dense as a settled one creep 0.054 m aside and jolt to 0.094 m/s (0.028
+// and 0.028 without), two of its pairs' friction opposing each other at ±600 N (docs/contact.md, "Stacks", eleventh
+// round).
+#define OD_FRICTION_STEP (1.0 / 60.0)
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -1563,14 +1569,14 @@ static double od_TurningCompliance(const od_PairScratch* s, int m, const od_Inte
 
 // The members' rigid motions for friction, after od_Coarse (its normals): one Newton step of every interface's mean
 // slip across its normal, the members rigid bodies that turn, each contact's particles adding their own compliance,
-// spread over its contacts by their normal forces (e->shift, od_UpdatePair; spread evenly, a Stiff slab 10 times as
-// dense as the one below at 1/60 s crept off its lighter pairs' Coulomb bounds, 0.102 m/s at 13 s); each contact's
-// own update then acts on its slip less the mean. A contact's own rate moves a stiff member by the share of its
-// particles that touch: a Stiff slab on one half as dense at 1/24 s, resting on 5 of its 100 particles, crept aside
-// at 0.007 m/s, the pairs' turned normals leaning more as it went (150-220 N aside of its 2,750 N weight), its
-// friction lagging them by a few newtons, and slid off at 6 s (docs/contact.md, "Stacks", eleventh round). Not
-// between skins (od_SkinPair_Used: no bumps to lean on; the bars of tests/test_skin_pairs.py rested 7.6 mm apart
-// with it, 6.1 without).
+// spread over its contacts by their normal forces (e->shift, od_UpdatePair; spread evenly and at 1/60 s too, a Stiff
+// slab 10 times as dense as the one below crept off its lighter pairs' Coulomb bounds, 0.102 m/s at 13 s); each
+// contact's own update then acts on its slip less the mean. A contact's own rate moves a stiff member by the share of
+// its particles that touch: a Stiff slab on one half as dense at 1/24 s, resting on 5 of its 100 particles, crept aside
+// at 0.007 m/s, the pairs' turned normals leaning more as it went (150-220 N aside of its 2,750 N weight), its friction
+// lagging them by a few newtons, and slid off at 6 s (docs/contact.md, "Stacks", eleventh round). Not between skins
+// (od_SkinPair_Used: no bumps to lean on; the bars of tests/test_skin_pairs.py rested 7.6 mm apart with it, 6.1
+// without), nor at steps of OD_FRICTION_STEP or shorter (a group's members step alike).
 static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 {
 	int n = 2 * s->interfaceCount;
@@ -1610,7 +1616,8 @@ static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 		od_Interface* ie = &s->interfaces[e];
 		od_Across(od_V3Load(ie->n), across);
 		od_Vec3 shift = od_MulAdd(od_Scale(x[2 * e], across[0]), x[2 * e + 1], across[1]);
-		bool used = solved && !od_SkinPair_Used(sims[ie->lower], sims[ie->upper]);
+		bool used = solved && !od_SkinPair_Used(sims[ie->lower], sims[ie->upper]) &&
+					sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
 		od_V3Store(ie->shift, used ? od_Scale(1.0 / ie->count, shift) : od_V3(0, 0, 0));
 		od_V3Store(ie->slip, used ? od_V3Load(ie->slip) : od_V3(0, 0, 0));
 	}
