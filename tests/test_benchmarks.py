@@ -39,9 +39,13 @@ def test_load_gives_the_three_averages():
 
 def test_part_drops_split_the_characters_ear_into_head_root_and_tip():
     """scripts/bench calibration --parts (docs/settings.md): at 50 particles the ear is one particle, and its root
-    (above the head's middle) drops more than the head and less than its tip: 0.82, 0.92 and 1.27 mm."""
-    head, root, tip, count = calibration.part_drops("character_ear", 50)
+    (above the head's middle) drops more than the head and less than its tip: 0.82, 0.92 and 1.27 mm; the bench's
+    tip region drops 0.82 mm as the head's rigid motion carries it and 0.45 mm of its own, which add up to its
+    drop (the bench's row, 0.24 % of the ear's length)."""
+    head, root, tip, count, carried, own = calibration.part_drops("character_ear", 50)
     assert 0.0 < head < root < tip and count == 1, (head, root, tip, count)
+    drop = 1e3 * calibration.droop("character_ear", 50)[0] * calibration.character_ear()[4]
+    assert 0.0 < own < carried and abs(carried + own - drop) < 1e-9, (carried, own, drop)
 
 
 def test_every_suite_listed_runs(capsys):

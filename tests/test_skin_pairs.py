@@ -1,7 +1,7 @@
 """The skin as the contact shape between the bodies of a ContactGroup (docs/contact.md, "Contact on the skin
 between bodies", issue 27): in the scenes of scripts/skin_pairs.py, members given `set_contact_skin` keep each
 other's skin out (no skin vertex deeper than 2 % of its body's size into the other when dropped and at rest and
-head on at 10 m/s, 5 % at 20 m/s) and closer than their ellipsoids did; head on they keep their momentum and
+head on at 10 m/s, 5 % at 20 m/s; head on, members on their ellipsoids too) and closer than their ellipsoids did; head on they keep their momentum and
 gain no energy, dropped they gain none; a member's skin set and removed steps as one never given it, and a group
 restored from its saved state and pickled members replays, bit for bit."""
 
@@ -40,10 +40,11 @@ def test_a_dropped_members_skin_stays_out_of_the_other(body):
         assert -rest * size < 0.005 + 0.002 and ellipsoids < 1.5 * rest, (rest, ellipsoids)
 
 
+@pytest.mark.parametrize("shape", ["ellipsoids", "skin"])
 @pytest.mark.parametrize("body", ["blobs", "bars"])
 @pytest.mark.parametrize("speed, bound", [(10.0, 0.02), (20.0, 0.05)])
-def test_head_on_the_skins_stay_out_momentum_is_kept_and_no_energy_is_gained(body, speed, bound):
-    members, group = skin_pairs.pair(body, "skin", False)
+def test_head_on_the_skins_stay_out_momentum_is_kept_and_no_energy_is_gained(body, speed, bound, shape):
+    members, group = skin_pairs.pair(body, shape, False)
     moving = members[1].sim
     moving.set_state(moving.positions, moving.rotations, np.tile((0.0, 0.0, -speed), (moving.graph.n_particles, 1)))
     start, energy, deepest = _momentum(members), _kinetic(members), -np.inf

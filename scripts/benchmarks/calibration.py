@@ -12,8 +12,8 @@ Prints the droops, max/min across counts per body, the plate against Euler-Berno
 the measure, and wall time beside it).
 Options: --counts 50,100,200,400, --bodies plate,bracket, --calibration measured|bending|uniform,
 --cost (the calibration's processor and wall time at 100 and 1,000 particles of the plate, the tail, the
-bracket and the character), --parts (for the character's bodies: its head's drop and the part's axis root and tip
-drops, part_drops).
+bracket and the character), --parts (for the character's bodies: its head's drop, the part's axis root and tip
+drops, and its tip region's drop as the head's rigid motion carries it and its own, part_drops).
 """
 
 import argparse
@@ -134,9 +134,10 @@ def _solved(body, particles, calibration, iterations):
 def part_drops(body, particles, calibration="measured", iterations=4000):
     """Where a character part's droop comes from (mm, down): the head's translation (the mean drop of the closed
     mesh's grid cells within 0.2 m of the head's axis middle: their rigid motion's), the drop of the part's axis
-    root and of its axis tip (skinned), and the particles of the part (whose centres lie in the thin part of
-    materials' grid that holds the point 3/4 along the axis)."""
-    sim = _solved(body, particles, calibration, iterations)[0]
+    root and of its axis tip (skinned), the particles of the part (whose centres lie in the thin part of
+    materials' grid that holds the point 3/4 along the axis), and the bench's tip region's drop as the head's
+    best rigid motion (of those cells, turning included) moves it and less that (the part's own)."""
+    sim, v, tip = _solved(body, particles, calibration, iterations)[:3]
     a, b = (np.array(x) for x in meshes.CHARACTER_PARTS[PARTS[body]][:2])
     grid = materials._Grid(*meshes.character())
     label = grid.appendages()
@@ -147,7 +148,18 @@ def part_drops(body, particles, calibration="measured", iterations=4000):
     axis = sim.skin_points(np.array([a, b]))
     mine = label[grid.cell_of((a + 0.75 * (b - a))[None])[0]]
     count = int((label[grid.cell_of(sim.graph.centers)] == mine).sum())
-    return 1e3 * (rest - moved).mean(axis=0)[2], 1e3 * (a - axis[0])[2], 1e3 * (b - axis[1])[2], count
+    carried = _rigidly_moved(rest, moved, v[tip])
+    by_head = 1e3 * (v[tip] - carried).mean(axis=0)[2]
+    own = 1e3 * (carried - sim.skin_points(v[tip])).mean(axis=0)[2]
+    return 1e3 * (rest - moved).mean(axis=0)[2], 1e3 * (a - axis[0])[2], 1e3 * (b - axis[1])[2], count, by_head, own
+
+
+def _rigidly_moved(rest, moved, points):
+    """The rest ``points`` moved by the best rigid motion (least squares) of the points ``rest`` to ``moved``."""
+    p, q = rest.mean(axis=0), moved.mean(axis=0)
+    u, _, w = np.linalg.svd((moved - q).T @ (rest - p))
+    turn = u @ np.diag([1.0, 1.0, np.linalg.det(u @ w)]) @ w
+    return (points - p) @ turn.T + q
 
 
 def plate_theory(size):
@@ -202,6 +214,7 @@ def run(args):
     if a.parts:
         for body in (b for b in a.bodies.split(",") if b in PARTS):
             for n in counts:
-                head, root, tip, count = part_drops(body, n, a.calibration)
+                head, root, tip, count, by_head, own = part_drops(body, n, a.calibration)
                 print(f"parts {body} {n} particles: head {head:.2f} mm, {PARTS[body]}'s axis root {root:.2f} mm, "
-                      f"its tip {tip:.2f} mm (own {tip - root:.2f} mm), {count} particles", flush=True)
+                      f"its tip {tip:.2f} mm (own {tip - root:.2f} mm), {count} particles; the tip region "
+                      f"{by_head:.2f} mm as the head carries it, {own:.2f} mm its own", flush=True)
