@@ -49,13 +49,13 @@
 // after the iterations alone, as a scene collider does. The reaction is spread by how its ellipsoids bear and given
 // whole whatever the member does in the solves: a subdivided Suzanne at the add-on's defaults (Rubber, 240 steps a
 // second) landed on at 4.4 m/s by another had its bottom lifted off the floor by it (its lowest particle 1 cm in 3
-// steps, the floor lifting nothing), where on a Collision plane the same bottom was pressed in and lifted back after
-// the iterations; it rocked back to 45° and threw the upper one up and off (2.28 m aside at 3 s). Without them the
-// floor steps as a plane collider of no thickness (the same positions within 1e-5 m over the first second, the
-// landing in it), and the upper one rests 0.09-0.10 m aside (docs/contact.md, "Stacks", eleventh round: a marginal
-// stack, off from 1.02 m on either). With its skin between the members too they stay: without them the blobs of
-// tests/test_skin_pairs.py dropped on each other went 6.1 % of their size into each other (2 % the bound). Such a
-// member still braces (above).
+// steps, the floor lifting nothing), where on a Collision plane the same bottom was pressed in and lifted back
+// after the iterations; it rocked back to 45° and threw the upper one up and off (2.28 m aside at 3 s). Without
+// them the floor steps as a plane collider of no thickness (the same positions within 1e-5 m over the first second,
+// the landing in it), and the upper one rests on top (0.26-0.29 m aside, 2.02 before; docs/contact.md, "Stacks",
+// eleventh round: a marginal stack, off from 1.02 m on either). With its skin between the members too they stay:
+// without them the blobs of tests/test_skin_pairs.py dropped on each other went 6.1 % of their size into each other
+// (2 % the bound). Such a member still braces (above).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
