@@ -46,6 +46,18 @@
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
 // top).
+// A member that meets its floor with its skin and the other members with its ellipsoids (od_FloorSkinOnly: the
+// add-on's default) takes neither the reaction nor the vertical hold, nor od_Held's push (s->held): its floor acts
+// after the iterations alone, as a scene collider does. The reaction is spread by how its ellipsoids bear and given
+// whole whatever the member does in the solves: a subdivided Suzanne at the add-on's defaults (Rubber, 240 steps a
+// second) landed on at 4.4 m/s by another had its bottom lifted off the floor by it (its lowest particle 1 cm in 3
+// steps, the floor lifting nothing), where on a Collision plane the same bottom was pressed in and lifted back
+// after the iterations; it rocked back to 45° and threw the upper one up and off (2.28 m aside at 3 s). Without
+// them the floor steps as a plane collider of no thickness (the same positions within 1e-5 m over the first second,
+// the landing in it), and the upper one rests on top (0.26-0.29 m aside, 2.02 before; docs/contact.md, "Stacks",
+// eleventh round: a marginal stack, off from 1.02 m on either). With its skin between the members too they stay:
+// without them the blobs of tests/test_skin_pairs.py dropped on each other went 6.1 % of their size into each other
+// (2 % the bound). Such a member still braces (above).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
@@ -246,6 +258,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->moment);
 	od_Free(s->outward);
 	od_Free(s->grounded);
+	od_Free(s->held);
 	od_Free(s->bearing);
 	od_Free(s->rise);
 	od_Free(s->supported);
@@ -288,6 +301,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->moment = od_Alloc(sizeof(double) * 9 * (size_t)particles);
 	s->outward = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->grounded = od_AllocZero((size_t)particles, sizeof(int)); // per member: at most one a particle
+	s->held = od_AllocZero((size_t)particles, sizeof(int));
 	s->bearing = od_Alloc(sizeof(double) * (size_t)particles);
 	s->rise = od_Alloc(sizeof(double) * 2 * (size_t)particles);
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
@@ -297,7 +311,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -811,8 +825,8 @@ static void od_Brace(const od_PairScratch* s, const od_ContactPair* pair, od_End
 // (of 84 kJ); held up to 0.05 of the radii, the three slabs crept at 1.2-1.6 mm/s.
 static double od_Held(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b, od_Vec3 n)
 {
-	bool pressed = (s->grounded[s->body[pair->a]] > 0 && n.z > OD_HELD_RISE) ||
-				   (s->grounded[s->body[pair->b]] > 0 && n.z < -OD_HELD_RISE);
+	bool pressed = (s->held[s->body[pair->a]] > 0 && n.z > OD_HELD_RISE) ||
+				   (s->held[s->body[pair->b]] > 0 && n.z < -OD_HELD_RISE);
 	return a->sim != b->sim && pressed && od_Comparable(s, pair)
 			   ? OD_HELD_PUSH * (od_ParticleReach(a->sim, a->i) + od_ParticleReach(b->sim, b->i))
 			   : 0.0;
@@ -1020,11 +1034,12 @@ static double od_FloorWeight(const od_PairScratch* s, const od_Sim* sim, int i, 
 // 1/60 s for each unit of the density ratio, the floor's projection sees none of it). So a member on its
 // floor whose pairs' forces (with members of comparable mass, od_Comparable) add up to a push down gets that
 // push back, spread over its particles by how much
-// each bears on the floor (od_FloorWeight; s->grounded > 0: some bear): held as the floor holds it after the
-// iterations, it is pressed between the load and the floor, not moved; its own weight stays the floor's
-// projection, and sideways the pairs' forces act as before. Spread evenly over the particles within reach
-// of the floor instead, a stiff slab resting on a few of them was strained where nothing touched, and a
-// Stiff slab under one 10 times as dense shook at 0.14 m/s (0.007 now).
+// each bears on the floor (od_FloorWeight; s->held > 0: some bear, its ellipsoids meeting the floor): held as the
+// floor holds it after the iterations, it is pressed between the load and the floor, not moved; its own weight stays
+// the floor's projection, and sideways the pairs' forces act as before. Spread evenly over the particles within
+// reach of the floor instead, a stiff slab resting on a few of them was strained where nothing touched, and a
+// Stiff slab under one 10 times as dense shook at 0.14 m/s (0.007 now). Not on a member that meets its floor with
+// its skin (see the top of the file).
 static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	memset(s->load, 0, sizeof(double) * (size_t)count);
@@ -1042,15 +1057,23 @@ static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 	{
 		od_Sim* sim = sims[b];
 		double push = s->load[b], bearing = s->bearing[b];
-		for (int i = 0; push < 0.0 && bearing > 0.0 && i < sim->graph->n; ++i)
+		for (int i = 0; push < 0.0 && s->held[b] > 0 && i < sim->graph->n; ++i)
 		{
 			sim->contactForce[3 * i + 2] -= push * od_FloorWeight(s, sim, i, first + i) / bearing;
 		}
 	}
 }
 
-// Whether each member bears on its floor (s->grounded) and how much (s->bearing: od_FloorWeight summed over its
-// particles).
+// Whether sim meets its floor with its skin and the other members with its ellipsoids (od_Sim_SetContactSkin
+// without bodies: the add-on's default): its floor does not hold it inside the iterations (see the top of the file).
+static bool od_FloorSkinOnly(const od_Sim* sim)
+{
+	return od_SkinShape_Used(sim) && !sim->skinShape.bodies;
+}
+
+// Whether each member bears on its floor (s->grounded), how much (s->bearing: od_FloorWeight summed over its
+// particles) and whether its floor holds it inside the iterations (s->held: it bears and meets its floor with its
+// ellipsoids, or the others with its skin too: od_FloorSkinOnly).
 static void od_Grounded(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
@@ -1061,6 +1084,7 @@ static void od_Grounded(od_PairScratch* s, od_Sim* const* sims, int count)
 			s->bearing[b] += od_FloorWeight(s, sims[b], i, first + i);
 		}
 		s->grounded[b] = s->bearing[b] > 0.0;
+		s->held[b] = s->grounded[b] && !od_FloorSkinOnly(sims[b]);
 	}
 }
 
@@ -1231,7 +1255,7 @@ static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h
 	{
 		const od_Sim* sim = sims[b];
 		od_Vec3 couple = od_V3(0, 0, 0);
-		if (s->grounded[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b) && !od_SkinShape_Used(sim))
+		if (s->held[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b) && !od_SkinShape_Used(sim))
 		{
 			double reach = 0.0;
 			for (int i = 0; i < sim->graph->n; ++i)
@@ -1453,7 +1477,7 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 // where the floor's reaction holds it (od_FloorReaction), which cancels the pushes down.
 static double od_RigidCompliance(const od_PairScratch* s, int m, od_Vec3 u, od_Vec3 v, double h2)
 {
-	double along = od_Dot(u, v) - (s->grounded[m] > 0 ? u.z * v.z : 0.0);
+	double along = od_Dot(u, v) - (s->held[m] > 0 ? u.z * v.z : 0.0);
 	return h2 * along / s->mass[m];
 }
 

@@ -210,6 +210,7 @@ typedef struct od_PairScratch
 	double* moment;   // 9 per particle: its ellipsoid M = E diag(a², b², c²) Eᵀ at the last measure
 	double* outward;  // 3 per particle: how much it is on its body's surface, outwards (od_Outward), the same
 	int* grounded;    // per member: whether it bears on its floor at the last od_ApplyForces (a group's)
+	int* held;        // per member: whether its floor holds it inside the iterations then (od_Grounded)
 	double* bearing;  // per member: how much its particles bear on its floor then (od_Grounded)
 	double* mass;     // per member: its mass (od_MemberMasses)
 	double comparable; // the largest ratio of two members' masses that counts as comparable this step (od_MemberMasses)
