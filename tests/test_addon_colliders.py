@@ -345,7 +345,7 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
 def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
     """The same stack on the panel's Floor (friction 0.5) instead of a Collision plane, the lower's skin on it: the
     members meet their floor with their skins and each other with their ellipsoids, so it holds neither of them
-    inside the iterations and steps as the plane (docs/contact.md, "Stacks", eleventh round: 0.26-0.29 m aside from
+    inside the iterations and steps as the plane (docs/contact.md, "Stacks", twelfth round: 0.26-0.29 m aside from
     3 to 13 s; before, the floor's reaction lifted the lower one's bottom at the landing, which threw the upper one
     up and off, 2.02 m aside at 3 s). A marginal stack, as on the plane: dropped from 1.02 m it falls off either."""
     _assert_on_top(_suzanne_stack(0.0, floor=(0.0, 0.5)))

@@ -55,7 +55,7 @@
 // after the iterations; it rocked back to 45° and threw the upper one up and off (2.28 m aside at 3 s). Without
 // them the floor steps as a plane collider of no thickness (the same positions within 1e-5 m over the first second,
 // the landing in it), and the upper one rests on top (0.26-0.29 m aside, 2.02 before; docs/contact.md, "Stacks",
-// eleventh round: a marginal stack, off from 1.02 m on either). With its skin between the members too they stay:
+// twelfth round: a marginal stack, off from 1.02 m on either). With its skin between the members too they stay:
 // without them the blobs of tests/test_skin_pairs.py dropped on each other went 6.1 % of their size into each other
 // (2 % the bound). Such a member still braces (above).
 //

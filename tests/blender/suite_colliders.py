@@ -446,7 +446,7 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
 
 
 def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
-    """The same stack on the panel's Floor (docs/contact.md, "Stacks", eleventh round: the objects meet it with
+    """The same stack on the panel's Floor (docs/contact.md, "Stacks", twelfth round: the objects meet it with
     their skins and each other with their ellipsoids, so it holds neither inside the iterations and steps as the
     Collision plane; before, the upper one was thrown off at its landing)."""
     _suzanne_stack(on_floor=True)
