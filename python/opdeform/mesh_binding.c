@@ -314,6 +314,39 @@ static PyObject* Skin_shown_offset(PyObject* obj, PyObject* args)
 	Py_RETURN_NONE;
 }
 
+// deform_shown(positions, rotations, skinned, lock, input, offset, out): od_Skin_DeformShown
+static PyObject* Skin_deform_shown(PyObject* obj, PyObject* args)
+{
+	od_Skin* skin = Skin_Enter(obj);
+	PyObject* arrays[7];
+	if (!skin || !PyArg_ParseTuple(args, "OOOOOOO", &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4],
+								   &arrays[5], &arrays[6]))
+	{
+		return NULL;
+	}
+	Py_ssize_t n = od_Skin_GetParticleCount(skin), count = 3 * (Py_ssize_t)od_Skin_GetVertexCount(skin);
+	const ArraySpec specs[5] = { { "positions", 'd', 3 * n, 0 }, { "rotations", 'd', 9 * n, 0 },
+								 { "skinned", 'd', count, 0 }, { "lock", 'd', count, 1 }, { "input", 'f', count, 0 } };
+	const ArraySpec outSpecs[2] = { { "offset", 'f', count, 0 }, { "out", 'f', count, 0 } };
+	Py_buffer views[5], outViews[2];
+	if (GetArrays(arrays, specs, 5, views) < 0)
+	{
+		return NULL;
+	}
+	if (GetOutArrays(arrays + 5, outSpecs, 2, outViews) < 0)
+	{
+		ReleaseArrays(views, 5);
+		return NULL;
+	}
+	PyThreadState* ts = Binding_Begin(obj);
+	od_Status status = od_Skin_DeformShown(skin, views[0].buf, views[1].buf, views[2].buf, ArrayData(&views[3]),
+										   views[4].buf, outViews[0].buf, outViews[1].buf);
+	Binding_End(obj, ts);
+	ReleaseArrays(views, 5);
+	ReleaseArrays(outViews, 2);
+	return Binding_Done(obj, status);
+}
+
 static PyGetSetDef Skin_getset[] = {
 	{ "n_vertices", Skin_get_count, NULL, "number of bound vertices", (void*)&SkinCounts[0] },
 	{ "n_particles", Skin_get_count, NULL, "number of particles of the graph", (void*)&SkinCounts[1] },
@@ -328,6 +361,9 @@ static PyMethodDef Skin_methods[] = {
 	{ "shown_offset", Skin_shown_offset, METH_VARARGS,
 	  "shown_offset(skinned, reference, lock, input, offset, out): offset = float32((skinned - reference) * lock), "
 	  "out = input + offset" },
+	{ "deform_shown", Skin_deform_shown, METH_VARARGS,
+	  "deform_shown(positions, rotations, skinned, lock, input, offset, out): shown_offset whose reference is the "
+	  "skin of the particle frames, made in the same pass" },
 	{ NULL, NULL, 0, NULL },
 };
 

@@ -128,6 +128,13 @@ od_Status od_Skin_Deform(const od_Skin* skin, const double* positions, const dou
 void od_ShownOffset(int count, const double* skinned, const double* reference, const double* lock,
 					const float* input, float* offset, float* out);
 
+// od_ShownOffset whose reference is the skin of particle positions (n*3) and rotations (n*9), made in the same pass
+// block by block and never stored: the same bits as od_Skin_Deform into a float64 buffer, then od_ShownOffset.
+// Not from two threads at once on one skin (as od_Skin_Deform).
+od_Status od_Skin_DeformShown(const od_Skin* skin, const double* positions, const double* rotations,
+							  const double* skinned, const double* lock, const float* input, float* offset,
+							  float* out);
+
 // ---------------------------------------------------------------------------------------------------------
 // OBJ and PLY
 
