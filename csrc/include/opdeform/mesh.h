@@ -191,6 +191,11 @@ const double* od_GoalFit_GetWeights(const od_GoalFit* fit);
 // OD_ERROR_ARGUMENT when a vertex used is not finite or a frame overflows (coordinates near 1e308); the
 // outputs are then not frames.
 od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations);
+// od_GoalFit_Compute of float32 vertices each moved by shift (3, float64): vertex + shift in float64, or the vertex
+// alone where shift is zero (numpy's float64 copy of the vertices, then each column plus the shift where any is
+// nonzero: the same bits). Blender's object-space positions placed by an unturned object's translation.
+od_Status od_GoalFit_ComputeShifted(const od_GoalFit* fit, const float* animated, const double shift[3],
+									double* positions, double* rotations);
 
 #ifdef __cplusplus
 }
