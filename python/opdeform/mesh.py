@@ -137,9 +137,7 @@ class Skin(FromArguments):
         if isinstance(reference, tuple):
             n = self.graph.n_particles
             positions, rotations = reference
-            self._core.deform_shown(as_array("positions", positions, (n, 3)),
-                                    as_array("rotations", rotations, (n, 3, 3)), skinned, lock, incoming, offset, out)
-            return
+            reference = (as_array("positions", positions, (n, 3)), as_array("rotations", rotations, (n, 3, 3)))
         self._core.shown_offset(skinned, reference, lock, incoming, offset, out)
 
     def deform_sim(self, sim: Simulation, out: Buffer | None = None, normals_out: Buffer | None = None,
