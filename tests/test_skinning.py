@@ -255,3 +255,48 @@ def test_shown_offset_is_the_numpy_passes_bit_for_bit(creature):
         skin.shown_offset(skinned, reference, lock, incoming.astype(np.float64), offset, out)
     with pytest.raises(ValueError, match="lock"):
         skin.shown_offset(skinned, reference, lock[:-1], incoming, offset, out)
+
+
+def test_shown_offset_of_particle_frames_is_their_deform_then_the_offset_bit_for_bit():
+    """The goals' skin made in the offset's pass (``shown_offset`` given particle frames) equals ``deform`` into a
+    float64 array then ``shown_offset``, to the bit: with the AVX2 blend and without, one thread and the pool."""
+    import os
+    import subprocess
+    import sys
+    code = ("import sys, numpy as np, opdeform\n"
+            "from opdeform import meshes\n"
+            "v, t = meshes.subdivide(*meshes.subdivide(*meshes.creature()))\n"
+            "g = opdeform.Graph.from_mesh(v, t, particles=150)\n"
+            "rng = np.random.default_rng(5)\n"
+            "q, _ = np.linalg.qr(rng.normal(size=(g.n_particles, 3, 3)))\n"
+            "goals = (g.centers + rng.normal(0, 0.05, g.centers.shape), q * np.sign(np.linalg.det(q))[:, None, None])\n"
+            "skinned = v + rng.normal(0, 0.1, v.shape)\n"
+            "lock = np.repeat(rng.uniform(0, 1, (len(v), 1)), 3, axis=1)\n"
+            "incoming = (v + rng.normal(0, 1.0, v.shape)).astype(np.float32)\n"
+            "for threads in (1, 4):\n"
+            "    skin = opdeform.Skin(g, v, threads=threads)\n"
+            "    for weights in (lock, None):\n"
+            "        fused, apart = np.empty((2, 2) + v.shape, np.float32)\n"
+            "        skin.shown_offset(skinned, goals, weights, incoming, *fused)\n"
+            "        skin.shown_offset(skinned, skin.deform(*goals), weights, incoming, *apart)\n"
+            "        assert fused.tobytes() == apart.tobytes(), (threads, weights is None)\n"
+            "print(len(v))\n")
+    for off in ("1", "0"):
+        env = dict(os.environ, OPDEFORM_NO_AVX2=off)
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr[-2000:]
+        assert int(run.stdout) > 2 * 8192  # two deform chunks: the pool takes the vertices in pieces
+
+
+def test_shown_offset_of_particle_frames_checks_them(creature):
+    v, t, g = creature
+    skin = opdeform.Skin(g, v)
+    skinned, incoming = np.zeros(v.shape), np.zeros(v.shape, np.float32)
+    offset, out = np.empty_like(incoming), np.empty_like(incoming)
+    positions, rotations = rest_state(g)
+    with pytest.raises(ValueError, match="rotations"):
+        skin.shown_offset(skinned, (positions, rotations[:-1]), None, incoming, offset, out)
+    with pytest.raises(ValueError, match="input"):
+        skin.shown_offset(skinned, (positions, rotations), None, incoming.astype(np.float64), offset, out)
+    skin.shown_offset(skinned, (positions, rotations), None, incoming, offset, out)
+    np.testing.assert_array_equal(offset, (-skin.deform(positions, rotations)).astype(np.float32))

@@ -157,18 +157,47 @@ const double* od_GoalFit_GetWeights(const od_GoalFit* fit)
 	return fit->w;
 }
 
+// The fit is inlined into each entry point with its kind of input known there, so that reading a vertex has no
+// branch left (the float64 fit: 0.19-0.20 ms warm before and after, the character at 1,000 particles; the float32
+// one 0.21, its conversions).
+#if defined(__GNUC__) || defined(__clang__)
+#define OD_FIT_INLINE static inline __attribute__((always_inline))
+#else
+#define OD_FIT_INLINE static inline
+#endif
+
+// The animated vertices: float64, or float32 each moved by a shift in float64 (od_GoalFit_ComputeShifted).
+typedef struct od_Animated
+{
+	const double* d; // NULL: f and shift
+	const float* f;
+	od_Vec3 shift;
+	bool shifted; // false: a zero shift, not added (adding zeros would turn -0.0 into 0.0)
+} od_Animated;
+
+OD_FIT_INLINE od_Vec3 od_AnimatedVertex(const od_Animated* in, int i)
+{
+	if (in->d)
+	{
+		return od_V3Load(in->d + 3 * (size_t)i);
+	}
+	const float* f = in->f + 3 * (size_t)i;
+	od_Vec3 v = od_V3(f[0], f[1], f[2]);
+	return in->shifted ? od_Add(v, in->shift) : v;
+}
+
 // The rigid motion of particle j's vertices from rest to `animated`; *warm: the rotation Newton's steps start from,
 // left holding this particle's. False, with nothing written, when the weighted centroid of its animated vertices
 // is not finite: one of them is not (a weight 0 times it is NaN too), or their sum overflows.
-static bool od_FitOne(const od_GoalFit* fit, const double* animated, int j, od_Mat3* warm, double* position,
-					  double* rotation)
+OD_FIT_INLINE bool od_FitOne(const od_GoalFit* fit, const od_Animated* animated, int j, od_Mat3* warm,
+							 double* position, double* rotation)
 {
 	const int* idx = fit->idx + (size_t)fit->k * j;
 	const double* w = fit->w + (size_t)fit->k * j;
 	od_Vec3 xbar = od_V3Load(fit->centroid + 3 * j), ybar = od_V3(0, 0, 0);
 	for (int a = 0; a < fit->k; ++a)
 	{
-		ybar = od_MulAdd(ybar, w[a], od_V3Load(animated + 3 * idx[a]));
+		ybar = od_MulAdd(ybar, w[a], od_AnimatedVertex(animated, idx[a]));
 	}
 	if (!isfinite(ybar.x) || !isfinite(ybar.y) || !isfinite(ybar.z))
 	{
@@ -177,7 +206,8 @@ static bool od_FitOne(const od_GoalFit* fit, const double* animated, int j, od_M
 	od_Mat3 cov = { { 0 } };
 	for (int a = 0; a < fit->k; ++a)
 	{
-		od_Vec3 y = od_Sub(od_V3Load(animated + 3 * idx[a]), ybar), x = od_Sub(od_V3Load(fit->rest + 3 * idx[a]), xbar);
+		od_Vec3 y = od_Sub(od_AnimatedVertex(animated, idx[a]), ybar);
+		od_Vec3 x = od_Sub(od_V3Load(fit->rest + 3 * idx[a]), xbar);
 		od_M3AddOuter(&cov, w[a], y, x);
 	}
 	double size = 0.0;
@@ -200,11 +230,12 @@ static bool od_FitOne(const od_GoalFit* fit, const double* animated, int j, od_M
 }
 
 // The vertices a fit reads (k per particle, not the whole mesh) must be finite.
-static od_Status od_CheckUsed(const od_GoalFit* fit, const double* animated)
+static od_Status od_CheckUsed(const od_GoalFit* fit, const od_Animated* animated)
 {
 	for (size_t a = 0; a < (size_t)fit->k * fit->particleCount; ++a)
 	{
-		if (!od_IsFinite3(animated + 3 * fit->idx[a]))
+		od_Vec3 v = od_AnimatedVertex(animated, fit->idx[a]);
+		if (!isfinite(v.x) || !isfinite(v.y) || !isfinite(v.z))
 		{
 			return od_Fail(OD_ERROR_ARGUMENT, "animated vertices[%d] is not finite", fit->idx[a]);
 		}
@@ -212,7 +243,8 @@ static od_Status od_CheckUsed(const od_GoalFit* fit, const double* animated)
 	return OD_OK;
 }
 
-od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations)
+OD_FIT_INLINE od_Status od_Compute(const od_GoalFit* fit, const od_Animated* animated, double* positions,
+								   double* rotations)
 {
 	od_Mat3 warm = { { 1, 0, 0, 0, 1, 0, 0, 0, 1 } };
 	for (int j = 0; j < fit->particleCount; ++j)
@@ -232,8 +264,26 @@ od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, doub
 								   : od_Fail(OD_ERROR_ARGUMENT,
 											 "animated vertices: particle %d's goal frame overflows (coordinates too "
 											 "large to fit, e.g. %g)",
-											 j, animated[3 * fit->idx[(size_t)fit->k * j]]);
+											 j, od_AnimatedVertex(animated, fit->idx[(size_t)fit->k * j]).x);
 		}
 	}
 	return OD_OK;
+}
+
+od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations)
+{
+	od_Animated in = { animated, NULL, { 0, 0, 0 }, false };
+	return od_Compute(fit, &in, positions, rotations);
+}
+
+od_Status od_GoalFit_ComputeShifted(const od_GoalFit* fit, const float* animated, const double shift[3],
+									double* positions, double* rotations)
+{
+	if (shift[0] != 0.0 || shift[1] != 0.0 || shift[2] != 0.0)
+	{
+		od_Animated in = { NULL, animated, od_V3Load(shift), true };
+		return od_Compute(fit, &in, positions, rotations);
+	}
+	od_Animated in = { NULL, animated, od_V3(0, 0, 0), false };
+	return od_Compute(fit, &in, positions, rotations);
 }

@@ -313,6 +313,16 @@ const double* od_Skin_GetRestNormals(const od_Skin* s)
 	return s->restNormals;
 }
 
+// od_Skin_DeformShown's arrays: each block of the skin is the reference of od_ShownOffset, never stored.
+typedef struct od_ShownJob
+{
+	const double* skinned;
+	const double* lock;
+	const float* input;
+	float* offset;
+	float* out;
+} od_ShownJob;
+
 typedef struct od_DeformJob
 {
 	const od_Skin* skin;
@@ -320,6 +330,7 @@ typedef struct od_DeformJob
 	const od_SkinTarget* target;
 	const void* restNormals;
 	od_Scalar restNormalType;
+	const od_ShownJob* shown; // NULL: the positions go to the target
 } od_DeformJob;
 
 #if (defined(__GNUC__) || defined(__clang__)) && !defined(OD_NO_VECTOR_EXTENSIONS)
@@ -562,6 +573,14 @@ OD_BLEND_INLINE void od_DeformRangeBody(void* context, int begin, int end, bool 
 			od_BlendBlock(s, job->maps, (size_t)first, count, s->m, rn, p, q);
 		}
 		bool stream = avx && s->vertexCount >= OD_STREAM_VERTICES;
+		const od_ShownJob* shown = job->shown;
+		if (shown)
+		{
+			size_t at = 3 * (size_t)first;
+			od_ShownOffset(count, shown->skinned + at, p, shown->lock ? shown->lock + at : NULL, shown->input + at,
+						   shown->offset + at, shown->out + at);
+			continue;
+		}
 		od_WriteBlock(t->positions, t->positionType, stream, first, p, count);
 		if (rn)
 		{
@@ -589,20 +608,9 @@ __attribute__((target("avx2,fma"))) static void od_DeformRangeAvx2(void* context
 }
 #endif
 
-od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double* rotations,
-						 const od_SkinTarget* target)
+// Each particle's rigid motion as its 3x4 map (and, for the AVX2 blend, its 4 columns) in the skin's buffers.
+static void od_SkinMaps(const od_Skin* s, const double* positions, const double* rotations)
 {
-	if (!positions || !rotations || !target || !target->positions)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "positions, rotations and an output buffer are required");
-	}
-	const void* restNormals = target->restNormals ? target->restNormals : s->restNormals;
-	od_Scalar restNormalType = target->restNormals ? target->restNormalType : OD_FLOAT64;
-	if (target->normals && !restNormals)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT,
-					   "normals: give rest normals, or triangles or normals when binding, to get deformed normals");
-	}
 	double* maps = s->maps; // a deform allocates nothing (one call at a time per skin, like the pool)
 	for (int j = 0; j < s->particleCount; ++j)
 	{
@@ -628,13 +636,36 @@ od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double
 			}
 		}
 	}
-	od_DeformJob job = { s, maps, target, restNormals, restNormalType };
+}
+
+// The vertex loop of a job over the skin's vertices (the AVX2 blend where the skin has its columns).
+static void od_SkinRunJob(const od_Skin* s, od_DeformJob* job)
+{
 #ifdef OD_SKIN_AVX2
 	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, OD_DEFORM_NS, s->columns ? od_DeformRangeAvx2 : od_DeformRange,
-			   &job);
+			   job);
 #else
-	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, OD_DEFORM_NS, od_DeformRange, &job);
+	od_SkinRun(s, 0, s->vertexCount, OD_DEFORM_CHUNK, OD_DEFORM_NS, od_DeformRange, job);
 #endif
+}
+
+od_Status od_Skin_Deform(const od_Skin* s, const double* positions, const double* rotations,
+						 const od_SkinTarget* target)
+{
+	if (!positions || !rotations || !target || !target->positions)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "positions, rotations and an output buffer are required");
+	}
+	const void* restNormals = target->restNormals ? target->restNormals : s->restNormals;
+	od_Scalar restNormalType = target->restNormals ? target->restNormalType : OD_FLOAT64;
+	if (target->normals && !restNormals)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT,
+					   "normals: give rest normals, or triangles or normals when binding, to get deformed normals");
+	}
+	od_SkinMaps(s, positions, rotations);
+	od_DeformJob job = { s, s->maps, target, restNormals, restNormalType, NULL };
+	od_SkinRunJob(s, &job);
 	return OD_OK;
 }
 
@@ -648,4 +679,20 @@ void od_ShownOffset(int count, const double* skinned, const double* reference, c
 		offset[k] = f;
 		out[k] = input[k] + f;
 	}
+}
+
+od_Status od_Skin_DeformShown(const od_Skin* s, const double* positions, const double* rotations,
+							  const double* skinned, const double* lock, const float* input, float* offset, float* out)
+{
+	if (!positions || !rotations || !skinned || !input || !offset || !out)
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "positions, rotations, skinned, input, offset and out are required");
+	}
+	od_SkinMaps(s, positions, rotations);
+	od_SkinTarget none;
+	memset(&none, 0, sizeof none);
+	od_ShownJob shown = { skinned, lock, input, offset, out };
+	od_DeformJob job = { s, s->maps, &none, NULL, OD_FLOAT64, &shown };
+	od_SkinRunJob(s, &job);
+	return OD_OK;
 }

@@ -62,25 +62,29 @@ static void GoalFit_dealloc(PyObject* obj)
 	Binding_Free(obj);
 }
 
-// fit(animated, positions_out, rotations_out)
+// fit(animated, positions_out, rotations_out, shift=None): animated float64, or float32 with a shift (3, float64)
 static PyObject* GoalFit_fit(PyObject* obj, PyObject* args)
 {
 	GoalFitObject* self = (GoalFitObject*)obj;
-	PyObject *animated, *positions, *rotations;
-	if (!PyArg_ParseTuple(args, "OOO", &animated, &positions, &rotations))
+	PyObject *animated, *positions, *rotations, *shift = Py_None;
+	if (!PyArg_ParseTuple(args, "OOO|O", &animated, &positions, &rotations, &shift))
 	{
 		return NULL;
 	}
-	Py_buffer views[3] = { { 0 } };
-	if (GetArray(animated, "animated", 'd', 3 * (Py_ssize_t)od_GoalFit_GetVertexCount(self->fit), 0, &views[0]) < 0 ||
+	char type = shift == Py_None ? 'd' : 'f';
+	Py_buffer views[4] = { { 0 } };
+	if (GetArray(animated, "animated", type, 3 * (Py_ssize_t)od_GoalFit_GetVertexCount(self->fit), 0, &views[0]) < 0 ||
 		GetArray(positions, "positions", 'd', 3 * self->particles, 1, &views[1]) < 0 ||
-		GetArray(rotations, "rotations", 'd', 9 * self->particles, 1, &views[2]) < 0)
+		GetArray(rotations, "rotations", 'd', 9 * self->particles, 1, &views[2]) < 0 ||
+		GetOptionalArray(shift, "shift", 'd', 3, &views[3]) < 0)
 	{
-		ReleaseArrays(views, 3);
+		ReleaseArrays(views, 4);
 		return NULL;
 	}
-	od_Status status = od_GoalFit_Compute(self->fit, views[0].buf, views[1].buf, views[2].buf);
-	ReleaseArrays(views, 3);
+	od_Status status = type == 'd' ? od_GoalFit_Compute(self->fit, views[0].buf, views[1].buf, views[2].buf)
+								   : od_GoalFit_ComputeShifted(self->fit, views[0].buf, views[3].buf, views[1].buf,
+															   views[2].buf);
+	ReleaseArrays(views, 4);
 	return Binding_Done(obj, status);
 }
 
@@ -121,7 +125,8 @@ static PyGetSetDef GoalFit_getset[] = {
 };
 
 static PyMethodDef GoalFit_methods[] = {
-	{ "fit", GoalFit_fit, METH_VARARGS, "fit(animated, positions_out, rotations_out)" },
+	{ "fit", GoalFit_fit, METH_VARARGS,
+	  "fit(animated, positions_out, rotations_out, shift=None): animated float64, or float32 plus a float64 shift" },
 	{ "read", GoalFit_read, METH_VARARGS, "read(name, out): copy 'indices' or 'weights'" },
 	{ NULL, NULL, 0, NULL },
 };

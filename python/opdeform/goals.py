@@ -77,11 +77,20 @@ class GoalFit(FromArguments):
         values = as_array("vertex_values", vertex_values, (self.n_vertices,))
         return (values[self.indices] * self.weights).sum(axis=1)
 
-    def fit(self, animated: ArrayLike) -> tuple[Floats, Floats]:
-        """(positions (n,3), rotations (n,3,3)) of the goal frames for the animated vertices (V,3)."""
+    def fit(self, animated: ArrayLike, shift: ArrayLike | None = None) -> tuple[Floats, Floats]:
+        """(positions (n,3), rotations (n,3,3)) of the goal frames for the animated vertices (V,3). With ``shift``
+        (3,), the vertices are float32 (V,3), each moved by the shift in float64 (Blender's object-space input
+        placed by an unturned object's translation; the same bits as fitting their float64 copy plus the shift,
+        with no (V,3) float64 array made)."""
         n = self.graph.n_particles
         positions, rotations = np.empty((n, 3)), np.empty((n, 3, 3))
-        self._core.fit(as_array("animated", animated, (self.n_vertices, 3)), positions, rotations)
+        if shift is None:
+            self._core.fit(as_array("animated", animated, (self.n_vertices, 3)), positions, rotations)
+        elif np.asarray(animated).dtype != np.float32:  # rounding float64 vertices would lose their bits unseen
+            raise ValueError(f"animated must be float32 with a shift, got {np.asarray(animated).dtype}")
+        else:
+            self._core.fit(as_array("animated", animated, (self.n_vertices, 3), np.float32), positions, rotations,
+                           as_array("shift", shift, (3,)))
         return positions, rotations
 
 

@@ -126,12 +126,18 @@ class Skin(FromArguments):
         self._core.deform(positions, rotations, out, normals_out, rest_normals)
         return out
 
-    def shown_offset(self, skinned: Buffer, reference: Buffer, lock: Buffer | None, incoming: Buffer,
-                     offset: Buffer, out: Buffer) -> None:
+    def shown_offset(self, skinned: Buffer, reference: Buffer | tuple[ArrayLike, ArrayLike], lock: Buffer | None,
+                     incoming: Buffer, offset: Buffer, out: Buffer) -> None:
         """What a frame shows of the mesh over its input, in one pass (C): ``offset`` = float32((``skinned`` -
         ``reference``) * ``lock``) and ``out`` = ``incoming`` + ``offset``, added in float32 (``lock`` None: 1).
         skinned, reference and lock are float64, incoming, offset and out float32, each V x 3 values,
-        C-contiguous (ValueError otherwise). The same bits as numpy's subtract, multiply, cast and add."""
+        C-contiguous (ValueError otherwise). The same bits as numpy's subtract, multiply, cast and add.
+        ``reference`` may instead be particle (positions (n,3), rotations (n,3,3)): their skin, made in the
+        same pass and never stored (the same bits as ``deform`` into a float64 array, then this)."""
+        if isinstance(reference, tuple):
+            n = self.graph.n_particles
+            positions, rotations = reference
+            reference = (as_array("positions", positions, (n, 3)), as_array("rotations", rotations, (n, 3, 3)))
         self._core.shown_offset(skinned, reference, lock, incoming, offset, out)
 
     def deform_sim(self, sim: Simulation, out: Buffer | None = None, normals_out: Buffer | None = None,

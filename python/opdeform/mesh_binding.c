@@ -283,35 +283,56 @@ static PyObject* Skin_deform(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
-// shown_offset(skinned, reference, lock, input, offset, out): od_ShownOffset over the skin's vertices
+// shown_offset(skinned, reference, lock, input, offset, out): od_ShownOffset over the skin's vertices, or, where
+// reference is a pair (positions, rotations) of particle frames, od_Skin_DeformShown (their skin made in the pass)
 static PyObject* Skin_shown_offset(PyObject* obj, PyObject* args)
 {
 	od_Skin* skin = Skin_Enter(obj);
-	PyObject* arrays[6];
-	if (!skin || !PyArg_ParseTuple(args, "OOOOOO", &arrays[0], &arrays[1], &arrays[2], &arrays[3], &arrays[4],
-								   &arrays[5]))
+	PyObject *reference, *arrays[7];
+	if (!skin || !PyArg_ParseTuple(args, "OOOOOO", &arrays[0], &reference, &arrays[3], &arrays[4], &arrays[5],
+								   &arrays[6]))
 	{
 		return NULL;
 	}
-	Py_ssize_t count = 3 * (Py_ssize_t)od_Skin_GetVertexCount(skin);
-	const ArraySpec specs[4] = { { "skinned", 'd', count, 0 }, { "reference", 'd', count, 0 },
-								 { "lock", 'd', count, 1 }, { "input", 'f', count, 0 } };
+	int frames = PyTuple_Check(reference) && PyTuple_Size(reference) == 2;
+	arrays[1] = frames ? PyTuple_GetItem(reference, 0) : reference;
+	arrays[2] = frames ? PyTuple_GetItem(reference, 1) : Py_None;
+	Py_ssize_t n = od_Skin_GetParticleCount(skin), count = 3 * (Py_ssize_t)od_Skin_GetVertexCount(skin);
+	ArraySpec specs[5] = { { "skinned", 'd', count, 0 }, { "reference", 'd', count, 0 }, { "rotations", 'd', 9 * n, 1 },
+						   { "lock", 'd', count, 1 }, { "input", 'f', count, 0 } };
+	if (frames)
+	{
+		specs[1].name = "positions";
+		specs[1].count = 3 * n;
+		specs[2].optional = 0;
+	}
 	const ArraySpec outSpecs[2] = { { "offset", 'f', count, 0 }, { "out", 'f', count, 0 } };
-	Py_buffer views[4], outViews[2];
-	if (GetArrays(arrays, specs, 4, views) < 0)
+	Py_buffer views[5], outViews[2];
+	if (GetArrays(arrays, specs, 5, views) < 0)
 	{
 		return NULL;
 	}
-	if (GetOutArrays(arrays + 4, outSpecs, 2, outViews) < 0)
+	if (GetOutArrays(arrays + 5, outSpecs, 2, outViews) < 0)
 	{
-		ReleaseArrays(views, 4);
+		ReleaseArrays(views, 5);
 		return NULL;
 	}
-	od_ShownOffset((int)(count / 3), views[0].buf, views[1].buf, ArrayData(&views[2]), views[3].buf,
-				   outViews[0].buf, outViews[1].buf);
-	ReleaseArrays(views, 4);
+	od_Status status = OD_OK;
+	if (frames)
+	{
+		PyThreadState* ts = Binding_Begin(obj);
+		status = od_Skin_DeformShown(skin, views[1].buf, views[2].buf, views[0].buf, ArrayData(&views[3]),
+									 views[4].buf, outViews[0].buf, outViews[1].buf);
+		Binding_End(obj, ts);
+	}
+	else
+	{
+		od_ShownOffset((int)(count / 3), views[0].buf, views[1].buf, ArrayData(&views[3]), views[4].buf,
+					   outViews[0].buf, outViews[1].buf);
+	}
+	ReleaseArrays(views, 5);
 	ReleaseArrays(outViews, 2);
-	Py_RETURN_NONE;
+	return Binding_Done(obj, status);
 }
 
 static PyGetSetDef Skin_getset[] = {
@@ -327,7 +348,7 @@ static PyMethodDef Skin_methods[] = {
 	{ "deform", Skin_deform, METH_VARARGS, "deform(positions, rotations, out, normals_out=None, rest_normals=None)" },
 	{ "shown_offset", Skin_shown_offset, METH_VARARGS,
 	  "shown_offset(skinned, reference, lock, input, offset, out): offset = float32((skinned - reference) * lock), "
-	  "out = input + offset" },
+	  "out = input + offset; reference may be particle (positions, rotations), skinned in the same pass" },
 	{ NULL, NULL, 0, NULL },
 };
 

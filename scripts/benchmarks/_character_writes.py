@@ -10,6 +10,8 @@ times over frames 1..96; process time of `scene.frame_set`, median of frames 2..
 - the offset attribute written and the mesh tagged (what OPDeform does);
 - a shape key written instead (before the Armature: not OPDeform's order, for its cost alone);
 - the offset read by the modifier from another object's points (Object Info), that object written;
+- the offset read by the modifier from a float image of ours (Image Texture, closest texel by index), its pixels
+  written (no mesh copied, only the object evaluated again);
 - the object tagged, nothing written (its modifiers run again, the mesh not copied);
 - without any modifier, untagged and tagged (what any evaluation of this mesh costs: 3.4 computes its normals);
 - in frame_change_pre, before Blender's one evaluation of the frame: the offset attribute written; another
@@ -55,6 +57,36 @@ def _offset_object(obj, scene, modifier):
     links.new(move.outputs[0], nodes.new('NodeGroupOutput').inputs[0])
     obj.modifiers.new("offset from points", 'NODES').node_group = group
     return holder
+
+
+def _offset_image(obj, modifier):
+    """A float image of obj's vertex count (one row, non-colour) and a modifier on obj that adds each vertex's
+    texel (Image Texture, closest, by index) to its position; returns the image."""
+    import bpy
+    n = len(obj.data.vertices)
+    image = bpy.data.images.new(obj.name + " offsets", n, 1, alpha=True, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    group = bpy.data.node_groups.new("offset image " + obj.name, 'GeometryNodeTree')
+    modifier._socket(group, "Geometry", 'INPUT')
+    modifier._socket(group, "Geometry", 'OUTPUT')
+    nodes, links = group.nodes, group.links
+    texture, move = nodes.new('GeometryNodeImageTexture'), nodes.new('GeometryNodeSetPosition')
+    texture.interpolation, texture.extension = 'Closest', 'EXTEND'
+    texture.inputs["Image"].default_value = image
+    add, scale, combine = nodes.new('ShaderNodeMath'), nodes.new('ShaderNodeMath'), nodes.new('ShaderNodeCombineXYZ')
+    add.operation, scale.operation = 'ADD', 'DIVIDE'
+    links.new(nodes.new('GeometryNodeInputIndex').outputs[0], add.inputs[0])
+    add.inputs[1].default_value = 0.5
+    links.new(add.outputs[0], scale.inputs[0])
+    scale.inputs[1].default_value = float(n)
+    links.new(scale.outputs[0], combine.inputs[0])
+    combine.inputs[1].default_value = 0.5
+    links.new(combine.outputs[0], texture.inputs["Vector"])
+    links.new(nodes.new('NodeGroupInput').outputs[0], move.inputs["Geometry"])
+    links.new(texture.outputs[0], move.inputs["Offset"])
+    links.new(move.outputs[0], nodes.new('NodeGroupOutput').inputs[0])
+    obj.modifiers.new("offset from image", 'NODES').node_group = group
+    return image
 
 
 class GoalAhead:
@@ -161,6 +193,13 @@ def _variants(C, H):
     add("offset not written, input read", with_offset, lambda o, dg, off, _: read(o, dg))
     add("attribute written (OPDeform)", with_offset, attribute)
     add("shape key written", keyed, shape_key)
+
+    def pixels(obj, depsgraph, offset, image):
+        rgba = np.ones((len(offset), 4), np.float32)
+        rgba[:, :3] = offset
+        image.pixels.foreach_set(rgba.ravel())
+        image.update_tag()
+    add("the offset in an image sampled by the modifier, written", lambda o, s: _offset_image(o, modifier), pixels)
     add("another object's points written", lambda o, s: _offset_object(o, s, modifier), holder)
     add("object tagged, nothing written", None, lambda o, dg, off, _: o.update_tag())
 

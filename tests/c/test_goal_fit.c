@@ -1,7 +1,7 @@
 // Goal frames fitted to an animated mesh: a rigid motion of the mesh gives every particle that motion,
 // exactly, turned a little or nearly half a turn (beyond Newton's reach from the identity: the SVD's fallback),
-// and the same bits whatever was fitted before; a non-finite vertex that a fit reads fails it and nothing is
-// written.
+// and the same bits whatever was fitted before; float32 vertices plus a shift fit as their float64 copy plus the
+// shift, to the bit; a non-finite vertex that a fit reads fails it and nothing is written.
 #include "opdeform/mesh.h"
 #include "test_macros.h"
 #include "test_mesh_util.h"
@@ -61,6 +61,31 @@ int test_goal_fit(void)
 		}
 	}
 	ENSURE(memcmp(first, r, sizeof(double) * 9 * np) == 0);
+	float* single = malloc(sizeof(float) * 3 * box.vertexCount);
+	double* shiftedX = malloc(sizeof(double) * 3 * np);
+	double* shiftedR = malloc(sizeof(double) * 9 * np);
+	double shifts[2][3] = { { 0.0, 0.0, 0.0 }, { 0.25, 0.0, -1.5 } };
+	for (int k = 0; k < 2; ++k)
+	{
+		for (int i = 0; i < 3 * box.vertexCount; ++i)
+		{
+			single[i] = (float)moved[i];
+			moved[i] = (double)single[i] + (k ? shifts[k][i % 3] : 0.0);
+		}
+		ENSURE(od_GoalFit_ComputeShifted(fit, single, shifts[k], shiftedX, shiftedR) == OD_OK);
+		ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_OK);
+		ENSURE(memcmp(x, shiftedX, sizeof(double) * 3 * np) == 0 && memcmp(r, shiftedR, sizeof(double) * 9 * np) == 0);
+	}
+	for (int v = 0; v < box.vertexCount; ++v)
+	{
+		single[3 * v + 1] = NAN;
+	}
+	shiftedX[0] = 42.0;
+	ENSURE(od_GoalFit_ComputeShifted(fit, single, shifts[1], shiftedX, shiftedR) == OD_ERROR_ARGUMENT &&
+		   shiftedX[0] == 42.0);
+	free(single);
+	free(shiftedX);
+	free(shiftedR);
 	for (int v = 0; v < box.vertexCount; ++v)
 	{
 		moved[3 * v + 1] = NAN;

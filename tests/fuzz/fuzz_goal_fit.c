@@ -1,6 +1,7 @@
 // libFuzzer target: GoalFit, whose pickle is its constructor's arguments (a graph, rest vertices, neighbours:
 // unpickling builds it again, issue 28), then one fit: od_GoalFit_Create on the 8-particle chain of
-// tests/fuzz/make_state_corpus.py with raw rest vertices, then od_GoalFit_Compute with raw animated vertices.
+// tests/fuzz/make_state_corpus.py with raw rest vertices, then od_GoalFit_Compute with raw animated vertices and
+// od_GoalFit_ComputeShifted with them as float32, shifted by the first vertex.
 // Input: an int32 neighbour count, an int32 vertex count V (cut to what the bytes hold), V rest vertices and
 // V animated ones (doubles). Invariants: a refused fit leaves *fit NULL; an accepted one has indices in range
 // and weights >= 0 summing to 1 per particle; a fit returns finite positions and proper rotations or
@@ -9,6 +10,8 @@
 
 #include "opdeform/mesh.h"
 
+#include <float.h>
+#include <math.h>
 #include <stdlib.h>
 
 #define N CHAIN_N
@@ -83,6 +86,21 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 		{
 			check_frames(positions, rotations);
 		}
+		float* single = malloc(sizeof(float) * 3 * (size_t)vertices);
+		CHECK(single != NULL);
+		for (int i = 0; i < 3 * vertices; ++i)
+		{
+			double a = animated[i]; // out of float's range: infinite (a cast would be undefined behaviour)
+			single[i] = isnan(a) ? NAN : a > FLT_MAX ? INFINITY : a < -FLT_MAX ? -INFINITY : (float)a;
+		}
+		status = od_GoalFit_ComputeShifted(goals, single, animated, positions, rotations);
+		TRACE("shifted fit -> %s\n", od_StatusName(status));
+		CHECK(status == OD_OK || status == OD_ERROR_ARGUMENT);
+		if (status == OD_OK)
+		{
+			check_frames(positions, rotations);
+		}
+		free(single);
 		od_GoalFit_Destroy(goals);
 	}
 	free(rest_vertices);

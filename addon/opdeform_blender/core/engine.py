@@ -215,8 +215,9 @@ class Engine:
         self.shown_state = self._rest_state[:2]
         self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
         self._buffers = {}  # name -> (V, 3) array (_buffer)
-        self._fitted = None  # (the world input, the goal frames) of the last fit (goal_frames)
+        self._fitted = None  # (its input, the goal frames, the shift or None) of the last fit (goal_frames)
         self._referenced = None  # the goal frames whose skin the "reference" buffer holds (_reference)
+        self._last_goals = None  # the goal frames of the last C pass's offset (_shown_reference)
 
     # -- configuration ---------------------------------------------------------------------------------
     @property
@@ -424,18 +425,30 @@ class Engine:
         return True
 
     def goal_frames(self, incoming, matrix):
-        """The goal frames fitted to this frame's input (object-space vertices placed by matrix). A world input
-        equal to the last fit's gives its goal frames again, the same objects, so their skin is kept too
-        (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits). The fitted
-        input is kept by swapping two buffers, no copy."""
+        """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed
+        as the last fit's gives its goal frames again, the same objects, so their skin is kept too
+        (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits). An unturned,
+        unscaled object with a float32 input (Blender's) is fitted from it and the translation (``GoalFit.fit``'s
+        shift: no float64 world copy, 0.055 ms in place during the hops at 1,000 particles, bpy 5.2) and compared
+        by them; another placed in float64 (``to_world``), compared by that, kept by swapping two buffers."""
         kept = self._fitted
+        if np.array_equal(matrix[:3, :3], np.eye(3)) and incoming.dtype == np.float32 and incoming.flags.c_contiguous:
+            shift = matrix[:3, 3].copy()
+            given = self._buffer("fitted_input", np.float32)
+            if kept is not None and kept[0] is given and np.array_equal(kept[2], shift) and \
+                    _same_points(given, incoming):
+                return kept[1]
+            goals = self.fit.fit(incoming, shift)
+            np.copyto(given, incoming)
+            self._fitted = (given, goals, shift)
+            return goals
         world = to_world(incoming, matrix, self._buffer("world_input"))
-        if kept is not None and _same_points(kept[0], world):
+        if kept is not None and kept[0] is self._buffers.get("fitted_world") and _same_points(kept[0], world):
             return kept[1]
         goals = self.fit.fit(world)
-        self._buffers["world_input"] = self._buffer("fitted_input")
-        self._buffers["fitted_input"] = world
-        self._fitted = (world, goals)
+        self._buffers["world_input"] = self._buffer("fitted_world")
+        self._buffers["fitted_world"] = world
+        self._fitted = (world, goals, None)
         return goals
 
     # -- state ----------------------------------------------------------------------------------------
@@ -512,19 +525,19 @@ class Engine:
             out[pushed[0]] = pushed[1]
         return out
 
-    def _emit(self, positions, rotations, reference, incoming, matrix, frame=None):
-        """offset = (skin(state) - reference) times the goal's lock (world), in object space; out = incoming +
-        offset. ``frame``: the cached frame whose state it is (its pushed-out vertices shown). An unturned,
-        unscaled object with a float32 input (Blender's) in one C pass (``Skin.shown_offset``, the same bits as
-        the numpy passes below: 0.10-0.12 -> 0.06-0.07 ms a frame in place during the hops at 1,000 particles,
-        bpy 5.2)."""
+    def _emit(self, positions, rotations, goals, incoming, matrix, frame=None):
+        """offset = (skin(state) - skin(goals)) times the goal's lock (world), in object space (goals None: the rest
+        frames); out = incoming + offset. ``frame``: the cached frame whose state it is (its pushed-out vertices
+        shown). An unturned, unscaled object with a float32 input (Blender's) in one C pass (``Skin.shown_offset``,
+        the same bits as the numpy passes below: 0.10-0.12 -> 0.06-0.07 ms a frame in place during the hops at
+        1,000 particles, bpy 5.2), the goals' skin made in that pass too while they move (``_shown_reference``)."""
         t = time.perf_counter()
         skinned = self._skinned(positions, rotations, frame)
         unturned = np.array_equal(matrix[:3, :3], np.eye(3))
         if unturned and incoming.dtype == np.float32 and incoming.flags.c_contiguous:
-            self.skin.shown_offset(skinned, reference, self._lock, incoming, self.offset, self.out)
+            self.skin.shown_offset(skinned, self._shown_reference(goals), self._lock, incoming, self.offset, self.out)
         else:
-            moved = np.subtract(skinned, reference, out=self._buffer("offset"))
+            moved = np.subtract(skinned, self._reference(goals), out=self._buffer("offset"))
             if self._lock is not None:
                 moved *= self._lock
             if not unturned:
@@ -534,6 +547,15 @@ class Engine:
         self.timing["skin"] += time.perf_counter() - t
         self.shown_state = (positions, rotations)
         return self.out
+
+    def _shown_reference(self, goals):
+        """``Skin.shown_offset``'s reference: the goal frames themselves while they move (their skin made in the
+        offset's pass, never stored: the goals' skin and the offset 0.20-0.23 -> 0.16-0.17 ms in place during the
+        hops at 1,000 particles, bpy 5.2), else their skin kept (``_reference``: a held pose, the last frame's
+        goals again, skins them once)."""
+        moving = goals is not None and goals is not self._referenced and goals is not self._last_goals
+        self._last_goals = goals
+        return goals if moving else self._reference(goals)
 
     def _reference(self, goals):
         """The skin of the goal frames (the rest's without a goal), made again only for other goal frames."""
@@ -593,7 +615,7 @@ class Engine:
         if plan.kind != "show":
             return self.rest_output(run.incoming)
         state, cached = self.cache.state(plan.frame), self.cache.goals(plan.frame)
-        return self._emit(state[0], state[1], self._reference(cached), run.incoming, run.matrix, plan.frame)
+        return self._emit(state[0], state[1], cached, run.incoming, run.matrix, plan.frame)
 
     def _restore_for(self, run):
         """Loads the state a run simulates from; what the frames it skips are blended from."""
@@ -637,7 +659,7 @@ class Engine:
         self.behind = run.plan.frame - shown
         pos, rot = self.cache.state(shown)[:2]
         goals = run.goals if shown == run.plan.frame else self.cache.goals(shown)
-        return self._emit(pos, rot, self._reference(goals), run.incoming, run.matrix, shown)
+        return self._emit(pos, rot, goals, run.incoming, run.matrix, shown)
 
     def _surround(self, surroundings):
         """The colliders' frames at the end of the next step, and the force fields acting during it."""
@@ -657,4 +679,4 @@ class Engine:
         self.cache.clear()
         self.solver_frame = None
         incoming = self.rest_local if incoming is None else incoming
-        return self._emit(self.sim.positions, self.sim.rotations, self._rest_skin, incoming, self.matrix_world)
+        return self._emit(self.sim.positions, self.sim.rotations, None, incoming, self.matrix_world)

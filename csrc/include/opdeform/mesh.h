@@ -128,6 +128,13 @@ od_Status od_Skin_Deform(const od_Skin* skin, const double* positions, const dou
 void od_ShownOffset(int count, const double* skinned, const double* reference, const double* lock,
 					const float* input, float* offset, float* out);
 
+// od_ShownOffset whose reference is the skin of particle positions (n*3) and rotations (n*9), made in the same pass
+// block by block and never stored: the same bits as od_Skin_Deform into a float64 buffer, then od_ShownOffset.
+// Not from two threads at once on one skin (as od_Skin_Deform).
+od_Status od_Skin_DeformShown(const od_Skin* skin, const double* positions, const double* rotations,
+							  const double* skinned, const double* lock, const float* input, float* offset,
+							  float* out);
+
 // ---------------------------------------------------------------------------------------------------------
 // OBJ and PLY
 
@@ -184,6 +191,11 @@ const double* od_GoalFit_GetWeights(const od_GoalFit* fit);
 // OD_ERROR_ARGUMENT when a vertex used is not finite or a frame overflows (coordinates near 1e308); the
 // outputs are then not frames.
 od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, double* positions, double* rotations);
+// od_GoalFit_Compute of float32 vertices each moved by shift (3, float64): vertex + shift in float64, or the vertex
+// alone where shift is zero (numpy's float64 copy of the vertices, then each column plus the shift where any is
+// nonzero: the same bits). Blender's object-space positions placed by an unturned object's translation.
+od_Status od_GoalFit_ComputeShifted(const od_GoalFit* fit, const float* animated, const double shift[3],
+									double* positions, double* rotations);
 
 #ifdef __cplusplus
 }
