@@ -355,10 +355,10 @@ static od_Touch od_FloorTouch(const od_Sim* sim, int i, od_Vec3 x)
 					   .anchor = od_V3Load(sim->previous.x + 3 * i) };
 }
 
-static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x)
+static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x, od_Centre* centre)
 {
 	od_Touch t = { 0 };
-	t.depth = od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, 0.0, &t.normal);
+	t.depth = od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, 0.0, &t.normal, centre);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(od_V3Load(sim->previous.x + 3 * i), c->ta));
 	t.anchor = od_Add(od_M3MulV(&c->Rb, la), c->tb);
 	return t;
@@ -380,11 +380,12 @@ static od_Touch od_Deepest(const od_Sim* sim, int i, double slack, int* source)
 	}
 	for (int k = 0; k < sim->colliders.count; ++k)
 	{
-		if (!(od_ColliderDepthBound(sim, &sim->colliders.items[k], i, x) > -slack))
+		od_Centre centre = od_ColliderCentre(&sim->colliders.items[k], x);
+		if (!(od_ColliderDepthBound(sim, &sim->colliders.items[k], i, &centre) > -slack))
 		{
 			continue; // its depth is no more: it cannot make the particle near
 		}
-		od_Touch t = od_ColliderTouch(sim, &sim->colliders.items[k], i, x);
+		od_Touch t = od_ColliderTouch(sim, &sim->colliders.items[k], i, x, &centre);
 		if (t.depth > best.depth)
 		{
 			best = t;
@@ -405,7 +406,7 @@ static double od_StartDepth(const od_Sim* sim, int i, int source, double least, 
 		return od_FloorDepth(sim, i, sim->previous.R + 9 * i, x0);
 	}
 	return od_ColliderDepth(sim, &sim->colliders.items[source], i, sim->previous.R + 9 * i, od_V3Load(x0), false, least,
-							normal);
+							normal, NULL);
 }
 
 // How far particle i's ellipsoid reaches along -n at its current rotation R: |diag(r) Ēᵀ Rᵀ n|.
