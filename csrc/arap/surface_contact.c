@@ -821,6 +821,10 @@ static void od_TurnSweep(od_Sim* sim)
 		double gap = s->excess[i] - od_Dot(n, p->move) - od_Dot(p->spin, od_V3Load(row + 2));
 		double next = row[0] + gap * row[1];
 		next = next > 0.0 ? next : 0.0; // not fmax: a call to libm
+		if (next == row[0])
+		{
+			continue; // adds zeros (the sums, begun at +0, are never -0): a clear particle's in every sweep
+		}
 		p->move = od_MulAdd(p->move, (next - row[0]) / p->mass, n);
 		p->spin = od_MulAdd(p->spin, next - row[0], od_V3Load(row + 5));
 		row[0] = next;
