@@ -69,27 +69,57 @@ double od_Support(const od_Mat3* M, od_Vec3 n)
 	return sqrt(od_Dot(n, od_M3MulV(M, n)));
 }
 
+// The centre l's distance to the collider, what `centre` knows of it (NULL: looked up into *own, with the normal
+// where `normal` asks: a sampled mesh's normal is its cell's gradient, most particles are clear of it).
+static od_Centre* od_CentreAt(const od_Collider* body, od_Vec3 l, od_Centre* centre, bool normal, od_Centre* own)
+{
+	if (centre)
+	{
+		return centre;
+	}
+	own->phi = od_Collider_LocalDistance(body, l, normal ? &own->normal : NULL);
+	own->known = normal;
+	return own;
+}
+
+// The normal at centre l, looked up once.
+static od_Vec3 od_CentreNormal(const od_Collider* body, od_Vec3 l, od_Centre* centre)
+{
+	if (!centre->known)
+	{
+		od_Collider_LocalDistance(body, l, &centre->normal);
+		centre->known = true;
+	}
+	return centre->normal;
+}
+
 // How deep an ellipsoid (centre l, moment M, both in the collider's frame) is within `thickness` of the
 // collider's surface (<= 0: clear of it), with the normal along which to push it out. From the centre's
 // distance and normal; a centre outside is refined at the deepest point, unless the normal there turns away
 // (the far side of a thin collider). The normal of a particle clear of the collider only when `clearNormal`
-// (a sampled mesh's normal is six more lookups of its grid: most particles are clear).
+// (most particles are clear).
 static double od_Depth(const od_Collider* body, const od_Mat3* M, od_Vec3 l, double thickness, double reach,
-					   od_Vec3* n, bool clearNormal)
+					   od_Vec3* n, bool clearNormal, od_Centre* centre)
 {
-	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
+	od_Centre own;
+	centre = od_CentreAt(body, l, centre, clearNormal, &own);
+	double phi = centre->phi;
 	if (phi >= reach + thickness)
 	{
+		if (clearNormal)
+		{
+			*n = od_CentreNormal(body, l, centre);
+		}
 		return thickness + reach - phi;
 	}
-	phi = clearNormal ? phi : od_Collider_LocalDistance(body, l, n);
+	*n = od_CentreNormal(body, l, centre);
 	double depth = thickness + od_Support(M, *n) - phi;
-	od_Vec3 centre = *n, m;
+	od_Vec3 centreNormal = *n, m;
 	for (int pass = 0; pass < 2 && phi > 0.0; ++pass)
 	{
 		od_Vec3 deepest = od_MulAdd(l, -1.0 / od_Support(M, *n), od_M3MulV(M, *n));
 		double d = thickness - od_Collider_LocalDistance(body, deepest, &m);
-		if (od_Dot(m, centre) <= 0.0)
+		if (od_Dot(m, centreNormal) <= 0.0)
 		{
 			break;
 		}
@@ -112,14 +142,21 @@ static bool od_Faces(const od_Collider* body, od_Vec3 p, od_Vec3 side)
 // the collider's frame R: the deepest point's, with the normal there, or `least` when none is deeper. A distance
 // is 1-Lipschitz, so a group of points is passed over when the centre's distance, then its own centre's,
 // proves it no deeper than that (a particle resting on a collider looks up the groups near it), and so is a
-// point by its group centre's. With `side`, only points whose normal does not turn away from it count.
+// point by its group centre's. With `side`, only points whose normal does not turn away from it count. A centre
+// already known (`centre`) is not looked up again, and its normal only where it is the answer.
 static double od_PointsDepth(const od_Collider* body, const od_SkinShape* skin, int i, const od_Mat3* turn,
 							 const od_Mat3* R, od_Vec3 l, double thickness, double least, od_Vec3* n,
-							 bool clearNormal, const od_Vec3* side)
+							 bool clearNormal, const od_Vec3* side, od_Centre* centre)
 {
-	double phi = od_Collider_LocalDistance(body, l, clearNormal ? n : NULL);
+	od_Centre own;
+	centre = od_CentreAt(body, l, centre, clearNormal, &own);
+	double phi = centre->phi;
 	if (phi >= skin->reach[i] + thickness)
 	{
+		if (clearNormal)
+		{
+			*n = od_CentreNormal(body, l, centre);
+		}
 		return thickness + skin->reach[i] - phi;
 	}
 	od_Mat3 local = od_M3MulTN(R, turn);
@@ -152,6 +189,10 @@ static double od_PointsDepth(const od_Collider* body, const od_SkinShape* skin, 
 	if (depth > least)
 	{
 		od_Collider_LocalDistance(body, deepest, n);
+	}
+	else if (clearNormal)
+	{
+		*n = od_CentreNormal(body, l, centre);
 	}
 	return depth;
 }
@@ -243,16 +284,17 @@ static void od_BodyAt(const od_Sim* sim, int i, const double* rotation, od_Body*
 }
 
 // od_Depth of the particle's shape (its goal frame's with `goal`) centred at l in the collider's frame R: its
-// ellipsoid (moment M in that frame) or its skin points, whose depth is only sought beyond `least` (>= 0).
+// ellipsoid (moment M in that frame) or its skin points, whose depth is only sought beyond `least` (>= 0); what
+// is known of l's distance in `centre` (NULL: nothing).
 static double od_BodyDepth(const od_Collider* body, const od_Body* b, bool goal, const od_Mat3* R, const od_Mat3* M,
-						   od_Vec3 l, double thickness, double least, od_Vec3* n, bool clearNormal)
+						   od_Vec3 l, double thickness, double least, od_Vec3* n, bool clearNormal, od_Centre* centre)
 {
 	if (b->skin)
 	{
 		return od_PointsDepth(body, b->skin, b->i, goal ? &b->goalR : &b->R, R, l, thickness, least, n, clearNormal,
-							  NULL);
+							  NULL, centre);
 	}
-	return od_Depth(body, M, l, thickness, b->reach, n, clearNormal);
+	return od_Depth(body, M, l, thickness, b->reach, n, clearNormal, centre);
 }
 
 // How deep the particle's ellipsoid at its goal frame is in collider c at its end frame, thickness included
@@ -265,11 +307,11 @@ static double od_GoalDepth(const od_SimCollider* c, const od_Body* b)
 	}
 	od_Mat3 M = od_InFrame(&b->goalM, &c->Rb);
 	od_Vec3 n, l = od_M3MulTV(&c->Rb, od_Sub(b->goalX, c->tb));
-	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, 0.0, &n, false), 0.0);
+	return fmax(od_BodyDepth(&c->body, b, true, &c->Rb, &M, l, c->thickness, 0.0, &n, false, NULL), 0.0);
 }
 
 double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
-						double least, od_Vec3* normal)
+						double least, od_Vec3* normal, od_Centre* centre)
 {
 	const od_Mat3* R = end ? &c->Rb : &c->Ra;
 	od_Vec3 n, l = od_M3MulTV(R, od_Sub(x, end ? c->tb : c->ta));
@@ -277,17 +319,22 @@ double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const
 	od_BodyAt(sim, i, rotation, &b);
 	double thickness = c->thickness - od_GoalDepth(c, &b);
 	od_Mat3 local = b.skin ? b.M : od_InFrame(&b.M, R);
-	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, least, &n, true);
+	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, least, &n, true, end ? centre : NULL);
 	*normal = od_M3MulV(R, n);
 	return depth;
 }
 
+od_Centre od_ColliderCentre(const od_SimCollider* c, od_Vec3 x)
+{
+	od_Vec3 l = od_M3MulTV(&c->Rb, od_Sub(x, c->tb)); // as od_ColliderDepth's at the end frame
+	return (od_Centre){ .phi = od_Collider_LocalDistance(&c->body, l, NULL) };
+}
+
 // Where this is <= 0 the particle is clear by its reach, and od_Depth's and od_PointsDepth's first test returns
 // this less the goal's depth (>= 0): so below any margin < 0 the full depth is too, for any rotation and goal.
-double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x)
+double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, const od_Centre* centre)
 {
-	od_Vec3 l = od_M3MulTV(&c->Rb, od_Sub(x, c->tb));
-	return c->thickness + od_ContactReach(sim, i) - od_Collider_LocalDistance(&c->body, l, NULL);
+	return c->thickness + od_ContactReach(sim, i) - centre->phi;
 }
 
 void od_ColliderFrames(od_SimCollider* c, double s0, double s1)
@@ -335,7 +382,7 @@ static od_Vec3 od_Entry(const od_SimCollider* c, const od_Body* b, const od_Mat3
 	{
 		return l;
 	}
-	if (lo == 0.0 && od_BodyDepth(&c->body, b, false, &R, &M, before, thickness, 0.0, &m, false) > 0.0)
+	if (lo == 0.0 && od_BodyDepth(&c->body, b, false, &R, &M, before, thickness, 0.0, &m, false, NULL) > 0.0)
 	{
 		bool same = od_Dot(m, *n) >= 0.0;
 		*n = same ? *n : m;
@@ -345,7 +392,7 @@ static od_Vec3 od_Entry(const od_SimCollider* c, const od_Body* b, const od_Mat3
 	{
 		double s = 0.5 * (lo + hi);
 		od_Vec3 p = od_PathAt(c, b, Ma, start, x, s, turns, &R, &M);
-		if (od_BodyDepth(&c->body, b, false, &R, &M, p, thickness, 0.0, &m, false) > 0.0)
+		if (od_BodyDepth(&c->body, b, false, &R, &M, p, thickness, 0.0, &m, false, NULL) > 0.0)
 		{
 			hi = s;
 			l = p;
@@ -383,13 +430,14 @@ static od_Vec3 od_FirstContact(const od_SimCollider* c, const od_Body* b, const 
 		double s = (double)k / samples;
 		od_Mat3 R, M;
 		od_Vec3 n, l = od_PathAt(c, b, Ma, start, x, s, turns, &R, &M);
-		double phi = od_Collider_LocalDistance(&c->body, l, NULL), skip = (phi - (b->reach + thickness)) / apart;
-		if (phi >= b->reach + thickness)
+		od_Centre centre = { .phi = od_Collider_LocalDistance(&c->body, l, NULL) };
+		double skip = (centre.phi - (b->reach + thickness)) / apart;
+		if (centre.phi >= b->reach + thickness)
 		{
 			k += turns ? 0 : skip < samples ? (int)skip : samples; // not fmin: a call to libm
 			continue;
 		}
-		if (od_BodyDepth(&c->body, b, false, &R, &M, l, thickness, 0.0, &n, false) > 0.0)
+		if (od_BodyDepth(&c->body, b, false, &R, &M, l, thickness, 0.0, &n, false, &centre) > 0.0)
 		{
 			od_Vec3 met = od_Entry(c, b, Ma, thickness, start, x, (double)(k - 1) / samples, s, l, &n);
 			return od_MulAdd(lb, -fmin(od_Dot(od_Sub(lb, met), n), 0.0), n);
@@ -413,16 +461,16 @@ static od_Vec3 od_StartSide(const od_SimCollider* c, od_Vec3 la)
 // with the skin out). Sphere tracing: moves of φ / √3 along the path never pass a face (a trilinear sample of a
 // mesh's distances changes by at most √3 |Δ|). Only a path whose end the collider's normal turns away from its
 // start's (`side`: the surface it was held against, or its start's normal) is traced: one lookup where the end
-// alone proves the path clear, two or three where it ends on its side (a slide along a ramp).
-static od_Vec3 od_CentreStop(const od_SimCollider* c, od_Vec3 la, od_Vec3 lb, double phiEnd, od_Vec3 side)
+// alone proves the path clear, two or three where it ends on its side (a slide along a ramp). `end`: lb's distance.
+static od_Vec3 od_CentreStop(const od_SimCollider* c, od_Vec3 la, od_Vec3 lb, od_Centre* end, od_Vec3 side)
 {
-	od_Vec3 path = od_Sub(lb, la), n, m;
-	if (od_Dot(path, side) > 0.0 || (phiEnd > 0.0 && phiEnd * phiEnd > 3.0 * od_Dot(path, path)))
+	od_Vec3 path = od_Sub(lb, la), n;
+	if (od_Dot(path, side) > 0.0 || (end->phi > 0.0 && end->phi * end->phi > 3.0 * od_Dot(path, path)))
 	{
 		return lb; // moving away from the surface it was held against, or proven clear by its end
 	}
 	double length = od_Length(path), near = OD_TRACE_NEAR * c->thickness, t = 0.0;
-	od_Collider_LocalDistance(&c->body, lb, &m);
+	od_Vec3 m = od_CentreNormal(&c->body, lb, end);
 	if (od_Dot(m, od_Dot(side, side) > 0.0 ? side : od_StartSide(c, la)) >= 0.0)
 	{
 		return lb;
@@ -441,6 +489,12 @@ static od_Vec3 od_CentreStop(const od_SimCollider* c, od_Vec3 la, od_Vec3 lb, do
 	return lb;
 }
 
+// What is known of l's distance: lb's (centre), where l is lb (the projection's depth where nothing moved it).
+static od_Centre* od_Known(od_Vec3 l, od_Vec3 lb, od_Centre* centre)
+{
+	return od_Same(l, lb) ? centre : NULL;
+}
+
 // One particle against one collider over the step: *x caught, pushed out (if it began inside, by at most
 // its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio. The
 // collider's thickness less the goal's depth in it (od_GoalDepth) is where the contact begins.
@@ -449,8 +503,8 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	od_Vec3 n, lb = od_M3MulTV(&c->Rb, od_Sub(*x, c->tb));
 	double travel = od_Length(od_Sub(*x, start)) + od_Length(od_Sub(c->tb, c->ta)) +
 					od_Length(c->turn) * (od_Length(od_Sub(*x, c->tb)) + od_Length(od_Sub(*x, start)));
-	double phiEnd = od_Collider_LocalDistance(&c->body, lb, NULL);
-	if (phiEnd >= b->reach + c->thickness + travel)
+	od_Centre centre = { .phi = od_Collider_LocalDistance(&c->body, lb, NULL) };
+	if (centre.phi >= b->reach + c->thickness + travel)
 	{
 		return;
 	}
@@ -459,7 +513,7 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(start, c->ta));
 	// With the skin as its shape the centre is not met by the collider: a thin part may pass between its points.
 	od_Vec3 side = b->near ? od_M3MulTV(&c->Rb, b->side) : od_V3(0, 0, 0); // the side it began on (zero: sought)
-	od_Vec3 stop = b->skin ? od_CentreStop(c, la, lb, phiEnd, side) : lb;
+	od_Vec3 stop = b->skin ? od_CentreStop(c, la, lb, &centre, side) : lb;
 	od_Vec3 end = od_Same(stop, lb) ? *x : od_Add(od_M3MulV(&c->Rb, stop), c->tb);
 	// A particle near a still collider since the step's first solve (held by the forces inside the iterations)
 	// met it where it ends: sweeping its slide cost a 1,000-particle Suzanne sliding down a mesh ramp 1.5 ms a step
@@ -469,11 +523,11 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	bool swept = !(b->near && still);
 	double last = 0.0;
 	od_Vec3 l = swept ? od_FirstContact(c, b, &Ma, thickness, start, end, la, stop, &last) : stop;
-	double depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true);
+	double depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true, od_Known(l, lb, &centre));
 	if (!swept && depth > 0.0 && od_Dot(n, side) < 0.0)
 	{
 		l = od_FirstContact(c, b, &Ma, thickness, start, end, la, stop, &last);
-		depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true);
+		depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true, od_Known(l, lb, &centre));
 		swept = true;
 	}
 	bool atEnd = swept && depth > 0.0 && od_Same(l, stop); // met at the end alone, perhaps through a face behind
@@ -481,7 +535,7 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	if (!od_Same(met, l))
 	{
 		l = od_MulAdd(stop, -fmin(od_Dot(od_Sub(stop, met), n), 0.0), n);
-		depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true);
+		depth = od_BodyDepth(&c->body, b, false, &c->Rb, &Mb, l, thickness, 0.0, &n, true, od_Known(l, lb, &centre));
 	}
 	// Skin points beyond the middle of a thin part, their far face nearer, while the particle began on this side
 	// (the surface it was held against, or its centre's) do not count: they would push it through.
@@ -490,7 +544,8 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 		side = b->near ? side : od_StartSide(c, la);
 		if (od_Dot(n, side) < 0.0)
 		{
-			depth = od_PointsDepth(&c->body, b->skin, b->i, &b->R, &c->Rb, l, thickness, 0.0, &n, true, &side);
+			depth = od_PointsDepth(&c->body, b->skin, b->i, &b->R, &c->Rb, l, thickness, 0.0, &n, true, &side,
+								   od_Known(l, lb, &centre));
 		}
 	}
 	if (depth <= 0.0 && od_Same(l, lb) && !(b->hold > 0.0))
@@ -498,7 +553,8 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 		return;
 	}
 	od_Vec3 m; // began inside (what it is not beyond its recovery does not count); sought only here, where it counts
-	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, b->recovery, &m, false) - b->recovery;
+	double left = od_BodyDepth(&c->body, b, false, &c->Ra, &Ma, la, thickness, b->recovery, &m, false, NULL) -
+				  b->recovery;
 	l = od_MulAdd(l, fmax(depth - fmax(left, 0.0), 0.0), n);
 	od_Vec3 moved = od_Add(od_M3MulV(&c->Rb, l), c->tb);
 	od_Vec3 nb = od_M3MulV(&c->Rb, n);

@@ -6,6 +6,15 @@
 #include "math3.h"
 #include "sim.h"
 
+// What a depth query knows of a centre's distance to a collider: φ, and the normal there (in the collider's frame)
+// once looked up. The gathering and the projection asked both two or three times at the same centre.
+typedef struct od_Centre
+{
+	double phi;
+	od_Vec3 normal;
+	bool known; // the normal
+} od_Centre;
+
 // The fraction of a tangential slide that Coulomb friction keeps when it may take at most `limit` of it.
 double od_CoulombKeep(double slide, double limit);
 // Contact over the fraction [s0, s1] of the current call (before: the state at the step's start): moves the
@@ -17,11 +26,14 @@ void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
 // x is within the thickness of collider c at its frame at the step's end (end) or start, less what its goal frame
 // is (goals carrying the rest); the world normal. Skin points are only sought deeper than `least` (>= 0; `least`
 // when none is).
+// `centre`: x's at the end frame (od_ColliderCentre), its normal kept there once looked up; NULL: looked up.
 double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const double* rotation, od_Vec3 x, bool end,
-						double least, od_Vec3* normal);
-// Collider c's thickness plus particle i's contact reach less the distance of centre x at c's end frame (one
-// lookup): where it is <= 0, no less than what od_ColliderDepth gives there, whatever the rotation or goal.
-double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x);
+						double least, od_Vec3* normal, od_Centre* centre);
+// Collider c's at world point x at its end frame: φ alone, one lookup.
+od_Centre od_ColliderCentre(const od_SimCollider* c, od_Vec3 x);
+// Collider c's thickness plus particle i's contact reach less the distance of its centre at c's end frame
+// (od_ColliderCentre): where it is <= 0, no less than what od_ColliderDepth gives there, whatever the rotation or goal.
+double od_ColliderDepthBound(const od_Sim* sim, const od_SimCollider* c, int i, const od_Centre* centre);
 // Particle i's ellipsoid as its moment M = E diag(a², b², c²) Eᵀ (current frame), its largest radius, and how
 // far a particle that began a step inside something may leave it per step (1 m/s).
 od_Mat3 od_ParticleMoment(const od_Sim* sim, int i);
