@@ -1604,6 +1604,15 @@ static double od_TurningCompliance(const od_PairScratch* s, int m, const od_Inte
 static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 {
 	int n = 2 * s->interfaceCount;
+	if (sims[0]->def.dt <= OD_FRICTION_STEP * (1.0 + 1e-9))
+	{
+		for (int e = 0; e < s->interfaceCount; ++e)
+		{
+			od_V3Store(s->interfaces[e].shift, od_V3(0, 0, 0));
+			od_V3Store(s->interfaces[e].slip, od_V3(0, 0, 0));
+		}
+		return;
+	}
 	if (n == 0)
 	{
 		return; // no interface, and no system allocated
@@ -1640,8 +1649,7 @@ static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 		od_Interface* ie = &s->interfaces[e];
 		od_Across(od_V3Load(ie->n), across);
 		od_Vec3 shift = od_MulAdd(od_Scale(x[2 * e], across[0]), x[2 * e + 1], across[1]);
-		bool used = solved && !od_SkinPair_Used(sims[ie->lower], sims[ie->upper]) &&
-					sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
+		bool used = solved && !od_SkinPair_Used(sims[ie->lower], sims[ie->upper]);
 		od_V3Store(ie->shift, used ? od_Scale(1.0 / ie->count, shift) : od_V3(0, 0, 0));
 		od_V3Store(ie->slip, used ? od_V3Load(ie->slip) : od_V3(0, 0, 0));
 	}
