@@ -1445,11 +1445,19 @@ static bool od_InContact(const od_ContactPair* pair)
 	return pair->touching && (pair->gap < 0.0 || pair->force > 0.0);
 }
 
+// Whether the group's friction between members takes their rigid step (od_CoarseFriction): at steps longer than
+// OD_FRICTION_STEP (a group's members step alike).
+static bool od_FrictionStep(od_Sim* const* sims)
+{
+	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
+}
+
 // The interfaces of this update: the near pairs in contact grouped by their members (each pair's index in its
 // `interface`, -1: none; pairs of comparable members only, od_Comparable).
 static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 {
 	s->interfaceCount = 0;
+	bool friction = od_FrictionStep(sims); // what od_CoarseFriction reads, gathered only where it acts
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
@@ -1464,11 +1472,14 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			ie->gap += pair->gap;
 			ie->local += od_OwnCompliance(sims[s->body[pair->a]], s->local[pair->a]) +
 						 od_OwnCompliance(sims[s->body[pair->b]], s->local[pair->b]);
-			od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-			od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
-			od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
-			od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
-			ie->load += pair->force;
+			if (friction)
+			{
+				od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
+				od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
+				od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
+				ie->load += pair->force;
+			}
 		}
 	}
 }
@@ -1604,18 +1615,9 @@ static double od_TurningCompliance(const od_PairScratch* s, int m, const od_Inte
 static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 {
 	int n = 2 * s->interfaceCount;
-	if (sims[0]->def.dt <= OD_FRICTION_STEP * (1.0 + 1e-9))
+	if (n == 0 || !od_FrictionStep(sims))
 	{
-		for (int e = 0; e < s->interfaceCount; ++e)
-		{
-			od_V3Store(s->interfaces[e].shift, od_V3(0, 0, 0));
-			od_V3Store(s->interfaces[e].slip, od_V3(0, 0, 0));
-		}
-		return;
-	}
-	if (n == 0)
-	{
-		return; // no interface, and no system allocated
+		return; // no interface (and no system allocated), or shifts and slips left at none (od_InterfaceOf)
 	}
 	double *a = s->system, *x = s->system + (size_t)n * (size_t)n;
 	od_Vec3 across[2];
