@@ -1172,6 +1172,12 @@ static bool od_Landing(const od_PairScratch* s, int b)
 	return landing;
 }
 
+// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
+static bool od_ShortStep(const od_Sim* sim)
+{
+	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
+}
+
 // Member pair (lower, upper)'s couple this step (od_MemberRolls), added at none if new; NULL when the list cannot
 // grow (out of memory: that pair then has none).
 static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
@@ -1206,7 +1212,7 @@ static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
 // OD_MEMBER_ROLL_STEP (a group's members step alike).
 static void od_MemberRolls(od_PairScratch* s, od_Sim* const* sims, double h2)
 {
-	for (int e = 0; e < s->interfaceCount && sims[0]->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9); ++e)
+	for (int e = 0; e < s->interfaceCount && od_ShortStep(sims[0]); ++e)
 	{
 		const od_Interface* ie = &s->interfaces[e];
 		int l = ie->lower, u = ie->upper;
@@ -1733,6 +1739,55 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 	return status;
 }
 
+// Whether member b rolls on its floor's patch after the projections (surface_contact.c): a member meeting its floor
+// with its skin alone, pressed down by comparable ones, not at an impact.
+static bool od_FloorRolls(const od_PairScratch* s, od_Sim* const* sims, int b)
+{
+	return od_FloorSkinOnly(sims[b]) && od_ShortStep(sims[b]) && sims[b]->surface.force && s->grounded[b] &&
+		   s->load[b] < 0.0 && !od_Landing(s, b);
+}
+
+// Particle p's pair force f along n (towards its member) onto its member's patch when that member rests on a
+// floor-rolling one (n up, OD_HELD_RISE).
+static void od_OnPatch(const od_PairScratch* s, od_Sim* const* sims, int p, int under, double f, od_Vec3 n)
+{
+	od_Sim* sim = sims[s->body[p]];
+	if (sims[under]->surface.rolls == OD_ROLL_FLOOR && n.z > OD_HELD_RISE && sim->surface.rolls != OD_ROLL_FLOOR &&
+		od_FloorSkinOnly(sim) && sim->surface.force && !od_Landing(s, s->body[p]))
+	{
+		int i = s->local[p];
+		sim->surface.push[i] += f;
+		od_V3Store(sim->surface.normal + 3 * i, od_MulAdd(od_V3Load(sim->surface.normal + 3 * i), f, n));
+		sim->surface.rolls = OD_ROLL_MEMBER;
+	}
+}
+
+// The patches that roll the members back after the projections (surface_contact.c): a floor-rolling member's is
+// its floor's lift; one resting on it, its comparable pairs' forces from below.
+static void od_PatchRolls(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+{
+	for (int b = 0; b < count; ++b)
+	{
+		sims[b]->surface.rolls = od_FloorRolls(s, sims, b) ? OD_ROLL_FLOOR : OD_ROLL_NONE;
+		sims[b]->surface.rollFriction = between->friction;
+		if (sims[b]->surface.force && sims[b]->surface.rolls == OD_ROLL_NONE)
+		{
+			memset(sims[b]->surface.push, 0, sizeof(double) * (size_t)sims[b]->graph->n);
+			memset(sims[b]->surface.normal, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
+		}
+	}
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		if (pair->force > 0.0 && od_Comparable(s, pair))
+		{
+			od_Vec3 n = od_V3Load(pair->n);
+			od_OnPatch(s, sims, pair->b, s->body[pair->a], pair->force, n);
+			od_OnPatch(s, sims, pair->a, s->body[pair->b], pair->force, od_Scale(-1.0, n));
+		}
+	}
+}
+
 // The iterations of a group's step with the forces of its pairs between them (see the top of the file): the
 // pairs are those the broad phase found at the end of the last step, the first solve with their forces, then
 // those near after it updated after every solve.
@@ -1776,6 +1831,7 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 	{
 		memset(sims[b]->contactForce, 0, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
 	}
+	od_PatchRolls(s, sims, count, between);
 	s->warmNormals = false;
 	return status;
 }
@@ -2079,6 +2135,7 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 		// inside them, their forces (from zero each step) beside the group's (carried from the last step) left
 		// the upper of two stacked bars on the floor at 0.12 m/s after 6 s (0.013 with the projection).
 		sims[b]->surface.after = forces;
+		sims[b]->surface.rolls = OD_ROLL_NONE;
 		od_Step_Start(sims[b], !forces);
 	}
 	od_Status status = OD_OK;

@@ -54,7 +54,7 @@ double od_FloorDepth(const od_Sim* sim, int i, const double* rotation, const dou
 	return lift;
 }
 
-void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
+void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale, double* lifted)
 {
 	const od_Graph* g = sim->graph;
 	double* x = sim->state.x;
@@ -68,6 +68,10 @@ void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale)
 		}
 		double hold = od_SurfaceContact_Hold(sim, i, OD_SURFACE_FLOOR);
 		angularScale[i] = 1.0;
+		if (lifted)
+		{
+			lifted[i] = lift > 0.0 ? lift : 0.0;
+		}
 		if (!(lift > 0.0) && !(hold > 0.0))
 		{
 			continue;

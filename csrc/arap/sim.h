@@ -131,6 +131,7 @@ typedef struct od_SkinShape
 // force on the right side, its normal part and direction, its friction part, the depth it may keep (began
 // inside), the surface it presses (-1 the floor, k collider k); the particles near a surface after a step's
 // first solve. Made at the first step with a floor or a collider; NULL before.
+enum { OD_ROLL_NONE, OD_ROLL_FLOOR, OD_ROLL_MEMBER };
 typedef struct od_SurfaceContact
 {
 	double* force;   // n*3, zero outside a step's iterations
@@ -156,6 +157,8 @@ typedef struct od_SurfaceContact
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)
+	int rolls; // and a patch rolls it back after the projections (od_SurfaceContact_FloorRoll): OD_ROLL_*
+	double rollFriction; // that patch's μ
 } od_SurfaceContact;
 
 // Particle pairs in contact (body_contact.c): the broad phase's uniform grid over the particles' swept

@@ -237,6 +237,7 @@ od_Status od_Sim_RestoreSurfaceForces(od_Sim* sim, const double* forces, const i
 void od_SurfaceContact_BeginCall(od_Sim* sim, int steps)
 {
 	sim->surface.after = false;
+	sim->surface.rolls = OD_ROLL_NONE;
 	sim->surface.callSteps = steps;
 	sim->surface.callStep = 0;
 	if (sim->surface.carried)
@@ -911,31 +912,13 @@ void od_SurfaceContact_Turn(od_Sim* sim)
 	}
 }
 
-void od_SurfaceContact_Roll(od_Sim* sim)
+// Each pressing piece's turn (od_RollBack) applied to its particles' centres and rotations.
+static void od_ApplyRolls(od_Sim* sim)
 {
-	od_SurfaceContact* s = &sim->surface;
-	if (!s->force || s->after || !s->nearCount || !od_Patches(sim))
-	{
-		return;
-	}
-	od_PatchMoments(sim);
 	const od_Graph* g = sim->graph;
-	for (int p = 0; p < g->pieceCount; ++p)
-	{
-		od_Patch* patch = &s->patch[p];
-		patch->force = patch->held ? 0.0 : patch->force;
-		if (patch->force > 0.0)
-		{
-			od_RollBack(patch, sim->def.dt);
-		}
-	}
-	for (int k = 0; k < s->nearCount; ++k)
-	{
-		s->excess[s->near[k]] = od_HeldDepth(sim, s->near[k]);
-	}
 	for (int i = 0; i < g->n; ++i)
 	{
-		const od_Patch* p = &s->patch[g->piece[i]];
+		const od_Patch* p = &sim->surface.patch[g->piece[i]];
 		if (p->force > 0.0)
 		{
 			od_Vec3 x = od_Sub(od_V3Load(sim->state.x + 3 * i), p->centre);
@@ -945,5 +928,113 @@ void od_SurfaceContact_Roll(od_Sim* sim)
 			od_M3Store(sim->state.R + 9 * i, &r);
 		}
 	}
+}
+
+// Each pressing piece not held by a goal or a constraint rolled back (od_RollBack).
+static void od_RollPieces(od_Sim* sim)
+{
+	od_PatchMoments(sim);
+	for (int p = 0; p < sim->graph->pieceCount; ++p)
+	{
+		od_Patch* patch = &sim->surface.patch[p];
+		patch->force = patch->held ? 0.0 : patch->force;
+		if (patch->force > 0.0)
+		{
+			od_RollBack(patch, sim->def.dt);
+		}
+	}
+}
+
+void od_SurfaceContact_Roll(od_Sim* sim)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (!s->force || s->after || !s->nearCount || !od_Patches(sim))
+	{
+		return;
+	}
+	od_RollPieces(sim);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		s->excess[s->near[k]] = od_HeldDepth(sim, s->near[k]);
+	}
+	od_ApplyRolls(sim);
 	od_KeepOut(sim);
+}
+
+double* od_SurfaceContact_FloorLifts(od_Sim* sim)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->force && s->after && s->rolls == OD_ROLL_FLOOR && sim->hasFloor ? s->push : NULL;
+}
+
+// The patches of a group member's pieces (od_Patches' for the forces): on its floor from the floor's lifts, each
+// lifted particle's normal force m l / h² up; on another member from its pairs' forces there (s->push, s->normal).
+static bool od_GivenPatches(od_Sim* sim, const double* lifted)
+{
+	od_SurfaceContact* s = &sim->surface;
+	const od_Graph* g = sim->graph;
+	memset(s->patch, 0, sizeof(od_Patch) * (size_t)g->pieceCount);
+	double h2 = sim->def.dt * sim->def.dt, mu = lifted ? sim->floorFriction : s->rollFriction;
+	bool any = false;
+	for (int i = 0; i < g->n; ++i)
+	{
+		double f = lifted ? sim->def.density * g->volumes[i] * lifted[i] / h2 : s->push[i];
+		od_Patch* p = &s->patch[g->piece[i]];
+		if (f > 0.0)
+		{
+			p->force += f;
+			p->friction += mu * f;
+			p->spare += mu * f;
+			p->centre = od_MulAdd(p->centre, f, od_V3Load(sim->state.x + 3 * i));
+			p->normal = lifted ? od_V3(0, 0, 1) : od_Add(p->normal, od_V3Load(s->normal + 3 * i));
+			any = true;
+		}
+	}
+	for (int p = 0; any && p < g->pieceCount; ++p)
+	{
+		od_Patch* patch = &s->patch[p];
+		if (patch->force > 0.0)
+		{
+			patch->centre = od_Scale(1.0 / patch->force, patch->centre);
+			patch->normal = od_Scale(1.0 / od_Length(patch->normal), patch->normal);
+		}
+	}
+	for (int i = 0; any && i < g->n; ++i)
+	{
+		od_Patch* p = &s->patch[g->piece[i]];
+		double f = lifted ? sim->def.density * g->volumes[i] * lifted[i] / h2 : s->push[i];
+		od_Vec3 d = od_Sub(od_V3Load(sim->state.x + 3 * i), p->centre);
+		d = od_MulAdd(d, -od_Dot(d, p->normal), p->normal);
+		p->spread += f > 0.0 ? f * od_Dot(d, d) / p->force : 0.0;
+	}
+	return any;
+}
+
+// The normal of particle i's share of a given patch (od_GivenPatches): up on the floor, else its pairs' mean.
+static od_Vec3 od_GivenNormal(const od_Sim* sim, int i, const double* lifted)
+{
+	od_Vec3 n = od_V3Load(sim->surface.normal + 3 * i);
+	return lifted ? od_V3(0, 0, 1) : od_Scale(1.0 / od_Length(n), n);
+}
+
+void od_SurfaceContact_FloorRoll(od_Sim* sim, const double* lifted)
+{
+	od_SurfaceContact* s = &sim->surface;
+	if (s->rolls == OD_ROLL_NONE || !s->after || !od_GivenPatches(sim, lifted))
+	{
+		return;
+	}
+	od_RollPieces(sim);
+	const double* bears = lifted ? lifted : s->push;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		s->excess[i] = bears[i] > 0.0 ? od_Dot(od_GivenNormal(sim, i, lifted), od_V3Load(sim->state.x + 3 * i)) : 0.0;
+	}
+	od_ApplyRolls(sim);
+	for (int i = 0; i < sim->graph->n; ++i) // a bearing particle not turned into what it bears on
+	{
+		od_Vec3 n = bears[i] > 0.0 ? od_GivenNormal(sim, i, lifted) : od_V3(0, 0, 0);
+		double back = s->excess[i] - od_Dot(n, od_V3Load(sim->state.x + 3 * i));
+		od_V3Store(sim->state.x + 3 * i, od_MulAdd(od_V3Load(sim->state.x + 3 * i), back > 0.0 ? back : 0.0, n));
+	}
 }

@@ -28,6 +28,10 @@ void od_SurfaceContact_Forget(od_Sim* sim);
 // After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
 // patch's moment μ N a over the step (see surface_contact.c).
 void od_SurfaceContact_Roll(od_Sim* sim);
+// The same for a group member whose floor acts after the iterations alone and meets its skin (body_contact.c):
+// where the floor's projection writes its lifts (NULL: no such member), then the roll from them.
+double* od_SurfaceContact_FloorLifts(od_Sim* sim);
+void od_SurfaceContact_FloorRoll(od_Sim* sim, const double* lifted);
 // After the iterations, before the projections: each piece left inside a surface's plane turned as a rigid body
 // would be to come out (see surface_contact.c).
 void od_SurfaceContact_Turn(od_Sim* sim);
