@@ -57,7 +57,12 @@
 // the landing in it), and the upper one rests on top (0.26-0.29 m aside, 2.02 before; docs/contact.md, "Stacks",
 // twelfth round: a marginal stack, off from 1.02 m on either). With its skin between the members too they stay:
 // without them the blobs of tests/test_skin_pairs.py dropped on each other went 6.1 % of their size into each other
-// (2 % the bound). Such a member still braces (above).
+// (2 % the bound). Such a member still braces (above). Its floor so resisted no lean: two of the add-on's Jelly
+// spheres stacked tipped over as one and rolled off (1.45 m aside at 3 s). So, at steps of OD_MEMBER_ROLL_STEP or
+// shorter and outside impacts (od_Landing), one that comparable members press onto its floor rolls back on its
+// floor's patch after the projections, as a lone body does (surface_contact.c, od_SurfaceContact_GroupRoll: the
+// patch from the floor's lifts), and one of the same kind resting on it on its pairs' patch there
+// (od_PatchRolls): Jelly 0.077 m aside at 3 s, Flesh 0.044 (0.87 m before; docs/contact.md, "Stacks", stop 37).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them

@@ -157,7 +157,7 @@ typedef struct od_SurfaceContact
 	int nearCount, callSteps, callStep, updates; // updates: the forces' in this step
 	bool gathered;
 	bool after; // this step's contact after the iterations only (a member of a group with forces, body_contact.c)
-	int rolls; // and a patch rolls it back after the projections (od_SurfaceContact_FloorRoll): OD_ROLL_*
+	int rolls; // and a patch rolls it back after the projections (od_SurfaceContact_GroupRoll): OD_ROLL_*
 	double rollFriction; // that patch's μ
 } od_SurfaceContact;
 

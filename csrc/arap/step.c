@@ -389,7 +389,7 @@ void od_Step_Finish(od_Sim* sim, int k, int steps)
 		od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps);
 	}
 	od_SurfaceContact_Roll(sim);
-	od_SurfaceContact_FloorRoll(sim, lifted);
+	od_SurfaceContact_GroupRoll(sim, lifted);
 	od_UpdateVelocities(sim, &sim->previous);
 	sim->counters.steps++;
 	sim->goals.step++;

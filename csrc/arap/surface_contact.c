@@ -81,6 +81,12 @@
 // friction, a the force-weighted spread of their centres along the surface), turned about the patch centre as
 // far as the friction its forces left unused allows (so the patch stays put, as in rolling), never so that the
 // kinetic energy rises. Pieces held by a goal or a constraint are left as they are.
+// A group member whose floor acts after the iterations (body_contact.c) has no forces here: where its skin meets
+// its floor (the add-on's default) the patch is the floor's lifts in the step's projection, each lifted particle's
+// normal force m l / h² (od_SurfaceContact_GroupRoll); for a member resting on such a one, its pairs' normal
+// forces there (s->push, s->normal, written by body_contact.c). Their friction is all taken as unused (the
+// projections' acts on the step before), and a bearing particle the turn moves into what it bears on is put back
+// along its normal.
 #include "surface_contact.h"
 
 #include "check.h"
@@ -1017,7 +1023,7 @@ static od_Vec3 od_GivenNormal(const od_Sim* sim, int i, const double* lifted)
 	return lifted ? od_V3(0, 0, 1) : od_Scale(1.0 / od_Length(n), n);
 }
 
-void od_SurfaceContact_FloorRoll(od_Sim* sim, const double* lifted)
+void od_SurfaceContact_GroupRoll(od_Sim* sim, const double* lifted)
 {
 	od_SurfaceContact* s = &sim->surface;
 	if (s->rolls == OD_ROLL_NONE || !s->after || !od_GivenPatches(sim, lifted))

@@ -28,10 +28,11 @@ void od_SurfaceContact_Forget(od_Sim* sim);
 // After the projections: rolling resistance, each connected piece's rigid turn cut by at most its contact
 // patch's moment μ N a over the step (see surface_contact.c).
 void od_SurfaceContact_Roll(od_Sim* sim);
-// The same for a group member whose floor acts after the iterations alone and meets its skin (body_contact.c):
-// where the floor's projection writes its lifts (NULL: no such member), then the roll from them.
+// The same for a group member whose contact acts after the iterations (body_contact.c sets sim->surface.rolls):
+// where the floor's projection writes its lifts (NULL: none rolls on its floor), then the roll on the floor's
+// patch from those lifts, or on the one body_contact.c gave (its pairs' forces).
 double* od_SurfaceContact_FloorLifts(od_Sim* sim);
-void od_SurfaceContact_FloorRoll(od_Sim* sim, const double* lifted);
+void od_SurfaceContact_GroupRoll(od_Sim* sim, const double* lifted);
 // After the iterations, before the projections: each piece left inside a surface's plane turned as a rigid body
 // would be to come out (see surface_contact.c).
 void od_SurfaceContact_Turn(od_Sim* sim);
