@@ -419,6 +419,12 @@ def _suzanne_stack(on_floor):
         obj.opdeform.use_floor = on_floor
         bpy.ops.opdeform.enable(object=obj.name)
         assert obj.opdeform.enabled and not obj.opdeform.error, obj.opdeform.error
+    _on_top(low, high, "suzanne_stack " + ("floor" if on_floor else "plane"))
+
+
+def _on_top(low, high, name, within=math.inf):
+    """Plays to 13 s: from 3 s on, each whole second, the upper's centre stays above the lower's highest vertex and
+    within ``within`` of it aside, every vertex at rest (printed as OPDEFORM_RESULT ``name``)."""
     before = None  # the frame before each whole second's
     for f in range(1, 13 * H.FPS + 1):
         bpy.context.scene.frame_set(f)
@@ -432,9 +438,10 @@ def _suzanne_stack(on_floor):
             above = float(upper[:, 2].mean() - lower[:, 2].max())
             aside = float(np.linalg.norm(upper[:, :2].mean(axis=0) - lower[:, :2].mean(axis=0)))
             speed = max(np.abs(a - b).max() for a, b in zip(shown, before)) * H.FPS
-            print("OPDEFORM_RESULT suzanne_stack", "floor" if on_floor else "plane", f // H.FPS, "s above_top_m",
-                  round(above, 3), "aside_m", round(aside, 3), "speed_m_s", round(speed, 4))
+            print("OPDEFORM_RESULT", name, f // H.FPS, "s above_top_m", round(above, 3), "aside_m", round(aside, 3),
+                  "speed_m_s", round(speed, 4))
             assert above > 0.2, f"at {f // H.FPS} s the upper's centre is {above:.3f} m above the lower's top"
+            assert aside < within, f"at {f // H.FPS} s the upper's centre is {aside:.3f} m aside"
             assert speed < 0.05, f"at {f // H.FPS} s a vertex moves at {speed:.3f} m/s"
 
 
@@ -450,6 +457,24 @@ def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
     their skins and each other with their ellipsoids, so it holds neither inside the iterations and steps as the
     Collision plane; before, the upper one was thrown off at its landing)."""
     _suzanne_stack(on_floor=True)
+
+
+def test_two_rubber_spheres_stacked_on_their_skins_stay_on_top():
+    """Object Shape Skin: two UV spheres (radius 0.5 m, Blender's default) at the panel's defaults (Rubber), the
+    lower on the Floor, the upper's centre 2 m up; from 3 to 13 s it rests on top (docs/contact.md, "Stacks", stop
+    37, skinstack; before it, they tipped over as one and the upper lay 1.7 m aside)."""
+    balls = []
+    for name, z in (("LowBall", 0.5), ("HighBall", 2.0)):
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.0, 0.0, z))
+        obj = bpy.context.active_object
+        obj.name = name
+        obj.opdeform.use_floor = True
+        obj.opdeform_contact.object_shape = 'SKIN'
+        bpy.ops.opdeform.enable(object=obj.name)
+        assert obj.opdeform.enabled and not obj.opdeform.error, obj.opdeform.error
+        balls.append(obj)
+    bpy.context.scene.frame_end = 13 * H.FPS
+    _on_top(*balls, "skin_spheres", within=0.1)
 
 
 def box(location, name, shape, **settings):
