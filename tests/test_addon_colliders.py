@@ -382,3 +382,19 @@ def test_soft_spheres_stacked_on_the_floor_stay_on_top(preset):
     _assert_on_top(seconds)
     assert all(aside < 0.2 for _, aside, _ in seconds.values()), seconds
     assert rise <= 0.0, rise
+
+
+def test_two_rubber_spheres_stacked_on_their_skins_stay_on_top():
+    """Object Shape Skin (the members meet on their skins): two Rubber UV spheres (radius 0.5 m, Blender's default 32
+    x 16), the lower on the panel's Floor, the upper's centre 2 m up (it lands at 3.1 m/s); from 3 to 13 s it rests
+    on top (docs/contact.md, "Stacks", stop 37, skinstack: 0.03 m aside; before, a skin pair's re-aimed normal lifted
+    their interface in the members' rigid step and, with no rolling couple between skins nor on the floor, they
+    tipped over as one: 1.6 m aside at 13 s)."""
+    v, t = _octasphere(0.5, 16)
+    lifts = (0.5, 2.0)
+    low, high = (_panel_engine(v, t, lift, (0.0, 0.5)) for lift in lifts)
+    for e in (low, high):
+        e.set_contact(None, (0.005, 0.5, True))
+    seconds, _ = _stack_seconds(low, high, lifts)
+    for second, (above, aside, fastest) in seconds.items():
+        assert above > 0.4 and aside < 0.1 and fastest < 0.05, (second, above, aside, fastest)

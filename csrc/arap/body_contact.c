@@ -73,9 +73,12 @@
 // against its rotation since the step's start, at most OD_ROLL_REACH times that push times its bearing particles'
 // mean largest radius (the patch each stands for), as a rigid rotation's forces (no net force, no strain); it
 // starts at none each step (so it is no part of the group's state), is held after OD_ROLL_UPDATES updates and
-// is left out at an impact (OD_ROLL_LANDING). A member that meets its floor with its skin (od_Sim_SetContactSkin:
-// the add-on's) takes none: the bound is its ellipsoids' patch, and the add-on's firm blobs (k = 1e7, 24 fps) crept
-// 0.097 m apart in 4 s with it, 0.036 without (test_two_firm_blobs_dropped_one_on_the_other_come_to_rest_stacked).
+// is left out at an impact (OD_ROLL_LANDING). A member that meets its floor with its skin and the others with its
+// ellipsoids (od_FloorSkinOnly: the add-on's default) takes none: the bound is its ellipsoids' patch, and the
+// add-on's firm blobs (k = 1e7, 24 fps) crept 0.097 m apart in 4 s with it, 0.036 without
+// (test_two_firm_blobs_dropped_one_on_the_other_come_to_rest_stacked). One that meets the others with its skin too
+// takes it, as it takes the floor's reaction: without it two Rubber spheres stacked on their skins tipped over as
+// one, the lower rolling on its floor (docs/contact.md, "Stacks", stop 37, skinstack).
 // Between two comparable members in contact (od_MemberRolls) a couple of the same kind and bound acts against their
 // relative turn, on the upper one and its negative on the lower (no net force or torque), the interface's normal
 // force as the push: a subdivided Suzanne dropped on another at the add-on's defaults (240 steps a second, the
@@ -1212,8 +1215,8 @@ static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
 // Rolling resistance between members (see the top of the file): each interface's couple on its upper member (its
 // negative on the lower) grows against their relative rotation since the step's start about axes across the
 // interface's normal (dual ascent at the rate of the two as rigid bodies, h² (I_l⁻¹ + I_u⁻¹) per newton metre),
-// within OD_ROLL_REACH times the interface's normal force times its particles' mean largest radius. Not between
-// skins (od_SkinPair_Used: the bound is the ellipsoids' patch), at an impact (od_Landing) nor at steps longer than
+// within OD_ROLL_REACH times the interface's normal force times its particles' mean largest radius (between skins
+// too, the skin's patch as wide as the ellipsoids'). Not at an impact (od_Landing) nor at steps longer than
 // OD_MEMBER_ROLL_STEP (a group's members step alike).
 static void od_MemberRolls(od_PairScratch* s, od_Sim* const* sims, double h2)
 {
@@ -1221,8 +1224,7 @@ static void od_MemberRolls(od_PairScratch* s, od_Sim* const* sims, double h2)
 	{
 		const od_Interface* ie = &s->interfaces[e];
 		int l = ie->lower, u = ie->upper;
-		od_MemberCouple* mc = od_SkinPair_Used(sims[l], sims[u]) || od_Landing(s, l) || od_Landing(s, u) ? NULL
-																										  : od_CoupleOf(s, l, u);
+		od_MemberCouple* mc = od_Landing(s, l) || od_Landing(s, u) ? NULL : od_CoupleOf(s, l, u);
 		double push = 0.0, reach = 0.0;
 		for (int k = 0; mc && k < s->nearCount; ++k)
 		{
@@ -1266,7 +1268,7 @@ static void od_Rolls(od_PairScratch* s, od_Sim* const* sims, int count, double h
 	{
 		const od_Sim* sim = sims[b];
 		od_Vec3 couple = od_V3(0, 0, 0);
-		if (s->held[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b) && !od_SkinShape_Used(sim))
+		if (s->held[b] > 0 && s->load[b] < 0.0 && !od_Landing(s, b) && !od_FloorSkinOnly(sim))
 		{
 			double reach = 0.0;
 			for (int i = 0; i < sim->graph->n; ++i)
@@ -1463,6 +1465,17 @@ static bool od_FrictionStep(od_Sim* const* sims)
 	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
 }
 
+// A pair's gap as its interface's mean gap counts it (od_Coarse): a skin pair's (od_SkinPair_Used) none beyond
+// contact. Its normal, the separating axis re-aimed at every update, can turn and find it a few mm apart at once,
+// which the members' rigid step read as the whole interface lifting: two Rubber spheres at rest on each other, one
+// of the upper's four pairs found 1.6 mm apart, took 70 % of its weight off the interface for an update and put 145 %
+// back at the next; kicked so from rest, the two tipped over (docs/contact.md, "Stacks", stop 37, skinstack). The
+// pair's own update lets its force go (od_UpdatePair).
+static double od_CoarseGap(od_Sim* const* sims, const od_PairScratch* s, const od_ContactPair* pair)
+{
+	return od_SkinPair_Used(sims[s->body[pair->a]], sims[s->body[pair->b]]) ? fmin(pair->gap, 0.0) : pair->gap;
+}
+
 // The interfaces of this update: the near pairs in contact grouped by their members (each pair's index in its
 // `interface`, -1: none; pairs of comparable members only, od_Comparable).
 static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
@@ -1480,7 +1493,7 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			od_Interface* ie = &s->interfaces[e];
 			ie->count++;
 			od_V3Store(ie->n, od_Add(od_V3Load(ie->n), od_V3Load(pair->n)));
-			ie->gap += pair->gap;
+			ie->gap += od_CoarseGap(sims, s, pair);
 			ie->local += od_OwnCompliance(sims[s->body[pair->a]], s->local[pair->a]) +
 						 od_OwnCompliance(sims[s->body[pair->b]], s->local[pair->b]);
 			if (friction)
