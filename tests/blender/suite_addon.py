@@ -272,6 +272,30 @@ def test_settings_outdate_caches():
     assert H.runtime().bake_outdated(obj, bpy.context.scene)  # the scene's gravity counts
 
 
+def test_keyed_and_scripted_settings_take_effect_on_the_next_frame():
+    """Settings read from Blender's stored values (parameters.stored): a keyframed stiffness, one set by a script
+    back to its default, and the contact settings each reach the simulation on the next frame."""
+    obj = _enable_bar()
+    s = obj.opdeform
+    default = s.stiffness
+    s.stiffness = 2.0 * default
+    s.keyframe_insert("stiffness", frame=1)
+    s.stiffness = 4.0 * default
+    s.keyframe_insert("stiffness", frame=5)
+    rt = H.runtime().get(obj)
+    for frame in (1, 3, 5):
+        bpy.context.scene.frame_set(frame)
+        assert abs(rt.engine.sim.params["stiffness"] - s.stiffness) < 1e-9, (frame, s.stiffness)
+    assert abs(s.stiffness - 4.0 * default) < 1e-6
+    obj.animation_data_clear()
+    s.stiffness = default
+    bpy.context.scene.frame_set(6)
+    assert abs(rt.engine.sim.params["stiffness"] - default) < 1e-9
+    obj.opdeform_contact.use_self_collision = not obj.opdeform_contact.use_self_collision
+    bpy.context.scene.frame_set(7)
+    assert (rt.engine.self_contact is not None) == obj.opdeform_contact.use_self_collision
+
+
 def test_object_transform_and_floor():
     v, t = H.box_mesh((-0.3, -0.3, -0.3), (0.3, 0.3, 0.3), (5, 5, 5))
     obj = H.mesh_object("Box", v, t, location=(0.0, 0.0, 1.0))
