@@ -633,7 +633,7 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     rt = H.runtime().get(obj)
     assert rt.attached == () and not obj.opdeform.error, (rt.attached, obj.opdeform.error)
     panels = importlib.import_module(H.ADDON + ".blender.panels")
-    assert not [w for w in panels.warnings(rt, 1) if "detached" in w]
+    assert not [w for w in panels.warnings(rt, 1) if "detached" in w]  # the trunk's top follows at 1
     off = []
     with watched():
         for frame in range(1, 31):
@@ -644,6 +644,28 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     assert off[:, down == 0.0].max() < 1e-3, off[:, down == 0.0].max()
     assert off[:12, down > 0.9].max() > 0.005, off[:12, down > 0.9].max()
     assert off[-1].max() < 2e-3, off[-1].max()
+
+
+def test_rigged_shells_painted_loose_all_over_are_named():
+    """The small shells of a rigged mesh painted 0.1 all over hold to the body by one edge each: the panel names
+    them and says to paint Follow 1 where they meet the body; painted 1 somewhere, nothing is said."""
+    obj, centres = _creature()
+    body = np.arange(len(obj.data.vertices)) < len(obj.data.vertices) - SHELLS * 42  # the shells come last
+    _rigged(obj, np.where(body, 1.0, 0.1))
+    bpy.ops.opdeform.enable(object=obj.name)
+    rt = H.runtime().get(obj)
+    panels = importlib.import_module(H.ADDON + ".blender.panels")
+    text = [w for w in panels.warnings(rt, 1) if "Follow under 1" in w]
+    assert len(text) == 1 and f"{SHELLS} detached shells" in text[0], text
+    assert "42 vertices at (0.60, 0.00, 1.00)" in text[0] and "Follow 1 where it meets" in text[0], text
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='WEIGHT_PAINT')  # a repaint is read again after the object leaves Object Mode
+    obj.vertex_groups["follow"].add(np.where(~body)[0][:1].tolist(), 1.0, 'REPLACE')  # the first shell's
+    bpy.context.view_layer.update()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.scene.frame_set(2)
+    text = [w for w in panels.warnings(rt, 2) if "Follow under 1" in w]
+    assert len(text) == 1 and f"{SHELLS - 1} detached shells" in text[0], text
 
 
 def test_one_piece_names_no_shell():

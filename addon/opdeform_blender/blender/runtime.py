@@ -103,6 +103,9 @@ def build(obj, scene, depsgraph=None):
         raise AddonError(f"{obj.name}: {exc}") from None
     rt = Runtime(engine, graph_key(s), pins)
     rt.attached = checks.attached_pieces(od, engine.graph, engine.rest, engine.triangles, engine.rest_local)
+    if small_pieces(obj) == "own":
+        piece, count = checks.vertex_pieces(engine.rest, engine.triangles)
+        rt.pieces = piece if count > 1 else None
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:
