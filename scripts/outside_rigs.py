@@ -91,6 +91,16 @@ def link(obj):
     return obj
 
 
+def smooth_object(name, bm):
+    """A mesh object of the bmesh (freed), smooth shaded, in the scene."""
+    mesh = bpy.data.meshes.new(name)
+    bm.to_mesh(mesh)
+    bm.free()
+    for p in mesh.polygons:
+        p.use_smooth = True
+    return link(bpy.data.objects.new(name, mesh))
+
+
 def gob_mesh():
     names = list(GOB_NODES)
     me = bpy.data.meshes.new("GobSkel")
@@ -115,13 +125,7 @@ def gob_mesh():
     for c in BUTTONS:
         r = bmesh.ops.create_uvsphere(bm, u_segments=8, v_segments=6, radius=0.022)
         bmesh.ops.translate(bm, verts=r["verts"], vec=c)
-    mesh = bpy.data.meshes.new("Gob")
-    bm.to_mesh(mesh)
-    bm.free()
-    obj = link(bpy.data.objects.new("Gob", mesh))
-    for p in mesh.polygons:
-        p.use_smooth = True
-    return obj
+    return smooth_object("Gob", bm)
 
 
 def gob_bones():
@@ -175,13 +179,7 @@ def ellie_mesh():
     for x in (0.25, -0.25):
         for y in (0.4, -0.4):
             piece(bm, tube(0.11, 0.11, 0.8, 12, 3), move=(x, y, 0.8))  # legs
-    mesh = bpy.data.meshes.new("Ellie")
-    bm.to_mesh(mesh)
-    bm.free()
-    obj = link(bpy.data.objects.new("Ellie", mesh))
-    for p in mesh.polygons:
-        p.use_smooth = True
-    return obj
+    return smooth_object("Ellie", bm)
 
 
 def ellie_bones():
@@ -527,14 +525,7 @@ if VARIANT == "open":
     install()
     bpy.ops.wm.open_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
     obj = bpy.data.objects["Gob" if RIG == "gob" else "Ellie"]
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = obj.evaluated_get(dg)
-    me = ev.to_mesh()
-    a = np.empty(len(me.vertices) * 3, np.float32)
-    me.vertices.foreach_get("co", a)
-    ev.to_mesh_clear()
-    m = np.array(ev.matrix_world)
-    a = a.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
+    a = world(obj)
     ref = np.load(os.path.join(OUT, f"{RIG}_{KIND}_f30.npy"))
     print("REOPEN frame", bpy.context.scene.frame_current, "max diff mm", 1e3 * np.abs(a - ref).max(),
           "error", obj.opdeform.error)

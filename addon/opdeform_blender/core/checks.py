@@ -137,23 +137,23 @@ def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
     return tuple(sorted(out, key=lambda x: -x[0]))
 
 
-def hanging_text(pieces, shown=3):
+def hanging_text(pieces):
     """The panel's warning for hanging_pieces (None when there are none)."""
-    if not pieces:
-        return None
-    named = ", ".join(f"{n} vertices at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f})" for n, c in pieces[:shown])
-    more = f" and {len(pieces) - shown} more" if len(pieces) > shown else ""
-    return (f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} with Follow under 1 all over ({named}"
-            f"{more}): each is held to the body by one edge at most and drifts back slowly after the motion; "
-            "paint Follow 1 where it meets the body")
+    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body by one edge at most and "
+                        "drifts back slowly after the motion; paint Follow 1 where it meets the body")
 
 
-def attached_text(pieces, shown=3):
+def attached_text(pieces):
     """The panel's warning for attached_pieces (None when there are none)."""
+    return _shells_text(pieces, "without particles", "each moves rigidly with the nearest large piece, whatever "
+                        "the particle count; to make one jiggle, join it to the body (Merge by Distance, Bridge) "
+                        "or give it an OPDeform object of its own")
+
+
+def _shells_text(pieces, what, advice, shown=3):
+    """"N detached shells <what> (the first ``shown`` by size and centre): <advice>", None without pieces."""
     if not pieces:
         return None
     named = ", ".join(f"{n} vertices at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f})" for n, c in pieces[:shown])
     more = f" and {len(pieces) - shown} more" if len(pieces) > shown else ""
-    return (f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} without particles ({named}{more}): "
-            "each moves rigidly with the nearest large piece, whatever the particle count; to make one jiggle, "
-            "join it to the body (Merge by Distance, Bridge) or give it an OPDeform object of its own")
+    return f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} {what} ({named}{more}): {advice}"
