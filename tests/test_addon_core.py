@@ -295,6 +295,20 @@ def test_attached_pieces_are_found_and_named():
     assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None
 
 
+def test_pieces_loose_all_over_are_named():
+    """Of a mesh's pieces, those but the largest whose Follow is under 1 everywhere (held to the body by one edge
+    at most), by size and centre; a piece with one vertex at 1, the largest piece, or no goal: nothing."""
+    piece = np.array([0] * 6 + [1] * 3 + [2] * 2 + [-1])
+    follow = np.array([0.0] * 6 + [0.2, 0.5, 0.3] + [0.1, 1.0] + [0.0])
+    shown = np.arange(36.0).reshape(12, 3)
+    found = checks.hanging_pieces(piece, follow, shown)
+    assert found == ((3, tuple(shown[6:9].mean(axis=0))),), found
+    text = checks.hanging_text(found)
+    assert text.startswith("1 detached shell with Follow under 1 all over (3 vertices at (21.00") and "Follow 1" in text
+    assert checks.hanging_pieces(None, follow, shown) == () and checks.hanging_pieces(piece, None, shown) == ()
+    assert checks.hanging_text(()) is None
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""

@@ -202,6 +202,18 @@ def test_error_mesh_without_faces():
     assert H.state_of(obj) == before
 
 
+def test_error_names_the_modifier_or_conversion_that_makes_the_surface():
+    """A skeleton of edges under a Skin modifier (the surface the artist sees is the modifier's), and a
+    metaball: the report says what to apply or convert (an outside tester built both)."""
+    wire = H.mesh_object("Skeleton", [(0, 0, 0), (0, 0, 1), (0.5, 0, 1.5)], edges=[(0, 1), (1, 2)])
+    wire.modifiers.new("Skin", 'SKIN')
+    H.expect_error(lambda: bpy.ops.opdeform.enable(object=wire.name), "no faces", "'Skin' modifier", "apply")
+    ball = bpy.data.objects.new("Ball", bpy.data.metaballs.new("Ball"))
+    bpy.context.scene.collection.objects.link(ball)
+    H.expect_error(lambda: bpy.ops.opdeform.enable(object=ball.name), "not a mesh", "Convert > Mesh")
+    assert not wire.opdeform.enabled and not ball.opdeform.enabled
+
+
 def test_error_non_mesh_object():
     empty = bpy.data.objects.new("Empty", None)
     bpy.context.scene.collection.objects.link(empty)

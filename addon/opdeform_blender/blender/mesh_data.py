@@ -6,19 +6,26 @@ import numpy as np
 from .compiled import AddonError
 
 
+CONVERTIBLE = ('META', 'CURVE', 'SURFACE', 'FONT')  # objects Blender converts to a mesh
+SURFACE_MAKERS = ('SKIN', 'SCREW')  # modifiers that make faces of a mesh of edges
+
+
 def check_object(obj):
     if obj is None:
         raise AddonError("no object: select a mesh object or pass object=NAME")
     if obj.type != 'MESH':
         kind = obj.type.lower()
         article = "an" if kind[0] in "aeiou" else "a"
+        convert = " (Object > Convert > Mesh first)" if obj.type in CONVERTIBLE else ""
         raise AddonError(f"{obj.name!r} is {article} {kind} object, not a mesh: oriented particles simulate "
-                         "meshes")
+                         f"meshes{convert}")
     mesh = obj.data
     if len(mesh.vertices) == 0:
         raise AddonError(f"mesh {mesh.name!r} has no vertices")
     if len(mesh.polygons) == 0:
-        raise AddonError(f"mesh {mesh.name!r} has no faces: oriented particles need a surface or a volume")
+        makers = [m.name for m in obj.modifiers if m.type in SURFACE_MAKERS]
+        made = f" (its surface is the {makers[0]!r} modifier's: apply it first)" if makers else ""
+        raise AddonError(f"mesh {mesh.name!r} has no faces: oriented particles need a surface or a volume{made}")
     if obj.mode == 'EDIT':
         raise AddonError(f"{obj.name!r} is in Edit Mode: leave it first")
 

@@ -62,6 +62,9 @@ def warnings(rt, frame):
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)
+    hanging = checks.hanging_text(checks.hanging_pieces(rt.pieces, rt.engine.follow, rt.engine.rest_local))
+    if hanging:
+        out.append(hanging)
     if rt.engine.behind:
         out.append(f"Catching up: {rt.engine.behind:,} frames to go (Esc stops)")
     return out

@@ -97,11 +97,15 @@ def build(obj, scene, depsgraph=None):
         except handle_math.HandleError as exc:
             raise AddonError(str(exc)) from None
     try:
-        engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors)
+        engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors,
+                        small_pieces(obj))
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     rt = Runtime(engine, graph_key(s), pins)
     rt.attached = checks.attached_pieces(od, engine.graph, engine.rest, engine.triangles, engine.rest_local)
+    if small_pieces(obj) == "own":
+        piece, count = checks.vertex_pieces(engine.rest, engine.triangles)
+        rt.pieces = piece if count > 1 else None
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:
@@ -116,6 +120,14 @@ def build(obj, scene, depsgraph=None):
         s.error = ""
     show_rest(obj, rt)
     return rt
+
+
+def small_pieces(obj):
+    """What the graph makes of a detached shell under a tenth of the largest piece (opdeform.graph): on a mesh
+    an Armature deforms, particles of its own ("own": a kitbashed ear, trunk, tail, eye or button follows its
+    painted Follow and jiggles; attached, each moved rigidly with the body whatever was painted); else
+    attached rigidly to the nearest large piece ("attach")."""
+    return "own" if presets.rigged(obj) else "attach"
 
 
 def ensure(obj, scene, depsgraph=None):

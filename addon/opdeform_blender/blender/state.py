@@ -25,6 +25,7 @@ class Runtime:
         self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
         self.pins = pins  # (indices, weights) read from the pin group at Build
         self.attached = ()  # the mesh's pieces without particles, found at Build (core/checks.attached_pieces)
+        self.pieces = None  # each vertex's mesh piece where detached shells have particles of their own, else None
         # group name -> per-vertex weights of the painted maps (follow, softness, damping), read when first
         # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
         self.groups = {}

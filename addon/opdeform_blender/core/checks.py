@@ -2,12 +2,15 @@
 the steps (per frame, from the handle targets), and too few particles across the mesh's thinnest part (at
 Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py), the thin
 appendages with under three particles along them (at Build), and the detached shells that got no particles of their own (at Build: the core attaches a piece with under a tenth of
-the largest piece's volume rigidly to the nearest large piece, opdeform.graph's small_pieces="attach")."""
+the largest piece's volume rigidly to the nearest large piece, opdeform.graph's small_pieces="attach"), and on a
+rigged mesh, where each shell has particles of its own, the shells a goal's Follow leaves loose all over (per
+frame)."""
 
 import numpy as np
 
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
+ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
 
 
 def handle_motion(before, after, fps):
@@ -117,12 +120,40 @@ def _pieces_without_particles(od, graph, vertices, triangles):
     return (piece, missing) if found == count and len(missing) else None
 
 
-def attached_text(pieces, shown=3):
+def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
+    """The mesh's pieces but its largest that a goal's Follow leaves loose all over (no vertex at ``anchor`` or
+    more): each holds to the body by one edge (opdeform.graph's small_pieces="own") and its goal spring alone
+    turns it back, slowly (a humanoid's hulls painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
+    ((vertex count, centre of ``shown``), ...), largest first; () without pieces or a goal."""
+    if piece is None or follow is None:
+        return ()
+    count = piece.max() + 1
+    sizes = np.bincount(piece[piece >= 0], minlength=count)
+    top = np.zeros(count)
+    np.maximum.at(top, piece[piece >= 0], np.asarray(follow)[piece >= 0])
+    loose = [p for p in range(count) if p != np.argmax(sizes) and sizes[p] and top[p] < anchor]
+    shown = np.asarray(shown, dtype=np.float64)
+    out = [(int(sizes[p]), tuple(float(c) for c in shown[piece == p].mean(axis=0))) for p in loose]
+    return tuple(sorted(out, key=lambda x: -x[0]))
+
+
+def hanging_text(pieces):
+    """The panel's warning for hanging_pieces (None when there are none)."""
+    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body by one edge at most and "
+                        "drifts back slowly after the motion; paint Follow 1 where it meets the body")
+
+
+def attached_text(pieces):
     """The panel's warning for attached_pieces (None when there are none)."""
+    return _shells_text(pieces, "without particles", "each moves rigidly with the nearest large piece, whatever "
+                        "the particle count; to make one jiggle, join it to the body (Merge by Distance, Bridge) "
+                        "or give it an OPDeform object of its own")
+
+
+def _shells_text(pieces, what, advice, shown=3):
+    """"N detached shells <what> (the first ``shown`` by size and centre): <advice>", None without pieces."""
     if not pieces:
         return None
     named = ", ".join(f"{n} vertices at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f})" for n, c in pieces[:shown])
     more = f" and {len(pieces) - shown} more" if len(pieces) > shown else ""
-    return (f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} without particles ({named}{more}): "
-            "each moves rigidly with the nearest large piece, whatever the particle count; to make one jiggle, "
-            "join it to the body (Merge by Distance, Bridge) or give it an OPDeform object of its own")
+    return f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} {what} ({named}{more}): {advice}"

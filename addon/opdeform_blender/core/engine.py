@@ -147,7 +147,7 @@ def simulate(runs, step, budget=None):
 
 class Engine:
     def __init__(self, od, rest_local, triangles, matrix_world=None, particles=100, mode="auto",
-                 neighbors=4):
+                 neighbors=4, small_pieces="attach"):
         self.od = od
         rest_local = np.asarray(rest_local, dtype=np.float32).reshape(-1, 3)
         triangles = np.asarray(triangles, dtype=np.int32).reshape(-1, 3)
@@ -169,7 +169,8 @@ class Engine:
         self.particles_clamped = int(particles) > distinct
         particles = min(int(particles), distinct)
         try:
-            self.graph = od.Graph.from_mesh(self.rest, triangles, particles=int(particles), mode=mode)
+            self.graph = od.Graph.from_mesh(self.rest, triangles, particles=int(particles), mode=mode,
+                                            small_pieces=small_pieces)
             self.skin = od.Skin(self.graph, self.rest, neighbors=int(neighbors))
         except ValueError as exc:
             raise EngineError(f"building the particle graph failed: {exc}") from None

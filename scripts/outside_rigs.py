@@ -1,0 +1,533 @@
+"""Issue 24's checks as an outside tester runs them (stop 37): two rigs the add-on was not tuned on, built by
+script, the add-on installed from a zip of scripts/package into empty user folders as a new user does.
+
+- gob: a 1.74 m humanoid from the Skin modifier (subdivided twice) on 15 bones (hips, spine, chest, neck, head,
+  arms, legs, feet), belly and cheeks as large skin nodes, two eyes and three buttons as loose shells, parented
+  with automatic weights; walks four steps, crouches, jumps 0.45 m, lands, stands from frame 60 to 96. Follow
+  1 but for the belly front (to 0.2), the cheeks (0.3), the eyes (0.6) and the buttons (0.25); softness on
+  the same regions.
+- ellie: a kitbashed elephant, ten intersecting shells in one mesh (body, head, a 0.9 m trunk, two flat ear
+  plates 0.45 x 0.5 x 0.025 m, a tail, four legs) on 13 bones; trots 1 m, shakes its head three times, stands
+  from frame 51. Follow 1 but along the trunk (to 0.05 at its tip), the ears (0.1 at the outer edge), the tail.
+
+VARIANT: painted (Follow and Softness groups picked before Enable), late (Enable first, then Goal and the
+groups), none (Enable with nothing painted), goal (the Follow group only), Subtle / Floppy (a look applied after
+Enable), reopen (saved at frame 30) then open (the file opened in a new process). Prints SUMMARY: the follow-1
+region's largest distance from the armature-only pose (core), each loose region's, the secondary motion as a
+share of the body's size, the longest edge over its animated length, the lowest vertex (and the armature-only
+one's), the settle time, the largest offset 1 s after the motion, whether the base mesh was kept; for
+painted also the bake against playback and a Cycles frame (OPDeform and the armature-only pose) in OUT.
+
+    blender -b --factory-startup --python-exit-code 1 -P scripts/outside_rigs.py -- ZIP legacy RIG VARIANT OUT
+    <python with bpy 5.2> scripts/outside_rigs.py ZIP extension RIG VARIANT OUT
+    (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH, in Blender)
+    [NAME=VALUE ...: obj.opdeform settings set before Enable; norender]
+with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders.
+"""
+import json
+import math
+import os
+import sys
+
+import bpy
+import bmesh
+import numpy as np
+from mathutils import Vector
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+ZIP, KIND, RIG, VARIANT, OUT = args[:5]
+EXTRA = args[5:]
+FPS = 24
+TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
+os.makedirs(OUT, exist_ok=True)
+
+
+def install():
+    if KIND == "dev":
+        sys.path.insert(0, TESTS)
+        import helpers
+        helpers.enable_addon()
+        return "opdeform_blender"
+    if KIND == "legacy":
+        bpy.ops.preferences.addon_install(filepath=ZIP)
+        import addon_utils
+        assert addon_utils.enable("opdeform_blender", default_set=True, handle_error=None) is not None
+        return "opdeform_blender"
+    bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
+    return "bl_ext.user_default.opdeform_blender"
+
+
+# ---------------------------------------------------------------- rig 1: "gob", a Skin-modifier humanoid
+GOB_NODES = {  # name: (position, radius, parent)
+    "pelvis": ((0, 0, 0.95), 0.17, None), "waist": ((0, 0, 1.13), 0.17, "pelvis"),
+    "belly": ((0, -0.13, 1.08), 0.2, "waist"), "chest": ((0, 0, 1.35), 0.19, "waist"),
+    "neck": ((0, 0, 1.5), 0.07, "chest"), "head": ((0, 0, 1.63), 0.14, "neck"),
+    "top": ((0, 0, 1.8), 0.1, "head"),
+    "cheek.L": ((0.08, -0.08, 1.6), 0.08, "head"), "cheek.R": ((-0.08, -0.08, 1.6), 0.08, "head"),
+    "shoulder.L": ((0.2, 0, 1.42), 0.07, "chest"), "elbow.L": ((0.44, 0, 1.28), 0.055, "shoulder.L"),
+    "hand.L": ((0.62, 0, 1.12), 0.05, "elbow.L"),
+    "shoulder.R": ((-0.2, 0, 1.42), 0.07, "chest"), "elbow.R": ((-0.44, 0, 1.28), 0.055, "shoulder.R"),
+    "hand.R": ((-0.62, 0, 1.12), 0.05, "elbow.R"),
+    "hip.L": ((0.1, 0, 0.9), 0.09, "pelvis"), "knee.L": ((0.11, 0, 0.5), 0.07, "hip.L"),
+    "ankle.L": ((0.11, 0, 0.12), 0.06, "knee.L"), "toe.L": ((0.11, -0.14, 0.08), 0.05, "ankle.L"),
+    "hip.R": ((-0.1, 0, 0.9), 0.09, "pelvis"), "knee.R": ((-0.11, 0, 0.5), 0.07, "hip.R"),
+    "ankle.R": ((-0.11, 0, 0.12), 0.06, "knee.R"), "toe.R": ((-0.11, -0.14, 0.08), 0.05, "ankle.R"),
+}
+GOB_BONES = {  # name: (head node, tail node, parent)
+    "hips": ("pelvis", "waist", None), "spine": ("waist", "chest", "hips"), "chest": ("chest", "neck", "spine"),
+    "neck": ("neck", "head", "chest"), "head": ("head", "top", "neck"),
+    "upper_arm.L": ("shoulder.L", "elbow.L", "chest"), "forearm.L": ("elbow.L", "hand.L", "upper_arm.L"),
+    "upper_arm.R": ("shoulder.R", "elbow.R", "chest"), "forearm.R": ("elbow.R", "hand.R", "upper_arm.R"),
+    "thigh.L": ("hip.L", "knee.L", "hips"), "shin.L": ("knee.L", "ankle.L", "thigh.L"),
+    "thigh.R": ("hip.R", "knee.R", "hips"), "shin.R": ("knee.R", "ankle.R", "thigh.R"),
+    "foot.L": ("ankle.L", "toe.L", "shin.L"), "foot.R": ("ankle.R", "toe.R", "shin.R"),
+}
+EYES = [(0.055, -0.125, 1.67), (-0.055, -0.125, 1.67)]
+BUTTONS = [(0.0, -0.325, z) for z in (0.98, 1.08, 1.18)]
+
+
+def link(obj):
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def smooth_object(name, bm):
+    """A mesh object of the bmesh (freed), smooth shaded, in the scene."""
+    mesh = bpy.data.meshes.new(name)
+    bm.to_mesh(mesh)
+    bm.free()
+    for p in mesh.polygons:
+        p.use_smooth = True
+    return link(bpy.data.objects.new(name, mesh))
+
+
+def gob_mesh():
+    names = list(GOB_NODES)
+    me = bpy.data.meshes.new("GobSkel")
+    me.from_pydata([GOB_NODES[n][0] for n in names],
+                   [(names.index(p), i) for i, n in enumerate(names) for p in [GOB_NODES[n][2]] if p], [])
+    skel = link(bpy.data.objects.new("GobSkel", me))
+    skel.modifiers.new("Skin", 'SKIN')
+    for i, n in enumerate(names):
+        r = GOB_NODES[n][1]
+        me.skin_vertices[0].data[i].radius = (r, r)
+    me.skin_vertices[0].data[0].use_root = True
+    sub = skel.modifiers.new("Subsurf", 'SUBSURF')
+    sub.levels = 2
+    dg = bpy.context.evaluated_depsgraph_get()
+    body = bpy.data.meshes.new_from_object(skel.evaluated_get(dg))
+    bpy.data.objects.remove(skel)
+    bm = bmesh.new()
+    bm.from_mesh(body)
+    for c in EYES:
+        r = bmesh.ops.create_uvsphere(bm, u_segments=12, v_segments=8, radius=0.035)
+        bmesh.ops.translate(bm, verts=r["verts"], vec=c)
+    for c in BUTTONS:
+        r = bmesh.ops.create_uvsphere(bm, u_segments=8, v_segments=6, radius=0.022)
+        bmesh.ops.translate(bm, verts=r["verts"], vec=c)
+    return smooth_object("Gob", bm)
+
+
+def gob_bones():
+    return {b: (GOB_NODES[h][0], GOB_NODES[t][0], p) for b, (h, t, p) in GOB_BONES.items()}
+
+
+# ---------------------------------------------------------------- rig 2: "ellie", trunk and flat ears
+def piece(bm, make, scale=(1, 1, 1), rotate=None, move=(0, 0, 0)):
+    """Adds a part built in its own bmesh (make(tmp) -> None), scaled, turned (a 3x3 Matrix) and moved."""
+    tmp = bmesh.new()
+    make(tmp)
+    bmesh.ops.scale(tmp, verts=tmp.verts, vec=scale)
+    if rotate is not None:
+        bmesh.ops.rotate(tmp, verts=tmp.verts, cent=(0, 0, 0), matrix=rotate)
+    bmesh.ops.translate(tmp, verts=tmp.verts, vec=move)
+    me = bpy.data.meshes.new("tmp")
+    tmp.to_mesh(me)
+    tmp.free()
+    bm.from_mesh(me)
+    bpy.data.meshes.remove(me)
+
+
+def tube(r1, r2, depth, segments, cuts):
+    """A capped tapered tube from z = 0 (radius r1) down to z = -depth (r2), ``cuts`` rings between."""
+    def make(tmp):
+        bmesh.ops.create_cone(tmp, cap_ends=True, segments=segments, radius1=r2, radius2=r1, depth=depth)
+        bmesh.ops.translate(tmp, verts=tmp.verts, vec=(0, 0, -depth / 2))
+        sides = [e for e in tmp.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > depth / 2]
+        bmesh.ops.subdivide_edges(tmp, edges=sides, cuts=cuts, use_grid_fill=True)
+    return make
+
+
+def plate(tmp):
+    bmesh.ops.create_grid(tmp, x_segments=10, y_segments=10, size=0.5)  # 1 x 1 in the xy plane
+    bmesh.ops.solidify(tmp, geom=tmp.faces[:], thickness=0.025)  # a thin solid plate
+
+
+def ellie_mesh():
+    from mathutils import Matrix
+    bm = bmesh.new()
+    piece(bm, lambda t: bmesh.ops.create_uvsphere(t, u_segments=24, v_segments=16, radius=1.0),
+          scale=(0.45, 0.7, 0.42), move=(0, 0, 1.05))  # body
+    piece(bm, lambda t: bmesh.ops.create_uvsphere(t, u_segments=20, v_segments=14, radius=0.3),
+          move=(0, -0.8, 1.3))  # head
+    piece(bm, tube(0.09, 0.035, 0.9, 12, 17), move=(0, -1.02, 1.28))  # trunk, 0.9 m hanging
+    for s in (1, -1):  # ears: flat plates 0.45 wide, 0.5 tall, 0.025 thick, beside the head
+        piece(bm, plate, scale=(0.45, 0.5, 1.0), rotate=Matrix.Rotation(math.pi / 2, 3, 'X'),
+              move=(s * 0.45, -0.72, 1.3))
+    piece(bm, tube(0.04, 0.015, 0.5, 8, 9), rotate=Matrix.Rotation(math.radians(35), 3, 'X'),
+          move=(0, 0.7, 1.1))  # tail, back and down
+    for x in (0.25, -0.25):
+        for y in (0.4, -0.4):
+            piece(bm, tube(0.11, 0.11, 0.8, 12, 3), move=(x, y, 0.8))  # legs
+    return smooth_object("Ellie", bm)
+
+
+def ellie_bones():
+    tb, tt = Vector((0, -1.02, 1.28)), Vector((0, -1.02, 0.38))
+    t = [tuple(tb + (tt - tb) * i / 4) for i in range(5)]
+    return {
+        "root": ((0, 0.5, 1.05), (0, -0.3, 1.05), None),
+        "head": ((0, -0.55, 1.2), (0, -0.95, 1.35), "root"),
+        "trunk.1": (t[0], t[1], "head"), "trunk.2": (t[1], t[2], "trunk.1"),
+        "trunk.3": (t[2], t[3], "trunk.2"), "trunk.4": (t[3], t[4], "trunk.3"),
+        "ear.L": ((0.25, -0.72, 1.3), (0.68, -0.72, 1.3), "head"),
+        "ear.R": ((-0.25, -0.72, 1.3), (-0.68, -0.72, 1.3), "head"),
+        "tail": ((0, 0.7, 1.1), (0, 0.99, 0.69), "root"),
+        "leg.FL": ((0.25, -0.4, 0.8), (0.25, -0.4, 0.0), "root"), "leg.FR": ((-0.25, -0.4, 0.8), (-0.25, -0.4, 0.0), "root"),
+        "leg.BL": ((0.25, 0.4, 0.8), (0.25, 0.4, 0.0), "root"), "leg.BR": ((-0.25, 0.4, 0.8), (-0.25, 0.4, 0.0), "root"),
+    }
+
+
+# ---------------------------------------------------------------- rig, animation, maps
+def armature(bones):
+    arm = link(bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig")))
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    for name, (head, tail, parent) in bones.items():
+        b = arm.data.edit_bones.new(name)
+        b.head, b.tail = head, tail
+        if parent:
+            b.parent = arm.data.edit_bones[parent]
+            b.use_connect = False
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return arm
+
+
+def parent_auto(obj, arm):
+    bpy.ops.object.select_all(action='DESELECT')
+    obj.select_set(True)
+    arm.select_set(True)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.parent_set(type='ARMATURE_AUTO')
+
+
+def key(pb, path, index, frame, value):
+    getattr(pb, path)[index] = value
+    pb.keyframe_insert(path, index=index, frame=frame)
+
+
+def gob_animate(arm):
+    """Walks four steps (1..37, 1 m forward), crouches and jumps 0.45 m (37..55, 0.3 m forward), lands with a
+    small dip, stands from frame 60 to 96. The hips bone points up: its local y is world z, local z world -y."""
+    p = arm.pose.bones
+    for b in p:
+        b.rotation_mode = 'XYZ'
+    table = [  # frame, forward, up, stride (-1..1), crouch (0..1), arms up (0..1)
+        (1, 0.0, 0.0, 0, 0, 0), (10, 0.25, 0.0, 1, 0, 0), (19, 0.5, 0.0, -1, 0, 0), (28, 0.75, 0.0, 1, 0, 0),
+        (37, 1.0, 0.0, 0, 0, 0), (43, 1.0, -0.14, 0, 1, 0), (47, 1.12, 0.45, 0, 0, 1), (50, 1.2, 0.45, 0, 0, 1),
+        (53, 1.3, 0.0, 0, 0, 0), (55, 1.3, -0.08, 0, 0.5, 0), (60, 1.3, 0.0, 0, 0, 0)]
+    for f, fwd, up, s, crouch, arms in table:
+        key(p["hips"], "location", 2, f, fwd)
+        key(p["hips"], "location", 1, f, up)
+        key(p["spine"], "rotation_euler", 1, f, math.radians(8 * s))
+        for side, sign in (("L", 1), ("R", -1)):
+            key(p["thigh." + side], "rotation_euler", 0, f, math.radians(25 * s * sign - 35 * crouch))
+            key(p["shin." + side], "rotation_euler", 0, f, math.radians(70 * crouch))
+            key(p["foot." + side], "rotation_euler", 0, f, math.radians(-35 * crouch))
+            key(p["upper_arm." + side], "rotation_euler", 0, f, math.radians(-20 * s * sign))
+            key(p["upper_arm." + side], "rotation_euler", 2, f, math.radians(60 * arms * sign))
+    return 60
+
+
+def ellie_animate(arm):
+    """Trots 1 m forward with a bob and swinging legs (1..31), shakes its head three times (31..51), stands to
+    96. The root bone points forward (-y): its local y is world -y, local z world z."""
+    p = arm.pose.bones
+    for b in p:
+        b.rotation_mode = 'XYZ'
+    for i, f in enumerate(range(1, 32, 5)):
+        swing = 0 if f in (1, 31) else (1 if i % 2 else -1)
+        key(p["root"], "location", 1, f, (f - 1) / 30)
+        key(p["root"], "location", 2, f, 0.05 * abs(swing))
+        for leg, ph in (("leg.FL", 1), ("leg.BR", 1), ("leg.FR", -1), ("leg.BL", -1)):
+            key(p[leg], "rotation_euler", 0, f, math.radians(18 * ph * swing))
+    for f, a in ((31, 0), (35, 25), (39, -25), (43, 25), (47, -25), (51, 0)):
+        key(p["head"], "rotation_euler", 2, f, math.radians(a))
+        key(p["head"], "rotation_euler", 0, f, math.radians(10 if a else 0))
+    return 51
+
+
+def smooth(x):
+    x = np.clip(x, 0, 1)
+    return x * x * (3 - 2 * x)
+
+
+def paint(obj, name, w):
+    g = obj.vertex_groups.new(name=name)
+    for value in np.unique(w):
+        g.add([int(i) for i in np.where(w == value)[0]], float(value), 'REPLACE')
+
+
+def shells(obj):
+    """Per vertex, its connected piece's index (ordered by first vertex)."""
+    n = len(obj.data.vertices)
+    parent = np.arange(n)
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+    for e in obj.data.edges:
+        a, b = find(e.vertices[0]), find(e.vertices[1])
+        if a != b:
+            parent[max(a, b)] = min(a, b)
+    return np.array([find(i) for i in range(n)])
+
+
+def gob_maps(obj):
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    roots, sizes = np.unique(sh, return_counts=True)
+    body = np.isin(sh, roots[sizes > 100])  # the Skin modifier's hulls (one shell in 3.4, several in 5.2)
+    belly = smooth((-v[:, 1] - 0.16) / 0.14) * smooth((0.22 - np.abs(v[:, 2] - 1.08)) / 0.12) * body
+    cheek = np.zeros(len(v))
+    for c in ((0.08, -0.08, 1.6), (-0.08, -0.08, 1.6)):
+        d = np.linalg.norm(v - np.array(c) - np.array((0.03 * np.sign(c[0]), -0.03, 0)), axis=1)
+        cheek = np.maximum(cheek, smooth((0.1 - d) / 0.06) * body)
+    follow = 1 - np.maximum(0.8 * belly, 0.7 * cheek)
+    soft = np.maximum(belly, cheek)
+    eyes = ~body & (v[:, 2] > 1.5)
+    buttons = ~body & (v[:, 2] < 1.5)
+    follow[buttons] = 0.25
+    soft[buttons] = 1.0
+    follow[eyes] = 0.6
+    regions = {"belly": np.where(belly > 0.95 * belly.max())[0], "cheeks": np.where(cheek > 0.9 * cheek.max())[0],
+               "eyes": np.where(eyes)[0], "buttons": np.where(buttons)[0]}
+    return follow, soft, regions
+
+
+def ellie_maps(obj):
+    """Shells in build order: body, head, trunk, ear.L, ear.R, tail, four legs. Follow 1 on all but the trunk
+    (to 0.05 at its tip), the ears (to 0.1 at their outer edge) and the tail (to 0.1 at its tip)."""
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    order = {r: i for i, r in enumerate(np.unique(sh))}
+    part = np.array([order[r] for r in sh])
+    trunk = (part == 2) * np.clip((1.28 - v[:, 2]) / 0.9, 0, 1)
+    ear = np.isin(part, (3, 4)) * np.clip((np.abs(v[:, 0]) - 0.225) / 0.45, 0, 1)
+    tail = (part == 5) * np.clip(np.linalg.norm(v - np.array((0, 0.7, 1.1)), axis=1) / 0.5, 0, 1)
+    loose = np.max([0.95 * smooth((trunk - 0.1) / 0.9), 0.9 * smooth((ear - 0.15) / 0.85),
+                    0.9 * smooth((tail - 0.2) / 0.8)], axis=0)
+    follow = 1 - loose
+    regions = {"trunk_tip": np.where(trunk > 0.9)[0], "ear_edges": np.where(ear > 0.9)[0],
+               "tail_tip": np.where(tail > 0.85)[0]}
+    return follow, loose / 0.95, regions
+
+
+def floor():
+    bpy.ops.mesh.primitive_plane_add(size=10.0)
+    f = bpy.context.active_object
+    f.name = "Floor"
+    f.modifiers.new("Collision", 'COLLISION')
+    return f
+
+
+def build():
+    scene = bpy.context.scene
+    scene.render.fps, scene.frame_start, scene.frame_end = FPS, 1, 96
+    obj = gob_mesh() if RIG == "gob" else ellie_mesh()
+    arm = armature(gob_bones() if RIG == "gob" else ellie_bones())
+    parent_auto(obj, arm)
+    end = gob_animate(arm) if RIG == "gob" else ellie_animate(arm)
+    follow, soft, regions = gob_maps(obj) if RIG == "gob" else ellie_maps(obj)
+    floor()
+    return obj, arm, end, follow, soft, regions
+
+
+# ---------------------------------------------------------------- measure
+def world(obj):
+    dg = bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(dg)
+    me = ev.to_mesh()
+    out = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", out)
+    ev.to_mesh_clear()
+    m = np.array(ev.matrix_world)
+    return out.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
+
+
+def base(obj):
+    out = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", out)
+    return out
+
+
+def twin_of(obj):
+    t = obj.copy()
+    t.data = obj.data.copy()
+    t.name = obj.name + "_twin"
+    for m in [m for m in t.modifiers if m.type != 'ARMATURE']:
+        t.modifiers.remove(m)
+    bpy.context.scene.collection.objects.link(t)
+    return t
+
+
+def main():
+    module_name = install()
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    obj, arm, end, follow, soft, regions = build()
+    n = len(obj.data.vertices)
+    sh = shells(obj)
+    v = np.array([x.co for x in obj.data.vertices])
+    print("SHELLS", [(int((sh == r).sum()), v[sh == r].mean(0).round(2).tolist()) for r in np.unique(sh)])
+    print("REGIONS", {r: len(i) for r, i in regions.items()}, "follow min", follow.min())
+    print(f"RIG {RIG}: {n} vertices, {len(np.unique(sh))} shells, {len(arm.data.bones)} bones, motion ends {end}")
+    if VARIANT in ("painted", "goal", "Subtle", "Floppy", "Jelly", "reopen", "late"):
+        paint(obj, "follow", follow)
+        if VARIANT != "goal":
+            paint(obj, "softness", soft)
+    twin = twin_of(obj)
+    s = obj.opdeform
+    bpy.context.view_layer.objects.active = obj
+    for o in bpy.context.scene.objects:
+        o.select_set(o == obj)
+    before = base(obj)
+    for k in [e for e in EXTRA if "=" in e]:
+        name, value = k.split("=")
+        setattr(s, name, type(getattr(s, name))(value))
+    if VARIANT == "late":  # Enable first, then tick and pick (the issue's click order)
+        bpy.ops.opdeform.enable(object=obj.name)
+        s.use_goal, s.goal_group, s.softness_group = True, "follow", "softness"
+    else:
+        if VARIANT != "none":
+            s.use_goal = True
+            s.goal_group = "follow"
+            if VARIANT != "goal":
+                s.softness_group = "softness"
+        bpy.ops.opdeform.enable(object=obj.name)
+    if VARIANT in ("Subtle", "Floppy", "Jelly"):
+        bpy.ops.opdeform.apply_preset(object=obj.name, preset=VARIANT)
+    print("SETTINGS", {k: getattr(s, k) for k in ("use_goal", "goal_group", "softness_group", "goal_strength",
+                                                   "particles", "modulus", "damping_rate", "sag", "goal_min",
+                                                   "goal_max", "soft_stiffness")}, "built", s.built, "err", s.error)
+    st = sys.modules[module_name + ".blender.state"].get(obj)
+    if st is not None and st.engine.goal_strength is not None:
+        gs = st.engine.goal_strength
+        print("PARTICLE_FOLLOW n", len(gs), "min", gs.min(), "sorted low", np.sort(gs)[:12].round(3))
+    sys.path.insert(0, TESTS)
+    import helpers as H
+    H.ADDON = module_name
+    log = H.draw_panels()
+    print("PANEL_LABELS", [e[1] for e in log if e[0] == "label"])
+    print("CUT", H.cut_texts(log))
+    core = np.where(follow >= 0.99)[0] if VARIANT not in ("none",) else np.array([], int)
+    loose = np.concatenate(list(regions.values()))
+    edges = np.array([e.vertices[:] for e in obj.data.edges])
+    rest = base(obj).reshape(-1, 3)
+    size = float((rest.max(0) - rest.min(0)).max())
+    rows, offs, frames, shown_at = [], [], [], {}
+    scene = bpy.context.scene
+    for f in range(1, 97):
+        scene.frame_set(f)
+        assert not s.error, s.error
+        a, b_ = world(obj), world(twin)
+        shown_at[f] = a
+        d = np.linalg.norm(a - b_, axis=1)
+        i, j = edges.T
+        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b_[i] - b_[j], axis=1)
+        row = dict(core=d[core].max() if len(core) else 0.0, all=d.max(), stretch=st.max(),
+                   lowest=a[:, 2].min(), lowest_twin=b_[:, 2].min())
+        row.update({r: d[ix].max() for r, ix in regions.items()})
+        rows.append(row)
+        offs.append((a - b_)[loose])
+        frames.append(f)
+    col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+    after = [k for k, f in enumerate(frames) if f >= end]
+    unsettled = [k for k in after if col["all"][k] > 2e-3]
+    settle = 0.0 if not unsettled else ((frames[unsettled[-1] + 1] - end) / FPS if unsettled[-1] + 1 < len(frames) else None)
+    last = offs[-1]
+    sec = max(np.linalg.norm(offs[k] - last, axis=1).max() for k, f in enumerate(frames) if f <= end)
+    worst = int(np.argmax(col[list(regions)[0]][:end]))
+    summary = dict(rig=RIG, variant=VARIANT, host=bpy.app.version_string, vertices=n, particles=s.particles,
+                   core_mm=1e3 * col["core"].max(),
+                   **{r + "_mm": 1e3 * col[r].max() for r in regions}, secondary_pct=100 * sec / size,
+                   stretch=col["stretch"].max(), lowest_mm=1e3 * col["lowest"].min(),
+                   lowest_twin_mm=1e3 * col["lowest_twin"].min(), settle_s=settle,
+                   after_1s_mm=1e3 * col["all"][after[FPS:]].max(), base_kept=bool(np.array_equal(base(obj), before)),
+                   size=size, worst_frame=frames[worst])
+    print("SUMMARY " + json.dumps(summary))
+    if VARIANT == "painted" and "norender" not in EXTRA:
+        render(obj, twin, frames[worst])
+    if VARIANT == "painted":  # bake = playback
+        s.cache_directory = os.path.join(OUT, f"cache_{RIG}_{KIND}")
+        bpy.ops.opdeform.bake(object=obj.name)
+        assert s.baked and not s.error, s.error
+        worst_b = 0.0
+        for f in (1, 20, end, 96):
+            scene.frame_set(f)
+            worst_b = max(worst_b, np.abs(world(obj) - shown_at[f]).max())
+        print("BAKE_VS_PLAY", worst_b)
+    if VARIANT == "reopen":
+        scene.frame_set(30)
+        np.save(os.path.join(OUT, f"{RIG}_{KIND}_f30.npy"), world(obj))
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
+        print("SAVED")
+
+
+def render(obj, twin, frame):
+    scene = bpy.context.scene
+    scene.render.engine = 'CYCLES'
+    scene.cycles.samples = 16
+    scene.cycles.device = "CPU"
+    scene.cycles.use_denoising = False
+    scene.render.resolution_x, scene.render.resolution_y = 480, 480
+    for o, col, alpha in ((obj, (0.85, 0.45, 0.3, 1), 1.0), (twin, (0.3, 0.45, 0.9, 1), 1.0)):
+        mat = bpy.data.materials.new(o.name)
+        mat.use_nodes = True
+        bsdf = mat.node_tree.nodes["Principled BSDF"]
+        bsdf.inputs["Base Color"].default_value = col
+        bsdf.inputs["Alpha"].default_value = alpha
+        o.data.materials.clear()
+        o.data.materials.append(mat)
+    cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
+    target = Vector((0.0, -1.3, 1.1)) if RIG == "gob" else Vector((0.2, -1.0, 1.0))  # where it is mid-motion
+    cam.location = target + (Vector((1.2, -1.8, 0.5)) if RIG == "gob" else Vector((1.6, -2.2, 0.6)))
+    d = target - cam.location
+    cam.rotation_euler = d.to_track_quat('-Z', 'Y').to_euler()
+    scene.camera = cam
+    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN')))
+    sun.rotation_euler = (0.7, 0.2, 0.5)
+    sun.data.energy = 3.0
+    world = bpy.data.worlds.new("W")
+    world.color = (0.4, 0.4, 0.45)
+    scene.world = world
+    scene.frame_set(frame)
+    for shown, hidden, name in ((obj, twin, "opdeform"), (twin, obj, "armature")):
+        shown.hide_render, hidden.hide_render = False, True
+        scene.render.filepath = os.path.join(OUT, f"{RIG}_{KIND}_f{frame}_{name}.png")
+        bpy.ops.render.render(write_still=True)
+        print("RENDER", scene.render.filepath)
+
+
+if VARIANT == "open":
+    install()
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
+    obj = bpy.data.objects["Gob" if RIG == "gob" else "Ellie"]
+    a = world(obj)
+    ref = np.load(os.path.join(OUT, f"{RIG}_{KIND}_f30.npy"))
+    print("REOPEN frame", bpy.context.scene.frame_current, "max diff mm", 1e3 * np.abs(a - ref).max(),
+          "error", obj.opdeform.error)
+else:
+    main()
