@@ -43,18 +43,13 @@ os.makedirs(OUT, exist_ok=True)
 
 
 def install():
+    sys.path.insert(0, TESTS)
+    import helpers
     if KIND == "dev":
-        sys.path.insert(0, TESTS)
-        import helpers
         helpers.enable_addon()
-        return "opdeform_blender"
-    if KIND == "legacy":
-        bpy.ops.preferences.addon_install(filepath=ZIP)
-        import addon_utils
-        assert addon_utils.enable("opdeform_blender", default_set=True, handle_error=None) is not None
-        return "opdeform_blender"
-    bpy.ops.extensions.package_install_files(filepath=ZIP, repo="user_default", enable_on_install=True)
-    return "bl_ext.user_default.opdeform_blender"
+        return helpers.ADDON
+    sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
+    return helpers.install_package(ZIP, KIND)
 
 
 # ---------------------------------------------------------------- rig 1: "gob", a Skin-modifier humanoid

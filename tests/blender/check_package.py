@@ -25,17 +25,6 @@ sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(H.AD
 assert "OPDEFORM_PYTHONPATH" not in os.environ
 
 
-
-def install():
-    if kind == "legacy":
-        bpy.ops.preferences.addon_install(filepath=zip_path)
-        import addon_utils
-        assert addon_utils.enable("opdeform_blender", default_set=True, handle_error=None) is not None
-        return "opdeform_blender"
-    bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
-    return "bl_ext.user_default.opdeform_blender"
-
-
 def play(obj, frames=10):
     obj.opdeform.particles = 12
     bpy.ops.opdeform.enable(object=obj.name)
@@ -45,7 +34,7 @@ def play(obj, frames=10):
     assert not obj.opdeform.error, obj.opdeform.error
 
 
-module_name = install()
+module_name = H.install_package(zip_path, kind)
 addon = sys.modules[module_name]
 assert os.path.abspath(addon.__file__).startswith(os.path.abspath(os.environ.get("BLENDER_USER_RESOURCES") or
                                                                   os.environ["BLENDER_USER_SCRIPTS"]))
@@ -74,7 +63,7 @@ if expect == "ok":
     assert obj.opdeform.baked
     # Installed again over the enabled add-on, as an update is: Blender 3.4 extracted the legacy zip over the
     # loaded compiled module (a bus error) while the zip named no folder, and bpy 4.2 crashed at exit after it
-    install()
+    H.install_package(zip_path, kind)
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(3, 0, 1))
     play(bpy.context.object)
     print("installed again: plays")

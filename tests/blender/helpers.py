@@ -43,6 +43,18 @@ def enable_addon():
     return mod
 
 
+
+def install_package(zip_path, kind):
+    """Installs a zip of scripts/package as a new user does (kind: "legacy", the add-on zip for Blender 3.4-4.1;
+    else the extension zip) and enables it; returns the add-on's module name."""
+    if kind == "legacy":
+        bpy.ops.preferences.addon_install(filepath=zip_path)
+        import addon_utils
+        assert addon_utils.enable(ADDON, default_set=True, handle_error=None) is not None
+        return ADDON
+    bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
+    return "bl_ext.user_default." + ADDON
+
 def disable_addon():
     import addon_utils
     addon_utils.disable(ADDON, default_set=True)
