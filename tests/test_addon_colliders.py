@@ -350,7 +350,7 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
     Outer), the ellipsoids between them, the upper dropped 1 m onto the lower; from 3 to 13 s the upper's centre
     stays above the lower's highest vertex, at rest (the rolling couple between members; docs/contact.md,
     "Stacks", tenth round: 0.64-0.66 m above it, 0.27-0.30 m aside; before it, at 3 s 0.48 m above, 0.58 m aside
-    and sliding at 0.165 m/s)."""
+    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m)."""
     plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
     around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
                                                               0.5, 0.005),), ())

@@ -609,8 +609,11 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1, d
 			b.side = b.near ? od_V3Load(sim->surface.normal + 3 * i) : od_V3(0, 0, 0);
 			od_Vec3 by = od_V3(0, 0, 0);
 			od_Touch(&sim->colliders.items[k], &b, start, &x, &keep, &by);
-			lift = od_Add(lift, by);
-			friction += sim->colliders.items[k].friction * od_Length(by);
+			if (lifted)
+			{
+				lift = od_Add(lift, by);
+				friction += sim->colliders.items[k].friction * od_Length(by);
+			}
 		}
 		od_V3Store(sim->state.x + 3 * i, x);
 		sim->angularScale[i] = keep;

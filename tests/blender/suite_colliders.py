@@ -448,7 +448,8 @@ def _suzanne_stack(on_floor):
 def test_a_suzanne_dropped_on_another_stays_on_top():
     """Issue 27's stack as a user makes it, on a Collision plane (docs/contact.md, "Stacks", tenth round: 0.10-0.11
     m aside in Blender 3.4.1, 0.26-0.29 m in bpy 5.2.3; before the rolling couple between members, in bpy 5.2.3,
-    0.58 m aside and sliding at 0.18 m/s at 3 s)."""
+    0.58 m aside and sliding at 0.18 m/s at 3 s; since stop 37, collpatch, the plane's patch rolling the lower
+    back: 0.13-0.15 and 0.12-0.13 m)."""
     _suzanne_stack(on_floor=False)
 
 
