@@ -350,7 +350,7 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
     Outer), the ellipsoids between them, the upper dropped 1 m onto the lower; from 3 to 13 s the upper's centre
     stays above the lower's highest vertex, at rest (the rolling couple between members; docs/contact.md,
     "Stacks", tenth round: 0.64-0.66 m above it, 0.27-0.30 m aside; before it, at 3 s 0.48 m above, 0.58 m aside
-    and sliding at 0.165 m/s)."""
+    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m)."""
     plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
     around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
                                                               0.5, 0.005),), ())
@@ -375,10 +375,17 @@ def test_soft_spheres_stacked_on_the_floor_stay_on_top(preset):
     ellipsoids each other, so the floor held them after the iterations alone and resisted no lean: Jelly and Flesh
     tipped over as one and rolled off (1.45 / 0.87 m aside at 3 s); now each rolls back on its contact patch after
     the projections (docs/contact.md, "Stacks", stop 37, skinfloor)."""
+    _assert_spheres_stay(preset, 0.5, floor=(0.0, 0.5))
+
+
+def _assert_spheres_stay(preset, rest, floor=None, around=colliders.NOTHING):
+    """Two UV spheres of radius 0.5 m at the panel's defaults but ``preset``, the lower's centre at ``rest``, the
+    upper's at 2 m: from 3 to 13 s the upper rests on top, its centre within 0.2 m aside of the lower's, without
+    the centres' energy rising above its start."""
     v, t = _octasphere(0.5, 16)
-    lifts = (0.5, 2.0)
-    low, high = (_panel_engine(v, t, lift, (0.0, 0.5), preset) for lift in lifts)
-    seconds, rise = _stack_seconds(low, high, lifts)
+    lifts = (rest, 2.0)
+    low, high = (_panel_engine(v, t, lift, floor, preset) for lift in lifts)
+    seconds, rise = _stack_seconds(low, high, lifts, around)
     _assert_on_top(seconds)
     assert all(aside < 0.2 for _, aside, _ in seconds.values()), seconds
     assert rise <= 0.0, rise
@@ -398,3 +405,25 @@ def test_two_rubber_spheres_stacked_on_their_skins_stay_on_top():
     seconds, _ = _stack_seconds(low, high, lifts)
     for second, (above, aside, fastest) in seconds.items():
         assert above > 0.4 and aside < 0.1 and fastest < 0.05, (second, above, aside, fastest)
+
+
+@pytest.mark.parametrize("preset", ["Jelly", "Flesh", "Rubber", "Stiff"])
+def test_soft_spheres_stacked_on_a_collision_plane_stay_on_top(preset):
+    """The same spheres on a Collision plane (friction 0.5, Thickness Outer 5 mm), the lower resting on it: a
+    collider acts after the iterations and gave no patch, so Jelly and Flesh tipped over as one and rolled off
+    (1.41 / 0.88 m aside at 3 s, 2.07 / 1.47 at 13 s); now each rolls back on the patch of the collider's lifts
+    (docs/contact.md, "Stacks", stop 37, collpatch)."""
+    plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
+    around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
+                                                              0.5, 0.005),), ())
+    _assert_spheres_stay(preset, 0.505, around=around)
+
+
+def test_jelly_spheres_stacked_on_a_collision_box_stay_on_top():
+    """The Jelly spheres on the top of a 4 m Collision box (a closed mesh, its top at z = 0): as on the plane
+    (before, 1.41 m aside at 3 s)."""
+    v, f = opdeform.meshes.bar(length=4.0, width=4.0, segments=1, cross=1)
+    m = np.eye(4)
+    m[[0, 2], 3] = -2.0
+    around = colliders.Surroundings((colliders.collider_frame("Box", v, f, m, 0.5, 0.005),), ())
+    _assert_spheres_stay("Jelly", 0.505, around=around)

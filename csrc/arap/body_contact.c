@@ -1757,11 +1757,12 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 	return status;
 }
 
-// Whether member b rolls on its floor's patch after the projections (surface_contact.c): a member meeting its floor
-// with its skin alone, pressed down by comparable ones, not at an impact.
+// Whether member b rolls on its floor's or colliders' patch after the projections (surface_contact.c): a member
+// meeting its floor with its skin alone, pressed down by comparable ones, not at an impact.
 static bool od_FloorRolls(const od_PairScratch* s, od_Sim* const* sims, int b)
 {
-	return od_FloorSkinOnly(sims[b]) && od_ShortStep(sims[b]) && sims[b]->surface.force && s->grounded[b] &&
+	return od_FloorSkinOnly(sims[b]) && od_ShortStep(sims[b]) && sims[b]->surface.force &&
+		   (s->grounded[b] || sims[b]->colliders.count) &&
 		   s->load[b] < 0.0 && !od_Landing(s, b);
 }
 

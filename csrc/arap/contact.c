@@ -496,9 +496,10 @@ static od_Centre* od_Known(od_Vec3 l, od_Vec3 lb, od_Centre* centre)
 }
 
 // One particle against one collider over the step: *x caught, pushed out (if it began inside, by at most
-// its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio. The
-// collider's thickness less the goal's depth in it (od_GoalDepth) is where the contact begins.
-static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3* x, double* keep)
+// its recovery beyond where it began) and slowed by friction; *keep scaled by the friction's ratio; *lift
+// summing what it was pushed out along the normal (the normal times the distance). The collider's thickness less
+// the goal's depth in it (od_GoalDepth) is where the contact begins.
+static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, od_Vec3* x, double* keep, od_Vec3* lift)
 {
 	od_Vec3 n, lb = od_M3MulTV(&c->Rb, od_Sub(*x, c->tb));
 	double travel = od_Length(od_Sub(*x, start)) + od_Length(od_Sub(c->tb, c->ta)) +
@@ -559,6 +560,7 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	od_Vec3 moved = od_Add(od_M3MulV(&c->Rb, l), c->tb);
 	od_Vec3 nb = od_M3MulV(&c->Rb, n);
 	double push = od_Dot(od_Sub(moved, *x), nb);
+	*lift = od_MulAdd(*lift, fmax(push, 0.0), nb);
 	if (c->friction > 0.0 && (push > 0.0 || b->hold > 0.0))
 	{
 		// The motion relative to the surface, in the collider's end frame: measured in its start frame (Ra), a
@@ -573,7 +575,19 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 	*x = moved;
 }
 
-void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1)
+// Particle i's lifts by the floor (lifted[i], written by floor.c) and by the colliders (lift: the directions
+// times the distances) as one: the distance in lifted[i], the direction times it in its surface's normal slot;
+// their friction times the distance added to rub[0], the distance to rub[1].
+static void od_Lifted(od_Sim* sim, int i, od_Vec3 lift, double friction, double* lifted, double* rub)
+{
+	double up = sim->hasFloor ? lifted[i] : 0.0;
+	lifted[i] = up + od_Length(lift);
+	rub[0] += sim->floorFriction * up + friction;
+	rub[1] += lifted[i];
+	od_V3Store(sim->surface.normal + 3 * i, od_MulAdd(lift, up, od_V3(0, 0, 1)));
+}
+
+void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1, double* lifted)
 {
 	for (int k = 0; k < sim->colliders.count; ++k)
 	{
@@ -581,22 +595,34 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1)
 		od_ColliderFrames(c, s0, s1);
 		od_Collider_Place(&c->body, s1);
 	}
+	double rub[2] = { 0.0, 0.0 };
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
 		od_Body b;
 		od_BodyAt(sim, i, sim->state.R + 9 * i, &b);
-		od_Vec3 start = od_V3Load(before->x + 3 * i), x = od_V3Load(sim->state.x + 3 * i);
-		double keep = sim->hasFloor ? sim->angularScale[i] : 1.0;
+		od_Vec3 start = od_V3Load(before->x + 3 * i), x = od_V3Load(sim->state.x + 3 * i), lift = od_V3(0, 0, 0);
+		double keep = sim->hasFloor ? sim->angularScale[i] : 1.0, friction = 0.0;
 		for (int k = 0; k < sim->colliders.count; ++k)
 		{
 			b.hold = od_SurfaceContact_Hold(sim, i, k);
 			b.near = od_SurfaceContact_Near(sim, i, k);
 			b.side = b.near ? od_V3Load(sim->surface.normal + 3 * i) : od_V3(0, 0, 0);
-			od_Touch(&sim->colliders.items[k], &b, start, &x, &keep);
+			od_Vec3 by = od_V3(0, 0, 0);
+			od_Touch(&sim->colliders.items[k], &b, start, &x, &keep, &by);
+			if (lifted)
+			{
+				lift = od_Add(lift, by);
+				friction += sim->colliders.items[k].friction * od_Length(by);
+			}
 		}
 		od_V3Store(sim->state.x + 3 * i, x);
 		sim->angularScale[i] = keep;
+		if (lifted)
+		{
+			od_Lifted(sim, i, lift, friction, lifted, rub);
+		}
 	}
+	sim->surface.rollFriction = rub[1] > 0.0 ? rub[0] / rub[1] : sim->surface.rollFriction;
 }
 
 // The signed distance of world point p to collider c at its placed frame and the local point (the normal is

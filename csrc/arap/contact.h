@@ -18,8 +18,10 @@ typedef struct od_Centre
 // The fraction of a tangential slide that Coulomb friction keeps when it may take at most `limit` of it.
 double od_CoulombKeep(double slide, double limit);
 // Contact over the fraction [s0, s1] of the current call (before: the state at the step's start): moves the
-// particles out of the colliders, with friction (scaling angularScale).
-void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1);
+// particles out of the colliders, with friction (scaling angularScale). lifted (NULL: none): where a group member
+// rolling on its patch after the projections (od_SurfaceContact_GroupRoll) takes each particle's lift, the floor's
+// there before, and its direction (surface.normal), and the lifts' mean friction (surface.rollFriction).
+void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1, double* lifted);
 // Collider c's frames at the fractions s0 and s1 of the call (Ra, ta, Rb, tb and the turn between them).
 void od_ColliderFrames(od_SimCollider* c, double s0, double s1);
 // How deep particle i's shape (its ellipsoid or its skin points, skin_shape.c) turned by `rotation` and centred at

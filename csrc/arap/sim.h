@@ -131,7 +131,7 @@ typedef struct od_SkinShape
 // force on the right side, its normal part and direction, its friction part, the depth it may keep (began
 // inside), the surface it presses (-1 the floor, k collider k); the particles near a surface after a step's
 // first solve. Made at the first step with a floor or a collider; NULL before.
-enum { OD_ROLL_NONE, OD_ROLL_FLOOR, OD_ROLL_MEMBER };
+enum { OD_ROLL_NONE, OD_ROLL_FLOOR, OD_ROLL_MEMBER }; // OD_ROLL_FLOOR: on its floor's and colliders' lifts
 typedef struct od_SurfaceContact
 {
 	double* force;   // n*3, zero outside a step's iterations

@@ -379,14 +379,14 @@ void od_Step_Finish(od_Sim* sim, int k, int steps)
 {
 	od_SurfaceContact_Finish(sim);
 	od_SurfaceContact_Turn(sim);
-	double* lifted = od_SurfaceContact_FloorLifts(sim);
+	double* lifted = od_SurfaceContact_Lifts(sim);
 	if (sim->hasFloor)
 	{
 		od_FloorStep(sim, &sim->previous, sim->angularScale, lifted);
 	}
 	if (sim->colliders.count)
 	{
-		od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps);
+		od_ContactStep(sim, &sim->previous, (double)k / steps, (double)(k + 1) / steps, lifted);
 	}
 	od_SurfaceContact_Roll(sim);
 	od_SurfaceContact_GroupRoll(sim, lifted);

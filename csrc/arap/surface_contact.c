@@ -83,8 +83,9 @@
 // kinetic energy rises. Pieces held by a goal or a constraint are left as they are.
 // A group member whose floor acts after the iterations (body_contact.c) has no forces here: where its skin meets
 // its floor (the add-on's default) the patch is the floor's lifts in the step's projection, each lifted particle's
-// normal force m l / h² (od_SurfaceContact_GroupRoll); for a member resting on such a one, its pairs' normal
-// forces there (s->push, s->normal, written by body_contact.c). Their friction is all taken as unused (the
+// normal force m l / h² (od_SurfaceContact_GroupRoll), and the colliders' lifts the same way along their normals
+// (contact.c, od_ContactStep; the scene colliders act after the iterations on every member); for a member resting
+// on such a one, its pairs' normal forces there (s->push, s->normal, written by body_contact.c). Their friction is all taken as unused (the
 // projections' acts on the step before), and a bearing particle the turn moves into what it bears on is put back
 // along its normal.
 #include "surface_contact.h"
@@ -967,20 +968,29 @@ void od_SurfaceContact_Roll(od_Sim* sim)
 	od_KeepOut(sim);
 }
 
-double* od_SurfaceContact_FloorLifts(od_Sim* sim)
+double* od_SurfaceContact_Lifts(od_Sim* sim)
 {
 	const od_SurfaceContact* s = &sim->surface;
-	return s->force && s->after && s->rolls == OD_ROLL_FLOOR && sim->hasFloor ? s->push : NULL;
+	bool under = sim->hasFloor || sim->colliders.count;
+	return s->force && s->after && s->rolls == OD_ROLL_FLOOR && under ? s->push : NULL;
 }
 
-// The patches of a group member's pieces (od_Patches' for the forces): on its floor from the floor's lifts, each
-// lifted particle's normal force m l / h² up; on another member from its pairs' forces there (s->push, s->normal).
+// Whether a group member's given patch (od_GivenPatches) is its floor's alone, straight up (else the colliders'
+// lifts give each particle's normal, contact.c).
+static bool od_Upward(const od_Sim* sim, const double* lifted)
+{
+	return lifted && !sim->colliders.count;
+}
+
+// The patches of a group member's pieces (od_Patches' for the forces): on its floor and colliders from their lifts,
+// each lifted particle's normal force m l / h² along its lift (up on the floor alone); on another member from its
+// pairs' forces there (s->push, s->normal).
 static bool od_GivenPatches(od_Sim* sim, const double* lifted)
 {
 	od_SurfaceContact* s = &sim->surface;
 	const od_Graph* g = sim->graph;
 	memset(s->patch, 0, sizeof(od_Patch) * (size_t)g->pieceCount);
-	double h2 = sim->def.dt * sim->def.dt, mu = lifted ? sim->floorFriction : s->rollFriction;
+	double h2 = sim->def.dt * sim->def.dt, mu = od_Upward(sim, lifted) ? sim->floorFriction : s->rollFriction;
 	bool any = false;
 	for (int i = 0; i < g->n; ++i)
 	{
@@ -992,7 +1002,7 @@ static bool od_GivenPatches(od_Sim* sim, const double* lifted)
 			p->friction += mu * f;
 			p->spare += mu * f;
 			p->centre = od_MulAdd(p->centre, f, od_V3Load(sim->state.x + 3 * i));
-			p->normal = lifted ? od_V3(0, 0, 1) : od_Add(p->normal, od_V3Load(s->normal + 3 * i));
+			p->normal = od_Upward(sim, lifted) ? od_V3(0, 0, 1) : od_Add(p->normal, od_V3Load(s->normal + 3 * i));
 			any = true;
 		}
 	}
@@ -1016,11 +1026,12 @@ static bool od_GivenPatches(od_Sim* sim, const double* lifted)
 	return any;
 }
 
-// The normal of particle i's share of a given patch (od_GivenPatches): up on the floor, else its pairs' mean.
+// The normal of particle i's share of a given patch (od_GivenPatches): up on the floor alone, else its lifts' or
+// its pairs' mean.
 static od_Vec3 od_GivenNormal(const od_Sim* sim, int i, const double* lifted)
 {
 	od_Vec3 n = od_V3Load(sim->surface.normal + 3 * i);
-	return lifted ? od_V3(0, 0, 1) : od_Scale(1.0 / od_Length(n), n);
+	return od_Upward(sim, lifted) ? od_V3(0, 0, 1) : od_Scale(1.0 / od_Length(n), n);
 }
 
 void od_SurfaceContact_GroupRoll(od_Sim* sim, const double* lifted)

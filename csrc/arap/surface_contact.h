@@ -29,9 +29,9 @@ void od_SurfaceContact_Forget(od_Sim* sim);
 // patch's moment μ N a over the step (see surface_contact.c).
 void od_SurfaceContact_Roll(od_Sim* sim);
 // The same for a group member whose contact acts after the iterations (body_contact.c sets sim->surface.rolls):
-// where the floor's projection writes its lifts (NULL: none rolls on its floor), then the roll on the floor's
-// patch from those lifts, or on the one body_contact.c gave (its pairs' forces).
-double* od_SurfaceContact_FloorLifts(od_Sim* sim);
+// where the floor's and the colliders' projections write its lifts (NULL: none rolls on what it stands on), then the
+// roll on the patch from those lifts, or on the one body_contact.c gave (its pairs' forces).
+double* od_SurfaceContact_Lifts(od_Sim* sim);
 void od_SurfaceContact_GroupRoll(od_Sim* sim, const double* lifted);
 // After the iterations, before the projections: each piece left inside a surface's plane turned as a rigid body
 // would be to come out (see surface_contact.c).
