@@ -295,7 +295,9 @@ def gob_maps(obj):
     sh = shells(obj)
     roots, sizes = np.unique(sh, return_counts=True)
     body = np.isin(sh, roots[sizes > 100])  # the Skin modifier's hulls (one shell in 3.4, several in 5.2)
-    belly = smooth((-v[:, 1] - 0.16) / 0.14) * smooth((0.22 - np.abs(v[:, 2] - 1.08)) / 0.12) * body
+    band = body & (np.abs(v[:, 2] - 1.08) < 0.22)
+    front = -v[band, 1].min()  # Subdivision pulls the belly node's hull in: y -0.18 in 3.4.1, not the node's -0.33
+    belly = smooth((-v[:, 1] - front + 0.1) / 0.08) * smooth((0.22 - np.abs(v[:, 2] - 1.08)) / 0.12) * body
     cheek = np.zeros(len(v))
     for c in ((0.08, -0.08, 1.6), (-0.08, -0.08, 1.6)):
         d = np.linalg.norm(v - np.array(c) - np.array((0.03 * np.sign(c[0]), -0.03, 0)), axis=1)
@@ -309,6 +311,7 @@ def gob_maps(obj):
     follow[eyes] = 0.6
     regions = {"belly": np.where(belly > 0.95 * belly.max())[0], "cheeks": np.where(cheek > 0.9 * cheek.max())[0],
                "eyes": np.where(eyes)[0], "buttons": np.where(buttons)[0]}
+    assert follow[regions["belly"]].max() < 0.25, "the belly map misses the mesh's belly"
     return follow, soft, regions
 
 
