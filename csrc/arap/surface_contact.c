@@ -982,6 +982,12 @@ static bool od_Upward(const od_Sim* sim, const double* lifted)
 	return lifted && !sim->colliders.count;
 }
 
+// Particle i's normal force in a group member's given patch: its lift's m l / h² (lifted), else its pairs' (s->push).
+static double od_GivenForce(const od_Sim* sim, int i, const double* lifted, double h2)
+{
+	return lifted ? sim->def.density * sim->graph->volumes[i] * lifted[i] / h2 : sim->surface.push[i];
+}
+
 // The patches of a group member's pieces (od_Patches' for the forces): on its floor and colliders from their lifts,
 // each lifted particle's normal force m l / h² along its lift (up on the floor alone); on another member from its
 // pairs' forces there (s->push, s->normal).
@@ -994,7 +1000,7 @@ static bool od_GivenPatches(od_Sim* sim, const double* lifted)
 	bool any = false;
 	for (int i = 0; i < g->n; ++i)
 	{
-		double f = lifted ? sim->def.density * g->volumes[i] * lifted[i] / h2 : s->push[i];
+		double f = od_GivenForce(sim, i, lifted, h2);
 		od_Patch* p = &s->patch[g->piece[i]];
 		if (f > 0.0)
 		{
@@ -1018,7 +1024,7 @@ static bool od_GivenPatches(od_Sim* sim, const double* lifted)
 	for (int i = 0; any && i < g->n; ++i)
 	{
 		od_Patch* p = &s->patch[g->piece[i]];
-		double f = lifted ? sim->def.density * g->volumes[i] * lifted[i] / h2 : s->push[i];
+		double f = od_GivenForce(sim, i, lifted, h2);
 		od_Vec3 d = od_Sub(od_V3Load(sim->state.x + 3 * i), p->centre);
 		d = od_MulAdd(d, -od_Dot(d, p->normal), p->normal);
 		p->spread += f > 0.0 ? f * od_Dot(d, d) / p->force : 0.0;
