@@ -63,6 +63,12 @@
 // floor's patch after the projections, as a lone body does (surface_contact.c, od_SurfaceContact_GroupRoll: the
 // patch from the floor's lifts), and one of the same kind resting on it on its pairs' patch there
 // (od_PatchRolls): Jelly 0.077 m aside at 3 s, Flesh 0.044 (0.87 m before; docs/contact.md, "Stacks", stop 37).
+// At steps longer than OD_MEMBER_ROLL_STEP a member meeting everything with its ellipsoids (the stacking bench's)
+// rolls back the same way (od_PatchRolling): there the floor's couple in the solves (od_Rolls) hardly turns it. Two
+// Rubber spheres stacked at 1/24 s: over a step's three updates the lower's couple tripled (10 to 30 N m, its bound
+// 70) and its turn in the step changed by under 1 %; updated at every solve the couples reached their bounds and the
+// turn fell 20 % in 49 updates. They tipped over as one and rolled off (Jelly 0.80, Rubber 0.68 m aside); with the
+// patch's roll they rest on top (0.088 and 0.027 m; docs/contact.md, "Stacks", stop 38).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
@@ -1757,11 +1763,19 @@ static od_Status od_ProjectPairs(od_PairScratch* s, od_Sim* const* sims, int cou
 	return status;
 }
 
+// Whether sim may roll on a patch after the projections (surface_contact.c): a member meeting its floor with its
+// skin alone at steps of OD_MEMBER_ROLL_STEP or shorter; one meeting everything with its ellipsoids at longer
+// steps (see the top of the file).
+static bool od_PatchRolling(const od_Sim* sim)
+{
+	return od_FloorSkinOnly(sim) ? od_ShortStep(sim) : !od_SkinShape_Used(sim) && !od_ShortStep(sim);
+}
+
 // Whether member b rolls on its floor's or colliders' patch after the projections (surface_contact.c): a member
-// meeting its floor with its skin alone, pressed down by comparable ones, not at an impact.
+// that may (od_PatchRolling), pressed down by comparable ones, not at an impact.
 static bool od_FloorRolls(const od_PairScratch* s, od_Sim* const* sims, int b)
 {
-	return od_FloorSkinOnly(sims[b]) && od_ShortStep(sims[b]) && sims[b]->surface.force &&
+	return od_PatchRolling(sims[b]) && sims[b]->surface.force &&
 		   (s->grounded[b] || sims[b]->colliders.count) &&
 		   s->load[b] < 0.0 && !od_Landing(s, b);
 }
@@ -1772,7 +1786,7 @@ static void od_OnPatch(const od_PairScratch* s, od_Sim* const* sims, int p, int 
 {
 	od_Sim* sim = sims[s->body[p]];
 	if (sims[under]->surface.rolls == OD_ROLL_FLOOR && n.z > OD_HELD_RISE && sim->surface.rolls != OD_ROLL_FLOOR &&
-		od_FloorSkinOnly(sim) && sim->surface.force && !od_Landing(s, s->body[p]))
+		od_PatchRolling(sim) && sim->surface.force && !od_Landing(s, s->body[p]))
 	{
 		int i = s->local[p];
 		sim->surface.push[i] += f;

@@ -87,7 +87,11 @@
 // (contact.c, od_ContactStep; the scene colliders act after the iterations on every member); for a member resting
 // on such a one, its pairs' normal forces there (s->push, s->normal, written by body_contact.c). Their friction is all taken as unused (the
 // projections' acts on the step before), and a bearing particle the turn moves into what it bears on is put back
-// along its normal.
+// along its normal. A member meeting everything with its ellipsoids (body_contact.c: at steps longer than 1/60 s)
+// rolls back on a round patch alone (od_Round: a slab lying on its face has no roll to take back; taken back, its
+// spin's jolts let a Stiff slab twice as dense as the one below slide off it at 1/24 s, 0.088 m aside and 0.079 m/s
+// with the floor's patch alone), and across the patch's normal alone (its twist is the pairs' friction's: taken
+// back too, a Jelly sphere slid off a like one, 0.27 m aside at 13 s).
 #include "surface_contact.h"
 
 #include "check.h"
@@ -110,6 +114,11 @@
 #define OD_SHARE_MOVE 0.5 // of the largest radius: how far a piece's share moves a pressing particle at most (od_Push)
 #define OD_TURN_SWEEPS 10 // of the pieces' rigid corrections after the iterations (od_SurfaceContact_Turn)
 #define OD_TURN_ROW 8 // per near particle in od_SurfaceContact_Turn: impulse, 1 / (its rigid response), r × n, I⁻¹ (r × n)
+// A group member meeting everything with its ellipsoids rolls back on a patch narrower than this times its centre
+// of mass's height above it (od_Round; see the top of the file). Measured at 1/24 s on the stacking bench (a the
+// patch's spread, c that height, every step of 13 s): spheres a/c 1.1-1.9 on the floor and 0-0.4 on the sphere below,
+// creatures 1.7-3.2 and 0.7-0.9, slabs 16-19 on the floor and 4.9-14 on the slab below.
+#define OD_ROUND 4.0
 #define OD_PIECE 5 // per connected piece: mass, pressing mass, Σ m excess, the last update's mean excess, relaxation
 
 // A connected piece's contact patch at a step's end (its pressing particles: their normal force N, Σ μ f,
@@ -722,7 +731,8 @@ static od_Mat3 od_Inertia(od_Mat3 second)
 // turning has none) taken back by at most the patch's moment μ N a times the step (k ≤ 1 of it: the kinetic
 // energy of the spin only drops), then shifted so that the patch stays where it was, by at most what the
 // friction its forces left unused moves the piece in a step (spare h² / M) and never so that the energy rises.
-static void od_RollBack(od_Patch* p, double h)
+// Level: only its turn across the patch's normal (a roll, not a twist: od_RollPieces).
+static void od_RollBack(od_Patch* p, double h, bool level)
 {
 	od_Vec3 c = od_Scale(1.0 / p->mass, p->lever); // from the patch centre
 	od_Mat3 second = p->second;
@@ -736,6 +746,7 @@ static void od_RollBack(od_Patch* p, double h)
 	{
 		return;
 	}
+	turn = level ? od_MulAdd(turn, -od_Dot(turn, p->normal), p->normal) : turn;
 	double k = fmin(1.0, h * h * sqrt(p->spread) * p->friction / size);
 	p->turn = od_M3ExpSkew(od_Scale(-k, turn));
 	// The turn is about c: x -> centre + turn (x - centre) + (c - turn c); the shift that keeps the patch centre
@@ -937,17 +948,26 @@ static void od_ApplyRolls(od_Sim* sim)
 	}
 }
 
-// Each pressing piece not held by a goal or a constraint rolled back (od_RollBack).
-static void od_RollPieces(od_Sim* sim)
+// Whether piece p's patch is round (od_RollPieces): narrower (its spread a) than OD_ROUND times the height of the
+// piece's centre of mass above it.
+static bool od_Round(const od_Patch* p)
+{
+	return sqrt(p->spread) < OD_ROUND * od_Dot(od_Scale(1.0 / p->mass, p->lever), p->normal);
+}
+
+// Each pressing piece not held by a goal or a constraint rolled back (od_RollBack). A group member meeting everything
+// with its ellipsoids (`ellipsoids`: body_contact.c rolls it at steps longer than 1/60 s only) on a round patch alone
+// (od_Round), across its normal alone: see the top of the file.
+static void od_RollPieces(od_Sim* sim, bool ellipsoids)
 {
 	od_PatchMoments(sim);
 	for (int p = 0; p < sim->graph->pieceCount; ++p)
 	{
 		od_Patch* patch = &sim->surface.patch[p];
-		patch->force = patch->held ? 0.0 : patch->force;
+		patch->force = patch->held || (ellipsoids && !od_Round(patch)) ? 0.0 : patch->force;
 		if (patch->force > 0.0)
 		{
-			od_RollBack(patch, sim->def.dt);
+			od_RollBack(patch, sim->def.dt, ellipsoids);
 		}
 	}
 }
@@ -959,7 +979,7 @@ void od_SurfaceContact_Roll(od_Sim* sim)
 	{
 		return;
 	}
-	od_RollPieces(sim);
+	od_RollPieces(sim, false);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		s->excess[s->near[k]] = od_HeldDepth(sim, s->near[k]);
@@ -1047,7 +1067,7 @@ void od_SurfaceContact_GroupRoll(od_Sim* sim, const double* lifted)
 	{
 		return;
 	}
-	od_RollPieces(sim);
+	od_RollPieces(sim, !od_SkinShape_Used(sim));
 	const double* bears = lifted ? lifted : s->push;
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
