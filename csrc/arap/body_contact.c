@@ -85,6 +85,21 @@
 // ellipsoids between them) slid 0.58-0.74 m aside over the lower's head in bpy 5.2, at 0.18 m/s at 3 s; with it
 // it rests at 0.26-0.29 m (docs/contact.md, "Stacks", tenth round). Not at steps longer than OD_MEMBER_ROLL_STEP.
 //
+// Inelastic impacts (od_BodyContact_Impacts, after each group step): a member that meets its floor and colliders with
+// its skin and the others with its ellipsoids (od_FloorSkinOnly) lands on its floor as on a projection, which stops
+// what it lifts, and on another member on the pairs' forces inside the solves, which gave back what a soft member's
+// squash stores: a Jelly Suzanne dropped 1 m onto another at the add-on's defaults left it at 3.7 m/s up (a lone
+// one landing on the floor at 4.7 m/s rises 0.03 m), the lower bouncing off its floor at 1.5 m/s under it, and lay
+// 2.7 m aside at 3 s. So, as a rigid body step takes a contact's restitution (Guendelman, Bridson and Fedkiw 2003:
+// contact at zero restitution), two such comparable members whose pairs carry a force and part along their mean
+// normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
+// split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
+// same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
+// positions are left as the step put them. The Suzanne rests on the lower's head, 0.75 m aside (docs/contact.md,
+// "Stacks", stop 38, jellysuz). Only for those members: where the floor holds members inside the iterations
+// (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ over their 4.5 kJ start in one step, and
+// two Rubber spheres on their skins, held together, bounced on their floor as one at 1.1-1.4 m/s and rolled off.
+//
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
 // displacement is cut by at most μ times the push (Coulomb, position based, as the floor). A stack of two
@@ -2231,16 +2246,18 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 	}
 }
 
-// The interfaces at the step's end: the pairs between comparable members that carry a force (the next step's warm
-// start) grouped by their members, each interface's normal the sum of its pairs' normals times their forces.
-static void od_ImpactInterfaces(od_PairScratch* s)
+// The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
+// members that meet their floors with their skins (od_FloorSkinOnly), grouped by their members, each interface's
+// normal the sum of its pairs' normals times their forces.
+static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 {
 	s->interfaceCount = 0;
 	for (int k = 0; k < s->pairCount; ++k)
 	{
 		const od_ContactPair* pair = &s->pairs[k];
 		int ma = s->body[pair->a], mb = s->body[pair->b];
-		int e = ma != mb && pair->force > 0.0 && od_Comparable(s, pair) ? od_InterfaceOf(s, ma, mb) : -1;
+		bool skins = od_FloorSkinOnly(sims[ma]) && od_FloorSkinOnly(sims[mb]);
+		int e = ma != mb && skins && pair->force > 0.0 && od_Comparable(s, pair) ? od_InterfaceOf(s, ma, mb) : -1;
 		if (e >= 0)
 		{
 			od_Interface* ie = &s->interfaces[e];
@@ -2282,17 +2299,15 @@ static bool od_AtGround(const od_Sim* sim, double margin)
 	return at;
 }
 
-// Member b, pressed by a comparable member, leaving its ground (the floor or a collider it touched within the
-// step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to
-// `speed`, as the floor's projection stops a lone body. Not one its floor holds inside the iterations (s->held,
-// od_FloorReaction): there, two creatures dropped one on the other (tests/test_body_contact.py) gained 5.1 kJ over
-// their 4.5 kJ start in one step, the lower slowed while the floor's reaction lifted it.
+// Member b, pressed by a comparable member (an interface's), leaving its
+// ground (the floor or a collider it touched within the step: `thickness` plus its rise in the step) upwards
+// (against gravity) faster than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
 static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
 {
 	const double* g = sims[b]->def.gravity;
 	od_Vec3 up = od_Unit(od_V3(-g[0], -g[1], -g[2]));
 	double rise = od_Dot(od_MemberVelocity(s, sims[b], b), up);
-	if (rise > speed && !(s->held[b] > 0) && od_AtGround(sims[b], thickness + rise * sims[b]->def.dt))
+	if (rise > speed && od_AtGround(sims[b], thickness + rise * sims[b]->def.dt))
 	{
 		od_ShiftVelocity(sims[b], od_Scale(speed - rise, up));
 	}
@@ -2304,7 +2319,7 @@ void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, c
 	{
 		return; // no forces, no interfaces (nor s->mass)
 	}
-	od_ImpactInterfaces(s);
+	od_ImpactInterfaces(s, sims);
 	const double* g = sims[0]->def.gravity;
 	double speed = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * fmax(sims[0]->def.dt, OD_CLIMB_TIME);
 	for (int pass = 0; pass < OD_IMPACT_PASSES && speed > 0.0 && s->interfaceCount > 0; ++pass)
