@@ -358,7 +358,8 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
     Outer), the ellipsoids between them, the upper dropped 1 m onto the lower; from 3 to 13 s the upper's centre
     stays above the lower's highest vertex, at rest (the rolling couple between members; docs/contact.md,
     "Stacks", tenth round: 0.64-0.66 m above it, 0.27-0.30 m aside; before it, at 3 s 0.48 m above, 0.58 m aside
-    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m)."""
+    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m; since
+    stop 38, jellysuz, the members' inelastic impact: 0.50 m, where the upper lands, without bouncing back)."""
     around = _collision_plane()
     _assert_on_top(_suzanne_stack(0.005, around=around)[0])
 
