@@ -95,7 +95,7 @@
 // normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
 // split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
 // same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
-// positions are left as the step put them. The Suzanne rests on the lower's head, 0.75 m aside (docs/contact.md,
+// positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's head, 0.75 m aside (docs/contact.md,
 // "Stacks", stop 38, jellysuz). Only for those members: where the floor holds members inside the iterations
 // (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ over their 4.5 kJ start in one step, and
 // two Rubber spheres on their skins, held together, bounced on their floor as one at 1.1-1.4 m/s and rolled off.
@@ -2222,8 +2222,8 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def)
 }
 
 // Inelastic impacts between members (od_BodyContact_Impacts): passes over the interfaces and the pressed members'
-// grounds, Gauss-Seidel (each part taken moves what the next sees).
-#define OD_IMPACT_PASSES 4
+// grounds, Gauss-Seidel (each part taken moves what the next sees), as many as the projection's (OD_PAIR_PASSES).
+#define OD_IMPACT_PASSES OD_PAIR_PASSES
 
 // Member b's mean velocity (mass weighted).
 static od_Vec3 od_MemberVelocity(const od_PairScratch* s, const od_Sim* sim, int b)
