@@ -328,14 +328,22 @@ def _stack_seconds(low, high, lifts, around=colliders.NOTHING):
     return seconds, rise
 
 
-def _suzanne_stack(rest, floor=None, around=colliders.NOTHING):
-    """Two subdivided Suzannes at the panel's defaults, the ellipsoids between them, the lower's lowest vertex at
-    z = rest, the upper dropped 1 m onto it: _stack_seconds' figures from 3 to 13 s."""
+def _collision_plane():
+    """A 20 m Collision plane at z = 0 (friction 0.5, Thickness Outer 5 mm)."""
+    plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
+    return colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
+                                                            0.5, 0.005),), ())
+
+
+def _suzanne_stack(rest, floor=None, around=colliders.NOTHING, preset="Rubber"):
+    """Two subdivided Suzannes at the panel's defaults but ``preset``, the ellipsoids between them, the lower's
+    lowest vertex at z = rest, the upper dropped 1 m onto it: _stack_seconds' figures from 3 to 13 s and the
+    centres' energy's rise."""
     mesh = np.load(Path(__file__).resolve().parent / "reference" / "suzanne_subdivided.npz")
     z = mesh["vertices"][:, 2]
     lifts = (rest - z.min(), rest + 1.0 + z.max() - 2 * z.min())
-    low, high = (_panel_engine(mesh["vertices"], mesh["triangles"], lift, floor) for lift in lifts)
-    return _stack_seconds(low, high, lifts, around)[0]
+    low, high = (_panel_engine(mesh["vertices"], mesh["triangles"], lift, floor, preset) for lift in lifts)
+    return _stack_seconds(low, high, lifts, around)
 
 
 def _assert_on_top(seconds):
@@ -350,11 +358,10 @@ def test_a_suzanne_dropped_on_another_stays_on_top():
     Outer), the ellipsoids between them, the upper dropped 1 m onto the lower; from 3 to 13 s the upper's centre
     stays above the lower's highest vertex, at rest (the rolling couple between members; docs/contact.md,
     "Stacks", tenth round: 0.64-0.66 m above it, 0.27-0.30 m aside; before it, at 3 s 0.48 m above, 0.58 m aside
-    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m)."""
-    plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
-    around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
-                                                              0.5, 0.005),), ())
-    _assert_on_top(_suzanne_stack(0.005, around=around))
+    and sliding at 0.165 m/s; since stop 37, collpatch, the plane's patch rolling the lower back: 0.12-0.13 m; since
+    stop 38, jellysuz, the members' inelastic impact: 0.50 m, where the upper lands, without bouncing back)."""
+    around = _collision_plane()
+    _assert_on_top(_suzanne_stack(0.005, around=around)[0])
 
 
 def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
@@ -363,7 +370,23 @@ def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
     inside the iterations and steps as the plane (docs/contact.md, "Stacks", twelfth round: 0.26-0.29 m aside from
     3 to 13 s; before, the floor's reaction lifted the lower one's bottom at the landing, which threw the upper one
     up and off, 2.02 m aside at 3 s). A marginal stack, as on the plane: dropped from 1.02 m it falls off either."""
-    _assert_on_top(_suzanne_stack(0.0, floor=(0.0, 0.5)))
+    _assert_on_top(_suzanne_stack(0.0, floor=(0.0, 0.5))[0])
+
+
+@pytest.mark.parametrize("on_floor", [True, False])
+def test_a_jelly_suzanne_dropped_on_another_stays_on_top(on_floor):
+    """The same stack with the Jelly preset, on the panel's Floor or on a Collision plane: from 3 to 13 s the upper
+    rests on top, on the back of the lower's head (the lower tips over before the landing), within 0.8 m aside of
+    the lower's centre and 0.05 m of where it was at 3 s, without the centres' energy rising above its start. It
+    bounced off the members' contact, which gave back what the squashed upper stored, and lay beside the lower
+    (2.72 / 2.83 m aside at 3 / 13 s); members parting, or a pressed member leaving its ground, faster than an
+    impact speed are slowed to it now (docs/contact.md, "Stacks", stop 38, jellysuz: 0.75 / 0.75 m)."""
+    seconds, rise = (_suzanne_stack(0.0, floor=(0.0, 0.5), preset="Jelly") if on_floor else
+                     _suzanne_stack(0.005, around=_collision_plane(), preset="Jelly"))
+    _assert_on_top(seconds)
+    asides = [aside for _, aside, _ in seconds.values()]
+    assert max(asides) < 0.8 and max(abs(a - asides[0]) for a in asides) < 0.05, asides
+    assert rise <= 0.0, rise
 
 
 @pytest.mark.parametrize("preset", ["Jelly", "Flesh", "Rubber", "Stiff"])
@@ -413,9 +436,7 @@ def test_soft_spheres_stacked_on_a_collision_plane_stay_on_top(preset):
     collider acts after the iterations and gave no patch, so Jelly and Flesh tipped over as one and rolled off
     (1.41 / 0.88 m aside at 3 s, 2.07 / 1.47 at 13 s); now each rolls back on the patch of the collider's lifts
     (docs/contact.md, "Stacks", stop 37, collpatch)."""
-    plane = np.array([[-10.0, -10.0, 0.0], [10.0, -10.0, 0.0], [10.0, 10.0, 0.0], [-10.0, 10.0, 0.0]])
-    around = colliders.Surroundings((colliders.collider_frame("Plane", plane, [[0, 1, 2], [0, 2, 3]], np.eye(4),
-                                                              0.5, 0.005),), ())
+    around = _collision_plane()
     _assert_spheres_stay(preset, 0.505, around=around)
 
 

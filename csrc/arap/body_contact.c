@@ -91,6 +91,21 @@
 // ellipsoids between them) slid 0.58-0.74 m aside over the lower's head in bpy 5.2, at 0.18 m/s at 3 s; with it
 // it rests at 0.26-0.29 m (docs/contact.md, "Stacks", tenth round). Not at steps longer than OD_MEMBER_ROLL_STEP.
 //
+// Inelastic impacts (od_BodyContact_Impacts, after each group step): a member that meets its floor and colliders with
+// its skin and the others with its ellipsoids (od_FloorSkinOnly) lands on its floor as on a projection, which stops
+// what it lifts, and on another member on the pairs' forces inside the solves, which gave back what a soft member's
+// squash stores: a Jelly Suzanne dropped 1 m onto another at the add-on's defaults left it at 3.7 m/s up (a lone
+// one landing on the floor at 4.7 m/s rises 0.03 m), the lower bouncing off its floor at 1.5 m/s under it, and lay
+// 2.7 m aside at 3 s. So, as a rigid body step takes a contact's restitution (Guendelman, Bridson and Fedkiw 2003:
+// contact at zero restitution), two such comparable members whose pairs carry a force and part along their mean
+// normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
+// split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
+// same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
+// positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's head, 0.75 m aside (docs/contact.md,
+// "Stacks", stop 38, jellysuz). Only for those members: where the floor holds members inside the iterations
+// (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ over their 4.5 kJ start in one step, and
+// two Rubber spheres on their skins, held together, bounced on their floor as one at 1.1-1.4 m/s and rolled off.
+//
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
 // displacement is cut by at most μ times the push (Coulomb, position based, as the floor). A stack of two
@@ -135,6 +150,7 @@
 #include "contact.h"
 #include "core.h"
 #include "energy.h"
+#include "floor.h"
 #include "global_solve.h"
 #include "goal.h"
 #include "math3.h"
@@ -2217,4 +2233,119 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def)
 		*def = sim->selfDef;
 	}
 	return sim->selfContact;
+}
+
+// Inelastic impacts between members (od_BodyContact_Impacts): passes over the interfaces and the pressed members'
+// grounds, Gauss-Seidel (each part taken moves what the next sees), as many as the projection's (OD_PAIR_PASSES).
+#define OD_IMPACT_PASSES OD_PAIR_PASSES
+
+// Member b's mean velocity (mass weighted).
+static od_Vec3 od_MemberVelocity(const od_PairScratch* s, const od_Sim* sim, int b)
+{
+	od_Vec3 v = od_V3(0, 0, 0);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		v = od_MulAdd(v, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(sim->state.v + 3 * i));
+	}
+	return v;
+}
+
+// Adds dv to the velocity of every particle of sim: its momentum changes by its mass times dv, nothing turns or
+// strains.
+static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
+{
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_V3Store(sim->state.v + 3 * i, od_Add(od_V3Load(sim->state.v + 3 * i), dv));
+	}
+}
+
+// The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
+// members that meet their floors with their skins (od_FloorSkinOnly), grouped by their members, each interface's
+// normal the sum of its pairs' normals times their forces.
+static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
+{
+	s->interfaceCount = 0;
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		int ma = s->body[pair->a], mb = s->body[pair->b];
+		bool skins = od_FloorSkinOnly(sims[ma]) && od_FloorSkinOnly(sims[mb]);
+		int e = ma != mb && skins && pair->force > 0.0 && od_Comparable(s, pair) ? od_InterfaceOf(s, ma, mb) : -1;
+		if (e >= 0)
+		{
+			od_Interface* ie = &s->interfaces[e];
+			od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
+		}
+	}
+}
+
+// Interface ie's members parting along its normal faster than `speed`: their relative velocity along it slowed to
+// `speed`, the change split by mass (momentum kept, kinetic energy lost).
+static void od_Part(const od_PairScratch* s, od_Sim* const* sims, const od_Interface* ie, double speed)
+{
+	int l = ie->lower, u = ie->upper;
+	od_Vec3 n = od_Unit(od_V3Load(ie->n));
+	double w = od_Dot(od_Sub(od_MemberVelocity(s, sims[u], u), od_MemberVelocity(s, sims[l], l)), n);
+	if (w > speed)
+	{
+		double share = s->mass[l] / (s->mass[l] + s->mass[u]);
+		od_ShiftVelocity(sims[u], od_Scale(-(w - speed) * share, n));
+		od_ShiftVelocity(sims[l], od_Scale((w - speed) * (1.0 - share), n));
+	}
+}
+
+// Whether a particle of sim is within `margin` of its floor (od_FloorDepth) or of a collider's thickness plus its
+// reach (od_ColliderDepthBound) at the step's end.
+static bool od_AtGround(const od_Sim* sim, double margin)
+{
+	bool at = false;
+	for (int i = 0; !at && i < sim->graph->n; ++i)
+	{
+		const double* x = sim->state.x + 3 * i;
+		at = sim->hasFloor && od_FloorDepth(sim, i, sim->state.R + 9 * i, x) > -margin;
+		for (int k = 0; !at && k < sim->colliders.count; ++k)
+		{
+			od_Centre centre = od_ColliderCentre(&sim->colliders.items[k], od_V3Load(x));
+			at = od_ColliderDepthBound(sim, &sim->colliders.items[k], i, &centre) > -margin;
+		}
+	}
+	return at;
+}
+
+// Member b, pressed by a comparable member (an interface's), leaving its
+// ground (the floor or a collider it touched within the step: `thickness` plus its rise in the step) upwards
+// (against gravity) faster than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
+static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
+{
+	const double* g = sims[b]->def.gravity;
+	od_Vec3 up = od_Unit(od_V3(-g[0], -g[1], -g[2]));
+	double rise = od_Dot(od_MemberVelocity(s, sims[b], b), up);
+	if (rise > speed && od_AtGround(sims[b], thickness + rise * sims[b]->def.dt))
+	{
+		od_ShiftVelocity(sims[b], od_Scale(speed - rise, up));
+	}
+}
+
+void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+{
+	if (count < 2 || !between->inIterations)
+	{
+		return; // no forces, no interfaces (nor s->mass)
+	}
+	od_ImpactInterfaces(s, sims);
+	const double* g = sims[0]->def.gravity;
+	double speed = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * fmax(sims[0]->def.dt, OD_CLIMB_TIME);
+	for (int pass = 0; pass < OD_IMPACT_PASSES && speed > 0.0 && s->interfaceCount > 0; ++pass)
+	{
+		for (int e = 0; e < s->interfaceCount; ++e)
+		{
+			od_Part(s, sims, &s->interfaces[e], speed);
+		}
+		for (int e = 0; e < s->interfaceCount; ++e)
+		{
+			od_Land(s, sims, s->interfaces[e].lower, speed, between->thickness);
+			od_Land(s, sims, s->interfaces[e].upper, speed, between->thickness);
+		}
+	}
 }
