@@ -10,8 +10,9 @@
 //    enclosed volume, then corrected by counting.
 // 3. Particles are shared among groups in proportion to their voxels (one each first, largest first, while
 //    they last), never more than a group has voxels. A small group (under OD_SMALL_PIECE_RATIO of the
-//    largest one's voxels: an eye, a button) gets none when attached; when it has its own, its share and,
-//    where that is under OD_SMALL_PIECE_PARTICLES, particles added beyond the budget up to that.
+//    largest one's voxels: an eye, a button) gets none when attached; when it has its own, at least
+//    OD_SMALL_PIECE_PARTICLES when compact, and when long or flat its share and, where that is under
+//    OD_SHELL_PARTICLES, particles added beyond the budget up to that.
 // 4. Cells: the voxels of a group are split into as many cells as it has particles by geodesic k-means on
 //    the voxel graph (26-neighbours): seeds at the centroids of a balanced k-d split of the voxels (O(N log
 //    k), where farthest-point seeding costs up to O(N k)), cells grown from them by Dijkstra, then Lloyd
@@ -98,6 +99,7 @@ typedef struct od_Group
 	bool fill;
 	double area;
 	double anchor[3]; // the centre of its bounding box
+	double length;    // its bounding box's longest side
 	bool small;       // fewer voxels than OD_SMALL_PIECE_RATIO of the largest group's, and some area
 	od_Voxels voxels;
 	int particles;
@@ -209,6 +211,7 @@ static void od_GroupAnchors(od_Builder* b, double* box)
 		for (int a = 0; a < 3; ++a)
 		{
 			b->groups[i].anchor[a] = 0.5 * (box[6 * i + a] + box[6 * i + 3 + a]);
+			b->groups[i].length = fmax(b->groups[i].length, box[6 * i + 3 + a] - box[6 * i + a]);
 		}
 	}
 }
@@ -396,21 +399,34 @@ static void od_MarkSmallGroups(od_Builder* b)
 	}
 }
 
-// The fewest particles a group gets from the budget before the others get more than that: one for a large
-// group, none for a small one (never more than its voxels).
-static int od_FloorParticles(const od_Group* g)
+// Whether a small group of its own is long or flat (a trunk, an ear plate, a tail, a horn: its longest side
+// squared over its area above OD_LONG_SHELL) rather than compact (an eye, a button: a sphere's is 1/pi).
+static bool od_LongShell(const od_Builder* b, const od_Group* g)
 {
-	int floor = g->small ? 0 : 1;
+	return g->small && b->def->smallPieces == OD_SMALL_OWN && g->length * g->length > OD_LONG_SHELL * g->area;
+}
+
+// The fewest particles a group gets from the budget before the others get more than that: none for a small
+// group that is attached or long (od_ShellParticles), OD_SMALL_PIECE_PARTICLES for a compact small one of its
+// own (4 centres span a volume, so its particles can turn it; 3 or fewer, in one plane, let it fold), one
+// for the others (never more than its voxels).
+static int od_FloorParticles(const od_Builder* b, const od_Group* g)
+{
+	int own = b->def->smallPieces == OD_SMALL_OWN && !od_LongShell(b, g) ? OD_SMALL_PIECE_PARTICLES : 0;
+	int floor = !g->small ? 1 : own;
 	return floor < g->voxels.count ? floor : g->voxels.count;
 }
 
-// The particles a small group of its own has at least (never more than its voxels): its share of the budget
-// and, where that is fewer, particles added beyond the budget. A shell's look then hardly depends on the
-// count: ellie's (docs/goals.md: a trunk, ear plates, a tail, legs) at 50-1,000 particles moved 2.9x in its
-// secondary motion with 4 particles each from the budget (1.57x stretch at 300), 1.5x with 16 added.
-static int od_ShellParticles(const od_Group* g)
+// The particles a long small group of its own has at least (never more than its voxels): its share of the
+// budget and, where that is fewer, particles added beyond the budget up to OD_SHELL_PARTICLES, so that its
+// look hardly depends on the count: ellie's (docs/goals.md: a trunk, ear plates, a tail, legs) secondary
+// motion moved 2.9x over 100-1,000 particles with 4 particles each from the budget (1.57x stretch at 300),
+// 1.3x with 16 added. Compact shells keep their 4 from the budget: with 16, gob's 2.2-4.4 cm buttons
+// stretched 2.38x (1.20x with 4).
+static int od_ShellParticles(const od_Builder* b, const od_Group* g)
 {
-	return OD_SMALL_PIECE_PARTICLES < g->voxels.count ? OD_SMALL_PIECE_PARTICLES : g->voxels.count;
+	int floor = od_LongShell(b, g) ? OD_SHELL_PARTICLES : 0;
+	return floor < g->voxels.count ? floor : g->voxels.count;
 }
 
 // Particles to the groups below their floor first (largest first), then each to the group furthest below
@@ -435,7 +451,7 @@ static void od_ShareParticles(od_Builder* b)
 				continue;
 			}
 			double key = b->def->particleCount * (g->voxels.count / total) - g->particles; // below its share
-			if (g->particles < od_FloorParticles(g))
+			if (g->particles < od_FloorParticles(b, g))
 			{
 				key = 1e18 + g->voxels.count;
 			}
@@ -455,9 +471,9 @@ static void od_ShareParticles(od_Builder* b)
 	for (int i = 0; i < b->groupCount; ++i)
 	{
 		od_Group* g = &b->groups[i];
-		if (g->small && b->def->smallPieces == OD_SMALL_OWN && g->particles < od_ShellParticles(g))
+		if (g->particles < od_ShellParticles(b, g))
 		{
-			g->particles = od_ShellParticles(g);
+			g->particles = od_ShellParticles(b, g);
 		}
 		g->first = b->particleCount;
 		b->particleCount += g->particles;
