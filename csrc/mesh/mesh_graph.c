@@ -115,7 +115,7 @@ typedef struct od_Builder
 	od_Group* groups;
 	int* groupOf;        // the group of each piece
 	int* groupTriangles; // triangle indices grouped by group
-	double* centers; // particleCount*3 (the builder's)
+	double* centers; // b->particleCount*3
 	double* radii;   // particleCount*3
 	double* axes;    // particleCount*9
 	int* particleGroup; // particleCount: the group each particle stands for
@@ -424,8 +424,8 @@ static int od_FloorParticles(const od_Builder* b, const od_Group* g)
 // budget and, where that is fewer, particles added beyond the budget up to OD_SHELL_PARTICLES, so that its
 // look hardly depends on the count: ellie's (docs/goals.md: a trunk, ear plates, a tail, legs) secondary
 // motion moved 2.9x over 100-1,000 particles with 4 particles each from the budget (1.57x stretch at 300),
-// 1.3x with 16 added. Compact shells keep their 4 from the budget: with 16, gob's 2.2-4.4 cm buttons
-// stretched 2.38x (1.20x with 4).
+// 1.3x with 16 added. Compact shells keep their 4 from the budget: with 16 for gob's eyes and buttons (7 and
+// 4.4 cm) its edges stretched 2.38x at 100 particles (1.20x with 4).
 static int od_ShellParticles(const od_Builder* b, const od_Group* g)
 {
 	int floor = od_LongShell(b, g) ? OD_SHELL_PARTICLES : 0;
