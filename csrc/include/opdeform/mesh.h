@@ -45,11 +45,15 @@ typedef enum od_MeshGraphMode
 typedef enum od_SmallPieces
 {
 	OD_SMALL_ATTACH, // no particles: skinned rigidly by the particles of the large piece nearest to it
-	OD_SMALL_OWN,    // at least OD_SMALL_PIECE_PARTICLES particles of its own, joined by edges to that piece
+	OD_SMALL_OWN,    // particles of its own, joined by edges to that piece: at least OD_SMALL_PIECE_PARTICLES
+	                 // from the budget when compact; when long or flat, its share of the budget and particles
+	                 // added beyond it up to OD_SHELL_PARTICLES where fewer (never more than its voxels)
 } od_SmallPieces;
 
 #define OD_SMALL_PIECE_RATIO 0.1
 #define OD_SMALL_PIECE_PARTICLES 4
+#define OD_SHELL_PARTICLES 16
+#define OD_LONG_SHELL 0.4 // longest side^2 / area above which a small piece is long or flat (a sphere: 1/pi)
 
 typedef struct od_MeshGraphDef
 {
@@ -57,7 +61,8 @@ typedef struct od_MeshGraphDef
 	const double* vertices; // vertexCount*3, finite
 	int triangleCount;
 	const int* triangles;   // triangleCount*3, indices in [0, vertexCount)
-	int particleCount;      // how many particles the graph gets (100)
+	int particleCount;      // how many particles the graph gets (100), and with OD_SMALL_OWN those added to
+	                        // raise long small pieces to OD_SHELL_PARTICLES
 	od_MeshGraphMode mode;  // OD_MESH_AUTO
 	bool joinPieces;        // false: each connected piece of the mesh gets its own connected graph; true: one
 	                        // graph (pieces whose boxes overlap are one solid, others get joining edges)
