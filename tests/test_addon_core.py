@@ -296,8 +296,9 @@ def test_attached_pieces_are_found_and_named():
 
 
 def test_pieces_loose_all_over_are_named():
-    """Of a mesh's pieces, those but the largest whose Follow is under 1 everywhere (held to the body by one edge
-    at most), by size and centre; a piece with one vertex at 1, the largest piece, or no goal: nothing."""
+    """Of a mesh's pieces, those but the largest whose Follow is under 1 everywhere (held to the body only by its
+    particles' links to the nearest body particle), by size and centre; a piece with one vertex at 1, the largest
+    piece, or no goal: nothing."""
     piece = np.array([0] * 6 + [1] * 3 + [2] * 2 + [-1])
     follow = np.array([0.0] * 6 + [0.2, 0.5, 0.3] + [0.1, 1.0] + [0.0])
     shown = np.arange(36.0).reshape(12, 3)

@@ -647,8 +647,9 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
 
 
 def test_rigged_shells_painted_loose_all_over_are_named():
-    """The small shells of a rigged mesh painted 0.1 all over hold to the body by one edge each: the panel names
-    them and says to paint Follow 1 where they meet the body; painted 1 somewhere, nothing is said."""
+    """The small shells of a rigged mesh painted 0.1 all over hold to the body only by their particles' links to
+    the nearest body particle: the panel names them and says to paint Follow 1 where they meet the body; painted 1
+    somewhere, nothing is said."""
     obj, centres = _creature()
     body = np.arange(len(obj.data.vertices)) < len(obj.data.vertices) - SHELLS * 42  # the shells come last
     _rigged(obj, np.where(body, 1.0, 0.1))

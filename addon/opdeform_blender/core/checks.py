@@ -122,8 +122,9 @@ def _pieces_without_particles(od, graph, vertices, triangles):
 
 def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
     """The mesh's pieces but its largest that a goal's Follow leaves loose all over (no vertex at ``anchor`` or
-    more): each holds to the body by one edge (opdeform.graph's small_pieces="own") and its goal spring alone
-    turns it back, slowly (a humanoid's hulls painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
+    more): each holds to the body only by the edges from its particles to the nearest body particle
+    (opdeform.graph's small_pieces="own") and its goal spring alone turns it back, slowly (a humanoid's hulls
+    painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
     ((vertex count, centre of ``shown``), ...), largest first; () without pieces or a goal."""
     if piece is None or follow is None:
         return ()
@@ -139,8 +140,9 @@ def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
 
 def hanging_text(pieces):
     """The panel's warning for hanging_pieces (None when there are none)."""
-    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body by one edge at most and "
-                        "drifts back slowly after the motion; paint Follow 1 where it meets the body")
+    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body only by its particles' "
+                        "links to the nearest body particle and drifts back slowly after the motion; paint Follow 1 "
+                        "where it meets the body")
 
 
 def attached_text(pieces):
