@@ -91,7 +91,8 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                                                 "until Reset")
     # graph
     particles: IntProperty(name="Particles", default=100, min=2, soft_max=2000,
-                           description="Number of ellipsoid particles (press Build after changing)")
+                           description="Number of ellipsoid particles (press Build after changing); a long or "
+                           "flat detached shell of a rigged mesh gets at least 16 of its own beyond it")
     graph_mode: EnumProperty(name="Graph", items=GRAPH_MODE_ITEMS, default="auto")
     neighbors: IntProperty(name="Skin Neighbors", default=4, min=1, max=16,
                            description="Particles that move each vertex (m of the skinning weights)")
