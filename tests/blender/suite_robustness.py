@@ -669,6 +669,31 @@ def test_rigged_shells_painted_loose_all_over_are_named():
     assert len(text) == 1 and f"{SHELLS - 1} detached shells" in text[0], text
 
 
+def test_a_follow_group_just_picked_names_no_shell_until_read():
+    """Enable first (which ticks Goal on a rigged mesh), then a Follow group picked that paints every shell 1 (the
+    order an artist clicks in): until the next frame reads the group the engine still has Follow 0.7 everywhere, and the
+    panel named every shell "with Follow under 1 all over" (the audit's dog, stop 38: its head and legs); it says
+    nothing about the shells until the group is read, and nothing after, the shells being at 1."""
+    obj, _ = _creature()
+    _rigged(obj, np.ones(len(obj.data.vertices)))
+    s = obj.opdeform
+    s.property_unset("use_goal")  # as never clicked: Enable ticks Goal on a rigged mesh (Follow 0.7 everywhere)
+    s.property_unset("goal_group")
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.opdeform.enable(object=obj.name)
+    assert s.use_goal
+    s.goal_group = "follow"
+
+    def shown():  # the panel's labels as one text (a long warning is wrapped over several)
+        return " ".join(e[1] for e in H.draw_panels() if e[0] == "label")
+    assert "Follow under 1" not in shown(), shown()
+    bpy.context.scene.frame_set(2)
+    assert not s.error and "Follow under 1" not in shown(), (s.error, shown())
+    s.goal_group = ""  # Follow 0.7 everywhere, read on the next frame: then every shell is named
+    bpy.context.scene.frame_set(3)
+    assert f"{SHELLS} detached shells with Follow under 1" in shown(), shown()
+
+
 def test_one_piece_names_no_shell():
     """A mesh of one piece, and a two-part object whose parts both have particles: no shell named."""
     obj = _enable_bar()

@@ -10,7 +10,7 @@ from ..core.settings import LOOKS
 from . import modifier, presets, runtime, state, versioning
 from .compiled import ADDON_PACKAGE
 from .panel_base import PhysicsPanel, SubPanel, ToggledSubPanel, split, wrapped
-from .parameters import frame_rate, graph_key
+from .parameters import frame_rate, graph_key, settings_key
 
 
 def draw_material(layout, s, context):
@@ -44,8 +44,10 @@ def _draw_substeps(col, s, scene):
         col.prop(s, "substeps")
 
 
-def warnings(rt, frame):
-    """The panel's warnings for the frame shown (texts)."""
+def warnings(rt, frame, current=True):
+    """The panel's warnings for the frame shown (texts). current=False: the settings changed since the engine was
+    last configured (a Follow group just picked is read on the next frame), so what depends on them is left out
+    until then rather than shown for the old ones."""
     out = []
     rep = rt.engine.reports.get(frame)
     if rep is not None and rep.stretch > frame_report.STRETCH_LIMIT:
@@ -62,7 +64,8 @@ def warnings(rt, frame):
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)
-    hanging = checks.hanging_text(checks.hanging_pieces(rt.pieces, rt.engine.follow, rt.engine.rest_local))
+    hanging = current and checks.hanging_text(checks.hanging_pieces(rt.pieces, rt.engine.follow,
+                                                                     rt.engine.rest_local))
     if hanging:
         out.append(hanging)
     if rt.engine.behind:
@@ -74,7 +77,8 @@ def draw_warnings(layout, obj, scene):
     rt = state.get(obj)
     if rt is None:
         return
-    for text in warnings(rt, scene.frame_current):
+    current = rt.configured is not None and rt.configured[0] == settings_key(obj, scene)
+    for text in warnings(rt, scene.frame_current, current):
         wrapped(layout, text, 'ERROR')
 
 
