@@ -101,10 +101,11 @@
 // normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
 // split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
 // same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
-// positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's head, 0.75 m aside (docs/contact.md,
-// "Stacks", stop 38, jellysuz). Only for those members: where the floor holds members inside the iterations
-// (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ over their 4.5 kJ start in one step, and
-// two Rubber spheres on their skins, held together, bounced on their floor as one at 1.1-1.4 m/s and rolled off.
+// positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
+// head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). Only for those members: where the floor
+// holds members inside the iterations (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ
+// over their 4.5 kJ start in one step, and two Rubber spheres on their skins, held together, bounced on their
+// floor as one at 1.1-1.4 m/s and rolled off.
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -752,16 +753,24 @@ static od_Mat3 od_SymmetricInverse(const od_Mat3* a)
 						c1.z / det, c2.z / det } };
 }
 
+// The mass-weighted mean over member b's particles of a field of 3-vectors (positions: its centre of mass;
+// velocities: its mean velocity), with s->mass[b] its mass.
+static od_Vec3 od_MemberMean(const od_PairScratch* s, const od_Sim* sim, int b, const double* field)
+{
+	od_Vec3 mean = od_V3(0, 0, 0);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		mean = od_MulAdd(mean, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(field + 3 * i));
+	}
+	return mean;
+}
+
 // Member b's centre of mass at the step's start and the inverse of its particles' inertia about it (s->pose), for
 // its turn (od_Turn) and the floor's rolling couple on it (od_ApplyRolls).
 static void od_Pose(od_PairScratch* s, const od_Sim* sim, int b)
 {
 	const double* x = sim->previous.x;
-	od_Vec3 centre = od_V3(0, 0, 0);
-	for (int i = 0; i < sim->graph->n; ++i)
-	{
-		centre = od_MulAdd(centre, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(x + 3 * i));
-	}
+	od_Vec3 centre = od_MemberMean(s, sim, b, x);
 	od_Mat3 inertia = od_M3Zero(), identity = od_M3Identity();
 	double height = 0.0;
 	for (int i = 0; i < sim->graph->n; ++i)
@@ -2235,20 +2244,9 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def)
 	return sim->selfContact;
 }
 
-// Inelastic impacts between members (od_BodyContact_Impacts): passes over the interfaces and the pressed members'
+// Inelastic impacts between members (od_BodyContact_Impacts): passes over the interfaces and both their members'
 // grounds, Gauss-Seidel (each part taken moves what the next sees), as many as the projection's (OD_PAIR_PASSES).
 #define OD_IMPACT_PASSES OD_PAIR_PASSES
-
-// Member b's mean velocity (mass weighted).
-static od_Vec3 od_MemberVelocity(const od_PairScratch* s, const od_Sim* sim, int b)
-{
-	od_Vec3 v = od_V3(0, 0, 0);
-	for (int i = 0; i < sim->graph->n; ++i)
-	{
-		v = od_MulAdd(v, sim->def.density * sim->graph->volumes[i] / s->mass[b], od_V3Load(sim->state.v + 3 * i));
-	}
-	return v;
-}
 
 // Adds dv to the velocity of every particle of sim: its momentum changes by its mass times dv, nothing turns or
 // strains.
@@ -2286,7 +2284,7 @@ static void od_Part(const od_PairScratch* s, od_Sim* const* sims, const od_Inter
 {
 	int l = ie->lower, u = ie->upper;
 	od_Vec3 n = od_Unit(od_V3Load(ie->n));
-	double w = od_Dot(od_Sub(od_MemberVelocity(s, sims[u], u), od_MemberVelocity(s, sims[l], l)), n);
+	double w = od_Dot(od_Sub(od_MemberMean(s, sims[u], u, sims[u]->state.v), od_MemberMean(s, sims[l], l, sims[l]->state.v)), n);
 	if (w > speed)
 	{
 		double share = s->mass[l] / (s->mass[l] + s->mass[u]);
@@ -2313,14 +2311,13 @@ static bool od_AtGround(const od_Sim* sim, double margin)
 	return at;
 }
 
-// Member b, pressed by a comparable member (an interface's), leaving its
-// ground (the floor or a collider it touched within the step: `thickness` plus its rise in the step) upwards
-// (against gravity) faster than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
+// Member b, either member of an interface with a comparable one, leaving its ground (the floor or a collider it
+// touched within the step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
 static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
 {
 	const double* g = sims[b]->def.gravity;
 	od_Vec3 up = od_Unit(od_V3(-g[0], -g[1], -g[2]));
-	double rise = od_Dot(od_MemberVelocity(s, sims[b], b), up);
+	double rise = od_Dot(od_MemberMean(s, sims[b], b, sims[b]->state.v), up);
 	if (rise > speed && od_AtGround(sims[b], thickness + rise * sims[b]->def.dt))
 	{
 		od_ShiftVelocity(sims[b], od_Scale(speed - rise, up));

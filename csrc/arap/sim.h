@@ -229,7 +229,7 @@ typedef struct od_PairScratch
 	int rollUpdates;  // how many times this step's rolling couples (the floor's, the members') were updated (od_Rolls)
 	od_MemberCouple* couples; // the rolling couples between members this step (od_MemberRolls)
 	int coupleCount, coupleCapacity;
-	od_Interface* interfaces; // of the current update (od_Interfaces)
+	od_Interface* interfaces; // of the current update (od_Interfaces; after a step od_BodyContact_Impacts')
 	int interfaceCount, interfaceCapacity;
 	double* system;   // their rigid system and right side, 2 interfaceCapacity (2 interfaceCapacity + 1) (od_Coarse)
 	od_ContactPair* pairs;

@@ -92,7 +92,8 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     # graph
     particles: IntProperty(name="Particles", default=100, min=2, soft_max=2000,
                            description="Number of ellipsoid particles (press Build after changing); a long or "
-                           "flat detached shell of a rigged mesh gets at least 16 of its own beyond it")
+                           "flat closed detached shell of a rigged mesh gets at least 16 in all, those it "
+                           "lacks added beyond this count")
     graph_mode: EnumProperty(name="Graph", items=GRAPH_MODE_ITEMS, default="auto")
     neighbors: IntProperty(name="Skin Neighbors", default=4, min=1, max=16,
                            description="Particles that move each vertex (m of the skinning weights)")
