@@ -727,10 +727,20 @@ static od_Mat3 od_Inertia(od_Mat3 second)
 	return second;
 }
 
+// The most of `level` (the turn across the patch's normal) that can be taken back from a spin whose whole turn is
+// `turn` (I turn = spin): the kinetic energy ½ (turn - k level)·I (turn - k level) / h² is least at
+// k = level·spin / (level·I level), 1 when level is the whole turn; none when the roll goes against the spin.
+static double od_LevelShare(const od_Mat3* inertia, od_Vec3 spin, od_Vec3 level)
+{
+	double along = od_Dot(level, od_M3MulV(inertia, level));
+	return along > 0.0 ? fmax(od_Dot(level, spin), 0.0) / along : 0.0;
+}
+
 // Third: piece p's turn over the step about its centre of mass c (its spin: a piece that slides without
-// turning has none) taken back by at most the patch's moment μ N a times the step (k ≤ 1 of it: the kinetic
-// energy of the spin only drops), then shifted so that the patch stays where it was, by at most what the
-// friction its forces left unused moves the piece in a step (spare h² / M) and never so that the energy rises.
+// turning has none) taken back by at most the patch's moment μ N a times the step, and by no more than leaves the
+// spin's kinetic energy least (k ≤ 1 of the whole turn; of a level one, od_LevelShare: it only drops), then
+// shifted so that the patch stays where it was, by at most what the friction its forces left unused moves the
+// piece in a step (spare h² / M) and never so that the energy rises.
 // Level: only its turn across the patch's normal (a roll, not a twist: od_RollPieces).
 static void od_RollBack(od_Patch* p, double h, bool level)
 {
@@ -747,7 +757,8 @@ static void od_RollBack(od_Patch* p, double h, bool level)
 		return;
 	}
 	turn = level ? od_MulAdd(turn, -od_Dot(turn, p->normal), p->normal) : turn;
-	double k = fmin(1.0, h * h * sqrt(p->spread) * p->friction / size);
+	double most = level ? fmin(1.0, od_LevelShare(&inertia, spin, turn)) : 1.0;
+	double k = fmin(most, h * h * sqrt(p->spread) * p->friction / size);
 	p->turn = od_M3ExpSkew(od_Scale(-k, turn));
 	// The turn is about c: x -> centre + turn (x - centre) + (c - turn c); the shift that keeps the patch centre
 	// is turn c - c, cut to the spare friction's reach and to lowering the energy (drift·s + M |s|² / 2 <= 0).

@@ -46,14 +46,15 @@ typedef enum od_SmallPieces
 {
 	OD_SMALL_ATTACH, // no particles: skinned rigidly by the particles of the large piece nearest to it
 	OD_SMALL_OWN,    // particles of its own, joined by edges to that piece: at least OD_SMALL_PIECE_PARTICLES
-	                 // from the budget when compact; when long or flat, its share of the budget and particles
-	                 // added beyond it up to OD_SHELL_PARTICLES where fewer (never more than its voxels)
+	                 // from the budget when compact or open (a shell with a boundary); when closed and long or
+	                 // flat, its share of the budget and particles added beyond it up to OD_SHELL_PARTICLES
+	                 // where fewer (never more than its voxels)
 } od_SmallPieces;
 
 #define OD_SMALL_PIECE_RATIO 0.1
 #define OD_SMALL_PIECE_PARTICLES 4
 #define OD_SHELL_PARTICLES 16
-#define OD_LONG_SHELL 0.4 // longest side^2 / area above which a small piece is long or flat (a sphere: 1/pi)
+#define OD_LONG_SHELL 0.4 // longest side^2 / area above which a closed small piece is long or flat (a sphere: 1/pi)
 
 typedef struct od_MeshGraphDef
 {
