@@ -2260,8 +2260,10 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 
 // The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
 // members that meet their floors with their skins (od_FloorSkinOnly), grouped by their members, each interface's
-// normal the sum of its pairs' normals times their forces.
-static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
+// normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does, only when more
+// members meet than ever before (reserving every pair of members would size od_Coarse's dense system by their
+// square); out of memory fails the step, as an impact left out would let a member bounce.
+static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 {
 	s->interfaceCount = 0;
 	for (int k = 0; k < s->pairCount; ++k)
@@ -2269,13 +2271,19 @@ static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 		const od_ContactPair* pair = &s->pairs[k];
 		int ma = s->body[pair->a], mb = s->body[pair->b];
 		bool skins = od_FloorSkinOnly(sims[ma]) && od_FloorSkinOnly(sims[mb]);
-		int e = ma != mb && skins && pair->force > 0.0 && od_Comparable(s, pair) ? od_InterfaceOf(s, ma, mb) : -1;
-		if (e >= 0)
+		if (ma == mb || !skins || pair->force <= 0.0 || !od_Comparable(s, pair))
 		{
-			od_Interface* ie = &s->interfaces[e];
-			od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
+			continue;
 		}
+		int e = od_InterfaceOf(s, ma, mb);
+		if (e < 0)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact interfaces of %d pairs", s->pairCount);
+		}
+		od_Interface* ie = &s->interfaces[e];
+		od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
 	}
+	return OD_OK;
 }
 
 // Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
@@ -2347,13 +2355,17 @@ static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double 
 	}
 }
 
-void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+od_Status od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	if (count < 2 || !between->inIterations)
 	{
-		return; // no forces, no interfaces (nor s->mass)
+		return OD_OK; // no forces, no interfaces (nor s->mass)
 	}
-	od_ImpactInterfaces(s, sims);
+	od_Status status = od_ImpactInterfaces(s, sims);
+	if (status != OD_OK)
+	{
+		return status;
+	}
 	const double* g = sims[0]->def.gravity;
 	double speed = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * fmax(sims[0]->def.dt, OD_CLIMB_TIME);
 	for (int pass = 0; pass < OD_IMPACT_PASSES && speed > 0.0 && s->interfaceCount > 0; ++pass)
@@ -2368,4 +2380,5 @@ void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, c
 			od_Land(s, sims, s->interfaces[e].upper, speed, between->thickness);
 		}
 	}
+	return OD_OK;
 }
