@@ -99,8 +99,9 @@
 // 2.7 m aside at 3 s. So, as a rigid body step takes a contact's restitution (Guendelman, Bridson and Fedkiw 2003:
 // contact at zero restitution), two such comparable members whose pairs carry a force and part along their mean
 // normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
-// split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
-// same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
+// split by mass (momentum kept), and one of them pressed onto its floor and rising off it or a collider faster than
+// that is slowed the same way, in OD_IMPACT_PASSES Gauss-Seidel passes; members that goals or pins hold take
+// neither (od_Driven); a whole member's velocity is shifted, nothing turns or strains,
 // positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
 // head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). Only for those members: where the floor
 // holds members inside the iterations (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ
