@@ -99,8 +99,9 @@
 // 2.7 m aside at 3 s. So, as a rigid body step takes a contact's restitution (Guendelman, Bridson and Fedkiw 2003:
 // contact at zero restitution), two such comparable members whose pairs carry a force and part along their mean
 // normal faster than gravity gives in a step or OD_CLIMB_TIME, the longer, are slowed to that speed, the change
-// split by mass (momentum kept), and one of them rising off its floor or a collider faster than that is slowed the
-// same way, in OD_IMPACT_PASSES Gauss-Seidel passes; a whole member's velocity is shifted, nothing turns or strains,
+// split by mass (momentum kept), and one of them pressed onto its floor and rising off it or a collider faster than
+// that is slowed the same way, in OD_IMPACT_PASSES Gauss-Seidel passes; members that goals or pins hold take
+// neither (od_Driven); a whole member's velocity is shifted, nothing turns or strains,
 // positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
 // head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). Only for those members: where the floor
 // holds members inside the iterations (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ
@@ -2260,8 +2261,10 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 
 // The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
 // members that meet their floors with their skins (od_FloorSkinOnly), grouped by their members, each interface's
-// normal the sum of its pairs' normals times their forces.
-static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
+// normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does, only when more
+// members meet than ever before (reserving every pair of members would size od_Coarse's dense system by their
+// square); out of memory fails the step, as an impact left out would let a member bounce.
+static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 {
 	s->interfaceCount = 0;
 	for (int k = 0; k < s->pairCount; ++k)
@@ -2269,13 +2272,32 @@ static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 		const od_ContactPair* pair = &s->pairs[k];
 		int ma = s->body[pair->a], mb = s->body[pair->b];
 		bool skins = od_FloorSkinOnly(sims[ma]) && od_FloorSkinOnly(sims[mb]);
-		int e = ma != mb && skins && pair->force > 0.0 && od_Comparable(s, pair) ? od_InterfaceOf(s, ma, mb) : -1;
-		if (e >= 0)
+		if (ma == mb || !skins || pair->force <= 0.0 || !od_Comparable(s, pair))
 		{
-			od_Interface* ie = &s->interfaces[e];
-			od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
+			continue;
 		}
+		int e = od_InterfaceOf(s, ma, mb);
+		if (e < 0)
+		{
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact interfaces of %d pairs", s->pairCount);
+		}
+		od_Interface* ie = &s->interfaces[e];
+		od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
 	}
+	return OD_OK;
+}
+
+// Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
+// does not slow (od_Part, od_Land): a member whose goals lifted it off the floor under another at 1 m/s (strength 0.5,
+// 60 steps a second) was held to 0.16 m/s a step, and one leaving another was slowed and dragged it along.
+static bool od_Driven(const od_Sim* sim)
+{
+	bool driven = sim->constraints.positionCount > 0;
+	for (int i = 0; !driven && i < sim->graph->n; ++i)
+	{
+		driven = od_Goals_Hold(sim, i);
+	}
+	return driven;
 }
 
 // Interface ie's members parting along its normal faster than `speed`: their relative velocity along it slowed to
@@ -2283,6 +2305,10 @@ static void od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 static void od_Part(const od_PairScratch* s, od_Sim* const* sims, const od_Interface* ie, double speed)
 {
 	int l = ie->lower, u = ie->upper;
+	if (od_Driven(sims[l]) || od_Driven(sims[u]))
+	{
+		return;
+	}
 	od_Vec3 n = od_Unit(od_V3Load(ie->n));
 	double w = od_Dot(od_Sub(od_MemberMean(s, sims[u], u, sims[u]->state.v), od_MemberMean(s, sims[l], l, sims[l]->state.v)), n);
 	if (w > speed)
@@ -2311,10 +2337,16 @@ static bool od_AtGround(const od_Sim* sim, double margin)
 	return at;
 }
 
-// Member b, either member of an interface with a comparable one, leaving its ground (the floor or a collider it
-// touched within the step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
+// Member b of an interface with a comparable one, pressed onto its floor by the pairs (s->load[b] < 0, as od_Rolls
+// reads it) and free of goals and pins (od_Driven), leaving its ground (the floor or a collider it touched within the
+// step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to
+// `speed`, as the floor's projection stops a lone body.
 static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
 {
+	if (s->load[b] >= 0.0 || od_Driven(sims[b]))
+	{
+		return;
+	}
 	const double* g = sims[b]->def.gravity;
 	od_Vec3 up = od_Unit(od_V3(-g[0], -g[1], -g[2]));
 	double rise = od_Dot(od_MemberMean(s, sims[b], b, sims[b]->state.v), up);
@@ -2324,13 +2356,17 @@ static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double 
 	}
 }
 
-void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
+od_Status od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between)
 {
 	if (count < 2 || !between->inIterations)
 	{
-		return; // no forces, no interfaces (nor s->mass)
+		return OD_OK; // no forces, no interfaces (nor s->mass)
 	}
-	od_ImpactInterfaces(s, sims);
+	od_Status status = od_ImpactInterfaces(s, sims);
+	if (status != OD_OK)
+	{
+		return status;
+	}
 	const double* g = sims[0]->def.gravity;
 	double speed = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) * fmax(sims[0]->def.dt, OD_CLIMB_TIME);
 	for (int pass = 0; pass < OD_IMPACT_PASSES && speed > 0.0 && s->interfaceCount > 0; ++pass)
@@ -2345,4 +2381,5 @@ void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, c
 			od_Land(s, sims, s->interfaces[e].upper, speed, between->thickness);
 		}
 	}
+	return OD_OK;
 }

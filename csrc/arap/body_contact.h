@@ -18,5 +18,7 @@ od_Status od_BodyContact_ReserveForces(od_Sim* sim);
 od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);
 // After a group's step (its members' velocities updated, od_Step_Finish): members in contact parting, or a pressed
 // member leaving its ground, faster than gravity gives in a step or 1/60 s are slowed to that speed, as the floor's
-// projection stops a lone body (an inelastic impact; body_contact.c). Nothing without forces in the iterations.
-void od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);
+// projection stops a lone body (an inelastic impact; body_contact.c), members held by goals or position constraints
+// left alone. Nothing without forces in the iterations.
+// Fails when the list of interfaces cannot grow (out of memory).
+od_Status od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);

@@ -133,10 +133,7 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
 		{
 			od_Step_Finish(group->sims[b], k, steps);
 		}
-		if (status == OD_OK)
-		{
-			od_BodyContact_Impacts(&group->pairs, group->sims, group->count, &group->def);
-		}
+		status = status == OD_OK ? od_BodyContact_Impacts(&group->pairs, group->sims, group->count, &group->def) : status;
 	}
 	od_Status ended = status;
 	for (int b = 0; b < group->count; ++b)

@@ -5,6 +5,7 @@ int test_polar(void);
 int test_svd4(void);
 int test_graph(void);
 int test_sim(void);
+int test_group(void);
 int test_interrupt(void);
 int test_goal(void);
 int test_auto(void);
@@ -23,6 +24,7 @@ int main(void)
 	RUN_TEST(test_svd4);
 	RUN_TEST(test_graph);
 	RUN_TEST(test_sim);
+	RUN_TEST(test_group);
 	RUN_TEST(test_interrupt);
 	RUN_TEST(test_goal);
 	RUN_TEST(test_auto);
