@@ -323,9 +323,9 @@ void od_Step_Start(od_Sim* sim, bool chooseStart)
 	// ramp 8.8 degrees about the ramp's normal in 2 s at 240 Hz, frictionless (0.75 from the previous ones).
 	// Goals carrying the rest take the predicted rotations there too (od_Tolerance_ChooseStart: untested, no
 	// global solve): a character's feet stand on the floor, and from the previous rotations a loose shell's
-	// swing about its links (held only by its soft terms) advanced one pair's worth a step (one pair a step
-	// under the tolerance): the dog of docs/goals.md crept back onto its rig in 0.7 s, 1.7 mm off 1 s after
-	// the motion at 1,000 particles, its tail swinging as fast without the floor.
+	// swing about its links (held only by its soft terms) advanced one pair's worth a step: the dog of
+	// docs/goals.md, 1,000 particles, crept back onto its rig one pair a step (1.7 mm off 1 s after the motion,
+	// 0.13 mm without the floor), or with fewer tail particles cycled under Chebyshev (13.7 mm).
 	bool touching = od_SurfaceContact_Start(sim);
 	if (chooseStart && sim->solverDef.tolerance > 0.0 && (!touching || od_Goals_CarryRest(sim)))
 	{
