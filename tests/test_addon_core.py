@@ -231,6 +231,60 @@ def test_engine_goal_follows_the_input_and_rejects_bad_goals():
     assert e.goal_strength is None and len(e.cache) == 0
 
 
+def _turn_y(angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+
+
+def _tailed_body():
+    """A 1 m capsule lying on z = 0 and a detached 0.46 m tail rising 40 degrees from its back (vertices, triangles,
+    the tail's vertices, its root), Follow 1 on the body falling smoothly to 0.1 along the tail."""
+    from opdeform import meshes
+    body, tail = meshes.capsule(radius=0.2, length=0.6), meshes.capsule(radius=0.03, length=0.4)
+    root = np.array([-0.42, 0.0, 0.28])
+    tv = (tail[0] - (tail[0][:, 0].min(), 0.0, 0.0)) * (-1.0, 1.0, 1.0) @ _turn_y(math.radians(40)).T + root
+    v = np.vstack([body[0] + (0.0, 0.0, 0.2), tv])
+    is_tail = np.arange(len(v)) >= len(body[0])
+    x = np.clip(np.where(is_tail, np.linalg.norm(v - root, axis=1) / 0.46, 0.0) / 0.8, 0.0, 1.0)
+    return v, np.vstack([body[1], tail[1] + len(body[0])]), is_tail, root, 1.0 - 0.9 * x * x * (3.0 - 2.0 * x)
+
+
+def _tail_after_the_motion(floor):
+    """The tailed body hopping 0.1 m twice with its tail swinging 0.5 rad in 1 s, then still, the add-on's
+    defaults (Fleshy, Softness 0.15^(1 - Follow), 10 substeps at 24 fps, tolerance 2e-5) at 1,000 particles:
+    each frame's largest distance from the animation from 1 s after the motion."""
+    from opdeform_blender.core import settings
+    v, t, is_tail, root, follow = _tailed_body()
+    e = Engine(opdeform, v, t, particles=1000, small_pieces="own")
+    u = settings.Units(solver_units=False, modulus=3.0, stiffness=0.0, density=1050.0, damping_rate=9.0,
+                       damping=0.0, tolerance=2e-3, max_iterations=100, iterations=10, substeps=10)
+    params, solver = settings.solver_settings(opdeform, e.graph, u, 24, (0.0, 0.0, 0.0))
+    e.configure(params, u.substeps, floor, 1, 72, solver)
+    e.set_goal(0.0, follow)
+    e.set_regions(0.15 ** (1.0 - follow))
+    after = []
+    for f in range(1, 73):
+        time = (min(f, 25) - 1) / 24
+        animated = v.copy()
+        animated[is_tail] = (v[is_tail] - root) @ _turn_y(0.5 * math.sin(4 * math.pi * time)).T + root
+        animated[:, 2] += 0.1 * abs(math.sin(2 * math.pi * time))
+        out = e.goto(f, None, animated.astype(np.float32))
+        after.append(float(np.linalg.norm(out - animated, axis=1).max()))
+    return np.array(after[48:])
+
+
+@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
+def test_a_soft_loose_shell_settles_on_the_floor_as_in_the_air():
+    """Issue 24: loose parts within 2 mm of the rig 1 s after the motion stops. A body standing on the floor
+    started its steps from the previous rotations; a soft detached shell's swing about its links then crept back
+    one pair a step (docs/goals.md, the dog at 1,000 particles: 1.7 mm after 1 s, 0.44 mm after 2 s). Before:
+    here 0.78 mm 1 s after the stop, 0.33 mm after 1.5 s (in the air 0.38 and 0.010)."""
+    for floor in (None, (0.0, 0.5)):
+        after = _tail_after_the_motion(floor)
+        assert after.max() < 2e-3, (floor, after.max())
+        assert after[12:].max() < 1e-4, (floor, after[12:].max())  # 1.5 s on: settled, not creeping
+
+
 def test_to_world_of_an_unturned_object_is_the_product():
     local = np.random.default_rng(5).normal(size=(50, 3)).astype(np.float32)
     local[0] = (-0.0, 0.0, 2.0)
