@@ -364,6 +364,22 @@ def test_pieces_loose_all_over_are_named():
     assert checks.hanging_text(()) is None
 
 
+def test_pieces_no_bone_moves_are_named():
+    """Of a mesh's pieces, those with no vertex a bone moves (the dog's ears, left unweighted by automatic weights:
+    docs/goals.md), the largest included, by size and centre; a piece with one weighted vertex, or weights not
+    known: nothing."""
+    piece = np.array([0] * 6 + [1] * 3 + [2] * 2 + [-1])
+    moved = np.array([True] * 6 + [False] * 3 + [False, True] + [False])
+    shown = np.arange(36.0).reshape(12, 3)
+    found = checks.unrigged_pieces(piece, moved, shown)
+    assert found == ((3, tuple(shown[6:9].mean(axis=0))),), found
+    assert checks.unrigged_pieces(piece, np.zeros(12, bool), shown)[0][0] == 6  # the body too, largest first
+    text = checks.unrigged_text(found)
+    assert text.startswith("1 detached shell that no bone moves (3 vertices at (21.00") and "bone's vertex group" in text
+    assert checks.unrigged_pieces(None, moved, shown) == () and checks.unrigged_pieces(piece, None, shown) == ()
+    assert checks.unrigged_text(()) is None
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""

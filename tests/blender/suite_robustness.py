@@ -626,7 +626,11 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     """On a mesh an Armature deforms (a kitbashed creature: ears, trunk, eyes as separate shells) every small
     shell gets particles of its own, so it follows its painted Follow: the trunk, 1 at its top to 0.1 at its
     tip, swings off the armature's pose and settles back, the body at 1 stays on it (attached, the trunk moved
-    rigidly with the body whatever was painted: 0.0 mm; the outside tester's kitbashed elephant, docs/goals.md)."""
+    rigidly with the body whatever was painted: 0.0 mm; the outside tester's kitbashed elephant, docs/goals.md).
+    Linked to the body from every particle, the trunk moved at most 6 mm while the rig moved it 0.3 m; linked at
+    its root (od_BeamShell), 278 mm, and it swings back at 0.8 Hz under Fleshy's damping (9/s: 16 times less
+    each half swing): 3.1 mm 1 s after the motion (frame 11; the issue's aim, not met here), under 2 mm from
+    1.08 s (frame 37)."""
     obj, down = _trunked()
     twin = _rigged(obj, 1.0 - 0.9 * down)
     bpy.ops.opdeform.enable(object=obj.name)
@@ -636,13 +640,13 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     assert not [w for w in panels.warnings(rt, 1) if "detached" in w]  # the trunk's top follows at 1
     off = []
     with watched():
-        for frame in range(1, 31):
+        for frame in range(1, 38):
             bpy.context.scene.frame_set(frame)
             off.append(np.linalg.norm(H.positions(obj) - H.positions(twin), axis=1))
     assert not obj.opdeform.error, obj.opdeform.error
     off = np.array(off)
     assert off[:, down == 0.0].max() < 1e-3, off[:, down == 0.0].max()
-    assert off[:12, down > 0.9].max() > 0.005, off[:12, down > 0.9].max()
+    assert off[:12, down > 0.9].max() > 0.05, off[:12, down > 0.9].max()
     assert off[-1].max() < 2e-3, off[-1].max()
 
 
@@ -667,6 +671,32 @@ def test_rigged_shells_painted_loose_all_over_are_named():
     bpy.context.scene.frame_set(2)
     text = [w for w in panels.warnings(rt, 2) if "Follow under 1" in w]
     assert len(text) == 1 and f"{SHELLS - 1} detached shells" in text[0], text
+
+
+def test_shells_no_bone_moves_are_named():
+    """Shells of a rigged mesh with no weight in a bone's vertex group stay where they were modelled while the rig
+    moves the rest (the audit's dog: automatic weights left its ears unweighted, and they moved 0.03 mm off a rig
+    that did not move them, docs/goals.md): the panel names them and says to weight them to a bone; weighted to it
+    in Weight Paint mode, nothing is said."""
+    obj, centres = _creature()
+    shells = np.arange(len(obj.data.vertices)) >= len(obj.data.vertices) - SHELLS * 42  # the shells come last
+    _rigged(obj, np.where(shells, 0.5, 1.0))
+    loose = np.where(shells)[0][:2 * 42].tolist()  # the first two shells
+    obj.vertex_groups["Bone"].remove(loose)
+    bpy.ops.opdeform.enable(object=obj.name)
+    rt = H.runtime().get(obj)
+    panels = importlib.import_module(H.ADDON + ".blender.panels")
+    text = [w for w in panels.warnings(rt, 1) if "no bone moves" in w]
+    assert len(text) == 1 and "2 detached shells that no bone moves (42 vertices at (0.60, 0.00, 1.00)" in text[0], text
+    assert "bone's vertex group" in text[0], text
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='WEIGHT_PAINT')
+    obj.vertex_groups["Bone"].add(loose, 1.0, 'REPLACE')
+    bpy.context.view_layer.update()
+    bpy.context.scene.frame_set(2)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.scene.frame_set(3)
+    assert not obj.opdeform.error and not [w for w in panels.warnings(rt, 3) if "no bone moves" in w], panels.warnings(rt, 3)
 
 
 def test_a_follow_group_just_picked_names_no_shell_until_read():

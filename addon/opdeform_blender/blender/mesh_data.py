@@ -66,6 +66,20 @@ def read_vertex_group(obj, name, what):
     return np.array(idx, dtype=np.int64), np.array(w, dtype=np.float64)
 
 
+def bone_moved(obj):
+    """Per vertex, whether a deforming bone of the object's Armature modifiers moves it (a weight above zero in
+    the vertex group of that bone's name); None where the groups do not say (no such modifier, one without an
+    armature or with bone envelopes, which move vertices outside any group)."""
+    rigs = [m for m in obj.modifiers if m.type == 'ARMATURE' and m.show_viewport]
+    if not rigs or any(m.object is None or m.object.type != 'ARMATURE' or m.use_bone_envelopes
+                       or not m.use_vertex_groups for m in rigs):
+        return None
+    bones = {b.name for m in rigs for b in m.object.data.bones if b.use_deform}
+    groups = {g.index for g in obj.vertex_groups if g.name in bones}
+    return np.array([any(g.group in groups and g.weight > 0.0 for g in v.groups) for v in obj.data.vertices],
+                    dtype=bool)
+
+
 def read_weights(obj, name, what):
     """A vertex group as one weight per vertex (0 outside the group); None without a group name."""
     group = read_vertex_group(obj, name, what)

@@ -61,6 +61,9 @@ def warnings(rt, frame, current=True):
     appendages = checks.appendages_text(rt.engine.thin_appendages, rt.engine.graph.n_particles)
     if appendages:
         out.append(appendages)
+    unrigged = checks.unrigged_text(rt.unrigged)
+    if unrigged:
+        out.append(unrigged)
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)

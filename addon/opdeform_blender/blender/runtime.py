@@ -21,7 +21,7 @@ from . import modifier, presets
 from .compiled import AddonError, module
 from .discovery import mark_discovery
 from .handle_data import active_handles, bind_handle, bind_new_handles, handle_matrix
-from .mesh_data import check_object, read_vertex_group, read_weights, triangles, vertex_positions
+from .mesh_data import bone_moved, check_object, read_vertex_group, read_weights, triangles, vertex_positions
 from .parameters import (body_contact, cache_folder, floor, frame_range, frame_rate, gravity, goal_strength,
                          graph_key, maps, self_contact, settings_key, sim_settings)
 from .state import Runtime, get, put, renamed
@@ -50,8 +50,16 @@ def configure(rt, obj, scene, depsgraph=None):
     handles = [(h.vertex, h.use_rotation, h.strength) for h in active_handles(s)]
     e.set_constraints(pins[0], pins[1], s.pin_strength, handles)
     set_maps(rt, obj, scene)
+    if obj.mode != 'OBJECT':  # where bone weights are painted and assigned too
+        find_unrigged(rt, obj)
     e.set_contact(self_contact(obj.opdeform_contact), body_contact(obj.opdeform_contact))
     rt.configured = (key, tuple(rt.groups))
+
+
+def find_unrigged(rt, obj):
+    """Keeps in the runtime the mesh's pieces that no bone moves (checks.unrigged_pieces), for the panel: found at
+    Build and again, as the painted maps, while the object is in another mode than Object Mode."""
+    rt.unrigged = checks.unrigged_pieces(rt.pieces, bone_moved(obj), rt.engine.rest_local)
 
 
 def group_weights(rt, obj, name, what):
@@ -106,6 +114,7 @@ def build(obj, scene, depsgraph=None):
     if small_pieces(obj) == "own":
         piece, count = checks.vertex_pieces(engine.rest, engine.triangles)
         rt.pieces = piece if count > 1 else None
+        find_unrigged(rt, obj)
     for h in active_handles(s):
         bind_handle(h, engine.rest, depsgraph)
     try:

@@ -132,9 +132,27 @@ def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
     sizes = np.bincount(piece[piece >= 0], minlength=count)
     top = np.zeros(count)
     np.maximum.at(top, piece[piece >= 0], np.asarray(follow)[piece >= 0])
-    loose = [p for p in range(count) if p != np.argmax(sizes) and sizes[p] and top[p] < anchor]
+    return _named(piece, [p for p in range(count) if p != np.argmax(sizes) and sizes[p] and top[p] < anchor], shown)
+
+
+def unrigged_pieces(piece, moved, shown):
+    """The mesh's pieces of which no vertex is moved by a bone (``moved``: per vertex, mesh_data.bone_moved): the
+    Armature leaves them where they are, so they neither follow the rig nor have its motion to lag behind (the
+    audit's dog, docs/goals.md: automatic weights left its ears unweighted, floating where they were modelled
+    while the head nods). ((vertex count, centre of ``shown``), ...), largest first; () without pieces or
+    ``moved`` (None: not known)."""
+    if piece is None or moved is None:
+        return ()
+    count = piece.max() + 1
+    sizes = np.bincount(piece[piece >= 0], minlength=count)
+    rigged = np.bincount(piece[piece >= 0], weights=np.asarray(moved)[piece >= 0], minlength=count)
+    return _named(piece, [p for p in range(count) if sizes[p] and not rigged[p]], shown)
+
+
+def _named(piece, chosen, shown):
+    """((vertex count, centre of ``shown``), ...) of the pieces ``chosen``, largest first."""
     shown = np.asarray(shown, dtype=np.float64)
-    out = [(int(sizes[p]), tuple(float(c) for c in shown[piece == p].mean(axis=0))) for p in loose]
+    out = [(int((piece == p).sum()), tuple(float(c) for c in shown[piece == p].mean(axis=0))) for p in chosen]
     return tuple(sorted(out, key=lambda x: -x[0]))
 
 
@@ -143,6 +161,13 @@ def hanging_text(pieces):
     return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body only by its particles' "
                         "links to the nearest body particle and drifts back slowly after the motion; paint Follow 1 "
                         "where it meets the body")
+
+
+def unrigged_text(pieces):
+    """The panel's warning for unrigged_pieces (None when there are none)."""
+    return _shells_text(pieces, "that no bone moves", "the Armature leaves each where it was modelled, so it "
+                        "neither follows the rig nor jiggles; give its vertices a weight in a bone's vertex group "
+                        "(Weight Paint, or Assign to the group of the bone it hangs from)")
 
 
 def attached_text(pieces):

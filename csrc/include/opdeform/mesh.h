@@ -55,6 +55,9 @@ typedef enum od_SmallPieces
 #define OD_SMALL_PIECE_PARTICLES 4
 #define OD_SHELL_PARTICLES 16
 #define OD_LONG_SHELL 0.4 // longest side^2 / area above which a closed small piece is long or flat (a sphere: 1/pi)
+#define OD_BEAM_SHELL 1.5 // a long piece whose particles spread this much more along one axis than the next (the
+                          // dog's ears 1.75-1.82, tails and trunks 4.6-6.5, ellie's ear plates 1.06)
+#define OD_ROOT_LINKS 3   // ... is linked to its host from this many particles, those nearest it (3 hold a frame)
 
 typedef struct od_MeshGraphDef
 {
