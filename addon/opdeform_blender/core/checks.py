@@ -122,9 +122,9 @@ def _pieces_without_particles(od, graph, vertices, triangles):
 
 def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
     """The mesh's pieces but its largest that a goal's Follow leaves loose all over (no vertex at ``anchor`` or
-    more): each holds to the body only by the edges from its particles to the nearest body particle
-    (opdeform.graph's small_pieces="own") and its goal spring alone turns it back, slowly (a humanoid's hulls
-    painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
+    more): each holds to the body only by the edges from its particles (a long one's from its root) to the nearest
+    body particle (opdeform.graph's small_pieces="own") and its goal spring alone turns it back, slowly (a
+    humanoid's hulls painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
     ((vertex count, centre of ``shown``), ...), largest first; () without pieces or a goal."""
     if piece is None or follow is None:
         return ()
@@ -158,9 +158,9 @@ def _named(piece, chosen, shown):
 
 def hanging_text(pieces):
     """The panel's warning for hanging_pieces (None when there are none)."""
-    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body only by its particles' "
-                        "links to the nearest body particle and drifts back slowly after the motion; paint Follow 1 "
-                        "where it meets the body")
+    return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body only by links from its "
+                        "particles (a long one's from its root) to the nearest body particle and drifts back slowly "
+                        "after the motion; paint Follow 1 where it meets the body")
 
 
 def unrigged_text(pieces):
