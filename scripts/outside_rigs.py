@@ -9,6 +9,11 @@ script, the add-on installed from a zip of scripts/package into empty user folde
 - ellie: a kitbashed elephant, ten intersecting shells in one mesh (body, head, a 0.9 m trunk, two flat ear
   plates 0.45 x 0.5 x 0.025 m, a tail, four legs) on 13 bones; trots 1 m, shakes its head three times, stands
   from frame 51. Follow 1 but along the trunk (to 0.05 at its tip), the ears (0.1 at the outer edge), the tail.
+- dog: the stop-38 audit's quadruped of joined primitives (1.6 m, 2,752 vertices, 11 shells: body, head, neck,
+  muzzle, four legs, and a 0.45 m tail and two hanging ears as loose shells) on 10 bones; automatic weights, then
+  the ears given to the head bone as an artist does (automatic weights leave them unweighted: the panel names
+  them); trots in four hops (1..49), stands to 96. Follow 1 but along the tail (to 0.1 at its tip), the ears (0.1
+  at their tips) and the belly's underside (0.3); softness 1 - Follow.
 
 VARIANT: painted (Follow and Softness groups picked before Enable), late (Enable first, then Goal and the
 groups), none (Enable with nothing painted), goal (the Follow group only), Subtle / Floppy (a look applied after
@@ -143,11 +148,13 @@ def piece(bm, make, scale=(1, 1, 1), rotate=None, move=(0, 0, 0)):
     bpy.data.meshes.remove(me)
 
 
-def tube(r1, r2, depth, segments, cuts):
-    """A capped tapered tube from z = 0 (radius r1) down to z = -depth (r2), ``cuts`` rings between."""
+def tube(r1, r2, depth, segments, cuts, up=False):
+    """A capped tapered tube from z = 0 (radius r1) down to z = -depth (r2), or up to z = depth, ``cuts`` rings
+    between."""
     def make(tmp):
-        bmesh.ops.create_cone(tmp, cap_ends=True, segments=segments, radius1=r2, radius2=r1, depth=depth)
-        bmesh.ops.translate(tmp, verts=tmp.verts, vec=(0, 0, -depth / 2))
+        low, high = (r1, r2) if up else (r2, r1)
+        bmesh.ops.create_cone(tmp, cap_ends=True, segments=segments, radius1=low, radius2=high, depth=depth)
+        bmesh.ops.translate(tmp, verts=tmp.verts, vec=(0, 0, depth / 2 if up else -depth / 2))
         sides = [e for e in tmp.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > depth / 2]
         bmesh.ops.subdivide_edges(tmp, edges=sides, cuts=cuts, use_grid_fill=True)
     return make
@@ -191,6 +198,104 @@ def ellie_bones():
         "leg.FL": ((0.25, -0.4, 0.8), (0.25, -0.4, 0.0), "root"), "leg.FR": ((-0.25, -0.4, 0.8), (-0.25, -0.4, 0.0), "root"),
         "leg.BL": ((0.25, 0.4, 0.8), (0.25, 0.4, 0.0), "root"), "leg.BR": ((-0.25, 0.4, 0.8), (-0.25, 0.4, 0.0), "root"),
     }
+
+
+# ---------------------------------------------------------------- rig 3: "dog", loose tail and hanging ears
+def sphere(u, v):
+    return lambda t: bmesh.ops.create_uvsphere(t, u_segments=u, v_segments=v, radius=1.0)
+
+
+def dog_mesh():
+    from mathutils import Matrix
+    bm = bmesh.new()
+    piece(bm, sphere(48, 24), scale=(0.45, 0.2, 0.2), move=(0, 0, 0.6))  # body
+    piece(bm, sphere(32, 16), scale=(0.14, 0.14, 0.14), move=(0.58, 0, 0.88))  # head
+    piece(bm, tube(0.09, 0.07, 0.35, 16, 6, up=True), rotate=Matrix.Rotation(math.radians(50), 3, 'Y'),
+          move=(0.32, 0, 0.62))  # neck
+    piece(bm, tube(0.06, 0.04, 0.14, 12, 3, up=True), rotate=Matrix.Rotation(math.radians(90), 3, 'Y'),
+          move=(0.66, 0, 0.84))  # muzzle
+    for x in (0.3, -0.3):
+        for y in (0.12, -0.12):
+            piece(bm, tube(0.05, 0.05, 0.55, 16, 8, up=True), move=(x, y, 0.0))  # legs
+    piece(bm, tube(0.035, 0.012, 0.45, 12, 10, up=True), rotate=Matrix.Rotation(math.radians(-60), 3, 'Y'),
+          move=(-0.4, 0, 0.66))  # tail, a loose shell
+    for y in (0.1, -0.1):  # hanging ears, loose shells
+        piece(bm, tube(0.05, 0.015, 0.18, 12, 6, up=True), scale=(1, 0.35, 1),
+              rotate=Matrix.Rotation(math.radians(-150 if y > 0 else 150), 3, "X"), move=(0.55, y, 0.98))
+    return smooth_object("Dog", bm)
+
+
+def dog_bones():
+    bones = {"root": ((0, 0, 0.2), (0, 0, 0.45), None), "spine": ((-0.4, 0, 0.6), (0.3, 0, 0.62), "root"),
+             "neck": ((0.3, 0, 0.62), (0.55, 0, 0.85), "spine"), "head": ((0.55, 0, 0.85), (0.8, 0, 0.85), "neck"),
+             "tail": ((-0.4, 0, 0.66), (-0.62, 0, 1.05), "spine")}
+    for i, (x, y) in enumerate([(0.3, 0.12), (0.3, -0.12), (-0.3, 0.12), (-0.3, -0.12)]):
+        bones[f"leg{i}"] = ((x, y, 0.55), (x, y, 0.03), "spine")
+    return bones
+
+
+def dog_animate(arm):
+    """Trots forward in four hops (frames 1..49), then stands still to 96. The root bone points up: its local y
+    is world z."""
+    end = 49
+    for f in range(1, end + 1, 2):
+        t = (f - 1) / FPS
+        r = arm.pose.bones["root"]
+        r.location = (0.0, 0.1 * abs(math.sin(2 * math.pi * t)), 0.0)
+        r.keyframe_insert("location", frame=f)
+        for name, amp, axis in (("neck", 0.25, 0), ("tail", 0.5, 2), ("leg0", 0.3, 0), ("leg1", -0.3, 0),
+                                ("leg2", -0.3, 0), ("leg3", 0.3, 0)):
+            pb = arm.pose.bones[name]
+            pb.rotation_mode = 'XYZ'
+            e = [0.0, 0.0, 0.0]
+            e[axis] = amp * math.sin(4 * math.pi * t) if f < end else 0.0
+            pb.rotation_euler = e
+            pb.keyframe_insert("rotation_euler", frame=f)
+    for pb in arm.pose.bones:
+        for path in ("location", "rotation_euler"):
+            pb.keyframe_insert(path, frame=96)
+    return end
+
+
+def dog_ears(sh, v):
+    """The shells of the ears (the two above the head), whose vertices automatic weights leave in no group."""
+    return [r for r in np.unique(sh) if abs(v[sh == r, 1].mean()) > 0.05 and v[sh == r, 2].mean() > 0.7]
+
+
+def dog_weigh_ears(obj):
+    """What an artist does when automatic weights leave the ears behind: weight them 1 to the head bone."""
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    idx = [int(i) for i in np.where(np.isin(sh, dog_ears(sh, v)))[0]]
+    for g in obj.vertex_groups:
+        g.remove(idx)
+    obj.vertex_groups["head"].add(idx, 1.0, 'REPLACE')
+
+
+def dog_maps(obj):
+    """Follow 1 but the tail (to 0.1 at its tip), the ears (0.1 at their tips), the belly's underside (to 0.3);
+    softness 1 - Follow."""
+    dog_weigh_ears(obj)
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    roots = np.unique(sh)
+    follow = np.ones(len(v))
+    tail = [r for r in roots if v[sh == r, 0].mean() < -0.45][0]
+    d = np.linalg.norm(v[sh == tail] - (-0.4, 0, 0.66), axis=1) / 0.45
+    follow[sh == tail] = 1 - 0.9 * smooth(d / 0.8)
+    regions = {"tail_tip": np.where(sh == tail)[0][d > 0.8]}
+    tips = []
+    for r in dog_ears(sh, v):
+        e = v[sh == r]
+        d = np.linalg.norm(e - (0.55, np.sign(e[:, 1].mean()) * 0.1, 0.98), axis=1) / 0.18
+        follow[sh == r] = 1 - 0.9 * smooth(d / 0.7)
+        tips.append(np.where(sh == r)[0][d > 0.7])
+    regions["ear_tips"] = np.concatenate(tips)
+    body = np.where(sh == roots[0])[0]
+    belly = body[(v[body, 2] < 0.48) & (np.abs(v[body, 0]) < 0.25)]
+    follow[belly] = 1 - 0.7 * smooth((0.48 - v[belly, 2]) / 0.06)
+    regions["belly"] = belly[v[belly, 2] < 0.43]
+    return follow, 1 - follow, regions
 
 
 # ---------------------------------------------------------------- rig, animation, maps
@@ -341,14 +446,23 @@ def floor():
     return f
 
 
+RIGS = {"gob": (gob_mesh, gob_bones, gob_animate, gob_maps),
+        "ellie": (ellie_mesh, ellie_bones, ellie_animate, ellie_maps),
+        "dog": (dog_mesh, dog_bones, dog_animate, dog_maps)}
+VIEWS = {"gob": ((0.0, -1.3, 1.1), (1.2, -1.8, 0.5)), "ellie": ((0.2, -1.0, 1.0), (1.6, -2.2, 0.6)),
+         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6))}  # camera target (where it is mid-motion) and offset
+NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog"}
+
+
 def build():
     scene = bpy.context.scene
     scene.render.fps, scene.frame_start, scene.frame_end = FPS, 1, 96
-    obj = gob_mesh() if RIG == "gob" else ellie_mesh()
-    arm = armature(gob_bones() if RIG == "gob" else ellie_bones())
+    make, bones, animate, maps = RIGS[RIG]
+    obj = make()
+    arm = armature(bones())
     parent_auto(obj, arm)
-    end = gob_animate(arm) if RIG == "gob" else ellie_animate(arm)
-    follow, soft, regions = gob_maps(obj) if RIG == "gob" else ellie_maps(obj)
+    end = animate(arm)
+    follow, soft, regions = maps(obj)
     floor()
     return obj, arm, end, follow, soft, regions
 
@@ -500,8 +614,8 @@ def render(obj, twin, frame):
         o.data.materials.clear()
         o.data.materials.append(mat)
     cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
-    target = Vector((0.0, -1.3, 1.1)) if RIG == "gob" else Vector((0.2, -1.0, 1.0))  # where it is mid-motion
-    cam.location = target + (Vector((1.2, -1.8, 0.5)) if RIG == "gob" else Vector((1.6, -2.2, 0.6)))
+    target, offset = (Vector(x) for x in VIEWS[RIG])
+    cam.location = target + offset
     d = target - cam.location
     cam.rotation_euler = d.to_track_quat('-Z', 'Y').to_euler()
     scene.camera = cam
@@ -522,7 +636,7 @@ def render(obj, twin, frame):
 if VARIANT == "open":
     install()
     bpy.ops.wm.open_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
-    obj = bpy.data.objects["Gob" if RIG == "gob" else "Ellie"]
+    obj = bpy.data.objects[NAMES[RIG]]
     a = world(obj)
     ref = np.load(os.path.join(OUT, f"{RIG}_{KIND}_f30.npy"))
     print("REOPEN frame", bpy.context.scene.frame_current, "max diff mm", 1e3 * np.abs(a - ref).max(),
