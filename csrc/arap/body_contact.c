@@ -2310,7 +2310,8 @@ static void od_Part(const od_PairScratch* s, od_Sim* const* sims, const od_Inter
 		return;
 	}
 	od_Vec3 n = od_Unit(od_V3Load(ie->n));
-	double w = od_Dot(od_Sub(od_MemberMean(s, sims[u], u, sims[u]->state.v), od_MemberMean(s, sims[l], l, sims[l]->state.v)), n);
+	od_Vec3 vu = od_MemberMean(s, sims[u], u, sims[u]->state.v), vl = od_MemberMean(s, sims[l], l, sims[l]->state.v);
+	double w = od_Dot(od_Sub(vu, vl), n);
 	if (w > speed)
 	{
 		double share = s->mass[l] / (s->mass[l] + s->mass[u]);

@@ -1153,22 +1153,19 @@ static int od_NearestGroup(const od_Builder* b, const double* p, const int* larg
 // plane (an ear plate).
 static bool od_BeamShell(const od_Builder* b, const od_Group* g)
 {
-	double mean[3] = {0.0, 0.0, 0.0}, cov[9] = {0.0};
 	const double* c = b->centers + 3 * g->first;
-	for (int i = 0; i < 3 * g->particles; ++i)
-	{
-		mean[i % 3] += c[i] / g->particles;
-	}
+	od_Vec3 mean = od_V3(0, 0, 0), values;
 	for (int i = 0; i < g->particles; ++i)
 	{
-		for (int k = 0; k < 9; ++k)
-		{
-			cov[k] += (c[3 * i + k / 3] - mean[k / 3]) * (c[3 * i + k % 3] - mean[k % 3]);
-		}
+		mean = od_MulAdd(mean, 1.0 / g->particles, od_V3Load(c + 3 * i));
 	}
-	od_Vec3 values;
-	od_Mat3 frame;
-	od_PrincipalAxes(cov, &values, &frame);
+	od_Mat3 cov = { { 0.0 } }, frame;
+	for (int i = 0; i < g->particles; ++i)
+	{
+		od_Vec3 d = od_Sub(od_V3Load(c + 3 * i), mean);
+		od_M3AddOuter(&cov, 1.0, d, d);
+	}
+	od_PrincipalAxes(cov.m, &values, &frame);
 	return od_LongShell(b, g) && values.x >= OD_BEAM_SHELL * OD_BEAM_SHELL * values.y;
 }
 
