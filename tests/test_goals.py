@@ -165,3 +165,30 @@ def test_a_float32_input_with_a_shift_fits_as_its_float64_copy_plus_the_shift(ta
     animated[order[-1]] = np.nan
     with pytest.raises(ValueError, match=rf"animated vertices\[{order[-1]}\] is not finite"):
         fit.fit(animated, (1.0, 0.0, 0.0))
+
+
+def test_follow_fits_a_new_input_once_and_names_any_vertex_not_finite(tail):
+    """``GoalFit.follow`` (the add-on's frame in one C call): a new input gives ``fit(animated, shift)``'s bits
+    in new arrays and is kept with its shift; the same values again (-0.0 for 0.0 too) give None and write
+    nothing; another shift fits again; any vertex not finite, read by the fit or not, is named and keeps the kept
+    input."""
+    v, g, fit, _ = tail
+    animated = swung(v, 0.3).astype(np.float32)
+    animated[0] = 0.0
+    kept, kept_shift = np.full_like(animated, 7.0), np.zeros(3)
+    first = fit.follow(animated, (1.5, -0.25, 0.0), kept, kept_shift, False)
+    for got, want in zip(first, fit.fit(animated, (1.5, -0.25, 0.0))):
+        assert got.tobytes() == want.tobytes()
+    assert kept.tobytes() == animated.tobytes() and list(kept_shift) == [1.5, -0.25, 0.0]
+    animated[0] = -0.0
+    assert fit.follow(animated, (1.5, -0.25, 0.0), kept, kept_shift, True) is None
+    assert kept[0].tobytes() == np.zeros(3, np.float32).tobytes()  # nothing written: still +0.0
+    assert fit.follow(animated, (1.5, -0.25, 0.0), kept, kept_shift, False) is not None  # not valid: fitted
+    second = fit.follow(animated, (1.5, 0.0, 0.0), kept, kept_shift, True)
+    assert second is not None and second[0] is not first[0] and kept_shift[1] == 0.0
+    unread = np.setdiff1d(np.arange(len(v)), fit.indices.reshape(-1))
+    bad = int(unread[0]) if len(unread) else len(v) - 1
+    animated[bad, 2] = np.inf
+    with pytest.raises(ValueError, match=rf"animated vertices\[{bad}\] is not finite"):
+        fit.follow(animated, (0.0, 0.0, 0.0), kept, kept_shift, True)
+    assert kept_shift[1] == 0.0 and np.isfinite(kept).all()

@@ -287,3 +287,55 @@ od_Status od_GoalFit_ComputeShifted(const od_GoalFit* fit, const float* animated
 	od_Animated in = { NULL, animated, od_V3(0, 0, 0), false };
 	return od_Compute(fit, &in, positions, rotations);
 }
+
+// Whether every coordinate is finite; OD_ERROR_ARGUMENT naming the first vertex that is not.
+static od_Status od_CheckAllFinite(const float* vertices, int count)
+{
+	for (int i = 0; i < count; ++i)
+	{
+		const float* v = vertices + 3 * (size_t)i;
+		if (!isfinite(v[0]) || !isfinite(v[1]) || !isfinite(v[2]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "animated vertices[%d] is not finite", i);
+		}
+	}
+	return OD_OK;
+}
+
+// Whether the input and shift equal the kept ones value for value (== : -0.0 equals 0.0, as numpy's array_equal).
+static bool od_SameAsKept(const od_KeptInput* kept, const float* animated, const double shift[3], int count)
+{
+	if (!kept->valid || shift[0] != kept->shift[0] || shift[1] != kept->shift[1] || shift[2] != kept->shift[2])
+	{
+		return false;
+	}
+	for (size_t i = 0; i < 3 * (size_t)count; ++i)
+	{
+		if (animated[i] != kept->vertices[i])
+		{
+			return false;
+		}
+	}
+	return true;
+}
+
+od_Status od_GoalFit_Follow(const od_GoalFit* fit, const float* animated, const double shift[3], od_KeptInput* kept,
+							bool* fitted, double* positions, double* rotations)
+{
+	*fitted = false;
+	od_Status status = od_CheckAllFinite(animated, fit->vertexCount);
+	if (status != OD_OK || od_SameAsKept(kept, animated, shift, fit->vertexCount))
+	{
+		return status;
+	}
+	status = od_GoalFit_ComputeShifted(fit, animated, shift, positions, rotations);
+	if (status != OD_OK)
+	{
+		return status;
+	}
+	memcpy(kept->vertices, animated, sizeof(float) * 3 * (size_t)fit->vertexCount);
+	memcpy(kept->shift, shift, sizeof(double) * 3);
+	kept->valid = true;
+	*fitted = true;
+	return OD_OK;
+}

@@ -88,6 +88,42 @@ static PyObject* GoalFit_fit(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
+// follow(animated, shift, kept, kept_shift, valid, positions_out, rotations_out) -> bool: od_GoalFit_Follow; animated
+// and kept float32 (V*3), shift and kept_shift float64 (3); True when fitted (outputs and kept written).
+static PyObject* GoalFit_follow(PyObject* obj, PyObject* args)
+{
+	GoalFitObject* self = (GoalFitObject*)obj;
+	PyObject* objs[6];
+	int valid;
+	if (!PyArg_ParseTuple(args, "OOOOpOO", &objs[0], &objs[1], &objs[2], &objs[3], &valid, &objs[4], &objs[5]))
+	{
+		return NULL;
+	}
+	Py_ssize_t nv = 3 * (Py_ssize_t)od_GoalFit_GetVertexCount(self->fit);
+	const ArraySpec inSpecs[2] = { { "animated", 'f', nv, 0 }, { "shift", 'd', 3, 0 } };
+	const ArraySpec outSpecs[4] = { { "kept", 'f', nv, 0 },
+									{ "kept_shift", 'd', 3, 0 },
+									{ "positions", 'd', 3 * self->particles, 0 },
+									{ "rotations", 'd', 9 * self->particles, 0 } };
+	Py_buffer views[2], outViews[4];
+	if (GetArrays(objs, inSpecs, 2, views) < 0)
+	{
+		return NULL;
+	}
+	if (GetOutArrays(objs + 2, outSpecs, 4, outViews) < 0)
+	{
+		ReleaseArrays(views, 2);
+		return NULL;
+	}
+	od_KeptInput kept = { outViews[0].buf, outViews[1].buf, valid != 0 };
+	bool fitted = false;
+	od_Status status = od_GoalFit_Follow(self->fit, views[0].buf, views[1].buf, &kept, &fitted, outViews[2].buf,
+										 outViews[3].buf);
+	ReleaseArrays(views, 2);
+	ReleaseArrays(outViews, 4);
+	return status != OD_OK ? RaiseStatus(Binding_Module(obj), status) : PyBool_FromLong(fitted);
+}
+
 // read(name, out): "indices" (int32 n*k) or "weights" (float64 n*k).
 static PyObject* GoalFit_read(PyObject* obj, PyObject* args)
 {
@@ -127,6 +163,9 @@ static PyGetSetDef GoalFit_getset[] = {
 static PyMethodDef GoalFit_methods[] = {
 	{ "fit", GoalFit_fit, METH_VARARGS,
 	  "fit(animated, positions_out, rotations_out, shift=None): animated float64, or float32 plus a float64 shift" },
+	{ "follow", GoalFit_follow, METH_VARARGS,
+	  "follow(animated, shift, kept, kept_shift, valid, positions_out, rotations_out) -> bool: fitted unless the "
+	  "input is the kept one" },
 	{ "read", GoalFit_read, METH_VARARGS, "read(name, out): copy 'indices' or 'weights'" },
 	{ NULL, NULL, 0, NULL },
 };

@@ -19,6 +19,8 @@ from ._arguments import ArrayLike, Floats, Ints, as_array, integer
 from ._rebuild import FromArguments
 from .graph import Graph
 
+Floats32 = npt.NDArray[np.float32]
+
 __all__ = ["GoalFit", "goal_frequency", "relative_deform", "GOAL_MIN_HZ", "GOAL_MAX_HZ"]
 
 GOAL_MIN_HZ = 0.2     # strength just above 0
@@ -45,6 +47,7 @@ class GoalFit(FromArguments):
         vertices = as_array("rest_vertices", rest_vertices, (None, 3))
         self._core = _core.GoalFit(graph._core, vertices, integer("neighbors", neighbors))
         self._args = (graph, vertices.copy(), neighbors)  # a pickle fits again
+        self._spare: tuple[Floats, Floats] | None = None  # follow's outputs while no fit has taken them
 
     @property
     def n_vertices(self) -> int:
@@ -92,6 +95,21 @@ class GoalFit(FromArguments):
             self._core.fit(as_array("animated", animated, (self.n_vertices, 3), np.float32), positions, rotations,
                            as_array("shift", shift, (3,)))
         return positions, rotations
+
+    def follow(self, animated: Floats32, shift: ArrayLike, kept: Floats32, kept_shift: Floats,
+               valid: bool) -> tuple[Floats, Floats] | None:
+        """A frame's goal frames in one C call: ``fit(animated, shift)`` of the float32 vertices (V,3), every one
+        checked finite first (ValueError naming the first that is not), unless they and the shift equal ``kept``
+        (float32 (V,3)) and ``kept_shift`` (float64 (3,)), the last fit's input when ``valid``: None then (a held
+        pose; nothing written). A fit writes its input into kept and kept_shift. The arrays it returns are new
+        ones each fit; a held pose allocates nothing."""
+        n = self.graph.n_particles
+        out = self._spare if self._spare is not None else (np.empty((n, 3)), np.empty((n, 3, 3)))
+        self._spare = out
+        if not self._core.follow(animated, as_array("shift", shift, (3,)), kept, kept_shift, valid, *out):
+            return None
+        self._spare = None
+        return out
 
 
 class Skinning(Protocol):

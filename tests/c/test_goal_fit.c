@@ -1,7 +1,8 @@
 // Goal frames fitted to an animated mesh: a rigid motion of the mesh gives every particle that motion,
 // exactly, turned a little or nearly half a turn (beyond Newton's reach from the identity: the SVD's fallback),
 // and the same bits whatever was fitted before; float32 vertices plus a shift fit as their float64 copy plus the
-// shift, to the bit; a non-finite vertex that a fit reads fails it and nothing is written.
+// shift, to the bit; a non-finite vertex that a fit reads fails it and nothing is written; od_GoalFit_Follow fits
+// a new input only (test_follow).
 #include "opdeform/mesh.h"
 #include "test_macros.h"
 #include "test_mesh_util.h"
@@ -14,6 +15,41 @@ static void turn_point(double angle, const double t[3], const double* p, double*
 	out[0] = cos(angle) * p[0] - sin(angle) * p[1] + t[0];
 	out[1] = sin(angle) * p[0] + cos(angle) * p[1] + t[1];
 	out[2] = p[2] + t[2];
+}
+
+// od_GoalFit_Follow: a new input fitted as od_GoalFit_ComputeShifted fits it and kept; the same input again (a zero
+// as -0.0 too) not fitted, nothing written; another shift fitted; a vertex not finite refused with kept unchanged.
+static int test_follow(const od_GoalFit* fit, float* single, const double shift[3], int vc, int np)
+{
+	size_t nx = sizeof(double) * 3 * (size_t)np, nr = sizeof(double) * 9 * (size_t)np;
+	double *x = malloc(nx), *r = malloc(nr), *wantX = malloc(nx), *wantR = malloc(nr), keptShift[3];
+	float* keptVertices = malloc(sizeof(float) * 3 * (size_t)vc);
+	od_KeptInput kept = { keptVertices, keptShift, false };
+	bool fitted = false;
+	float first = single[0];
+	single[0] = 0.0f; // kept as -0.0 below: equal
+	ENSURE(od_GoalFit_ComputeShifted(fit, single, shift, wantX, wantR) == OD_OK);
+	ENSURE(od_GoalFit_Follow(fit, single, shift, &kept, &fitted, x, r) == OD_OK && fitted && kept.valid);
+	ENSURE(memcmp(x, wantX, nx) == 0 && memcmp(r, wantR, nr) == 0);
+	ENSURE(memcmp(keptVertices, single, sizeof(float) * 3 * (size_t)vc) == 0 && memcmp(keptShift, shift, 24) == 0);
+	keptVertices[0] = -0.0f;
+	x[0] = 42.0;
+	ENSURE(od_GoalFit_Follow(fit, single, shift, &kept, &fitted, x, r) == OD_OK && !fitted && x[0] == 42.0);
+	double other[3] = { shift[0], shift[1] + 0.5, shift[2] };
+	ENSURE(od_GoalFit_Follow(fit, single, other, &kept, &fitted, x, r) == OD_OK && fitted && keptShift[1] == other[1]);
+	float saved = single[3 * (vc - 1) + 2];
+	single[3 * (vc - 1) + 2] = INFINITY;
+	x[0] = 42.0;
+	ENSURE(od_GoalFit_Follow(fit, single, shift, &kept, &fitted, x, r) == OD_ERROR_ARGUMENT && !fitted &&
+		   x[0] == 42.0 && keptShift[1] == other[1] && keptVertices[3 * (vc - 1) + 2] == saved);
+	single[3 * (vc - 1) + 2] = saved;
+	single[0] = first;
+	free(x);
+	free(r);
+	free(wantX);
+	free(wantR);
+	free(keptVertices);
+	return 0;
 }
 
 int test_goal_fit(void)
@@ -76,6 +112,7 @@ int test_goal_fit(void)
 		ENSURE(od_GoalFit_Compute(fit, moved, x, r) == OD_OK);
 		ENSURE(memcmp(x, shiftedX, sizeof(double) * 3 * np) == 0 && memcmp(r, shiftedR, sizeof(double) * 9 * np) == 0);
 	}
+	ENSURE(test_follow(fit, single, shifts[1], box.vertexCount, np) == 0);
 	for (int v = 0; v < box.vertexCount; ++v)
 	{
 		single[3 * v + 1] = NAN;

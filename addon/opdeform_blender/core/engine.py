@@ -98,6 +98,11 @@ def original_input(positions, index, n):
                       "it off while playing and baking, or apply it before enabling")
 
 
+def _check_finite(incoming):
+    if not np.all(np.isfinite(incoming)):
+        raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
+
+
 def _same_points(a, b):
     """Whether two (V, 3) arrays are equal, rows a stride apart compared first (a moving input differs there)."""
     return np.array_equal(a[::SAMPLE_STRIDE], b[::SAMPLE_STRIDE]) and np.array_equal(a, b)
@@ -217,6 +222,7 @@ class Engine:
         self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
         self._buffers = {}  # name -> (V, 3) array (_buffer)
         self._fitted = None  # (its input, the goal frames, the shift or None) of the last fit (goal_frames)
+        self._fitted_shift = np.zeros(3)  # the translation of the last float32 fit (goal_frames)
         self._referenced = None  # the goal frames whose skin the "reference" buffer holds (_reference)
         self._last_goals = None  # the goal frames of the last C pass's offset (_shown_reference)
 
@@ -429,20 +435,11 @@ class Engine:
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed
         as the last fit's gives its goal frames again, the same objects, so their skin is kept too
         (``_reference``): a held pose skips both (a fit depends on its input alone: the same bits). An unturned,
-        unscaled object with a float32 input (Blender's) is fitted from it and the translation (``GoalFit.fit``'s
-        shift: no float64 world copy, 0.055 ms in place during the hops at 1,000 particles, bpy 5.2) and compared
-        by them; another placed in float64 (``to_world``), compared by that, kept by swapping two buffers."""
+        unscaled object with a float32 input (Blender's): ``_followed``; another placed in float64 (``to_world``),
+        compared by that, kept by swapping two buffers."""
+        if self._follows(incoming, matrix):
+            return self._followed(incoming, matrix)
         kept = self._fitted
-        if np.array_equal(matrix[:3, :3], np.eye(3)) and incoming.dtype == np.float32 and incoming.flags.c_contiguous:
-            shift = matrix[:3, 3].copy()
-            given = self._buffer("fitted_input", np.float32)
-            if kept is not None and kept[0] is given and np.array_equal(kept[2], shift) and \
-                    _same_points(given, incoming):
-                return kept[1]
-            goals = self.fit.fit(incoming, shift)
-            np.copyto(given, incoming)
-            self._fitted = (given, goals, shift)
-            return goals
         world = to_world(incoming, matrix, self._buffer("world_input"))
         if kept is not None and kept[0] is self._buffers.get("fitted_world") and _same_points(kept[0], world):
             return kept[1]
@@ -450,6 +447,28 @@ class Engine:
         self._buffers["world_input"] = self._buffer("fitted_world")
         self._buffers["fitted_world"] = world
         self._fitted = (world, goals, None)
+        return goals
+
+    def _follows(self, incoming, matrix):
+        """Whether a frame's goal frames come from ``_followed``, which checks the input finite itself."""
+        return (self.goal_strength is not None and incoming.dtype == np.float32 and incoming.flags.c_contiguous
+                and np.array_equal(matrix[:3, :3], np.eye(3)))
+
+    def _followed(self, incoming, matrix):
+        """The goal frames of an unturned object's float32 input in one C call (``GoalFit.follow``: the input
+        checked finite, compared with the last fit's and its translation, fitted from it and the translation
+        with no float64 world copy, and kept), where numpy checked, compared and copied before."""
+        kept = self._fitted
+        given = self._buffer("fitted_input", np.float32)
+        valid = kept is not None and kept[0] is given
+        try:
+            goals = self.fit.follow(incoming, matrix[:3, 3].copy(), given, self._fitted_shift, valid)
+        except ValueError:
+            _check_finite(incoming)
+            raise
+        if goals is None:
+            return kept[1]
+        self._fitted = (given, goals, self._fitted_shift)
         return goals
 
     # -- state ----------------------------------------------------------------------------------------
@@ -597,13 +616,26 @@ class Engine:
         self.timing = {"solver": 0.0, "skin": 0.0}
         self.behind = 0
         incoming = self.rest_local if incoming is None else incoming
-        if not np.all(np.isfinite(incoming)):
-            raise EngineError("the input (the goal positions) has non-finite (NaN or infinite) vertices")
-        matrix = check_matrix(matrix) if self.goal_strength is not None else self.matrix_world
-        goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
+        matrix = self._frame_matrix(matrix, incoming)
+        follows = self._follows(incoming, matrix)
+        if not follows:
+            _check_finite(incoming)
+        goals = self._followed(incoming, matrix) if follows else \
+            None if self.goal_strength is None else self.goal_frames(incoming, matrix)
         if self.colliders.outdated(min(int(frame), self.end), surroundings):
             self.invalidate(keep_until=min(int(frame), self.end) - 1)
         return FrameRun(self, int(frame), targets, incoming, matrix, goals, surroundings)
+
+    def _frame_matrix(self, matrix, incoming):
+        """The frame's transform checked (with a goal; without one the simulation keeps Build's); a non-finite
+        input is named before a degenerate transform."""
+        if self.goal_strength is None:
+            return self.matrix_world
+        try:
+            return check_matrix(matrix)
+        except EngineError:
+            _check_finite(incoming)
+            raise
 
     def plan(self, frame):
         return frame_logic.plan(frame, self.start, self.end, self.cache.last, self.solver_frame, self.cache.first)

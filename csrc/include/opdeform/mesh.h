@@ -205,6 +205,19 @@ od_Status od_GoalFit_Compute(const od_GoalFit* fit, const double* animated, doub
 // nonzero: the same bits). Blender's object-space positions placed by an unturned object's translation.
 od_Status od_GoalFit_ComputeShifted(const od_GoalFit* fit, const float* animated, const double shift[3],
 									double* positions, double* rotations);
+// A frame's goal frames from Blender's input in one call: every vertex checked finite first (OD_ERROR_ARGUMENT naming
+// the first that is not), then, unless the input is the one last fitted (*kept: vertexCount*3 float32 and the shift
+// of the last fit, equal value for value, -0.0 to 0.0; *fitted = false, nothing written), od_GoalFit_ComputeShifted
+// into positions and rotations, and the input and shift copied into kept (*fitted = true). On an error nothing is
+// written and kept stays the last fit's.
+typedef struct od_KeptInput
+{
+	float* vertices; // vertexCount*3
+	double* shift;   // 3
+	bool valid;      // false: no fit kept yet
+} od_KeptInput;
+od_Status od_GoalFit_Follow(const od_GoalFit* fit, const float* animated, const double shift[3], od_KeptInput* kept,
+							bool* fitted, double* positions, double* rotations);
 
 #ifdef __cplusplus
 }
