@@ -42,9 +42,20 @@ class Runtime:
         self.started = None  # when the frame being shown began (perf_counter)
 
     def remember(self, frame, out):
-        self.recent[frame] = out.copy()
-        for f in sorted(self.recent)[:-RECENT_FRAMES]:
-            del self.recent[f]
+        """Keeps a copy of the frame's output among the RECENT_FRAMES latest frames, in the buffer of the frame it
+        pushes out (no array made a frame once they are kept)."""
+        recent = self.recent
+        kept = recent.pop(frame, None)
+        if kept is None and len(recent) >= RECENT_FRAMES:
+            lowest = min(recent)
+            if lowest > frame:  # older than every kept frame: not kept
+                return
+            kept = recent.pop(lowest)
+        if kept is None or kept.shape != out.shape:
+            kept = out.copy()
+        else:
+            kept[...] = out
+        recent[frame] = kept
 
     @property
     def deformed(self):
