@@ -195,9 +195,11 @@ OD_FIT_INLINE bool od_FitOne(const od_GoalFit* fit, const od_Animated* animated,
 	const int* idx = fit->idx + (size_t)fit->k * j;
 	const double* w = fit->w + (size_t)fit->k * j;
 	od_Vec3 xbar = od_V3Load(fit->centroid + 3 * j), ybar = od_V3(0, 0, 0);
+	od_Vec3 y[OD_MAX_GOAL_NEIGHBORS]; // the vertices read (and converted, shifted) once for both passes
 	for (int a = 0; a < fit->k; ++a)
 	{
-		ybar = od_MulAdd(ybar, w[a], od_AnimatedVertex(animated, idx[a]));
+		y[a] = od_AnimatedVertex(animated, idx[a]);
+		ybar = od_MulAdd(ybar, w[a], y[a]);
 	}
 	if (!isfinite(ybar.x) || !isfinite(ybar.y) || !isfinite(ybar.z))
 	{
@@ -206,9 +208,8 @@ OD_FIT_INLINE bool od_FitOne(const od_GoalFit* fit, const od_Animated* animated,
 	od_Mat3 cov = { { 0 } };
 	for (int a = 0; a < fit->k; ++a)
 	{
-		od_Vec3 y = od_Sub(od_AnimatedVertex(animated, idx[a]), ybar);
 		od_Vec3 x = od_Sub(od_V3Load(fit->rest + 3 * idx[a]), xbar);
-		od_M3AddOuter(&cov, w[a], y, x);
+		od_M3AddOuter(&cov, w[a], od_Sub(y[a], ybar), x);
 	}
 	double size = 0.0;
 	for (int k = 0; k < 9; ++k)
