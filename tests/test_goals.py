@@ -192,3 +192,5 @@ def test_follow_fits_a_new_input_once_and_names_any_vertex_not_finite(tail):
     with pytest.raises(ValueError, match=rf"animated vertices\[{bad}\] is not finite"):
         fit.follow(animated, (0.0, 0.0, 0.0), kept, kept_shift, True)
     assert kept_shift[1] == 0.0 and np.isfinite(kept).all()
+    with pytest.raises(ValueError, match="kept"):  # float64 where the kept input is float32
+        fit.follow(animated, (0.0, 0.0, 0.0), kept.astype(np.float64), kept_shift, True)

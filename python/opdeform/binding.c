@@ -230,6 +230,21 @@ int GetOutArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_bu
 	return GetSpecArrays(objs, specs, count, 1, views);
 }
 
+int GetInOutArrays(PyObject* const* objs, const ArraySpec* inSpecs, int inCount, Py_buffer* views,
+				   const ArraySpec* outSpecs, int outCount, Py_buffer* outViews)
+{
+	if (GetArrays(objs, inSpecs, inCount, views) < 0)
+	{
+		return -1;
+	}
+	if (GetOutArrays(objs + inCount, outSpecs, outCount, outViews) < 0)
+	{
+		ReleaseArrays(views, inCount);
+		return -1;
+	}
+	return 0;
+}
+
 void* ArrayData(const Py_buffer* view)
 {
 	return view->obj ? view->buf : NULL;

@@ -91,6 +91,9 @@ typedef struct
 int GetArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views);
 // The same for arrays written into (outputs; the specs not optional).
 int GetOutArrays(PyObject* const* objs, const ArraySpec* specs, int count, Py_buffer* views);
+// GetArrays for inCount inputs, then GetOutArrays for the outCount objects after them; on failure none is held.
+int GetInOutArrays(PyObject* const* objs, const ArraySpec* inSpecs, int inCount, Py_buffer* views,
+				   const ArraySpec* outSpecs, int outCount, Py_buffer* outViews);
 // The buffer's data, or NULL for an optional array that was None.
 void* ArrayData(const Py_buffer* view);
 // Copies count items into a writable buffer.

@@ -106,13 +106,8 @@ static PyObject* GoalFit_follow(PyObject* obj, PyObject* args)
 									{ "positions", 'd', 3 * self->particles, 0 },
 									{ "rotations", 'd', 9 * self->particles, 0 } };
 	Py_buffer views[2], outViews[4];
-	if (GetArrays(objs, inSpecs, 2, views) < 0)
+	if (GetInOutArrays(objs, inSpecs, 2, views, outSpecs, 4, outViews) < 0)
 	{
-		return NULL;
-	}
-	if (GetOutArrays(objs + 2, outSpecs, 4, outViews) < 0)
-	{
-		ReleaseArrays(views, 2);
 		return NULL;
 	}
 	od_KeptInput kept = { outViews[0].buf, outViews[1].buf, valid != 0 };

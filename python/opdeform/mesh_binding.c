@@ -308,13 +308,8 @@ static PyObject* Skin_shown_offset(PyObject* obj, PyObject* args)
 	}
 	const ArraySpec outSpecs[2] = { { "offset", 'f', count, 0 }, { "out", 'f', count, 0 } };
 	Py_buffer views[5], outViews[2];
-	if (GetArrays(arrays, specs, 5, views) < 0)
+	if (GetInOutArrays(arrays, specs, 5, views, outSpecs, 2, outViews) < 0)
 	{
-		return NULL;
-	}
-	if (GetOutArrays(arrays + 5, outSpecs, 2, outViews) < 0)
-	{
-		ReleaseArrays(views, 5);
 		return NULL;
 	}
 	od_Status status = OD_OK;
