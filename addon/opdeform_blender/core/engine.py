@@ -56,8 +56,8 @@ def check_matrix(matrix):
 
 
 def unturned(m):
-    """Whether a 4x4 transform's 3x3 part is the identity (-0.0 as 0.0): one list compare, where numpy's array_equal
-    with a new identity took 0.005-0.01 ms a call in place."""
+    """Whether a 4x4 transform's 3x3 part is the identity (-0.0 as 0.0): one list compare, 0.0005-0.0007 ms warm
+    where numpy's array_equal with a new identity took 0.004-0.006 (timeit, the system's python3)."""
     return m[:3, :3].tolist() == IDENTITY
 
 
