@@ -479,6 +479,12 @@ def world(obj):
     return out.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
 
 
+def digest(a):
+    """A short hash of an array's bits (None: None)."""
+    import hashlib
+    return None if a is None else hashlib.sha1(np.ascontiguousarray(a).tobytes()).hexdigest()[:10]
+
+
 def base(obj):
     out = np.empty(len(obj.data.vertices) * 3, np.float32)
     obj.data.vertices.foreach_get("co", out)
@@ -538,6 +544,15 @@ def main():
     if st is not None and st.engine.goal_strength is not None:
         gs = st.engine.goal_strength
         print("PARTICLE_FOLLOW n", len(gs), "min", gs.min(), "sorted low", np.sort(gs)[:12].round(3))
+    if st is not None:  # the graph's inputs and the graph, to tell run-to-run differences apart
+        e = st.engine
+        weights = np.array([[w.group, w.weight] for x in obj.data.vertices for w in x.groups])
+        print("HASHES", {k: digest(a) for k, a in dict(rest=e.rest, triangles=e.triangles, weights=weights,
+                                                        centers=e.graph.centers, follow=e.follow,
+                                                        particle_follow=e.goal_strength).items()})
+        if os.environ.get("OUTSIDE_RIGS_DUMP"):
+            np.savez(os.environ["OUTSIDE_RIGS_DUMP"], rest=e.rest, triangles=e.triangles, weights=weights,
+                     centers=e.graph.centers, particle_follow=e.goal_strength)
     sys.path.insert(0, TESTS)
     import helpers as H
     H.ADDON = module_name

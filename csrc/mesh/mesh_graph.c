@@ -30,7 +30,8 @@
 // 7. Mesh pieces: each particle of a small group of its own is linked to the nearest large group; the graph
 //    records the group of each particle and vertex, and the group that carries each group without
 //    particles (graph/piece_map.c), so that a vertex is skinned only by its own piece.
-// Everything runs in one thread with ties broken by index, so the graph is the same bit for bit.
+// Everything runs in one thread with ties broken by index, on the triangles put in one order first, so the
+// graph is the same bit for bit for the same triangles in any order.
 #include "mesh_graph.h"
 
 #include "buffer.h"
@@ -1348,6 +1349,41 @@ static od_Status od_Build(od_Builder* b, od_Graph** graph)
 	return status;
 }
 
+static int od_CompareTriangles(const void* pa, const void* pb)
+{
+	const int *a = pa, *b = pb;
+	for (int k = 0; k < 3; ++k)
+	{
+		if (a[k] != b[k])
+		{
+			return a[k] < b[k] ? -1 : 1;
+		}
+	}
+	return 0;
+}
+
+// The triangles in one order whatever order they came in (Blender's bmesh numbers faces differently from run
+// to run): each turned to start at its smallest vertex (its winding kept), then sorted. Pieces are numbered by
+// their first triangle and sums run in triangle order, so the graph is then a function of the triangles only.
+static int* od_CanonicalTriangles(const od_MeshGraphDef* def)
+{
+	int* out = od_Alloc(sizeof(int) * 3 * (size_t)def->triangleCount);
+	for (int t = 0; out && t < def->triangleCount; ++t)
+	{
+		const int* v = def->triangles + 3 * t;
+		int first = v[1] < v[0] ? (v[2] < v[1] ? 2 : 1) : (v[2] < v[0] ? 2 : 0);
+		for (int k = 0; k < 3; ++k)
+		{
+			out[3 * t + k] = v[(first + k) % 3];
+		}
+	}
+	if (out)
+	{
+		qsort(out, (size_t)def->triangleCount, sizeof(int) * 3, od_CompareTriangles);
+	}
+	return out;
+}
+
 od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 {
 	*graph = NULL;
@@ -1356,10 +1392,18 @@ od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 	{
 		return status;
 	}
+	od_MeshGraphDef sorted = *def;
+	int* triangles = od_CanonicalTriangles(def);
+	if (!triangles && def->triangleCount > 0)
+	{
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the order of %d triangles", def->triangleCount);
+	}
+	sorted.triangles = triangles;
 	od_Builder b;
 	memset(&b, 0, sizeof b);
-	b.def = def;
+	b.def = &sorted;
 	status = od_Build(&b, graph);
+	od_Free(triangles);
 	for (int i = 0; i < b.groupCount; ++i)
 	{
 		od_Voxels_Destroy(&b.groups[i].voxels);
