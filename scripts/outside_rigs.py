@@ -26,7 +26,7 @@ painted also the bake against playback and a Cycles frame (OPDeform and the arma
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_rigs.py -- ZIP legacy RIG VARIANT OUT
     <python with bpy 5.2> scripts/outside_rigs.py ZIP extension RIG VARIANT OUT
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH, in Blender)
-    [NAME=VALUE ...: obj.opdeform settings set before Enable; norender]
+    [NAME=VALUE ...: obj.opdeform settings set before Enable; +NAME=VALUE: after Enable and the look; norender]
 with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders.
 """
 import json
@@ -522,7 +522,7 @@ def main():
     for o in bpy.context.scene.objects:
         o.select_set(o == obj)
     before = base(obj)
-    for k in [e for e in EXTRA if "=" in e]:
+    for k in [e for e in EXTRA if "=" in e and not e.startswith("+")]:
         name, value = k.split("=")
         setattr(s, name, type(getattr(s, name))(value))
     if VARIANT == "late":  # Enable first, then tick and pick (the issue's click order)
@@ -537,6 +537,9 @@ def main():
         bpy.ops.opdeform.enable(object=obj.name)
     if VARIANT in ("Subtle", "Floppy", "Jelly"):
         bpy.ops.opdeform.apply_preset(object=obj.name, preset=VARIANT)
+    for k in [e[1:] for e in EXTRA if e.startswith("+")]:  # +NAME=VALUE: set after Enable and the look
+        name, value = k.split("=")
+        setattr(s, name, type(getattr(s, name))(value))
     print("SETTINGS", {k: getattr(s, k) for k in ("use_goal", "goal_group", "softness_group", "goal_strength",
                                                    "particles", "modulus", "damping_rate", "sag", "goal_min",
                                                    "goal_max", "soft_stiffness")}, "built", s.built, "err", s.error)
