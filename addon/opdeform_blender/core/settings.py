@@ -48,16 +48,10 @@ class Units:
 # second) and the painted regions' softness and damping. Measured on tests/blender/character_scene.py's creature
 # (docs/goals.md, "Looks"). Ticking Goal on an object whose material is still the default preset gives it
 # DEFAULT_LOOK: a body as stiff as Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm).
-# Follow Min (goal_min): a Follow Group's weight 0 is Follow 0.3, a 0.43 Hz goal, so that no part is slower than
-# its goal: a long shell held from its root only (ellie's 0.9 m trunk, a 0.7 Hz cantilever) came back in 1.42 s
-# at Follow 0.05, and no damping brings it within 2 mm in 1 s (docs/goals.md, "Settling a root-linked shell").
 LOOKS = {
-    "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0,
-                   goal_min=0.3),
-    "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0,
-                   goal_min=0.3),
-    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=5.0, soft_stiffness=0.1, region_damping=5.0,
-                   goal_min=0.3),
+    "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0),
+    "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0),
+    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=5.0, soft_stiffness=0.1, region_damping=5.0),
 }
 DEFAULT_LOOK = "Fleshy"
 
