@@ -630,8 +630,8 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     Linked to the body from every particle, the trunk moved at most 6 mm while the rig moved it 0.3 m; linked at
     its root (od_BeamShell), 278 mm, and it swung back at 0.8 Hz under Fleshy's damping (9/s: 16 times less
     each half swing): 3.1 mm 1 s after the motion (the motion ends at frame 11), under 2 mm from 1.08 s (frame
-    37). With the looks' Follow Min 0.3 (the tip's goal 0.1 -> 0.37, 0.2 -> 0.64 Hz) it is within 2 mm from
-    1 s after the motion (frame 35), the issue's aim."""
+    37). With a detached shell's Follow mapped into [0.3, 1] (engine.SHELL_FOLLOW_MIN: the tip's 0.1 -> 0.37, a
+    0.2 -> 0.64 Hz goal) it is within 2 mm from 1 s after the motion (frame 35), the issue's aim."""
     obj, down = _trunked()
     twin = _rigged(obj, 1.0 - 0.9 * down)
     bpy.ops.opdeform.enable(object=obj.name)
