@@ -27,7 +27,9 @@ painted also the bake against playback and a Cycles frame (OPDeform and the arma
     <python with bpy 5.2> scripts/outside_rigs.py ZIP extension RIG VARIANT OUT
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH, in Blender)
     [NAME=VALUE ...: obj.opdeform settings set before Enable; +NAME=VALUE: after Enable and the look; norender]
-with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders.
+with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders. Also prints HASHES:
+short hashes of the graph's inputs (rest positions, triangles, vertex weights) and the graph (particle centres,
+Follow), to tell run-to-run differences apart; OUTSIDE_RIGS_DUMP=FILE.npz keeps those arrays.
 """
 import json
 import math
