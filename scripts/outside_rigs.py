@@ -26,8 +26,10 @@ painted also the bake against playback and a Cycles frame (OPDeform and the arma
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_rigs.py -- ZIP legacy RIG VARIANT OUT
     <python with bpy 5.2> scripts/outside_rigs.py ZIP extension RIG VARIANT OUT
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH, in Blender)
-    [NAME=VALUE ...: obj.opdeform settings set before Enable; norender]
-with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders.
+    [NAME=VALUE ...: obj.opdeform settings set before Enable; +NAME=VALUE: after Enable and the look; norender]
+with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders. Also prints HASHES:
+short hashes of the graph's inputs (rest positions, triangles, vertex weights) and the graph (particle centres,
+Follow), to tell run-to-run differences apart; OUTSIDE_RIGS_DUMP=FILE.npz keeps those arrays.
 """
 import json
 import math
@@ -479,6 +481,12 @@ def world(obj):
     return out.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
 
 
+def digest(a):
+    """A short hash of an array's bits (None: None)."""
+    import hashlib
+    return None if a is None else hashlib.sha1(np.ascontiguousarray(a).tobytes()).hexdigest()[:10]
+
+
 def base(obj):
     out = np.empty(len(obj.data.vertices) * 3, np.float32)
     obj.data.vertices.foreach_get("co", out)
@@ -516,7 +524,7 @@ def main():
     for o in bpy.context.scene.objects:
         o.select_set(o == obj)
     before = base(obj)
-    for k in [e for e in EXTRA if "=" in e]:
+    for k in [e for e in EXTRA if "=" in e and not e.startswith("+")]:
         name, value = k.split("=")
         setattr(s, name, type(getattr(s, name))(value))
     if VARIANT == "late":  # Enable first, then tick and pick (the issue's click order)
@@ -531,6 +539,9 @@ def main():
         bpy.ops.opdeform.enable(object=obj.name)
     if VARIANT in ("Subtle", "Floppy", "Jelly"):
         bpy.ops.opdeform.apply_preset(object=obj.name, preset=VARIANT)
+    for k in [e[1:] for e in EXTRA if e.startswith("+")]:  # +NAME=VALUE: set after Enable and the look
+        name, value = k.split("=")
+        setattr(s, name, type(getattr(s, name))(value))
     print("SETTINGS", {k: getattr(s, k) for k in ("use_goal", "goal_group", "softness_group", "goal_strength",
                                                    "particles", "modulus", "damping_rate", "sag", "goal_min",
                                                    "goal_max", "soft_stiffness")}, "built", s.built, "err", s.error)
@@ -538,6 +549,15 @@ def main():
     if st is not None and st.engine.goal_strength is not None:
         gs = st.engine.goal_strength
         print("PARTICLE_FOLLOW n", len(gs), "min", gs.min(), "sorted low", np.sort(gs)[:12].round(3))
+    if st is not None:  # the graph's inputs and the graph, to tell run-to-run differences apart
+        e = st.engine
+        weights = np.array([[w.group, w.weight] for x in obj.data.vertices for w in x.groups])
+        print("HASHES", {k: digest(a) for k, a in dict(rest=e.rest, triangles=e.triangles, weights=weights,
+                                                        centers=e.graph.centers, follow=e.follow,
+                                                        particle_follow=e.goal_strength).items()})
+        if os.environ.get("OUTSIDE_RIGS_DUMP"):
+            np.savez(os.environ["OUTSIDE_RIGS_DUMP"], rest=e.rest, triangles=e.triangles, weights=weights,
+                     centers=e.graph.centers, particle_follow=e.goal_strength)
     sys.path.insert(0, TESTS)
     import helpers as H
     H.ADDON = module_name

@@ -158,7 +158,8 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                              "(1: exactly, 0: free; in between a spring of 0.2 Hz to 1000 Hz)")
     goal_group: StringProperty(name="Follow Group", default="",
                                description="Vertex group: a weight of 1 locks a vertex to the animation, 0 frees "
-                                           "it (mapped to Min..Max); empty: Follow everywhere")
+                                           "it (mapped to Min..Max, and on a detached shell into 0.3..1 so that it "
+                                           "settles); empty: Follow everywhere")
     goal_min: FloatProperty(name="Min", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
                             description="Follow at a group weight of 0")
     goal_max: FloatProperty(name="Max", default=1.0, min=0.0, max=1.0, subtype='FACTOR',

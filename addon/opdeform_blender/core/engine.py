@@ -39,6 +39,12 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 LOCK_RAMP = 10.0
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
+# The Follow of a detached shell's particles is mapped into [SHELL_FOLLOW_MIN, 1] (0.3: a 0.43 Hz goal), so that
+# no shell is slower than that goal: a long one is held from its root only (opdeform's od_BeamShell), and ellie's
+# 0.9 m trunk, painted to 0.05, swung back as a 0.7 Hz cantilever that no damping brought within 2 mm in 1 s
+# (docs/goals.md, "Settling a detached shell"). The body's largest piece keeps its painted Follow; a Follow
+# without a group (one value everywhere) is kept on every piece.
+SHELL_FOLLOW_MIN = 0.3
 
 
 class EngineError(ValueError):
@@ -390,6 +396,8 @@ class Engine:
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
         values = None if follow is None else np.clip(self.fit.particle_values(follow), 0.0, 1.0)  # a mean may round past 1
+        if vertex_weights is not None:  # a painted Follow: a shell's held above SHELL_FOLLOW_MIN
+            values = self._shells_held(values)
         if _same(values, self.goal_strength) and _same(follow, self.follow):
             return False
         self.sim.set_goal_strength(values)
@@ -399,6 +407,15 @@ class Engine:
                                                            axis=1)
         self.invalidate()
         return True
+
+    def _shells_held(self, values):
+        """Per-particle Follow values with those of the detached shells, every mesh piece but the one with most
+        particles, mapped into [SHELL_FOLLOW_MIN, 1]."""
+        count, piece = self.od.mesh.mesh_pieces(self.graph)
+        if count < 2:
+            return values
+        shell = piece != np.argmax(np.bincount(piece[piece >= 0], minlength=count))
+        return np.where(shell, SHELL_FOLLOW_MIN + (1.0 - SHELL_FOLLOW_MIN) * values, values)
 
     def _follow(self, strength, vertex_weights, follow_range):
         """The per-vertex follow values of ``set_goal``; EngineError naming a value out of [0, 1]."""
