@@ -295,18 +295,27 @@ def test_a_soft_loose_shell_settles_on_the_floor_as_in_the_air():
 @pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_a_detached_shells_follow_is_mapped_above_the_shell_minimum():
     """A detached shell, held from its root only when long, swung back as slowly as its painted Follow let it
-    (ellie's trunk painted to 0.05: 6.5 mm off 1 s after the motion, docs/goals.md): its particles' Follow is
-    mapped into [SHELL_FOLLOW_MIN, 1]; the body's largest piece keeps what was painted."""
+    (ellie's trunk painted to 0.05: 6.5 mm off 1 s after the motion, docs/goals.md): with a shell minimum (the
+    add-on's Shell Min) its particles' Follow is mapped into [shell_min, 1]; the body's largest piece keeps what
+    was painted, and a shell minimum of 0 keeps the shell's painted values too."""
     from opdeform_blender.core import engine
     e, _, is_tail, _, _ = _tailed_engine(200)
-    e.set_goal(0.0, np.where(is_tail, 0.0, 0.2))
+    painted = np.where(is_tail, 0.0, 0.2)
+    e.set_goal(0.0, painted)
+    as_painted = e.goal_strength.copy()
+    e.set_goal(0.0, painted, shell_min=engine.SHELL_FOLLOW_MIN)
     count, piece = opdeform.mesh.mesh_pieces(e.graph)
     tail = piece != np.argmax(np.bincount(piece))
     assert count == 2 and 0 < tail.sum() < len(tail) / 2
     held = e.goal_strength[tail]  # painted 0; a particle at the root also takes the body's skinned 0.2 in part
     assert held.min() >= engine.SHELL_FOLLOW_MIN - 1e-12 and np.median(held) == pytest.approx(engine.SHELL_FOLLOW_MIN)
+    assert np.median(as_painted[tail]) == pytest.approx(0.0)
+    np.testing.assert_allclose(held, engine.SHELL_FOLLOW_MIN + (1.0 - engine.SHELL_FOLLOW_MIN) * as_painted[tail])
     body = e.goal_strength[~tail]  # painted 0.2, kept (near the tail less: it takes the tail's 0 in part)
     assert body.max() <= 0.2 + 1e-12 and np.median(body) == pytest.approx(0.2)
+    np.testing.assert_array_equal(body, as_painted[~tail])
+    with pytest.raises(engine.EngineError, match="shell minimum"):
+        e.set_goal(0.0, painted, shell_min=1.5)
 
 
 def test_to_world_of_an_unturned_object_is_the_product():

@@ -630,8 +630,9 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     Linked to the body from every particle, the trunk moved at most 6 mm while the rig moved it 0.3 m; linked at
     its root (od_BeamShell), 278 mm, and it swung back at 0.8 Hz under Fleshy's damping (9/s: 16 times less
     each half swing): 3.1 mm 1 s after the motion (the motion ends at frame 11), under 2 mm from 1.08 s (frame
-    37). With a detached shell's Follow mapped into [0.3, 1] (engine.SHELL_FOLLOW_MIN: the tip's 0.1 -> 0.37, a
-    0.2 -> 0.64 Hz goal) it is within 2 mm from 1 s after the motion (frame 35), the issue's aim."""
+    37). With a detached shell's Follow mapped into [Shell Min, 1] (the panel's, 0.3 by default: the tip's 0.1 ->
+    0.37, a 0.2 -> 0.64 Hz goal) it is within 2 mm from 1 s after the motion (frame 35), the issue's aim; Shell
+    Min 0 gives back the painted Follow on the next frame."""
     obj, down = _trunked()
     twin = _rigged(obj, 1.0 - 0.9 * down)
     bpy.ops.opdeform.enable(object=obj.name)
@@ -649,6 +650,11 @@ def test_detached_shells_of_a_rigged_mesh_jiggle():
     assert off[:, down == 0.0].max() < 1e-3, off[:, down == 0.0].max()
     assert off[:12, down > 0.9].max() > 0.05, off[:12, down > 0.9].max()
     assert off[34:].max() < 2e-3, off[34:].max(axis=1)
+    held = H.runtime().get(obj).engine.goal_strength.copy()
+    obj.opdeform.shell_follow_min = 0.0
+    bpy.context.scene.frame_set(38)
+    painted = H.runtime().get(obj).engine.goal_strength
+    assert not obj.opdeform.error and held.min() > 0.3 and painted.min() < 0.2, (held.min(), painted.min())
 
 
 def test_rigged_shells_painted_loose_all_over_are_named():

@@ -215,6 +215,7 @@ class PHYSICS_PT_opdeform_goal(ToggledSubPanel, bpy.types.Panel):
         if s.goal_group:
             col.prop(s, "goal_min", text="Follow Min")
             col.prop(s, "goal_max", text="Max")
+            col.prop(s, "shell_follow_min")
         else:
             col.prop(s, "goal_strength")
         layout.prop(s, "sag")

@@ -5,7 +5,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from ..core import tumbling
+from ..core import engine, tumbling
 from . import presets
 from .compiled import AddonError, mpm
 from .discovery import mark_discovery
@@ -158,12 +158,18 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                              "(1: exactly, 0: free; in between a spring of 0.2 Hz to 1000 Hz)")
     goal_group: StringProperty(name="Follow Group", default="",
                                description="Vertex group: a weight of 1 locks a vertex to the animation, 0 frees "
-                                           "it (mapped to Min..Max, and on a detached shell into 0.3..1 so that it "
-                                           "settles); empty: Follow everywhere")
+                                           "it (mapped to Min..Max, and on a detached shell then into Shell "
+                                           "Min..1); empty: Follow everywhere")
     goal_min: FloatProperty(name="Min", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
                             description="Follow at a group weight of 0")
     goal_max: FloatProperty(name="Max", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                             description="Follow at a group weight of 1")
+    shell_follow_min: FloatProperty(name="Shell Min", default=engine.SHELL_FOLLOW_MIN, min=0.0, max=1.0,
+                                    subtype='FACTOR',
+                                    description="Follow of a detached shell (a separate ear, tail or trunk) where "
+                                                "its group weight gives 0: its Follow is mapped into Shell Min..1, "
+                                                "so that a long shell held to the body only at its root settles "
+                                                "within about a second (0: as painted, the slowest swing back)")
     sag: FloatProperty(name="Sag", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
                        description="Share of the scene's gravity that pulls the flesh off its animation (0: the "
                                    "animation holds its shape against gravity)")

@@ -77,10 +77,11 @@ def group_weights(rt, obj, name, what):
 def set_maps(rt, obj, scene):
     """The goal's follow values and the softness and damping maps, applied on the next frame (no Build)."""
     s, e = obj.opdeform, rt.engine
-    group, follow_range, soft_group, soft, damp_group, damping = maps(s)
+    group, follow_range, shell_min, soft_group, soft, damp_group, damping = maps(s)
     strength = goal_strength(s)
     try:
-        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, "follow"), follow_range)
+        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, "follow"), follow_range,
+                   shell_min)
         soft_w = group_weights(rt, obj, soft_group, "softness")
         damp_w = group_weights(rt, obj, damp_group, "damping")
         units = presets.units(s, frame_rate(scene))

@@ -39,11 +39,10 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 LOCK_RAMP = 10.0
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
-# The Follow of a detached shell's particles is mapped into [SHELL_FOLLOW_MIN, 1] (0.3: a 0.43 Hz goal), so that
-# no shell is slower than that goal: a long one is held from its root only (opdeform's od_BeamShell), and ellie's
-# 0.9 m trunk, painted to 0.05, swung back as a 0.7 Hz cantilever that no damping brought within 2 mm in 1 s
-# (docs/goals.md, "Settling a detached shell"). The body's largest piece keeps its painted Follow; a Follow
-# without a group (one value everywhere) is kept on every piece.
+# The add-on's default Shell Min: a detached shell's painted Follow mapped into [0.3, 1] (0.3: a 0.43 Hz goal), so
+# that no shell is slower than that goal: a long one is held from its root only (opdeform's od_BeamShell), and
+# ellie's 0.9 m trunk, painted to 0.05, swung back as a 0.7 Hz cantilever that no damping brought within 2 mm in
+# 1 s (docs/goals.md, "Settling a detached shell").
 SHELL_FOLLOW_MIN = 0.3
 
 
@@ -384,20 +383,22 @@ class Engine:
             for cid, direction in zip(ids[1:], t[1:]):
                 self.sim.set_constraint_target(cid, direction)
 
-    def set_goal(self, strength, vertex_weights=None, follow_range=(0.0, 1.0)):
+    def set_goal(self, strength, vertex_weights=None, follow_range=(0.0, 1.0), shell_min=0.0):
         """The goal (docs/goals.md): None (off), or how closely each vertex follows the animated input, in [0, 1]:
         ``strength`` everywhere, or with a painted group's per-vertex weights w the value lo + w (hi - lo) of
-        ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself). 1 locks a vertex to the
-        animation, 0 leaves it free, values between are springs (``opdeform.goal_frequency``). The goals carry
-        the rest shape: the animated shape is the equilibrium. A change outdates the cache."""
+        ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself), and on the particles of a
+        detached shell (every mesh piece but the one with most particles) that value mapped into [shell_min, 1]
+        (the add-on's Shell Min, SHELL_FOLLOW_MIN by default). 1 locks a vertex to the animation, 0 leaves it
+        free, values between are springs (``opdeform.goal_frequency``). The goals carry the rest shape: the
+        animated shape is the equilibrium. A change outdates the cache."""
         follow = None
         if strength is not None:
-            follow = self._follow(strength, vertex_weights, follow_range)
+            follow = self._follow(strength, vertex_weights, (*follow_range, shell_min))
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
         values = None if follow is None else np.clip(self.fit.particle_values(follow), 0.0, 1.0)  # a mean may round past 1
-        if vertex_weights is not None:  # a painted Follow: a shell's held above SHELL_FOLLOW_MIN
-            values = self._shells_held(values)
+        if vertex_weights is not None and shell_min > 0.0:  # a painted Follow: a shell's held above shell_min
+            values = self._shells_held(values, shell_min)
         if _same(values, self.goal_strength) and _same(follow, self.follow):
             return False
         self.sim.set_goal_strength(values)
@@ -408,26 +409,28 @@ class Engine:
         self.invalidate()
         return True
 
-    def _shells_held(self, values):
+    def _shells_held(self, values, shell_min):
         """Per-particle Follow values with those of the detached shells, every mesh piece but the one with most
-        particles, mapped into [SHELL_FOLLOW_MIN, 1]."""
+        particles, mapped into [shell_min, 1]."""
         count, piece = self.od.mesh.mesh_pieces(self.graph)
         if count < 2:
             return values
         shell = piece != np.argmax(np.bincount(piece[piece >= 0], minlength=count))
-        return np.where(shell, SHELL_FOLLOW_MIN + (1.0 - SHELL_FOLLOW_MIN) * values, values)
+        return np.where(shell, shell_min + (1.0 - shell_min) * values, values)
 
-    def _follow(self, strength, vertex_weights, follow_range):
-        """The per-vertex follow values of ``set_goal``; EngineError naming a value out of [0, 1]."""
-        values = (strength, *follow_range)
+    def _follow(self, strength, vertex_weights, limits):
+        """The per-vertex follow values of ``set_goal`` (``limits``: its follow range and shell minimum);
+        EngineError naming a value out of [0, 1]."""
+        values = (strength, *limits)
         if not all(np.isfinite(v) and 0.0 <= v <= 1.0 for v in values):
-            raise EngineError(f"the goal strength and its range must be in 0..1, got {strength}, {follow_range}")
+            raise EngineError(f"the goal strength, its range and shell minimum must be in 0..1, got {strength}, "
+                              f"{limits}")
         if vertex_weights is None:
             return np.full(self.n_vertices, float(strength))
         w = np.asarray(vertex_weights, dtype=np.float64)
         if len(w) != self.n_vertices or not np.all((w >= 0.0) & (w <= 1.0)):
             raise EngineError("goal weights must be one per vertex, in 0..1")
-        lo, hi = follow_range
+        lo, hi = limits[:2]
         return lo + w * (hi - lo)
 
     def set_regions(self, stiffness_scale=None, damping=None):
