@@ -591,15 +591,35 @@ static od_Vec3 od_PushDirection(const od_PairScratch* s, const od_ContactPair* p
 	return length > 0.0 && od_Dot(m, c) > 0.5 * length ? od_Scale(1.0 / length, m) : c;
 }
 
+// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
+static bool od_ShortStep(const od_Sim* sim)
+{
+	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
+}
+
 // Where a pair stands (see the top of the file): the centre line c along which it is measured, how deep it
 // is within reach (> 0: in contact), how deep it may stay (a pair that began overlapping leaves at the
-// recovery speed), and whether its path never came within reach (a pair apart at the start that passed by).
+// recovery speed), whether its path never came within reach (a pair apart at the start that passed by), and
+// whether it is pushed along c itself (od_PushAlong) rather than along od_PushDirection(c).
 typedef struct od_PairState
 {
 	od_Vec3 c;
 	double depth, allowed;
-	bool passed;
+	bool passed, along;
 } od_PairState;
+
+// Whether a pair is pushed along the line it is measured on: a skin pair (its separating axis), and between
+// members at steps of OD_MEMBER_ROLL_STEP or shorter a pair apart at the step's start (measured along its start's
+// centre line c). Such a pair's constraint in the step is the plane across c; pushed along od_PushDirection(c), off
+// c, its force did work along that plane: a default Rubber Suzanne resting on another on a single such pair (c 4.4°
+// off the push, the ellipsoids' supports along c growing as the pair slid) rose 4.5 cm in 22 s and gained 509 J at
+// rest, its fastest particle at 0.010 m/s; pushed along c it rests (docs/contact.md, "Stacks", stop 40). At 1/24 s
+// it let two Jelly spheres stacked on a settled one roll off (0.65 m aside at 8 s; 0.25 m along the push) and a
+// Jelly sphere on a like one jolt at 0.056 m/s on the stacking bench: not there.
+static bool od_PushAlong(const od_End* a, const od_End* b, const od_BodyContactDef* d, bool apart, bool skin)
+{
+	return skin || (apart && a->sim != b->sim && d->inIterations && od_ShortStep(a->sim));
+}
 
 // How far a pair that began overlapping may leave it in a step (the recovery speed, contact.c); none against
 // an immovable end (od_Brace), which would throw the heavy end off it.
@@ -680,6 +700,7 @@ static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPai
 	// overlapping along c yet passed, their forces dropped and taken up every other update (a particle jumping 4-6
 	// mm, 100 iterations a step under the preset's tolerance, 8.4 ms a step); counted in contact, 2 (0.95 ms).
 	p.passed = apart && p.depth > 0.0 && !skin && od_ClosestApproach(d0, d1) >= reach;
+	p.along = od_PushAlong(a, b, d, apart, skin);
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
@@ -883,7 +904,7 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 		return false;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
-	od_Vec3 n = od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
+	od_Vec3 n = p.along ? p.c : od_PushDirection(s, pair, p.c);
 	// Against an immovable end (od_Brace), at most back to where the other end started along n: the push along
 	// n, not along the measured line, and several pairs' pushes went beyond (the Rubber slab 1e6 times as dense
 	// at 240 steps a second gained 86 MJ).
@@ -1212,12 +1233,6 @@ static bool od_Landing(const od_PairScratch* s, int b)
 	return landing;
 }
 
-// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
-static bool od_ShortStep(const od_Sim* sim)
-{
-	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
-}
-
 // Member pair (lower, upper)'s couple this step (od_MemberRolls), added at none if new; NULL when the list cannot
 // grow (out of memory: that pair then has none).
 static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
@@ -1437,7 +1452,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 		s->pressing[pair->b]++;
 		// Re-aimed at every update: round bodies' pairs turn within a step (a blob on a blob: skinned
 		// overlap -0.026 m with the normal set once a step, -0.018 m re-aimed; the bars alike).
-		od_V3Store(pair->n, od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c));
+		od_V3Store(pair->n, p.along ? p.c : od_PushDirection(s, pair, p.c));
 	}
 }
 
