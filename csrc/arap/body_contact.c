@@ -607,15 +607,27 @@ typedef struct od_PairState
 	bool passed, along;
 } od_PairState;
 
-// Whether a pair is pushed along the line it is measured on: a skin pair (its separating axis), and between
-// members at steps of OD_ALONG_STEP or shorter a pair apart at the step's start (measured along its start's centre
-// line c). Such a pair's constraint in the step is the plane across c; pushed along od_PushDirection(c), off c, its
-// force did work along that plane: a default Rubber Suzanne resting on another on a single such pair (c 4.4° off
-// the push, the two ellipsoids' supports along c growing as the pair slid) rose 3.0 cm in 9 s at rest, its fastest
-// particle at 0.010 m/s; pushed along c it rests (docs/contact.md, "Stacks", stop 40).
-static bool od_PushAlong(const od_End* a, const od_End* b, const od_BodyContactDef* d, bool apart, bool skin)
+// Whether a pair is its members' only contact at the last update (its interface's one pair, od_Interfaces).
+static bool od_Single(const od_PairScratch* s, const od_ContactPair* pair)
 {
-	return skin || (apart && a->sim != b->sim && d->inIterations && a->sim->def.dt <= OD_ALONG_STEP * (1.0 + 1e-9));
+	int e = pair->interface, ma = s->body[pair->a], mb = s->body[pair->b];
+	const od_Interface* f = e >= 0 && e < s->interfaceCount ? &s->interfaces[e] : NULL;
+	return f && f->count == 1 && ((f->lower == ma && f->upper == mb) || (f->lower == mb && f->upper == ma));
+}
+
+// Whether a pair is pushed along the line it is measured on: a skin pair (its separating axis), and at steps of
+// OD_ALONG_STEP or shorter a pair apart at the step's start (measured along its start's centre line c) that is its
+// two members' only contact (od_Single: no face whose pairs od_PushDirection pushes straight apart). Such a pair's
+// constraint in the step is the plane across c; pushed along od_PushDirection(c), off c, its force did work along
+// that plane: a default Rubber Suzanne resting on another on a single such pair (c 4.4° off the push, the two
+// ellipsoids' supports along c growing as the pair slid) rose 3.0 cm in 9 s at rest, its fastest particle at 0.010
+// m/s; pushed along c it loses energy (docs/contact.md, "Stacks", stop 40). Every pair apart at the start so pushed,
+// a Jelly Suzanne dropped on another slid off the lower's head (2.5 m aside, 0.75 before).
+static bool od_PushAlong(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+						const od_BodyContactDef* d, bool apart, bool skin)
+{
+	return skin || (apart && a->sim != b->sim && d->inIterations && a->sim->def.dt <= OD_ALONG_STEP * (1.0 + 1e-9) &&
+					od_Single(s, pair));
 }
 
 // How far a pair that began overlapping may leave it in a step (the recovery speed, contact.c); none against
@@ -697,7 +709,7 @@ static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPai
 	// overlapping along c yet passed, their forces dropped and taken up every other update (a particle jumping 4-6
 	// mm, 100 iterations a step under the preset's tolerance, 8.4 ms a step); counted in contact, 2 (0.95 ms).
 	p.passed = apart && p.depth > 0.0 && !skin && od_ClosestApproach(d0, d1) >= reach;
-	p.along = od_PushAlong(a, b, d, apart, skin);
+	p.along = od_PushAlong(s, pair, a, b, d, apart, skin);
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
