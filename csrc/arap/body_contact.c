@@ -210,11 +210,6 @@
 // and 0.028 without), two of its pairs' friction opposing each other at ±600 N (docs/contact.md, "Stacks", eleventh
 // round).
 #define OD_FRICTION_STEP (1.0 / 60.0)
-// The longest step whose pairs apart at its start push along their centre line (od_PushAlong). At 1/24 s that let
-// two Jelly spheres stacked on a settled one roll off (0.65 m aside at 8 s, 0.25 m pushed off it) and a Jelly sphere
-// on a like one jolt at 0.056 m/s on the stacking bench; at 1/60 s two 1,000-particle creatures dropped one on the
-// other gained 51 kJ over their 4.5 kJ in one step after the landing (tests/test_body_contact.py; why is not found).
-#define OD_ALONG_STEP (1.0 / 120.0)
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -607,6 +602,12 @@ typedef struct od_PairState
 	bool passed, along;
 } od_PairState;
 
+// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
+static bool od_ShortStep(const od_Sim* sim)
+{
+	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
+}
+
 // Whether a pair is its members' only contact at the last update (its interface's one pair, od_Interfaces).
 static bool od_Single(const od_PairScratch* s, const od_ContactPair* pair)
 {
@@ -616,18 +617,19 @@ static bool od_Single(const od_PairScratch* s, const od_ContactPair* pair)
 }
 
 // Whether a pair is pushed along the line it is measured on: a skin pair (its separating axis), and at steps of
-// OD_ALONG_STEP or shorter a pair apart at the step's start (measured along its start's centre line c) that is its
-// two members' only contact (od_Single: no face whose pairs od_PushDirection pushes straight apart). Such a pair's
+// OD_MEMBER_ROLL_STEP or shorter a pair apart at the step's start (measured along its start's centre line c) that is
+// its two members' only contact (od_Single: no face whose pairs od_PushDirection pushes straight apart). Such a pair's
 // constraint in the step is the plane across c; pushed along od_PushDirection(c), off c, its force did work along
 // that plane: a default Rubber Suzanne resting on another on a single such pair (c 4.4° off the push, the two
 // ellipsoids' supports along c growing as the pair slid) rose 3.0 cm in 9 s at rest, its fastest particle at 0.010
 // m/s; pushed along c it loses energy (docs/contact.md, "Stacks", stop 40). Every pair apart at the start so pushed,
-// a Jelly Suzanne dropped on another slid off the lower's head (2.5 m aside, 0.75 before).
+// a Jelly Suzanne dropped on another slid off the lower's head (2.5 m aside, 0.75 before) and at 1/60 s two
+// 1,000-particle creatures dropped one on the other gained 51 kJ over their 4.5 kJ in a step after the landing (why
+// is not found); at 1/24 s two Jelly spheres stacked on a settled one rolled off (0.65 m aside at 13 s, 0.25 before).
 static bool od_PushAlong(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
 						const od_BodyContactDef* d, bool apart, bool skin)
 {
-	return skin || (apart && a->sim != b->sim && d->inIterations && a->sim->def.dt <= OD_ALONG_STEP * (1.0 + 1e-9) &&
-					od_Single(s, pair));
+	return skin || (apart && a->sim != b->sim && d->inIterations && od_ShortStep(a->sim) && od_Single(s, pair));
 }
 
 // How far a pair that began overlapping may leave it in a step (the recovery speed, contact.c); none against
@@ -1240,12 +1242,6 @@ static bool od_Landing(const od_PairScratch* s, int b)
 		landing = pair->force > 0.0 && (ma == b || mb == b) && od_Comparable(s, pair) && s->fast[ma == b ? mb : ma] > 0;
 	}
 	return landing;
-}
-
-// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
-static bool od_ShortStep(const od_Sim* sim)
-{
-	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
 }
 
 // Member pair (lower, upper)'s couple this step (od_MemberRolls), added at none if new; NULL when the list cannot
