@@ -178,10 +178,15 @@
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
 // The largest ratio of two members' masses for the floor's reaction and rigid step, at steps of OD_CLIMB_TIME or
-// longer; at shorter ones it shrinks with the step (od_MemberMasses: 2.5 at 240 steps a second). That path's pushes
-// act per step (the held push, the floor's projection after the iterations): at 240 steps a second slabs 10 times
-// as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ), braced they rest.
+// longer; at shorter ones it shrinks with the step (od_MemberMasses), to OD_COMPARABLE_LEAST at 240 steps a second.
+// That path's pushes act per step (the held push, the floor's projection after the iterations): at 240 steps a
+// second slabs 10 times as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ),
+// braced they rest. Shrunk to 2.5 there, a 0.35 m sphere on a 0.5 m one (2.9 times its mass, the add-on's 10
+// substeps at 24 fps) had none of the rolling resistance, interfaces and patch of comparable members: its two
+// pairs held it on the top of a sphere rolling on its floor and the two toppled as one (Flesh 1.445 m aside at 13 s;
+// docs/contact.md, "Stacks", stop 40, onepair); with 4 it rests (0.007 m).
 #define OD_COMPARABLE 10.0
+#define OD_COMPARABLE_LEAST 4.0
 // A member rising faster than gravity stops in this time (or in a step, if longer) braces nothing (od_MemberMasses).
 // A step's |g| h at 240 steps a second (0.04 m/s) is within a resting member's own motion: it crossed that and
 // back, letting its brace go and taking it again, and the slabs above buzzed (docs/contact.md, stacks).
@@ -847,7 +852,7 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 		od_Pose(s, sim, b);
 	}
 	double share = count > 0 ? sims[0]->def.dt / OD_CLIMB_TIME : 1.0; // a group's members step alike
-	s->comparable = OD_COMPARABLE * (share < 1.0 ? share : 1.0);
+	s->comparable = fmax(OD_COMPARABLE * (share < 1.0 ? share : 1.0), OD_COMPARABLE_LEAST);
 }
 
 // Whether member m rests on the members its pairs counted in s->rise lead to (od_Rise): their normals' mean
