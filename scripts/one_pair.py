@@ -37,21 +37,30 @@ def energies(sim):
     return (m * 0.5 * (sim.velocities ** 2).sum(axis=1)).sum(), (m * 9.81 * sim.positions[:, 2]).sum()
 
 
+def play(low, high, seconds, every, show):
+    """Plays the two engines in a group for `seconds` at 24 fps; every `every` frames calls show(frame, (kinetic,
+    potential) of the lower, of the upper, the lower's centre, the upper's)."""
+    bodies = contact.Bodies()
+    for f in range(1, seconds * 24 + 1):
+        bodies.simulate(opdeform, [e.begin(f, surroundings=colliders.NOTHING) for e in (low, high)])
+        if f % every == 0:
+            show(f, energies(low.sim), energies(high.sim), low.sim.positions.mean(axis=0),
+                 high.sim.positions.mean(axis=0))
+
+
 def main(seconds=40, drop=0.98, preset="Rubber"):
     mesh = np.load(ROOT / "tests" / "reference" / "suzanne_subdivided.npz")
     z = mesh["vertices"][:, 2]
     lifts = (-z.min(), drop + z.max() - 2 * z.min())
     low, high = (engine(mesh["vertices"], mesh["triangles"], lift, preset, seconds) for lift in lifts)
-    bodies = contact.Bodies()
-    for f in range(1, seconds * 24 + 1):
-        bodies.simulate(opdeform, [e.begin(f, surroundings=colliders.NOTHING) for e in (low, high)])
-        if f % 24 == 0:
-            (kl, pl), (ku, pu) = energies(low.sim), energies(high.sim)
-            cl, cu = low.sim.positions.mean(axis=0), high.sim.positions.mean(axis=0)
-            print(f"{f // 24:3d} s  aside {np.linalg.norm(cu[:2] - cl[:2]):.3f} m  upper's centre {cu[2]:.4f} m  "
-                  f"lower's {cl[2]:.4f} m  kinetic {kl + ku:.2f} J  potential upper {pu:.1f} J, lower {pl:.1f} J  "
-                  f"fastest {np.abs(high.sim.velocities).max():.4f} m/s", flush=True)
 
+    def show(f, lower, upper, cl, cu):
+        (kl, pl), (ku, pu) = lower, upper
+        print(f"{f // 24:3d} s  aside {np.linalg.norm(cu[:2] - cl[:2]):.3f} m  upper's centre {cu[2]:.4f} m  "
+              f"lower's {cl[2]:.4f} m  kinetic {kl + ku:.2f} J  potential upper {pu:.1f} J, lower {pl:.1f} J  "
+              f"fastest {np.abs(high.sim.velocities).max():.4f} m/s", flush=True)
+
+    play(low, high, seconds, 24, show)
 
 if __name__ == "__main__":
     args = sys.argv[1:]

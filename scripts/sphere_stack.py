@@ -12,28 +12,26 @@ from pathlib import Path
 
 import numpy as np
 
-import opdeform
-
 ROOT = Path(__file__).resolve().parent
 sys.path[:0] = [str(ROOT), str(ROOT.parent / "tests"), str(ROOT.parent / "addon")]
 
-from one_pair import energies, engine  # noqa: E402
-from opdeform_blender.core import colliders, contact  # noqa: E402
+from one_pair import engine, play  # noqa: E402
 from test_addon_colliders import _octasphere  # noqa: E402
+
+LINE = ("{:4.1f} s  aside {:.3f} m  centres {:.4f} / {:.4f} m  kinetic upper {:.2f} J, lower {:.2f} J  "
+        "potential {:.1f} / {:.1f} J  sum {:.1f} J")
 
 
 def main(seconds=13, preset="Flesh"):
     (vl, tl), (vu, tu) = _octasphere(0.5, 16), _octasphere(0.35, 16)
     low, high = engine(vl, tl, 0.5, preset, seconds), engine(vu, tu, 1.0 + 0.35 + 0.05, preset, seconds)
-    bodies = contact.Bodies()
-    for f in range(1, seconds * 24 + 1):
-        bodies.simulate(opdeform, [e.begin(f, surroundings=colliders.NOTHING) for e in (low, high)])
-        if f % 12 == 0:
-            (kl, pl), (ku, pu) = energies(low.sim), energies(high.sim)
-            cl, cu = low.sim.positions.mean(axis=0), high.sim.positions.mean(axis=0)
-            print(f"{f / 24:4.1f} s  aside {np.linalg.norm(cu[:2] - cl[:2]):.3f} m  centres {cu[2]:.4f} / {cl[2]:.4f} m  "
-                  f"kinetic upper {ku:.2f} J, lower {kl:.2f} J  potential {pu:.1f} / {pl:.1f} J  "
-                  f"sum {kl + ku + pl + pu:.1f} J", flush=True)
+
+    def show(f, lower, upper, cl, cu):
+        figures = (f / 24, np.linalg.norm(cu[:2] - cl[:2]), cu[2], cl[2], upper[0], lower[0], upper[1], lower[1],
+                   sum(lower) + sum(upper))
+        print(LINE.format(*figures), flush=True)
+
+    play(low, high, seconds, 12, show)
 
 
 if __name__ == "__main__":
