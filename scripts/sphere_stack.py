@@ -1,8 +1,8 @@
 """Issue 27, (c) of docs/contact.md, "Stacks", stop 40: a 0.35 m (RADIUS) sphere dropped 5 cm onto a 0.5 m one on the
-panel's Floor (both UV spheres of 32 x 16 segments, a materials preset at the add-on's panel defaults: 24 fps, 10 substeps,
-friction 0.5), through the add-on's bpy-free engine (scripts/one_pair.py's). Prints, every half second, how far the
-upper's centre is aside of the lower's, the centres' heights, each sphere's kinetic and potential energy (J) and
-their sum.
+panel's Floor (both UV spheres of 32 x 16 segments, a materials preset at the add-on's panel defaults: 24 fps, 10
+substeps, friction 0.5), through the add-on's bpy-free engine (scripts/one_pair.py's). Prints, every half second,
+how far the upper's centre is aside of the lower's, the centres' heights, each sphere's kinetic and potential energy
+(J) and their sum.
 
     PYTHONPATH=build/python python3 scripts/sphere_stack.py [SECONDS [PRESET [RADIUS]]]   (13, Flesh, 0.35: the upper's)
 """
