@@ -178,7 +178,8 @@
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
 // The largest ratio of two members' masses for the floor's reaction and rigid step, at steps of OD_CLIMB_TIME or
-// longer; at shorter ones it shrinks with the step (od_MemberMasses), to OD_COMPARABLE_LEAST at 240 steps a second.
+// longer; at shorter ones it shrinks with the step (od_MemberMasses), never below OD_COMPARABLE_LEAST (reached at
+// 150 steps a second).
 // That path's pushes act per step (the held push, the floor's projection after the iterations): at 240 steps a
 // second slabs 10 times as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ),
 // braced they rest. Shrunk to 2.5 there, a 0.35 m sphere on a 0.5 m one (2.9 times its mass, the add-on's 10
