@@ -12,7 +12,9 @@
 // start's centre line, and is tested only when its relative path came within reach: a fast particle cannot
 // pass through another, whatever its speed. A pair that began overlapping (placed so, or excluded before)
 // uses the end's centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Pairs push along
-// the centre line turned towards the bodies' surface normals there (od_PushDirection).
+// the centre line turned towards the bodies' surface normals there (od_PushDirection), but for a pair apart at the
+// start that is its members' only contact, at steps of 1/60 s or shorter, which pushes along the line it is measured
+// on: pushed off it, its force did work (a Suzanne resting on another on one pair gained 509 J; od_PushAlong).
 // Between two bodies either of which has a contact skin (Simulation.set_contact_skin), the shapes are its carried
 // skin points and the pair is measured and pushed along a separating axis instead (od_SkinNormal, skin_pairs.c).
 //
@@ -176,10 +178,16 @@
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
 // The largest ratio of two members' masses for the floor's reaction and rigid step, at steps of OD_CLIMB_TIME or
-// longer; at shorter ones it shrinks with the step (od_MemberMasses: 2.5 at 240 steps a second). That path's pushes
-// act per step (the held push, the floor's projection after the iterations): at 240 steps a second slabs 10 times
-// as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ), braced they rest.
+// longer; at shorter ones it shrinks with the step (od_MemberMasses), never below OD_COMPARABLE_LEAST (reached at
+// 150 steps a second).
+// That path's pushes act per step (the held push, the floor's projection after the iterations): at 240 steps a
+// second slabs 10 times as dense as the lower one slid off it and the drop gained energy (Stiff +14.7 kJ of 5.3 kJ),
+// braced they rest. Shrunk to 2.5 there, a 0.35 m sphere on a 0.5 m one (2.9 times its mass, the add-on's 10
+// substeps at 24 fps) had none of the rolling resistance, interfaces and patch of comparable members: its two
+// pairs held it on the top of a sphere rolling on its floor and the two toppled as one (Flesh 1.445 m aside at 13 s;
+// docs/contact.md, "Stacks", stop 40, onepair); with 4 it rests (0.007 m).
 #define OD_COMPARABLE 10.0
+#define OD_COMPARABLE_LEAST 4.0
 // A member rising faster than gravity stops in this time (or in a step, if longer) braces nothing (od_MemberMasses).
 // A step's |g| h at 240 steps a second (0.04 m/s) is within a resting member's own motion: it crossed that and
 // back, letting its brace go and taking it again, and the slabs above buzzed (docs/contact.md, stacks).
@@ -593,13 +601,44 @@ static od_Vec3 od_PushDirection(const od_PairScratch* s, const od_ContactPair* p
 
 // Where a pair stands (see the top of the file): the centre line c along which it is measured, how deep it
 // is within reach (> 0: in contact), how deep it may stay (a pair that began overlapping leaves at the
-// recovery speed), and whether its path never came within reach (a pair apart at the start that passed by).
+// recovery speed), whether its path never came within reach (a pair apart at the start that passed by), and
+// whether it is pushed along c itself (od_PushAlong) rather than along od_PushDirection(c).
 typedef struct od_PairState
 {
 	od_Vec3 c;
 	double depth, allowed;
-	bool passed;
+	bool passed, along;
 } od_PairState;
+
+// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
+static bool od_ShortStep(const od_Sim* sim)
+{
+	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
+}
+
+// Whether a pair is its members' only contact at the last update (its interface's one pair, od_Interfaces).
+static bool od_Single(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	int e = pair->interface, ma = s->body[pair->a], mb = s->body[pair->b];
+	const od_Interface* f = e >= 0 && e < s->interfaceCount ? &s->interfaces[e] : NULL;
+	return f && f->count == 1 && ((f->lower == ma && f->upper == mb) || (f->lower == mb && f->upper == ma));
+}
+
+// Whether a pair is pushed along the line it is measured on: a skin pair (its separating axis), and at steps of
+// OD_MEMBER_ROLL_STEP or shorter a pair apart at the step's start (measured along its start's centre line c) that is
+// its two members' only contact (od_Single: no face whose pairs od_PushDirection pushes straight apart). Such a pair's
+// constraint in the step is the plane across c; pushed along od_PushDirection(c), off c, its force did work along
+// that plane: a default Rubber Suzanne resting on another on a single such pair (c 4.4° off the push, the two
+// ellipsoids' supports along c growing as the pair slid) rose 3.0 cm in 9 s at rest, its fastest particle at 0.010
+// m/s; pushed along c it loses energy (docs/contact.md, "Stacks", stop 40). Every pair apart at the start so pushed,
+// a Jelly Suzanne dropped on another slid off the lower's head (2.5 m aside, 0.75 before) and at 1/60 s two
+// 1,000-particle creatures dropped one on the other gained 51 kJ over their 4.5 kJ in a step after the landing (why
+// is not found); at 1/24 s two Jelly spheres stacked on a settled one rolled off (0.65 m aside at 13 s, 0.25 before).
+static bool od_PushAlong(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b,
+						const od_BodyContactDef* d, bool apart, bool skin)
+{
+	return skin || (apart && a->sim != b->sim && d->inIterations && od_ShortStep(a->sim) && od_Single(s, pair));
+}
 
 // How far a pair that began overlapping may leave it in a step (the recovery speed, contact.c); none against
 // an immovable end (od_Brace), which would throw the heavy end off it.
@@ -680,6 +719,7 @@ static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPai
 	// overlapping along c yet passed, their forces dropped and taken up every other update (a particle jumping 4-6
 	// mm, 100 iterations a step under the preset's tolerance, 8.4 ms a step); counted in contact, 2 (0.95 ms).
 	p.passed = apart && p.depth > 0.0 && !skin && od_ClosestApproach(d0, d1) >= reach;
+	p.along = od_PushAlong(s, pair, a, b, d, apart, skin);
 	p.allowed = apart ? 0.0
 					  : fmax(reach - (a->sim != b->sim && d->inIterations ? od_Dot(p.c, d0) : l0) - od_Recovery(a, b), 0.0);
 	return p;
@@ -813,7 +853,7 @@ static void od_MemberMasses(od_PairScratch* s, od_Sim* const* sims, int count)
 		od_Pose(s, sim, b);
 	}
 	double share = count > 0 ? sims[0]->def.dt / OD_CLIMB_TIME : 1.0; // a group's members step alike
-	s->comparable = OD_COMPARABLE * (share < 1.0 ? share : 1.0);
+	s->comparable = fmax(OD_COMPARABLE * (share < 1.0 ? share : 1.0), OD_COMPARABLE_LEAST);
 }
 
 // Whether member m rests on the members its pairs counted in s->rise lead to (od_Rise): their normals' mean
@@ -883,7 +923,7 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 		return false;
 	}
 	double push = fmax(p.depth - p.allowed, 0.0);
-	od_Vec3 n = od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c);
+	od_Vec3 n = p.along ? p.c : od_PushDirection(s, pair, p.c);
 	// Against an immovable end (od_Brace), at most back to where the other end started along n: the push along
 	// n, not along the measured line, and several pairs' pushes went beyond (the Rubber slab 1e6 times as dense
 	// at 240 steps a second gained 86 MJ).
@@ -1212,12 +1252,6 @@ static bool od_Landing(const od_PairScratch* s, int b)
 	return landing;
 }
 
-// Whether sim steps OD_MEMBER_ROLL_STEP or shorter (a group's members step alike).
-static bool od_ShortStep(const od_Sim* sim)
-{
-	return sim->def.dt <= OD_MEMBER_ROLL_STEP * (1.0 + 1e-9);
-}
-
 // Member pair (lower, upper)'s couple this step (od_MemberRolls), added at none if new; NULL when the list cannot
 // grow (out of memory: that pair then has none).
 static od_MemberCouple* od_CoupleOf(od_PairScratch* s, int lower, int upper)
@@ -1437,7 +1471,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 		s->pressing[pair->b]++;
 		// Re-aimed at every update: round bodies' pairs turn within a step (a blob on a blob: skinned
 		// overlap -0.026 m with the normal set once a step, -0.018 m re-aimed; the bars alike).
-		od_V3Store(pair->n, od_SkinPair_Used(a->sim, b->sim) ? p.c : od_PushDirection(s, pair, p.c));
+		od_V3Store(pair->n, p.along ? p.c : od_PushDirection(s, pair, p.c));
 	}
 }
 
