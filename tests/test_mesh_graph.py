@@ -164,22 +164,6 @@ def test_same_mesh_same_graph_bit_for_bit():
         assert getattr(a, name).tobytes() == getattr(b, name).tobytes()
 
 
-def test_same_triangles_in_any_order_same_graph_bit_for_bit():
-    """Blender's bmesh numbers a mesh's faces differently from run to run (stop 40: ellie's loop triangles came in
-    another order each run, one run in four built another graph, 2.66 mm against 6.47 mm 1 s after the motion)."""
-    v, t = two_capsules()
-    v, t = np.concatenate([v, v + [0.5, 0.0, 0.0]]), np.concatenate([t, t + len(v)])  # four pieces
-    reference = opdeform.Graph.from_mesh(v, t, particles=40)
-    rng = np.random.default_rng(1)
-    for _ in range(4):
-        shuffled = t[rng.permutation(len(t))]
-        turned = np.stack([np.roll(tri, k) for tri, k in zip(shuffled, rng.integers(0, 3, len(t)))])  # winding kept
-        g = opdeform.Graph.from_mesh(v, turned, particles=40)
-        for name in ("centers", "radii", "axes", "edges"):
-            assert getattr(g, name).tobytes() == getattr(reference, name).tobytes(), name
-        assert [p.tobytes() for p in g.pieces()[1:]] == [p.tobytes() for p in reference.pieces()[1:]]
-
-
 def test_graph_runs_in_the_simulation():
     v, t = meshes.creature()
     g = opdeform.Graph.from_mesh(v, t, particles=60)

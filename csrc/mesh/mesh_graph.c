@@ -30,8 +30,7 @@
 // 7. Mesh pieces: each particle of a small group of its own is linked to the nearest large group; the graph
 //    records the group of each particle and vertex, and the group that carries each group without
 //    particles (graph/piece_map.c), so that a vertex is skinned only by its own piece.
-// Everything runs in one thread with ties broken by index, on the triangles put in one order first, so the
-// graph is the same bit for bit for the same triangles in any order.
+// Everything runs in one thread with ties broken by index, so the graph is the same bit for bit.
 #include "mesh_graph.h"
 
 #include "buffer.h"
@@ -1349,74 +1348,6 @@ static od_Status od_Build(od_Builder* b, od_Graph** graph)
 	return status;
 }
 
-// A triangle's key: its welded vertices largest first, the welded vertex after its smallest (the winding), then
-// its own vertices turned to start at the smallest welded one (identical triangles tie on every int).
-enum { OD_TRIANGLE_KEY = 7 };
-
-static void od_TriangleKey(const int* v, const int* weld, int* key)
-{
-	int w[3] = { weld[v[0]], weld[v[1]], weld[v[2]] };
-	int first = 0;
-	for (int k = 1; k < 3; ++k)
-	{
-		first = w[k] < w[first] || (w[k] == w[first] && v[k] < v[first]) ? k : first;
-	}
-	int hi = w[0] > w[1] ? w[0] : w[1], lo = w[0] > w[1] ? w[1] : w[0];
-	key[0] = hi > w[2] ? hi : w[2];
-	key[2] = lo < w[2] ? lo : w[2];
-	key[1] = w[0] + w[1] + w[2] - key[0] - key[2];
-	key[3] = w[(first + 1) % 3];
-	for (int k = 0; k < 3; ++k)
-	{
-		key[4 + k] = v[(first + k) % 3];
-	}
-}
-
-static int od_CompareTriangleKeys(const void* pa, const void* pb)
-{
-	const int *a = pa, *b = pb;
-	for (int k = 0; k < OD_TRIANGLE_KEY; ++k)
-	{
-		if (a[k] != b[k])
-		{
-			return a[k] < b[k] ? -1 : 1;
-		}
-	}
-	return 0;
-}
-
-// The triangles in one order whatever order they came in (Blender's bmesh numbers faces differently from run
-// to run): by their largest welded vertex first, the order in which a mesh made vertex by vertex lists its
-// faces (so that such a mesh keeps its graph), each turned to start at its smallest (its winding kept). Pieces
-// are numbered by their first triangle and the voxels and sums follow the triangles' order, so the graph is
-// then a function of the triangles and the vertices' numbering only; a triangle soup is ordered as its welded mesh.
-static od_Status od_CanonicalTriangles(const od_MeshGraphDef* def, int** triangles)
-{
-	int nt = def->triangleCount;
-	int* weld = od_Alloc(sizeof(int) * (size_t)(def->vertexCount > 0 ? def->vertexCount : 1));
-	int* keys = od_Alloc(sizeof(int) * OD_TRIANGLE_KEY * (size_t)(nt > 0 ? nt : 1));
-	*triangles = od_Alloc(sizeof(int) * 3 * (size_t)(nt > 0 ? nt : 1));
-	double span;
-	od_Status status = weld && keys && *triangles
-						   ? od_Weld(def, weld, &span)
-						   : od_Fail(OD_ERROR_MEMORY, "out of memory for the order of %d triangles", nt);
-	for (int t = 0; t < nt && status == OD_OK; ++t)
-	{
-		od_TriangleKey(def->triangles + 3 * t, weld, keys + OD_TRIANGLE_KEY * t);
-	}
-	if (status == OD_OK)
-	{
-		qsort(keys, (size_t)nt, sizeof(int) * OD_TRIANGLE_KEY, od_CompareTriangleKeys);
-	}
-	for (int t = 0; t < nt && status == OD_OK; ++t)
-	{
-		memcpy(*triangles + 3 * t, keys + OD_TRIANGLE_KEY * t + 4, sizeof(int) * 3);
-	}
-	od_Free(weld);
-	od_Free(keys);
-	return status;
-}
-
 od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 {
 	*graph = NULL;
@@ -1425,15 +1356,10 @@ od_Status od_Graph_CreateFromMesh(const od_MeshGraphDef* def, od_Graph** graph)
 	{
 		return status;
 	}
-	od_MeshGraphDef sorted = *def;
-	int* triangles = NULL;
-	status = od_CanonicalTriangles(def, &triangles);
-	sorted.triangles = triangles;
 	od_Builder b;
 	memset(&b, 0, sizeof b);
-	b.def = &sorted;
-	status = status == OD_OK ? od_Build(&b, graph) : status;
-	od_Free(triangles);
+	b.def = def;
+	status = od_Build(&b, graph);
 	for (int i = 0; i < b.groupCount; ++i)
 	{
 		od_Voxels_Destroy(&b.groups[i].voxels);

@@ -29,8 +29,6 @@ typedef struct od_MeshPieces
 #define OD_MAX_SPAN 1e12
 
 od_Status od_MeshPieces_Find(const od_MeshGraphDef* def, od_MeshPieces* pieces);
-// weld[v] = the smallest vertex index at v's point, vertices closer than OD_WELD_FRACTION of *span being one.
-od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span);
 // qsort order of int pairs (the first two ints of each item): by the first, then the second.
 int od_CompareIntPairs(const void* a, const void* b);
 void od_MeshPieces_Destroy(od_MeshPieces* pieces);

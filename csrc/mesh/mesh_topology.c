@@ -58,7 +58,7 @@ static double od_Span(const od_MeshGraphDef* def, double lo[3])
 }
 
 // weld[v] = the smallest vertex index at v's lattice point; *span = the span (see the top).
-od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span)
+static od_Status od_Weld(const od_MeshGraphDef* def, int* weld, double* span)
 {
 	int nv = def->vertexCount;
 	double lo[3];

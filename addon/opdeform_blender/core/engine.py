@@ -162,12 +162,26 @@ def simulate(runs, step, budget=None):
     return [r.engine._reached(r, shown, seconds) for r in runs]
 
 
+def canonical_triangles(triangles):
+    """The triangles in one order whatever order they came in, each turned to start at its smallest vertex (its
+    winding kept), sorted by its largest vertex, then the middle, the smallest and the one after the smallest: the
+    order of a mesh made vertex by vertex. The graph follows the triangles' order (opdeform.Graph.from_mesh:
+    pieces numbered by their first triangle, sums in that order), and Blender's bmesh lists a mesh's faces in
+    another order from run to run: one 3.4.1 run of ellie in four built another graph (2.66 against 6.47 mm 1 s
+    after the motion; docs/goals.md, "Run to run")."""
+    t = np.asarray(triangles, dtype=np.int32).reshape(-1, 3)
+    first = np.argmin(t, axis=1)
+    turned = np.take_along_axis(t, (first[:, None] + np.arange(3)) % 3, axis=1)
+    by_size = np.sort(t, axis=1)
+    return np.ascontiguousarray(turned[np.lexsort((turned[:, 1], by_size[:, 0], by_size[:, 1], by_size[:, 2]))])
+
+
 class Engine:
     def __init__(self, od, rest_local, triangles, matrix_world=None, particles=100, mode="auto",
                  neighbors=4, small_pieces="attach"):
         self.od = od
         rest_local = np.asarray(rest_local, dtype=np.float32).reshape(-1, 3)
-        triangles = np.asarray(triangles, dtype=np.int32).reshape(-1, 3)
+        triangles = canonical_triangles(triangles)
         if len(rest_local) == 0:
             raise EngineError("the mesh has no vertices")
         if len(triangles) == 0:
