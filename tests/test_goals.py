@@ -194,3 +194,6 @@ def test_follow_fits_a_new_input_once_and_names_any_vertex_not_finite(tail):
     assert kept_shift[1] == 0.0 and np.isfinite(kept).all()
     with pytest.raises(ValueError, match="kept"):  # float64 where the kept input is float32
         fit.follow(animated, (0.0, 0.0, 0.0), kept.astype(np.float64), kept_shift, True)
+    animated[bad, 2] = 0.0
+    with pytest.raises(ValueError, match="share memory"):  # would compare the input with itself: never fitted
+        fit.follow(animated, (0.0, 0.0, 0.0), animated, kept_shift, True)

@@ -110,6 +110,14 @@ static PyObject* GoalFit_follow(PyObject* obj, PyObject* args)
 	{
 		return NULL;
 	}
+	const char *in = views[0].buf, *keep = outViews[0].buf;
+	if (in < keep + outViews[0].len && keep < in + views[0].len)
+	{
+		ReleaseArrays(views, 2);
+		ReleaseArrays(outViews, 4);
+		PyErr_SetString(PyExc_ValueError, "kept must not share memory with animated (it keeps a copy of it)");
+		return NULL;
+	}
 	od_KeptInput kept = { outViews[0].buf, outViews[1].buf, valid != 0 };
 	bool fitted = false;
 	od_Status status = od_GoalFit_Follow(self->fit, views[0].buf, views[1].buf, &kept, &fitted, outViews[2].buf,

@@ -100,9 +100,10 @@ class GoalFit(FromArguments):
                valid: bool) -> tuple[Floats, Floats] | None:
         """A frame's goal frames in one C call: ``fit(animated, shift)`` of the float32 vertices (V,3), every one
         checked finite first (ValueError naming the first that is not), unless they and the shift equal ``kept``
-        (float32 (V,3)) and ``kept_shift`` (float64 (3,)), the last fit's input when ``valid``: None then (a held
-        pose; nothing written). A fit writes its input into kept and kept_shift. The arrays it returns are new
-        ones each fit; a held pose allocates nothing."""
+        (float32 (V,3), not sharing memory with ``animated``) and ``kept_shift`` (float64 (3,)), the last fit's
+        input when ``valid``: None then (a held pose; nothing written). A fit writes its input into kept and
+        kept_shift. An array of another shape or type is refused (ValueError naming it). The arrays it returns
+        are new ones each fit; a held pose allocates nothing."""
         n = self.graph.n_particles
         out = self._spare if self._spare is not None else (np.empty((n, 3)), np.empty((n, 3, 3)))
         self._spare = out

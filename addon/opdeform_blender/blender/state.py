@@ -51,7 +51,7 @@ class Runtime:
             if lowest > frame:  # older than every kept frame: not kept
                 return
             kept = recent.pop(lowest)
-        if kept is None or kept.shape != out.shape:
+        if kept is None or kept.shape != out.shape or kept.dtype != out.dtype:
             kept = out.copy()
         else:
             kept[...] = out

@@ -159,8 +159,9 @@ def _named(piece, chosen, shown):
 def hanging_text(pieces):
     """The panel's warning for hanging_pieces (None when there are none)."""
     return _shells_text(pieces, "with Follow under 1 all over", "each is held to the body only by links from its "
-                        "particles (a long one's from its root) to the nearest body particle and drifts back slowly "
-                        "after the motion; paint Follow 1 where it meets the body")
+                        "particles (a long one's from its root) to the nearest body particle and comes back after the "
+                        "motion only as fast as its Follow (Shell Min at least) pulls it; paint Follow 1 where it "
+                        "meets the body")
 
 
 def unrigged_text(pieces):

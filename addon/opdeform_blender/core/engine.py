@@ -247,7 +247,7 @@ class Engine:
         self.shown_state = self._rest_state[:2]
         self._last_pushed = None  # (frame, its positions array, its pushed-out skin): _push_out's last
         self._buffers = {}  # name -> (V, 3) array (_buffer)
-        self._fitted = None  # (its input, the goal frames, the shift or None) of the last fit (goal_frames)
+        self._fitted = None  # (its input, the goal frames) of the last fit (goal_frames)
         self._fitted_shift = np.zeros(3)  # the translation of the last float32 fit (goal_frames)
         self._referenced = None  # the goal frames whose skin the "reference" buffer holds (_reference)
         self._last_goals = None  # the goal frames of the last C pass's offset (_shown_reference)
@@ -400,8 +400,9 @@ class Engine:
     def set_goal(self, strength, vertex_weights=None, follow_range=(0.0, 1.0), shell_min=0.0):
         """The goal (docs/goals.md): None (off), or how closely each vertex follows the animated input, in [0, 1]:
         ``strength`` everywhere, or with a painted group's per-vertex weights w the value lo + w (hi - lo) of
-        ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself), and on the particles of a
-        detached shell (every mesh piece but the one with most particles) that value mapped into [shell_min, 1]
+        ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself), and then, with weights, on
+        the particles of a detached shell (every mesh piece but the one with most particles) that value mapped into
+        [shell_min, 1]
         (the add-on's Shell Min, SHELL_FOLLOW_MIN by default). 1 locks a vertex to the animation, 0 leaves it
         free, values between are springs (``opdeform.goal_frequency``). The goals carry the rest shape: the
         animated shape is the equilibrium. A change outdates the cache."""
@@ -487,7 +488,7 @@ class Engine:
         goals = self.fit.fit(world)
         self._buffers["world_input"] = self._buffer("fitted_world")
         self._buffers["fitted_world"] = world
-        self._fitted = (world, goals, None)
+        self._fitted = (world, goals)
         return goals
 
     def _follows(self, incoming, matrix):
@@ -509,7 +510,7 @@ class Engine:
             raise
         if goals is None:
             return kept[1]
-        self._fitted = (given, goals, self._fitted_shift)
+        self._fitted = (given, goals)
         return goals
 
     # -- state ----------------------------------------------------------------------------------------
