@@ -402,10 +402,9 @@ class Engine:
         ``strength`` everywhere, or with a painted group's per-vertex weights w the value lo + w (hi - lo) of
         ``follow_range`` (Soft Body's Goal Min and Max; by default the weight itself), and then, with weights, on
         the particles of a detached shell (every mesh piece but the one with most particles) that value mapped into
-        [shell_min, 1]
-        (the add-on's Shell Min, SHELL_FOLLOW_MIN by default). 1 locks a vertex to the animation, 0 leaves it
-        free, values between are springs (``opdeform.goal_frequency``). The goals carry the rest shape: the
-        animated shape is the equilibrium. A change outdates the cache."""
+        [shell_min, 1] (the add-on's Shell Min, SHELL_FOLLOW_MIN by default). 1 locks a vertex to the animation, 0
+        leaves it free, values between are springs (``opdeform.goal_frequency``). The goals carry the rest shape:
+        the animated shape is the equilibrium. A change outdates the cache."""
         follow = None
         if strength is not None:
             follow = self._follow(strength, vertex_weights, (*follow_range, shell_min))
@@ -659,11 +658,9 @@ class Engine:
         self.behind = 0
         incoming = self.rest_local if incoming is None else incoming
         matrix = self._frame_matrix(matrix, incoming)
-        follows = self._follows(incoming, matrix)
-        if not follows:
+        if not self._follows(incoming, matrix):  # else GoalFit.follow checks it
             _check_finite(incoming)
-        goals = self._followed(incoming, matrix) if follows else \
-            None if self.goal_strength is None else self.goal_frames(incoming, matrix)
+        goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
         if self.colliders.outdated(min(int(frame), self.end), surroundings):
             self.invalidate(keep_until=min(int(frame), self.end) - 1)
         return FrameRun(self, int(frame), targets, incoming, matrix, goals, surroundings)
