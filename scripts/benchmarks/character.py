@@ -34,7 +34,8 @@ adds beyond its solver, what the aim is checked on. Process time leaves out what
 this one (wall times count it: the wall ms column, read beside the load average); in bpy 5.2 it counts
 Blender's worker threads too. Each variant's figures against
 the armature-only pose (tests/blender/character_measure.py) follow: core, ear, belly, tail, stretch, lowest,
-settle. Aims (issue 24), printed with the load average: what OPDeform adds beyond its solver <= 1 ms a frame
+settle. `--pieces`: the handler's pieces timed in place (_character_pieces.py). Aims (issue 24), printed with the
+load average: what OPDeform adds beyond its solver <= 1 ms a frame
 (over frames 2..N, and frame by frame during the hops and standing apart: a held pose reuses its goal frames,
 core/engine.py, so the clip's median alone would sit between the two; met when the clip's and the hops' are);
 >= 60 frames a second (<= 16.7 ms per frame_set) at 1,000 particles. Results: out/bench/character/<host>.json.
@@ -298,6 +299,10 @@ def run(args):
     if "--writes" in args:
         from . import _character_writes
         _character_writes.run(args)
+        return
+    if "--pieces" in args:
+        from . import _character_pieces
+        _character_pieces.run(args)
         return
     hosts = args[args.index("--hosts") + 1].split(",") if "--hosts" in args else ["blender", "bpy-5.2"]
     frames = int(args[args.index("--frames") + 1]) if "--frames" in args else 96
