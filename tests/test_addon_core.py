@@ -250,6 +250,26 @@ def _tailed_body():
 
 
 @pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
+def test_the_body_is_the_piece_with_most_particles_not_vertices():
+    """A coarse 1 m body and a dense small shell (more vertices than the body, fewer particles): the body, which
+    Shell Min leaves as painted and the loose-shell warning leaves out, is the coarse one in the engine's particle
+    pieces and in checks.vertex_pieces' numbering alike."""
+    from opdeform import meshes
+    body = meshes.capsule(radius=0.2, length=0.6, segments=8, rings=2, body=2)
+    dense = meshes.capsule(radius=0.05, length=0.1, segments=48, rings=16, body=4)
+    v = np.vstack([body[0], dense[0] + (0.0, 0.0, 0.3)])
+    t = np.vstack([body[1], dense[1] + len(body[0])])
+    assert len(dense[0]) > len(body[0])
+    e = Engine(opdeform, v, t, particles=60, small_pieces="own")
+    count, piece, found = e.pieces()
+    assert count == 2 and (piece == found).sum() > (piece != found).sum() > 0
+    vertex_piece, _ = checks.vertex_pieces(e.rest, e.triangles)
+    assert np.all(vertex_piece[:len(body[0])] == found), "the numbering of vertex_pieces is the engine's"
+    follow = np.full(len(v), 0.5)
+    assert [n for n, _ in checks.hanging_pieces(vertex_piece, follow, v, found)] == [len(dense[0])]
+
+
+@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_the_same_triangles_in_any_order_build_the_same_graph():
     """Blender's bmesh lists a mesh's faces in another order from run to run, and the graph follows the triangles'
     order: one 3.4.1 run of ellie in four built another graph (2.66 against 6.47 mm 1 s after the motion). The
@@ -399,17 +419,19 @@ def test_attached_pieces_are_found_and_named():
 
 
 def test_pieces_loose_all_over_are_named():
-    """Of a mesh's pieces, those but the largest whose Follow is under 1 everywhere (held to the body only by its
-    particles' links to the nearest body particle), by size and centre; a piece with one vertex at 1, the largest
-    piece, or no goal: nothing."""
+    """Of a mesh's pieces, those but the body whose Follow is under 1 everywhere (held to the body only by its
+    particles' links to the nearest body particle), by size and centre; a piece with one vertex at 1, the body
+    (given: the piece with most particles), or no goal: nothing."""
     piece = np.array([0] * 6 + [1] * 3 + [2] * 2 + [-1])
     follow = np.array([0.0] * 6 + [0.2, 0.5, 0.3] + [0.1, 1.0] + [0.0])
     shown = np.arange(36.0).reshape(12, 3)
-    found = checks.hanging_pieces(piece, follow, shown)
+    found = checks.hanging_pieces(piece, follow, shown, 0)
     assert found == ((3, tuple(shown[6:9].mean(axis=0))),), found
     text = checks.hanging_text(found)
     assert text.startswith("1 detached shell with Follow under 1 all over (3 vertices at (21.00") and "Follow 1" in text
-    assert checks.hanging_pieces(None, follow, shown) == () and checks.hanging_pieces(piece, None, shown) == ()
+    by_particles = checks.hanging_pieces(piece, follow, shown, 1)  # the body by particles, not by vertices
+    assert [n for n, _ in by_particles] == [6], by_particles
+    assert checks.hanging_pieces(None, follow, shown, 0) == () and checks.hanging_pieces(piece, None, shown, 0) == ()
     assert checks.hanging_text(()) is None
 
 

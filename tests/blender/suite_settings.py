@@ -42,7 +42,7 @@ def _tip_z(obj):
 def test_enable_gives_the_default_preset():
     obj = _tail()
     s, presets = obj.opdeform, _module("blender.presets")
-    assert s.settings_version == 3 and not s.use_solver_units
+    assert s.settings_version == _version() and not s.use_solver_units
     assert presets.current_name(s) == "Rubber" and s.density == 1100.0 and s.modulus == 15.0
     assert s.use_frame_rate_substeps and presets.substeps(s, 24.0) == 10 and presets.substeps(s, 60.0) == 4
     bpy.ops.opdeform.apply_preset(object=obj.name, preset="Jelly")
@@ -118,7 +118,7 @@ def test_old_file_keeps_its_raw_stiffness():
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Tail"]
     s = obj.opdeform
-    assert s.use_solver_units and s.settings_version == 3 and s.stiffness == 2e7
+    assert s.use_solver_units and s.settings_version == _version() and s.stiffness == 2e7
     bpy.context.scene.frame_set(2)
     rt = H.runtime().get(obj)
     assert rt.engine.sim.params["stiffness"] == 2e7 and abs(rt.engine.sim.params["damping"] - 0.01) < 1e-8
@@ -136,8 +136,35 @@ def test_version_1_file_keeps_its_look():
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.open_mainfile(filepath=path)
     s = bpy.data.objects["Tail"].opdeform
-    assert s.settings_version == 3 and not s.use_solver_units and s.modulus == 15.0
+    assert s.settings_version == _version() and not s.use_solver_units and s.modulus == 15.0
     assert presets.current_name(s) == "Rubber"
+
+
+def test_version_3_file_keeps_its_shells_painted_follow():
+    """A file saved before Shell Min (settings version 3): its detached shells keep their painted Follow (Shell Min
+    0) unless Shell Min was set; its goal's mapping is not touched."""
+    kept = {}
+    for name, shell_min in (("Unset", None), ("Set", 0.5)):
+        s = _tail(name).opdeform
+        s.goal_min, s.goal_max, s.sag = 0.2, 0.9, 0.25
+        if shell_min is not None:
+            s.shell_follow_min = shell_min
+        s.settings_version = 3
+        kept[name] = shell_min
+    path = os.path.join(H.tmpdir(), "v3.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    for name, shell_min in kept.items():
+        s = bpy.data.objects[name].opdeform
+        assert s.settings_version == _version(), (name, s.settings_version)
+        assert s.shell_follow_min == (0.0 if shell_min is None else shell_min), (name, s.shell_follow_min)
+        assert (round(s.goal_min, 6), round(s.goal_max, 6), round(s.sag, 6)) == (0.2, 0.9, 0.25), name
+    s = _tail("New").opdeform
+    assert s.settings_version == _version() and abs(s.shell_follow_min - _module("core.engine").SHELL_FOLLOW_MIN) < 1e-6
+
+
+def _version():
+    return _module("core.settings").SETTINGS_VERSION
 
 
 def test_quality_report_plot_and_panel():

@@ -67,8 +67,8 @@ def warnings(rt, frame, current=True):
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)
-    hanging = current and checks.hanging_text(checks.hanging_pieces(rt.pieces, rt.engine.follow,
-                                                                     rt.engine.rest_local))
+    hanging = current and rt.pieces is not None and checks.hanging_text(
+        checks.hanging_pieces(rt.pieces, rt.engine.follow, rt.engine.rest_local, rt.engine.pieces()[2]))
     if hanging:
         out.append(hanging)
     if rt.engine.behind:

@@ -95,8 +95,7 @@ def stamp(s):
         return
     if s.settings_version >= core_settings.MATERIAL_UNITS_VERSION:  # set up before: only the modulus moves
         s.modulus = versioning.modulus(s)
-        versioning.keep_goal(s)
-        s.settings_version = core_settings.SETTINGS_VERSION
+        versioning.keep_meaning(s)
         return
     if not s.use_solver_units:
         try:

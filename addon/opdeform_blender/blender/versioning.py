@@ -1,6 +1,7 @@
 """Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
 (a version-1 modulus is tripled on load, keeping the look). Version 3: the goal's follow values (a version-2
-goal keeps its mapping and gravity, ``keep_goal``). Version 0 (files saved before material units)
+goal keeps its mapping and gravity, ``keep_goal``). Version 4: Shell Min (an older object keeps its shells'
+painted Follow, ``keep_shells``). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
 stored or default). On a file load (handlers.on_load_post) every such object is marked so
 (``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
@@ -35,8 +36,15 @@ def upgrade(objects):
                 s.use_solver_units = True
             else:
                 s.modulus = modulus(s)
-            keep_goal(s)
-            s.settings_version = core_settings.SETTINGS_VERSION
+            keep_meaning(s)
+
+
+def keep_meaning(s):
+    """What a version-1 to version-3 object's goal meant stays so; the object is stamped with today's version."""
+    if s.settings_version < core_settings.FOLLOW_VERSION:
+        keep_goal(s)
+    keep_shells(s)
+    s.settings_version = core_settings.SETTINGS_VERSION
 
 
 def keep_goal(s):
@@ -45,3 +53,10 @@ def keep_goal(s):
     now."""
     s.goal_strength = s.goal_strength if s.is_property_set("goal_strength") else OLD_GOAL_STRENGTH
     s.goal_min, s.goal_max, s.sag = 0.0, s.goal_strength, 1.0
+
+
+def keep_shells(s):
+    """An object from before version 4 keeps its detached shells' painted Follow (Shell Min 0) unless Shell Min
+    was set."""
+    if not s.is_property_set("shell_follow_min"):
+        s.shell_follow_min = 0.0

@@ -120,8 +120,9 @@ def _pieces_without_particles(od, graph, vertices, triangles):
     return (piece, missing) if found == count and len(missing) else None
 
 
-def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
-    """The mesh's pieces but its largest that a goal's Follow leaves loose all over (no vertex at ``anchor`` or
+def hanging_pieces(piece, follow, shown, body, anchor=ANCHOR):
+    """The mesh's pieces but the body (``body``: Engine.pieces, the piece with most particles, which Shell Min
+    leaves as painted) that a goal's Follow leaves loose all over (no vertex at ``anchor`` or
     more): each holds to the body only by the edges from its particles (a long one's from its root) to the nearest
     body particle (opdeform.graph's small_pieces="own") and its goal spring alone turns it back, slowly (a
     humanoid's hulls painted 0.25: 24-145 mm off 1 s after the motion, docs/goals.md).
@@ -132,7 +133,7 @@ def hanging_pieces(piece, follow, shown, anchor=ANCHOR):
     sizes = np.bincount(piece[piece >= 0], minlength=count)
     top = np.zeros(count)
     np.maximum.at(top, piece[piece >= 0], np.asarray(follow)[piece >= 0])
-    return _named(piece, [p for p in range(count) if p != np.argmax(sizes) and sizes[p] and top[p] < anchor], shown)
+    return _named(piece, [p for p in range(count) if p != body and sizes[p] and top[p] < anchor], shown)
 
 
 def unrigged_pieces(piece, moved, shown):

@@ -424,13 +424,18 @@ class Engine:
         return True
 
     def _shells_held(self, values, shell_min):
-        """Per-particle Follow values with those of the detached shells, every mesh piece but the one with most
-        particles, mapped into [shell_min, 1]."""
-        count, piece = self.od.mesh.mesh_pieces(self.graph)
+        """Per-particle Follow values with those of the detached shells, every mesh piece but the body, mapped
+        into [shell_min, 1]."""
+        count, piece, body = self.pieces()
         if count < 2:
             return values
-        shell = piece != np.argmax(np.bincount(piece[piece >= 0], minlength=count))
-        return np.where(shell, shell_min + (1.0 - shell_min) * values, values)
+        return np.where(piece != body, shell_min + (1.0 - shell_min) * values, values)
+
+    def pieces(self):
+        """(the number of mesh pieces, each particle's piece, the body: the piece with most particles), pieces
+        numbered as checks.vertex_pieces numbers them."""
+        count, piece = self.od.mesh.mesh_pieces(self.graph)
+        return count, piece, int(np.argmax(np.bincount(piece[piece >= 0], minlength=count)))
 
     def _follow(self, strength, vertex_weights, limits):
         """The per-vertex follow values of ``set_goal`` (``limits``: its follow range and shell minimum);

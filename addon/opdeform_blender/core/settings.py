@@ -17,8 +17,11 @@ import numpy as np
 
 from .engine import SHELL_FOLLOW_MIN
 
-SETTINGS_VERSION = 3  # stamped on an object when oriented particles are enabled; 0: a file made before
+SETTINGS_VERSION = 4  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
+FOLLOW_VERSION = 3  # the first version whose goal weight is the follow value itself
+# Version 4: a detached shell's Follow is mapped into [Shell Min, 1] (default 0.3); an older object keeps its
+# painted values as they were (Shell Min 0) unless Shell Min was set.
 # Version 3: the goal's group weight is the follow value itself (Goal Min..Max) where it multiplied the strength,
 # and the goal holds the shape against gravity (Sag). An older object keeps its mapping (Max = its strength)
 # and its full gravity (Sag 1).
