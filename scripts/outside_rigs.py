@@ -29,7 +29,8 @@ painted also the bake against playback and a Cycles frame (OPDeform and the arma
     [NAME=VALUE ...: obj.opdeform settings set before Enable; +NAME=VALUE: after Enable and the look; norender]
 with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empty folders. Also prints HASHES:
 short hashes of the graph's inputs (rest positions, triangles, vertex weights) and the graph (particle centres,
-Follow), to tell run-to-run differences apart; OUTSIDE_RIGS_DUMP=FILE.npz keeps those arrays.
+Follow), to tell run-to-run differences apart; OUTSIDE_RIGS_DUMP=FILE.npz keeps those arrays;
+OUTSIDE_RIGS_TRACE=1 prints TRACE: each frame's largest offset (mm), of all vertices and of each loose region.
 """
 import json
 import math
@@ -600,6 +601,8 @@ def main():
                    after_1s_mm=1e3 * col["all"][after[FPS:]].max(), base_kept=bool(np.array_equal(base(obj), before)),
                    size=size, worst_frame=frames[worst])
     print("SUMMARY " + json.dumps(summary))
+    if os.environ.get("OUTSIDE_RIGS_TRACE"):  # each frame's largest offsets (mm), to see how a part comes back
+        print("TRACE", json.dumps({k: [round(1e3 * x, 2) for x in col[k]] for k in ["all", *regions]}))
     if VARIANT == "painted" and "norender" not in EXTRA:
         render(obj, twin, frames[worst])
     if VARIANT == "painted":  # bake = playback

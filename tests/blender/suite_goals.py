@@ -95,8 +95,8 @@ def test_maps_apply_on_the_next_frame_without_a_build():
 
 
 def test_looks_and_goal_out_of_the_box():
-    """Ticking Goal on the default material gives the default look; a look is applied and recognised by name;
-    a material chosen first stays."""
+    """Ticking Goal on the default material gives the default look; a look is applied and recognised by name,
+    with its Shell Min (Floppy 0.4, Fleshy back to 0.3); a material chosen first stays."""
     v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
     tail = H.mesh_object("Body", v, t)  # the add-on's defaults, as Enable gives them
     bpy.ops.opdeform.enable(object=tail.name)
@@ -106,6 +106,9 @@ def test_looks_and_goal_out_of_the_box():
     assert presets.current_look(s) == "Fleshy" and abs(s.modulus - 3.0) < 1e-6, (presets.current_look(s), s.modulus)
     bpy.ops.opdeform.apply_preset(object=tail.name, preset="Floppy")
     assert presets.current_look(s) == "Floppy" and abs(s.soft_stiffness - 0.1) < 1e-6
+    assert abs(s.shell_follow_min - 0.4) < 1e-6, s.shell_follow_min  # a look sets Shell Min too
+    bpy.ops.opdeform.apply_preset(object=tail.name, preset="Fleshy")
+    assert presets.current_look(s) == "Fleshy" and abs(s.shell_follow_min - 0.3) < 1e-6, s.shell_follow_min
     other = H.mesh_object("Other", v, t)
     bpy.ops.opdeform.enable(object=other.name)
     bpy.ops.opdeform.apply_preset(object=other.name, preset="Stiff")

@@ -169,7 +169,8 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                     description="Follow of a detached shell (a separate ear, tail or trunk) where "
                                                 "its group weight gives 0: its Follow is mapped into Shell Min..1, "
                                                 "so that a long shell held to the body only at its root settles "
-                                                "within about a second (0: as painted, the slowest swing back)")
+                                                "within about a second (0: as painted, the slowest swing back; "
+                                                "each Look sets it: 0.3, Floppy 0.4)")
     sag: FloatProperty(name="Sag", default=0.0, min=0.0, max=1.0, subtype='FACTOR',
                        description="Share of the scene's gravity that pulls the flesh off its animation (0: the "
                                    "animation holds its shape against gravity)")

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .engine import SHELL_FOLLOW_MIN
+
 SETTINGS_VERSION = 4  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
 FOLLOW_VERSION = 3  # the first version whose goal weight is the follow value itself
@@ -51,10 +53,17 @@ class Units:
 # second) and the painted regions' softness and damping. Measured on tests/blender/character_scene.py's creature
 # (docs/goals.md, "Looks"). Ticking Goal on an object whose material is still the default preset gives it
 # DEFAULT_LOOK: a body as stiff as Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm).
+# Each look settles within 2 mm 1 s after the motion stops (the issue's aim): a swing of ω rad/s comes back at
+# best as e^-ωt (critically damped), so Floppy's softer shells take a faster floor (Shell Min 0.4, a 0.78 Hz
+# goal) and more damping (12/s): at 5/s and 0.3 the dog's tail swung 12.5 mm 1 s after (docs/goals.md, "Floppy
+# that settles").
 LOOKS = {
-    "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0),
-    "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0),
-    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=5.0, soft_stiffness=0.1, region_damping=5.0),
+    "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0,
+                   shell_follow_min=SHELL_FOLLOW_MIN),
+    "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0,
+                   shell_follow_min=SHELL_FOLLOW_MIN),
+    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=12.0, soft_stiffness=0.1, region_damping=12.0,
+                   shell_follow_min=0.4),
 }
 DEFAULT_LOOK = "Fleshy"
 
