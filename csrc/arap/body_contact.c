@@ -2331,6 +2331,7 @@ static od_Vec3 od_CarryOf(const od_PairScratch* s, od_Sim* const* sims, int u)
 		sum = od_MulAdd(sum, pair->force, od_MulAdd(slid, -od_Dot(slid, n), n));
 		weight += pair->force;
 	}
+	sum.z = 0.0; // level: no work against gravity
 	return weight > 0.0 ? od_Scale(1.0 / weight, sum) : sum;
 }
 
