@@ -71,6 +71,10 @@
 // 70) and its turn in the step changed by under 1 %; updated at every solve the couples reached their bounds and the
 // turn fell 20 % in 49 updates. They tipped over as one and rolled off (Jelly 0.80, Rubber 0.68 m aside); with the
 // patch's roll they rest on top (0.088 and 0.027 m; docs/contact.md, "Stacks", stop 38).
+// Each member turns about its own patch there, outside the iterations' friction: rolled back, a lower one slid its
+// top from under the one resting on it (0.5 mm a step), which crept off. So after the members' finish a member
+// resting on others is carried, rigidly and level, by what the finish slid them under it (od_BodyContact_Carry;
+// docs/contact.md, "Stacks", stop 41).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
