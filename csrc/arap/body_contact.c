@@ -2285,6 +2285,19 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def)
 	return sim->selfContact;
 }
 
+// Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
+// does not slow (od_Part, od_Land): a member whose goals lifted it off the floor under another at 1 m/s (strength 0.5,
+// 60 steps a second) was held to 0.16 m/s a step, and one leaving another was slowed and dragged it along.
+static bool od_Driven(const od_Sim* sim)
+{
+	bool driven = sim->constraints.positionCount > 0;
+	for (int i = 0; !driven && i < sim->graph->n; ++i)
+	{
+		driven = od_Goals_Hold(sim, i);
+	}
+	return driven;
+}
+
 void od_BodyContact_Keep(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
@@ -2344,7 +2357,8 @@ static od_Vec3 od_CarryOf(const od_PairScratch* s, od_Sim* const* sims, int u)
 // friction, inside the iterations, never saw (Rubber spheres at 24 steps a second, the lower settled first: the
 // upper's contact particle slid 0.5 mm a step on the lower's, its friction at a fifth of its bound, and rolled off;
 // docs/contact.md, "Stacks", stop 41). Each member resting on others is moved with them, rigidly (its velocities
-// too), from the floor up (od_Storey), by what the finish slid them under it.
+// too), from the floor up (od_Storey), by what the finish slid them under it; not one goals or pins hold
+// (od_Driven: its motion is theirs, and the rolls leave it alone).
 void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	for (int storey = 1; storey < count; ++storey)
@@ -2354,7 +2368,7 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 		{
 			++u;
 		}
-		od_Vec3 carry = od_CarryOf(s, sims, u);
+		od_Vec3 carry = od_Driven(sims[u]) ? od_V3(0, 0, 0) : od_CarryOf(s, sims, u);
 		od_Sim* sim = sims[u];
 		for (int i = 0; od_Length(carry) > 0.0 && i < sim->graph->n; ++i)
 		{
@@ -2404,19 +2418,6 @@ static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 		od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
 	}
 	return OD_OK;
-}
-
-// Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
-// does not slow (od_Part, od_Land): a member whose goals lifted it off the floor under another at 1 m/s (strength 0.5,
-// 60 steps a second) was held to 0.16 m/s a step, and one leaving another was slowed and dragged it along.
-static bool od_Driven(const od_Sim* sim)
-{
-	bool driven = sim->constraints.positionCount > 0;
-	for (int i = 0; !driven && i < sim->graph->n; ++i)
-	{
-		driven = od_Goals_Hold(sim, i);
-	}
-	return driven;
 }
 
 // Interface ie's members parting along its normal faster than `speed`: their relative velocity along it slowed to
