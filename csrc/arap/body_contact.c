@@ -71,6 +71,10 @@
 // 70) and its turn in the step changed by under 1 %; updated at every solve the couples reached their bounds and the
 // turn fell 20 % in 49 updates. They tipped over as one and rolled off (Jelly 0.80, Rubber 0.68 m aside); with the
 // patch's roll they rest on top (0.088 and 0.027 m; docs/contact.md, "Stacks", stop 38).
+// Each member turns about its own patch there, outside the iterations' friction: rolled back, a lower one slid its
+// top from under the one resting on it (0.5 mm a step), which crept off. So after the members' finish a member
+// resting on others is carried, rigidly and level, by what the finish slid them under it (od_BodyContact_Carry;
+// docs/contact.md, "Stacks", stop 41).
 //
 // Rolling resistance on the floor (od_Rolls, od_ApplyRolls): a group's floor acts after the iterations, on the
 // particles' centres, and its friction pins the centres of the particles that bear: a round member rolls over them
@@ -297,6 +301,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->moved);
 	od_Free(s->moment);
 	od_Free(s->outward);
+	od_Free(s->kept);
 	od_Free(s->grounded);
 	od_Free(s->held);
 	od_Free(s->bearing);
@@ -351,7 +356,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll)
+	s->kept = od_Alloc(sizeof(double) * 3 * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -2279,6 +2285,99 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def)
 	return sim->selfContact;
 }
 
+// Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
+// does not slow (od_Part, od_Land): a member whose goals lifted it off the floor under another at 1 m/s (strength 0.5,
+// 60 steps a second) was held to 0.16 m/s a step, and one leaving another was slowed and dragged it along.
+static bool od_Driven(const od_Sim* sim)
+{
+	bool driven = sim->constraints.positionCount > 0;
+	for (int i = 0; !driven && i < sim->graph->n; ++i)
+	{
+		driven = od_Goals_Hold(sim, i);
+	}
+	return driven;
+}
+
+void od_BodyContact_Keep(od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int b = 0, first = 0; b < count; first += sims[b++]->graph->n)
+	{
+		memcpy(s->kept + 3 * (size_t)first, sims[b]->state.x, sizeof(double) * 3 * (size_t)sims[b]->graph->n);
+	}
+}
+
+// What the members' finish moved particle p (od_BodyContact_Keep).
+static od_Vec3 od_Finished(const od_PairScratch* s, od_Sim* const* sims, int p)
+{
+	return od_Sub(od_V3Load(sims[s->body[p]]->state.x + 3 * s->local[p]), od_V3Load(s->kept + 3 * p));
+}
+
+// How many members start the step with their centre below member m's (ties by index): the order of the carries.
+static int od_Storey(const od_PairScratch* s, int count, int m)
+{
+	int below = 0;
+	for (int b = 0; b < count; ++b)
+	{
+		double zb = s->pose[13 * b + 2], zm = s->pose[13 * m + 2];
+		below += zb < zm || (zb == zm && b < m);
+	}
+	return below;
+}
+
+// Member u's carry (od_BodyContact_Carry): the mean, by force, of what the finish slid its comparable pairs' lower
+// ends across their normals against their upper ends on u, over its pairs rising towards it (OD_HELD_RISE) where
+// either member rolled on a patch.
+static od_Vec3 od_CarryOf(const od_PairScratch* s, od_Sim* const* sims, int u)
+{
+	od_Vec3 sum = od_V3(0, 0, 0);
+	double weight = 0.0;
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		const od_ContactPair* pair = &s->pairs[k];
+		int ma = s->body[pair->a], mb = s->body[pair->b];
+		od_Vec3 n = od_V3Load(pair->n);
+		bool up = mb == u && n.z > OD_HELD_RISE, down = ma == u && n.z < -OD_HELD_RISE;
+		int lower = up ? ma : mb;
+		if (!(up || down) || ma == mb || !(pair->force > 0.0) || !od_Comparable(s, pair) ||
+			(sims[lower]->surface.rolls == OD_ROLL_NONE && sims[u]->surface.rolls == OD_ROLL_NONE))
+		{
+			continue;
+		}
+		od_Vec3 slid = up ? od_Sub(od_Finished(s, sims, pair->a), od_Finished(s, sims, pair->b))
+						  : od_Sub(od_Finished(s, sims, pair->b), od_Finished(s, sims, pair->a));
+		sum = od_MulAdd(sum, pair->force, od_MulAdd(slid, -od_Dot(slid, n), n));
+		weight += pair->force;
+	}
+	sum.z = 0.0; // level: no work against gravity
+	return weight > 0.0 ? od_Scale(1.0 / weight, sum) : sum;
+}
+
+// The patch rolls after the projections (od_PatchRolls, surface_contact.c) turn each member about its own patch:
+// the lower of two stacked round members rolled back on its floor carried its top from under the upper one, which
+// friction, inside the iterations, never saw (Rubber spheres at 24 steps a second, the lower settled first: the
+// upper's contact particle slid 0.5 mm a step on the lower's, its friction at a fifth of its bound, and rolled off;
+// docs/contact.md, "Stacks", stop 41). Each member resting on others is moved with them, rigidly (its velocities
+// too), from the floor up (od_Storey), by what the finish slid them under it; not one goals or pins hold
+// (od_Driven: its motion is theirs, and the rolls leave it alone).
+void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
+{
+	for (int storey = 1; storey < count; ++storey)
+	{
+		int u = 0;
+		while (od_Storey(s, count, u) != storey)
+		{
+			++u;
+		}
+		od_Vec3 carry = od_Driven(sims[u]) ? od_V3(0, 0, 0) : od_CarryOf(s, sims, u);
+		od_Sim* sim = sims[u];
+		for (int i = 0; od_Length(carry) > 0.0 && i < sim->graph->n; ++i)
+		{
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_V3Load(sim->state.x + 3 * i), carry));
+			od_V3Store(sim->state.v + 3 * i, od_MulAdd(od_V3Load(sim->state.v + 3 * i), 1.0 / sim->def.dt, carry));
+		}
+	}
+}
+
 // Inelastic impacts between members (od_BodyContact_Impacts): passes over the interfaces and both their members'
 // grounds, Gauss-Seidel (each part taken moves what the next sees), as many as the projection's (OD_PAIR_PASSES).
 #define OD_IMPACT_PASSES OD_PAIR_PASSES
@@ -2319,19 +2418,6 @@ static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 		od_V3Store(ie->n, od_MulAdd(od_V3Load(ie->n), pair->force, od_V3Load(pair->n)));
 	}
 	return OD_OK;
-}
-
-// Whether goals or position constraints hold sim (a rig's animation, a pin): its motion is theirs, which an impact
-// does not slow (od_Part, od_Land): a member whose goals lifted it off the floor under another at 1 m/s (strength 0.5,
-// 60 steps a second) was held to 0.16 m/s a step, and one leaving another was slowed and dragged it along.
-static bool od_Driven(const od_Sim* sim)
-{
-	bool driven = sim->constraints.positionCount > 0;
-	for (int i = 0; !driven && i < sim->graph->n; ++i)
-	{
-		driven = od_Goals_Hold(sim, i);
-	}
-	return driven;
 }
 
 // Interface ie's members parting along its normal faster than `speed`: their relative velocity along it slowed to

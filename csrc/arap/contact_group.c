@@ -129,10 +129,12 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
 	for (int k = 0; k < steps && status == OD_OK; ++k)
 	{
 		status = od_BodyContact_Step(&group->pairs, group->sims, group->count, &group->def);
+		od_BodyContact_Keep(&group->pairs, group->sims, group->count);
 		for (int b = 0; b < group->count; ++b)
 		{
 			od_Step_Finish(group->sims[b], k, steps);
 		}
+		od_BodyContact_Carry(&group->pairs, group->sims, group->count);
 		status = status == OD_OK ? od_BodyContact_Impacts(&group->pairs, group->sims, group->count, &group->def) : status;
 	}
 	od_Status ended = status;
