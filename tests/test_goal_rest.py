@@ -254,3 +254,23 @@ def test_pickle_replays_to_the_same_bits(bar, between):
             copy.set_goals(*goals)
             copy.step(1 + f % 2)
     assert_same_bits(back, sim)
+
+
+def test_goal_frames_turned_over_by_a_folding_rig_do_not_blow_the_body_apart():
+    """gob (docs/goals.md, a Skin-modifier humanoid) at 1,000 particles, pickled before frame 40's steps
+    (`scripts/outside_rigs.py -- - dev gob painted OUT norender particles=1000`): the armature folds the chest's
+    skin there, and four particles' goal fits turn 113-178 degrees in one frame (their vertices' cross-covariance
+    changes the sign of its determinant). One such particle turned 178 degrees in the frame's first step, its
+    angular velocity (pi / h) overshot the next step's prediction by as much again, and the body flew apart: 4e7 m
+    in the third step, a NaN at frame 50 (before the collider lookup was NaN-proof, a segfault). A step's turn now
+    counts toward the angular velocity at most a quarter turn."""
+    import gzip
+    from pathlib import Path
+    with gzip.open(Path(__file__).parent / "data" / "folded_goals.pkl.gz", "rb") as f:
+        sim = pickle.load(f)
+    start = sim.positions.copy()
+    for _ in range(3):
+        sim.step(10)
+        assert np.isfinite(sim.positions).all() and np.isfinite(sim.velocities).all()
+    assert np.abs(sim.velocities).max() < 5.0, np.abs(sim.velocities).max()
+    assert np.linalg.norm(sim.positions - start, axis=1).max() < 0.3

@@ -655,7 +655,7 @@ static double od_MeshCell(const od_Collider* c, od_Vec3 p, int i[3], double f[3]
 	for (int a = 0; a < 3; ++a)
 	{
 		double lim = c->dims[a] - 1.000001;
-		double clamped = g[a] < 0.0 ? 0.0 : (g[a] > lim ? lim : g[a]);
+		double clamped = g[a] > 0.0 ? (g[a] > lim ? lim : g[a]) : 0.0; // NaN: 0, a cell in the box (the distance NaN)
 		outside += (g[a] - clamped) * (g[a] - clamped);
 		i[a] = (int)clamped;
 		f[a] = clamped - i[a];
