@@ -14,6 +14,10 @@ script, the add-on installed from a zip of scripts/package into empty user folde
   the ears given to the head bone as an artist does (automatic weights leave them unweighted: the panel names
   them); trots in four hops (1..49), stands to 96. Follow 1 but along the tail (to 0.1 at its tip), the ears (0.1
   at their tips) and the belly's underside (0.3); softness 1 - Follow.
+- mole (stop 41): metaballs converted to one mesh (a body with a belly, a head, two tall ears and a long tail
+  melted into it, four feet; 1.5 m, 5,110 vertices) on 6 bones with automatic weights; hops twice forward with the head nodding,
+  turns its head sharply, stands from frame 41. Follow 1 but the ears (to 0.1), the tail (to 0.15) and the belly's
+  front (to 0.2); softness 1 - Follow.
 
 VARIANT: painted (Follow and Softness groups picked before Enable), late (Enable first, then Goal and the
 groups), none (Enable with nothing painted), goal (the Follow group only), Subtle / Floppy (a look applied after
@@ -301,6 +305,75 @@ def dog_maps(obj):
     return follow, 1 - follow, regions
 
 
+# ---------------------------------------------------------------- rig 4: "mole", a metaball body in one shell
+def mole_mesh():
+    """Metaballs converted to one mesh: a pear-shaped body with a belly, a head, two tall ears and a long tail
+    melted into it, four stubby feet (about 1.5 m tall), standing on the floor."""
+    from mathutils import Matrix
+    mb = bpy.data.metaballs.new("MoleBalls")
+    mb.resolution = 0.03
+    balls = link(bpy.data.objects.new("MoleBalls", mb))
+    for co, size, radius in (((0, 0, 0.45), (1.0, 0.9, 1.1), 0.6), ((0, -0.15, 0.4), (0.8, 0.8, 0.8), 0.45),
+                             ((0, -0.05, 0.95), (1, 1, 1), 0.42)):  # body, belly, head
+        e = mb.elements.new(type='ELLIPSOID')
+        e.co, e.radius, (e.size_x, e.size_y, e.size_z) = co, radius, size
+    for x in (0.1, -0.1):  # ears: a chain of balls up from the head
+        for k in range(7):
+            e = mb.elements.new(type='BALL')
+            e.co, e.radius = (x * (1 + 0.2 * k), 0.0, 1.1 + 0.06 * k), 0.15 - 0.008 * k
+    for k in range(12):  # tail: a chain out of the back, rising
+        e = mb.elements.new(type='BALL')
+        e.co, e.radius = (0.0, 0.3 + 0.05 * k, 0.3 + 0.004 * k * k), 0.16 - 0.006 * k
+    for x in (0.18, -0.18):
+        for y in (0.15, -0.15):
+            e = mb.elements.new(type='BALL')
+            e.co, e.radius = (x, y, 0.1), 0.2
+    dg = bpy.context.evaluated_depsgraph_get()
+    mesh = bpy.data.meshes.new_from_object(balls.evaluated_get(dg))
+    bpy.data.objects.remove(balls)
+    mesh.name = "Mole"
+    lowest = min(v.co.z for v in mesh.vertices)
+    mesh.transform(Matrix.Translation((0.0, 0.0, 0.005 - lowest)))  # standing on the floor
+    return link(bpy.data.objects.new("Mole", mesh))
+
+
+def mole_bones():
+    return {"root": ((0, 0, 0.1), (0, 0, 0.3), None), "spine": ((0, 0, 0.3), (0, 0, 0.8), "root"),
+            "head": ((0, 0, 0.8), (0, 0, 1.1), "spine"), "ear.L": ((0.13, 0, 1.1), (0.25, 0, 1.5), "head"),
+            "ear.R": ((-0.13, 0, 1.1), (-0.25, 0, 1.5), "head"), "tail": ((0, 0.35, 0.3), (0, 0.95, 1.1), "root")}
+
+
+def mole_animate(arm):
+    """Two hops forward (1..33) with the head nodding, a sharp head turn (33..41), stands to 96. The root bone
+    points up: its local y is world z, local z world -y."""
+    p = arm.pose.bones
+    for b in p:
+        b.rotation_mode = 'XYZ'
+    for f, fwd, up, nod in ((1, 0, 0, 0), (5, 0.05, -0.06, 10), (11, 0.3, 0.35, -10), (17, 0.55, 0, 15),
+                            (21, 0.6, -0.06, 10), (27, 0.85, 0.35, -10), (33, 1.1, 0, 0)):
+        key(p["root"], "location", 2, f, fwd)
+        key(p["root"], "location", 1, f, up)
+        key(p["head"], "rotation_euler", 0, f, math.radians(nod))
+    for f, a in ((33, 0), (37, 40), (41, 0)):
+        key(p["head"], "rotation_euler", 2, f, math.radians(a))
+    return 41
+
+
+def mole_maps(obj):
+    """Follow 1 but the ears (to 0.1 at their tips), the tail (to 0.15 at its tip) and the belly's front (to
+    0.2); softness 1 - Follow."""
+    v = np.array([x.co for x in obj.data.vertices])
+    ear = smooth((v[:, 2] - 1.15) / 0.35) * (np.abs(v[:, 0]) > 0.08)
+    tail = smooth((v[:, 1] - 0.45) / (v[:, 1].max() - 0.5)) * (v[:, 2] < 0.9)
+    front = -v[np.abs(v[:, 2] - 0.4) < 0.1, 1].max()  # the belly's frontmost point
+    belly = smooth((-v[:, 1] - front + 0.08) / 0.06) * smooth((0.2 - np.abs(v[:, 2] - 0.4)) / 0.1)
+    follow = 1 - np.max([0.9 * ear, 0.85 * tail, 0.8 * belly], axis=0)
+    regions = {"ear_tips": np.where(ear > 0.95)[0], "tail_tip": np.where(tail > 0.95)[0],
+               "belly": np.where(belly > 0.9 * belly.max())[0]}
+    assert all(len(r) for r in regions.values()), {k: len(r) for k, r in regions.items()}
+    return follow, 1 - follow, regions
+
+
 # ---------------------------------------------------------------- rig, animation, maps
 def armature(bones):
     arm = link(bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig")))
@@ -451,10 +524,11 @@ def floor():
 
 RIGS = {"gob": (gob_mesh, gob_bones, gob_animate, gob_maps),
         "ellie": (ellie_mesh, ellie_bones, ellie_animate, ellie_maps),
-        "dog": (dog_mesh, dog_bones, dog_animate, dog_maps)}
+        "dog": (dog_mesh, dog_bones, dog_animate, dog_maps),
+        "mole": (mole_mesh, mole_bones, mole_animate, mole_maps)}
 VIEWS = {"gob": ((0.0, -1.3, 1.1), (1.2, -1.8, 0.5)), "ellie": ((0.2, -1.0, 1.0), (1.6, -2.2, 0.6)),
-         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6))}  # camera target (where it is mid-motion) and offset
-NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog"}
+         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6)), "mole": ((0.0, -0.5, 0.6), (1.6, -2.0, 0.5))}  # camera target (where it is mid-motion) and offset
+NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog", "mole": "Mole"}
 
 
 def build():
