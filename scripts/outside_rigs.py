@@ -527,7 +527,7 @@ RIGS = {"gob": (gob_mesh, gob_bones, gob_animate, gob_maps),
         "dog": (dog_mesh, dog_bones, dog_animate, dog_maps),
         "mole": (mole_mesh, mole_bones, mole_animate, mole_maps)}
 VIEWS = {"gob": ((0.0, -1.3, 1.1), (1.2, -1.8, 0.5)), "ellie": ((0.2, -1.0, 1.0), (1.6, -2.2, 0.6)),
-         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6)), "mole": ((0.0, -0.5, 0.6), (1.6, -2.0, 0.5))}  # camera target (where it is mid-motion) and offset
+         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6)), "mole": ((0.0, -1.1, 0.75), (2.6, -3.0, 0.7))}  # camera target (where it is mid-motion) and offset
 NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog", "mole": "Mole"}
 
 
