@@ -273,6 +273,27 @@ def test_a_body_at_rest_with_self_contact_stays_at_rest_to_the_bit(bar):
     assert touching.self_contact["exclusion_ring"] == 0
 
 
+def test_a_member_no_other_reaches_steps_as_it_would_alone():
+    """A body in a group with another 5 m away lands on its floor as it would alone, to the bit, under the default
+    tolerance: before, every member of a group with forces iterated in step with the others, its floor after the
+    iterations, and the capsule landed up to 5 cm otherwise (docs/contact.md, "Members far apart")."""
+    v, t = meshes.capsule(radius=0.2, length=0.6)
+
+    def dropped(shift):
+        sim = opdeform.Simulation(opdeform.Graph.from_mesh(v + shift, t, particles=60), 3e5, dt=1 / 240,
+                                  gravity=(0.0, 0.0, -9.81))
+        sim.set_floor(0.0)
+        return sim
+    alone, member, far = dropped((0.0, 0.0, 0.5)), dropped((0.0, 0.0, 0.5)), dropped((5.0, 0.0, 1.0))
+    group = opdeform.ContactGroup([member, far])
+    for _ in range(36):
+        alone.step(10)
+        group.step(10)
+    assert alone.positions[:, 2].min() < 0.12  # landed
+    for name in ("positions", "rotations", "velocities", "angular_velocities"):
+        np.testing.assert_array_equal(getattr(member, name), getattr(alone, name), err_msg=name)
+
+
 def test_a_group_saved_and_restored_with_its_members_steps_on_bit_for_bit(bar):
     """The forces a group keeps between steps (their warm start) are its state: restored with the members'
     states (here by pickling them), the next steps are those that followed the save."""
