@@ -314,6 +314,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->pose);
 	od_Free(s->roll);
 	od_Free(s->alone);
+	od_Free(s->box);
 	od_Free(s->couples);
 	od_Free(s->interfaces);
 	od_Free(s->system);
@@ -359,7 +360,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
 	s->kept = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->alone = od_Alloc(sizeof(int) * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->alone)
+	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->alone || !s->box)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -2237,19 +2239,67 @@ static od_Status od_IterateSelf(od_PairScratch* s, od_Sim* sim, bool* found)
 	return status;
 }
 
-// Which members step as they would alone (s->alone): with forces between the bodies, those that no pair carried
-// from the last step joins to another member and that have no self-contact. Their forces come only from those
-// pairs (od_GatherNear takes its near pairs from them), so they have none this step, and they take their floor
-// and colliders inside the iterations, their own start and their own tolerance, as alone. Before, every member
-// of a group with forces iterated in step with the others, its floor after the iterations: a 1 m capsule dropped
-// on the floor landed up to 5 cm otherwise with another body 5 m away in its group than alone, and in the add-on
-// every object changed every other's simulation. A pair found after a step (od_NewPairs) joins its members to
-// the group's iterations at the next.
+// Member b's bounding box at the step's start, its particles' reach included (s->box).
+static void od_MemberBox(od_PairScratch* s, const od_Sim* sim, int b)
+{
+	double* box = s->box + 6 * b;
+	for (int a = 0; a < 3; ++a)
+	{
+		box[a] = INFINITY;
+		box[3 + a] = -INFINITY;
+	}
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		double r = od_ContactReach(sim, i);
+		for (int a = 0; a < 3; ++a)
+		{
+			box[a] = fmin(box[a], sim->state.x[3 * i + a] - r);
+			box[3 + a] = fmax(box[3 + a], sim->state.x[3 * i + a] + r);
+		}
+	}
+}
+
+// Whether members b and c are farther apart than the larger of them is long (their boxes).
+static bool od_FarApart(const od_PairScratch* s, int b, int c)
+{
+	const double *p = s->box + 6 * b, *q = s->box + 6 * c;
+	double gap = 0.0, size = 0.0;
+	for (int a = 0; a < 3; ++a)
+	{
+		gap = fmax(gap, fmax(p[a] - q[3 + a], q[a] - p[3 + a]));
+		size = fmax(size, fmax(p[3 + a] - p[a], q[3 + a] - q[a]));
+	}
+	return gap > size;
+}
+
+// Which members step as they would alone (s->alone): with forces between the bodies, those farther from every
+// other member than the larger of the two is long, with no pair carried from the last step and no self-contact.
+// Their forces come only from such pairs (od_GatherNear takes its near pairs from them), so they have none this
+// step, and they take their floor and colliders inside the iterations, their own start and their own tolerance,
+// as alone. Before, every member of a group with forces iterated in step with the others, its floor after the
+// iterations: a 1 m capsule dropped on the floor landed up to 5 cm otherwise with another body 5 m away in its
+// group than alone, and in the add-on every object changed every other's simulation. Not as soon as no pair
+// joins it: a Suzanne dropped 1 m onto another, the lower then taking the group's floor at the landing, knocked it
+// over (the Suzanne tests of tests/test_addon_colliders.py).
 static void od_MarkAlone(od_PairScratch* s, od_Sim* const* sims, int count, bool forces)
 {
 	for (int b = 0; b < count; ++b)
 	{
 		s->alone[b] = forces && !sims[b]->selfContact;
+		if (forces)
+		{
+			od_MemberBox(s, sims[b], b);
+		}
+	}
+	for (int b = 0; b < count; ++b)
+	{
+		for (int c = 0; c < b; ++c)
+		{
+			if ((s->alone[b] || s->alone[c]) && !od_FarApart(s, b, c))
+			{
+				s->alone[b] = s->alone[c] = false;
+			}
+		}
 	}
 	for (int k = 0; k < s->pairCount; ++k)
 	{

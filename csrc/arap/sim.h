@@ -227,7 +227,8 @@ typedef struct od_PairScratch
 	                  // (row-major; zero where it has none) and Σ m r_z² about it (od_MemberMasses)
 	double* roll;     // 3 per member: the floor's rolling couple on it this step (od_Rolls)
 	double* kept;     // 3 per particle: where it was before its member's finish (od_BodyContact_Carry)
-	int* alone;       // per member: no pair with another member this step, so it steps as alone (od_MarkAlone)
+	int* alone;       // per member: far from every other this step, so it steps as alone (od_MarkAlone)
+	double* box;      // 6 per member: its particles' bounding box at the step's start, their reach included
 	int rollUpdates;  // how many times this step's rolling couples (the floor's, the members') were updated (od_Rolls)
 	od_MemberCouple* couples; // the rolling couples between members this step (od_MemberRolls)
 	int coupleCount, coupleCapacity;
