@@ -783,10 +783,20 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 // 100 times as dense +31 kJ of 35, Rubber and Stiff at 1,000 times +2.9-3.5 kJ, at 1e6 times +0.8-10.5 MJ;
 // none before the reaction), so a much heavier member resting on a light one on the floor is held by bracing
 // the light one instead (od_Braced).
+//
+// At steps shorter than OD_CLIMB_TIME, where the ratio shrinks (od_MemberMasses), a pair whose lighter end rests on
+// the heavier one (its normal rising towards the lighter by more than OD_HELD_RISE) is comparable at any ratio: the
+// shrink was for heavy members on light ones (a Stiff slab 10 times as dense slid off at 240 steps a second). Left
+// out, a 0.3 m Flesh sphere on a 0.5 m one (4.6 times its mass, the add-on's 240 steps a second) stood on plain
+// pairs on a sphere free to roll on its floor and the two toppled as one (1.403 m aside at 13 s; 0.004 m now);
+// at longer steps light slabs on ones 1,000 times as dense so taken shook (Stiff 0.086 m/s at 24 steps a second;
+// docs/contact.md, "Stacks", stop 42).
 static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
-	return fmax(ma, mb) <= s->comparable * fmin(ma, mb);
+	double rise = ma > mb ? pair->n[2] : -pair->n[2]; // towards the lighter end
+	bool lightOnTop = s->comparable < OD_COMPARABLE && rise > OD_HELD_RISE;
+	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || lightOnTop;
 }
 
 // The inverse of a symmetric 3 × 3 matrix a (its adjugate over its determinant), zero where a is singular.
