@@ -53,6 +53,7 @@
 
 #define OD_AUTO_SLOW 0.7  // a probe contracting at this rate or slower turns Chebyshev on
 #define OD_AUTO_SHARE 0.5 // auto's plain pairs stop at this share of the tolerance (their estimate: r / share)
+#define OD_AUTO_PLAIN_PAIRS 30 // plain pairs after a fast probe that have not met the tolerance turn Chebyshev on
 
 static double od_BodySize(const od_Graph* g)
 {
@@ -169,6 +170,7 @@ void od_Tolerance_PlainPlan(od_StepPlan* plan)
 {
 	plan->accelerate = plan->probing = false;
 	plan->plain = plan->tolerance > 0.0;
+	plan->plainLeft = 0;
 }
 
 // The probe's second residual decides the rest of the step (the design note above).
@@ -183,8 +185,21 @@ static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
 	else
 	{
 		plan->plain = true;
+		plan->plainLeft = OD_AUTO_PLAIN_PAIRS;
 	}
 	return residual / OD_AUTO_SHARE; // both: the estimate of the probe's last plain pair
+}
+
+// Auto's plain pairs that have not met the tolerance in OD_AUTO_PLAIN_PAIRS turn Chebyshev on, seeded as after a
+// slow probe (the design note above).
+static void od_PlainStalled(od_Sim* sim, od_StepPlan* plan)
+{
+	if (plan->plainLeft > 0 && --plan->plainLeft == 0)
+	{
+		plan->plain = false;
+		plan->accelerate = true;
+		od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
+	}
 }
 
 double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
@@ -199,6 +214,10 @@ double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
 	else if (plan->plain)
 	{
 		estimate = residual / OD_AUTO_SHARE;
+		if (estimate > plan->tolerance)
+		{
+			od_PlainStalled(sim, plan);
+		}
 	}
 	od_Tolerance_Start(sim);
 	return estimate;
