@@ -36,6 +36,12 @@
 //   contraction-corrected r_2 q / (1 - q) cost 1,026 pairs against 856; doubled, the sagging bar's clip stays at
 //   0.09-0.13 % for tolerances from 1.5e-5 to 3e-5 (the "chebyshev" variant: 0.155-0.29 %).
 // - the seed: without it Chebyshev's first pair after the probe is plain again (sagging bar 0.156 %, same cost).
+// - the stall (stop 41): plain pairs after a fast probe that have not met the tolerance in OD_AUTO_PLAIN_PAIRS
+//   turn Chebyshev on, seeded as after a slow probe. gob at 1,000 particles and 1,000 MPa (docs/goals.md,
+//   "Robustness sweep") probed fast at its landing, then stalled plain on its loose buttons: 6 of 10 steps at
+//   the 100-pair cap, the buttons thrown 0.85 m (833 pairs; 0.022 m and 356 pairs with the switch). The bars'
+//   clips at 2e-5 are unchanged (twisted 0.173 %, 8.9 -> 9.0 pairs); at 1e-5 the twisted bar 0.207 -> 0.173 %,
+//   18.4 -> 23.6 pairs.
 // Rejected: switching to Chebyshev wherever a plain pair turns slow (twisted bar 4.0x plain 10: Chebyshev
 // overshoots from a nearly converged iterate), keeping Chebyshev for the next steps after a slow probe (clip
 // 0.13-0.29 % as the re-probe period went 2-10, no steady saving), stopping at the first pair (no saving).
