@@ -266,6 +266,7 @@ typedef struct od_StepPlan
 	bool accelerate; // the next pair is accelerated
 	bool probing;    // auto's first two pairs: plain, their contraction decides
 	bool plain;      // auto after a fast probe: plain pairs
+	int plainLeft;   // auto after a fast probe: plain pairs left before Chebyshev (0: plain to the end)
 	double tolerance;
 	double last; // the probe's first residual (< 0: none yet)
 } od_StepPlan;

@@ -36,6 +36,12 @@
 //   contraction-corrected r_2 q / (1 - q) cost 1,026 pairs against 856; doubled, the sagging bar's clip stays at
 //   0.09-0.13 % for tolerances from 1.5e-5 to 3e-5 (the "chebyshev" variant: 0.155-0.29 %).
 // - the seed: without it Chebyshev's first pair after the probe is plain again (sagging bar 0.156 %, same cost).
+// - the stall (stop 41): plain pairs after a fast probe that have not met the tolerance in OD_AUTO_PLAIN_PAIRS
+//   turn Chebyshev on, seeded as after a slow probe. gob at 1,000 particles and 1,000 MPa (docs/goals.md,
+//   "Robustness sweep") probed fast at its landing, then stalled plain on its loose buttons: 6 of 10 steps at
+//   the 100-pair cap, the buttons thrown 0.85 m (833 pairs; 0.022 m and 356 pairs with the switch). The bars'
+//   clips at 2e-5 are unchanged (twisted 0.173 %, 8.9 -> 9.0 pairs); at 1e-5 the twisted bar 0.207 -> 0.173 %,
+//   18.4 -> 23.6 pairs.
 // Rejected: switching to Chebyshev wherever a plain pair turns slow (twisted bar 4.0x plain 10: Chebyshev
 // overshoots from a nearly converged iterate), keeping Chebyshev for the next steps after a slow probe (clip
 // 0.13-0.29 % as the re-probe period went 2-10, no steady saving), stopping at the first pair (no saving).
@@ -53,6 +59,7 @@
 
 #define OD_AUTO_SLOW 0.7  // a probe contracting at this rate or slower turns Chebyshev on
 #define OD_AUTO_SHARE 0.5 // auto's plain pairs stop at this share of the tolerance (their estimate: r / share)
+#define OD_AUTO_PLAIN_PAIRS 30 // plain pairs after a fast probe that have not met the tolerance turn Chebyshev on
 
 static double od_BodySize(const od_Graph* g)
 {
@@ -169,6 +176,7 @@ void od_Tolerance_PlainPlan(od_StepPlan* plan)
 {
 	plan->accelerate = plan->probing = false;
 	plan->plain = plan->tolerance > 0.0;
+	plan->plainLeft = 0;
 }
 
 // The probe's second residual decides the rest of the step (the design note above).
@@ -183,8 +191,21 @@ static double od_Probe(od_Sim* sim, od_StepPlan* plan, double residual)
 	else
 	{
 		plan->plain = true;
+		plan->plainLeft = OD_AUTO_PLAIN_PAIRS;
 	}
 	return residual / OD_AUTO_SHARE; // both: the estimate of the probe's last plain pair
+}
+
+// Auto's plain pairs that have not met the tolerance in OD_AUTO_PLAIN_PAIRS turn Chebyshev on, seeded as after a
+// slow probe (the design note above).
+static void od_PlainStalled(od_Sim* sim, od_StepPlan* plan)
+{
+	if (plan->plainLeft > 0 && --plan->plainLeft == 0)
+	{
+		plan->plain = false;
+		plan->accelerate = true;
+		od_Accelerator_Continue(&sim->accelerator, sim->tolerance.R);
+	}
 }
 
 double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
@@ -199,6 +220,10 @@ double od_Tolerance_Check(od_Sim* sim, od_StepPlan* plan)
 	else if (plan->plain)
 	{
 		estimate = residual / OD_AUTO_SHARE;
+		if (estimate > plan->tolerance)
+		{
+			od_PlainStalled(sim, plan);
+		}
 	}
 	od_Tolerance_Start(sim);
 	return estimate;
