@@ -418,6 +418,16 @@ def test_attached_pieces_are_found_and_named():
     assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None
 
 
+def test_a_goal_with_too_little_damping_to_settle_is_warned():
+    """Goal on and under 4/s of damping (the object's, or the Damping group's where one is picked): a swing falls
+    only to e^(-c/2) in a second; the looks' 9-12/s, or no Goal: nothing."""
+    text = checks.undamped_goal_text(True, 0.3)
+    assert text.startswith("Damping 0.3/s with Goal: a swing falls only to 86 % in a second") and "9-12/s" in text
+    assert checks.undamped_goal_text(True, 9.0) is None and checks.undamped_goal_text(False, 0.3) is None
+    assert checks.undamped_goal_text(True, 0.3, region_damping=9.0) is None
+    assert "Damping 2/s" in checks.undamped_goal_text(True, 0.3, region_damping=2.0)
+
+
 def test_pieces_loose_all_over_are_named():
     """Of a mesh's pieces, those but the body whose Follow is under 1 everywhere (held to the body only by its
     particles' links to the nearest body particle), by size and centre; a piece with one vertex at 1, the body

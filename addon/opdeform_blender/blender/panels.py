@@ -81,8 +81,16 @@ def draw_warnings(layout, obj, scene):
     if rt is None:
         return
     current = rt.configured is not None and rt.configured[0] == settings_key(obj, scene)
-    for text in warnings(rt, scene.frame_current, current):
+    for text in warnings(rt, scene.frame_current, current) + _undamped(obj.opdeform):
         wrapped(layout, text, 'ERROR')
+
+
+def _undamped(s):
+    """The Goal's damping warning (checks.undamped_goal_text) in a list; none in Solver Units (damping per step)."""
+    if versioning.uses_solver_units(s):
+        return []
+    text = checks.undamped_goal_text(s.use_goal, s.damping_rate, s.region_damping if s.damping_group else None)
+    return [text] if text else []
 
 
 def _cache_settings(layout, s, scene=None):

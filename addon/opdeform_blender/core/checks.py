@@ -11,6 +11,7 @@ import numpy as np
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
+SETTLING_DAMPING = 4.0  # /s: a swing falls to e^(-c/2) in a second, 14 % at 4/s (the looks: 9-12/s, 1 % or less)
 
 
 def handle_motion(before, after, fps):
@@ -163,6 +164,17 @@ def hanging_text(pieces):
                         "particles (a long one's from its root) to the nearest body particle and comes back after the "
                         "motion only as fast as its Follow (Shell Min at least) pulls it; paint Follow 1 where it "
                         "meets the body")
+
+
+def undamped_goal_text(use_goal, damping, region_damping=None):
+    """The panel's warning for a Goal with too little damping to settle (None when it settles): a material preset
+    (Jelly 28-154 mm off 1 s after the motion on the outside rigs, docs/goals.md) keeps its own damping, where the
+    looks set 9-12/s. ``region_damping``: the Damping group's, where one is picked (None: none)."""
+    settling = max(damping, region_damping or 0.0)
+    if not use_goal or settling >= SETTLING_DAMPING:
+        return None
+    return (f"Damping {settling:g}/s with Goal: a swing falls only to {100 * np.exp(-settling / 2):.0f} % in a second, "
+            "so loose parts swing on after the motion; the looks (Subtle, Fleshy, Floppy) use 9-12/s")
 
 
 def unrigged_text(pieces):
