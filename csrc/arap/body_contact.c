@@ -2312,13 +2312,22 @@ static od_Vec3 od_Finished(const od_PairScratch* s, od_Sim* const* sims, int p)
 	return od_Sub(od_V3Load(sims[s->body[p]]->state.x + 3 * s->local[p]), od_V3Load(s->kept + 3 * p));
 }
 
+// Member m's centre's height at the step's start; a NaN one (a state gone bad, which the call's end refuses) the
+// lowest: compared as it is, it was below none and none below it, two members shared a storey and
+// od_BodyContact_Carry looked for the missing one past the members (a segfault).
+static double od_Height(const od_PairScratch* s, int m)
+{
+	double z = s->pose[13 * m + 2];
+	return isnan(z) ? -INFINITY : z;
+}
+
 // How many members start the step with their centre below member m's (ties by index): the order of the carries.
 static int od_Storey(const od_PairScratch* s, int count, int m)
 {
 	int below = 0;
 	for (int b = 0; b < count; ++b)
 	{
-		double zb = s->pose[13 * b + 2], zm = s->pose[13 * m + 2];
+		double zb = od_Height(s, b), zm = od_Height(s, m);
 		below += zb < zm || (zb == zm && b < m);
 	}
 	return below;
