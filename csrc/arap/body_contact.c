@@ -309,6 +309,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->supported);
 	od_Free(s->climbing);
 	od_Free(s->fast);
+	od_Free(s->storeys);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->pose);
@@ -352,12 +353,13 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
 	s->fast = od_AllocZero((size_t)particles, sizeof(int));
+	s->storeys = od_Alloc(sizeof(int) * (size_t)particles);
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
 	s->kept = od_Alloc(sizeof(double) * 3 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -2370,13 +2372,13 @@ static od_Vec3 od_CarryOf(const od_PairScratch* s, od_Sim* const* sims, int u)
 // (od_Driven: its motion is theirs, and the rolls leave it alone).
 void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 {
+	for (int m = 0; m < count; ++m)
+	{
+		s->storeys[od_Storey(s, count, m)] = m;
+	}
 	for (int storey = 1; storey < count; ++storey)
 	{
-		int u = 0;
-		while (od_Storey(s, count, u) != storey)
-		{
-			++u;
-		}
+		int u = s->storeys[storey];
 		od_Vec3 carry = od_Driven(sims[u]) ? od_V3(0, 0, 0) : od_CarryOf(s, sims, u);
 		od_Sim* sim = sims[u];
 		for (int i = 0; od_Length(carry) > 0.0 && i < sim->graph->n; ++i)
