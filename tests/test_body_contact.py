@@ -432,6 +432,23 @@ def test_at_24_steps_a_second_spheres_stacked_on_a_settled_one_rest_on_top(prese
             assert above > 0.55 and aside < 0.05 and fastest < 0.01, (second, above, aside, fastest)
 
 
+def test_a_member_gone_non_finite_within_a_group_call_is_refused_not_a_crash():
+    """A group call of several steps whose member's state turns NaN in its first (spinning at 1e300 rad/s) raises
+    SolverError and keeps every member's state. The carry (stop 41) ordered the members by their centres' heights:
+    a NaN centre was below none and none below it, and it looked for the missing storey past the members (a
+    segfault)."""
+    v, t = meshes.capsule(radius=0.3, length=1e-3, segments=24, rings=8, body=1)
+    lower, upper = _preset_body(v, t, 0.31, "Rubber", rate=24), _preset_body(v, t, 1.0, "Rubber", rate=24)
+    group = opdeform.ContactGroup([lower, upper], friction=0.5)
+    group.step()
+    lower.set_state(lower.positions, lower.rotations, np.zeros((lower.graph.n_particles, 3)),
+                    np.full((lower.graph.n_particles, 3), 1e300))
+    kept = (lower.positions, upper.positions)
+    with pytest.raises(opdeform.SolverError):
+        group.step(4)
+    assert np.array_equal(lower.positions, kept[0]) and np.array_equal(upper.positions, kept[1])
+
+
 @pytest.mark.parametrize("strength", [0.7, 1.0])
 def test_a_member_its_goals_lift_under_another_rises_as_they_do(strength):
     """Issue 27: two Rubber spheres (0.6 m) stacked, meeting their floor with their skins and each other with their

@@ -114,6 +114,22 @@ def test_a_body_dropped_on_a_small_open_table_top_stays_on_it(blob, drop):
     assert (sim.positions[:, 2] < 0.99).sum() <= 5  # 3 of 100: the blob's sag over the edge
 
 
+def test_a_body_gone_non_finite_over_a_mesh_collider_is_refused_not_a_crash(blob):
+    """A call of several steps whose state turns NaN in its first (the blob spun at 1e300 rad/s on an open mesh
+    top) raises SolverError and keeps the state: a NaN point's sample cell was (int)NaN, out of the mesh
+    collider's samples (a segfault; gob in Blender, docs/stability.md, stop 41)."""
+    v, _, g = blob
+    sim = opdeform.Simulation(g, 3e4, dt=1 / 24)
+    sim.set_state(g.centers + (0.0, 0.0, 1.01 - v[:, 2].min()), np.tile(np.eye(3), (g.n_particles, 1, 1)),
+                  np.zeros((g.n_particles, 3)), np.full((g.n_particles, 3), 1e300))
+    sv, st = meshes.sheet((0.6, 0.6), (8, 8))
+    sim.add_collider("mesh", vertices=sv + (0.0, 0.0, 1.0), triangles=st, friction=0.3)
+    kept = sim.positions
+    with pytest.raises(opdeform.SolverError):
+        sim.step(4)
+    assert np.array_equal(sim.positions, kept)
+
+
 @pytest.mark.parametrize("drop", [0.1, 0.3, 1.5])
 def test_a_body_dropped_on_a_thin_closed_box_top_stays_on_it(blob, drop):
     # a closed box top 0.6 m wide and 2 cm thick at 24 fps: the blob's skin points went beyond its middle in one

@@ -309,6 +309,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->supported);
 	od_Free(s->climbing);
 	od_Free(s->fast);
+	od_Free(s->storeys);
 	od_Free(s->mass);
 	od_Free(s->load);
 	od_Free(s->pose);
@@ -354,6 +355,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
 	s->fast = od_AllocZero((size_t)particles, sizeof(int));
+	s->storeys = od_Alloc(sizeof(int) * (size_t)particles);
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
@@ -361,7 +363,10 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->kept = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->alone = od_Alloc(sizeof(int) * (size_t)particles);
 	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
-	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing || !s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported || !s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->alone || !s->box)
+	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing ||
+		!s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported ||
+		!s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys || !s->alone ||
+		!s->box)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -2416,13 +2421,22 @@ static od_Vec3 od_Finished(const od_PairScratch* s, od_Sim* const* sims, int p)
 	return od_Sub(od_V3Load(sims[s->body[p]]->state.x + 3 * s->local[p]), od_V3Load(s->kept + 3 * p));
 }
 
+// Member m's centre's height at the step's start; a NaN one (a state gone bad, which the call's end refuses) the
+// lowest: compared as it is, it was below none and none below it, two members shared a storey and
+// od_BodyContact_Carry looked for the missing one past the members (a segfault).
+static double od_Height(const od_PairScratch* s, int m)
+{
+	double z = s->pose[13 * m + 2];
+	return isnan(z) ? -INFINITY : z;
+}
+
 // How many members start the step with their centre below member m's (ties by index): the order of the carries.
 static int od_Storey(const od_PairScratch* s, int count, int m)
 {
 	int below = 0;
 	for (int b = 0; b < count; ++b)
 	{
-		double zb = s->pose[13 * b + 2], zm = s->pose[13 * m + 2];
+		double zb = od_Height(s, b), zm = od_Height(s, m);
 		below += zb < zm || (zb == zm && b < m);
 	}
 	return below;
@@ -2465,13 +2479,13 @@ static od_Vec3 od_CarryOf(const od_PairScratch* s, od_Sim* const* sims, int u)
 // (od_Driven: its motion is theirs, and the rolls leave it alone).
 void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 {
+	for (int m = 0; m < count; ++m)
+	{
+		s->storeys[od_Storey(s, count, m)] = m;
+	}
 	for (int storey = 1; storey < count; ++storey)
 	{
-		int u = 0;
-		while (od_Storey(s, count, u) != storey)
-		{
-			++u;
-		}
+		int u = s->storeys[storey];
 		od_Vec3 carry = od_Driven(sims[u]) ? od_V3(0, 0, 0) : od_CarryOf(s, sims, u);
 		od_Sim* sim = sims[u];
 		for (int i = 0; od_Length(carry) > 0.0 && i < sim->graph->n; ++i)

@@ -40,7 +40,8 @@ def upgrade(objects):
 
 
 def keep_meaning(s):
-    """What a version-1 to version-3 object's goal meant stays so; the object is stamped with today's version."""
+    """What an older object's goal (below version 3) and detached shells (below version 4) meant stays so; the
+    object is stamped with today's version."""
     if s.settings_version < core_settings.FOLLOW_VERSION:
         keep_goal(s)
     keep_shells(s)
