@@ -31,6 +31,7 @@ from .cache import StateCache
 from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
 from .fields import SceneFields
 from .frame_report import FrameReports, Stretch, report
+from .settings import SHELL_FOLLOW_MIN
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
@@ -39,11 +40,6 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 LOCK_RAMP = 10.0
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
-# The add-on's default Shell Min: a detached shell's painted Follow mapped into [0.3, 1] (0.3: a 0.43 Hz goal), so
-# that no shell is slower than that goal: a long one is held from its root only (opdeform's od_BeamShell), and
-# ellie's 0.9 m trunk, painted to 0.05, swung back as a 0.7 Hz cantilever that no damping brought within 2 mm in
-# 1 s (docs/goals.md, "Settling a detached shell").
-SHELL_FOLLOW_MIN = 0.3
 
 
 class EngineError(ValueError):
