@@ -170,6 +170,7 @@
 #include <stdint.h>
 #include <string.h>
 
+#define OD_FAR_CELL 4503599627370496.0 // 2^52: od_Cell's bound
 #define OD_PAIR_PASSES 4
 // The forces' rate over that of two free particles (od_UpdatePair). Measured on the stack of two bars
 // (docs/contact.md): 0.3, 1, 2 and 3 all kept it; the upper bar's fastest particle at 6 s was 0.062, 0.018,
@@ -392,6 +393,15 @@ od_Status od_BodyContact_ReserveForces(od_Sim* sim)
 }
 
 // Fills the per-particle arrays and sorts the particles into the hashed cells; returns the cell size.
+// The grid cell of coordinate x, within +-2^52 so that a neighbour's (+-1) cannot overflow: a NaN or far
+// centre (a member gone non-finite within a group's call, refused at its end) was cast to INT64_MIN and the
+// neighbour's INT64_MIN - 1 overflowed (UBSan, test_body_contact.py's member gone non-finite).
+static int64_t od_Cell(double x, double size)
+{
+	double cell = floor(x / size);
+	return cell > -OD_FAR_CELL ? (cell < OD_FAR_CELL ? (int64_t)cell : (int64_t)OD_FAR_CELL) : -(int64_t)OD_FAR_CELL;
+}
+
 static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double thickness, int* total)
 {
 	int g = 0;
@@ -416,7 +426,7 @@ static double od_Bin(od_PairScratch* s, od_Sim* const* sims, int count, double t
 	for (int p = 0; p < g; ++p)
 	{
 		const double* c = s->sphere + 4 * p;
-		s->cell[p] = od_Hash(s, (int64_t)floor(c[0] / size), (int64_t)floor(c[1] / size), (int64_t)floor(c[2] / size));
+		s->cell[p] = od_Hash(s, od_Cell(c[0], size), od_Cell(c[1], size), od_Cell(c[2], size));
 		s->cellStart[s->cell[p] + 1]++;
 	}
 	for (int t = 0; t < s->tableSize; ++t)
@@ -511,7 +521,7 @@ static od_Status od_FindPairs(od_PairScratch* s, od_Sim* const* sims, int total,
 	for (int p = 0; p < total; ++p)
 	{
 		const double* c = s->sphere + 4 * p;
-		int64_t base[3] = { (int64_t)floor(c[0] / size), (int64_t)floor(c[1] / size), (int64_t)floor(c[2] / size) };
+		int64_t base[3] = { od_Cell(c[0], size), od_Cell(c[1], size), od_Cell(c[2], size) };
 		int seen[27], seenCount = 0;
 		for (int n = 0; n < 27; ++n)
 		{
