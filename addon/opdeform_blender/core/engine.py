@@ -236,6 +236,7 @@ class Engine:
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
+        self._pieces = None  # pieces()'s answer, found once: the graph never changes
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
@@ -429,9 +430,11 @@ class Engine:
 
     def pieces(self):
         """(the number of mesh pieces, each particle's piece, the body: the piece with most particles), pieces
-        numbered as checks.vertex_pieces numbers them."""
-        count, piece = self.od.mesh.mesh_pieces(self.graph)
-        return count, piece, int(np.argmax(np.bincount(piece[piece >= 0], minlength=count)))
+        numbered as checks.vertex_pieces numbers them; found once (the panel asks at every redraw)."""
+        if self._pieces is None:
+            count, piece = self.od.mesh.mesh_pieces(self.graph)
+            self._pieces = count, piece, int(np.argmax(np.bincount(piece[piece >= 0], minlength=count)))
+        return self._pieces
 
     def _follow(self, strength, vertex_weights, limits):
         """The per-vertex follow values of ``set_goal`` (``limits``: its follow range and shell minimum);
