@@ -269,14 +269,19 @@ def dog_ears(sh, v):
     return [r for r in np.unique(sh) if abs(v[sh == r, 1].mean()) > 0.05 and v[sh == r, 2].mean() > 0.7]
 
 
-def dog_weigh_ears(obj):
-    """What an artist does when automatic weights leave the ears behind: weight them 1 to the head bone."""
-    v = np.array([x.co for x in obj.data.vertices])
-    sh = shells(obj)
-    idx = [int(i) for i in np.where(np.isin(sh, dog_ears(sh, v)))[0]]
+def weigh_to(obj, bone, vertices):
+    """What an artist does when automatic weights leave a part behind (the panel names it): weight its vertices 1
+    to the bone it hangs from."""
+    idx = [int(i) for i in vertices]
     for g in obj.vertex_groups:
         g.remove(idx)
-    obj.vertex_groups["head"].add(idx, 1.0, 'REPLACE')
+    obj.vertex_groups[bone].add(idx, 1.0, 'REPLACE')
+
+
+def dog_weigh_ears(obj):
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    weigh_to(obj, "head", np.where(np.isin(sh, dog_ears(sh, v)))[0])
 
 
 def dog_maps(obj):
@@ -416,7 +421,7 @@ def kid_body():
         limb(bm, j["elbow" + s], j["wrist" + s], 0.033, 0.027)
         limb(bm, j["hip" + s], j["knee" + s], 0.06, 0.045)
         limb(bm, j["knee" + s], j["ankle" + s], 0.045, 0.035)
-        piece(bm, sphere(16, 8), scale=(0.04, 0.085, 0.035), move=j["ankle" + s] + Vector((0, -0.04, -0.035)))
+        piece(bm, sphere(16, 8), scale=(0.04, 0.085, 0.035), move=j["ankle" + s] + Vector((0, -0.04, -0.025)))
         palm = j["wrist" + s] + (j["fingertip" + s] - j["wrist" + s]) * 0.35
         piece(bm, sphere(12, 8), scale=(0.03, 0.015, 0.03), move=palm)  # a flat palm, fingers along the arm
         down = (j["fingertip" + s] - j["wrist" + s]).normalized()
@@ -487,6 +492,7 @@ def kid_maps(obj):
     order = {r: i for i, r in enumerate(np.unique(sh))}
     part = np.array([order[r] for r in sh])
     assert part.max() == 3, f"the remeshed body is {len(order) - 3} shells, not one"
+    weigh_to(obj, "chest", np.where(part == 3)[0])  # the backpack, which automatic weights leave unweighted
     top, hem = KID_SKIRT
     skirt = (part == 1) * smooth((top - v[:, 2]) / (top - hem))
     tail = (part == 2) * smooth(np.linalg.norm(v - np.array(KID_PONYTAIL), axis=1) / 0.3)
