@@ -198,7 +198,7 @@ def test_a_shell_along_a_line_is_linked_at_its_root_and_bends_as_its_own(particl
 @pytest.mark.parametrize("particles", [50, 100, 400])
 def test_a_linked_shell_takes_one_stiffness(particles):
     """The calibration ("measured") gives a detached shell linked to the body (a mesh piece joined to it by
-    edges: the ear) one k, its particles' volume mean, where the body's own k varies along it. Before, the ear
+    edges: the ear) one k, its particles' volume-weighted geometric mean. Before, the ear
     took the body's measured k at each particle's place: 64x apart from particle to particle (the clamp's both
     ends), and the kid's ponytail, 12x apart side by side, stretched 1.58-1.82x (docs/goals.md)."""
     g = opdeform.Graph.from_mesh(*with_shell(hanging_ear()), particles=particles, small_pieces="own")
