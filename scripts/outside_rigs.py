@@ -18,6 +18,11 @@ script, the add-on installed from a zip of scripts/package into empty user folde
   melted into it, four feet; 1.5 m, 5,110 vertices) on 6 bones with automatic weights; hops twice forward with the head nodding,
   turns its head sharply, stands from frame 41. Follow 1 but the ears (to 0.1), the tail (to 0.15) and the belly's
   front (to 0.2); softness 1 - Follow.
+- kid (stop 42): primitives voxel-remeshed into one body (1.26 m, A-posed arms with three fingers and a thumb)
+  with a skirt (an open sheet), a ponytail and a backpack as loose shells (14,852 vertices) on 18 bones with
+  automatic weights (the backpack, left unweighted, given to the chest); swings its arms at 4 Hz, jumps 0.3 m,
+  spins 180 degrees in 8 frames, stands from frame 38. Follow 1 on the body, to 0.1 at the skirt's hem and the
+  ponytail's tip, 0.5 on the backpack; softness 1 - Follow.
 
 VARIANT: painted (Follow and Softness groups picked before Enable), late (Enable first, then Goal and the
 groups), none (Enable with nothing painted), goal (the Follow group only), Subtle / Floppy (a look applied after

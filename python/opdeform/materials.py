@@ -209,7 +209,7 @@ def _one_body_ratio(graph: Graph, mesh: MeshArg | None, calibration: str) -> Rat
     return found
 
 
-def _even_shells(graph: Graph, ratio: Ratio) -> Ratio:
+def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
     """``ratio`` (k / E per particle) with each detached shell linked to the body by edges (a mesh piece joined
     by edges to one with more particles: a hair strand, an ear) given one value, the volume-weighted geometric
     mean of its particles'. Measured with the body, the kid's 0.3 m ponytail (docs/goals.md) took the body's k
