@@ -18,6 +18,11 @@ script, the add-on installed from a zip of scripts/package into empty user folde
   melted into it, four feet; 1.5 m, 5,110 vertices) on 6 bones with automatic weights; hops twice forward with the head nodding,
   turns its head sharply, stands from frame 41. Follow 1 but the ears (to 0.1), the tail (to 0.15) and the belly's
   front (to 0.2); softness 1 - Follow.
+- kid (stop 42): primitives voxel-remeshed into one body (1.26 m, A-posed arms with three fingers and a thumb)
+  with a skirt (an open sheet), a ponytail and a backpack as loose shells (14,852 vertices) on 18 bones with
+  automatic weights (the backpack, left unweighted, given to the chest); swings its arms at 4 Hz, jumps 0.3 m,
+  spins 180 degrees in 8 frames, stands from frame 38. Follow 1 on the body, to 0.1 at the skirt's hem and the
+  ponytail's tip, 0.5 on the backpack; softness 1 - Follow.
 
 VARIANT: painted (Follow and Softness groups picked before Enable), late (Enable first, then Goal and the
 groups), none (Enable with nothing painted), goal (the Follow group only), Subtle / Floppy (a look applied after
@@ -155,12 +160,12 @@ def piece(bm, make, scale=(1, 1, 1), rotate=None, move=(0, 0, 0)):
     bpy.data.meshes.remove(me)
 
 
-def tube(r1, r2, depth, segments, cuts, up=False):
-    """A capped tapered tube from z = 0 (radius r1) down to z = -depth (r2), or up to z = depth, ``cuts`` rings
-    between."""
+def tube(r1, r2, depth, segments, cuts, up=False, caps=True):
+    """A tapered tube from z = 0 (radius r1) down to z = -depth (r2), or up to z = depth, ``cuts`` rings
+    between; capped, or an open sheet (caps False)."""
     def make(tmp):
         low, high = (r1, r2) if up else (r2, r1)
-        bmesh.ops.create_cone(tmp, cap_ends=True, segments=segments, radius1=low, radius2=high, depth=depth)
+        bmesh.ops.create_cone(tmp, cap_ends=caps, segments=segments, radius1=low, radius2=high, depth=depth)
         bmesh.ops.translate(tmp, verts=tmp.verts, vec=(0, 0, depth / 2 if up else -depth / 2))
         sides = [e for e in tmp.edges if abs(e.verts[0].co.z - e.verts[1].co.z) > depth / 2]
         bmesh.ops.subdivide_edges(tmp, edges=sides, cuts=cuts, use_grid_fill=True)
@@ -269,14 +274,19 @@ def dog_ears(sh, v):
     return [r for r in np.unique(sh) if abs(v[sh == r, 1].mean()) > 0.05 and v[sh == r, 2].mean() > 0.7]
 
 
-def dog_weigh_ears(obj):
-    """What an artist does when automatic weights leave the ears behind: weight them 1 to the head bone."""
-    v = np.array([x.co for x in obj.data.vertices])
-    sh = shells(obj)
-    idx = [int(i) for i in np.where(np.isin(sh, dog_ears(sh, v)))[0]]
+def weigh_to(obj, bone, vertices):
+    """What an artist does when automatic weights leave a part behind (the panel names it): weight its vertices 1
+    to the bone it hangs from."""
+    idx = [int(i) for i in vertices]
     for g in obj.vertex_groups:
         g.remove(idx)
-    obj.vertex_groups["head"].add(idx, 1.0, 'REPLACE')
+    obj.vertex_groups[bone].add(idx, 1.0, 'REPLACE')
+
+
+def dog_weigh_ears(obj):
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    weigh_to(obj, "head", np.where(np.isin(sh, dog_ears(sh, v)))[0])
 
 
 def dog_maps(obj):
@@ -370,6 +380,130 @@ def mole_maps(obj):
     follow = 1 - np.max([0.9 * ear, 0.85 * tail, 0.8 * belly], axis=0)
     regions = {"ear_tips": np.where(ear > 0.95)[0], "tail_tip": np.where(tail > 0.95)[0],
                "belly": np.where(belly > 0.9 * belly.max())[0]}
+    assert all(len(r) for r in regions.values()), {k: len(r) for k, r in regions.items()}
+    return follow, 1 - follow, regions
+
+
+# ---------------------------------------------------------------- rig 5: "kid", a remeshed child in clothes
+KID_JOINTS = {  # name: position (the child faces -y, feet on the floor)
+    "ground": (0, 0, 0), "pelvis": (0, 0, 0.6), "waist": (0, 0, 0.72), "chest": (0, 0, 0.9),
+    "neck": (0, 0, 1.0), "head": (0, 0, 1.05), "crown": (0, 0, 1.25),
+    **{k + s: (x * (1 if s == ".L" else -1), y, z) for s in (".L", ".R") for k, (x, y, z) in {
+        "shoulder": (0.13, 0, 0.92), "elbow": (0.27, 0, 0.79), "wrist": (0.38, 0, 0.66), "fingertip": (0.45, 0, 0.57),
+        "hip": (0.075, 0, 0.6), "knee": (0.08, 0, 0.33), "ankle": (0.08, 0, 0.07), "toe": (0.08, -0.1, 0.03)}.items()},
+}
+KID_BONES = {  # name: (head joint, tail joint, parent)
+    "root": ("ground", "pelvis", None), "hips": ("pelvis", "waist", "root"), "spine": ("waist", "chest", "hips"),
+    "chest": ("chest", "neck", "spine"), "neck": ("neck", "head", "chest"), "head": ("head", "crown", "neck"),
+    **{k + s: (a + s, b + s, p if p in ("hips", "chest") else p + s) for s in (".L", ".R")
+       for k, (a, b, p) in {"upper_arm": ("shoulder", "elbow", "chest"), "forearm": ("elbow", "wrist", "upper_arm"),
+                            "hand": ("wrist", "fingertip", "forearm"), "thigh": ("hip", "knee", "hips"),
+                            "shin": ("knee", "ankle", "thigh"), "foot": ("ankle", "toe", "shin")}.items()},
+}
+KID_SKIRT = (0.74, 0.45)  # the skirt's waistband and hem heights
+KID_PONYTAIL = (0, 0.1, 1.17)  # where the ponytail leaves the head
+
+
+def limb(bm, a, b, r1, r2, segments=12, cuts=4):
+    """A capped tube from point a (radius r1) to point b (r2)."""
+    a, b = Vector(a), Vector(b)
+    turn = Vector((0, 0, 1)).rotation_difference(b - a).to_matrix()
+    piece(bm, tube(r1, r2, (b - a).length, segments, cuts, up=True), rotate=turn, move=a)
+
+
+def kid_body():
+    """The body as an artist blocks it out: overlapping primitives (torso, head, A-posed arms, three fingers and
+    a thumb on each hand, legs, feet), then a voxel Remesh into one shell."""
+    j = {k: Vector(v) for k, v in KID_JOINTS.items()}
+    bm = bmesh.new()
+    piece(bm, sphere(24, 12), scale=(0.14, 0.1, 0.11), move=(0, 0, 0.63))  # pelvis
+    piece(bm, sphere(24, 12), scale=(0.13, 0.09, 0.2), move=(0, 0, 0.82))  # torso
+    limb(bm, j["chest"], j["head"], 0.045, 0.04)  # neck
+    piece(bm, sphere(24, 16), scale=(0.12, 0.12, 0.13), move=(0, 0, 1.14))  # head
+    for s in (".L", ".R"):
+        piece(bm, sphere(12, 8), scale=(0.05, 0.05, 0.05), move=j["shoulder" + s])
+        limb(bm, j["shoulder" + s], j["elbow" + s], 0.04, 0.033)
+        limb(bm, j["elbow" + s], j["wrist" + s], 0.033, 0.027)
+        limb(bm, j["hip" + s], j["knee" + s], 0.06, 0.045)
+        limb(bm, j["knee" + s], j["ankle" + s], 0.045, 0.035)
+        piece(bm, sphere(16, 8), scale=(0.04, 0.085, 0.035), move=j["ankle" + s] + Vector((0, -0.04, -0.025)))
+        palm = j["wrist" + s] + (j["fingertip" + s] - j["wrist" + s]) * 0.35
+        piece(bm, sphere(12, 8), scale=(0.03, 0.015, 0.03), move=palm)  # a flat palm, fingers along the arm
+        down = (j["fingertip" + s] - j["wrist" + s]).normalized()
+        for dy in (-0.016, 0.0, 0.016):
+            limb(bm, palm, palm + down * 0.07 + Vector((0, dy, 0)), 0.011, 0.009, 8, 3)  # fingers
+        limb(bm, palm, palm + Vector((0, -0.045, 0.005)), 0.011, 0.01, 8, 2)  # thumb, to the front
+    blocks = smooth_object("KidBlocks", bm)
+    remesh = blocks.modifiers.new("Remesh", 'REMESH')
+    remesh.mode, remesh.voxel_size = 'VOXEL', 0.01
+    dg = bpy.context.evaluated_depsgraph_get()
+    body = bpy.data.meshes.new_from_object(blocks.evaluated_get(dg))
+    bpy.data.objects.remove(blocks)
+    return body
+
+
+def kid_mesh():
+    """The remeshed body, then the clothes and hair as loose shells: a skirt (an open sheet, no thickness) from
+    the waist, a 0.3 m ponytail, a backpack."""
+    from mathutils import Matrix
+    bm = bmesh.new()
+    body = kid_body()
+    bm.from_mesh(body)
+    bpy.data.meshes.remove(body)
+    top, hem = KID_SKIRT
+    piece(bm, tube(0.155, 0.24, top - hem, 32, 6, caps=False), move=(0, 0, top))  # skirt, flaring out
+    piece(bm, tube(0.03, 0.012, 0.3, 10, 10), rotate=Matrix.Rotation(math.radians(35), 3, 'X'),
+          move=KID_PONYTAIL)  # ponytail, hanging down the back
+    piece(bm, lambda t: bmesh.ops.create_cube(t, size=1.0), scale=(0.2, 0.09, 0.24), move=(0, 0.16, 0.84))
+    return smooth_object("Kid", bm)
+
+
+def kid_bones():
+    return {b: (KID_JOINTS[h], KID_JOINTS[t], p) for b, (h, t, p) in KID_BONES.items()}
+
+
+def kid_animate(arm):
+    """Swings the arms fast (1..13, 60 degrees each way at 4 Hz), crouches, jumps 0.3 m and lands (13..30),
+    spins about the root 180 degrees in 8 frames (30..38), stands still to 96. The root bone points up: its
+    local y is world z."""
+    p = arm.pose.bones
+    for b in p:
+        b.rotation_mode = 'XYZ'
+    for f in range(1, 14):
+        swing = math.sin(2 * math.pi * 4 * (f - 1) / FPS) if f < 13 else 0.0
+        for side, sign in (("L", 1), ("R", -1)):
+            key(p["upper_arm." + side], "rotation_euler", 0, f, math.radians(60 * swing * sign))
+            key(p["forearm." + side], "rotation_euler", 0, f, math.radians(30 * max(swing * sign, 0)))
+    for f, up, dip, crouch in ((13, 0, 0, 0), (17, 0, -0.04, 1), (20, 0.3, 0, 0), (23, 0.3, 0, 0), (26, 0, 0, 0),
+                               (28, 0, -0.03, 0.8), (30, 0, 0, 0)):
+        key(p["root"], "location", 1, f, up)
+        key(p["hips"], "location", 1, f, dip)
+        key(p["spine"], "rotation_euler", 0, f, math.radians(20 * crouch))
+        for side in ("L", "R"):
+            key(p["thigh." + side], "rotation_euler", 0, f, math.radians(-30 * crouch))
+            key(p["shin." + side], "rotation_euler", 0, f, math.radians(60 * crouch))
+            key(p["foot." + side], "rotation_euler", 0, f, math.radians(-30 * crouch))
+    for f, turn in ((30, 0), (38, 180)):
+        key(p["root"], "rotation_euler", 1, f, math.radians(turn))
+    return 38
+
+
+def kid_maps(obj):
+    """Shells in build order: body, skirt, ponytail, backpack. Follow 1 on the body (fingers too), the skirt
+    from 1 at its waistband to 0.1 at its hem, the ponytail to 0.1 at its tip, the backpack 0.5; softness 1 -
+    Follow."""
+    v = np.array([x.co for x in obj.data.vertices])
+    sh = shells(obj)
+    order = {r: i for i, r in enumerate(np.unique(sh))}
+    part = np.array([order[r] for r in sh])
+    assert part.max() == 3, f"the remeshed body is {len(order) - 3} shells, not one"
+    weigh_to(obj, "chest", np.where(part == 3)[0])  # the backpack, which automatic weights leave unweighted
+    top, hem = KID_SKIRT
+    skirt = (part == 1) * smooth((top - v[:, 2]) / (top - hem))
+    tail = (part == 2) * smooth(np.linalg.norm(v - np.array(KID_PONYTAIL), axis=1) / 0.3)
+    follow = 1 - 0.9 * np.maximum(skirt, tail) - 0.5 * (part == 3)
+    regions = {"skirt_hem": np.where(skirt > 0.95)[0], "ponytail_tip": np.where(tail > 0.9)[0],
+               "backpack": np.where(part == 3)[0]}
     assert all(len(r) for r in regions.values()), {k: len(r) for k, r in regions.items()}
     return follow, 1 - follow, regions
 
@@ -525,10 +659,12 @@ def floor():
 RIGS = {"gob": (gob_mesh, gob_bones, gob_animate, gob_maps),
         "ellie": (ellie_mesh, ellie_bones, ellie_animate, ellie_maps),
         "dog": (dog_mesh, dog_bones, dog_animate, dog_maps),
-        "mole": (mole_mesh, mole_bones, mole_animate, mole_maps)}
+        "mole": (mole_mesh, mole_bones, mole_animate, mole_maps),
+        "kid": (kid_mesh, kid_bones, kid_animate, kid_maps)}
 VIEWS = {"gob": ((0.0, -1.3, 1.1), (1.2, -1.8, 0.5)), "ellie": ((0.2, -1.0, 1.0), (1.6, -2.2, 0.6)),
-         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6)), "mole": ((0.0, -1.1, 0.75), (2.6, -3.0, 0.7))}  # camera target (where it is mid-motion) and offset
-NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog", "mole": "Mole"}
+         "dog": ((0.15, 0.0, 0.65), (1.3, -2.3, 0.6)), "mole": ((0.0, -1.1, 0.75), (2.6, -3.0, 0.7)),
+         "kid": ((0.0, 0.0, 0.75), (1.2, -2.2, 0.4))}  # camera target (where it is mid-motion) and offset
+NAMES = {"gob": "Gob", "ellie": "Ellie", "dog": "Dog", "mole": "Mole", "kid": "Kid"}
 
 
 def build():
@@ -624,6 +760,9 @@ def main():
     if st is not None and st.engine.goal_strength is not None:
         gs = st.engine.goal_strength
         print("PARTICLE_FOLLOW n", len(gs), "min", gs.min(), "sorted low", np.sort(gs)[:12].round(3))
+        count, piece, _ = st.engine.pieces()
+        print("PIECES", [(int((piece == k).sum()), gs[piece == k].min().round(3)) for k in range(count)],
+              "(particles, least Follow)")
     if st is not None:  # the graph's inputs and the graph, to tell run-to-run differences apart
         e = st.engine
         weights = np.array([[w.group, w.weight] for x in obj.data.vertices for w in x.groups])
@@ -654,7 +793,7 @@ def main():
         d = np.linalg.norm(a - b_, axis=1)
         i, j = edges.T
         st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b_[i] - b_[j], axis=1)
-        row = dict(core=d[core].max() if len(core) else 0.0, all=d.max(), stretch=st.max(),
+        row = dict(core=d[core].max() if len(core) else 0.0, all=d.max(), stretch=st.max(), stretched=i[np.argmax(st)],
                    lowest=a[:, 2].min(), lowest_twin=b_[:, 2].min())
         row.update({r: d[ix].max() for r, ix in regions.items()})
         rows.append(row)
@@ -670,7 +809,8 @@ def main():
     summary = dict(rig=RIG, variant=VARIANT, host=bpy.app.version_string, vertices=n, particles=s.particles,
                    core_mm=1e3 * col["core"].max(),
                    **{r + "_mm": 1e3 * col[r].max() for r in regions}, secondary_pct=100 * sec / size,
-                   stretch=col["stretch"].max(), lowest_mm=1e3 * col["lowest"].min(),
+                   stretch=col["stretch"].max(), stretch_frame=frames[int(np.argmax(col["stretch"]))],
+                   stretch_at=rest[col["stretched"][np.argmax(col["stretch"])]].round(3).tolist(), lowest_mm=1e3 * col["lowest"].min(),
                    lowest_twin_mm=1e3 * col["lowest_twin"].min(), settle_s=settle,
                    after_1s_mm=1e3 * col["all"][after[FPS:]].max(), base_kept=bool(np.array_equal(base(obj), before)),
                    size=size, worst_frame=frames[worst])
