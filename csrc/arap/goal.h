@@ -31,6 +31,3 @@ void od_Goals_BeginCall(od_Sim* sim, int steps);
 void od_Goals_Place(od_Sim* sim);
 // The frame set back in place after a call (or a failed one).
 void od_Goals_EndCall(od_Sim* sim);
-// Goals carrying the rest: no graph edge left longer than OD_STRETCH_LIMIT times its goal-shape length after the
-// step's iterations (od_Step_Finish; goal.c says why).
-bool od_Goals_LimitStretch(od_Sim* sim);

@@ -396,7 +396,6 @@ od_Status od_Step_Solve(od_Sim* sim)
 
 void od_Step_Finish(od_Sim* sim, int k, int steps)
 {
-	od_Goals_LimitStretch(sim);
 	od_SurfaceContact_Finish(sim);
 	od_SurfaceContact_Turn(sim);
 	double* lifted = od_SurfaceContact_Lifts(sim);
