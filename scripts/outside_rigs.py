@@ -714,7 +714,7 @@ def keep_frame(kept, st, shown, armature_only):
 def save_frames(path, kept, e, edges):
     """The frames keep_frame kept, with the graph, the skin and the per-particle maps, in one npz."""
     np.savez(path, **{k: np.array(v) for k, v in kept.items()}, edges=edges, centers=e.graph.centers,
-             graph_edges=e.graph.edges, skin_indices=e.skin.indices, skin_weights=e.skin.weights, rest=e.rest, follow=e.goal_strength,
+             graph_edges=e.graph.edges, volumes=e.graph.volumes, params=np.array([e._params['stiffness']]).ravel(), skin_indices=e.skin.indices, skin_weights=e.skin.weights, rest=e.rest, follow=e.goal_strength,
              softness=e._softness if e._softness is not None else np.ones(e.graph.n_particles))
 
 
