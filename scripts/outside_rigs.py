@@ -705,7 +705,8 @@ def main():
 def keep_frame(kept, st, shown, armature_only):
     """OUTSIDE_RIGS_STRETCH: one frame's shown and armature-only vertices, particles and goal frames."""
     e = st.engine
-    goals = e._fitted[1] if e._fitted is not None else (e.graph.centers, np.tile(np.eye(3), (e.graph.n_particles, 1, 1)))
+    n = e.graph.n_particles
+    goals = e._fitted[1] if e._fitted is not None else (e.graph.centers, np.tile(np.eye(3), (n, 1, 1)))
     for k, v in dict(shown=shown, armature_only=armature_only, positions=e.shown_state[0],
                      rotations=e.shown_state[1], goal_positions=goals[0], goal_rotations=goals[1]).items():
         kept.setdefault(k, []).append(np.array(v, dtype=np.float64))
@@ -714,7 +715,8 @@ def keep_frame(kept, st, shown, armature_only):
 def save_frames(path, kept, e, edges):
     """The frames keep_frame kept, with the graph, the skin and the per-particle maps, in one npz."""
     np.savez(path, **{k: np.array(v) for k, v in kept.items()}, edges=edges, centers=e.graph.centers,
-             graph_edges=e.graph.edges, volumes=e.graph.volumes, params=np.array([e._params['stiffness']]).ravel(), skin_indices=e.skin.indices, skin_weights=e.skin.weights, rest=e.rest, follow=e.goal_strength,
+             graph_edges=e.graph.edges, volumes=e.graph.volumes, stiffness=np.ravel(e._params["stiffness"]),
+             skin_indices=e.skin.indices, skin_weights=e.skin.weights, rest=e.rest, follow=e.goal_strength,
              softness=e._softness if e._softness is not None else np.ones(e.graph.n_particles))
 
 

@@ -3,7 +3,7 @@
 armature-only length, its vertices' skinning particles (weights, distances, Follow, softness), those particles'
 offsets and turns from their goal frames, the particle graph's edges over their goal-shape lengths and the turns
 between neighbours, and the worst edge skinned again from the particles' positions with the goals' rotations and
-the reverse (which of the two stretches it).
+the reverse (which of the two stretches it), and each skinning particle's calibrated k against the body's.
 
     python3 scripts/stretch_cause.py FILE.npz
 """
@@ -36,12 +36,14 @@ def main(path):
         print(f"  vertex {v}: particles {idx}, weights {d['skin_weights'][v].round(2)}, "
               f"{(1e3 * np.linalg.norm(d['centers'][idx] - d['rest'][v], axis=1)).round(1)} mm away, "
               f"Follow {d['follow'][idx].round(2)}, softness {d['softness'][idx].round(3)}")
+    stiffness = np.broadcast_to(d["stiffness"], d["softness"].shape) / d["softness"]  # before the softness map
     for k in np.unique(d["skin_indices"][[a, b]]):
         print(f"  particle {k}: {1e3 * np.linalg.norm(p[k] - gp[k]):.1f} mm and {angle(r[k] @ gr[k].T):.1f} deg "
-              f"off its goal")
+              f"off its goal, its k before the softness 1/{np.median(stiffness) / stiffness[k]:.0f} of the median")
     ge = d["graph_edges"]
     P, GP = d["positions"], d["goal_positions"]
-    graph = np.linalg.norm(P[:, ge[:, 0]] - P[:, ge[:, 1]], axis=2) / np.linalg.norm(GP[:, ge[:, 0]] - GP[:, ge[:, 1]], axis=2)
+    graph = (np.linalg.norm(P[:, ge[:, 0]] - P[:, ge[:, 1]], axis=2)
+             / np.linalg.norm(GP[:, ge[:, 0]] - GP[:, ge[:, 1]], axis=2))
     dev = np.einsum("fnij,fnkj->fnik", d["rotations"], d["goal_rotations"])
     turn = angle(np.einsum("feji,fejk->feik", dev[:, ge[:, 0]], dev[:, ge[:, 1]]))
     print(f"particle graph: {len(d['centers'])} particles, edges {graph.min():.2f}-{graph.max():.2f}x their goal "
