@@ -40,6 +40,8 @@ with BLENDER_USER_CONFIG / BLENDER_USER_SCRIPTS / BLENDER_USER_RESOURCES at empt
 short hashes of the graph's inputs (rest positions, triangles, vertex weights) and the graph (particle centres,
 Follow), to tell run-to-run differences apart; OUTSIDE_RIGS_DUMP=FILE.npz keeps those arrays;
 OUTSIDE_RIGS_TRACE=1 prints TRACE: each frame's largest offset (mm), of all vertices and of each loose region.
+OUTSIDE_RIGS_STRETCH=FILE.npz keeps each frame's shown and armature-only vertices, particles and goal frames with the
+graph and the skin, for scripts/stretch_cause.py (why an edge stretches).
 """
 import json
 import math
@@ -784,6 +786,7 @@ def main():
     rest = base(obj).reshape(-1, 3)
     size = float((rest.max(0) - rest.min(0)).max())
     rows, offs, frames, shown_at = [], [], [], {}
+    held, kept = sys.modules[module_name + ".blender.state"].get(obj), {}
     scene = bpy.context.scene
     for f in range(1, 97):
         scene.frame_set(f)
@@ -799,6 +802,8 @@ def main():
         rows.append(row)
         offs.append((a - b_)[loose])
         frames.append(f)
+        if os.environ.get("OUTSIDE_RIGS_STRETCH"):
+            keep_frame(kept, held, a, b_)
     col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
     after = [k for k, f in enumerate(frames) if f >= end]
     unsettled = [k for k in after if col["all"][k] > 2e-3]
@@ -815,6 +820,8 @@ def main():
                    after_1s_mm=1e3 * col["all"][after[FPS:]].max(), base_kept=bool(np.array_equal(base(obj), before)),
                    size=size, worst_frame=frames[worst])
     print("SUMMARY " + json.dumps(summary))
+    if os.environ.get("OUTSIDE_RIGS_STRETCH"):
+        save_frames(os.environ["OUTSIDE_RIGS_STRETCH"], kept, held.engine, edges)
     if os.environ.get("OUTSIDE_RIGS_TRACE"):  # each frame's largest offsets (mm), to see how a part comes back
         print("TRACE", json.dumps({k: [round(1e3 * x, 2) for x in col[k]] for k in ["all", *regions]}))
     if VARIANT == "painted" and "norender" not in EXTRA:
@@ -833,6 +840,24 @@ def main():
         np.save(os.path.join(OUT, f"{RIG}_{KIND}_f30.npy"), world(obj))
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
         print("SAVED")
+
+
+def keep_frame(kept, st, shown, armature_only):
+    """OUTSIDE_RIGS_STRETCH: one frame's shown and armature-only vertices, particles and goal frames."""
+    e = st.engine
+    n = e.graph.n_particles
+    goals = e._fitted[1] if e._fitted is not None else (e.graph.centers, np.tile(np.eye(3), (n, 1, 1)))
+    for k, v in dict(shown=shown, armature_only=armature_only, positions=e.shown_state[0],
+                     rotations=e.shown_state[1], goal_positions=goals[0], goal_rotations=goals[1]).items():
+        kept.setdefault(k, []).append(np.array(v, dtype=np.float64))
+
+
+def save_frames(path, kept, e, edges):
+    """The frames keep_frame kept, with the graph, the skin and the per-particle maps, in one npz."""
+    np.savez(path, **{k: np.array(v) for k, v in kept.items()}, edges=edges, centers=e.graph.centers,
+             graph_edges=e.graph.edges, volumes=e.graph.volumes, stiffness=np.ravel(e._params["stiffness"]),
+             skin_indices=e.skin.indices, skin_weights=e.skin.weights, rest=e.rest, follow=e.goal_strength,
+             softness=e._softness if e._softness is not None else np.ones(e.graph.n_particles))
 
 
 def render(obj, twin, frame):

@@ -699,7 +699,12 @@ _BENT = 0.2  # a body whose skeleton leaves its chord by this share of it is spl
 _SKELETON_CELLS = 20_000  # grid cells over the bounding box for the skeleton
 _TIP_POINTS = 40  # at most this many of the tip region's cells skinned
 _FIT_ROUNDS = 3  # solves of an appendage's k after the first
-_SOFTEST = 64.0  # an appendage's k stays above the body's over this
+# An appendage's k stays above the body's over this. A thin plate (an ear) fitted to its bending across its
+# thickness wants less, but its one k also holds its particles' edges against stretching: at 1/64 the dog's ears
+# at 1,000 particles (the fit at its floor) stretched 1.86x their length at Floppy, 1.41x at the default look;
+# at 1/20 1.40x and 1.27x, and the ears' swing at 100 and 1,000 particles 1.18x apart instead of 1.49x
+# (docs/goals.md, "Edges that stretch").
+_SOFTEST = 20.0
 _RINGS = 3  # rings of particles round an appendage in the graph that fits its k: its root, one more, one held
 _CORE_CELLS = 1000  # at most this many of the core's grid cells, evenly by index, to hold appendages at
 _LEVEL_ROUNDS = 2  # of a straight beam's tip levelling
