@@ -163,26 +163,6 @@ def test_version_3_file_keeps_its_shells_painted_follow():
     assert s.settings_version == _version() and abs(s.shell_follow_min - _module("core.engine").SHELL_FOLLOW_MIN) < 1e-6
 
 
-def test_version_4_file_keeps_its_skins_four_neighbours():
-    """A file saved before Skin Neighbors 6 (settings version 4) keeps 4 unless it was set; a version-4 object's
-    Shell Min, set or not, is not touched (version 3's keep_shells is not for it); a new object gets 6."""
-    for name, neighbors in (("Unset", None), ("Set", 8)):
-        s = _tail(name).opdeform
-        if neighbors is not None:
-            s.neighbors, s.shell_follow_min = neighbors, 0.45
-        s.settings_version = 4
-    path = os.path.join(H.tmpdir(), "v4.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=path)
-    bpy.ops.wm.open_mainfile(filepath=path)
-    for name, neighbors in (("Unset", 4), ("Set", 8)):
-        s = bpy.data.objects[name].opdeform
-        assert (s.settings_version, s.neighbors) == (_version(), neighbors), (name, s.neighbors)
-        shell_min = 0.45 if name == "Set" else _module("core.settings").SHELL_FOLLOW_MIN
-        assert abs(s.shell_follow_min - shell_min) < 1e-6, (name, s.shell_follow_min)
-    s = _tail("New").opdeform
-    assert s.settings_version == _version() and s.neighbors == _module("core.settings").SKIN_NEIGHBORS == 6
-
-
 def _version():
     return _module("core.settings").SETTINGS_VERSION
 

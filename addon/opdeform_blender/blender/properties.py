@@ -6,7 +6,6 @@ from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProp
                        IntProperty, PointerProperty, StringProperty)
 
 from ..core import engine, tumbling
-from ..core import settings as core_settings
 from . import presets
 from .compiled import AddonError, mpm
 from .discovery import mark_discovery
@@ -96,7 +95,7 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                            "flat closed detached shell of a rigged mesh gets at least 16 in all, those it "
                            "lacks added beyond this count")
     graph_mode: EnumProperty(name="Graph", items=GRAPH_MODE_ITEMS, default="auto")
-    neighbors: IntProperty(name="Skin Neighbors", default=core_settings.SKIN_NEIGHBORS, min=1, max=16,
+    neighbors: IntProperty(name="Skin Neighbors", default=4, min=1, max=16,
                            description="Particles that move each vertex (m of the skinning weights)")
     # dynamics
     mode: EnumProperty(name="Mode", items=MODE_ITEMS, default="DYNAMIC")

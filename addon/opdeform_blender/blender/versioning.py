@@ -1,7 +1,7 @@
 """Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
 (a version-1 modulus is tripled on load, keeping the look). Version 3: the goal's follow values (a version-2
 goal keeps its mapping and gravity, ``keep_goal``). Version 4: Shell Min (an older object keeps its shells'
-painted Follow, ``keep_shells``). Version 5: Skin Neighbors 6 (an older object keeps 4, ``keep_skin``). Version 0 (files saved before material units)
+painted Follow, ``keep_shells``). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
 stored or default). On a file load (handlers.on_load_post) every such object is marked so
 (``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
@@ -12,7 +12,6 @@ version and gives the settings the user has not set the default preset (Rubber) 
 from ..core import settings as core_settings
 
 OLD_GOAL_STRENGTH = 0.5  # the goal strength's default before version 3
-OLD_SKIN_NEIGHBORS = 4  # Skin Neighbors' default before version 5
 
 
 def uses_solver_units(s):
@@ -41,14 +40,11 @@ def upgrade(objects):
 
 
 def keep_meaning(s):
-    """What an older object's goal (below version 3), detached shells (below version 4) and skin (below version
-    5) meant stays so; the object is stamped with today's version."""
+    """What an older object's goal (below version 3) and detached shells (below version 4) meant stays so; the
+    object is stamped with today's version."""
     if s.settings_version < core_settings.FOLLOW_VERSION:
         keep_goal(s)
-    if s.settings_version < core_settings.SHELL_MIN_VERSION:
-        keep_shells(s)
-    if s.settings_version < core_settings.SKIN_NEIGHBORS_VERSION:
-        keep_skin(s)
+    keep_shells(s)
     s.settings_version = core_settings.SETTINGS_VERSION
 
 
@@ -65,9 +61,3 @@ def keep_shells(s):
     was set."""
     if not s.is_property_set("shell_follow_min"):
         s.shell_follow_min = 0.0
-
-
-def keep_skin(s):
-    """An object from before version 5 keeps its skin's 4 neighbours unless Skin Neighbors was set."""
-    if not s.is_property_set("neighbors"):
-        s.neighbors = OLD_SKIN_NEIGHBORS

@@ -15,17 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SETTINGS_VERSION = 5  # stamped on an object when oriented particles are enabled; 0: a file made before
+SETTINGS_VERSION = 4  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
 FOLLOW_VERSION = 3  # the first version whose goal weight is the follow value itself
-SHELL_MIN_VERSION = 4  # the first version with Shell Min
-SKIN_NEIGHBORS_VERSION = 5  # the first version whose Skin Neighbors default is SKIN_NEIGHBORS
-# Version 5: Skin Neighbors 6 by default (4 before; an older object keeps 4 unless it was set). Two vertices of
-# one edge skinned mostly by two different particles open a seam when those particles turn apart: at 4 the
-# mole's ear at Floppy (1,000 particles) stretched 1.53x its animated length, the kid's elbow with nothing
-# painted 1.79x (1,000) and 1.50x (100); at 6 1.29x, 1.44x, 1.45x (docs/goals.md, "Skin seams"). Cost: the
-# 15k-vertex kid skinned in 0.21 ms instead of 0.09 (no AVX2 blend for 6).
-SKIN_NEIGHBORS = 6
 # Version 4: a detached shell's Follow is mapped into [Shell Min, 1] (default 0.3); an older object keeps its
 # painted values as they were (Shell Min 0) unless Shell Min was set.
 # Version 3: the goal's group weight is the follow value itself (Goal Min..Max) where it multiplied the strength,
