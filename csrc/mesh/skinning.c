@@ -214,7 +214,7 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 	s->centers = od_Alloc(sizeof(double) * 3 * (size_t)graph->n);
 	s->mapStore = od_Alloc(sizeof(double) * (12 * (size_t)graph->n + 3)); // malloc aligns to 8 at least
 	s->maps = s->mapStore ? (double*)(((uintptr_t)s->mapStore + 31) & ~(uintptr_t)31) : NULL;
-	if (m == 4 && od_SkinUsesAvx2())
+	if (od_SkinUsesAvx2())
 	{
 		s->columnStore = od_Alloc(sizeof(double) * (16 * (size_t)graph->n + 3));
 		s->columns = s->columnStore ? (double*)(((uintptr_t)s->columnStore + 31) & ~(uintptr_t)31) : NULL;
@@ -223,7 +223,7 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 	int* pieceSize = od_AllocZero((size_t)graph->pieceCount, sizeof(int));
 	bool threads = def->threadCount != 1 && def->vertexCount >= 2 * OD_DEFORM_CHUNK;
 	if (!s->rest || (normals && !s->restNormals) || !s->idx || !s->w || !s->centers || !s->maps || !pieceSize ||
-		(m == 4 && od_SkinUsesAvx2() && !s->columns) ||
+		(od_SkinUsesAvx2() && !s->columns) ||
 		(threads && od_Pool_Create(def->threadCount, &s->pool) != OD_OK) ||
 		od_NearestGrid_Create(&grid, graph->centers, graph->n) != OD_OK)
 	{
@@ -402,41 +402,39 @@ OD_BLEND_INLINE void od_BlendBlock(const od_Skin* s, const double* maps, size_t 
 }
 
 #ifdef OD_SKIN_AVX2
-// od_BlendBlock for m = 4 with AVX2 + FMA: each particle's map as 4 columns of 4 doubles (the 4th lane 0), so
-// that the blend is 16 fused multiply-adds and the position C0 x + C1 y + C2 z + C3 three more, with no
-// horizontal sum. p and q get a 4th lane past each vertex's 3 (overwritten by the next vertex; the buffers
-// have one double to spare). Fused multiply-adds round once where the SSE2 blend rounds twice: the results
-// differ from it in the last bits (about 1e-16 relative), never between threads.
+// od_BlendBlock with AVX2 + FMA: each particle's map as 4 columns of 4 doubles (the 4th lane 0), so that the
+// blend is 4 m fused multiply-adds and the position C0 x + C1 y + C2 z + C3 three more, with no horizontal sum;
+// m a compile-time constant where the caller passes one (4, the core's default; 6, the add-on's: 2.2x slower at
+// 1M vertices in od_BlendBlock's loop, `scripts/bench skin --neighbors 6`). p and q get a 4th lane past each
+// vertex's 3 (overwritten by the next vertex; the buffers have one double to spare). Fused multiply-adds round
+// once where the SSE2 blend rounds twice: the results differ from it in the last bits (about 1e-16 relative),
+// never between threads (the first term's fused add to zero is the plain product, as before m was general).
 __attribute__((target("avx2,fma"))) static inline void od_BlendBlockAvx2(const od_Skin* s, const double* columns,
-																	size_t first, int count, const double* rn,
-																	double* p, double* q)
+																	size_t first, int count, int m,
+																	const double* rn, double* p, double* q)
 {
-	const int* idx = s->idx + 4 * first;
-	const double* w = s->w + 4 * first;
+	const int* idx = s->idx + (size_t)m * first;
+	const double* w = s->w + (size_t)m * first;
 	const double* rest = s->rest + 3 * first;
 	for (int v = 0; v < count; ++v)
 	{
 		// the streams a few vertices ahead: measured 10 % faster at 1M vertices than the hardware prefetcher alone
-		_mm_prefetch((const char*)(w + 4 * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
-		_mm_prefetch((const char*)(idx + 4 * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
+		_mm_prefetch((const char*)(w + m * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
+		_mm_prefetch((const char*)(idx + m * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
 		_mm_prefetch((const char*)(rest + 3 * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
 		if (rn)
 		{
 			_mm_prefetch((const char*)(rn + 3 * (v + OD_SKIN_PREFETCH)), _MM_HINT_T0);
 		}
-		const double* m0 = columns + 16 * idx[4 * v];
-		const double* m1 = columns + 16 * idx[4 * v + 1];
-		const double* m2 = columns + 16 * idx[4 * v + 2];
-		const double* m3 = columns + 16 * idx[4 * v + 3];
-		__m256d w0 = _mm256_broadcast_sd(w + 4 * v), w1 = _mm256_broadcast_sd(w + 4 * v + 1);
-		__m256d w2 = _mm256_broadcast_sd(w + 4 * v + 2), w3 = _mm256_broadcast_sd(w + 4 * v + 3);
-		__m256d c[4];
-		for (int e = 0; e < 4; ++e)
+		__m256d c[4] = { _mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd(), _mm256_setzero_pd() };
+		for (int k = 0; k < m; ++k)
 		{
-			__m256d a = _mm256_mul_pd(w0, _mm256_load_pd(m0 + 4 * e));
-			a = _mm256_fmadd_pd(w1, _mm256_load_pd(m1 + 4 * e), a);
-			a = _mm256_fmadd_pd(w2, _mm256_load_pd(m2 + 4 * e), a);
-			c[e] = _mm256_fmadd_pd(w3, _mm256_load_pd(m3 + 4 * e), a);
+			const double* map = columns + 16 * idx[m * v + k];
+			__m256d wk = _mm256_broadcast_sd(w + m * v + k);
+			for (int e = 0; e < 4; ++e)
+			{
+				c[e] = _mm256_fmadd_pd(wk, _mm256_load_pd(map + 4 * e), c[e]);
+			}
 		}
 		const double* x = rest + 3 * v;
 		__m256d pv = _mm256_fmadd_pd(c[0], _mm256_broadcast_sd(x),
@@ -531,6 +529,22 @@ OD_BLEND_INLINE void od_WriteBlock(void* base, od_Scalar type, bool stream, int 
 	od_StoreBlock(base, type, 3 * (size_t)first, src, 3 * count);
 }
 
+// A block's blend, m maps a vertex: AVX2 where avx, else the baseline.
+OD_BLEND_INLINE void od_Blend(const od_DeformJob* job, size_t first, int count, int m, bool avx, const double* rn,
+							  double* p, double* q)
+{
+	if (avx)
+	{
+#ifdef OD_SKIN_AVX2
+		od_BlendBlockAvx2(job->skin, job->skin->columns, first, count, m, rn, p, q);
+#endif
+	}
+	else
+	{
+		od_BlendBlock(job->skin, job->maps, first, count, m, rn, p, q);
+	}
+}
+
 // The vertex loop; avx (a constant where inlined) picks the AVX2 blend. Inlined twice: into od_DeformRange
 // (the baseline) and od_DeformRangeAvx2, where the compiler vectorizes the conversions, the normalization
 // (square roots and divisions, exact in IEEE arithmetic: the same normals from the same q) and the float32
@@ -558,19 +572,17 @@ OD_BLEND_INLINE void od_DeformRangeBody(void* context, int begin, int end, bool 
 		{
 			rn = (const double*)job->restNormals + 3 * (size_t)first;
 		}
-		if (avx)
+		if (s->m == 4) // the core's default and the add-on's as compile-time constants: the blend unrolls
 		{
-#ifdef OD_SKIN_AVX2
-			od_BlendBlockAvx2(s, s->columns, (size_t)first, count, rn, p, q);
-#endif
+			od_Blend(job, (size_t)first, count, 4, avx, rn, p, q);
 		}
-		else if (s->m == 4)
+		else if (s->m == 6)
 		{
-			od_BlendBlock(s, job->maps, (size_t)first, count, 4, rn, p, q);
+			od_Blend(job, (size_t)first, count, 6, avx, rn, p, q);
 		}
 		else
 		{
-			od_BlendBlock(s, job->maps, (size_t)first, count, s->m, rn, p, q);
+			od_Blend(job, (size_t)first, count, s->m, avx, rn, p, q);
 		}
 		bool stream = avx && s->vertexCount >= OD_STREAM_VERTICES;
 		const od_ShownJob* shown = job->shown;

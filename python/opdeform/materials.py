@@ -189,6 +189,7 @@ def _calibrated_ratio(graph: Graph, mesh: MeshArg | None, calibration: str) -> R
     None where nothing bends (no edge has a length along the longest axis: the uniform k then)."""
     known = _OWN_MESH_RATIOS.setdefault(graph, {}) if mesh is None else {}
     if calibration not in known:
+        found: Ratio | None
         if graph.pieces()[0] > 1:
             found = _piece_ratios(graph, mesh, calibration)
         else:
@@ -218,7 +219,7 @@ def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
     shell's swing nearest (suite_robustness's trunk 0.63-0.89 of before; the arithmetic mean 0.21-0.64, the
     harmonic 1.03-1.06 but the ponytail at 50 particles 3.1x stretched)."""
     count, label = mesh_pieces(graph)
-    if count < 2 or np.ndim(ratio) == 0:
+    if label is None or count < 2 or ratio is None or np.ndim(ratio) == 0:
         return ratio
     e, v, ratio = graph.edges, graph.volumes, np.array(ratio)
     a, b = label[e[:, 0]], label[e[:, 1]]

@@ -1,4 +1,5 @@
-"""Skinning 1,000,000 vertices (m = 4, positions and normals) against memory bandwidth; graph building.
+"""Skinning 1,000,000 vertices (m = 4, or `--neighbors M`; positions and normals) against memory bandwidth; graph
+building.
 
 Skinning: ms per frame (median, wall and processor time) on all cores and on one, into float32 buffers laid
 out for Blender's foreach_set, with the machine's memory bandwidth measured in the same run (a large copy,
@@ -51,16 +52,17 @@ def _falling_state(graph, steps=30):
 
 
 def run(args):
+    m = int(args[args.index("--neighbors") + 1]) if "--neighbors" in args else NEIGHBORS  # the add-on's: 6
     cores = os.cpu_count()
-    print(f"machine: {cores} cores; mesh: the creature subdivided, first {VERTICES:,} vertices; m = {NEIGHBORS}")
+    print(f"machine: {cores} cores; mesh: the creature subdivided, first {VERTICES:,} vertices; m = {m}")
     v, t = _million_vertex_mesh()
     base_v, base_t = meshes.creature()
     graph = opdeform.Graph.from_mesh(base_v, base_t, particles=100)
     normals = opdeform.Skin(graph, v, triangles=t).rest_normals[:VERTICES]
     v = np.ascontiguousarray(v[:VERTICES])
-    bind = _timed(lambda: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals), 3)
-    skins = {cores: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals),
-             1: opdeform.Skin(graph, v, NEIGHBORS, rest_normals=normals, threads=1)}
+    bind = _timed(lambda: opdeform.Skin(graph, v, m, rest_normals=normals), 3)
+    skins = {cores: opdeform.Skin(graph, v, m, rest_normals=normals),
+             1: opdeform.Skin(graph, v, m, rest_normals=normals, threads=1)}
     positions, rotations = _falling_state(graph)
     out32, nrm32 = np.empty(3 * VERTICES, np.float32), np.empty(3 * VERTICES, np.float32)
     out64, nrm64 = np.empty((VERTICES, 3)), np.empty((VERTICES, 3))
@@ -74,7 +76,7 @@ def run(args):
         skin = skins[threads]
         skin.deform(positions, rotations, out, nrm)
         seconds, cpu = _timed(lambda: skin.deform(positions, rotations, out, nrm), 21)
-        moved = frame_bytes(VERTICES, NEIGHBORS, nrm is not None, size)
+        moved = frame_bytes(VERTICES, m, nrm is not None, size)
         wall_bound, cpu_bound = (moved / (gbs * 1e9) for gbs in bandwidth[threads])
         rows.append((name, f"{threads}", f"{seconds * 1e3:.2f}", f"{cpu * 1e3:.2f}", f"{moved / 1e6:.0f}",
                      f"{wall_bound * 1e3:.2f}", f"{cpu_bound * 1e3:.2f}", f"{wall_bound / seconds:.2f}",
