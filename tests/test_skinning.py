@@ -217,7 +217,7 @@ def test_vertex_direction_turns_the_end():
 @pytest.mark.parametrize("neighbors", [4, 6, 5])
 def test_the_baseline_blend_gives_the_same_mesh(neighbors):
     """x86-64: the AVX2 + FMA blend (where the processor has it) and the SSE2 one (OPDEFORM_NO_AVX2=1) agree to
-    rounding, at the core's 4 neighbours, the add-on's 6 and another; each is checked exactly against the rest
+    rounding, at the default 4 neighbours, the skin seams' 6 (docs/goals.md) and another; each is checked exactly against the rest
     and rigid poses above."""
     import os
     import subprocess
@@ -229,8 +229,8 @@ def test_the_baseline_blend_gives_the_same_mesh(neighbors):
             "q, _ = np.linalg.qr(rng.normal(size=(g.n_particles, 3, 3)))\n"
             "q *= np.sign(np.linalg.det(q))[:, None, None]\n"
             "n = np.empty((len(v), 3))\n"
-            f"out = opdeform.Skin(g, v, neighbors={neighbors}, triangles=t).deform(g.centers + rng.normal(0, 0.05, g.centers.shape), q,"
-            " normals_out=n)\n"
+            f"out = opdeform.Skin(g, v, neighbors={neighbors}, triangles=t)"
+            ".deform(g.centers + rng.normal(0, 0.05, g.centers.shape), q, normals_out=n)\n"
             "sys.stdout.buffer.write(out.tobytes() + n.tobytes())\n")
     runs = []
     for off in ("1", "0"):

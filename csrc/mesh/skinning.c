@@ -404,8 +404,8 @@ OD_BLEND_INLINE void od_BlendBlock(const od_Skin* s, const double* maps, size_t 
 #ifdef OD_SKIN_AVX2
 // od_BlendBlock with AVX2 + FMA: each particle's map as 4 columns of 4 doubles (the 4th lane 0), so that the
 // blend is 4 m fused multiply-adds and the position C0 x + C1 y + C2 z + C3 three more, with no horizontal sum;
-// m a compile-time constant where the caller passes one (4, the core's default; 6, the add-on's: 2.2x slower at
-// 1M vertices in od_BlendBlock's loop, `scripts/bench skin --neighbors 6`). p and q get a 4th lane past each
+// m a compile-time constant where the caller passes one (4, the default; 6, docs/goals.md's remedy for skin seams:
+// 2.2x slower at 1M vertices in od_BlendBlock's loop, `scripts/bench skin --neighbors 6`). p and q get a 4th lane past each
 // vertex's 3 (overwritten by the next vertex; the buffers have one double to spare). Fused multiply-adds round
 // once where the SSE2 blend rounds twice: the results differ from it in the last bits (about 1e-16 relative),
 // never between threads (the first term's fused add to zero is the plain product, as before m was general).
@@ -572,7 +572,7 @@ OD_BLEND_INLINE void od_DeformRangeBody(void* context, int begin, int end, bool 
 		{
 			rn = (const double*)job->restNormals + 3 * (size_t)first;
 		}
-		if (s->m == 4) // the core's default and the add-on's as compile-time constants: the blend unrolls
+		if (s->m == 4) // the default and the skin seams' 6 as compile-time constants: the blend unrolls
 		{
 			od_Blend(job, (size_t)first, count, 4, avx, rn, p, q);
 		}

@@ -52,7 +52,7 @@ def _falling_state(graph, steps=30):
 
 
 def run(args):
-    m = int(args[args.index("--neighbors") + 1]) if "--neighbors" in args else NEIGHBORS  # the add-on's: 6
+    m = int(args[args.index("--neighbors") + 1]) if "--neighbors" in args else NEIGHBORS
     cores = os.cpu_count()
     print(f"machine: {cores} cores; mesh: the creature subdivided, first {VERTICES:,} vertices; m = {m}")
     v, t = _million_vertex_mesh()
