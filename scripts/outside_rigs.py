@@ -763,8 +763,8 @@ def main():
         gs = st.engine.goal_strength
         print("PARTICLE_FOLLOW n", len(gs), "min", gs.min(), "sorted low", np.sort(gs)[:12].round(3))
         count, piece, _ = st.engine.pieces()
-        print("PIECES", [(int((piece == k).sum()), gs[piece == k].min().round(3)) for k in range(count)],
-              "(particles, least Follow)")
+        print("PIECES", [(int((piece == k).sum()), gs[piece == k].min().round(3) if (piece == k).any() else None)
+                         for k in range(count)], "(particles, least Follow; None: attached)")
     if st is not None:  # the graph's inputs and the graph, to tell run-to-run differences apart
         e = st.engine
         weights = np.array([[w.group, w.weight] for x in obj.data.vertices for w in x.groups])

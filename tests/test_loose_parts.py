@@ -132,6 +132,38 @@ def test_long_detached_shells_of_their_own_get_their_floor_beyond_the_budget(par
     assert g.pieces()[0] == 1  # joined to the body
 
 
+def studded(studs=300):
+    """A 1.6 m capsule body among `studs` loose 4 cm spheres (studs, sequins, rivets, scattered up to 2 m from it),
+    each well under a tenth of the body's volume."""
+    body = meshes.capsule(radius=0.3, length=1.0)
+    stud = meshes.capsule(radius=0.02, length=0.0, segments=8, rings=4, body=1)
+    at = np.random.default_rng(1).uniform(-1.0, 1.0, (studs, 3)) * [2.0, 2.0, 1.0]
+    v = np.vstack([body[0], *(stud[0] + a for a in at)])
+    t = np.vstack([body[1], *(stud[1] + len(body[0]) + i * len(stud[0]) for i in range(studs))])
+    return v, t
+
+
+@pytest.mark.parametrize("particles", [50, 100, 1000])
+def test_many_small_shells_of_their_own_leave_the_body_half_the_budget(particles):
+    """Compact small shells of their own take COMPACT_PARTICLES each from the budget before the body gets a
+    second: 300 studs left the body 1 particle of 100, and the studs past the budget were skinned by other studs'
+    particles up to 1 m away. Now the studs' particles take at most half the budget (largest first) and the
+    studs left out ride the body rigidly, as attached ones do."""
+    v, t = studded()
+    piece = mesh_pieces_of_vertices(len(v), t)
+    body = np.argmax(np.bincount(piece))
+    g = opdeform.Graph.from_mesh(v, t, particles=particles, small_pieces="own")
+    count, of_particle = mesh.mesh_pieces(g)
+    per_piece = np.bincount(of_particle, minlength=count)
+    assert count == 301 and per_piece[body] >= particles // 2, per_piece[body]
+    studs = np.delete(per_piece, body)
+    assert 0 < studs.sum() <= particles // 2 and studs.max() <= COMPACT_PARTICLES  # (fewer: a stud's voxels)
+    skinned_by = of_particle[opdeform.Skin(g, v).indices]
+    own = per_piece[piece] > 0
+    assert np.all(skinned_by[own] == piece[own][:, None])  # with particles: its own
+    assert np.all(skinned_by[~own] == body)  # left out: the body's, never another stud's
+
+
 def test_bad_small_pieces():
     v, t = opdeform.meshes.capsule()
     with pytest.raises(ValueError, match="small_pieces"):

@@ -3,7 +3,8 @@ the steps (per frame, from the handle targets), and too few particles across the
 Build; the stretch beyond twice the rest length is in each frame's Report, core/frame_report.py), the thin
 appendages with under three particles along them (at Build), and the detached shells that got no particles of their own (at Build: the core attaches a piece with under a tenth of
 the largest piece's volume rigidly to the nearest large piece, opdeform.graph's small_pieces="attach"), and on a
-rigged mesh, where each shell has particles of its own, the shells a goal's Follow leaves loose all over (per
+rigged mesh, where each shell has particles of its own (the compact ones while their particles take at most half
+of the count, largest first; the others attached), the shells a goal's Follow leaves loose all over (per
 frame)."""
 
 import numpy as np

@@ -48,11 +48,13 @@ typedef enum od_SmallPieces
 	OD_SMALL_OWN,    // particles of its own, joined by edges to that piece: at least OD_SMALL_PIECE_PARTICLES
 	                 // from the budget when compact or open (a shell with a boundary); when closed and long or
 	                 // flat, its share of the budget and particles added beyond it up to OD_SHELL_PARTICLES
-	                 // where fewer (never more than its voxels)
+	                 // where fewer (never more than its voxels); the compact and open ones' particles from the
+	                 // budget together at most OD_SMALL_PIECE_SHARE of it, largest first, the others attached
 } od_SmallPieces;
 
 #define OD_SMALL_PIECE_RATIO 0.1
 #define OD_SMALL_PIECE_PARTICLES 4
+#define OD_SMALL_PIECE_SHARE 0.5 // of the budget, at most, to small pieces' OD_SMALL_PIECE_PARTICLES each
 #define OD_SHELL_PARTICLES 16
 #define OD_LONG_SHELL 0.4 // longest side^2 / area above which a closed small piece is long or flat (a sphere: 1/pi)
 #define OD_BEAM_SHELL 1.5 // a long piece whose particles spread this much more along one axis than the next (the
