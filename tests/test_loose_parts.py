@@ -164,6 +164,42 @@ def test_many_small_shells_of_their_own_leave_the_body_half_the_budget(particles
     assert np.all(skinned_by[~own] == body)  # left out: the body's, never another stud's
 
 
+def with_button(particles, at=(0.2, 0.0, 0.3)):
+    """The kitbash's capsule body with a 44 mm ball (a button) half sunk into its top, as a graph with small
+    pieces of their own: (graph, vertices, triangles, the button's vertices)."""
+    ball = meshes.capsule(radius=0.022, length=0.0, segments=12, rings=6, body=1)
+    v, t = with_shell((ball[0] + at, ball[1]))
+    return opdeform.Graph.from_mesh(v, t, particles=particles, small_pieces="own"), v, t, len(v) - len(ball[0])
+
+
+def test_a_shell_at_its_floor_of_particles_moves_rigidly():
+    """A compact shell with its floor of 4 particles (each about as large as it) is skinned from one anchor over
+    them, as an attached shell over its host's: dropped 0.6 m, the button's edges stretched 3.81x when its
+    particles, each skinned by its nearest, were pulled apart by their links to the body (gob's buttons at 50
+    particles: 1.72x, docs/goals.md); rigid, under 1.01x. It keeps particles of its own, and still moves."""
+    g, v, t, first = with_button(100)
+    count, of_particle = mesh.mesh_pieces(g)
+    assert np.bincount(of_particle)[1] == COMPACT_PARTICLES
+    skin = opdeform.Skin(g, v)
+    assert np.all(skin.indices[first:] == skin.indices[first]) and np.all(skin.weights[first:] == skin.weights[first])
+    assert np.all(of_particle[skin.indices[first]] == 1)
+    sim = opdeform.Simulation(g, 1e5, damping=0.01)
+    sim.set_state(g.centers + [0.0, 0.0, 0.6], np.tile(np.eye(3), (g.n_particles, 1, 1)))
+    sim.set_floor(0.0, 0.5)
+    edges = np.unique(np.sort(np.r_[t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]], axis=1), axis=0)
+    edges = edges[(edges >= first).all(axis=1)]
+    rest = np.linalg.norm(v[edges[:, 0]] - v[edges[:, 1]], axis=1)
+    edges, rest = edges[rest > 1e-9], rest[rest > 1e-9]  # the ball's poles repeat a vertex
+    out, worst, travel = np.empty_like(v), 1.0, 0.0
+    for _ in range(90):
+        sim.step()
+        p = skin.deform_sim(sim, out=out)
+        worst = max(worst, (np.linalg.norm(p[edges[:, 0]] - p[edges[:, 1]], axis=1) / rest).max())
+        travel = max(travel, np.abs(p[first:] - v[first:]).max())
+    assert worst < 1.01, worst
+    assert travel > 0.5  # it fell with the body
+
+
 def test_bad_small_pieces():
     v, t = opdeform.meshes.capsule()
     with pytest.raises(ValueError, match="small_pieces"):

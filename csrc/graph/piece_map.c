@@ -7,7 +7,9 @@
 // piece attached to a large one, or one left out when there were fewer particles than pieces) is carried
 // by its host: all its points take the weights of one anchor point (the centre of its bounding box) over
 // the host's particles, so linear-blend skinning moves the whole piece by one affine map, rigidly with
-// the host where the host is rigid, instead of stretching each vertex towards different particles.
+// the host where the host is rigid, instead of stretching each vertex towards different particles. A rigid
+// piece (a compact piece at its floor of particles, mesh_graph.c) takes its anchor's weights over its own
+// particles the same way: it moves by one map, and its particles, larger than it, only carry it.
 #include "piece_map.h"
 
 #include "core.h"
@@ -27,11 +29,12 @@ od_Status od_PieceMap_Create(const od_PieceMapDef* def, int particleCount, od_Pi
 		map->pieceSize = od_AllocZero(pieces, sizeof(int));
 		map->host = od_Alloc(sizeof(int) * pieces);
 		map->anchors = od_Alloc(sizeof(double) * 3 * pieces);
+		map->rigid = od_Alloc(sizeof(bool) * pieces);
 		map->points = od_Alloc(sizeof(double) * 3 * (points + 1)); // + 1: never od_Alloc(0)
 		map->pointPiece = od_Alloc(sizeof(int) * (points + 1));
 	}
-	if (!map || !map->particlePiece || !map->pieceSize || !map->host || !map->anchors || !map->points ||
-		!map->pointPiece)
+	if (!map || !map->particlePiece || !map->pieceSize || !map->host || !map->anchors || !map->rigid ||
+		!map->points || !map->pointPiece)
 	{
 		od_PieceMap_Destroy(map);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the pieces of %d mesh vertices", def->pointCount);
@@ -39,6 +42,7 @@ od_Status od_PieceMap_Create(const od_PieceMapDef* def, int particleCount, od_Pi
 	memcpy(map->particlePiece, def->particlePiece, sizeof(int) * (size_t)particleCount);
 	memcpy(map->host, def->host, sizeof(int) * pieces);
 	memcpy(map->anchors, def->anchors, sizeof(double) * 3 * pieces);
+	memcpy(map->rigid, def->rigid, sizeof(bool) * pieces);
 	memcpy(map->points, def->points, sizeof(double) * 3 * points);
 	memcpy(map->pointPiece, def->pointPiece, sizeof(int) * points);
 	od_Status status = od_NearestGrid_Create(&map->grid, map->points, def->pointCount);
@@ -66,6 +70,7 @@ void od_PieceMap_Destroy(od_PieceMap* map)
 	od_Free(map->pieceSize);
 	od_Free(map->host);
 	od_Free(map->anchors);
+	od_Free(map->rigid);
 	od_Free(map->points);
 	od_Free(map->pointPiece);
 	od_Free(map);
@@ -82,5 +87,5 @@ const double* od_PieceMap_Locate(const od_PieceMap* map, const double* p, int* w
 	}
 	*want = map->host[piece];
 	*size = map->pieceSize[*want];
-	return *want == piece ? p : map->anchors + 3 * piece;
+	return *want == piece && !map->rigid[piece] ? p : map->anchors + 3 * piece;
 }

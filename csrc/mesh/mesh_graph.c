@@ -1228,6 +1228,18 @@ static int od_Closest(const double* distance, int n)
 	return best;
 }
 
+// Whether a small group of its own moves as a rigid body: compact or open, with no more than its floor of
+// particles (a button, an eye at a low count: particles about as large as the piece), its vertices share its
+// anchor's weights over its particles (graph/piece_map.c). Skinned each by its nearest, gob's 44 mm buttons
+// at 50 particles (docs/goals.md) stretched 1.72x when the landing moved their four particles apart (their
+// links to the body pulled two ways); rigid, 1.02x, swinging as far (124.2 mm). Linking all four to one body
+// particle instead gave 1.05x too, but Suzanne's eyes at 100 particles left their sockets by 0.2 % of the
+// head's size against 0.04 % (tests/test_loose_parts.py); rigid, 0.04 %.
+static bool od_Rigid(const od_Builder* b, const od_Group* g)
+{
+	return g->small && g->particles > 0 && g->particles <= OD_SMALL_PIECE_PARTICLES && !od_LongShell(b, g);
+}
+
 // Edges from the particles of group g to the nearest particle of group host each: from every particle, or,
 // for a shell along a line (od_BeamShell), from the OD_ROOT_LINKS nearest the host only (its root; ties by
 // index). Linked all along, the dog's hanging ears (docs/goals.md) moved 0.03 mm against the rig's 155 mm:
@@ -1259,8 +1271,9 @@ static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 
 // Each group's host: itself when it has particles; else (attached small groups, and groups left without a
 // particle when there were fewer particles than groups) the large group of the particle nearest its anchor,
-// whose particles then skin it (not a small group's: a cube among 300 rode another cube 1 m away). A small group of its own is linked by edges, from each of its particles
-// to the nearest one of the large group nearest its anchor: on its own it is a free body, which on
+// whose particles then skin it (not a small group's: a cube among 300 rode another cube 1 m away). A small
+// group of its own is linked by edges, from each of its particles to the nearest one of the large group
+// nearest its anchor: on its own it is a free body, which on
 // Suzanne (tests/test_loose_parts.py) kept falling through the head when the head landed: the eyes left
 // their sockets by 39 % and 35 % of the head's size at 100 and 1,000 particles; linked, 0.03 % and 0.8 %.
 static od_Status od_HostGroups(od_Builder* b)
@@ -1297,14 +1310,16 @@ static od_Status od_RecordPieces(od_Builder* b, od_Graph* graph)
 	int used = 0, groups = b->groupCount;
 	int* host = od_Alloc(sizeof(int) * (size_t)groups);
 	double* anchors = od_Alloc(sizeof(double) * 3 * (size_t)groups);
+	bool* rigid = od_Alloc(sizeof(bool) * (size_t)groups);
 	double* points = od_Alloc(sizeof(double) * 3 * (size_t)def->vertexCount);
 	int* pointGroup = od_Alloc(sizeof(int) * (size_t)def->vertexCount);
-	od_Status status = host && anchors && points && pointGroup
+	od_Status status = host && anchors && rigid && points && pointGroup
 						   ? OD_OK
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory for the pieces of %d vertices", def->vertexCount);
 	for (int i = 0; i < groups && status == OD_OK; ++i)
 	{
 		host[i] = b->groups[i].host;
+		rigid[i] = od_Rigid(b, &b->groups[i]);
 		memcpy(anchors + 3 * i, b->groups[i].anchor, sizeof(double) * 3);
 	}
 	for (int v = 0; v < def->vertexCount && status == OD_OK && groups > 1; ++v)
@@ -1318,11 +1333,14 @@ static od_Status od_RecordPieces(od_Builder* b, od_Graph* graph)
 	}
 	if (status == OD_OK)
 	{
-		od_PieceMapDef map = { groups, b->particleGroup, host, anchors, used, points, pointGroup };
+		od_PieceMapDef map = { .pieceCount = groups, .particlePiece = b->particleGroup, .host = host,
+							   .anchors = anchors, .rigid = rigid, .pointCount = used, .points = points,
+							   .pointPiece = pointGroup };
 		status = od_Graph_SetMeshPieces(graph, &map);
 	}
 	od_Free(host);
 	od_Free(anchors);
+	od_Free(rigid);
 	od_Free(points);
 	od_Free(pointGroup);
 	return status;
