@@ -38,6 +38,7 @@ def play(low, high, until):
     """Frames 1 to ``until`` s: {second: (aside, above)} each second from FIRST, whether the upper stayed on top,
     the first error or non-finite vertex (None when none)."""
     figures, on_top = {}, True
+    bpy.context.scene.frame_end = until * H.FPS  # the add-on steps no frame past it
     for f in range(1, until * H.FPS + 1):
         bpy.context.scene.frame_set(f)
         error = low.opdeform.error or high.opdeform.error
