@@ -450,8 +450,8 @@ def _stack_member(obj, on_floor, preset):
 
 
 def suzanne_pair(on_floor, preset=None, levels=2):
-    """Two Suzannes (subdivided ``levels`` times), the lower resting on the panel's Floor (on_floor: its lowest vertex at 0) or on a
-    Collision plane (5 mm above it), the upper 1 m above its head: (lower, upper)."""
+    """Two Suzannes (subdivided ``levels`` times), the lower resting on the panel's Floor (on_floor: its lowest
+    vertex at 0) or on a Collision plane (5 mm above it), the upper 1 m above its head: (lower, upper)."""
     if not on_floor:
         _collision_plane()
     low, high = _suzanne("Low", levels), _suzanne("High", levels)
@@ -505,9 +505,9 @@ def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
 def test_a_jelly_suzanne_dropped_on_another_stays_on_top():
     """The same stack with the Jelly preset, on the panel's Floor, then on a Collision plane: from 3 s to 13 s the
     upper rests on the back of the lower's head (the lower tips over before the landing), within 0.8 m aside of the
-    lower's centre (docs/contact.md, "Stacks", stop 38, jellysuz: 0.75-0.76 m in both hosts; before, it bounced off
-    the members' contact and lay beside the lower, 2.66 / 2.72 m aside at 3 s on the Floor in Blender 3.4.1 / bpy
-    5.2.3)."""
+    lower's centre (docs/contact.md, "Left": 0.40 / 0.39 m at 13 s in Blender 3.4.1 / bpy 5.2.3 at stop 43; "Stacks",
+    stop 38, jellysuz: 0.75-0.76 m in both hosts; before, it bounced off the members' contact and lay beside the
+    lower, 2.66 / 2.72 m aside at 3 s on the Floor in Blender 3.4.1 / bpy 5.2.3)."""
     for on_floor in (True, False):
         for obj in list(bpy.data.objects):
             bpy.data.objects.remove(obj)
