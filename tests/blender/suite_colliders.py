@@ -393,13 +393,23 @@ def test_two_firm_blobs_dropped_onto_each_other_come_to_rest_stacked():
           "overlap_percent", round(100 * max(worst, 0.0) / BLOB, 3))
 
 
-def _suzanne(name):
+def _suzanne(name, levels=2):
+    """Blender's Suzanne with a Subdivision of ``levels`` applied (none at 0)."""
     bpy.ops.mesh.primitive_monkey_add()
     obj = bpy.context.active_object
     obj.name = name
-    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 2
-    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    if levels:
+        obj.modifiers.new("Subdivision", 'SUBSURF').levels = levels
+        bpy.ops.object.modifier_apply(modifier="Subdivision")
     return obj
+
+
+def stack_figures(lower, upper):
+    """How far (m) the upper's centre is above the lower's highest vertex and aside of the lower's centre, from
+    their vertices in world space."""
+    above = float(upper[:, 2].mean() - lower[:, 2].max())
+    aside = float(np.linalg.norm(upper[:, :2].mean(axis=0) - lower[:, :2].mean(axis=0)))
+    return above, aside
 
 
 def _play_stack(low, high, label, widest=None):
@@ -415,9 +425,7 @@ def _play_stack(low, high, label, widest=None):
             if f % H.FPS == H.FPS - 1:
                 before = shown
                 continue
-            lower, upper = shown
-            above = float(upper[:, 2].mean() - lower[:, 2].max())
-            aside = float(np.linalg.norm(upper[:, :2].mean(axis=0) - lower[:, :2].mean(axis=0)))
+            above, aside = stack_figures(*shown)
             speed = max(np.abs(a - b).max() for a, b in zip(shown, before)) * H.FPS
             print("OPDEFORM_RESULT", label, f // H.FPS, "s above_top_m", round(above, 3), "aside_m", round(aside, 3),
                   "speed_m_s", round(speed, 4))
@@ -426,25 +434,54 @@ def _play_stack(low, high, label, widest=None):
             assert speed < 0.05, f"at {f // H.FPS} s a vertex moves at {speed:.3f} m/s"
 
 
+def _collision_plane():
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
+
+
+def _stack_member(obj, on_floor, preset):
+    """The panel's Floor ticked (on_floor) or not, a preset applied (where given), the object enabled."""
+    obj.opdeform.use_floor = on_floor
+    if preset:
+        bpy.ops.opdeform.apply_preset(preset=preset, object=obj.name)
+    bpy.ops.opdeform.enable(object=obj.name)
+    assert obj.opdeform.enabled and not obj.opdeform.error, obj.opdeform.error
+    return obj
+
+
+def suzanne_pair(on_floor, preset=None, levels=2):
+    """Two Suzannes (subdivided ``levels`` times), the lower resting on the panel's Floor (on_floor: its lowest
+    vertex at 0) or on a Collision plane (5 mm above it), the upper 1 m above its head: (lower, upper)."""
+    if not on_floor:
+        _collision_plane()
+    low, high = _suzanne("Low", levels), _suzanne("High", levels)
+    z = np.array([v.co.z for v in low.data.vertices])
+    low.location.z = (0.0 if on_floor else 0.005) - z.min()
+    high.location.z = low.location.z + z.max() + 1.0 - z.min()
+    return tuple(_stack_member(obj, on_floor, preset) for obj in (low, high))
+
+
+def sphere_pair(on_floor, preset, upper=0.5, high=2.0, suffix=""):
+    """Two UV spheres, the lower of radius 0.5 m resting on the panel's Floor (on_floor) or on a Collision plane
+    (5 mm above it), the upper of radius ``upper`` with its centre at ``high``: (lower, upper)."""
+    if not on_floor:
+        _collision_plane()
+    spheres = []
+    for name, z, radius in (("Low", 0.5 if on_floor else 0.505, 0.5), ("High", high, upper)):
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=radius, location=(0.0, 0.0, z))
+        obj = bpy.context.active_object
+        obj.name = name + suffix
+        spheres.append(_stack_member(obj, on_floor, preset))
+    return tuple(spheres)
+
+
 def _suzanne_stack(on_floor, preset=None, widest=None):
     """Two subdivided Suzannes at the panel's defaults (a preset applied, where given), the lower resting on the
     panel's Floor (on_floor: its lowest vertex at 0) or on a Collision plane (5 mm above it, the plane's Thickness
     Outer in the engine's tests), the upper dropped 1 m onto its head; from 3 s to 13 s the upper's centre stays
     above the lower's highest vertex (fallen off, it lies 0.8 m below it) and within ``widest`` m aside of the
     lower's centre (where given), every vertex at rest."""
-    if not on_floor:
-        bpy.ops.mesh.primitive_plane_add(size=20.0)
-        bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
-    low, high = _suzanne("Low"), _suzanne("High")
-    z = np.array([v.co.z for v in low.data.vertices])
-    low.location.z = (0.0 if on_floor else 0.005) - z.min()
-    high.location.z = low.location.z + z.max() + 1.0 - z.min()
-    for obj in (low, high):
-        obj.opdeform.use_floor = on_floor
-        if preset:
-            bpy.ops.opdeform.apply_preset(preset=preset, object=obj.name)
-        bpy.ops.opdeform.enable(object=obj.name)
-        assert obj.opdeform.enabled and not obj.opdeform.error, obj.opdeform.error
+    low, high = suzanne_pair(on_floor, preset)
     label = " ".join(["suzanne_stack", "floor" if on_floor else "plane"] + ([preset] if preset else []))
     _play_stack(low, high, label, widest)
 
@@ -468,9 +505,9 @@ def test_a_suzanne_dropped_on_another_on_the_floor_stays_on_top():
 def test_a_jelly_suzanne_dropped_on_another_stays_on_top():
     """The same stack with the Jelly preset, on the panel's Floor, then on a Collision plane: from 3 s to 13 s the
     upper rests on the back of the lower's head (the lower tips over before the landing), within 0.8 m aside of the
-    lower's centre (docs/contact.md, "Stacks", stop 38, jellysuz: 0.75-0.76 m in both hosts; before, it bounced off
-    the members' contact and lay beside the lower, 2.66 / 2.72 m aside at 3 s on the Floor in Blender 3.4.1 / bpy
-    5.2.3)."""
+    lower's centre (docs/contact.md, "Left": 0.40 / 0.39 m at 13 s in Blender 3.4.1 / bpy 5.2.3 at stop 43; "Stacks",
+    stop 38, jellysuz: 0.75-0.76 m in both hosts; before, it bounced off the members' contact and lay beside the
+    lower, 2.66 / 2.72 m aside at 3 s on the Floor in Blender 3.4.1 / bpy 5.2.3)."""
     for on_floor in (True, False):
         for obj in list(bpy.data.objects):
             bpy.data.objects.remove(obj)
@@ -507,19 +544,7 @@ def _sphere_stacks(on_floor, upper=0.5, high=2.0, widest=0.2):
     for preset in ("Jelly", "Flesh"):
         for obj in list(bpy.data.objects):
             bpy.data.objects.remove(obj)
-        if not on_floor:
-            bpy.ops.mesh.primitive_plane_add(size=20.0)
-            bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
-        spheres = []
-        for name, z, radius in (("Low", 0.5 if on_floor else 0.505, 0.5), ("High", high, upper)):
-            bpy.ops.mesh.primitive_uv_sphere_add(radius=radius, location=(0.0, 0.0, z))
-            obj = bpy.context.active_object
-            obj.name = name + preset
-            obj.opdeform.use_floor = on_floor
-            bpy.ops.opdeform.apply_preset(preset=preset, object=obj.name)
-            bpy.ops.opdeform.enable(object=obj.name)
-            assert obj.opdeform.enabled and not obj.opdeform.error, obj.opdeform.error
-            spheres.append(obj)
+        spheres = sphere_pair(on_floor, preset, upper, high, suffix=preset)
         _play_stack(*spheres, f"sphere_stack {upper:g} " + ("floor " if on_floor else "plane ") + preset, widest=widest)
 
 
