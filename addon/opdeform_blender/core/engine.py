@@ -431,41 +431,46 @@ class Engine:
 
     def _particle_values(self, vertex_values):
         """Per-vertex values (a painted map) as per-particle values: each particle's goal-fit mean
-        (``GoalFit.particle_values``) over the vertices of its own mesh piece (``_own_vertices``)."""
+        (``GoalFit.particle_values``), over the vertices of its own mesh piece where the fit's reach another
+        (``_own_vertices``)."""
         values = np.asarray(vertex_values, dtype=np.float64)
         if values.shape != (self.n_vertices,):
             raise EngineError(f"a map must have one value per vertex ({self.n_vertices}), got shape {values.shape}")
         if self._own_weights is None:
             self._own_weights = self._own_vertices()
-        particle, vertex, weight = self._own_weights
-        return np.bincount(particle, weights=weight * values[vertex], minlength=self.graph.n_particles)
+        out = self.fit.particle_values(values)
+        crossing, particle, vertex, weight = self._own_weights
+        out[crossing] = np.bincount(particle, weights=weight * values[vertex], minlength=len(out))[crossing]
+        return out
 
     def _own_vertices(self):
-        """(particle, vertex, weight) triplets of ``_particle_values``, each particle's weights summing to 1: its
-        goal-fit weights on the vertices of its own piece (a vertex's piece: its nearest skinning particle's),
-        or, where none of those is of its piece, inverse-distance weights on its piece's nearest vertices
-        (``_nearest_own``). The goal fit's nearest vertices cross pieces: the kid's backpack (an 8-vertex box
-        against the body's back, docs/goals.md) had 6 of its 8 particles at 100 particles and 49 of its 97 at
-        1,000 take 0-2 % of their weight from its own vertices, painted 0.5, and the rest from the body's,
-        painted 1: they followed the chest locked."""
+        """(the particles whose goal-fit vertices reach another mesh piece; (particle, vertex, weight) triplets
+        for them, each one's weights summing to 1): its goal-fit weights on the vertices of its own piece (a
+        vertex's piece: its nearest skinning particle's), or, where none is of its piece, inverse-distance
+        weights on its piece's nearest vertices (``_nearest_own``). The kid's backpack (an 8-vertex box against
+        the body's back, docs/goals.md) had 6 of its 8 particles at 100 particles and 49 of its 97 at 1,000 take
+        0-2 % of their weight from its own vertices, painted 0.5, and the rest from the body's, painted 1: they
+        followed the chest locked."""
         n = self.graph.n_particles
-        index, weights = self.fit.indices, self.fit.weights
-        rows = np.repeat(np.arange(n), index.shape[1])
+        none = np.zeros(0, np.int64)
         count, piece, _ = self.pieces()
         if count < 2:
-            return rows, index.ravel(), weights.ravel()
+            return none, none, none, np.zeros(0)
+        index, weights = self.fit.indices, self.fit.weights
         vertex_piece = piece[self.skin.indices[:, 0]]
-        own = (weights * (vertex_piece[index] == piece[:, None])).ravel()
-        found = np.bincount(rows, weights=own, minlength=n) > 0.0
-        keep = found[rows]
-        near = self._nearest_own(np.flatnonzero(~found), vertex_piece, index.shape[1])
-        particle, vertex, weight = (np.concatenate([a[keep], b]) for a, b in zip((rows, index.ravel(), own), near))
-        return particle, vertex, weight / np.bincount(particle, weights=weight, minlength=n)[particle]
+        own = weights * (vertex_piece[index] == piece[:, None])
+        share = own.sum(axis=1)
+        crossing = np.flatnonzero(share < weights.sum(axis=1))
+        found = crossing[share[crossing] > 0.0]
+        near = self._nearest_own(crossing[share[crossing] == 0.0], vertex_piece, index.shape[1])
+        particle, vertex, weight = (np.concatenate([a, b]) for a, b in zip(
+            (np.repeat(found, index.shape[1]), index[found].ravel(), own[found].ravel()), near))
+        return crossing, particle, vertex, weight / np.bincount(particle, weights=weight, minlength=n)[particle]
 
     def _nearest_own(self, lacking, vertex_piece, k):
         """(particle, vertex, weight) of the particles ``lacking``: each one's k nearest rest vertices of its own
         piece, weighted by the inverse of their distance."""
-        count, piece, _ = self.pieces()
+        piece = self.pieces()[1]
         found = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)]
         centres, reach = self.graph.centers, 1e-9 * (np.ptp(self.rest, axis=0).max() + 1e-30)
         for p in np.unique(piece[lacking]):
