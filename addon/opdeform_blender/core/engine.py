@@ -448,7 +448,7 @@ class Engine:
         for them, each one's weights summing to 1): its goal-fit weights on the vertices of its own piece (a
         vertex's piece: its nearest skinning particle's), or, where none is of its piece, inverse-distance
         weights on its piece's nearest vertices (``_nearest_own``). The kid's backpack (an 8-vertex box against
-        the body's back, docs/goals.md) had 6 of its 8 particles at 100 particles and 49 of its 97 at 1,000 take
+        the body's back, docs/goals.md) had 6 of its 8 particles at 100 particles and 62 of its 97 at 1,000 take
         0-2 % of their weight from its own vertices, painted 0.5, and the rest from the body's, painted 1: they
         followed the chest locked."""
         n = self.graph.n_particles
