@@ -284,12 +284,13 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
 
 
 def _sheets_floored(graph: Graph, label: Ints, sheets: Arr, ratio: Arr) -> Arr:
-    """``ratio`` (k / E per particle) with each open sheet but the body (``sheets``: the mesh pieces with a
-    boundary; the body the piece with most particles) at most the body's k (its particles' volume-weighted
-    geometric mean) / _SOFTEST, the floor of a thin appendage's fit. A sheet has no thickness: its continuum
-    bends as a part thinner than any the fit holds. Calibrated as a body of its own, the kid's skirt (a cone
-    of cloth held at its waistband, docs/goals.md) was a tube of the particles' 54 mm thickness at 0.7x the
-    body's k, and its hem, painted Follow 0.1, swung 1.2 mm in a 180-degree spin and a jump."""
+    """``ratio`` (k / E per particle) with each open sheet but the body at most the body's k (its particles'
+    volume-weighted geometric mean) / _SOFTEST, the floor of a thin appendage's fit (``sheets``: per piece of
+    ``label``, the graph's connected pieces, whether its part of the mesh is open; the body: the piece with most
+    particles). A sheet has no thickness: its continuum bends as a part thinner than any the fit holds.
+    Calibrated as a body of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was
+    a tube of the particles' 54 mm thickness at 0.7x the body's k, and its hem, painted Follow 0.1, swung 1.2 mm
+    in a 180-degree spin and a jump."""
     size = np.bincount(label, minlength=len(sheets))
     body = label == np.argmax(size)
     v = graph.volumes

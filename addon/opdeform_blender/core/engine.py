@@ -237,7 +237,7 @@ class Engine:
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
         self._pieces = None  # pieces()'s answer, found once: the graph never changes
-        self._own_weights = None  # _particle_values' (vertex indices, weights) per particle, found once
+        self._own_weights = None  # _own_vertices' answer, found once
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
@@ -444,7 +444,7 @@ class Engine:
         return out
 
     def _own_vertices(self):
-        """(the particles whose goal-fit vertices reach another mesh piece; (particle, vertex, weight) triplets
+        """(the particles whose goal-fit vertices reach another mesh piece, (particle, vertex, weight) triplets
         for them, each one's weights summing to 1): its goal-fit weights on the vertices of its own piece (a
         vertex's piece: its nearest skinning particle's), or, where none is of its piece, inverse-distance
         weights on its piece's nearest vertices (``_nearest_own``). The kid's backpack (an 8-vertex box against
@@ -465,7 +465,8 @@ class Engine:
         near = self._nearest_own(crossing[share[crossing] == 0.0], vertex_piece, index.shape[1])
         particle, vertex, weight = (np.concatenate([a, b]) for a, b in zip(
             (np.repeat(found, index.shape[1]), index[found].ravel(), own[found].ravel()), near))
-        return crossing, particle, vertex, weight / np.bincount(particle, weights=weight, minlength=n)[particle]
+        total = np.bincount(particle, weights=weight, minlength=n)
+        return np.unique(particle), particle, vertex, weight / total[particle]
 
     def _nearest_own(self, lacking, vertex_piece, k):
         """(particle, vertex, weight) of the particles ``lacking``: each one's k nearest rest vertices of its own
@@ -475,6 +476,8 @@ class Engine:
         centres, reach = self.graph.centers, 1e-9 * (np.ptp(self.rest, axis=0).max() + 1e-30)
         for p in np.unique(piece[lacking]):
             mine, chosen = np.flatnonzero(vertex_piece == p), lacking[piece[lacking] == p]
+            if len(mine) == 0:  # none to take: the fit's values stay
+                continue
             d = np.linalg.norm(centres[chosen, None] - self.rest[None, mine], axis=2)
             nearest = np.argsort(d, axis=1)[:, :k]
             found = [np.concatenate(x) for x in zip(found, (np.repeat(chosen, nearest.shape[1]), mine[nearest].ravel(),
