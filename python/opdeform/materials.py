@@ -226,8 +226,13 @@ def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
     size = np.bincount(label[label >= 0], minlength=count)
     for p in np.unique(np.where(size[a] < size[b], a, b)[a != b]):
         chosen = label == p
-        ratio[chosen] = np.exp((v[chosen] * np.log(ratio[chosen])).sum() / v[chosen].sum())
+        ratio[chosen] = _volume_geometric_mean(v[chosen], ratio[chosen])
     return ratio
+
+
+def _volume_geometric_mean(volumes: Arr, ratio: Arr) -> float:
+    """The volume-weighted geometric mean of per-particle ratios (k / E): one value for a group of particles."""
+    return float(np.exp((volumes * np.log(ratio)).sum() / volumes.sum()))
 
 
 def _body_ratio(graph: Graph, centre: Arr, frame: Arr, moments: Arr, second: Arr, points: Arr | None) -> Ratio | None:
@@ -294,7 +299,7 @@ def _sheets_floored(graph: Graph, label: Ints, sheets: Arr, ratio: Arr) -> Arr:
     size = np.bincount(label, minlength=len(sheets))
     body = label == np.argmax(size)
     v = graph.volumes
-    floor = np.exp((v[body] * np.log(ratio[body])).sum() / v[body].sum()) / _SOFTEST
+    floor = _volume_geometric_mean(v[body], ratio[body]) / _SOFTEST
     thin = sheets[label] & ~body
     ratio[thin] = np.minimum(ratio[thin], floor)
     return ratio

@@ -462,16 +462,16 @@ class Engine:
         share = own.sum(axis=1)
         crossing = np.flatnonzero(share < weights.sum(axis=1))
         found = crossing[share[crossing] > 0.0]
-        near = self._nearest_own(crossing[share[crossing] == 0.0], vertex_piece, index.shape[1])
+        near = self._nearest_own(crossing[share[crossing] == 0.0], piece, vertex_piece, index.shape[1])
         particle, vertex, weight = (np.concatenate([a, b]) for a, b in zip(
             (np.repeat(found, index.shape[1]), index[found].ravel(), own[found].ravel()), near))
         total = np.bincount(particle, weights=weight, minlength=n)
         return np.unique(particle), particle, vertex, weight / total[particle]
 
-    def _nearest_own(self, lacking, vertex_piece, k):
+    def _nearest_own(self, lacking, piece, vertex_piece, k):
         """(particle, vertex, weight) of the particles ``lacking``: each one's k nearest rest vertices of its own
-        piece, weighted by the inverse of their distance."""
-        piece = self.pieces()[1]
+        piece (``piece``: each particle's, ``vertex_piece``: each vertex's), weighted by the inverse of their
+        distance."""
         found = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)]
         centres, reach = self.graph.centers, 1e-9 * (np.ptp(self.rest, axis=0).max() + 1e-30)
         for p in np.unique(piece[lacking]):
