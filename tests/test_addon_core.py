@@ -359,9 +359,9 @@ def test_a_detached_shells_follow_is_mapped_above_the_shell_minimum():
 @pytest.mark.parametrize("particles", [50, 100, 400])
 def test_a_painted_value_stays_on_its_own_piece(particles):
     """A low-poly detached box (8 vertices, a backpack) 25 mm over a dense body: painted 0.5 on the box and 1 on
-    the body, every particle of the box follows 0.5. The goal fit's 16 nearest vertices of a box particle are
-    mostly the body's: before, the box's particles took 0.64-1.0 (the kid's backpack, painted 0.5, followed its
-    chest locked and moved 0.04 mm: docs/goals.md)."""
+    the body, every particle of the box follows 0.5. A particle's value is its goal fit's mean over its 16 nearest
+    vertices of its own piece; of any piece, mostly the body's, the box's particles took 0.64-1.0 (the kid's
+    backpack, painted 0.5, followed its chest locked and moved 0.04 mm: docs/goals.md)."""
     from opdeform import meshes
     body, box = meshes.capsule(radius=0.2, length=0.6), meshes.bar(length=0.24, width=0.1, segments=1, cross=1)
     v = np.vstack([body[0], box[0] + (-0.12, 0.0, 0.225 - box[0][:, 2].min())])

@@ -331,3 +331,29 @@ def test_a_sheet_held_at_one_edge_swings_at_the_other_in_a_turn(particles):
     worst, ratio = spun_hem(particles)
     assert ratio == pytest.approx(1.0 / 20.0, rel=0.5), ratio
     assert worst > 5e-3, f"the hem lagged {1e3 * worst:.2f} mm"
+
+
+@pytest.mark.parametrize("particles", [50, 300])
+def test_a_shells_goal_frames_follow_its_own_vertices(particles):
+    """A low-poly box (8 vertices, a backpack) 25 mm over a dense body, turned 20 degrees about its own centre
+    while the body stays: every goal frame of the box's particles is that turn, every body particle's the
+    identity. The goal fit takes each particle's 16 nearest rest vertices of its own piece (mesh/goal_fit.c);
+    before, they were the nearest of any piece: the box's particles, mostly fitted to the body's vertices, turned
+    0-2 degrees (the kid's backpack followed its chest: docs/goals.md)."""
+    body, box = meshes.capsule(radius=0.2, length=0.6), meshes.bar(length=0.24, width=0.1, segments=1, cross=1)
+    v = np.vstack([body[0], box[0] + (-0.12, 0.0, 0.225 - box[0][:, 2].min())])
+    t = np.vstack([body[1], box[1] + len(body[0])])
+    g = opdeform.Graph.from_mesh(v, t, particles=particles, small_pieces="own")
+    count, piece = mesh.mesh_pieces(g)
+    on_box = piece == piece[np.argmax(g.centers[:, 2])]
+    assert count == 2 and 4 <= on_box.sum() < particles // 2
+    a = np.radians(20.0)
+    turn = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    animated, middle = v.copy(), v[len(body[0]):].mean(axis=0)
+    animated[len(body[0]):] = (v[len(body[0]):] - middle) @ turn.T + middle
+    fit = opdeform.GoalFit(g, v)
+    positions, rotations = fit.fit(animated)
+    assert np.all((fit.indices >= len(body[0])) == on_box[:, None])
+    np.testing.assert_allclose(rotations[on_box], np.broadcast_to(turn, (on_box.sum(), 3, 3)), atol=1e-9)
+    np.testing.assert_allclose(positions[on_box], (g.centers[on_box] - middle) @ turn.T + middle, atol=1e-9)
+    np.testing.assert_allclose(rotations[~on_box], np.broadcast_to(np.eye(3), ((~on_box).sum(), 3, 3)), atol=1e-9)

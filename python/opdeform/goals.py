@@ -38,7 +38,8 @@ def goal_frequency(strength: ArrayLike) -> Floats:
 
 class GoalFit(FromArguments):
     """Goal frames of a graph's particles fitted to an animated mesh: per particle, the rigid motion that best
-    carries its ``neighbors`` nearest rest vertices (Sumner-weighted) onto their animated positions."""
+    carries its ``neighbors`` nearest rest vertices (Sumner-weighted) onto their animated positions; for a graph
+    built from a mesh, the nearest of those it skins (its own mesh piece's and those of the pieces it carries)."""
 
     def __init__(self, graph: Graph, rest_vertices: ArrayLike, neighbors: int = 16) -> None:
         if not isinstance(graph, Graph):

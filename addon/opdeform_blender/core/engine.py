@@ -237,7 +237,6 @@ class Engine:
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
         self._pieces = None  # pieces()'s answer, found once: the graph never changes
-        self._own_weights = None  # _own_vertices' answer, found once
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
@@ -431,58 +430,11 @@ class Engine:
 
     def _particle_values(self, vertex_values):
         """Per-vertex values (a painted map) as per-particle values: each particle's goal-fit mean
-        (``GoalFit.particle_values``), over the vertices of its own mesh piece where the fit's reach another
-        (``_own_vertices``)."""
+        (``GoalFit.particle_values``, over the vertices of its own mesh piece)."""
         values = np.asarray(vertex_values, dtype=np.float64)
         if values.shape != (self.n_vertices,):
             raise EngineError(f"a map must have one value per vertex ({self.n_vertices}), got shape {values.shape}")
-        if self._own_weights is None:
-            self._own_weights = self._own_vertices()
-        out = self.fit.particle_values(values)
-        crossing, particle, vertex, weight = self._own_weights
-        out[crossing] = np.bincount(particle, weights=weight * values[vertex], minlength=len(out))[crossing]
-        return out
-
-    def _own_vertices(self):
-        """(the particles whose goal-fit vertices reach another mesh piece, (particle, vertex, weight) triplets
-        for them, each one's weights summing to 1): its goal-fit weights on the vertices of its own piece (a
-        vertex's piece: its nearest skinning particle's), or, where none is of its piece, inverse-distance
-        weights on its piece's nearest vertices (``_nearest_own``). The kid's backpack (an 8-vertex box against
-        the body's back, docs/goals.md) had 6 of its 8 particles at 100 particles and 62 of its 97 at 1,000 take
-        0-2 % of their weight from its own vertices, painted 0.5, and the rest from the body's, painted 1: they
-        followed the chest locked."""
-        n = self.graph.n_particles
-        none = np.zeros(0, np.int64)
-        count, piece, _ = self.pieces()
-        if count < 2:
-            return none, none, none, np.zeros(0)
-        index, weights = self.fit.indices, self.fit.weights
-        vertex_piece = piece[self.skin.indices[:, 0]]
-        own = weights * (vertex_piece[index] == piece[:, None])
-        share = own.sum(axis=1)
-        crossing = np.flatnonzero(share < weights.sum(axis=1))
-        found = crossing[share[crossing] > 0.0]
-        near = self._nearest_own(crossing[share[crossing] == 0.0], piece, vertex_piece, index.shape[1])
-        particle, vertex, weight = (np.concatenate([a, b]) for a, b in zip(
-            (np.repeat(found, index.shape[1]), index[found].ravel(), own[found].ravel()), near))
-        total = np.bincount(particle, weights=weight, minlength=n)
-        return np.unique(particle), particle, vertex, weight / total[particle]
-
-    def _nearest_own(self, lacking, piece, vertex_piece, k):
-        """(particle, vertex, weight) of the particles ``lacking``: each one's k nearest rest vertices of its own
-        piece (``piece``: each particle's, ``vertex_piece``: each vertex's), weighted by the inverse of their
-        distance."""
-        found = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)]
-        centres, reach = self.graph.centers, 1e-9 * (np.ptp(self.rest, axis=0).max() + 1e-30)
-        for p in np.unique(piece[lacking]):
-            mine, chosen = np.flatnonzero(vertex_piece == p), lacking[piece[lacking] == p]
-            if len(mine) == 0:  # none to take: the fit's values stay
-                continue
-            d = np.linalg.norm(centres[chosen, None] - self.rest[None, mine], axis=2)
-            nearest = np.argsort(d, axis=1)[:, :k]
-            found = [np.concatenate(x) for x in zip(found, (np.repeat(chosen, nearest.shape[1]), mine[nearest].ravel(),
-                                                            1.0 / (np.take_along_axis(d, nearest, 1).ravel() + reach)))]
-        return found
+        return self.fit.particle_values(values)
 
     def pieces(self):
         """(the number of mesh pieces, each particle's piece, the body: the piece with most particles), pieces
