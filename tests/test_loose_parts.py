@@ -301,8 +301,8 @@ def spun_hem(particles):
     g = opdeform.Graph.from_mesh(v, t, particles=particles, small_pieces="own")
     count, label = g.pieces()
     sheet = label != np.argmax(np.bincount(label))
-    dt = 1.0 / 240.0
-    sim = opdeform.Simulation(g, opdeform.materials.stiffness_for(g, 3e6), density=1050.0, dt=dt, gravity=(0.0, 0.0, 0.0),
+    dt, k = 1.0 / 240.0, opdeform.materials.stiffness_for(g, 3e6)
+    sim = opdeform.Simulation(g, k, density=1050.0, dt=dt, gravity=(0.0, 0.0, 0.0),
                               damping=opdeform.materials.step_damping(9.0, dt))
     fit = opdeform.GoalFit(g, v)
     sim.set_goal_strength(np.clip(fit.particle_values(follow), 0.0, 1.0))
