@@ -332,7 +332,8 @@ def _hanging_ratio(sheet: Graph, mesh: tuple[Arr, Arr], body: Arr) -> float:
 
 def _nearest_loop(vertices: Arr, triangles: Arr, body: Arr) -> Ints | None:
     """The vertices of the mesh's boundary loop (edges in one triangle, joined) nearest ``body`` (points; the
-    loop's mean distance to the nearest of them), or None without a boundary."""
+    mean distance to the nearest of them of at most about _LOOP_POINTS of the loop's vertices, evenly), or None
+    without a boundary."""
     e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
     edges, uses = np.unique(e, axis=0, return_counts=True)
     edges = edges[uses == 1]
@@ -348,8 +349,8 @@ def _nearest_loop(vertices: Arr, triangles: Arr, body: Arr) -> Ints | None:
             break
         loop = moved[moved]
     ends = np.unique(edges)
-    gap = np.array([np.sqrt(((body[None] - vertices[p, None]) ** 2).sum(axis=2)).min(axis=1).mean()
-                    for p in (ends[loop[ends] == k] for k in np.unique(loop[ends]))])
+    gap = np.array([np.sqrt(((body[None] - vertices[p[::max(1, len(p) // _LOOP_POINTS)], None]) ** 2).sum(axis=2))
+                    .min(axis=1).mean() for p in (ends[loop[ends] == k] for k in np.unique(loop[ends]))])
     return ends[loop[ends] == np.unique(loop[ends])[np.argmin(gap)]]
 
 
@@ -783,6 +784,7 @@ _SOFTEST = 20.0
 # (docs/goals.md) at the defaults, 50 / 100 / 400 / 1,000 particles: 10 hem 40.7 / 39.0 / 40.1 / 28.0 mm, edges
 # up to 1.42x (Floppy 100 1.57x); 8 the hem at 1,000 particles under 25 mm; 13 Floppy 100 1.76x; 20 1.51x.
 _SHEET_SOFTEST = 10.0
+_LOOP_POINTS = 256  # of a sheet's boundary loop, to tell how near the body it is
 _RINGS = 3  # rings of particles round an appendage in the graph that fits its k: its root, one more, one held
 _CORE_CELLS = 1000  # at most this many of the core's grid cells, evenly by index, to hold appendages at
 _LEVEL_ROUNDS = 2  # of a straight beam's tip levelling
