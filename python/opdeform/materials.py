@@ -252,7 +252,7 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
     piece the end faces missed had no constraint and the static solve raised (issue 24: two boxes joined into
     one object); and two parallel bars drooped half as much as one. A piece with no edge has no elastic term:
     it takes the pieces' mean k (by volume); one with no bending edge the uniform-strain k. A piece that is an
-    open sheet (_sheets_floored) is as soft as the floor of a thin part of the body."""
+    open sheet but the body is as soft as a membrane hung from its edge nearest the body (_sheets_floored)."""
     count, label = graph.pieces()
     if mesh is None and graph._made[0] == "from_mesh":
         mesh = graph._made[1][:2]
@@ -264,7 +264,8 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
         owner = label[[graph.skin_weights(p, 1)[0][0] for p in vertices]]
     c, r, a, e = graph.centers, graph.radii, graph.axes, graph.edges
     ratio = np.full(graph.n_particles, np.nan)
-    sheets = np.zeros(count, dtype=bool)
+    sheets = np.full(count, np.nan)  # per piece: an open sheet's hanging k / E (_hanging_ratio), else nan
+    body = np.argmax(np.bincount(label, minlength=count))
     for piece in range(count):
         chosen = np.flatnonzero(label == piece)
         index = np.full(graph.n_particles, -1)
@@ -280,29 +281,77 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
             number[mine] = np.arange(len(mine))
             faces = number[triangles[(owner[triangles] == piece).all(axis=1)]]
             own = (vertices[mine], faces) if len(faces) else None
-            sheets[piece] = own is not None and _closed_mesh_moments(*own) is None
+            if own is not None and piece != body and _closed_mesh_moments(*own) is None:
+                sheets[piece] = _hanging_ratio(part, own, c[label == body])
         found = _calibrated_ratio(part, own, calibration)
         ratio[chosen] = _uniform_stiffness(part, 1.0) if found is None else found
     v, known = graph.volumes, np.isfinite(ratio)
     ratio[~known] = (v * ratio)[known].sum() / v[known].sum()
-    return _sheets_floored(graph, label, sheets, ratio)
+    return _sheets_floored(label, sheets, ratio)
 
 
-def _sheets_floored(graph: Graph, label: Ints, sheets: Arr, ratio: Arr) -> Arr:
-    """``ratio`` (k / E per particle) with each open sheet but the body at most the body's k (its particles'
-    volume-weighted geometric mean) / _SOFTEST, the floor of a thin appendage's fit (``sheets``: per piece of
-    ``label``, the graph's connected pieces, whether its part of the mesh is open; the body: the piece with most
-    particles). A sheet has no thickness: its continuum bends as a part thinner than any the fit holds.
-    Calibrated as a body of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was
-    a tube of the particles' 54 mm thickness at 0.7x the body's k, and its hem, painted Follow 0.1, swung 1.2 mm
-    in a 180-degree spin and a jump."""
-    size = np.bincount(label, minlength=len(sheets))
-    body = label == np.argmax(size)
-    v = graph.volumes
-    floor = _volume_geometric_mean(v[body], ratio[body]) / _SOFTEST
-    thin = sheets[label] & ~body
-    ratio[thin] = np.minimum(ratio[thin], floor)
+def _sheets_floored(label: Ints, sheets: Arr, ratio: Arr) -> Arr:
+    """``ratio`` (k / E per particle) with each open sheet but the body (``sheets``: per piece of ``label``, the
+    graph's connected pieces, its _hanging_ratio, nan for any other piece) at most that ratio / _SHEET_SOFTEST:
+    a membrane of the body's modulus / _SHEET_SOFTEST, whatever rows its particles fall in. Calibrated as a body
+    of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was a tube of the
+    particles' 54 mm thickness at 0.7x the body's k, and its hem, painted Follow 0.1, swung 1.2 mm in a
+    180-degree spin and a jump; at the body's k / _SOFTEST (stop 43) 14.6-45.9 mm over 50-1,000 particles:
+    one k gives a sheet's 2 rows at 100 particles and its 9 at 1,000 stiffnesses 11x apart (held at its
+    waistband and loaded along it)."""
+    thin = np.isfinite(sheets)[label]
+    ratio[thin] = np.minimum(ratio[thin], sheets[label[thin]] / _SHEET_SOFTEST)
     return ratio
+
+
+def _hanging_ratio(sheet: Graph, mesh: tuple[Arr, Arr], body: Arr) -> float:
+    """k / E of an open sheet (its graph and its part of the mesh) that hangs as a membrane of modulus E does:
+    held at its boundary loop nearest the ``body`` (its particles' centres) and loaded along the way from there
+    to its centroid, at k = 1 its particles' displacements u weighted by v s^2 (s: how far each is that way, the
+    parts that swing most), 9 / 20 L^2 of a continuum strip's of length L held at one end (u(s) = rho a (L s -
+    s^2 / 2) / E; L the sheet's reach that way). nan where it has no boundary. Weighted by v alone, the kid's
+    skirt (docs/goals.md) swung 1.53x apart over 50-1,000 particles in a spin, 1.46x so."""
+    vertices, triangles = mesh
+    held = _nearest_loop(vertices, triangles, body)
+    if held is None:
+        return math.nan
+    top = vertices[held].mean(axis=0)
+    way = vertices.mean(axis=0) - top
+    if not np.linalg.norm(way) > 0.0:
+        return math.nan
+    way /= np.linalg.norm(way)
+    sim = Simulation(sheet, 1.0, density=1.0, gravity=way)
+    for p in vertices[held]:
+        sim.add_position_constraint(p)
+    sim.set_solver("chebyshev")
+    sim.solve_static(_ITERATIONS[0])
+    w = sheet.volumes * ((sheet.centers - top) @ way) ** 2
+    reach = float(((vertices - top) @ way).max())
+    return 20.0 / 9.0 * float((w * ((sim.positions - sheet.centers) @ way)).sum() / w.sum()) / reach ** 2
+
+
+def _nearest_loop(vertices: Arr, triangles: Arr, body: Arr) -> Ints | None:
+    """The vertices of the mesh's boundary loop (edges in one triangle, joined) nearest ``body`` (points; the
+    mean distance to the nearest of them of at most about _LOOP_POINTS of the loop's vertices, evenly), or None
+    without a boundary."""
+    e = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    edges, uses = np.unique(e, axis=0, return_counts=True)
+    edges = edges[uses == 1]
+    if len(edges) == 0 or len(body) == 0:
+        return None
+    loop = np.arange(len(vertices))
+    while True:  # each boundary vertex takes the least index joined to it
+        low = np.minimum(loop[edges[:, 0]], loop[edges[:, 1]])
+        moved = loop.copy()
+        np.minimum.at(moved, edges[:, 0], low)
+        np.minimum.at(moved, edges[:, 1], low)
+        if np.array_equal(moved, loop):
+            break
+        loop = moved[moved]
+    ends = np.unique(edges)
+    gap = np.array([np.sqrt(((body[None] - vertices[p[::max(1, len(p) // _LOOP_POINTS)], None]) ** 2).sum(axis=2))
+                    .min(axis=1).mean() for p in (ends[loop[ends] == k] for k in np.unique(loop[ends]))])
+    return ends[loop[ends] == np.unique(loop[ends])[np.argmin(gap)]]
 
 
 def _compliant_ratio(graph: Graph, centre: Arr, frame: Arr, moments: Arr, second: Arr) -> float | None:
@@ -731,6 +780,11 @@ _FIT_ROUNDS = 3  # solves of an appendage's k after the first
 # at 1/20 1.40x and 1.27x, and the ears' swing at 100 and 1,000 particles 1.18x apart instead of 1.49x
 # (docs/goals.md, "Edges that stretch").
 _SOFTEST = 20.0
+# An open sheet of its own (_sheets_floored) hangs as a membrane of the body's modulus / this. The kid's skirt
+# (docs/goals.md) at the defaults, 50 / 100 / 400 / 1,000 particles: 10 hem 40.7 / 39.0 / 40.1 / 28.0 mm, edges
+# up to 1.42x (Floppy 100 1.57x); 8 the hem at 1,000 particles under 25 mm; 13 Floppy 100 1.76x; 20 1.51x.
+_SHEET_SOFTEST = 10.0
+_LOOP_POINTS = 256  # of a sheet's boundary loop, to tell how near the body it is
 _RINGS = 3  # rings of particles round an appendage in the graph that fits its k: its root, one more, one held
 _CORE_CELLS = 1000  # at most this many of the core's grid cells, evenly by index, to hold appendages at
 _LEVEL_ROUNDS = 2  # of a straight beam's tip levelling
