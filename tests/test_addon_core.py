@@ -405,8 +405,11 @@ def test_original_input_behind_later_modifiers():
     assert original_input(same, np.arange(4), 4) is same and original_input(same, None, 4) is same
     behind = np.r_[np.arange(4), [0, 1, 1, 2, 3, 3]]  # the new vertices carry interpolated indices
     np.testing.assert_array_equal(original_input(p, behind, 4), p[:4])
-    with pytest.raises(EngineError, match="before OPDeform"):
+    with pytest.raises(EngineError, match=r"a modifier before OPDeform \(e.g. Subdivision or Mirror\) changes"):
         original_input(p, np.arange(10), 4)
+    with pytest.raises(EngineError, match=r"one of the modifiers before OPDeform \(Mirror, Bevel\) changes the "
+                                          r"vertex count \(10 vertices reach OPDeform where the mesh has 4\)"):
+        original_input(p, np.arange(10), 4, ["Mirror", "Bevel"])
     for index in (None, np.r_[3, 2, 1, 0, np.arange(6)]):
         with pytest.raises(EngineError, match="after OPDeform"):
             original_input(p, index, 4)

@@ -276,6 +276,7 @@ def test_mesh_changes_between_frames_rebuild_or_report():
         _subdivision_before_opdeform(obj)
         _frames(range(6, 8))
         assert "vertex count" in obj.opdeform.error and "Bar" in obj.opdeform.error, obj.opdeform.error
+        assert "before OPDeform (Subdivision)" in obj.opdeform.error, obj.opdeform.error  # the modifier named
         np.testing.assert_array_equal(H.runtime().get(obj).engine.offset, shown)  # the last good frame
         assert _finite(obj)
         _call_every_handler(bpy.context.scene)

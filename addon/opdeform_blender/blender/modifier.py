@@ -108,6 +108,11 @@ def index(obj):
     return list(obj.modifiers).index(get(obj))
 
 
+def above(obj):
+    """The names of the modifiers above OPDeform's that are on in the viewport, but Armatures."""
+    return [m.name for m in list(obj.modifiers)[:index(obj)] if m.show_viewport and m.type != 'ARMATURE']
+
+
 def offset_attribute(mesh):
     return mesh.attributes.get(OFFSET)
 

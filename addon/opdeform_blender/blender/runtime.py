@@ -181,7 +181,7 @@ def frame_input(obj, rt, depsgraph):
     if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
     try:
-        incoming = original_input(positions, index, rt.engine.n_vertices)
+        incoming = original_input(positions, index, rt.engine.n_vertices, modifier.above(obj))
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     return incoming, np.array(evaluated.matrix_world, dtype=np.float64)

@@ -87,18 +87,21 @@ def blend_goals(a, b, u):
     return (1.0 - u) * a[0] + u * b[0], u_ @ vt
 
 
-def original_input(positions, index, n):
+def original_input(positions, index, n, before=()):
     """The input of the mesh's n vertices from what the evaluated mesh carries: the positions captured at
     opdeform's modifier (L, 3) and each one's vertex index there (L,) (None: not captured). A later modifier
     that keeps the original vertices first (Subdivision) leaves L > n with index[:n] = 0..n-1. EngineError
-    when the count differs at the modifier itself (a modifier before it) or the originals cannot be found."""
+    when the count differs at the modifier itself (a modifier before it: ``before`` names the candidates, the
+    enabled modifiers above it but the Armature) or the originals cannot be found."""
     count = len(positions)
     if count == n:
         return positions
     order = np.arange(count)
     if index is not None and len(index) == count and np.array_equal(index, order):
-        raise EngineError(f"a modifier before OPDeform changes the vertex count ({count} vertices reach it where "
-                          f"the mesh has {n}; e.g. Subdivision): move it after OPDeform")
+        which = f"one of the modifiers before OPDeform ({', '.join(before)})" if before else \
+            "a modifier before OPDeform (e.g. Subdivision or Mirror)"
+        raise EngineError(f"{which} changes the vertex count ({count} vertices reach OPDeform where the mesh has "
+                          f"{n}): apply it, or move it after OPDeform")
     if index is not None and count > n and np.array_equal(index[:n], order[:n]):
         return positions[:n]
     raise EngineError(f"a modifier after OPDeform changes the vertex count ({count} where the mesh has {n}) "
