@@ -110,12 +110,14 @@
 // neither (od_Driven); a whole member's velocity is shifted, nothing turns or strains,
 // positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
 // head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). The members' part acts on every comparable
-// pair of members: kept to those members, two Rubber creatures of the engine dropped 0.1 m one on the other at 240
-// steps a second (their floor inside the iterations) bounced apart at the landing and the upper slid off (1.10 m
-// aside at 9 s); with it, 0.10 m at 13 s (docs/contact.md, "Stacks", stop 44). The ground's part only for those
-// members: where the floor holds a member inside the iterations (od_FloorReaction), it gives back what that takes,
-// and the same creatures gained 5.2 kJ over their 4.5 kJ start (stop 38: 5.1 kJ, with two Rubber spheres on their
-// skins, held together, bouncing on their floor as one at 1.1-1.4 m/s).
+// pair of members that meet each other with their ellipsoids (od_MembersOnEllipsoids): kept to those that meet their
+// floor with their skins, two Rubber creatures of the engine dropped 0.1 m one on the other at 240 steps a second (their floor
+// inside the iterations) bounced apart at the landing and the upper slid off (1.10 m aside at 9 s); with it, 0.10 m
+// at 13 s (docs/contact.md, "Stacks", stop 44). Between members on their skins (set_contact_skin with bodies) it
+// tipped two Rubber spheres stacked on their skins off (0.32 m aside, 0.73 m/s at 3 s). The ground's part only for
+// those that meet their floor with their skins (od_FloorSkinOnly): where the floor holds a member inside the iterations (od_FloorReaction), it gives back
+// what that takes, and the same creatures gained 5.2 kJ over their 4.5 kJ start (stop 38: 5.1 kJ, with two Rubber
+// spheres on their skins, held together, bouncing on their floor as one at 1.1-1.4 m/s).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -1187,6 +1189,12 @@ static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 static bool od_FloorSkinOnly(const od_Sim* sim)
 {
 	return od_SkinShape_Used(sim) && !sim->skinShape.bodies;
+}
+
+// Whether sim meets the other members with its ellipsoids (no skin, or a skin for its floor and colliders only).
+static bool od_MembersOnEllipsoids(const od_Sim* sim)
+{
+	return !od_SkinShape_Used(sim) || !sim->skinShape.bodies;
 }
 
 // Whether each member bears on its floor (s->grounded), how much (s->bearing: od_FloorWeight summed over its
@@ -2524,7 +2532,8 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 }
 
 // The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
-// members, grouped by their members, each interface's
+// members that meet each other with their ellipsoids (od_MembersOnEllipsoids), grouped by their members, each
+// interface's
 // normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does, only when more
 // members meet than ever before (reserving every pair of members would size od_Coarse's dense system by their
 // square); out of memory fails the step, as an impact left out would let a member bounce.
@@ -2535,7 +2544,8 @@ static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 	{
 		const od_ContactPair* pair = &s->pairs[k];
 		int ma = s->body[pair->a], mb = s->body[pair->b];
-		if (ma == mb || pair->force <= 0.0 || !od_Comparable(s, pair))
+		bool ellipsoids = od_MembersOnEllipsoids(sims[ma]) && od_MembersOnEllipsoids(sims[mb]);
+		if (ma == mb || !ellipsoids || pair->force <= 0.0 || !od_Comparable(s, pair))
 		{
 			continue;
 		}
