@@ -110,14 +110,15 @@
 // neither (od_Driven); a whole member's velocity is shifted, nothing turns or strains,
 // positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
 // head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). The members' part acts on every comparable
-// pair of members that meet each other with their ellipsoids (od_MembersOnEllipsoids): kept to those that meet their
-// floor with their skins, two Rubber creatures of the engine dropped 0.1 m one on the other at 240 steps a second (their floor
-// inside the iterations) bounced apart at the landing and the upper slid off (1.10 m aside at 9 s); with it, 0.10 m
-// at 13 s (docs/contact.md, "Stacks", stop 44). Between members on their skins (set_contact_skin with bodies) it
-// tipped two Rubber spheres stacked on their skins off (0.32 m aside, 0.73 m/s at 3 s). The ground's part only for
-// those that meet their floor with their skins (od_FloorSkinOnly): where the floor holds a member inside the iterations (od_FloorReaction), it gives back
-// what that takes, and the same creatures gained 5.2 kJ over their 4.5 kJ start (stop 38: 5.1 kJ, with two Rubber
-// spheres on their skins, held together, bouncing on their floor as one at 1.1-1.4 m/s).
+// pair of members that meet each other with their ellipsoids (od_MembersOnEllipsoids): kept to those that meet
+// their floor with their skins, two Rubber creatures of the engine dropped 0.1 m one on the other at 240 steps a
+// second (their floor inside the iterations) bounced apart at the landing and the upper slid off (1.10 m aside at 9
+// s); with it, 0.10 m at 13 s (docs/contact.md, "Stacks", stop 44). Between members on their skins
+// (set_contact_skin with bodies) it tipped two Rubber spheres stacked on their skins off (0.32 m aside, 0.73 m/s at
+// 3 s). The ground's part only for those that meet their floor with their skins (od_FloorSkinOnly): where the floor
+// holds a member inside the iterations (od_FloorReaction), it gives back what that takes, and the same creatures
+// gained 5.2 kJ over their 4.5 kJ start (stop 38: 5.1 kJ, with two Rubber spheres on their skins, held together,
+// bouncing on their floor as one at 1.1-1.4 m/s).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -2600,9 +2601,9 @@ static bool od_AtGround(const od_Sim* sim, double margin)
 
 // Member b of an interface with a comparable one, meeting its floor with its skin (od_FloorSkinOnly: a floor that
 // holds it inside the iterations gives back what this takes, the top of the file), pressed onto its floor by the
-// pairs (s->load[b] < 0, as od_Rolls reads it) and free of goals and pins (od_Driven), leaving its ground (the floor or a collider it touched within the
-// step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to
-// `speed`, as the floor's projection stops a lone body.
+// pairs (s->load[b] < 0, as od_Rolls reads it) and free of goals and pins (od_Driven), leaving its ground (the floor
+// or a collider it touched within the step: `thickness` plus its rise in the step) upwards (against gravity) faster
+// than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
 static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
 {
 	if (s->load[b] >= 0.0 || od_Driven(sims[b]) || !od_FloorSkinOnly(sims[b]))
