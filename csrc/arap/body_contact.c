@@ -109,10 +109,16 @@
 // that is slowed the same way, in OD_IMPACT_PASSES Gauss-Seidel passes; members that goals or pins hold take
 // neither (od_Driven); a whole member's velocity is shifted, nothing turns or strains,
 // positions are left as the step put them; without gravity nothing is taken. The Suzanne rests on the lower's
-// head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). Only for those members: where the floor
-// holds members inside the iterations (od_FloorReaction), two creatures dropped one on the other gained 5.1 kJ
-// over their 4.5 kJ start in one step, and two Rubber spheres on their skins, held together, bounced on their
-// floor as one at 1.1-1.4 m/s and rolled off.
+// head, 0.75 m aside (docs/contact.md, "Stacks", stop 38, jellysuz). The members' part acts on every comparable
+// pair of members that meet each other with their ellipsoids (od_MembersOnEllipsoids): kept to those that meet
+// their floor with their skins, two Rubber creatures of the engine dropped 0.1 m one on the other at 240 steps a
+// second (their floor inside the iterations) bounced apart at the landing and the upper slid off (1.10 m aside at 9
+// s); with it, 0.10 m at 13 s (docs/contact.md, "Stacks", stop 44). Between members on their skins
+// (set_contact_skin with bodies) it tipped two Rubber spheres stacked on their skins off (0.32 m aside, 0.73 m/s at
+// 3 s). The ground's part only for those that meet their floor with their skins (od_FloorSkinOnly): where the floor
+// holds a member inside the iterations (od_FloorReaction), it gives back what that takes, and the same creatures
+// gained 5.2 kJ over their 4.5 kJ start (stop 38: 5.1 kJ, with two Rubber spheres on their skins, held together,
+// bouncing on their floor as one at 1.1-1.4 m/s).
 //
 // Projection (od_ProjectPairs): after the iterations, the pairs in contact are pushed apart by the remaining
 // depth, split by mass (the lighter moves more), in four Gauss-Seidel passes, then their relative tangential
@@ -1184,6 +1190,12 @@ static void od_FloorReaction(od_PairScratch* s, od_Sim* const* sims, int count)
 static bool od_FloorSkinOnly(const od_Sim* sim)
 {
 	return od_SkinShape_Used(sim) && !sim->skinShape.bodies;
+}
+
+// Whether sim meets the other members with its ellipsoids (no skin, or a skin for its floor and colliders only).
+static bool od_MembersOnEllipsoids(const od_Sim* sim)
+{
+	return !od_SkinShape_Used(sim) || !sim->skinShape.bodies;
 }
 
 // Whether each member bears on its floor (s->grounded), how much (s->bearing: od_FloorWeight summed over its
@@ -2521,7 +2533,8 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 }
 
 // The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
-// members that meet their floors with their skins (od_FloorSkinOnly), grouped by their members, each interface's
+// members that meet each other with their ellipsoids (od_MembersOnEllipsoids), grouped by their members, each
+// interface's
 // normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does, only when more
 // members meet than ever before (reserving every pair of members would size od_Coarse's dense system by their
 // square); out of memory fails the step, as an impact left out would let a member bounce.
@@ -2532,8 +2545,8 @@ static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 	{
 		const od_ContactPair* pair = &s->pairs[k];
 		int ma = s->body[pair->a], mb = s->body[pair->b];
-		bool skins = od_FloorSkinOnly(sims[ma]) && od_FloorSkinOnly(sims[mb]);
-		if (ma == mb || !skins || pair->force <= 0.0 || !od_Comparable(s, pair))
+		bool ellipsoids = od_MembersOnEllipsoids(sims[ma]) && od_MembersOnEllipsoids(sims[mb]);
+		if (ma == mb || !ellipsoids || pair->force <= 0.0 || !od_Comparable(s, pair))
 		{
 			continue;
 		}
@@ -2586,13 +2599,14 @@ static bool od_AtGround(const od_Sim* sim, double margin)
 	return at;
 }
 
-// Member b of an interface with a comparable one, pressed onto its floor by the pairs (s->load[b] < 0, as od_Rolls
-// reads it) and free of goals and pins (od_Driven), leaving its ground (the floor or a collider it touched within the
-// step: `thickness` plus its rise in the step) upwards (against gravity) faster than `speed`: its rise slowed to
-// `speed`, as the floor's projection stops a lone body.
+// Member b of an interface with a comparable one, meeting its floor with its skin (od_FloorSkinOnly: a floor that
+// holds it inside the iterations gives back what this takes, the top of the file), pressed onto its floor by the
+// pairs (s->load[b] < 0, as od_Rolls reads it) and free of goals and pins (od_Driven), leaving its ground (the floor
+// or a collider it touched within the step: `thickness` plus its rise in the step) upwards (against gravity) faster
+// than `speed`: its rise slowed to `speed`, as the floor's projection stops a lone body.
 static void od_Land(const od_PairScratch* s, od_Sim* const* sims, int b, double speed, double thickness)
 {
-	if (s->load[b] >= 0.0 || od_Driven(sims[b]))
+	if (s->load[b] >= 0.0 || od_Driven(sims[b]) || !od_FloorSkinOnly(sims[b]))
 	{
 		return;
 	}
