@@ -2534,10 +2534,9 @@ static void od_ShiftVelocity(od_Sim* sim, od_Vec3 dv)
 
 // The interfaces at the step's end: the pairs that carry a force (the next step's warm start) between comparable
 // members that meet each other with their ellipsoids (od_MembersOnEllipsoids), grouped by their members, each
-// interface's
-// normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does, only when more
-// members meet than ever before (reserving every pair of members would size od_Coarse's dense system by their
-// square); out of memory fails the step, as an impact left out would let a member bounce.
+// interface's normal the sum of its pairs' normals times their forces. The list grows as od_Interfaces' does,
+// only when more members meet than ever before (reserving every pair of members would size od_Coarse's dense
+// system by their square); out of memory fails the step, as an impact left out would let a member bounce.
 static od_Status od_ImpactInterfaces(od_PairScratch* s, od_Sim* const* sims)
 {
 	s->interfaceCount = 0;
