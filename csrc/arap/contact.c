@@ -142,8 +142,18 @@ static bool od_Faces(const od_Collider* body, od_Vec3 p, od_Vec3 side)
 // the collider's frame R: the deepest point's, with the normal there, or `least` when none is deeper. A distance
 // is 1-Lipschitz, so a group of points is passed over when the centre's distance, then its own centre's,
 // proves it no deeper than that (a particle resting on a collider looks up the groups near it), and so is a
-// point by its group centre's. With `side`, only points whose normal does not turn away from it count. A centre
+// point by its group centre's or by the point last looked up, its neighbour along the group's Morton order
+// (od_Beyond: the colliders bench's 1,000-particle Suzanne on the sphere looked up 7,570 points a step, 6,100 so). With `side`, only points whose normal does not turn away from it count. A centre
 // already known (`centre`) is not looked up again, and its normal only where it is the answer.
+// Whether every point within `radius` of offset q is at least `clear` from the surface, by the distance refPhi
+// looked up at offset ref of the same particle (a distance is 1-Lipschitz, and the offsets turn together).
+static bool od_Beyond(od_Vec3 q, double radius, od_Vec3 ref, double refPhi, double clear)
+{
+	od_Vec3 apart = od_Sub(q, ref);
+	double gap = refPhi - radius - clear;
+	return gap > 0.0 && od_Dot(apart, apart) <= gap * gap;
+}
+
 static double od_PointsDepth(const od_Collider* body, const od_SkinShape* skin, int i, const od_Mat3* turn,
 							 const od_Mat3* R, od_Vec3 l, double thickness, double least, od_Vec3* n,
 							 bool clearNormal, const od_Vec3* side, od_Centre* centre)
@@ -161,24 +171,30 @@ static double od_PointsDepth(const od_Collider* body, const od_SkinShape* skin, 
 	}
 	od_Mat3 local = od_M3MulTN(R, turn);
 	double depth = least;
-	od_Vec3 deepest = l;
+	od_Vec3 deepest = l, last = od_V3(0, 0, 0); // the offset last looked up and its distance
+	double lastPhi = phi;
 	for (int g = skin->start[i]; g < skin->start[i + 1]; ++g)
 	{
 		const double* c = skin->group + 5 * g;
-		if (thickness - phi + c[4] <= depth)
+		if (thickness - phi + c[4] <= depth || od_Beyond(od_V3Load(c), c[3], last, lastPhi, thickness - depth))
 		{
 			continue;
 		}
-		double near = od_Collider_LocalDistance(body, od_Add(l, od_M3MulV(&local, od_V3Load(c))), NULL);
+		last = od_V3Load(c);
+		double near = od_Collider_LocalDistance(body, od_Add(l, od_M3MulV(&local, last)), NULL);
+		lastPhi = near;
 		for (int k = skin->first[g]; k < skin->first[g + 1]; ++k)
 		{
 			const double* o = skin->offset + 4 * k;
-			if (thickness - near + o[3] <= depth)
+			od_Vec3 q = od_V3Load(o);
+			if (thickness - near + o[3] <= depth || od_Beyond(q, 0.0, last, lastPhi, thickness - depth))
 			{
 				continue;
 			}
-			od_Vec3 p = od_Add(l, od_M3MulV(&local, od_V3Load(o)));
-			double d = thickness - od_Collider_LocalDistance(body, p, NULL);
+			od_Vec3 p = od_Add(l, od_M3MulV(&local, q));
+			lastPhi = od_Collider_LocalDistance(body, p, NULL);
+			last = q;
+			double d = thickness - lastPhi;
 			if (d > depth && (!side || od_Faces(body, p, *side)))
 			{
 				depth = d;
@@ -315,11 +331,23 @@ double od_ColliderDepth(const od_Sim* sim, const od_SimCollider* c, int i, const
 {
 	const od_Mat3* R = end ? &c->Rb : &c->Ra;
 	od_Vec3 n, l = od_M3MulTV(R, od_Sub(x, end ? c->tb : c->ta));
-	od_Body b;
-	od_BodyAt(sim, i, rotation, &b);
-	double thickness = c->thickness - od_GoalDepth(c, &b);
-	od_Mat3 local = b.skin ? b.M : od_InFrame(&b.M, R);
-	double depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, least, &n, true, end ? centre : NULL);
+	double depth;
+	if (od_SkinShape_Used(sim) && !od_Goals_CarryRest(sim))
+	{
+		// The skin's points alone, as od_BodyDepth asks them: od_BodyAt's fields (goal frames, moments) took the
+		// colliders bench's 1,000-particle Suzanne 0.2 M instructions a step in the gathering (stop 44).
+		od_Mat3 turn = od_M3Load(rotation);
+		depth = od_PointsDepth(&c->body, &sim->skinShape, i, &turn, R, l, c->thickness, least, &n, true, NULL,
+							   end ? centre : NULL);
+	}
+	else
+	{
+		od_Body b;
+		od_BodyAt(sim, i, rotation, &b);
+		double thickness = c->thickness - od_GoalDepth(c, &b);
+		od_Mat3 local = b.skin ? b.M : od_InFrame(&b.M, R);
+		depth = od_BodyDepth(&c->body, &b, false, R, &local, l, thickness, least, &n, true, end ? centre : NULL);
+	}
 	*normal = od_M3MulV(R, n);
 	return depth;
 }

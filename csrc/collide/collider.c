@@ -684,6 +684,10 @@ static double od_MeshDistance(const od_Collider* c, od_Vec3 p)
 	int i[3];
 	double f[3], v[8];
 	double outside = od_MeshCell(c, p, i, f), d = od_CellBlend(c, i, f, v);
+	if (outside == 0.0)
+	{
+		return d + 0.0; // inside the sample box (+ 0.0: as below, -0.0 made +0.0)
+	}
 	return d < 0.0 ? d - sqrt(outside) * c->spacing : d + sqrt(outside) * c->spacing; // < 0: behind an open mesh
 }
 
