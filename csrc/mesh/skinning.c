@@ -181,7 +181,7 @@ static void od_BindRange(void* context, int begin, int end)
 	{
 		int* idx = s->idx + (size_t)s->m * v;
 		double* w = s->w + (size_t)s->m * v;
-		int m = od_SkinNeighbors(job->graph, s->rest + 3 * v, job->m);
+		int m = s->m > job->m ? od_SkinNeighbors(job->graph, s->rest + 3 * v, job->m) : s->m; // a sheet's, or all
 		m = m < s->m ? m : s->m;
 		int count = od_NearestInPiece(job->graph, job->grid, job->pieceSize, s->rest + 3 * v, m + 1, dist, near);
 		for (int k = od_SumnerWeights(dist, near, count, m, idx, w); k < s->m; ++k)
