@@ -9,10 +9,13 @@
 // the host's particles, so linear-blend skinning moves the whole piece by one affine map, rigidly with
 // the host where the host is rigid, instead of stretching each vertex towards different particles. A rigid
 // piece (a compact piece at its floor of particles, mesh_graph.c) takes its anchor's weights over its own
-// particles the same way: it moves by one map, and its particles, larger than it, only carry it.
+// particles the same way: it moves by one map, and its particles, larger than it, only carry it. The points of
+// a sheet (an open piece of its own beside the body, mesh_graph.c) blend OD_SHEET_SKIN(m) particles in the
+// mesh skin, where the body's blend m.
 #include "piece_map.h"
 
 #include "core.h"
+#include "graph.h"
 
 #include <string.h>
 
@@ -30,10 +33,11 @@ od_Status od_PieceMap_Create(const od_PieceMapDef* def, int particleCount, od_Pi
 		map->host = od_Alloc(sizeof(int) * pieces);
 		map->anchors = od_Alloc(sizeof(double) * 3 * pieces);
 		map->rigid = od_Alloc(sizeof(bool) * pieces);
+		map->sheet = od_AllocZero(pieces, sizeof(bool));
 		map->points = od_Alloc(sizeof(double) * 3 * (points + 1)); // + 1: never od_Alloc(0)
 		map->pointPiece = od_Alloc(sizeof(int) * (points + 1));
 	}
-	if (!map || !map->particlePiece || !map->pieceSize || !map->host || !map->anchors || !map->rigid ||
+	if (!map || !map->particlePiece || !map->pieceSize || !map->host || !map->anchors || !map->rigid || !map->sheet ||
 		!map->points || !map->pointPiece)
 	{
 		od_PieceMap_Destroy(map);
@@ -43,6 +47,10 @@ od_Status od_PieceMap_Create(const od_PieceMapDef* def, int particleCount, od_Pi
 	memcpy(map->host, def->host, sizeof(int) * pieces);
 	memcpy(map->anchors, def->anchors, sizeof(double) * 3 * pieces);
 	memcpy(map->rigid, def->rigid, sizeof(bool) * pieces);
+	if (def->sheet)
+	{
+		memcpy(map->sheet, def->sheet, sizeof(bool) * pieces);
+	}
 	memcpy(map->points, def->points, sizeof(double) * 3 * points);
 	memcpy(map->pointPiece, def->pointPiece, sizeof(int) * points);
 	od_Status status = od_NearestGrid_Create(&map->grid, map->points, def->pointCount);
@@ -71,21 +79,44 @@ void od_PieceMap_Destroy(od_PieceMap* map)
 	od_Free(map->host);
 	od_Free(map->anchors);
 	od_Free(map->rigid);
+	od_Free(map->sheet);
 	od_Free(map->points);
 	od_Free(map->pointPiece);
 	od_Free(map);
 }
 
-const double* od_PieceMap_Locate(const od_PieceMap* map, const double* p, int* want, int* size)
+// The piece of rest point p: that of the nearest mesh vertex (the only one with a single piece).
+static int od_PieceOf(const od_PieceMap* map, const double* p)
 {
-	int piece = 0, nearest;
+	int nearest = 0;
 	double d;
 	if (map->pointCount > 0 && map->pieceCount > 1)
 	{
 		od_NearestGrid_Query(&map->grid, NULL, 0, p, 1, &d, &nearest);
-		piece = map->pointPiece[nearest];
+		return map->pointPiece[nearest];
 	}
+	return 0;
+}
+
+const double* od_PieceMap_Locate(const od_PieceMap* map, const double* p, int* want, int* size)
+{
+	int piece = od_PieceOf(map, p);
 	*want = map->host[piece];
 	*size = map->pieceSize[*want];
 	return *want == piece && !map->rigid[piece] ? p : map->anchors + 3 * piece;
+}
+
+int od_PieceMap_Neighbors(const od_PieceMap* map, const double* p, int m)
+{
+	return map->sheet[od_PieceOf(map, p)] ? OD_SHEET_SKIN(m) : m;
+}
+
+int od_PieceMap_MostNeighbors(const od_PieceMap* map, int m)
+{
+	bool sheet = false;
+	for (int i = 0; i < map->pieceCount; ++i)
+	{
+		sheet = sheet || map->sheet[i];
+	}
+	return sheet ? OD_SHEET_SKIN(m) : m;
 }

@@ -15,6 +15,7 @@ typedef struct od_PieceMapDef
 	const int* host;          // pieceCount: the piece itself when it has particles, else the piece that carries it
 	const double* anchors;    // pieceCount*3: where a carried piece takes the weights all its vertices share
 	const bool* rigid;        // pieceCount: a piece with particles whose vertices share its anchor's weights too
+	const bool* sheet;        // pieceCount: an open sheet of its own, skinned over more neighbours (or NULL: none)
 	int pointCount;
 	const double* points;     // pointCount*3: the mesh's vertices (none needed for a single piece)
 	const int* pointPiece;    // pointCount
@@ -28,6 +29,7 @@ typedef struct od_PieceMap
 	int* host;          // pieceCount
 	double* anchors;    // pieceCount*3
 	bool* rigid;        // pieceCount
+	bool* sheet;        // pieceCount
 	int pointCount;
 	double* points;     // pointCount*3
 	int* pointPiece;    // pointCount
@@ -40,3 +42,7 @@ void od_PieceMap_Destroy(od_PieceMap* map);
 // whose weights p takes: p itself, or the anchor of the piece p belongs to when another piece carries it or
 // the piece is rigid.
 const double* od_PieceMap_Locate(const od_PieceMap* map, const double* p, int* want, int* size);
+// How many particles skin the rest point p when m skin a point of the body: OD_SHEET_SKIN(m) on a sheet.
+int od_PieceMap_Neighbors(const od_PieceMap* map, const double* p, int m);
+// The most particles that skin any point when m skin a point of the body.
+int od_PieceMap_MostNeighbors(const od_PieceMap* map, int m);

@@ -79,3 +79,13 @@ int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* i
 	return od_SumnerWeights(dist, near, count, m, idx, w);
 }
 
+
+int od_SkinNeighbors(const od_Graph* g, const double* p, int m)
+{
+	return g->meshPieces ? od_PieceMap_Neighbors(g->meshPieces, p, m) : m;
+}
+
+int od_SkinMostNeighbors(const od_Graph* g, int m)
+{
+	return g->meshPieces ? od_PieceMap_MostNeighbors(g->meshPieces, m) : m;
+}

@@ -99,6 +99,7 @@ typedef struct od_Group
 {
 	int triangleStart, triangleCount; // its triangles: groupTriangles[triangleStart, + triangleCount)
 	bool fill;
+	bool open; // one of its pieces is open (an edge in one triangle)
 	double area;
 	double anchor[3]; // the centre of its bounding box
 	double length;    // its bounding box's longest side
@@ -238,6 +239,7 @@ static od_Status od_MakeGroups(od_Builder* b)
 		od_Group* g = &b->groups[groupOf[p]];
 		g->triangleCount += pieces->triangleStart[p + 1] - pieces->triangleStart[p];
 		g->fill = g->fill || def->mode == OD_MESH_VOLUME || (def->mode != OD_MESH_SURFACE && pieces->closed[p]);
+		g->open = g->open || !pieces->closed[p];
 		g->area += pieces->area[p];
 	}
 	od_GroupAnchors(b, box);
@@ -1240,6 +1242,19 @@ static bool od_Rigid(const od_Builder* b, const od_Group* g)
 	return g->small && g->particles > 0 && g->particles <= OD_SMALL_PIECE_PARTICLES && !od_LongShell(b, g);
 }
 
+// Whether a group is a sheet, whose vertices the mesh skin blends over more particles (OD_SHEET_SKIN): open, of
+// its own (not small: an open patch of a few vertices keeps to its few particles) and not the group with the
+// most voxels (the body; materials._sheets_floored calls the same pieces sheets).
+static bool od_Sheet(const od_Builder* b, const od_Group* g)
+{
+	bool largest = true;
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		largest = largest && b->groups[i].voxels.count <= g->voxels.count;
+	}
+	return g->open && !g->small && g->particles > 0 && !largest;
+}
+
 // Edges from the particles of group g to the nearest particle of group host each: from every particle, or,
 // for a shell along a line (od_BeamShell), from the OD_ROOT_LINKS nearest the host only (its root; ties by
 // index). Linked all along, the dog's hanging ears (docs/goals.md) moved 0.03 mm against the rig's 155 mm:
@@ -1311,15 +1326,17 @@ static od_Status od_RecordPieces(od_Builder* b, od_Graph* graph)
 	int* host = od_Alloc(sizeof(int) * (size_t)groups);
 	double* anchors = od_Alloc(sizeof(double) * 3 * (size_t)groups);
 	bool* rigid = od_Alloc(sizeof(bool) * (size_t)groups);
+	bool* sheet = od_Alloc(sizeof(bool) * (size_t)groups);
 	double* points = od_Alloc(sizeof(double) * 3 * (size_t)def->vertexCount);
 	int* pointGroup = od_Alloc(sizeof(int) * (size_t)def->vertexCount);
-	od_Status status = host && anchors && rigid && points && pointGroup
+	od_Status status = host && anchors && rigid && sheet && points && pointGroup
 						   ? OD_OK
 						   : od_Fail(OD_ERROR_MEMORY, "out of memory for the pieces of %d vertices", def->vertexCount);
 	for (int i = 0; i < groups && status == OD_OK; ++i)
 	{
 		host[i] = b->groups[i].host;
 		rigid[i] = od_Rigid(b, &b->groups[i]);
+		sheet[i] = od_Sheet(b, &b->groups[i]);
 		memcpy(anchors + 3 * i, b->groups[i].anchor, sizeof(double) * 3);
 	}
 	for (int v = 0; v < def->vertexCount && status == OD_OK && groups > 1; ++v)
@@ -1334,13 +1351,14 @@ static od_Status od_RecordPieces(od_Builder* b, od_Graph* graph)
 	if (status == OD_OK)
 	{
 		od_PieceMapDef map = { .pieceCount = groups, .particlePiece = b->particleGroup, .host = host,
-							   .anchors = anchors, .rigid = rigid, .pointCount = used, .points = points,
+							   .anchors = anchors, .rigid = rigid, .sheet = sheet, .pointCount = used, .points = points,
 							   .pointPiece = pointGroup };
 		status = od_Graph_SetMeshPieces(graph, &map);
 	}
 	od_Free(host);
 	od_Free(anchors);
 	od_Free(rigid);
+	od_Free(sheet);
 	od_Free(points);
 	od_Free(pointGroup);
 	return status;

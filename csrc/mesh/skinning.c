@@ -166,9 +166,11 @@ typedef struct od_BindJob
 	const od_Graph* graph;
 	const od_NearestGrid* grid;
 	const int* pieceSize;
+	int m; // the neighbours asked (a body's vertex)
 } od_BindJob;
 
-// Rows of vertices on a piece of fewer than m particles are padded with weight 0 (on the nearest one).
+// Each vertex blends od_SkinNeighbors of the m asked (more on a sheet); rows of vertices that blend fewer than
+// s->m (the body's beside a sheet, or on a piece of fewer particles) are padded with weight 0 (on the nearest one).
 static void od_BindRange(void* context, int begin, int end)
 {
 	od_BindJob* job = context;
@@ -179,8 +181,10 @@ static void od_BindRange(void* context, int begin, int end)
 	{
 		int* idx = s->idx + (size_t)s->m * v;
 		double* w = s->w + (size_t)s->m * v;
-		int count = od_NearestInPiece(job->graph, job->grid, job->pieceSize, s->rest + 3 * v, s->m + 1, dist, near);
-		for (int k = od_SumnerWeights(dist, near, count, s->m, idx, w); k < s->m; ++k)
+		int m = s->m > job->m ? od_SkinNeighbors(job->graph, s->rest + 3 * v, job->m) : s->m; // a sheet's, or all
+		m = m < s->m ? m : s->m;
+		int count = od_NearestInPiece(job->graph, job->grid, job->pieceSize, s->rest + 3 * v, m + 1, dist, near);
+		for (int k = od_SumnerWeights(dist, near, count, m, idx, w); k < s->m; ++k)
 		{
 			idx[k] = idx[0];
 			w[k] = 0.0;
@@ -197,7 +201,8 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 		return status;
 	}
 	size_t nv = (size_t)def->vertexCount;
-	int m = def->neighbors < graph->n ? def->neighbors : graph->n;
+	int asked = def->neighbors < graph->n ? def->neighbors : graph->n;
+	int most = od_SkinMostNeighbors(graph, asked), m = most < graph->n ? most : graph->n;
 	bool normals = def->normals || def->triangleCount > 0;
 	od_Skin* s = od_AllocZero(1, sizeof *s);
 	if (!s)
@@ -245,7 +250,7 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 	{
 		od_TriangleNormals(def, s->restNormals);
 	}
-	od_BindJob job = { s, graph, &grid, pieceSize };
+	od_BindJob job = { s, graph, &grid, pieceSize, asked };
 	for (int begin = 0; begin < s->vertexCount && status == OD_OK; begin += OD_BIND_BATCH)
 	{
 		status = od_CheckInterrupt(); // between batches, on the calling thread (workers never poll)

@@ -58,7 +58,8 @@ def _rest_normals(normals: ArrayLike, n_vertices: int) -> npt.NDArray[Any]:
 
 class Skin(FromArguments):
     """A rest mesh bound to a graph: Sumner weights over the ``neighbors`` nearest particles of every vertex
-    (METHOD.md, eq. 1), computed once with the GIL released.
+    (METHOD.md, eq. 1), computed once with the GIL released; the vertices of an open sheet of its own beside the
+    body (a skirt, in a graph built from a mesh) over half as many again (docs/mesh.md).
 
     ``triangles`` (T,3) or ``rest_normals`` (V,3) give the rest normals that ``deform`` turns when asked for
     normals (area-weighted vertex normals of the triangles; the normals win when both are given).
@@ -85,7 +86,8 @@ class Skin(FromArguments):
 
     @property
     def neighbors(self) -> int:
-        """Particles per vertex: the m asked for, or fewer when the graph has fewer particles."""
+        """Columns of ``indices`` and ``weights``: the m asked for, half as many again with a sheet (its vertices
+        use them all, the others m and weights 0), or fewer when the graph has fewer particles."""
         return self._core.neighbors
 
     def _read(self, name: Literal["indices", "weights", "rest_normals"], dtype: npt.DTypeLike,

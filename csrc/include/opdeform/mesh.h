@@ -104,7 +104,7 @@ od_Status od_Skin_Create(const od_Graph* graph, const od_SkinDef* def, od_Skin**
 void od_Skin_Destroy(od_Skin* skin);
 int od_Skin_GetVertexCount(const od_Skin* skin);
 int od_Skin_GetParticleCount(const od_Skin* skin);
-int od_Skin_GetNeighborCount(const od_Skin* skin); // m actually used by every vertex
+int od_Skin_GetNeighborCount(const od_Skin* skin); // row width: m, or half as many again with an open sheet piece
 // vertexCount*m, nearest first, from the vertex's own mesh piece (as od_Graph_SkinWeights); a row of a
 // vertex whose piece has fewer than m particles ends with weight-0 repeats of its nearest particle.
 const int* od_Skin_GetIndices(const od_Skin* skin);
