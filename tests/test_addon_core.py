@@ -483,6 +483,19 @@ def test_pieces_no_bone_moves_are_named():
     assert checks.unrigged_text(()) is None
 
 
+def test_shells_and_thin_parts_are_placed_at_any_size():
+    """A 1 cm creature's shells and thin parts are told apart in the panel (found on an outside tester's 1 cm bird:
+    every shell was "at (0.00, 0.00, 0.00)"): two significant digits of the largest coordinate, at least 2
+    decimals, so a 2 m or 100 m creature reads as before."""
+    small = ((362, (0.0004, -0.0013, 0.0092)), (178, (-0.0031, 0.0, 0.0047)))
+    text = checks.unrigged_text(small)
+    assert "362 vertices at (0.0004, -0.0013, 0.0092), 178 vertices at (-0.0031, 0.0000, 0.0047)" in text, text
+    assert "14 vertices at (-4.00, -12.50, 91.50)" in checks.attached_text(((14, (-4.0, -12.5, 91.5)),))
+    assert "(0.00, 0.00, 0.00)" in checks.unrigged_text(((3, (0.0, 0.0, 0.0)),))
+    text = checks.appendages_text([((0.0, 0.0039, 0.0079), 0.0033, 1)], 100)
+    assert "0.0033 m at (0.0000, 0.0039, 0.0079): 1" in text, text
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""

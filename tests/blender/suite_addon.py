@@ -361,6 +361,21 @@ def test_panels_labels_fit_default_width():
         assert not cut, (units, mode, cut)
 
 
+def test_a_missing_bake_file_is_reported():
+    """A baked file opened where its PC2 file is not (sent without its cache folder, or the folder moved): the
+    Mesh Cache modifier passes its input through, so the object shows its input without the simulation; the
+    Cache panel says so (found by the outside tester: a reopened bird showed its armature pose, 1.8 mm off the
+    simulated one, with no word in the panel)."""
+    obj = _enable_bar(frame_end=5)
+    _save_blend("missing.blend")
+    bpy.ops.opdeform.bake(object=obj.name)
+    assert "missing" not in H.labels(H.draw_panels())
+    os.remove(bpy.path.abspath(obj.modifiers["OPDeform Cache"].filepath))
+    log = H.draw_panels()
+    assert "The baked file is missing" in H.labels(log), H.labels(log)
+    assert not H.cut_texts(log), H.cut_texts(log)
+
+
 def test_panels_draw_in_every_state():
     obj = H.bar_object()
     log = H.draw_panels()

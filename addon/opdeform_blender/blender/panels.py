@@ -3,6 +3,8 @@ sub-panels) and "Tumbling Particles", laid out like Blender's Soft Body and Clot
 "Oriented Particles": settings_panels.py (Quality, Advanced) and collider_panels.py (Collisions, Field
 Weights), registered after this module (a sub-panel needs its parent)."""
 
+import os
+
 import bpy
 
 from ..core import checks, frame_report, loader
@@ -292,6 +294,9 @@ class PHYSICS_PT_opdeform_cache(SubPanel, bpy.types.Panel):
             layout.label(text=f"Baked: {s.bake_file}", icon='CHECKMARK' if mod else 'ERROR')
             if mod is None:
                 layout.label(text="The Mesh Cache modifier was removed", icon='ERROR')
+            elif not os.path.isfile(bpy.path.abspath(mod.filepath)):
+                wrapped(layout, f"The baked file is missing ({mod.filepath}): the input shows without the "
+                        "simulation; Free Bake and bake again, or copy the file back", 'ERROR')
             if runtime.bake_outdated(obj, context.scene):
                 row = layout.row()
                 row.alert = True

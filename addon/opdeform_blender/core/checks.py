@@ -54,7 +54,7 @@ def appendages_text(parts, particles, shown=3, along=3):
     ``along`` particles in each (particles scale with the count)."""
     if not parts:
         return None
-    named = ", ".join(f"{length:.2f} m at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}): {n}" for c, length, n in parts[:shown])
+    named = ", ".join(f"{_metres(length)} m at {_place(c)}: {n}" for c, length, n in parts[:shown])
     more = f" and {len(parts) - shown} more" if len(parts) > shown else ""
     enough = -(-particles * along // max(1, min(n for _, _, n in parts)) // 50) * 50
     return (f"{len(parts)} thin part{'s' if len(parts) > 1 else ''} with under {along} particles along "
@@ -192,10 +192,27 @@ def attached_text(pieces):
                         "or give it an OPDeform object of its own")
 
 
+def _decimals(largest):
+    """Decimals that show two significant digits of ``largest`` (m), at least 2: a 1 cm creature's shells
+    are told apart as a 2 m one's are."""
+    largest = abs(float(largest))
+    return 2 if largest == 0.0 or not np.isfinite(largest) else max(2, 1 - int(np.floor(np.log10(largest))))
+
+
+def _metres(x):
+    return f"{x:.{_decimals(x)}f}"
+
+
+def _place(c):
+    """"(x, y, z)" in metres, all with the decimals of the largest coordinate."""
+    d = _decimals(max(abs(float(x)) for x in c))
+    return "(" + ", ".join(f"{float(x):.{d}f}" for x in c) + ")"
+
+
 def _shells_text(pieces, what, advice, shown=3):
     """"N detached shells <what> (the first ``shown`` by size and centre): <advice>", None without pieces."""
     if not pieces:
         return None
-    named = ", ".join(f"{n} vertices at ({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f})" for n, c in pieces[:shown])
+    named = ", ".join(f"{n} vertices at {_place(c)}" for n, c in pieces[:shown])
     more = f" and {len(pieces) - shown} more" if len(pieces) > shown else ""
     return f"{len(pieces)} detached shell{'s' if len(pieces) > 1 else ''} {what} ({named}{more}): {advice}"
