@@ -53,6 +53,9 @@ import bmesh
 import numpy as np
 from mathutils import Vector
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rig_parts import base, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
+
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, RIG, VARIANT, OUT = args[:5]
 EXTRA = args[5:]
@@ -98,11 +101,6 @@ GOB_BONES = {  # name: (head node, tail node, parent)
 }
 EYES = [(0.055, -0.125, 1.67), (-0.055, -0.125, 1.67)]
 BUTTONS = [(0.0, -0.325, z) for z in (0.98, 1.08, 1.18)]
-
-
-def link(obj):
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def smooth_object(name, bm):
@@ -525,14 +523,6 @@ def armature(bones):
     return arm
 
 
-def parent_auto(obj, arm):
-    bpy.ops.object.select_all(action='DESELECT')
-    obj.select_set(True)
-    arm.select_set(True)
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.parent_set(type='ARMATURE_AUTO')
-
-
 def key(pb, path, index, frame, value):
     getattr(pb, path)[index] = value
     pb.keyframe_insert(path, index=index, frame=frame)
@@ -582,29 +572,6 @@ def ellie_animate(arm):
 def smooth(x):
     x = np.clip(x, 0, 1)
     return x * x * (3 - 2 * x)
-
-
-def paint(obj, name, w):
-    g = obj.vertex_groups.new(name=name)
-    for value in np.unique(w):
-        g.add([int(i) for i in np.where(w == value)[0]], float(value), 'REPLACE')
-
-
-def shells(obj):
-    """Per vertex, its connected piece's index (ordered by first vertex)."""
-    n = len(obj.data.vertices)
-    parent = np.arange(n)
-
-    def find(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-    for e in obj.data.edges:
-        a, b = find(e.vertices[0]), find(e.vertices[1])
-        if a != b:
-            parent[max(a, b)] = min(a, b)
-    return np.array([find(i) for i in range(n)])
 
 
 def gob_maps(obj):
@@ -683,37 +650,10 @@ def build():
 
 
 # ---------------------------------------------------------------- measure
-def world(obj):
-    dg = bpy.context.evaluated_depsgraph_get()
-    ev = obj.evaluated_get(dg)
-    me = ev.to_mesh()
-    out = np.empty(len(me.vertices) * 3, np.float32)
-    me.vertices.foreach_get("co", out)
-    ev.to_mesh_clear()
-    m = np.array(ev.matrix_world)
-    return out.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
-
-
 def digest(a):
     """A short hash of an array's bits (None: None)."""
     import hashlib
     return None if a is None else hashlib.sha1(np.ascontiguousarray(a).tobytes()).hexdigest()[:10]
-
-
-def base(obj):
-    out = np.empty(len(obj.data.vertices) * 3, np.float32)
-    obj.data.vertices.foreach_get("co", out)
-    return out
-
-
-def twin_of(obj):
-    t = obj.copy()
-    t.data = obj.data.copy()
-    t.name = obj.name + "_twin"
-    for m in [m for m in t.modifiers if m.type != 'ARMATURE']:
-        t.modifiers.remove(m)
-    bpy.context.scene.collection.objects.link(t)
-    return t
 
 
 def main():

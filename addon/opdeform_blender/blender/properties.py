@@ -119,8 +119,9 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                                "an error tolerance")
     modulus: FloatProperty(name="Stiffness", default=15.0, min=1e-6, soft_min=0.01, soft_max=1000.0, precision=2,
                            description="Young's modulus in MPa of the material at 1 m: the same value gives the "
-                                       "same relative sag and the same motion (in units of the body's size) at "
-                                       "any size, and within about 12 % at any particle count")
+                                       "same relative sag at any size and within about 12 % at any particle "
+                                       "count; a rig's motion at the same timing bends a larger body more, in "
+                                       "units of its size (docs/goals.md, \"An outside creature\")")
     damping_rate: FloatProperty(name="Damping", default=0.3, min=0.0, soft_max=20.0,
                                 description="Velocity lost per second (independent of the frame rate)")
     tolerance: FloatProperty(name="Tolerance", default=0.002, min=1e-6, max=10.0, precision=4, step=0.1,
