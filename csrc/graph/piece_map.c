@@ -15,7 +15,6 @@
 #include "piece_map.h"
 
 #include "core.h"
-#include "graph.h"
 
 #include <string.h>
 

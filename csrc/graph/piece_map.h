@@ -5,6 +5,14 @@
 
 #include <stdbool.h>
 
+// Most skinning neighbours a point or constraint may have.
+#define OD_MAX_SKIN 16
+// The particles that skin a vertex of an open sheet of its own when m skin one of the body's: half as many again
+// (piece_map.c). On the kid's skirt (docs/goals.md), a cone held at its waistband, the hem's particles swing
+// 40-70 mm while the row above keeps to its goals, and with 4 each an edge across the seam stretched 1.56x at
+// the Floppy look (1.37-1.61x over 50-400 particles); with 6, 1.20-1.44x.
+#define OD_SHEET_SKIN(m) ((3 * (m) + 1) / 2 < OD_MAX_SKIN ? (3 * (m) + 1) / 2 : OD_MAX_SKIN)
+
 // What the mesh layer knows when it builds a graph: the mesh piece (a connected piece of the triangle
 // mesh, or a group of joined pieces) that each particle stands for, and the mesh's own vertices with their
 // pieces, so that any rest point (a vertex of the same mesh, or any point, for a constraint) finds its piece.

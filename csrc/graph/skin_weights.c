@@ -79,7 +79,6 @@ int od_Graph_SkinWeights(const od_Graph* g, const double point[3], int m, int* i
 	return od_SumnerWeights(dist, near, count, m, idx, w);
 }
 
-
 int od_SkinNeighbors(const od_Graph* g, const double* p, int m)
 {
 	return g->meshPieces ? od_PieceMap_Neighbors(g->meshPieces, p, m) : m;

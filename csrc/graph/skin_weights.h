@@ -11,10 +11,10 @@ int od_SumnerWeights(const double* dist, const int* near, int count, int m, int*
 // in the piece of its nearest particle, by the grid (or brute force when grid is NULL); pieceSize (with a
 // grid) caps k at the size of the piece. A point of a mesh piece carried by another is
 // measured from that piece's anchor.
+int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p, int k,
+					  double* dist, int* near);
+
 // How many particles skin the rest point p of the mesh skin when m skin the body's (piece_map.c: more on a
 // sheet), and the most for any point.
 int od_SkinNeighbors(const od_Graph* g, const double* p, int m);
 int od_SkinMostNeighbors(const od_Graph* g, int m);
-
-int od_NearestInPiece(const od_Graph* g, const od_NearestGrid* grid, const int* pieceSize, const double* p, int k,
-					  double* dist, int* near);
