@@ -1,7 +1,8 @@
 """Outside tester (issue 24): a Rigify-style bird the add-on has not seen, installed from a zip into empty user folders.
 
-    blender -b --factory-startup --python-exit-code 1 -P qa.py -- ZIP legacy OUT [opts]
-    bpy-python qa.py ZIP extension OUT [opts]
+    blender -b --factory-startup --python-exit-code 1 -P scripts/outside_bird.py -- ZIP legacy OUT [opts]
+    bpy-python scripts/outside_bird.py ZIP extension OUT [opts]
+    (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
 opts: scale=S (the whole rig S times 2 m tall), nonuniform (armature object scaled 1.3,1,0.7), empty (armature
 parented to a moving, turning empty), spin (root turns 360 deg in 2 frames), teleport (root jumps 2 m in one frame),
 subsurf (Subdivision after OPDeform), shapekey (an animated shape key on the belly), dense=N (subdivide to about N
@@ -26,12 +27,15 @@ S = float(OPT.get("scale", 1.0))
 FPS = 24
 FRAMES = int(OPT.get("frames", 96))
 os.makedirs(OUT, exist_ok=True)
-TESTS = "/work/wt-qa/tests/blender"
+TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
 
 
 def install():
     sys.path.insert(0, TESTS)
     import helpers
+    if KIND == "dev":  # ZIP "-": the repository's add-on with $OPDEFORM_PYTHONPATH
+        helpers.enable_addon()
+        return helpers.ADDON
     sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
     return helpers.install_package(ZIP, KIND)
 
