@@ -19,9 +19,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
 from opdeform_blender.core.engine import Engine, EngineError, check_matrix, original_input, to_world  # noqa: E402
 
-HAS_MESH_API = all(hasattr(opdeform, n) for n in ("Skin", "pin_vertices", "add_vertex_direction")) and \
-    hasattr(opdeform.Graph, "from_mesh")
-
 
 def test_pc2_round_trip_and_partial_file(tmp_path):
     path = str(tmp_path / "sub" / "a.pc2")
@@ -121,7 +118,6 @@ def _bar_engine():
     return e, v, tip
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_engine_replay_is_bit_exact():
     e, v, tip = _bar_engine()
     m0 = np.eye(4)
@@ -145,7 +141,6 @@ def test_engine_replay_is_bit_exact():
     assert np.array_equal(e.goto(25, targets(25)), seq[25])
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_engine_rejects_bad_meshes():
     with pytest.raises(EngineError, match="no faces"):
         Engine(opdeform, np.zeros((3, 3)), np.zeros((0, 3)))
@@ -211,7 +206,6 @@ def test_tumbling_frame_files(tmp_path):
     assert job.done
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_engine_goal_follows_the_input_and_rejects_bad_goals():
     e, v, _ = _bar_engine()
     e.set_constraints()
@@ -249,7 +243,6 @@ def _tailed_body():
     return v, np.vstack([body[1], tail[1] + len(body[0])]), is_tail, root, 1.0 - 0.9 * x * x * (3.0 - 2.0 * x)
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_the_body_is_the_piece_with_most_particles_not_vertices():
     """A coarse 1 m body and a dense small shell (more vertices than the body, fewer particles): the body, which
     Shell Min leaves as painted and the loose-shell warning leaves out, is the coarse one in the engine's particle
@@ -269,7 +262,6 @@ def test_the_body_is_the_piece_with_most_particles_not_vertices():
     assert [n for n, _ in checks.hanging_pieces(vertex_piece, follow, v, found)] == [len(dense[0])]
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_the_same_triangles_in_any_order_build_the_same_graph():
     """Blender's bmesh lists a mesh's faces in another order from run to run, and the graph follows the triangles'
     order: one 3.4.1 run of ellie in four built another graph (2.66 against 6.47 mm 1 s after the motion). The
@@ -317,7 +309,6 @@ def _tail_after_the_motion(floor):
     return np.array(after[48:])
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_a_soft_loose_shell_settles_on_the_floor_as_in_the_air():
     """Issue 24: loose parts within 2 mm of the rig 1 s after the motion stops. A body standing on the floor
     started its steps from the previous rotations; a soft detached shell's swing about its links then crept back
@@ -329,7 +320,6 @@ def test_a_soft_loose_shell_settles_on_the_floor_as_in_the_air():
         assert after[12:].max() < 1e-4, (floor, after[12:].max())  # 1.5 s on: settled, not creeping
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 def test_a_detached_shells_follow_is_mapped_above_the_shell_minimum():
     """A detached shell, held from its root only when long, swung back as slowly as its painted Follow let it
     (ellie's trunk painted to 0.05: 6.5 mm off 1 s after the motion, docs/goals.md): with a shell minimum (the
@@ -355,7 +345,6 @@ def test_a_detached_shells_follow_is_mapped_above_the_shell_minimum():
         e.set_goal(0.0, painted, shell_min=1.5)
 
 
-@pytest.mark.skipif(not HAS_MESH_API, reason="opdeform has no mesh graph building / skinning yet")
 @pytest.mark.parametrize("particles", [50, 100, 400])
 def test_a_painted_value_stays_on_its_own_piece(particles):
     """A low-poly detached box (8 vertices, a backpack) 25 mm over a dense body: painted 0.5 on the box and 1 on
