@@ -6,7 +6,7 @@
 opts: scale=S (the whole rig S times 2 m tall), nonuniform (armature object scaled 1.3,1,0.7), empty (armature
 parented to a moving, turning empty), spin (root turns 360 deg in 2 frames), teleport (root jumps 2 m in one frame),
 subsurf (Subdivision after OPDeform), shapekey (an animated shape key on the belly), dense=N (subdivide to about N
-vertices), frames=N (shot length), look=NAME, late (Enable first, then pick), two (a second mesh on the same
+vertices), particles=N (before Enable), frames=N (shot length), look=NAME, late (Enable first, then pick), two (a second mesh on the same
 armature, both enabled), bake, reopen, render, trace, fps=N (scene fps changed after 30 frames played).
 """
 import json, math, os, sys
@@ -303,6 +303,8 @@ def main():
             o.opdeform.use_goal, o.opdeform.goal_group, o.opdeform.softness_group = True, "follow", "softness"
             if "nosoft" in OPT:
                 o.opdeform.softness_group = ""
+        if "particles" in OPT:
+            o.opdeform.particles = int(OPT["particles"])
         bpy.context.view_layer.objects.active = o
         for x in bpy.context.scene.objects:
             x.select_set(x in targets)
@@ -363,6 +365,7 @@ def main():
         row = dict(f=f, anim=anim.max(), anim_wing=anim[regions["wings"]].max() - anim.min(), core=d[core].max(), all=d.max(), stretch=stt.max(), lowest=a[:, 2].min(), lowest_twin=b[:, 2].min(),
                    at=b[i[np.argmax(stt)]] / S)
         row.update({r: d[ix].max() for r, ix in regions.items()})
+        row.update({r + "_stretch": stt[np.isin(i, ix)].max() for r, ix in regions.items()})
         if "contactoff" in OPT and f == 1:
             for o in targets:
                 print("CONTACT props", {k: getattr(o.opdeform_contact, k) for k in o.opdeform_contact.bl_rna.properties.keys() if k != "rna_type"})
@@ -387,6 +390,7 @@ def main():
     summary = dict(host=bpy.app.version_string, opts=OPT, vertices=len(rest), particles=s.particles, size=size,
                    anim_mm=1e3 * col["anim"].max(), anim_wing_mm=1e3 * col["anim_wing"].max(), core_mm=1e3 * col["core"].max(), core_frame=int(fr[np.argmax(col["core"])]),
                    **{r + "_mm": 1e3 * col[r].max() for r in regions}, stretch=col["stretch"].max(),
+                   **{r + "_stretch": col[r + "_stretch"].max() for r in regions},
                    stretch_frame=int(fr[np.argmax(col["stretch"])]), stretch_at=rows[int(np.argmax(col["stretch"]))]["at"].round(2).tolist(),
                    lowest_mm=1e3 * col["lowest"].min(), lowest_twin_mm=1e3 * col["lowest_twin"].min(), settle_s=settle,
                    after_1s_mm=1e3 * col["all"][fr >= end + FPS].max() if (fr >= end + FPS).any() else None,

@@ -105,6 +105,7 @@ typedef struct od_Group
 	double length;    // its bounding box's longest side
 	bool small;       // fewer voxels than OD_SMALL_PIECE_RATIO of the largest group's, and some area
 	bool left;        // small, of its own, but left without particles: attached (od_LeaveOutSmallGroups)
+	bool inside;      // small, with its anchor in a large filled group's voxels (a patch inside the body)
 	od_Voxels voxels;
 	int particles;
 	int first; // the graph index of its first particle
@@ -402,16 +403,28 @@ static void od_MarkSmallGroups(od_Builder* b)
 		od_Group* g = &b->groups[i];
 		g->small = g->area > 0.0 && g->voxels.count < OD_SMALL_PIECE_RATIO * largest;
 	}
+	for (int i = 0; i < b->groupCount; ++i)
+	{
+		od_Group* g = &b->groups[i];
+		for (int j = 0; j < b->groupCount && g->small; ++j)
+		{
+			const od_Group* other = &b->groups[j];
+			g->inside = g->inside || (!other->small && other->fill && od_Voxels_Contains(&other->voxels, g->anchor));
+		}
+	}
 }
 
-// Whether a small group of its own is a long or flat solid (a trunk, an ear plate, a tail, a horn: closed and
-// filled, its longest side squared over its area above OD_LONG_SHELL) rather than compact (an eye, a button:
-// a sphere's is 1/pi) or an open patch (bpy 5.2's Skin modifier leaves open 25-vertex patches inside gob's
-// body: with 16 particles each, painted 0.25, they blew up, 1.9 km off; with 4, 0.04 mm).
+// Whether a small group of its own is long or flat (its longest side squared over its area above OD_LONG_SHELL,
+// an open one's area counted twice as a closed one's two faces) rather than compact (an eye, a button: a sphere's
+// is 1/pi): a closed and filled solid (a trunk, an ear plate, a tail, a horn) or an open card outside the body
+// (a hair card, a one-sided wing), not an open patch inside it (bpy 5.2's Skin modifier leaves open 25-vertex
+// patches inside gob's body: with 16 particles each, painted 0.25, they blew up, 1.9 km off; with 4, 0.04 mm).
+// Kept to 4 rigid particles linked all along, the outside bird's cards (docs/goals.md) moved 3.0-19.6 mm.
 static bool od_LongShell(const od_Builder* b, const od_Group* g)
 {
-	return g->small && g->fill && b->def->smallPieces == OD_SMALL_OWN &&
-		   g->length * g->length > OD_LONG_SHELL * g->area;
+	bool shell = g->fill || (g->open && !g->inside);
+	double area = g->fill ? g->area : 2.0 * g->area;
+	return g->small && shell && b->def->smallPieces == OD_SMALL_OWN && g->length * g->length > OD_LONG_SHELL * area;
 }
 
 // Whether a small group gets no particles and is carried rigidly by the nearest large group: all of them with
@@ -1272,7 +1285,7 @@ static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 		const double* p = b->centers + 3 * (g->first + i);
 		od_NearestBrute(b->centers, b->particleCount, b->particleGroup, host, p, 1, &distance[i], &nearest[i]);
 	}
-	bool root = od_BeamShell(b, g) && n > OD_ROOT_LINKS;
+	bool root = (od_BeamShell(b, g) || (g->open && od_LongShell(b, g))) && n > OD_ROOT_LINKS;
 	for (int l = 0; l < (root ? OD_ROOT_LINKS : n) && status == OD_OK; ++l)
 	{
 		int i = root ? od_Closest(distance, n) : l;

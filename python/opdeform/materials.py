@@ -194,7 +194,7 @@ def _calibrated_ratio(graph: Graph, mesh: MeshArg | None, calibration: str) -> R
             found = _piece_ratios(graph, mesh, calibration)
         else:
             found = _one_body_ratio(graph, mesh, calibration)
-        known[calibration] = _even_shells(graph, found) if calibration == "measured" else found
+        known[calibration] = _own_cards(graph, mesh, _even_shells(graph, found)) if calibration == "measured" else found
     return known[calibration]
 
 
@@ -230,6 +230,32 @@ def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
     return ratio
 
 
+def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio | None:
+    """``ratio`` (k / E per particle) with each card, an open mesh piece linked to a larger one (a hair card, a
+    one-sided wing: not the main piece of its connected piece of the graph, _main_shells), given its own measured
+    k / E as a body of its own (its particles' second moment; one value, their volume-weighted geometric mean).
+    A card is a single row of particles: at its host's k (the body's 5.9 on the outside bird, docs/goals.md) the
+    bird's hair cards, 16 particles each, flipped over (crest 322 mm, edges 2.03x); at their own (25-89 over
+    100-400 particles) XXX."""
+    count, shells = mesh_pieces(graph)
+    if mesh is None and graph._made[0] == "from_mesh":
+        mesh = graph._made[1][:2]
+    if shells is None or count < 2 or mesh is None or ratio is None or np.ndim(ratio) == 0:
+        return ratio
+    vertices, triangles = np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int64)
+    shell = shells[[graph.skin_weights(p, 1)[0][0] for p in vertices]]
+    ratio = np.array(ratio)
+    for piece in np.unique(shells[~_main_shells(graph, graph.pieces()[1])]):
+        chosen = np.flatnonzero(shells == piece)
+        if _closed_mesh_moments(vertices, triangles[(shell[triangles] == piece).all(axis=1)]) is not None:
+            continue
+        found = _calibrated_ratio(_subgraph(graph, chosen), None, "measured")
+        if found is not None:
+            own = _volume_geometric_mean(graph.volumes[chosen], np.broadcast_to(found, len(chosen)))
+            ratio[chosen] = np.maximum(ratio[chosen], own)
+    return ratio
+
+
 def _volume_geometric_mean(volumes: Arr, ratio: Arr) -> float:
     """The volume-weighted geometric mean of per-particle ratios (k / E): one value for a group of particles."""
     return float(np.exp((volumes * np.log(ratio)).sum() / volumes.sum()))
@@ -261,7 +287,8 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
     if mesh is not None:
         vertices = np.asarray(mesh[0], dtype=np.float64)
         triangles = np.asarray(mesh[1], dtype=np.int64)
-        owner = label[[graph.skin_weights(p, 1)[0][0] for p in vertices]]
+        top = np.array([graph.skin_weights(p, 1)[0][0] for p in vertices])
+        owner, shell = label[top], _main_shells(graph, label)[top]
     c, r, a, e = graph.centers, graph.radii, graph.axes, graph.edges
     ratio = np.full(graph.n_particles, np.nan)
     sheets = np.full(count, np.nan)  # per piece: an open sheet's hanging k / E (_hanging_ratio), else nan
@@ -281,13 +308,32 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
             number[mine] = np.arange(len(mine))
             faces = number[triangles[(owner[triangles] == piece).all(axis=1)]]
             own = (vertices[mine], faces) if len(faces) else None
-            if own is not None and piece != body and _closed_mesh_moments(*own) is None:
+            if own is not None and piece != body and _closed_mesh_moments(*_main_shell(own, shell[mine])) is None:
                 sheets[piece] = _hanging_ratio(part, own, c[label == body])
         found = _calibrated_ratio(part, own, calibration)
         ratio[chosen] = _uniform_stiffness(part, 1.0) if found is None else found
     v, known = graph.volumes, np.isfinite(ratio)
     ratio[~known] = (v * ratio)[known].sum() / v[known].sum()
     return _sheets_floored(label, sheets, ratio)
+
+
+def _main_shells(graph: Graph, label: Ints) -> Ints:
+    """Per particle, whether its mesh piece is the main one of its connected piece of the graph (``label``): the
+    piece with most particle volume (a head, not the hair cards linked to it); all True for a graph not built
+    from a mesh."""
+    count, shells = mesh_pieces(graph)
+    if shells is None:
+        return np.ones(graph.n_particles, dtype=bool)
+    volume = np.zeros((label.max() + 1, count))
+    np.add.at(volume, (label, shells), graph.volumes)
+    return shells == np.argmax(volume, axis=1)[label]
+
+
+def _main_shell(mesh: tuple[Arr, Arr], main: Arr) -> tuple[Arr, Arr]:
+    """The triangles of ``mesh`` (vertices, triangles) whose vertices are all skinned by its main mesh piece
+    (``main``: per vertex, _main_shells of its particle), with the mesh's vertices."""
+    vertices, triangles = mesh
+    return vertices, triangles[main[triangles].all(axis=1)]
 
 
 def _sheets_floored(label: Ints, sheets: Arr, ratio: Arr) -> Arr:
