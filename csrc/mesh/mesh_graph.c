@@ -101,11 +101,12 @@ typedef struct od_Group
 	bool fill;
 	bool open; // one of its pieces is open (an edge in one triangle)
 	double area;
+	double box[6];    // its bounding box (lowest x, y, z, highest x, y, z)
 	double anchor[3]; // the centre of its bounding box
 	double length;    // its bounding box's longest side
 	bool small;       // fewer voxels than OD_SMALL_PIECE_RATIO of the largest group's, and some area
 	bool left;        // small, of its own, but left without particles: attached (od_LeaveOutSmallGroups)
-	bool inside;      // small, with its anchor in a large filled group's voxels (a patch inside the body)
+	bool inside;      // small, reaching out of a large group's bounding box less than OD_CARD_REACH of its length
 	od_Voxels voxels;
 	int particles;
 	int first; // the graph index of its first particle
@@ -213,6 +214,7 @@ static void od_GroupAnchors(od_Builder* b, double* box)
 	}
 	for (int i = 0; i < b->groupCount; ++i)
 	{
+		memcpy(b->groups[i].box, box + 6 * i, sizeof(b->groups[i].box));
 		for (int a = 0; a < 3; ++a)
 		{
 			b->groups[i].anchor[a] = 0.5 * (box[6 * i + a] + box[6 * i + 3 + a]);
@@ -385,6 +387,18 @@ static od_Status od_ChooseVoxels(od_Builder* b)
 	return OD_OK;
 }
 
+// How far the bounding box inner (lowest x, y, z, highest x, y, z) reaches out of the bounding box outer: the
+// largest distance along an axis, 0 within it.
+static double od_Reach(const double inner[6], const double outer[6])
+{
+	double reach = 0.0;
+	for (int a = 0; a < 3; ++a)
+	{
+		reach = fmax(reach, fmax(outer[a] - inner[a], inner[3 + a] - outer[3 + a]));
+	}
+	return reach;
+}
+
 // Small groups: fewer voxels than OD_SMALL_PIECE_RATIO of the largest group's, and some area. Measured on
 // Blender's Suzanne subdivided twice, each eyeball has 3.2 % of the head's volume: a tenth keeps eyes,
 // teeth and buttons well inside, and parts of comparable size (two capsules of 1 and 0.5 m) outside. A
@@ -408,17 +422,18 @@ static void od_MarkSmallGroups(od_Builder* b)
 		od_Group* g = &b->groups[i];
 		for (int j = 0; j < b->groupCount && g->small; ++j)
 		{
-			const od_Group* other = &b->groups[j];
-			g->inside = g->inside || (!other->small && other->fill && od_Voxels_Contains(&other->voxels, g->anchor));
+			g->inside = g->inside || (!b->groups[j].small && od_Reach(g->box, b->groups[j].box) < OD_CARD_REACH * g->length);
 		}
 	}
 }
 
 // Whether a small group of its own is long or flat (its longest side squared over its area above OD_LONG_SHELL,
 // an open one's area counted twice as a closed one's two faces) rather than compact (an eye, a button: a sphere's
-// is 1/pi): a closed and filled solid (a trunk, an ear plate, a tail, a horn) or an open card outside the body
-// (a hair card, a one-sided wing), not an open patch inside it (bpy 5.2's Skin modifier leaves open 25-vertex
-// patches inside gob's body: with 16 particles each, painted 0.25, they blew up, 1.9 km off; with 4, 0.04 mm).
+// is 1/pi): a closed and filled solid (a trunk, an ear plate, a tail, a horn) or an open card that reaches out
+// of every large group's bounding box (a hair card, a one-sided wing: OD_CARD_REACH), not an open patch on or
+// in one (bpy 5.2's Skin modifier leaves open 25-vertex patches inside gob's body, one 2 cm out of its box at
+// the belly: with 16 particles each, painted 0.25, they blew up, 1.9 km off; with 4, 0.04 mm; its body is open
+// too, so its voxels are a shell and tell nothing of what lies inside).
 // Kept to 4 rigid particles linked all along, the outside bird's cards (docs/goals.md) moved 3.0-19.6 mm.
 static bool od_LongShell(const od_Builder* b, const od_Group* g)
 {

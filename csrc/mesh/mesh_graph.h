@@ -53,5 +53,3 @@ od_Status od_Voxelize(const double* vertices, const int* triangles, const int* l
 void od_Voxels_Destroy(od_Voxels* voxels);
 // The centre of voxel i.
 void od_Voxels_Center(const od_Voxels* voxels, int i, double out[3]);
-// Whether the point p lies in one of the voxels.
-bool od_Voxels_Contains(const od_Voxels* voxels, const double p[3]);

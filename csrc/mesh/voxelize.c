@@ -263,25 +263,3 @@ void od_Voxels_Center(const od_Voxels* g, int i, double out[3])
 	out[1] = g->origin[1] + (y + 0.5) * g->h;
 	out[2] = g->origin[2] + (z + 0.5) * g->h;
 }
-
-bool od_Voxels_Contains(const od_Voxels* g, const double p[3])
-{
-	long long cell = 0;
-	for (int a = 2; a >= 0; --a)
-	{
-		double x = floor((p[a] - g->origin[a]) / g->h);
-		if (!(x >= 0.0 && x < g->dims[a]))
-		{
-			return false;
-		}
-		cell = cell * g->dims[a] + (long long)x;
-	}
-	int lo = 0, hi = g->count;
-	while (lo < hi)
-	{
-		int mid = lo + (hi - lo) / 2;
-		lo = g->cells[mid] < cell ? mid + 1 : lo;
-		hi = g->cells[mid] < cell ? hi : mid;
-	}
-	return lo < g->count && g->cells[lo] == cell;
-}

@@ -244,10 +244,11 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
         return ratio
     vertices, triangles = np.asarray(mesh[0], dtype=np.float64), np.asarray(mesh[1], dtype=np.int64)
     shell = shells[[graph.skin_weights(p, 1)[0][0] for p in vertices]]
-    ratio = np.array(ratio)
+    ratio, a, b = np.array(ratio), shells[graph.edges[:, 0]], shells[graph.edges[:, 1]]
+    links = np.bincount(np.r_[a[a != b], b[a != b]], minlength=count)
     for piece in np.unique(shells[~_main_shells(graph, graph.pieces()[1])]):
         chosen = np.flatnonzero(shells == piece)
-        if _closed_mesh_moments(vertices, triangles[(shell[triangles] == piece).all(axis=1)]) is not None:
+        if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, triangles[(shell[triangles] == piece).all(axis=1)]) is not None:
             continue
         found = _calibrated_ratio(_subgraph(graph, chosen), None, "measured")
         if found is not None:

@@ -56,10 +56,14 @@ typedef enum od_SmallPieces
 #define OD_SMALL_PIECE_PARTICLES 4
 #define OD_SMALL_PIECE_SHARE 0.5 // of the budget, at most, to small pieces' OD_SMALL_PIECE_PARTICLES each
 #define OD_SHELL_PARTICLES 16
-#define OD_LONG_SHELL 0.4 // longest side^2 / area above which a closed small piece is long or flat (a sphere: 1/pi)
+#define OD_LONG_SHELL 0.4 // longest side^2 / area (an open piece's counted twice) above which a small piece is long or
+                          // flat (a sphere: 1/pi)
 #define OD_BEAM_SHELL 1.5 // a long piece whose particles spread this much more along one axis than the next (the
                           // dog's ears 1.75-1.82, tails and trunks 4.6-6.5, ellie's ear plates 1.06)
 #define OD_ROOT_LINKS 3   // ... is linked to its host from this many particles, those nearest it (3 hold a frame)
+#define OD_CARD_REACH 0.5 // an open small piece reaching this share of its longest side out of every large piece's
+                          // bounding box is a card (the outside bird's wings and cards 0.8-1.0; gob's Skin patches
+                          // in 5.2 0.06 at most)
 
 typedef struct od_MeshGraphDef
 {
