@@ -422,7 +422,8 @@ static void od_MarkSmallGroups(od_Builder* b)
 		od_Group* g = &b->groups[i];
 		for (int j = 0; j < b->groupCount && g->small; ++j)
 		{
-			g->inside = g->inside || (!b->groups[j].small && od_Reach(g->box, b->groups[j].box) < OD_CARD_REACH * g->length);
+			const od_Group* large = &b->groups[j];
+			g->inside = g->inside || (!large->small && od_Reach(g->box, large->box) < OD_CARD_REACH * g->length);
 		}
 	}
 }
@@ -434,7 +435,8 @@ static void od_MarkSmallGroups(od_Builder* b)
 // in one (bpy 5.2's Skin modifier leaves open 25-vertex patches inside gob's body, one 2 cm out of its box at
 // the belly: with 16 particles each, painted 0.25, they blew up, 1.9 km off; with 4, 0.04 mm; its body is open
 // too, so its voxels are a shell and tell nothing of what lies inside).
-// Kept to 4 rigid particles linked all along, the outside bird's cards (docs/goals.md) moved 3.0-19.6 mm.
+// Kept to 4 rigid particles linked all along, the outside bird's cards and wings (docs/goals.md) moved 3.0-19.6
+// mm for a rig that flaps the wings 576 mm; as long shells, 25-198 mm (tests/test_loose_parts.py).
 static bool od_LongShell(const od_Builder* b, const od_Group* g)
 {
 	bool shell = g->fill || (g->open && !g->inside);
@@ -1258,7 +1260,7 @@ static int od_Closest(const double* distance, int n)
 	return best;
 }
 
-// Whether a small group of its own moves as a rigid body: compact or open, with no more than its floor of
+// Whether a small group of its own moves as a rigid body: compact or an open patch, with no more than its floor of
 // particles (a button, an eye at a low count: particles about as large as the piece), its vertices share its
 // anchor's weights over its particles (graph/piece_map.c). Skinned each by its nearest, gob's 44 mm buttons
 // at 50 particles (docs/goals.md) stretched 1.72x when the landing moved their four particles apart (their
@@ -1287,8 +1289,10 @@ static bool od_Sheet(const od_Builder* b, const od_Group* g)
 // for a shell along a line (od_BeamShell), from the OD_ROOT_LINKS nearest the host only (its root; ties by
 // index). Linked all along, the dog's hanging ears (docs/goals.md) moved 0.03 mm against the rig's 155 mm:
 // each link is held by the host particle's volume and stiffness, which outweigh the shell's own (the ears 100
-// times softer moved the same); linked at the root, 41 mm. A plate keeps every link: a single layer of
+// times softer moved the same); linked at the root, 41 mm. A closed plate keeps every link: a single layer of
 // particles does not hold its shape by itself (ellie's ear plates, linked at the root: 515 mm, 2.9x stretch).
+// An open card (od_LongShell: a hair card, a one-sided wing) is linked at its root, with its own k where that is
+// stiffer (materials._own_cards): the outside bird's wings linked all along swung 17.6 mm, at the root 159 mm.
 static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 {
 	int n = g->particles;

@@ -231,12 +231,13 @@ def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
 
 
 def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio | None:
-    """``ratio`` (k / E per particle) with each card, an open mesh piece linked to a larger one (a hair card, a
-    one-sided wing: not the main piece of its connected piece of the graph, _main_shells), given its own measured
-    k / E as a body of its own (its particles' second moment; one value, their volume-weighted geometric mean).
-    A card is a single row of particles: at its host's k (the body's 5.9 on the outside bird, docs/goals.md) the
-    bird's hair cards, 16 particles each, flipped over (crest 322 mm, edges 2.03x); at their own (25-89 over
-    100-400 particles) XXX."""
+    """``ratio`` (k / E per particle) with each card, an open mesh piece linked to a larger one at its root (a
+    hair card, a one-sided wing: not the main piece of its connected piece of the graph, _main_shells; fewer
+    links than particles), given its own measured k / E as a body of its own (its particles' second moment; one
+    value, their volume-weighted geometric mean) where that is stiffer. A card is a single layer of particles:
+    at its host's k (7.7) the outside bird's hair cards (docs/goals.md), 16 particles each, flipped over (crest
+    322 mm, edges 2.03x); at their own (25-89 at 100-400 particles) 123-237 mm at 50-400 particles, 1.12-1.25x.
+    Its wings' own (a plate's, 0.13-1.2) left them 2.45x stretched at 400 particles: they keep the body's."""
     count, shells = mesh_pieces(graph)
     if mesh is None and graph._made[0] == "from_mesh":
         mesh = graph._made[1][:2]
@@ -248,7 +249,8 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
     links = np.bincount(np.r_[a[a != b], b[a != b]], minlength=count)
     for piece in np.unique(shells[~_main_shells(graph, graph.pieces()[1])]):
         chosen = np.flatnonzero(shells == piece)
-        if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, triangles[(shell[triangles] == piece).all(axis=1)]) is not None:
+        own_faces = triangles[(shell[triangles] == piece).all(axis=1)]
+        if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, own_faces) is not None:
             continue
         found = _calibrated_ratio(_subgraph(graph, chosen), None, "measured")
         if found is not None:
