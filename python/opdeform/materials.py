@@ -253,7 +253,7 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
         if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, own_faces) is not None:
             continue
         found = _calibrated_ratio(_subgraph(graph, chosen), None, "measured")
-        if found is not None:
+        if found is not None and np.all(np.isfinite(found)):  # nan: no edge among its particles
             own = _volume_geometric_mean(graph.volumes[chosen], np.broadcast_to(found, len(chosen)))
             ratio[chosen] = np.maximum(ratio[chosen], own)
     return ratio
