@@ -365,7 +365,7 @@ def main():
         row = dict(f=f, anim=anim.max(), anim_wing=anim[regions["wings"]].max() - anim.min(), core=d[core].max(), all=d.max(), stretch=stt.max(), lowest=a[:, 2].min(), lowest_twin=b[:, 2].min(),
                    at=b[i[np.argmax(stt)]] / S)
         row.update({r: d[ix].max() for r, ix in regions.items()})
-        row.update({r + "_stretch": stt[np.isin(i, ix)].max() for r, ix in regions.items()})
+        row.update({r + "_stretch": stt[np.isin(i, ix)].max(initial=1.0) for r, ix in regions.items()})
         if "contactoff" in OPT and f == 1:
             for o in targets:
                 print("CONTACT props", {k: getattr(o.opdeform_contact, k) for k in o.opdeform_contact.bl_rna.properties.keys() if k != "rna_type"})
