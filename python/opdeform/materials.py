@@ -252,11 +252,18 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
         own_faces = triangles[(shell[triangles] == piece).all(axis=1)]
         if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, own_faces) is not None:
             continue
-        found = _calibrated_ratio(_subgraph(graph, chosen), None, "measured")
+        found = _calibrated_ratio(_widened(_subgraph(graph, chosen)), None, "measured")
         if found is not None and np.all(np.isfinite(found)):  # nan: no edge among its particles
-            own = _volume_geometric_mean(graph.volumes[chosen], np.broadcast_to(found, len(chosen)))
-            ratio[chosen] = np.maximum(ratio[chosen], own)
+            ratio[chosen] = _volume_geometric_mean(graph.volumes[chosen], np.broadcast_to(found, len(chosen)))
     return ratio
+
+
+def _widened(graph: Graph) -> Graph:
+    """The graph with each particle's smallest radius raised to its middle one."""
+    radii = np.array(graph.radii)
+    thin = np.argmin(radii, axis=1)
+    radii[np.arange(len(radii)), thin] = np.sort(radii, axis=1)[:, 1]
+    return Graph(graph.centers, radii, graph.edges, graph.axes)
 
 
 def _volume_geometric_mean(volumes: Arr, ratio: Arr) -> float:
