@@ -1291,8 +1291,8 @@ static bool od_Sheet(const od_Builder* b, const od_Group* g)
 // each link is held by the host particle's volume and stiffness, which outweigh the shell's own (the ears 100
 // times softer moved the same); linked at the root, 41 mm. A closed plate keeps every link: a single layer of
 // particles does not hold its shape by itself (ellie's ear plates, linked at the root: 515 mm, 2.9x stretch).
-// An open card (od_LongShell: a hair card, a one-sided wing) is linked at its root, with its own k where that is
-// stiffer (materials._own_cards): the outside bird's wings linked all along swung 17.6 mm, at the root 159 mm.
+// An open card (od_LongShell: a hair card, a one-sided wing) is linked at its root, with its own k
+// (materials._own_cards): the outside bird's wings linked all along swung 17.6 mm, at the root 159 mm.
 static od_Status od_LinkGroup(od_Builder* b, const od_Group* g, int host)
 {
 	int n = g->particles;

@@ -233,11 +233,14 @@ def _even_shells(graph: Graph, ratio: Ratio | None) -> Ratio | None:
 def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio | None:
     """``ratio`` (k / E per particle) with each card, an open mesh piece linked to a larger one at its root (a
     hair card, a one-sided wing: not the main piece of its connected piece of the graph, _main_shells; fewer
-    links than particles), given its own measured k / E as a body of its own (its particles' second moment; one
-    value, their volume-weighted geometric mean) where that is stiffer. A card is a single layer of particles:
-    at its host's k (7.7) the outside bird's hair cards (docs/goals.md), 16 particles each, flipped over (crest
-    322 mm, edges 2.03x); at their own (25-89 at 100-400 particles) 123-237 mm at 50-400 particles, 1.12-1.25x.
-    Its wings' own (a plate's, 0.13-1.2) left them 2.45x stretched at 400 particles: they keep the body's."""
+    links than particles), given its own measured k / E as a body of its own, as thick as its particles are
+    wide (_widened; one value, their volume-weighted geometric mean). A card is a single layer of particles, 16
+    at any count (docs/mesh.md): at its host's k (7.7) the outside bird's hair cards (docs/goals.md) flipped over
+    (crest 322 mm, edges 2.03x at 100 particles); at their own 123-230 mm over 50-1,000 particles, 1.12-1.16x.
+    The host's k grows with the count (the bird's body 3.4-28 over 50-1,000), the card's particles do not: at
+    the body's k its wings swung 168 mm at 50 particles and 27 mm at 1,000; at their own 78-181 mm. As thin as
+    its particles (a voxel, thinner as the count grows) a plate's own k fell to 0.08-1.4 and the wings
+    stretched 2.45x at 400."""
     count, shells = mesh_pieces(graph)
     if mesh is None and graph._made[0] == "from_mesh":
         mesh = graph._made[1][:2]
