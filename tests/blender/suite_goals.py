@@ -201,6 +201,22 @@ def test_a_sleeve_over_its_tail_on_one_rig_moves_as_the_tail_alone():
         worst = _off_animation([tail, sleeve], frames)
         assert not tail.opdeform.error and not sleeve.opdeform.error, (tail.opdeform.error, sleeve.opdeform.error)
         assert alone > 0.05 and np.abs(worst - alone).max() < 1e-3, (scale, alone, worst)
+        bpy.context.view_layer.objects.active = tail
+        assert "Overlaps" not in H.labels(H.draw_panels())
+
+
+def test_objects_overlapping_at_rest_without_a_goal_on_both_are_named_in_the_panel():
+    """Where the goals cannot take an overlap at rest (a sleeve over its tail with Goal off), their contact pushes
+    them apart: the panel names the other object (core/checks.py ``overlap_text``), and no traceback."""
+    tail = H.tail_rig(0.5)
+    sleeve = _sleeve(tail, 1.05)
+    sleeve.opdeform.use_goal = False
+    for frame in (1, 2):
+        bpy.context.scene.frame_set(frame)
+    for obj, other in ((tail, "'Sleeve'"), (sleeve, "'Tail'")):
+        bpy.context.view_layer.objects.active = obj
+        text = H.labels(H.draw_panels())
+        assert f"Overlaps {other} at rest" in text and not obj.opdeform.error, (text, obj.opdeform.error)
 
 
 def test_base_mesh_unchanged_after_play_bake_disable_reload():
