@@ -55,7 +55,7 @@ scales it by one of two rules (``scaling``, ``acting_modulus``):
   sqrt(E / rho) / L are the same at every size, so the lag and overshoot grow as the accelerations, as s:
   the same motion in units of the size, as Maya's Jiggle gives (issue 24: Froude-scaled, the bird at 19.8 m
   stretched 1.98x where it does 1.13x at 1.98 m). Gravity scaled with L keeps its relative sag
-  rho g L / E size-free too. At GOAL_REFERENCE_SIZE (2.4 m, the creature the looks were tuned on) the two
+  rho g L / E size-free too. At GOAL_REFERENCE_SIZE (2.43 m, the creature the looks were tuned on) the two
   rules agree.
 
 **Damping** is a rate per second (``step_damping`` turns it into the solver's per-step c for a dt), so it
@@ -87,8 +87,9 @@ Arr = npt.NDArray[Any]
 Ratio = float | Arr
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus
-# m: the size at which the "goal" rule gives the "froude" rule's E (the character the looks were tuned on is 2.43 m)
-GOAL_REFERENCE_SIZE = 2.4
+# m: the size at which the "goal" rule gives the "froude" rule's E: the creature the looks were tuned on
+# (tests/blender/character_scene.py, 2.43 m), whose figures are then as they were
+GOAL_REFERENCE_SIZE = 2.43
 SCALINGS = ("froude", "goal")  # how a body's size scales its modulus: free bodies, bodies following an animation
 # Residual tolerance of a step (Simulation.set_solver) and the accelerator that reaches it: measured on the
 # Fig. 1 and 2 bars (docs/settings.md), the 2-second clip error is 0.13 % (sagging) and 0.17 % (twisted) of

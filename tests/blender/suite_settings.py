@@ -165,7 +165,7 @@ def test_version_3_file_keeps_its_shells_painted_follow():
 
 def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
     """Settings version 5 (issue 24, docs/settings.md "Size"): an object following its animation (Goal on, Dynamic
-    mode) acts with E = modulus x size^2 / 2.4 m and Sag's share of gravity times size / 2.4 m (materials' "goal"
+    mode) acts with E = modulus x size^2 / 2.43 m and Sag's share of gravity times size / 2.43 m (materials' "goal"
     rule: the same look at any size), without a Goal with E = modulus x size ("froude"); a file saved before
     version 5 keeps the "froude" rule (Physical Scaling on after the load), a new object has it off."""
     for name, version in (("New", None), ("Old", 4)):
@@ -192,7 +192,7 @@ def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
         gravity = m.acting_gravity([sag * g for g in bpy.context.scene.gravity], size, scaling)
         assert np.allclose(params["stiffness"] * (1.0 if scale is None else scale), k, rtol=1e-9), (name, goal)
         assert np.allclose(params["gravity"], gravity, rtol=1e-6), (name, goal, params["gravity"], gravity)
-    assert abs(size - 2.0) < 0.01 and abs(m.acting_modulus(1.0, size, "goal") / size - size / 2.4) < 1e-9
+    assert abs(size - 2.0) < 0.01 and m.acting_modulus(1.0, size, "goal") == size * size / m.GOAL_REFERENCE_SIZE
 
 
 def _version():
