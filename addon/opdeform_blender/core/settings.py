@@ -4,7 +4,8 @@ parameters they mean for one body (``opdeform.materials``).
 Two kinds of objects:
 - **material units** (objects enabled with this version): Stiffness is a modulus in MPa at 1 m
   (``materials.stiffness_for`` turns it into the solver's k of each particle for the body's graph and size,
-  so the same value looks the same at any size and particle count), Damping a rate per second, Quality an error tolerance per
+  so the same value looks the same at any size and particle count: with a goal by ``Units.scaling`` "goal"),
+  Damping a rate per second, Quality an error tolerance per
   step (% of the body's size, Chebyshev-accelerated, at most Max Iterations pairs);
 - **solver units** (the Advanced sub-panel's toggle; every object of a file saved before settings version 1):
   the raw k, a per-step damping share and a fixed iteration count, exactly as before. Setting ``stiffness``
