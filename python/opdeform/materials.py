@@ -206,7 +206,8 @@ def acting_gravity(gravity: Vector, size: float, scaling: str = "froude") -> tup
     """The gravity (m/s^2) a body of ``size`` m feels: as given ("froude"), times size / GOAL_REFERENCE_SIZE
     ("goal": the same relative sag under ``acting_modulus`` at any size)."""
     ratio = _size_ratio(size, scaling)
-    return tuple(float(g) * ratio for g in gravity)
+    x, y, z = (float(g) * ratio for g in gravity)
+    return x, y, z
 
 
 def _uniform_stiffness(graph: Graph, modulus: float) -> float:
