@@ -319,11 +319,11 @@ def _tail_after_the_motion(floor):
 
 
 def test_a_goal_driven_body_moves_the_same_at_any_size():
-    """Issue 24 (docs/settings.md, "Size"): the tailed body and its animation scaled by 1/2, 1 and 16 at the same
-    keyframe timing (powers of two: the same graph, so the same calibration; the tail's own calibration drifts
-    below about 1/4 of this 1.3 m body: docs/settings.md). Under the "goal" rule of an object following its animation (E times the size squared,
-    gravity times the size) its motion in units of its size is the same at every size, with or without gravity
-    (Sag); under the "froude" rule of free bodies, the add-on's only rule before, it does not (it grows with the
+    """Issue 24 (docs/settings.md, "Size: two rules"): the tailed body and its animation scaled by 1/2, 1 and 16
+    at the same keyframe timing (powers of two: the same graph, so the same calibration; the tail's own
+    calibration drifts below about 1/4 of this 1.3 m body: docs/settings.md). Under the "goal" rule of an object
+    following its animation (E times the size squared, gravity times the size) its motion in units of its size
+    is the same at every size, with or without gravity (Sag); under the "froude" rule of free bodies, the add-on's only rule before, it does not (it grows with the
     size: the outside bird at 19.8 m stretched 1.98x where it does 1.13x at 1.98 m)."""
     def relative(scale, scaling, sag):
         e, v, is_tail, root, follow = _tailed_engine(60, None, None, scale, scaling, (0.0, 0.0, -9.81 * sag))

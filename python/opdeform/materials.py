@@ -77,8 +77,9 @@ from .mesh import mesh_pieces
 from .simulation import Simulation
 
 __all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "GOAL_REFERENCE_SIZE", "Material", "PRESETS",
-           "REFERENCE_SIZE", "SCALINGS", "acting_gravity", "acting_modulus", "body_size", "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
-           "step_damping", "stretch_warning", "substeps_for", "thin_appendages", "thin_part_warning"]
+           "REFERENCE_SIZE", "SCALINGS", "acting_gravity", "acting_modulus", "body_size", "handle_warning",
+           "make_simulation", "preset_table", "simulation_settings", "stiffness_for", "step_damping",
+           "stretch_warning", "substeps_for", "thin_appendages", "thin_part_warning"]
 
 # The annotations' types: a mesh as given (vertices, triangles; or the arguments Graph.from_mesh kept, the
 # mesh first), a calibration's k / E (one for the body or one per particle), an array of the computations
@@ -131,16 +132,15 @@ def preset_table() -> list[dict[str, Any]]:
 
 def simulation_settings(graph: Graph, modulus: float, density: float, damping: float,
                         tolerance: float = DEFAULT_TOLERANCE, fps: float = 24.0, substeps: int | None = None,
-                        size: float | None = None,
-                        scaling: str = "froude") -> tuple[dict[str, Any], dict[str, Any], int]:
+                        size: float | None = None) -> tuple[dict[str, Any], dict[str, Any], int]:
     """The panel's artist values (modulus Pa at REFERENCE_SIZE, density kg/m^3, damping per second, tolerance,
-    frame rate, substeps per frame: default ``substeps_for(fps)``; ``scaling``: SCALINGS, the module's
-    docstring) as (Simulation keyword arguments, set_solver keyword arguments, substeps per frame)."""
+    frame rate, substeps per frame: default ``substeps_for(fps)``) as (Simulation keyword arguments,
+    set_solver keyword arguments, substeps per frame)."""
     substeps = substeps_for(fps) if substeps is None else int(substeps)
     if substeps < 1:
         raise ValueError(f"substeps = {substeps} must be >= 1")
     dt = 1.0 / (fps * substeps)
-    sim = dict(stiffness=stiffness_for(graph, modulus, size, scaling=scaling), density=float(density), dt=dt,
+    sim = dict(stiffness=stiffness_for(graph, modulus, size), density=float(density), dt=dt,
                damping=step_damping(damping, dt))
     return sim, dict(accelerator=DEFAULT_ACCELERATOR, tolerance=float(tolerance)), substeps
 
