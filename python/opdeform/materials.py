@@ -1140,7 +1140,8 @@ def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: A
 
     def compliance(own_k: float) -> float:
         k[:own] = own_k
-        loads = [_SAG * (s.max() - s.min()) * own_k / _cantilever_tip(s, samples @ axes[:, b], h, tip) for b in (1, 2)]
+        loads = [_SAG * (s.max() - s.min()) * (own_k / guess) / _cantilever_tip(s, samples @ axes[:, b], h, tip)
+                 for b in (1, 2)]
         return sum(_tip_compliance(part, k, held, samples[tip], axes[:, b], load, poses, b)
                    for b, load in zip((1, 2), loads))
     return chosen, _series_fit(compliance, guess, continuum, guess / _SOFTEST)
