@@ -12,7 +12,7 @@ from test_addon import HOSTS, check_suite_test, suite_names
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import colliders, contact, fields  # noqa: E402
+from opdeform_blender.core import checks, colliders, contact, fields  # noqa: E402
 from opdeform_blender.core.engine import Engine  # noqa: E402
 
 
@@ -492,3 +492,64 @@ def test_jelly_spheres_stacked_on_a_collision_box_stay_on_top():
     m[[0, 2], 3] = -2.0
     around = colliders.Surroundings((colliders.collider_frame("Box", v, f, m, 0.5, 0.005),), ())
     _assert_spheres_stay("Jelly", 0.505, around=around)
+
+
+def _layered_engines(scale, goals=(True, True)):
+    """A body (a 0.8 m ellipsoid, Fleshy, 10 substeps at 24 fps, its front painted Follow 0.3, the rest 1) and a
+    jacket `scale` times larger about its centre, each with or without its goal (``goals``)."""
+    v, f = _octasphere(0.4, 12)
+    v = v * (1.0, 1.0, 1.2) + (0.0, 0.0, 1.0)
+    engines = []
+    for verts, goal in zip((v, (v - (0.0, 0.0, 1.0)) * scale + (0.0, 0.0, 1.0)), goals):
+        e = Engine(opdeform, verts, f, particles=60)
+        m = opdeform.materials
+        e.configure(dict(stiffness=m.stiffness_for(e.graph, 3e6), density=1050.0, dt=1 / 240, iterations=10,
+                         gravity=(0, 0, -9.81), damping=m.step_damping(9.0, 1 / 240)), substeps=10, end=100,
+                    solver=dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=2e-5, max_iterations=100))
+        if goal:
+            e.set_goal(1.0, np.where(verts[:, 1] < -0.15, 0.3, 1.0))
+        engines.append(e)
+    return engines, f
+
+
+def _hop(frame):
+    """The objects' transform at a frame: swaying 0.6 m and hopping 0.4 m for 30 frames, then held."""
+    t = min(frame, 30) / 24
+    m = np.eye(4)
+    m[:3, 3] = (0.0, 0.6 * np.sin(2 * t), 0.4 * abs(np.sin(3 * t)))
+    return m
+
+
+@pytest.mark.parametrize("scale", [1.05, 1.25])
+def test_a_jacket_on_its_body_both_with_goals_plays_as_the_animation(scale):
+    """Issue 24, finding (4) of docs/goals.md's outside creature: a body and a jacket 5 or 25 % larger on one
+    animation, both with goals, step in contact (one group); they overlap at rest. Their contact started them
+    interpenetrating (this pair stretched 9.3x, the bird's jacket 7x); the pairs their goals put together are no
+    contact now (docs/contact.md, "Members that overlap at rest"): no edge over 1.5x its animated length, and
+    nothing reported."""
+    engines, f = _layered_engines(scale)
+    edges = np.unique(np.sort(np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]]), axis=1), axis=0)
+    bodies, stretch = contact.Bodies(), 1.0
+    for frame in range(1, 49):
+        runs = [e.begin(frame, incoming=e.rest_local, matrix=_hop(frame)) for e in engines]
+        for e, out in zip(engines, bodies.simulate(opdeform, runs)):
+            length = np.linalg.norm(out[edges[:, 0]] - out[edges[:, 1]], axis=1)
+            rest = np.linalg.norm(e.rest_local[edges[:, 0]] - e.rest_local[edges[:, 1]], axis=1)
+            stretch = max(stretch, (length / rest).max())
+        assert bodies.overlapping(runs) == []
+    assert stretch < 1.5, stretch
+
+
+def test_bodies_overlapping_at_rest_without_a_goal_on_both_are_named():
+    """The overlaps the goals do not take (core/contact.py ``overlapping``): a jacket without a goal over a body
+    with one, or neither with one, is found and named in the panel's text; two blobs resting on each other or
+    apart are not."""
+    for goals, found in (((True, False), [(0, 1)]), ((False, False), [(0, 1)]), ((True, True), [])):
+        engines, _ = _layered_engines(1.05, goals)
+        runs = [e.begin(1, incoming=e.rest_local, matrix=_hop(1)) for e in engines]
+        assert contact.Bodies().overlapping(runs) == found, goals
+    stacked = [blob_engine(z)[0] for z in (0.3, 0.9)]  # 0.6 m blobs touching
+    assert contact.overlapping([e.begin(1) for e in stacked]) == []
+    assert contact.overlapping([e.begin(1) for e in (blob_engine(0.3)[0], blob_engine(1.0)[0])]) == []
+    text = checks.overlap_text(("Jacket",))
+    assert "'Jacket'" in text and "Goal" in text and checks.overlap_text(()) is None

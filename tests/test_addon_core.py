@@ -277,36 +277,68 @@ def test_the_same_triangles_in_any_order_build_the_same_graph():
             assert getattr(g, name).tobytes() == getattr(reference, name).tobytes(), name
 
 
-def _tailed_engine(particles, floor=None, mesh=None):
-    """An Engine of the tailed body (or of ``mesh``: vertices, triangles) with the add-on's defaults (Fleshy, 10
-    substeps at 24 fps); (engine, vertices, the tail's vertices, its root, Follow)."""
+def _tailed_engine(particles, floor=None, mesh=None, scale=1.0, scaling="froude", gravity=(0.0, 0.0, 0.0)):
+    """An Engine of the tailed body (or of ``mesh``: vertices, triangles) scaled by ``scale`` with the add-on's
+    defaults (Fleshy, 10 substeps at 24 fps; the size rule ``scaling``, ``gravity``); (engine, vertices, the
+    tail's vertices, its root, Follow)."""
     from opdeform_blender.core import settings
     v, t, is_tail, root, follow = _tailed_body()
     v, t = (v, t) if mesh is None else mesh
+    v, root = v * scale, root * scale
     e = Engine(opdeform, v, t, particles=particles, small_pieces="own")
     u = settings.Units(solver_units=False, modulus=3.0, stiffness=0.0, density=1050.0, damping_rate=9.0,
-                       damping=0.0, tolerance=2e-3, max_iterations=100, iterations=10, substeps=10)
-    params, solver = settings.solver_settings(opdeform, e.graph, u, 24, (0.0, 0.0, 0.0))
+                       damping=0.0, tolerance=2e-3, max_iterations=100, iterations=10, substeps=10,
+                       scaling=scaling)
+    params, solver = settings.solver_settings(opdeform, e.graph, u, 24, gravity)
     e.configure(params, u.substeps, floor, 1, 72, solver)
     return e, v, is_tail, root, follow
+
+
+def _tail_offsets(e, v, is_tail, root, follow, hop=0.1, frames=72):
+    """The tailed body of ``_tailed_engine`` (``v`` and ``root`` as it returns them) hopping ``hop`` m twice with
+    its tail swinging 0.5 rad in 1 s, then still, Follow painted, Softness 0.15^(1 - Follow): each frame's
+    largest distance from the animation."""
+    e.set_goal(0.0, follow)
+    e.set_regions(0.15 ** (1.0 - follow))
+    offsets = []
+    for f in range(1, frames + 1):
+        time = (min(f, 25) - 1) / 24
+        animated = v.copy()
+        animated[is_tail] = (v[is_tail] - root) @ _turn_y(0.5 * math.sin(4 * math.pi * time)).T + root
+        animated[:, 2] += hop * abs(math.sin(2 * math.pi * time))
+        out = e.goto(f, None, animated.astype(np.float32))
+        offsets.append(float(np.linalg.norm(out - animated, axis=1).max()))
+    return np.array(offsets)
 
 
 def _tail_after_the_motion(floor):
     """The tailed body hopping 0.1 m twice with its tail swinging 0.5 rad in 1 s, then still, the add-on's
     defaults (Fleshy, Softness 0.15^(1 - Follow), 10 substeps at 24 fps, tolerance 2e-5) at 1,000 particles:
     each frame's largest distance from the animation from 1 s after the motion."""
-    e, v, is_tail, root, follow = _tailed_engine(1000, floor)
-    e.set_goal(0.0, follow)
-    e.set_regions(0.15 ** (1.0 - follow))
-    after = []
-    for f in range(1, 73):
-        time = (min(f, 25) - 1) / 24
-        animated = v.copy()
-        animated[is_tail] = (v[is_tail] - root) @ _turn_y(0.5 * math.sin(4 * math.pi * time)).T + root
-        animated[:, 2] += 0.1 * abs(math.sin(2 * math.pi * time))
-        out = e.goto(f, None, animated.astype(np.float32))
-        after.append(float(np.linalg.norm(out - animated, axis=1).max()))
-    return np.array(after[48:])
+    return _tail_offsets(*_tailed_engine(1000, floor))[48:]
+
+
+def test_a_goal_driven_body_moves_the_same_at_any_size():
+    """Issue 24 (docs/settings.md, "Size: two rules"): the tailed body and its animation scaled by 1/64 (2 cm), 1
+    and 16 at the same keyframe timing (powers of two: the same graph). Under the "goal" rule of an object
+    following its animation (E times the size squared, gravity times the size) its motion in units of its size
+    is the same at every size, with or without gravity (Sag; at 1/64 it was not while the tail's calibration
+    loaded it with k for E, 0.16x as stiff); under the "froude" rule of free bodies, the add-on's only rule before, it does not (it grows with the
+    size: the outside bird at 19.8 m stretched 1.98x where it does 1.13x at 1.98 m)."""
+    def relative(scale, scaling, sag):
+        e, v, is_tail, root, follow = _tailed_engine(60, None, None, scale, scaling, (0.0, 0.0, -9.81 * sag))
+        return _tail_offsets(e, v, is_tail, root, follow, 0.1 * scale, 36) / scale
+
+    for sag in (0.0, 0.5):
+        reference = relative(1.0, "goal", sag)
+        assert reference.max() > 0.01, reference.max()  # it jiggles: a centimetre on this 1 m body
+        for scale in (2.0 ** -6, 16.0):
+            scaled = relative(scale, "goal", sag)
+            assert np.abs(scaled - reference).max() < 0.02 * reference.max(), (sag, scale, scaled.max(),
+                                                                               reference.max())
+    reference = relative(1.0, "froude", 0.0)
+    froude = np.abs(relative(16.0, "froude", 0.0) - reference).max() / reference.max()
+    assert froude > 0.2, froude
 
 
 def test_a_soft_loose_shell_settles_on_the_floor_as_in_the_air():

@@ -17,11 +17,14 @@ def tail(scale=1.0, particles=100):
     return v, t, opdeform.Graph.from_mesh(v, t, particles=particles)
 
 
-def droop(material, scale=1.0, particles=100):
-    """Static droop of the pinned tail's tip as a fraction of its length."""
+def droop(material, scale=1.0, particles=100, scaling="froude"):
+    """Static droop of the pinned tail's tip as a fraction of its length (its modulus and gravity scaled with its
+    size by ``scaling``)."""
     v, t, g = tail(scale, particles)
     m = materials.PRESETS[material]
-    sim = opdeform.Simulation(g, materials.stiffness_for(g, m.modulus), density=m.density)
+    size = materials.body_size(g)
+    sim = opdeform.Simulation(g, materials.stiffness_for(g, m.modulus, size, scaling=scaling), density=m.density,
+                              gravity=materials.acting_gravity((0.0, 0.0, -9.81), size, scaling))
     opdeform.pin_vertices(sim, v, np.flatnonzero(v[:, 0] <= 1e-9))
     sim.set_solver("chebyshev")
     sim.solve_static(4000)
@@ -30,8 +33,11 @@ def droop(material, scale=1.0, particles=100):
 
 
 def test_the_same_modulus_droops_the_same_at_any_scale():
-    d = [droop("Rubber", s) for s in (0.1, 1.0, 10.0)]
-    assert max(d) / min(d) < 1.1, d
+    """Both size rules (materials' docstring): "froude" of free bodies, "goal" of bodies following an animation
+    (gravity scaled with the size, as the add-on scales Sag's); the two agree at GOAL_REFERENCE_SIZE."""
+    for scaling in materials.SCALINGS:
+        d = [droop("Rubber", s, scaling=scaling) for s in (0.1, 1.0, 10.0)]
+        assert max(d) / min(d) < 1.1, (scaling, d)
 
 
 def test_the_same_modulus_droops_the_same_at_any_particle_count():
@@ -245,6 +251,16 @@ def test_scale_keeps_the_stiffness_formula():
         materials.stiffness_for(g, -1.0)
     with pytest.raises(ValueError):
         materials.stiffness_for(g, 1e6, calibration="fudge")
+    # following an animation: E ~ size^2, so ten times larger keeps k (the same frequencies at any size)
+    k = materials.stiffness_for(small, 1e6, scaling="goal")
+    assert materials.stiffness_for(big, 1e6, scaling="goal") == pytest.approx(k, rel=1e-4)
+    at = materials.GOAL_REFERENCE_SIZE
+    assert materials.acting_modulus(1e6, at, "goal") == pytest.approx(materials.acting_modulus(1e6, at))
+    assert materials.acting_gravity((0.0, 0.0, -9.81), 2 * at, "goal") == pytest.approx((0.0, 0.0, -19.62))
+    with pytest.raises(ValueError, match="scaling"):
+        materials.stiffness_for(g, 1e6, scaling="cubic")
+    with pytest.raises(ValueError, match="size"):
+        materials.acting_gravity((0.0, 0.0, -9.81), 0.0, "goal")
 
 
 def test_bending_calibration_matches_a_continuum_beam():

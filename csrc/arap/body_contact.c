@@ -150,6 +150,9 @@
 // Exclusion (self-contact): pairs joined by at most `exclusionRing` edges, or closer at rest than
 // `exclusionScale` times the sum of their largest radii, never collide: the overlaps a body has at rest are
 // not contact, so a body at rest stays at rest to the bit (tests/test_body_contact.py).
+// Between two members whose goals carry the rest, pairs whose goal centres are closer than `exclusionScale` times the
+// sum of their largest reaches never collide (od_TogetherAtGoals): what the animation puts together is not contact.
+// A jacket 5 % larger than its body on one armature, both jiggling, started interpenetrating and blew up (stretch 7x).
 //
 // Broad phase, once a step at its end: a uniform grid over the spheres that bound each particle's path over
 // the step (the midpoint of its start and end, radius its largest radius plus half its motion and half the
@@ -255,7 +258,7 @@ od_Status od_BodyContact_Check(const od_BodyContactDef* def, bool self)
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "exclusion_ring = %d must be 0, 1 or 2", def->exclusionRing);
 	}
-	if (self && (!(def->exclusionScale >= 0.0) || !isfinite(def->exclusionScale)))
+	if (!(def->exclusionScale >= 0.0) || !isfinite(def->exclusionScale))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "exclusion_scale = %g must be finite and >= 0", def->exclusionScale);
 	}
@@ -505,8 +508,23 @@ static od_Status od_AddPair(od_PairScratch* s, int a, int b)
 	return OD_OK;
 }
 
-// Whether particles p < q may collide (bounding spheres overlap, not excluded).
-static bool od_Candidate(const od_PairScratch* s, od_Sim* const* sims, int p, int q)
+// Whether particle i of a and j of b, two members whose goals carry the rest, have goal centres closer than
+// `scale` times the sum of their largest reaches (docs/contact.md, "Members that overlap at rest"): the animation
+// puts them together, so their contact is the animation's, not the simulation's. Measured at the goals of the step
+// (placed between frames, od_Goals_Place), so the exclusion follows the animation.
+static bool od_TogetherAtGoals(const od_Sim* a, int i, const od_Sim* b, int j, double scale)
+{
+	if (!od_Goals_CarryRest(a) || !od_Goals_CarryRest(b))
+	{
+		return false;
+	}
+	double reach = od_SkinPair_Reach(a, i) + od_SkinPair_Reach(b, j);
+	return od_Length(od_Sub(od_V3Load(a->goals.x + 3 * i), od_V3Load(b->goals.x + 3 * j))) < scale * reach;
+}
+
+// Whether particles p < q may collide (bounding spheres overlap, not excluded: within one body by its
+// self-contact's exclusion, between two by `between`'s at their goals).
+static bool od_Candidate(const od_PairScratch* s, od_Sim* const* sims, int p, int q, const od_BodyContactDef* between)
 {
 	const double *cp = s->sphere + 4 * p, *cq = s->sphere + 4 * q;
 	double r = cp[3] + cq[3];
@@ -515,13 +533,18 @@ static bool od_Candidate(const od_PairScratch* s, od_Sim* const* sims, int p, in
 	{
 		return false;
 	}
-	const od_Sim* sim = sims[s->body[p]];
-	return s->body[p] != s->body[q] || (sim->selfContact && !od_Excluded(sim, s->local[p], s->local[q]));
+	const od_Sim *sim = sims[s->body[p]], *other = sims[s->body[q]];
+	if (sim != other)
+	{
+		return !od_TogetherAtGoals(sim, s->local[p], other, s->local[q], between->exclusionScale);
+	}
+	return sim->selfContact && !od_Excluded(sim, s->local[p], s->local[q]);
 }
 
 // The candidate pairs: each particle against those of the 27 cells about its own with a larger index (each
 // bucket of the table once: distinct cells may share one).
-static od_Status od_FindPairs(od_PairScratch* s, od_Sim* const* sims, int total, double size)
+static od_Status od_FindPairs(od_PairScratch* s, od_Sim* const* sims, int total, double size,
+							 const od_BodyContactDef* between)
 {
 	s->pairCount = 0;
 	for (int p = 0; p < total; ++p)
@@ -544,7 +567,7 @@ static od_Status od_FindPairs(od_PairScratch* s, od_Sim* const* sims, int total,
 			for (int k = s->cellStart[t]; k < s->cellStart[t + 1]; ++k)
 			{
 				int q = s->sorted[k];
-				od_Status status = q > p && od_Candidate(s, sims, p, q) ? od_AddPair(s, p, q) : OD_OK;
+				od_Status status = q > p && od_Candidate(s, sims, p, q, between) ? od_AddPair(s, p, q) : OD_OK;
 				if (status != OD_OK)
 				{
 					return status;
@@ -1062,8 +1085,9 @@ static od_Status od_CarryForces(od_PairScratch* s, od_ContactPair* previous, int
 }
 
 // Swaps the pair list into `previous` and finds the pairs of this step anew, their forces carried over where
-// they have forces (a group's: count > 1).
-static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness)
+// they have forces (a group's: count > 1); `between`: the contact between members (od_Candidate's exclusion).
+static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, double thickness,
+							 const od_BodyContactDef* between)
 {
 	od_ContactPair* list = s->previous;
 	int capacity = s->previousCapacity;
@@ -1074,7 +1098,7 @@ static od_Status od_NewPairs(od_PairScratch* s, od_Sim* const* sims, int count, 
 	s->pairCapacity = capacity;
 	int total;
 	double size = od_Bin(s, sims, count, thickness, &total);
-	od_Status status = od_FindPairs(s, sims, total, size);
+	od_Status status = od_FindPairs(s, sims, total, size, between);
 	if (count > 1)
 	{
 		od_Status carried = od_CarryForces(s, s->previous, status == OD_OK ? s->previousCount : 0, total);
@@ -2233,7 +2257,7 @@ static bool od_SelfPairsHold(const od_PairScratch* s, const od_Sim* sim)
 // od_GatherNear. More than OD_SELF_PAIRS get none (the projection alone, as before the forces).
 static od_Status od_NearSelfPairs(od_PairScratch* s, od_Sim* sim)
 {
-	od_Status status = od_NewPairs(s, &sim, 1, sim->selfDef.thickness + 2.0 * od_SelfSlack(sim));
+	od_Status status = od_NewPairs(s, &sim, 1, sim->selfDef.thickness + 2.0 * od_SelfSlack(sim), &sim->selfDef);
 	s->nearCount = 0;
 	if (status == OD_OK && s->pairCount > 0)
 	{
@@ -2390,7 +2414,7 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 		}
 	}
 	bool again = status == OD_OK && !(found && od_SelfPairsHold(s, sims[0]));
-	status = again ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between)) : status;
+	status = again ? od_NewPairs(s, sims, count, od_Thickness(sims, count, between), between) : status;
 	return status == OD_OK ? od_ProjectPairs(s, sims, count, between) : status;
 }
 

@@ -42,10 +42,21 @@ k on every particle.
 
 E itself is not scale-free: a body of size L under gravity sags by a fraction proportional to rho g L / E (and
 its frequencies scale as sqrt(E / rho) / L), so a real material looks ten times softer ten times larger. The
-artist's ``modulus`` is therefore the modulus the material has at REFERENCE_SIZE (1 m); a body of size L acts
-with E = modulus * L / 1 m. Then rho g L / E is the same at every size: the same relative sag, and periods
-that scale as sqrt(L / g), the Froude scaling of miniatures (a ten times larger tail sways sqrt(10) times
-slower, as a real one would).
+artist's ``modulus`` is therefore the modulus the material has at REFERENCE_SIZE (1 m), and the body's size
+scales it by one of two rules (``scaling``, ``acting_modulus``):
+
+- "froude" (free bodies, the default): E = modulus * L / 1 m. Then rho g L / E is the same at every size: the
+  same relative sag, and periods that scale as sqrt(L / g), the Froude scaling of miniatures (a ten times
+  larger tail sways sqrt(10) times slower, as a real one would).
+- "goal" (a body that follows an animation, its goals carrying the rest shape: the add-on's objects with
+  Goal on in Dynamic mode): E = modulus * L / 1 m * L / GOAL_REFERENCE_SIZE, and gravity times
+  L / GOAL_REFERENCE_SIZE (``acting_gravity``). There the rig's accelerations drive the flesh, and a scene
+  scaled by s at the same keyframe timing accelerates s times more; with E growing as L^2 the frequencies
+  sqrt(E / rho) / L are the same at every size, so the lag and overshoot grow as the accelerations, as s:
+  the same motion in units of the size, as Maya's Jiggle gives (issue 24: Froude-scaled, the bird at 19.8 m
+  stretched 1.98x where it does 1.13x at 1.98 m). Gravity scaled with L keeps its relative sag
+  rho g L / E size-free too. At GOAL_REFERENCE_SIZE (2.43 m, the creature the looks were tuned on) the two
+  rules agree.
 
 **Damping** is a rate per second (``step_damping`` turns it into the solver's per-step c for a dt), so it
 does not change with the frame rate.
@@ -65,9 +76,10 @@ from .graph import Graph
 from .mesh import mesh_pieces
 from .simulation import Simulation
 
-__all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "Material", "PRESETS", "REFERENCE_SIZE",
-           "body_size", "handle_warning", "make_simulation", "preset_table", "simulation_settings", "stiffness_for",
-           "step_damping", "stretch_warning", "substeps_for", "thin_appendages", "thin_part_warning"]
+__all__ = ["CALIBRATIONS", "DEFAULT_MATERIAL", "DEFAULT_TOLERANCE", "GOAL_REFERENCE_SIZE", "Material", "PRESETS",
+           "REFERENCE_SIZE", "SCALINGS", "acting_gravity", "acting_modulus", "body_size", "handle_warning",
+           "make_simulation", "preset_table", "simulation_settings", "stiffness_for", "step_damping",
+           "stretch_warning", "substeps_for", "thin_appendages", "thin_part_warning"]
 
 # The annotations' types: a mesh as given (vertices, triangles; or the arguments Graph.from_mesh kept, the
 # mesh first), a calibration's k / E (one for the body or one per particle), an array of the computations
@@ -76,6 +88,10 @@ Arr = npt.NDArray[Any]
 Ratio = float | Arr
 
 REFERENCE_SIZE = 1.0  # m: the size at which a material's modulus is its modulus
+# m: the size at which the "goal" rule gives the "froude" rule's E: the creature the looks were tuned on
+# (tests/blender/character_scene.py, 2.43 m), whose figures are then as they were
+GOAL_REFERENCE_SIZE = 2.43
+SCALINGS = ("froude", "goal")  # how a body's size scales its modulus: free bodies, bodies following an animation
 # Residual tolerance of a step (Simulation.set_solver) and the accelerator that reaches it: measured on the
 # Fig. 1 and 2 bars (docs/settings.md), the 2-second clip error is 0.13 % (sagging) and 0.17 % (twisted) of
 # the bar's length with "auto" at 2e-5, at about 1.6x and 1.0x the cost of plain 10 pairs a step (Chebyshev
@@ -147,9 +163,10 @@ CALIBRATIONS = ("measured", "bending", "uniform")
 
 
 def stiffness_for(graph: Graph, modulus: float, size: float | None = None, mesh: MeshArg | None = None,
-                  calibration: str = "measured") -> float | Floats:
+                  calibration: str = "measured", scaling: str = "froude") -> float | Floats:
     """The solver's stiffness for a material of ``modulus`` Pa at REFERENCE_SIZE on this graph; ``size`` (m) is
-    the body's size (default ``body_size(graph)``). ``mesh`` (vertices, triangles): the closed body whose
+    the body's size (default ``body_size(graph)``), which scales the modulus by ``scaling`` (SCALINGS:
+    ``acting_modulus``). ``mesh`` (vertices, triangles): the closed body whose
     second moment a continuum would have (default: the mesh ``Graph.from_mesh`` was given, when it is closed;
     else the particles' own). ``calibration``: "measured" (the default: one k per particle, an (n,) array for
     ``Simulation``, from the graph's measured bending; the module's docstring), "bending" (one k from the
@@ -163,10 +180,34 @@ def stiffness_for(graph: Graph, modulus: float, size: float | None = None, mesh:
     if graph.n_edges == 0:
         raise ValueError("the graph has no edges: a stiffness needs at least one")
     size = body_size(graph, mesh) if size is None else float(size)
-    modulus = modulus * (size / REFERENCE_SIZE)
+    modulus = acting_modulus(modulus, size, scaling)
     ratio = None if calibration == "uniform" else _calibrated_ratio(graph, mesh, calibration)
     k = _uniform_stiffness(graph, modulus) if ratio is None else modulus * ratio
     return np.full(graph.n_particles, k) if calibration == "measured" and np.ndim(k) == 0 else k
+
+
+def _size_ratio(size: float, scaling: str) -> float:
+    """size / GOAL_REFERENCE_SIZE under the "goal" rule, 1 under "froude"; ValueError for another rule or size."""
+    if scaling not in SCALINGS:
+        raise ValueError(f"scaling must be one of {SCALINGS}, got {scaling!r}")
+    if not (size > 0.0 and math.isfinite(size)):
+        raise ValueError(f"size = {size} must be finite and > 0")
+    return size / GOAL_REFERENCE_SIZE if scaling == "goal" else 1.0
+
+
+def acting_modulus(modulus: float, size: float, scaling: str = "froude") -> float:
+    """The Young's modulus (Pa) a body of ``size`` m acts with for a ``modulus`` at REFERENCE_SIZE: modulus *
+    size / REFERENCE_SIZE ("froude": the same relative sag at any size), times size / GOAL_REFERENCE_SIZE
+    ("goal": the same frequencies at any size; the module's docstring)."""
+    return modulus * (size / REFERENCE_SIZE) * _size_ratio(size, scaling)
+
+
+def acting_gravity(gravity: Vector, size: float, scaling: str = "froude") -> tuple[float, float, float]:
+    """The gravity (m/s^2) a body of ``size`` m feels: as given ("froude"), times size / GOAL_REFERENCE_SIZE
+    ("goal": the same relative sag under ``acting_modulus`` at any size)."""
+    ratio = _size_ratio(size, scaling)
+    x, y, z = (float(g) * ratio for g in gravity)
+    return x, y, z
 
 
 def _uniform_stiffness(graph: Graph, modulus: float) -> float:
@@ -709,12 +750,16 @@ def step_damping(rate: float, dt: float) -> float:
 
 
 def make_simulation(graph: Graph, material: str | Material = DEFAULT_MATERIAL, dt: float = 1 / 24,
-                    gravity: Vector = (0.0, 0.0, -9.81), size: float | None = None) -> Simulation:
+                    gravity: Vector = (0.0, 0.0, -9.81), size: float | None = None,
+                    scaling: str = "froude") -> Simulation:
     """A Simulation of ``material`` (a PRESETS name or a Material) stepping ``dt``, iterating each step to the
-    material's tolerance with the measured best accelerator."""
+    material's tolerance with the measured best accelerator; its modulus and ``gravity`` scaled with the body's
+    ``size`` (default ``body_size(graph)``) by ``scaling`` (SCALINGS: "goal" for a body that will follow goals
+    carrying the rest shape)."""
     m = PRESETS[material] if isinstance(material, str) else material
-    sim = Simulation(graph, stiffness_for(graph, m.modulus, size), density=m.density, dt=dt, gravity=gravity,
-                     damping=step_damping(m.damping, dt))
+    size = body_size(graph) if size is None else float(size)
+    sim = Simulation(graph, stiffness_for(graph, m.modulus, size, scaling=scaling), density=m.density, dt=dt,
+                     gravity=acting_gravity(gravity, size, scaling), damping=step_damping(m.damping, dt))
     sim.set_solver(DEFAULT_ACCELERATOR, tolerance=m.tolerance)
     return sim
 
@@ -1154,7 +1199,8 @@ def _appendage_ratio(graph: Graph, chosen: Arr, samples: Arr, h: float, ratio: A
 
     def compliance(own_k: float) -> float:
         k[:own] = own_k
-        loads = [_SAG * (s.max() - s.min()) * own_k / _cantilever_tip(s, samples @ axes[:, b], h, tip) for b in (1, 2)]
+        loads = [_SAG * (s.max() - s.min()) * (own_k / guess) / _cantilever_tip(s, samples @ axes[:, b], h, tip)
+                 for b in (1, 2)]
         return sum(_tip_compliance(part, k, held, samples[tip], axes[:, b], load, poses, b)
                    for b, load in zip((1, 2), loads))
     return chosen, _series_fit(compliance, guess, continuum, guess / _SOFTEST)

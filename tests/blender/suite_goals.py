@@ -160,6 +160,65 @@ def test_enable_on_a_rigged_mesh_ticks_goal():
     assert not settings["Unticked"].use_goal and not settings["Plain"].use_goal
 
 
+def _sleeve(tail, scale):
+    """A second object over the tail, `scale` times as wide (a sleeve; the 2 x 0.2 m bar widened about its axis),
+    on the same armature with the same weights and settings, enabled: the two overlap at rest."""
+    v, t = H.box_mesh((0.0, -0.1 * scale, -0.1 * scale), (2.0, 0.1 * scale, 0.1 * scale), (21, 5, 5))
+    sleeve = H.mesh_object("Sleeve", v, t)
+    w_tip = np.clip(v[:, 0] - 0.5, 0.0, 1.0)
+    for name, w in (("Root", 1.0 - w_tip), ("Tip", w_tip)):
+        group = sleeve.vertex_groups.new(name=name)
+        for i, wi in enumerate(w):
+            group.add([i], float(wi), 'REPLACE')
+    sleeve.modifiers.new("Armature", 'ARMATURE').object = tail.modifiers["Armature"].object
+    for name in ("particles", "graph_mode", "stiffness", "use_goal", "goal_strength", "frame_start", "frame_end"):
+        setattr(sleeve.opdeform, name, getattr(tail.opdeform, name))
+    bpy.ops.opdeform.enable(object=sleeve.name)
+    return sleeve
+
+
+def _off_animation(objects, frames):
+    """Plays the frames: each object's largest distance from its animation over them (object space)."""
+    worst = np.zeros(len(objects))
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        worst = np.maximum(worst, [np.linalg.norm(H.positions(o) - H.animated_positions(o), axis=1).max()
+                                   for o in objects])
+    return worst
+
+
+def test_a_sleeve_over_its_tail_on_one_rig_moves_as_the_tail_alone():
+    """Issue 24, finding (4) of docs/goals.md's outside creature: two enabled objects on one armature that overlap
+    at rest (a sleeve 5 or 25 % wider than its tail) stepped in contact started interpenetrating and blew up (the
+    bird's jacket: stretch 7x). Pairs their goals put together are not contact (docs/contact.md, "Members that
+    overlap at rest"): each lags its animation as the tail does alone (within 1 mm), with no report."""
+    frames = range(1, H.SWING_FRAMES + 25)
+    alone = _off_animation([H.tail_rig(0.5)], frames)[0]
+    for scale in (1.05, 1.25):
+        H.fresh()
+        tail = H.tail_rig(0.5)
+        sleeve = _sleeve(tail, scale)
+        worst = _off_animation([tail, sleeve], frames)
+        assert not tail.opdeform.error and not sleeve.opdeform.error, (tail.opdeform.error, sleeve.opdeform.error)
+        assert alone > 0.05 and np.abs(worst - alone).max() < 1e-3, (scale, alone, worst)
+        bpy.context.view_layer.objects.active = tail
+        assert "Overlaps" not in H.labels(H.draw_panels())
+
+
+def test_objects_overlapping_at_rest_without_a_goal_on_both_are_named_in_the_panel():
+    """Where the goals cannot take an overlap at rest (a sleeve over its tail with Goal off), their contact pushes
+    them apart: the panel names the other object (core/checks.py ``overlap_text``), and no traceback."""
+    tail = H.tail_rig(0.5)
+    sleeve = _sleeve(tail, 1.05)
+    sleeve.opdeform.use_goal = False
+    for frame in (1, 2):
+        bpy.context.scene.frame_set(frame)
+    for obj, other in ((tail, "'Sleeve'"), (sleeve, "'Tail'")):
+        bpy.context.view_layer.objects.active = obj
+        text = H.labels(H.draw_panels())
+        assert f"Overlaps {other} at rest" in text and not obj.opdeform.error, (text, obj.opdeform.error)
+
+
 def test_base_mesh_unchanged_after_play_bake_disable_reload():
     tail = H.tail_rig(0.5)
     tail.opdeform.frame_end = 24

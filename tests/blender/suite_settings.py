@@ -163,6 +163,38 @@ def test_version_3_file_keeps_its_shells_painted_follow():
     assert s.settings_version == _version() and abs(s.shell_follow_min - _module("core.engine").SHELL_FOLLOW_MIN) < 1e-6
 
 
+def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
+    """Settings version 5 (issue 24, docs/settings.md "Size"): an object following its animation (Goal on, Dynamic
+    mode) acts with E = modulus x size^2 / 2.43 m and Sag's share of gravity times size / 2.43 m (materials' "goal"
+    rule: the same look at any size), without a Goal with E = modulus x size ("froude"); a file saved before
+    version 5 keeps the "froude" rule (Physical Scaling on after the load), a new object has it off."""
+    for name, version in (("New", None), ("Old", 4)):
+        s = _tail(name).opdeform
+        s.use_goal, s.sag = True, 0.5
+        if version is not None:
+            s.settings_version = version
+    path = os.path.join(H.tmpdir(), "v4.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    m = _module("blender.presets").materials()
+    for name, goal, scaling in (("New", True, "goal"), ("Old", True, "froude"), ("New", False, "froude")):
+        obj = bpy.data.objects[name]
+        s = obj.opdeform
+        s.use_goal = goal
+        assert s.settings_version == _version() and s.use_physical_scaling == (name == "Old"), name
+        bpy.context.scene.frame_set(1)
+        bpy.context.scene.frame_set(2)
+        sim, graph = H.runtime().get(obj).engine.sim, H.runtime().get(obj).engine.graph
+        params, scale = sim.params, sim.stiffness_scale
+        size = m.body_size(graph)
+        k = m.stiffness_for(graph, s.modulus * 1e6, size, scaling=scaling)
+        sag = s.sag if goal else 1.0
+        gravity = m.acting_gravity([sag * g for g in bpy.context.scene.gravity], size, scaling)
+        assert np.allclose(params["stiffness"] * (1.0 if scale is None else scale), k, rtol=1e-9), (name, goal)
+        assert np.allclose(params["gravity"], gravity, rtol=1e-6), (name, goal, params["gravity"], gravity)
+    assert abs(size - 2.0) < 0.01 and m.acting_modulus(1.0, size, "goal") == size * size / m.GOAL_REFERENCE_SIZE
+
+
 def _version():
     return _module("core.settings").SETTINGS_VERSION
 

@@ -69,6 +69,9 @@ def warnings(rt, frame, current=True):
     attached = checks.attached_text(rt.attached)
     if attached:
         out.append(attached)
+    overlaps = checks.overlap_text(rt.overlaps)
+    if overlaps:
+        out.append(overlaps)
     hanging = current and rt.pieces is not None and checks.hanging_text(
         checks.hanging_pieces(rt.pieces, rt.engine.follow, rt.engine.rest_local, rt.engine.pieces()[2]))
     if hanging:

@@ -2,6 +2,8 @@
 range, the frame rate, gravity, the solver's parameters (core/settings.py), the floor, contact and goal; and
 the folder of a bake. A new setting that reaches the engine is read here."""
 
+from dataclasses import replace
+
 import bpy
 
 from ..core import settings as core_settings
@@ -33,11 +35,19 @@ def gravity(settings, scene):
     return tuple(share * g for g in scene.gravity) if use else (0.0, 0.0, 0.0)
 
 
+def scaling(settings):
+    """How the body's size scales its modulus and gravity (opdeform.materials.SCALINGS): "goal" (the same look
+    at any size) for an object that follows its animation (a Follow in use) unless it scales physically
+    (Physical Scaling, or made before settings version 5: versioning.py), else "froude"."""
+    physical = settings.use_physical_scaling or settings.settings_version < core_settings.SIZE_FREE_VERSION
+    return "goal" if goal_strength(settings) is not None and not physical else "froude"
+
+
 def sim_settings(settings, scene, graph):
     """(Simulation parameters, set_solver arguments) of the settings for this graph (core/settings.py)."""
     fps = frame_rate(scene)
-    return core_settings.solver_settings(module(), graph, presets.units(settings, fps), fps,
-                                         gravity(settings, scene))
+    units = replace(presets.units(settings, fps), scaling=scaling(settings))
+    return core_settings.solver_settings(module(), graph, units, fps, gravity(settings, scene))
 
 
 def floor(settings):

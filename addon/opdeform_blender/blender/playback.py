@@ -82,12 +82,23 @@ def simulate_together(objects, runtimes, runs):
     """Live playback, the middle: the outputs of objects whose runs step together (core/contact.py), in
     contact when more than one. AddonError naming them all on a failure."""
     budget = None if any(rt.baking or rt.budget is None for rt in runtimes) else runtimes[0].budget
+    note_overlaps(objects, runtimes, runs)
     try:
         return bodies.simulate(module(), runs, budget)
     except (EngineError, ColliderError, ValueError, module().SolverError) as exc:
         names = ", ".join(o.name for o in objects)
         raise AddonError(f"{names}{' (in contact)' if len(objects) > 1 else ''}: {exc}") from None
 
+
+def note_overlaps(objects, runtimes, runs):
+    """Each runtime's ``overlaps``: the names of the objects stepping with it that overlap it at rest without a
+    Goal on both (core/contact.py ``overlapping``), for the panel."""
+    names = [[] for _ in runs]
+    for k, l in bodies.overlapping(runs):
+        names[k].append(objects[l].name)
+        names[l].append(objects[k].name)
+    for rt, named in zip(runtimes, names):
+        rt.overlaps = tuple(named)
 
 def frame_shown(obj, rt, run, out):
     """Live playback, second half: writes the frame reached (the catch-up goes on when frames are missing)."""

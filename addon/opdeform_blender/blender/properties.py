@@ -112,16 +112,23 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     # material units (settings version 1, docs/blender.md); Enable applies the default preset to those unset
     settings_version: IntProperty(name="Settings Version", default=0, min=0,
                                   description="0: made before material units (opens in solver units); 1: before the "
-                                              "bending calibration (its modulus is tripled on load)")
+                                              "bending calibration (its modulus is tripled on load); below 5: "
+                                              "before the size-free goal (Physical Scaling on load)")
     use_solver_units: BoolProperty(name="Solver Units", default=False,
                                    description="Raw k, damping per step and a fixed iteration count (files made "
                                                "before material units); off: modulus, damping per second and "
                                                "an error tolerance")
     modulus: FloatProperty(name="Stiffness", default=15.0, min=1e-6, soft_min=0.01, soft_max=1000.0, precision=2,
-                           description="Young's modulus in MPa of the material at 1 m: the same value gives the "
-                                       "same relative sag at any size and within about 12 % at any particle "
-                                       "count; a rig's motion at the same timing bends a larger body more, in "
-                                       "units of its size (docs/goals.md, \"An outside creature\")")
+                           description="Young's modulus in MPa of the material at 1 m, the same look at any "
+                                       "particle count (within about 12 %) and at any size: with a Goal the "
+                                       "same motion in units of the size at the same keyframe timing (the "
+                                       "same frequencies, Sag's gravity scaled with the size); without one "
+                                       "the same relative sag, a larger body swaying slower as a real one "
+                                       "(docs/settings.md, \"Size\")")
+    use_physical_scaling: BoolProperty(name="Physical Scaling", default=False,
+                                       description="With a Goal: a larger body is softer in units of its size, as "
+                                                   "a real material (the rule without a Goal; objects made "
+                                                   "before settings version 5); off: the same look at any size")
     damping_rate: FloatProperty(name="Damping", default=0.3, min=0.0, soft_max=20.0,
                                 description="Velocity lost per second (independent of the frame rate)")
     tolerance: FloatProperty(name="Tolerance", default=0.002, min=1e-6, max=10.0, precision=4, step=0.1,

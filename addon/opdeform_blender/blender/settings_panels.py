@@ -45,6 +45,7 @@ class PHYSICS_PT_opdeform_advanced(SubPanel, bpy.types.Panel):
     def draw(self, context):
         layout, obj, s = split(self.layout, context)
         layout.prop(s, "use_solver_units")
+        layout.prop(s, "use_physical_scaling")
         col = layout.column()
         col.active = versioning.uses_solver_units(s)
         col.prop(s, "stiffness")

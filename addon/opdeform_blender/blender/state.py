@@ -27,6 +27,7 @@ class Runtime:
         self.attached = ()  # the mesh's pieces without particles, found at Build (core/checks.attached_pieces)
         self.pieces = None  # each vertex's mesh piece where detached shells have particles of their own, else None
         self.unrigged = ()  # the mesh's pieces that no bone moves, found at Build (core/checks.unrigged_pieces)
+        self.overlaps = ()  # the objects stepping with it that overlap it at rest without a Goal on both
         # group name -> per-vertex weights of the painted maps (follow, softness, damping), read when first
         # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
         self.groups = {}

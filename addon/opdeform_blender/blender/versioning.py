@@ -1,7 +1,8 @@
 """Settings versions of ``Object.opdeform`` (core/settings.py). Version 2: the modulus calibrated in bending
 (a version-1 modulus is tripled on load, keeping the look). Version 3: the goal's follow values (a version-2
 goal keeps its mapping and gravity, ``keep_goal``). Version 4: Shell Min (an older object keeps its shells'
-painted Follow, ``keep_shells``). Version 0 (files saved before material units)
+painted Follow, ``keep_shells``). Version 5: with a goal the same look at any size (an older object keeps the
+physical scaling of free bodies: Physical Scaling on). Version 0 (files saved before material units)
 keeps its meaning: such an object runs in solver units (its raw k, damping per step and iteration count,
 stored or default). On a file load (handlers.on_load_post) every such object is marked so
 (``use_solver_units``), which the Advanced sub-panel shows; an object read without a load (appended, linked)
@@ -40,11 +41,14 @@ def upgrade(objects):
 
 
 def keep_meaning(s):
-    """What an older object's goal (below version 3) and detached shells (below version 4) meant stays so; the
-    object is stamped with today's version."""
+    """What an older object's goal (below version 3), detached shells (below version 4) and size (below version
+    5) meant stays so; the object is stamped with today's version."""
     if s.settings_version < core_settings.FOLLOW_VERSION:
         keep_goal(s)
-    keep_shells(s)
+    if s.settings_version < core_settings.SHELL_MIN_VERSION:
+        keep_shells(s)
+    if s.settings_version < core_settings.SIZE_FREE_VERSION:
+        s.use_physical_scaling = True  # its modulus acted as modulus x size with a goal too (the "froude" rule)
     s.settings_version = core_settings.SETTINGS_VERSION
 
 

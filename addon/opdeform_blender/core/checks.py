@@ -192,6 +192,16 @@ def attached_text(pieces):
                         "or give it an OPDeform object of its own")
 
 
+def overlap_text(names):
+    """The panel's warning for objects stepping with this one that overlap it at rest without a Goal on both
+    (core/contact.py ``overlapping``; None when there are none)."""
+    if not names:
+        return None
+    named = ", ".join(f"'{n}'" for n in names)
+    return (f"Overlaps {named} at rest and Goal is not on both: their contact pushes them apart from the first "
+            "frame and can tear them; tick Goal on both (an overlap of their animations is no contact) or move "
+            "them apart")
+
 def _decimals(largest):
     """Decimals that show two significant digits of ``largest`` (m), at least 2: a 1 cm creature's shells
     are told apart as a 2 m one's are."""

@@ -11,10 +11,42 @@ plans are made the same: each cache is cut back to the shortest one (a member wh
 others' frames after it too), so a bake of one member simulates the whole group again, bit for bit as playback.
 The group's gap is the largest of its members' Distance, its friction their mean. A member's skin meets its floor
 and colliders, as alone; the bodies meet each other's ellipsoids (core/engine.py; docs/contact.md, "Contact on the
-skin": round bodies roll off each other's skins).
+skin": round bodies roll off each other's skins). Members that overlap at rest: where both have a goal, the core
+leaves out the pairs their goals put together (docs/contact.md, "Members that overlap at rest"); where not, their
+contact pushes them apart from the first step, which ``overlapping`` finds for the panel to say.
 """
 
+import numpy as np
+
 from .engine import simulate
+
+OVERLAP_CHUNK = 256  # particles of one body measured against all of another's at a time (``_deep``)
+
+
+def _rest(run):
+    """A run's particles at rest in the world: its goals (the animated shape) with a goal, else Build's rest; and
+    each one's largest radius."""
+    graph = run.engine.graph
+    return (graph.centers if run.goals is None else run.goals[0]), graph.radii.max(axis=1)
+
+
+def _deep(a, b):
+    """Whether a particle's centre of one body lies within the largest radius of one of the other's."""
+    (xa, ra), (xb, rb) = a, b
+    for k in range(0, len(xa), OVERLAP_CHUNK):
+        near = np.linalg.norm(xa[k:k + OVERLAP_CHUNK, None] - xb[None], axis=2)
+        if (near < np.maximum(ra[k:k + OVERLAP_CHUNK, None], rb[None])).any():
+            return True
+    return False
+
+
+def overlapping(runs):
+    """Pairs (k, l), k < l, of runs stepping together whose bodies overlap at rest without a goal on both (their
+    goals' overlap is no contact): their contact pushes them apart from the first step (a body inside a jacket
+    without a goal stretched 4x)."""
+    rests = [_rest(r) for r in runs]
+    return [(k, l) for k in range(len(runs)) for l in range(k + 1, len(runs))
+            if (runs[k].goals is None or runs[l].goals is None) and _deep(rests[k], rests[l])]
 
 
 def partition(runs):
@@ -60,13 +92,23 @@ class Bodies:
 
     def __init__(self):
         self.groups = {}  # the members' simulations (ids) -> (contact, ContactGroup)
+        self.overlaps = {}  # (the members' simulations (ids), which have no goal) -> ``overlapping``'s pairs
 
     def clear(self):
         self.groups.clear()
+        self.overlaps.clear()
 
     def keep_only(self, sims):
         """Forgets the groups with a member not among these simulations (ids): a rebuilt or removed object's."""
         self.groups = {k: g for k, g in self.groups.items() if set(k) <= sims}
+        self.overlaps = {k: o for k, o in self.overlaps.items() if set(k[0]) <= sims}
+
+    def overlapping(self, runs):
+        """``overlapping(runs)``, measured once for the same members with goals on the same ones."""
+        key = (tuple(id(r.engine.sim) for r in runs), tuple(r.goals is None for r in runs))
+        if key not in self.overlaps:
+            self.overlaps[key] = overlapping(runs) if len(runs) > 1 else []
+        return self.overlaps[key]
 
     def _group(self, od, engines):
         members = tuple(id(e.sim) for e in engines)

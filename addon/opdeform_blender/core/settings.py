@@ -4,7 +4,8 @@ parameters they mean for one body (``opdeform.materials``).
 Two kinds of objects:
 - **material units** (objects enabled with this version): Stiffness is a modulus in MPa at 1 m
   (``materials.stiffness_for`` turns it into the solver's k of each particle for the body's graph and size,
-  so the same value looks the same at any size and particle count), Damping a rate per second, Quality an error tolerance per
+  so the same value looks the same at any size and particle count: with a goal by ``Units.scaling`` "goal"),
+  Damping a rate per second, Quality an error tolerance per
   step (% of the body's size, Chebyshev-accelerated, at most Max Iterations pairs);
 - **solver units** (the Advanced sub-panel's toggle; every object of a file saved before settings version 1):
   the raw k, a per-step damping share and a fixed iteration count, exactly as before. Setting ``stiffness``
@@ -15,9 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SETTINGS_VERSION = 4  # stamped on an object when oriented particles are enabled; 0: a file made before
+SETTINGS_VERSION = 5  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
 FOLLOW_VERSION = 3  # the first version whose goal weight is the follow value itself
+SHELL_MIN_VERSION = 4  # the first version whose detached shells' Follow is mapped into [Shell Min, 1]
+SIZE_FREE_VERSION = 5  # the first version whose goal look is the same at any size
+# Version 5: with a goal (Goal on, Dynamic mode) the modulus and Sag's gravity scale with the body's size so that
+# the same scene at any size moves the same in units of its size (opdeform.materials' "goal" rule); an older
+# object keeps the "froude" rule of free bodies (Physical Scaling on), and with it its look.
 # Version 4: a detached shell's Follow is mapped into [Shell Min, 1] (default 0.3); an older object keeps its
 # painted values as they were (Shell Min 0) unless Shell Min was set.
 # Version 3: the goal's group weight is the follow value itself (Goal Min..Max) where it multiplied the strength,
@@ -49,6 +55,7 @@ class Units:
     max_iterations: int
     iterations: int  # per step, solver units
     substeps: int
+    scaling: str = "froude"  # how the body's size scales the modulus and gravity: opdeform.materials.SCALINGS
 
 
 # Looks for secondary motion on an animated character (the Goal sub-panel's menu), named by what the artist
@@ -95,14 +102,16 @@ def modulus_now(modulus, version):
 
 
 def solver_settings(od, graph, u, fps, gravity):
-    """(Simulation parameters, ``set_solver`` arguments) of the settings for this graph at ``fps``."""
+    """(Simulation parameters, ``set_solver`` arguments) of the settings for this graph at ``fps``; in material
+    units the modulus and ``gravity`` scaled with the body's size by ``u.scaling``."""
     dt = 1.0 / (fps * u.substeps)
     params = dict(density=u.density, dt=dt, iterations=u.iterations, gravity=tuple(gravity))
     if u.solver_units:
         return dict(params, stiffness=u.stiffness, damping=u.damping), dict(accelerator="none", tolerance=0.0)
     m = od.materials
-    params.update(stiffness=m.stiffness_for(graph, u.modulus * MPA),
-                  damping=m.step_damping(u.damping_rate, dt))
+    size = m.body_size(graph)
+    params.update(stiffness=m.stiffness_for(graph, u.modulus * MPA, size, scaling=u.scaling),
+                  gravity=m.acting_gravity(gravity, size, u.scaling), damping=m.step_damping(u.damping_rate, dt))
     return params, dict(accelerator=m.DEFAULT_ACCELERATOR, tolerance=u.tolerance / PERCENT,
                         max_iterations=u.max_iterations)
 

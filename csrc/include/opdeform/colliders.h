@@ -85,7 +85,9 @@ typedef struct od_BodyContactDef
 	double friction;       // Coulomb coefficient >= 0 (default 0.5)
 	int exclusionRing;     // self-contact: pairs at most this many edges apart never collide (0..2, default 2)
 	double exclusionScale; // self-contact: nor pairs closer at rest than this times the sum of their largest
-	                       // radii (>= 0, default 1.5): neighbourhoods that overlap at rest stay at rest
+	                       // radii (>= 0, default 1.5): neighbourhoods that overlap at rest stay at rest; a
+	                       // group: pairs of two members whose goals carry the rest, their goal centres closer
+	                       // than this times the sum of their largest reaches (a jacket on its body)
 	int inIterations;      // a group: 1 (default) contact forces inside the iterations, then the projection;
 	                       // 0 the projection after them only (the step then depends on the state alone)
 } od_BodyContactDef;
@@ -98,8 +100,9 @@ int od_Sim_GetSelfContact(const od_Sim* sim, od_BodyContactDef* def);
 
 // Simulations that collide with each other. The group borrows them (keep them alive, one group's step at a
 // time): od_ContactGroup_Step steps them all together, each as its od_Sim_Step would, their solves side by
-// side with the contact forces between them. They must share the time step. The exclusion fields of `def` are
-// unused (different bodies have no shared edges).
+// side with the contact forces between them. They must share the time step. `def`'s exclusionRing is unused
+// (different bodies have no shared edges); its exclusionScale leaves out the pairs that the members' goals put
+// together (above; docs/contact.md, "Members that overlap at rest").
 typedef struct od_ContactGroup od_ContactGroup;
 od_Status od_ContactGroup_Create(od_Sim* const* sims, int count, const od_BodyContactDef* def, od_ContactGroup** out);
 void od_ContactGroup_Destroy(od_ContactGroup* group);
