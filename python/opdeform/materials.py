@@ -277,9 +277,9 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
     links than particles), given its own measured k / E as a body of its own, as thick as its particles are
     wide (_widened; one value, their volume-weighted geometric mean). A card is a single layer of particles, 16
     at any count (docs/mesh.md): at its host's k (7.7) the outside bird's hair cards (docs/goals.md) flipped over
-    (crest 322 mm, edges 2.03x at 100 particles); at their own 123-230 mm over 50-1,000 particles, 1.12-1.16x.
+    (crest 322 mm, edges 2.03x at 100 particles); at their own 156-240 mm over 50-1,000 particles, 1.12-1.21x.
     The host's k grows with the count (the bird's body 3.4-28 over 50-1,000), the card's particles do not: at
-    the body's k its wings swung 168 mm at 50 particles and 27 mm at 1,000; at their own 78-181 mm. As thin as
+    the body's k its wings swung 168 mm at 50 particles and 27 mm at 1,000; at their own 104-221 mm. As thin as
     its particles (a voxel, thinner as the count grows) a plate's own k fell to 0.08-1.4 and the wings
     stretched 2.45x at 400."""
     count, shells = mesh_pieces(graph)
