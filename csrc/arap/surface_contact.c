@@ -375,7 +375,9 @@ static od_Touch od_FloorTouch(const od_Sim* sim, int i, od_Vec3 x)
 static od_Touch od_ColliderTouch(const od_Sim* sim, const od_SimCollider* c, int i, od_Vec3 x, od_Centre* centre)
 {
 	od_Touch t = { 0 };
-	t.depth = od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, 0.0, &t.normal, centre);
+	t.depth = od_SkinShape_Used(sim) && !od_Goals_CarryRest(sim)
+				  ? od_SkinTouch(sim, c, i, x, &t.normal, centre)
+				  : od_ColliderDepth(sim, c, i, sim->state.R + 9 * i, x, true, 0.0, &t.normal, centre);
 	od_Vec3 la = od_M3MulTV(&c->Ra, od_Sub(od_V3Load(sim->previous.x + 3 * i), c->ta));
 	t.anchor = od_Add(od_M3MulV(&c->Rb, la), c->tb);
 	return t;
@@ -447,14 +449,14 @@ static double od_Reach(const od_Sim* sim, int i, od_Vec3 n, int* point)
 // Within a step a particle turns little, so the point that reaches farthest stays the same or another reaches
 // about as far; the search over all its points took 0.17 ms a step of the colliders bench's 1,000-particle
 // Suzanne on the ramp (2.3 ms).
-static double od_HeldReach(const od_Sim* sim, int i, od_Vec3 n)
+static inline __attribute__((always_inline)) double od_HeldReach(const od_Sim* sim, int i, od_Vec3 n)
 {
 	return od_SkinShape_Used(sim) ? od_SkinShape_PointSupport(sim, sim->surface.point[i], sim->state.R + 9 * i, n)
 								  : od_EllipsoidReach(sim, i, n);
 }
 
 // Particle i's depth beyond the allowed one in its plane, by the point held for the step (od_HeldReach).
-static double od_HeldDepth(const od_Sim* sim, int i)
+static inline __attribute__((always_inline)) double od_HeldDepth(const od_Sim* sim, int i)
 {
 	const od_SurfaceContact* s = &sim->surface;
 	od_Vec3 n = od_V3Load(s->normal + 3 * i);
