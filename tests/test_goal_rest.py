@@ -3,7 +3,8 @@ against the animated shape, so the animation is the equilibrium; damping acts on
 goals. Off is the same bits as never set; a rigid goal gives the same motion either way; a bar whose goals
 bend it settles onto the bend with its free half at strength 0; the energy of every iteration decreases; full
 strength is the animation; a stopped goal's jiggle decays faster with relative damping, which never lags a goal
-moving at constant velocity; a body locked to a rig spinning 90 or 180 degrees a frame follows the arc; bad input raises naming the entry; a pickle replays to the same bits."""
+moving at constant velocity; a body locked to a rig spinning 90 or 180 degrees a frame follows the arc; bad
+input raises naming the entry; a pickle replays to the same bits."""
 import pickle
 
 import numpy as np
