@@ -332,11 +332,12 @@ def spun_hem(particles):
 @pytest.mark.parametrize("particles", [50, 100, 400])
 def test_a_sheet_held_at_one_edge_swings_at_the_other_in_a_turn(particles):
     """A piece of its own that is an open sheet (a skirt) is as soft as a membrane (materials._sheets_floored):
-    its hem, painted low, lags 8.7-10.9 mm behind its goals in a 180-degree spin (50-400 particles). Calibrated
-    as a body of its own (a tube as thick as its particles, 0.8-2.0x the body's k), it moved with its
-    waistband: 0.7-0.9 mm (the kid's skirt 1.2 mm)."""
+    its hem, painted low, lags 4.1-8.1 mm behind its goals in a 180-degree spin (50-400 particles; 9.0-13.6 mm
+    while the goals between frames went along the chord, whose 11 mm sagitta at the hem's 34 degrees a frame
+    was most of it: docs/goals.md, "A rig turning fast"). Calibrated as a body of its own (a tube as thick as
+    its particles, 0.8-2.0x the body's k), it moved with its waistband: 0.7-0.9 mm (the kid's skirt 1.2 mm)."""
     worst = spun_hem(particles)
-    assert worst > 5e-3, f"the hem lagged {1e3 * worst:.2f} mm"
+    assert worst > 3e-3, f"the hem lagged {1e3 * worst:.2f} mm"
 
 
 def test_a_sheet_swings_alike_at_any_particle_count():
