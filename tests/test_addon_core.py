@@ -226,9 +226,10 @@ def test_engine_goal_follows_the_input_and_rejects_bad_goals():
 
 
 def test_a_rig_turning_fast_is_reported_per_frame():
-    """The goals' turn into each frame (checks.goal_turn) is in the frame's report, and past TURN_LIMIT degrees
-    the panel says the loose parts stretch and the turn wants more frames; at a half turn, that it can be seen the
-    other way round (docs/goals.md, "A rig turning fast")."""
+    """The goals' turn into each frame (checks.goal_turn) is in the frame's report, and past TURN_SPEED_LIMIT
+    turns a second the panel says the loose parts stretch and the turn wants more frames; at a half turn a frame,
+    that it can be seen the other way round (docs/goals.md, "A rig turning fast"). The limit is a speed: 120
+    degrees a frame is under it at 12 fps."""
     e, v, _ = _bar_engine()
     e.set_constraints()
     e.set_goal(1.0)
@@ -238,9 +239,11 @@ def test_a_rig_turning_fast_is_reported_per_frame():
         e.goto(f, None, ((v - middle) @ _turn_z(math.radians(degrees)).T + middle).astype(np.float32), np.eye(4))
     turns = [e.reports.get(f).turn for f in range(2, 6)]  # frame 1 starts: no report
     np.testing.assert_allclose(turns, [0, 60, 120, 180], atol=1e-3)  # float32 input
-    assert [checks.turn_text(t) for t in turns[:2]] == [None] * 2
-    assert checks.turn_text(turns[2]).startswith("The rig turns 120 degrees in a frame: loosely followed parts")
-    assert "other way round" not in checks.turn_text(turns[2]) and "other way round" in checks.turn_text(turns[3])
+    assert [checks.turn_text(t, 24) for t in turns[:2]] == [None] * 2
+    text = checks.turn_text(turns[2], 24)
+    assert text.startswith("The rig turns 120 degrees in a frame (8.0 turns a second): loosely followed parts")
+    assert "other way round" not in text and "other way round" in checks.turn_text(turns[3], 24)
+    assert checks.turn_text(turns[2], 12) is None
 
 
 def _turn_z(angle):

@@ -59,8 +59,8 @@ def test_object_keyframes_lag_and_settle():
 
 def test_a_rig_turning_fast_is_warned():
     """The tail's root bone turned 120 degrees from frame 10 to 11: the panel says at frame 11, not at 10, that
-    loosely followed parts stretch past 90 degrees a frame (checks.TURN_LIMIT; docs/goals.md, "A rig turning
-    fast")."""
+    loosely followed parts stretch past 90 degrees a frame at 24 fps (checks.TURN_SPEED_LIMIT, 6 turns a second;
+    docs/goals.md, "A rig turning fast")."""
     tail = H.tail_rig(0.5)
     bone = bpy.data.objects["Rig"].pose.bones["Root"]
     for fc in H.action_fcurves(bone.id_data.animation_data.action):
