@@ -293,7 +293,8 @@ def _piece_ratios(graph: Graph, mesh: MeshArg | None, calibration: str) -> Arr:
 def _sheets_floored(label: Ints, sheets: Arr, ratio: Arr) -> Arr:
     """``ratio`` (k / E per particle) with each open sheet but the body (``sheets``: per piece of ``label``, the
     graph's connected pieces, its _hanging_ratio, nan for any other piece) at most that ratio / _SHEET_SOFTEST:
-    a membrane of the body's modulus / _SHEET_SOFTEST, whatever rows its particles fall in. Calibrated as a body
+    a membrane of the body's modulus / _SHEET_SOFTEST, whatever rows its particles fall in (the cap is what
+    holds: the spun skirt of tests/test_loose_parts.py's own k is 17-26x it at 50-400 particles). Calibrated as a body
     of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was a tube of the
     particles' 54 mm thickness at 0.7x the body's k, and its hem, painted Follow 0.1, swung 1.2 mm in a
     180-degree spin and a jump; at the body's k / _SOFTEST (stop 43) 14.6-45.9 mm over 50-1,000 particles:
@@ -312,9 +313,9 @@ def _hanging_ratio(sheet: Graph, mesh: tuple[Arr, Arr], body: Arr) -> float:
     the load weighted by v s^2 (s: how far each is along the way, the parts that swing most), 9 / 20 L^2 of a
     continuum strip's of length L held at one end and loaded along it (u(s) = rho a (L s - s^2 / 2) / E; L the
     sheet's reach that way). nan where it has no boundary. Loaded along the way (hanging), the spun skirt of
-    tests/test_loose_parts.py lagged 8.1-4.1 mm over 50-400 particles (1.98x apart): a sheet in tension drooped
-    5.4x less at 400 particles than at 50 for one k, one swung across 3.7x. Weighted by v alone, the kid's skirt
-    (docs/goals.md) swung 1.53x apart over 50-1,000 particles in a spin, 1.46x so."""
+    tests/test_loose_parts.py lagged 8.1 / 6.5 / 5.4 / 4.1 mm at 50 / 100 / 200 / 400 particles (1.98x apart):
+    for one k the sheet in tension gives 5.4x more at 400 particles than at 50, loaded across 3.7x. Hanging and
+    weighted by v alone, the kid's skirt (docs/goals.md) swung 1.53x apart over 50-1,000 particles, 1.46x so."""
     vertices, triangles = mesh
     held = _nearest_loop(vertices, triangles, body)
     if held is None:
@@ -793,9 +794,9 @@ _FIT_ROUNDS = 3  # solves of an appendage's k after the first
 # at 1/20 1.40x and 1.27x, and the ears' swing at 100 and 1,000 particles 1.18x apart instead of 1.49x
 # (docs/goals.md, "Edges that stretch").
 _SOFTEST = 20.0
-# An open sheet of its own (_sheets_floored) hangs as a membrane of the body's modulus / this. The kid's skirt
-# (docs/goals.md) at the defaults, 50 / 100 / 400 / 1,000 particles: 10 hem 40.7 / 39.0 / 40.1 / 28.0 mm, edges
-# up to 1.42x (Floppy 100 1.57x); 8 the hem at 1,000 particles under 25 mm; 13 Floppy 100 1.76x; 20 1.51x.
+# An open sheet of its own (_sheets_floored) swings as a membrane of the body's modulus / this. The kid's skirt
+# (docs/goals.md) at the defaults, 50 / 100 / 400 / 1,000 particles: 16 hem 26.3 / 31.8 / 47.0 / 36.4 mm, Floppy
+# 1,000 its edges 1.44x; 15 the hem at 50 particles 24.1 mm; 17 Floppy 1,000 1.47x; 19 32.1 / 36.0 / 58.9 / 44.0.
 _SHEET_SOFTEST = 16.0
 _LOOP_POINTS = 256  # of a sheet's boundary loop, to tell how near the body it is
 _RINGS = 3  # rings of particles round an appendage in the graph that fits its k: its root, one more, one held
