@@ -294,8 +294,8 @@ def _sheets_floored(label: Ints, sheets: Arr, ratio: Arr) -> Arr:
     """``ratio`` (k / E per particle) with each open sheet but the body (``sheets``: per piece of ``label``, the
     graph's connected pieces, its _hanging_ratio, nan for any other piece) at most that ratio / _SHEET_SOFTEST:
     a membrane of the body's modulus / _SHEET_SOFTEST, whatever rows its particles fall in (the cap is what
-    holds: the spun skirt of tests/test_loose_parts.py's own k is 17-26x it at 50-400 particles). Calibrated as a body
-    of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was a tube of the
+    holds: the spun skirt of tests/test_loose_parts.py's own k is 16-33x it at 50-400 particles). Calibrated
+    as a body of its own, the kid's skirt (a cone of cloth held at its waistband, docs/goals.md) was a tube of the
     particles' 54 mm thickness at 0.7x the body's k, and its hem, painted Follow 0.1, swung 1.2 mm in a
     180-degree spin and a jump; at the body's k / _SOFTEST (stop 43) 14.6-45.9 mm over 50-1,000 particles:
     one k gives a sheet's 2 rows at 100 particles and its 9 at 1,000 stiffnesses 11x apart (held at its
