@@ -4,7 +4,7 @@
     bpy-python scripts/outside_bird.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
 opts: scale=S (the whole rig S times 2 m tall), nonuniform (armature object scaled 1.3,1,0.7), empty (armature
-parented to a moving, turning empty), spin (root turns 360 deg in 2 frames), teleport (root jumps 2 m in one frame),
+parented to a moving, turning empty), spin (root turns 360 deg in 2 frames; spin=N in N), teleport (root jumps 2 m in one frame),
 subsurf (Subdivision after OPDeform), shapekey (an animated shape key on the belly), dense=N (subdivide to about N
 vertices), particles=N (before Enable), frames=N (shot length), look=NAME, late (Enable first, then pick), two (a second mesh on the same
 armature, both enabled), bake, reopen, render, trace, fps=N (scene fps changed after 30 frames played).
@@ -25,6 +25,7 @@ for a in args[3:]:
     OPT[k] = v if v else True
 S = float(OPT.get("scale", 1.0))
 FPS = 24
+SPIN = 2 if OPT.get("spin") in (None, True) else int(OPT["spin"])
 FRAMES = int(OPT.get("frames", 96))
 os.makedirs(OUT, exist_ok=True)
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
@@ -175,13 +176,13 @@ def animate(arm):
     for f, x in ((1, 0), (16, 0), (20, 0.7), (24, -0.7), (28, 0), (40, 0)):
         key(pb["head_ctrl"], "location", f, (x * S, 0, 0))
     pb["root"].rotation_mode = 'XYZ'
-    if "spin" in OPT:  # 360 degrees in 2 frames, around z
-        for f, a in ((44, 0), (46, 360)):
+    if "spin" in OPT:  # 360 degrees in 2 frames (spin=N: N frames), around z
+        for f, a in ((44, 0), (44 + SPIN, 360)):
             key(pb["root"], "rotation_euler", f, math.radians(a), 2)
     if "teleport" in OPT:
         key(pb["root"], "location", 44, 0.0, 1)
         key(pb["root"], "location", 45, -2.0 * S, 1)
-    ends = 40 + (8 if ("spin" in OPT or "teleport" in OPT) else 0)
+    ends = 40 + (6 + SPIN if "spin" in OPT else 8 if "teleport" in OPT else 0)
     for fc in fcurves(arm.animation_data.action):
         for k in fc.keyframe_points:
             k.interpolation = 'CONSTANT' if ("teleport" in OPT and fc.data_path.endswith('"root"].location')) else 'BEZIER'
@@ -398,7 +399,8 @@ def main():
                    **{k: 1e3 * col[k].max() for k in col if k.startswith("other")})
     print("SUMMARY " + json.dumps(summary))
     if "trace" in OPT:
-        print("TRACE", json.dumps({k: [round(1e3 * x, 1) for x in col[k]] for k in ["all", "core", *regions]}))
+        print("TRACE", json.dumps({**{k: [round(1e3 * x, 1) for x in col[k]] for k in ["all", "core", *regions]},
+                                   "stretch": [round(x, 2) for x in col["stretch"]]}))
     if "inval" in OPT:  # what Free Bake does to the engine, without a bake; then a setting changed and back
         rt = sys.modules[module_name + ".blender.state"].get(obj)
         rt.engine.invalidate()

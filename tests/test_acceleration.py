@@ -109,7 +109,9 @@ def test_auto_turns_chebyshev_on_where_its_plain_pairs_stall():
     fast, so it went on plain; plain then stalled on the buttons (loose shells held by links to the body and by
     goals that no bone moves) and 6 of the 10 steps ended at 100 pairs, the error 250x the tolerance: the buttons
     were thrown 0.85 m off their goals (1.7 m over the next frames). Plain pairs that have not met the tolerance
-    in 30 now turn Chebyshev on: 0.022 m, as plain or Chebyshev run to convergence (0.012-0.053 m)."""
+    in 30 now turn Chebyshev on: 0.022 m, as plain or Chebyshev run to convergence (0.012-0.053 m); 0.029 m since
+    the goals move along their screw motions between frames (docs/goals.md, "A rig turning fast": the pickle's goal
+    velocities, chords over the frame before, were converted to the velocities at the frame then)."""
     import gzip
     import pickle
     from pathlib import Path

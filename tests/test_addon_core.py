@@ -225,6 +225,32 @@ def test_engine_goal_follows_the_input_and_rejects_bad_goals():
     assert e.goal_strength is None and len(e.cache) == 0
 
 
+def test_a_rig_turning_fast_is_reported_per_frame():
+    """The goals' turn into each frame (checks.goal_turn) is in the frame's report, and past TURN_SPEED_LIMIT
+    turns a second the panel says the loose parts stretch and the turn wants more frames; at a half turn a frame,
+    that it can be seen the other way round (docs/goals.md, "A rig turning fast"). The limit is a speed: 120
+    degrees a frame is under it at 12 fps."""
+    e, v, _ = _bar_engine()
+    e.set_constraints()
+    e.set_goal(1.0)
+    middle = v.mean(axis=0)
+    angles = {1: 0, 2: 0, 3: 60, 4: 180, 5: 360}
+    for f, degrees in angles.items():
+        e.goto(f, None, ((v - middle) @ _turn_z(math.radians(degrees)).T + middle).astype(np.float32), np.eye(4))
+    turns = [e.reports.get(f).turn for f in range(2, 6)]  # frame 1 starts: no report
+    np.testing.assert_allclose(turns, [0, 60, 120, 180], atol=1e-3)  # float32 input
+    assert [checks.turn_text(t, 24) for t in turns[:2]] == [None] * 2
+    text = checks.turn_text(turns[2], 24)
+    assert text.startswith("The rig turns 120 degrees in a frame (8.0 turns a second): loosely followed parts")
+    assert "other way round" not in text and "other way round" in checks.turn_text(turns[3], 24)
+    assert checks.turn_text(turns[2], 12) is None
+
+
+def _turn_z(angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def _turn_y(angle):
     c, s = math.cos(angle), math.sin(angle)
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])

@@ -332,19 +332,21 @@ def spun_hem(particles):
 @pytest.mark.parametrize("particles", [50, 100, 400])
 def test_a_sheet_held_at_one_edge_swings_at_the_other_in_a_turn(particles):
     """A piece of its own that is an open sheet (a skirt) is as soft as a membrane (materials._sheets_floored):
-    its hem, painted low, lags 8.7-10.9 mm behind its goals in a 180-degree spin (50-400 particles). Calibrated
-    as a body of its own (a tube as thick as its particles, 0.8-2.0x the body's k), it moved with its
-    waistband: 0.7-0.9 mm (the kid's skirt 1.2 mm)."""
+    its hem, painted low, lags 7.2-8.1 mm behind its goals in a 180-degree spin (50-400 particles; 9.0-13.6 mm
+    while the goals between frames went along the chord, whose 11 mm sagitta at the hem's 34 degrees a frame
+    was most of it: docs/goals.md, "A rig turning fast"). Calibrated as a body of its own (a tube as thick as
+    its particles, 0.8-2.0x the body's k), it moved with its waistband: 0.7-0.9 mm (the kid's skirt 1.2 mm)."""
     worst = spun_hem(particles)
-    assert worst > 5e-3, f"the hem lagged {1e3 * worst:.2f} mm"
+    assert worst > 3e-3, f"the hem lagged {1e3 * worst:.2f} mm"
 
 
 def test_a_sheet_swings_alike_at_any_particle_count():
-    """A sheet's k from its own hanging (materials._hanging_ratio), not the body's k / _SOFTEST: the hem's lag
-    in the spin 8.7-12.9 mm over 50-400 particles (1.48x apart), 9.0-29.0 mm before (3.2x: its rows of
-    particles, 2-3 at 100 and more at 400, make one k 11x apart stiffnesses; the kid's hem 14.6-45.9 mm)."""
+    """A sheet's k from its own swing (materials._hanging_ratio), not the body's k / _SOFTEST: the hem's lag in
+    the spin 7.2-8.1 mm over 50-400 particles (1.13x apart). Loaded along the way from its waistband (hanging)
+    instead of across it, 8.1 / 6.5 / 5.4 / 4.1 mm (1.98x: for one k a sheet in tension gives 5.4x more at 400
+    particles than at 50, one loaded across 3.7x); 9.0-29.0 mm (3.2x) at the body's k / _SOFTEST."""
     lags = [spun_hem(n) for n in (50, 100, 200, 400)]
-    assert max(lags) < 1.6 * min(lags), [round(1e3 * x, 1) for x in lags]
+    assert max(lags) < 1.25 * min(lags), [round(1e3 * x, 1) for x in lags]
 
 
 def test_a_sheets_vertices_blend_more_particles():

@@ -22,8 +22,9 @@ static od_Vec3 od_PredictInFields(const od_Sim* sim, od_Vec3 x, od_Vec3 kept)
 
 // The prediction y = x + h (1 - c) v + h² g, R̃ = R + h (1 - c) [ω]× R with c = c_i (od_Damping). With goals
 // carrying the rest only the motion relative to the goals is damped, so that a body riding a moving goal is
-// not held back: y = x + h (u + (1 - c)(v - u)) + h² g and R̃ = R + h [Ω + (1 - c)(ω - Ω)]× R with the goal's
-// velocity u and angular velocity Ω (goal.c).
+// not held back: y = x + h (u + (1 - c)(exp(h [Ω]×) v - u)) + h² g and R̃ = R + h [Ω + (1 - c)(ω - Ω)]× R with
+// the goal's velocity u over the step and angular velocity Ω (od_Goals_StepVelocity): the velocity relative to
+// the goal turns with it, so that a body riding a turning goal keeps riding it.
 void od_Predict(od_Sim* sim)
 {
 	const od_State* s = &sim->state;
@@ -39,9 +40,10 @@ void od_Predict(od_Sim* sim)
 		if (relative)
 		{
 			od_Vec3 spin = od_V3Load(goals->spin + 3 * i);
-			u = od_V3Load(goals->velocity + 3 * i);
+			od_Mat3 step = od_M3ExpSkew(od_Scale(h, spin));
+			u = od_Goals_StepVelocity(sim, i);
 			from = od_MulAdd(x, h, u);
-			v = od_Sub(v, u);
+			v = od_Sub(od_M3MulV(&step, v), u); // the relative velocity turned with the goal
 			w = od_MulAdd(od_Scale(h, spin), keep, od_Sub(w, spin)); // the whole turn of the step
 			turn = 1.0;
 		}

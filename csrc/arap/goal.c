@@ -162,20 +162,85 @@ od_Status od_Sim_SetGoalFrequencies(od_Sim* sim, const double* frequencies)
 	return OD_OK;
 }
 
-// The goals' velocities from the frame they are leaving to the new one, over the steps taken since it was set;
-// none taken: the new frame replaces it and the velocities stay. The edges' terms are made again.
+// V(w) = ∫₀¹ exp(s [w]×) ds = I + (1 - cos t)/t² [w]× + (t - sin t)/t³ [w]×², t = |w|: a point riding a screw
+// motion of angular velocity Ω whose velocity is v at time 0 is at τ V(τ Ω) v at time τ, its velocity there
+// exp(τ [Ω]×) v. Series below t = 0.1, where the closed form cancels.
+static od_Mat3 od_ScrewMatrix(od_Vec3 w)
+{
+	double t2 = od_Dot(w, w);
+	if (t2 < 1e-2)
+	{
+		return od_M3SkewSeries(w, 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0)),
+							   1.0 / 6.0 - t2 / 120.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)));
+	}
+	double t = sqrt(t2);
+	return od_M3SkewSeries(w, (1.0 - cos(t)) / t2, (t - sin(t)) / (t2 * t));
+}
+
+// V(w)⁻¹ = I - ½ [w]× + (1 - (t/2) cot(t/2))/t² [w]×², for t < 2π.
+static od_Mat3 od_ScrewMatrixInverse(od_Vec3 w)
+{
+	double t2 = od_Dot(w, w);
+	if (t2 < 1e-2)
+	{
+		return od_M3SkewSeries(w, -0.5, 1.0 / 12.0 + t2 / 720.0 * (1.0 + t2 / 42.0));
+	}
+	double t = sqrt(t2);
+	return od_M3SkewSeries(w, -0.5, (1.0 - 0.5 * t * sin(t) / (1.0 - cos(t))) / t2);
+}
+
+// A turn between two frames within this of a half turn could have gone either way: the goal fits of a rig
+// turning 180 degrees a frame are a half turn up to rounding, which alone chose each particle's way, so that
+// neighbours turned opposite ways between the frames (docs/goals.md, "A rig turning half a turn a frame").
+#define OD_HALF_TURN_BAND 0.1
+
+static od_Vec3 od_FrameTurn(const double* rotations, const od_Goals* goals, int i)
+{
+	od_Mat3 to = rotations ? od_M3Load(rotations + 9 * i) : od_M3Identity(), from = od_M3Load(goals->R + 9 * i);
+	od_Mat3 turn = od_M3MulNT(&to, &from);
+	return od_M3LogRotation(&turn);
+}
+
+// The way the body turns: the turns clearly less than a half turn and the goals' last angular velocities; when
+// there are none, the first near half turn's.
+static od_Vec3 od_TurnWay(const od_Sim* sim, const double* rotations)
+{
+	const od_Goals* goals = &sim->goals;
+	od_Vec3 way = od_V3(0, 0, 0), first = way;
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Vec3 turn = od_FrameTurn(rotations, goals, i);
+		bool half = od_Length(turn) > M_PI - OD_HALF_TURN_BAND;
+		way = od_Add(way, od_Add(half ? od_V3(0, 0, 0) : turn, od_V3Load(goals->spin + 3 * i)));
+		first = half && od_Dot(first, first) == 0.0 ? turn : first;
+	}
+	return od_Dot(way, way) > 0.0 ? way : first;
+}
+
+// The goals' motion from the frame they are leaving to the new one, over the steps taken since it was set, as a
+// screw motion per goal: the angular velocity Ω_i of the turn (a turn near a half turn the way the body turns,
+// od_TurnWay) and the velocity u_i at the new frame, so that the goal centre went along the arc
+// g_i + τ V(τ Ω_i) u_i, τ from -T to 0 (od_ScrewMatrix), not along the chord: at 180 degrees a frame the
+// chord of every goal passes through the axis. None taken: the new frame replaces it and the motion stays.
+// The edges' terms are made again.
 static void od_TrackMotion(od_Sim* sim, const double* positions, const double* rotations)
 {
 	od_Goals* goals = &sim->goals;
 	long long steps = sim->counters.steps - goals->mark;
-	double rate = goals->framed && steps > 0 ? 1.0 / (sim->def.dt * (double)steps) : 0.0;
-	for (int i = 0; rate > 0.0 && i < sim->graph->n; ++i)
+	double time = goals->framed && steps > 0 ? sim->def.dt * (double)steps : 0.0;
+	od_Vec3 way = time > 0.0 ? od_TurnWay(sim, rotations) : od_V3(0, 0, 0);
+	for (int i = 0; time > 0.0 && i < sim->graph->n; ++i)
 	{
-		od_Vec3 moved = od_Sub(od_V3Load(positions + 3 * i), od_V3Load(goals->x + 3 * i));
-		od_V3Store(goals->velocity + 3 * i, od_Scale(rate, moved));
-		od_Mat3 to = rotations ? od_M3Load(rotations + 9 * i) : od_M3Identity(), from = od_M3Load(goals->R + 9 * i);
-		od_Mat3 turn = od_M3MulNT(&to, &from);
-		od_V3Store(goals->spin + 3 * i, od_Scale(rate, od_M3LogRotation(&turn)));
+		od_Vec3 turn = od_FrameTurn(rotations, goals, i);
+		double angle = od_Length(turn);
+		if (angle > M_PI - OD_HALF_TURN_BAND && od_Dot(turn, way) < 0.0)
+		{
+			turn = od_Scale((angle - 2.0 * M_PI) / angle, turn);
+		}
+		od_Vec3 chord = od_Scale(1.0 / time, od_Sub(od_V3Load(positions + 3 * i), od_V3Load(goals->x + 3 * i)));
+		od_Mat3 back = od_ScrewMatrixInverse(od_Scale(-1.0, turn));
+		od_V3Store(goals->velocity + 3 * i, od_M3MulV(&back, chord));
+		od_V3Store(goals->spin + 3 * i, od_Scale(1.0 / time, turn));
 	}
 	goals->mark = sim->counters.steps;
 	goals->framed = true;
@@ -243,14 +308,27 @@ void od_Goals_Place(od_Sim* sim)
 	double t = sim->def.dt * back;
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		od_V3Store(goals->x + 3 * i,
-				   od_MulAdd(od_V3Load(goals->frameX + 3 * i), -t, od_V3Load(goals->velocity + 3 * i)));
-		od_Mat3 turn = od_M3ExpSkew(od_Scale(-t, od_V3Load(goals->spin + 3 * i))), frame = od_M3Load(goals->frameR + 9 * i);
+		od_Vec3 spin = od_Scale(-t, od_V3Load(goals->spin + 3 * i));
+		od_Mat3 screw = od_ScrewMatrix(spin);
+		od_V3Store(goals->x + 3 * i, od_MulAdd(od_V3Load(goals->frameX + 3 * i), -t,
+											   od_M3MulV(&screw, od_V3Load(goals->velocity + 3 * i))));
+		od_Mat3 turn = od_M3ExpSkew(spin), frame = od_M3Load(goals->frameR + 9 * i);
 		od_Mat3 r = od_M3Mul(&turn, &frame);
 		od_M3Store(goals->R + 9 * i, &r);
 	}
 	goals->placed = true;
 	od_UpdateTerms(sim);
+}
+
+od_Vec3 od_Goals_StepVelocity(const od_Sim* sim, int i)
+{
+	const od_Goals* goals = &sim->goals;
+	int back = goals->steps - 1 - goals->step;
+	double h = sim->def.dt;
+	od_Vec3 spin = od_V3Load(goals->spin + 3 * i);
+	od_Mat3 screw = od_ScrewMatrix(od_Scale(-h, spin)), turn = od_M3ExpSkew(od_Scale(-h * (back > 0 ? back : 0), spin));
+	od_Mat3 both = od_M3Mul(&turn, &screw);
+	return od_M3MulV(&both, od_V3Load(goals->velocity + 3 * i));
 }
 
 void od_Goals_BeginCall(od_Sim* sim, int steps)

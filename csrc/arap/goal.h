@@ -29,5 +29,8 @@ void od_Goals_PrepareEdge(const od_Sim* sim, int i, int e, double si, double sj,
 void od_Goals_BeginCall(od_Sim* sim, int steps);
 // Places goals carrying the rest for the call's step goals.step (od_Step_Start); the last has the frame set.
 void od_Goals_Place(od_Sim* sim);
+// Goal i's velocity over the step being made (goals carrying the rest): the chord of its screw motion over the
+// step, exp(-b h [Ω_i]×) V(-h Ω_i) u_i, b the step's steps before the frame (goal.c, od_TrackMotion).
+od_Vec3 od_Goals_StepVelocity(const od_Sim* sim, int i);
 // The frame set back in place after a call (or a failed one).
 void od_Goals_EndCall(od_Sim* sim);

@@ -57,6 +57,30 @@ def test_object_keyframes_lag_and_settle():
     assert lag[-1] < 1e-3 * LENGTH, lag[-1]
 
 
+def test_a_rig_turning_fast_is_warned():
+    """The tail's root bone turned 120 degrees from frame 10 to 11: the panel says at frame 11, not at 10, that
+    loosely followed parts stretch past 90 degrees a frame at 24 fps (checks.TURN_SPEED_LIMIT, 6 turns a second;
+    docs/goals.md, "A rig turning fast")."""
+    tail = H.tail_rig(0.5)
+    bone = bpy.data.objects["Rig"].pose.bones["Root"]
+    for fc in H.action_fcurves(bone.id_data.animation_data.action):
+        for k in fc.keyframe_points:
+            k.co.y = 0.0  # still until frame 10
+    for frame, degrees in ((10, 0.0), (11, 120.0)):
+        bone.rotation_euler[2] = math.radians(degrees)
+        bone.keyframe_insert("rotation_euler", index=2, frame=frame)
+    for fc in H.action_fcurves(bone.id_data.animation_data.action):
+        for k in fc.keyframe_points:
+            k.interpolation = 'LINEAR'
+    shown = {}
+    for f in range(1, 12):
+        bpy.context.scene.frame_set(f)
+        shown[f] = H.labels(H.draw_panels())
+    assert not tail.opdeform.error, tail.opdeform.error
+    assert "The rig turns" not in shown[10], shown[10]
+    assert "The rig turns 120 degrees in a frame" in shown[11], shown[11]
+
+
 def test_goal_weight_softens():
     """Strength 1 with a goal group painted 0.2 everywhere lags visibly; painted 1 it is the animation."""
     deviations = {}

@@ -56,6 +56,9 @@ def warnings(rt, frame, current=True):
         out.append(f"Stretched {rep.stretch:.1f}x the rest length: raise Stiffness or Substeps")
     if rep is not None and rep.handle_fast:
         out.append(f"A handle moves {100 * rep.handle_step:.0f} % of the body a step: raise Substeps")
+    turn = checks.turn_text(rep.turn, frame_rate(bpy.context.scene)) if rep is not None else None
+    if turn:
+        out.append(turn)
     thin = rt.engine.thin_part
     if thin is not None and thin[2]:
         out.append(f"Thinnest part {thin[0]:.3g} m, particles {thin[1]:.3g} m apart: fewer than two across; "

@@ -12,6 +12,11 @@ import numpy as np
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
+# A rig turning faster than this (turns a second) stretches what follows it loosely: the outside bird's 360-degree
+# spin of the root at 24 fps (docs/goals.md, "A rig turning fast") over 2 / 3 / 4 / 6 frames (12 / 8 / 6 / 4 turns
+# a second) stretched its 2 Hz hair cards 2.36 / 1.61 / 1.37 / 1.18x. It is the speed, not the frames: more
+# substeps do not help (the same at 10, 40 and 160 a frame on a bar).
+TURN_SPEED_LIMIT = 6.0
 SETTLING_DAMPING = 4.0  # /s: a swing falls to e^(-c/2) in a second, 14 % at 4/s (the looks: 9-12/s, 1 % or less)
 
 
@@ -31,6 +36,25 @@ def handle(materials, sim, before, after, substeps, fps):
         return 0.0, False
     speed, turn = handle_motion(before, after, fps)
     return materials.handle_warning(sim, speed, turn, substeps, fps)
+
+
+def goal_turn(sim, fps):
+    """The fastest goal's turn into the frame just set, degrees (goals carrying the rest: the angular velocities
+    they were given from the frame before; 0 without)."""
+    motion = sim.goal_motion
+    if motion is None:
+        return 0.0
+    return float(np.degrees(np.sqrt(np.einsum("ij,ij->i", motion[1], motion[1])).max(initial=0.0)) / fps)
+
+
+def turn_text(degrees, fps):
+    """The panel's warning for a goal turn of ``degrees`` a frame at ``fps`` (None up to TURN_SPEED_LIMIT)."""
+    turns = degrees * fps / 360.0
+    if turns <= TURN_SPEED_LIMIT:
+        return None
+    way = "; a half turn a frame or more can be seen the other way round" if degrees >= 179.0 else ""
+    return (f"The rig turns {degrees:.0f} degrees in a frame ({turns:.1f} turns a second): loosely followed parts "
+            f"stretch (over 1.5x beyond {TURN_SPEED_LIMIT:g}){way}. Key the turn over more frames")
 
 
 def thin_part(od, graph, vertices, triangles):

@@ -739,7 +739,7 @@ class Engine:
         self.cache.store(k, self._state(), tk, gk)
         self._push_out(k)
         self.colliders.remember(k, sk)
-        self.reports.store(k, report(self.stretch, self.sim, handle))
+        self.reports.store(k, report(self.stretch, self.sim, handle, checks.goal_turn(self.sim, fps)))
 
     def _reached(self, run, shown, seconds):
         self.timing["solver"] += seconds

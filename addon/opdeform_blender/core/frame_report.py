@@ -10,10 +10,11 @@ from collections import namedtuple
 
 import numpy as np
 
-Report = namedtuple("Report", "error iterations most stretch handle_step handle_fast")
+Report = namedtuple("Report", "error iterations most stretch handle_step handle_fast turn")
 # error: the largest residual of the frame's steps (fraction of the size, -1: fixed iterations); iterations:
 # local/global pairs per step (mean); most: in one step; stretch: the largest particle edge length / rest length;
-# handle_step: the fastest handle's travel in one step / the body's size; handle_fast: too fast for the steps
+# handle_step: the fastest handle's travel in one step / the body's size; handle_fast: too fast for the steps;
+# turn: the fastest goal's turn into the frame, degrees (checks.goal_turn)
 HISTORY = 2000  # frames of reports kept (the plot shows the last PLOT_FRAMES)
 PLOT_FRAMES = 250
 STRETCH_LIMIT = 2.0  # warn beyond twice the rest length
@@ -36,12 +37,12 @@ class Stretch:
         return float((np.sqrt(np.einsum("ij,ij->i", d, d)) / self.rest).max(initial=0.0))
 
 
-def report(stretch, sim, handle):
+def report(stretch, sim, handle, turn=0.0):
     """The Report of the frame just simulated; stretch: the graph's Stretch; handle: (travel per step / size, too
-    fast) of checks.handle."""
+    fast) of checks.handle; turn: degrees of checks.goal_turn."""
     r = sim.step_report
     return Report(float(r["error"]), r["iterations"] / max(1, r["steps"]), int(r["most_iterations"]),
-                  stretch(sim.positions), *handle)
+                  stretch(sim.positions), *handle, turn)
 
 
 class FrameReports:
