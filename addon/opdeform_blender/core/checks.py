@@ -226,6 +226,7 @@ def overlap_text(names):
             "frame and can tear them; tick Goal on both (an overlap of their animations is no contact) or move "
             "them apart")
 
+
 def _decimals(largest):
     """Decimals that show two significant digits of ``largest`` (m), at least 2: a 1 cm creature's shells
     are told apart as a 2 m one's are."""
