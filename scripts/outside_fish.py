@@ -4,8 +4,9 @@ automatic weights, swimming (body wave, dips to the floor) until frame 40 of 96,
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_fish.py -- ZIP legacy OUT [opts]
     bpy-python scripts/outside_fish.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
-opts: scale=S (everything S times), unit=U (the scene's Unit Scale), dip=D (how far the swim dips, m; 0.14), look=Subtle|Fleshy|Floppy (picked from the Goal panel's menu after the group),
-particles=N, noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
+opts: turn (a 90-degree snap turn in 4 frames), scale=S (everything S times), unit=U (the scene's Unit Scale), dip=D (how far the swim dips, m; 0.14), look=Subtle|Fleshy|Floppy (picked from the Goal panel's menu after the group),
+particles=N, repaint (Follow all 1 after playing, replay), relook=NAME (another look after
+playing, replay), save (frame 30 and the file into OUT; then open=OUT reopens it), noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, [pick a look], play.
 """
 import json, math, os, sys
@@ -118,6 +119,10 @@ def animate(arm):
         for k, name in enumerate(("spine1", "spine2", "tail1", "tail2")):
             pb[name].rotation_euler = (0, 0, 0.22 * (k + 1) / 2 * math.sin(2 * math.pi * 2 * t - 0.9 * k) * fade)
             pb[name].keyframe_insert("rotation_euler", frame=f)
+    if "turn" in OPT:  # a snap turn: the root 90 degrees about z in 4 frames (20 -> 24)
+        for f, a in ((20, 0), (24, 90), (STOP, 90)):
+            pb["root"].rotation_euler = (0, 0, math.radians(a))
+            pb["root"].keyframe_insert("rotation_euler", frame=f)
     for name in ("root", "spine1", "spine2", "tail1", "tail2"):  # held still from STOP
         pb[name].keyframe_insert("location" if name == "root" else "rotation_euler", frame=STOP)
 
@@ -204,6 +209,8 @@ def main():
     size = 1.2 * S
     rows, shown = [], {}
     errors = []
+    import time
+    t0 = time.process_time()
     for f in range(1, FRAMES + 1):
         sc.frame_set(f)
         if s.error:
@@ -215,7 +222,9 @@ def main():
         st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
         rows.append(dict(f=f, core=d[core].max(), all=d.max(), stretch=st.max(), lowest=a[:, 2].min(), lowest_twin=b[:, 2].min(),
                          lowest_loose=a[free, 2].min(), lowest_loose_twin=b[free, 2].min(),
-                         **{k: d[ix].max() for k, ix in parts.items()}))
+                         **{k: d[ix].max() for k, ix in parts.items()},
+                         **{k + "_stretch": st[np.isin(i, ix)].max() for k, ix in parts.items()}))
+    cpu_ms = 1e3 * (time.process_time() - t0) / FRAMES  # with this script's own measuring
     col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
     fr = col["f"]
     moving, after = fr < STOP, fr >= STOP + FPS
@@ -226,12 +235,13 @@ def main():
                    loose_moving_mm=1e3 * max(col[k][moving].max() for k in ("pectoral", "barbels", "dorsal", "tailfin")),
                    loose_pct=100 * max(col[k][moving].max() for k in ("pectoral", "barbels", "dorsal", "tailfin")) / size,
                    **{k + "_mm": 1e3 * col[k][moving].max() for k in parts},
+                   **{k + "_stretch": col[k + "_stretch"].max() for k in parts},
                    after_1s_mm=1e3 * col["all"][after].max(),
                    settle_s=0.0 if len(late) == 0 else (fr[late[-1]] + 1 - STOP) / FPS,
                    stretch=col["stretch"].max(), stretch_frame=int(fr[np.argmax(col["stretch"])]),
                    lowest_mm=1e3 * col["lowest"].min(), lowest_twin_mm=1e3 * col["lowest_twin"].min(),
                    lowest_loose_mm=1e3 * col["lowest_loose"].min(), lowest_loose_twin_mm=1e3 * col["lowest_loose_twin"].min(), base_kept=bool(np.array_equal(base(obj), before)),
-                   errors=errors[:3])
+                   errors=errors[:3], cpu_ms_frame=cpu_ms)
     if "bake" in OPT:
         s.cache_directory = os.path.join(OUT, "cache")
         print("BAKE ->", bpy.ops.opdeform.bake())
@@ -239,7 +249,48 @@ def main():
         summary["bake_vs_play_mm"] = max(1e3 * np.abs(world(obj) - shown[f]).max()
                                          for f in (1, 12, 25, STOP, 70, FRAMES) if sc.frame_set(f) is None)
         print("BAKED PANEL", reports(H.draw_panels()))
+    if "repaint" in OPT:  # the artist paints the Follow group all 1 after playing, then replays: nothing may move
+        bpy.ops.object.mode_set(mode='WEIGHT_PAINT')  # as an artist paints: in Weight Paint mode
+        obj.vertex_groups["Follow"].add(list(range(len(follow))), 1.0, 'REPLACE')
+        obj.data.update()
+        sc.frame_set(sc.frame_current)
+        bpy.ops.object.mode_set(mode='OBJECT')
+        summary["repaint_all1_mm"] = replay(sc, obj, twin, bpy.context.view_layer, H)
+    if "relook" in OPT:  # the artist picks another look after playing, then replays
+        print("RELOOK ->", bpy.ops.opdeform.apply_preset(preset=OPT["relook"]))
+        summary["relook_all_mm"] = replay(sc, obj, twin, bpy.context.view_layer, H)
+    if "save" in OPT:  # then: the same command with open=OUT
+        sc.frame_set(30)
+        np.save(os.path.join(OUT, "f30.npy"), world(obj))
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "fish.blend"))
     print("SUMMARY " + json.dumps(summary))
 
 
-main()
+def replay(sc, obj, twin, layer, H):
+    """Frames 1..FRAMES again after a change; the largest distance from the armature-only pose (mm), with the
+    panel's labels at frame 1 as the artist sees them after the change."""
+    print("PANEL AFTER CHANGE", reports(H.draw_panels()))
+    worst, per = 0.0, []
+    for f in range(1, FRAMES + 1):
+        sc.frame_set(f)
+        d = 1e3 * np.linalg.norm(world(obj) - world(twin), axis=1).max()
+        per.append(round(d, 2))
+        worst = max(worst, d)
+    print("REPLAY", per[:48:4], "error", repr(obj.opdeform.error))
+    return worst
+
+
+def reopen(folder):
+    """Opens the saved file as an artist does: is frame 30 the simulated pose, before and after a frame change?"""
+    install()
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, "fish.blend"))
+    obj, ref = bpy.data.objects["Fish"], np.load(os.path.join(folder, "f30.npy"))
+    twin = world(bpy.data.objects["Fish_twin"])
+    print("REOPEN frame", bpy.context.scene.frame_current, "vs saved mm", 1e3 * np.abs(world(obj) - ref).max(),
+          "saved vs armature-only mm", 1e3 * np.abs(ref - twin).max(), "error", repr(obj.opdeform.error))
+    for f in (31, 30):
+        bpy.context.scene.frame_set(f)
+    print("REOPEN after 31->30 vs saved mm", 1e3 * np.abs(world(obj) - ref).max())
+
+
+reopen(OPT["open"]) if "open" in OPT else main()
