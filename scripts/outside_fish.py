@@ -6,7 +6,7 @@ automatic weights, swimming (body wave, dips to the floor) until frame 40 of 96,
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
 opts: turn (a 90-degree snap turn in 4 frames), scale=S (everything S times), unit=U (the scene's Unit Scale), dip=D (how far the swim dips, m; 0.14), look=Subtle|Fleshy|Floppy (picked from the Goal panel's menu after the group),
 particles=N, repaint (Follow all 1 after playing, replay), relook=NAME (another look after
-playing, replay), save (frame 30 and the file into OUT; then open=OUT reopens it), noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
+playing, replay), save (frame 30 and the file into OUT; then open=OUT reopens it), trace (frames 17-32: the barbels), noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, [pick a look], play.
 """
 import json, math, os, sys
@@ -202,6 +202,14 @@ def main():
     print("SETTINGS", {k: getattr(s, k) for k in ("particles", "goal_min", "goal_max", "shell_follow_min", "sag",
                                                   "modulus", "damping_rate", "soft_stiffness") if hasattr(s, k)},
           "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+    st_ = sys.modules[name + ".blender.state"].get(obj)
+    if st_ is not None:  # particles per part: each particle's nearest vertex's part
+        v0 = np.array([x.co for x in obj.data.vertices])
+        part_of = np.empty(len(v0), object)
+        for k, ix in parts.items():
+            part_of[ix] = k
+        near = [int(np.argmin(np.linalg.norm(v0 - c, axis=1))) for c in st_.engine.graph.centers]
+        print("PARTICLES PER PART", {k: int(sum(part_of[i] == k for i in near)) for k in parts})
     core = np.where(follow >= 0.99)[0]
     free = np.where(follow < 0.99)[0]
     loose = np.concatenate([parts[k] for k in ("pectoral", "barbels", "dorsal", "tailfin")])
@@ -263,6 +271,11 @@ def main():
         sc.frame_set(30)
         np.save(os.path.join(OUT, "f30.npy"), world(obj))
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "fish.blend"))
+    if "trace" in OPT:
+        print("TRACE stretch", [round(float(x), 2) for x in col["barbels_stretch"][16:32]], "barbels mm",
+              [round(1e3 * float(x)) for x in col["barbels"][16:32]])
+        sc.frame_set(23)
+        print("PANEL AT 23", reports(H.draw_panels())[-6:])
     print("SUMMARY " + json.dumps(summary))
 
 
