@@ -15,7 +15,7 @@ import numpy as np
 from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import base, link, parent_auto, paint, shells, twin_of, world  # noqa: E402
+from rig_parts import base, install, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -24,16 +24,6 @@ S = float(OPT.get("scale", 1.0))
 FPS, FRAMES, STOP = 24, 96, 40
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
 os.makedirs(OUT, exist_ok=True)
-
-
-def install():
-    sys.path.insert(0, TESTS)
-    import helpers
-    if KIND == "dev":
-        helpers.enable_addon()
-        return helpers.ADDON
-    sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
-    return helpers.install_package(ZIP, KIND)
 
 
 def place(bm, verts, loc, scale=(1, 1, 1), rot=Matrix()):
@@ -158,7 +148,7 @@ def reports(log):
 
 
 def main():
-    name = install()
+    name = install(ZIP, KIND)
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     sc = bpy.context.scene
@@ -295,7 +285,7 @@ def replay(sc, obj, twin, layer, H):
 
 def reopen(folder):
     """Opens the saved file as an artist does: is frame 30 the simulated pose, before and after a frame change?"""
-    install()
+    install(ZIP, KIND)
     bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, "fish.blend"))
     obj, ref = bpy.data.objects["Fish"], np.load(os.path.join(folder, "f30.npy"))
     twin = world(bpy.data.objects["Fish_twin"])
