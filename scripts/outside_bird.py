@@ -15,7 +15,7 @@ import numpy as np
 from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import base, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
+from rig_parts import base, install, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -29,16 +29,6 @@ SPIN = 2 if OPT.get("spin") in (None, True) else int(OPT["spin"])
 FRAMES = int(OPT.get("frames", 96))
 os.makedirs(OUT, exist_ok=True)
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
-
-
-def install():
-    sys.path.insert(0, TESTS)
-    import helpers
-    if KIND == "dev":  # ZIP "-": the repository's add-on with $OPDEFORM_PYTHONPATH
-        helpers.enable_addon()
-        return helpers.ADDON
-    sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
-    return helpers.install_package(ZIP, KIND)
 
 
 def add(bm, geom_verts, matrix):
@@ -265,7 +255,7 @@ def build():
 
 
 def main():
-    module_name = install()
+    module_name = install(ZIP, KIND)
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     obj, arm, end, follow, soft, regions = build()
@@ -497,7 +487,7 @@ def render(obj, twin, frame):
 
 
 if "open" in OPT:
-    install()
+    install(ZIP, KIND)
     bpy.ops.wm.open_mainfile(filepath=os.path.join(OPT["open"], "bird.blend"))
     obj = bpy.data.objects["Bird"]
     a = world(obj)

@@ -54,7 +54,7 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import base, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
+from rig_parts import base, install, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, RIG, VARIANT, OUT = args[:5]
@@ -62,16 +62,6 @@ EXTRA = args[5:]
 FPS = 24
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
 os.makedirs(OUT, exist_ok=True)
-
-
-def install():
-    sys.path.insert(0, TESTS)
-    import helpers
-    if KIND == "dev":
-        helpers.enable_addon()
-        return helpers.ADDON
-    sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
-    return helpers.install_package(ZIP, KIND)
 
 
 # ---------------------------------------------------------------- rig 1: "gob", a Skin-modifier humanoid
@@ -657,7 +647,7 @@ def digest(a):
 
 
 def main():
-    module_name = install()
+    module_name = install(ZIP, KIND)
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     obj, arm, end, follow, soft, regions = build()
@@ -836,7 +826,7 @@ def render(obj, twin, frame):
 
 
 if VARIANT == "open":
-    install()
+    install(ZIP, KIND)
     bpy.ops.wm.open_mainfile(filepath=os.path.join(OUT, f"{RIG}_{KIND}.blend"))
     obj = bpy.data.objects[NAMES[RIG]]
     a = world(obj)

@@ -1,8 +1,25 @@
 """Pieces shared by the outside-view rig scripts (scripts/outside_rigs.py, scripts/outside_bird.py): objects linked
 into the scene, parented to an armature with automatic weights, painted groups, mesh shells, world positions, the
-base mesh and the armature-only twin."""
+base mesh and the armature-only twin; the add-on installed from a zip."""
+import os
+import sys
+
 import bpy
 import numpy as np
+
+TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
+
+
+def install(zip_path, kind):
+    """The add-on as a new user has it: the zip installed into the (empty) user folders, kind "legacy" or
+    "extension"; kind "dev" (zip "-"): the repository's add-on with $OPDEFORM_PYTHONPATH. Its module name."""
+    sys.path.insert(0, TESTS)
+    import helpers
+    if kind == "dev":
+        helpers.enable_addon()
+        return helpers.ADDON
+    sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
+    return helpers.install_package(zip_path, kind)
 
 
 def link(obj):
