@@ -251,11 +251,16 @@ def test_scale_keeps_the_stiffness_formula():
         materials.stiffness_for(g, -1.0)
     with pytest.raises(ValueError):
         materials.stiffness_for(g, 1e6, calibration="fudge")
-    # following an animation: E ~ size^2, so ten times larger keeps k (the same frequencies at any size)
-    k = materials.stiffness_for(small, 1e6, scaling="goal")
-    assert materials.stiffness_for(big, 1e6, scaling="goal") == pytest.approx(k, rel=1e-4)
+    # following an animation above GOAL_REFERENCE_SIZE: E ~ size^2, so ten times larger keeps k (the same
+    # frequencies at any size); at it and below the froude rule's E (the goal rule only stiffens)
+    huge = opdeform.Graph(g.centers * 100, g.radii * 100, g.edges, g.axes)
+    k = materials.stiffness_for(big, 1e6, scaling="goal")
+    assert materials.stiffness_for(huge, 1e6, scaling="goal") == pytest.approx(k, rel=1e-4)
+    assert np.array_equal(materials.stiffness_for(small, 1e6, scaling="goal"), materials.stiffness_for(small, 1e6))
     at = materials.GOAL_REFERENCE_SIZE
-    assert materials.acting_modulus(1e6, at, "goal") == pytest.approx(materials.acting_modulus(1e6, at))
+    for size in (0.01, 1.0, at):
+        assert materials.acting_modulus(1e6, size, "goal") == pytest.approx(materials.acting_modulus(1e6, size))
+        assert materials.acting_gravity((0.0, 0.0, -9.81), size, "goal") == (0.0, 0.0, -9.81)
     assert materials.acting_gravity((0.0, 0.0, -9.81), 2 * at, "goal") == pytest.approx((0.0, 0.0, -19.62))
     with pytest.raises(ValueError, match="scaling"):
         materials.stiffness_for(g, 1e6, scaling="cubic")

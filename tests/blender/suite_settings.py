@@ -21,9 +21,10 @@ def _module(name):
     return importlib.import_module(f"{H.ADDON}.{name}")
 
 
-def _tail(name="Tail", particles=100, mode="auto"):
-    """The 2 m x 0.2 m tail with its root face in "Pin", enabled as an artist would: no setting touched."""
-    v, t = H.box_mesh((0.0, -0.1, -0.1), (2.0, 0.1, 0.1), (21, 5, 5))
+def _tail(name="Tail", particles=100, mode="auto", length=2.0):
+    """The 2 m x 0.2 m tail (or ``length`` long) with its root face in "Pin", enabled as an artist would: no
+    setting touched."""
+    v, t = H.box_mesh((0.0, -0.1, -0.1), (length, 0.1, 0.1), (21, 5, 5))
     obj = H.mesh_object(name, v, t)
     group = obj.vertex_groups.new(name="Pin")
     group.add([int(i) for i in np.where(v[:, 0] < 1e-9)[0]], 1.0, 'REPLACE')
@@ -169,7 +170,7 @@ def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
     rule: the same look at any size), without a Goal with E = modulus x size ("froude"); a file saved before
     version 5 keeps the "froude" rule (Physical Scaling on after the load), a new object has it off."""
     for name, version in (("New", None), ("Old", 4)):
-        s = _tail(name).opdeform
+        s = _tail(name, length=4.0).opdeform  # above GOAL_REFERENCE_SIZE, where the rules differ
         s.use_goal, s.sag = True, 0.5
         if version is not None:
             s.settings_version = version
@@ -192,7 +193,7 @@ def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
         gravity = m.acting_gravity([sag * g for g in bpy.context.scene.gravity], size, scaling)
         assert np.allclose(params["stiffness"] * (1.0 if scale is None else scale), k, rtol=1e-9), (name, goal)
         assert np.allclose(params["gravity"], gravity, rtol=1e-6), (name, goal, params["gravity"], gravity)
-    assert abs(size - 2.0) < 0.01 and m.acting_modulus(1.0, size, "goal") == size * size / m.GOAL_REFERENCE_SIZE
+    assert abs(size - 4.0) < 0.02 and m.acting_modulus(1.0, size, "goal") == size * size / m.GOAL_REFERENCE_SIZE
 
 
 def _version():
@@ -222,6 +223,12 @@ def test_warnings_stretch_thin_part_and_fast_handle():
         bpy.context.scene.frame_set(f)
     text = H.labels(H.draw_panels())
     assert "Stretched" in text and "Thinnest part" in text, text
+    bpy.context.scene.unit_settings.scale_length = 0.01  # modelled in centimetres: its lengths read in them
+    thin = [t for t in _module("blender.panels").warnings(H.runtime().get(obj), 24) if t.startswith("Thinnest")]
+    bpy.context.scene.unit_settings.scale_length = 1.0
+    part = H.runtime().get(obj).engine.thin_part[0]
+    shown = bpy.utils.units.to_string('METRIC', 'LENGTH', 0.01 * part, precision=3)  # 0.2 units: "2 mm"
+    assert thin and thin[0].startswith(f"Thinnest part {shown},") and shown.endswith(" mm"), (thin, part)
     s.modulus = 15.0
     bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
     handle = s.handles[0].target

@@ -46,6 +46,15 @@ def _draw_substeps(col, s, scene):
         col.prop(s, "substeps")
 
 
+def length_text(scene):
+    """A function writing a length in Blender units as the scene's Properties show lengths: its unit system and
+    Unit Scale (a character modelled in centimetres, Unit Scale 0.01, reads "1.04 cm", not "1.04 m")."""
+    units = scene.unit_settings
+    if units.system == 'NONE':
+        return lambda x: f"{x:.3g}"
+    return lambda x: bpy.utils.units.to_string(units.system, 'LENGTH', x * units.scale_length, precision=3)
+
+
 def warnings(rt, frame, current=True):
     """The panel's warnings for the frame shown (texts). current=False: the settings changed since the engine was
     last configured (a Follow group just picked is read on the next frame), so what depends on them is left out
@@ -59,11 +68,11 @@ def warnings(rt, frame, current=True):
     turn = checks.turn_text(rep.turn, frame_rate(bpy.context.scene)) if rep is not None else None
     if turn:
         out.append(turn)
-    thin = rt.engine.thin_part
+    thin, length = rt.engine.thin_part, length_text(bpy.context.scene)
     if thin is not None and thin[2]:
-        out.append(f"Thinnest part {thin[0]:.3g} m, particles {thin[1]:.3g} m apart: fewer than two across; "
+        out.append(f"Thinnest part {length(thin[0])}, particles {length(thin[1])} apart: fewer than two across; "
                    "raise Particles")
-    appendages = checks.appendages_text(rt.engine.thin_appendages, rt.engine.graph.n_particles)
+    appendages = checks.appendages_text(rt.engine.thin_appendages, rt.engine.graph.n_particles, length)
     if appendages:
         out.append(appendages)
     unrigged = checks.unrigged_text(rt.unrigged)

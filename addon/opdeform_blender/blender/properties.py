@@ -120,15 +120,17 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                                "an error tolerance")
     modulus: FloatProperty(name="Stiffness", default=15.0, min=1e-6, soft_min=0.01, soft_max=1000.0, precision=2,
                            description="Young's modulus in MPa of the material at 1 m, the same look at any "
-                                       "particle count (within about 12 %) and at any size: with a Goal the "
-                                       "same motion in units of the size at the same keyframe timing (the "
-                                       "same frequencies, Sag's gravity scaled with the size); without one "
+                                       "particle count (within about 12 %) and at any size: with a Goal, above "
+                                       "2.43 m, the same motion in units of the size at the same keyframe "
+                                       "timing (the same frequencies, Sag's gravity scaled with the size; "
+                                       "below, a smaller body is stiffer, as without one); without one "
                                        "the same relative sag, a larger body swaying slower as a real one "
                                        "(docs/settings.md, \"Size\")")
     use_physical_scaling: BoolProperty(name="Physical Scaling", default=False,
                                        description="With a Goal: a larger body is softer in units of its size, as "
                                                    "a real material (the rule without a Goal; objects made "
-                                                   "before settings version 5); off: the same look at any size")
+                                                   "before settings version 5); off: the same look at any size "
+                                                   "above 2.43 m")
     damping_rate: FloatProperty(name="Damping", default=0.3, min=0.0, soft_max=20.0,
                                 description="Velocity lost per second (independent of the frame rate)")
     tolerance: FloatProperty(name="Tolerance", default=0.002, min=1e-6, max=10.0, precision=4, step=0.1,

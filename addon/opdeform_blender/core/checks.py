@@ -73,12 +73,14 @@ def thin_appendages(od, graph, vertices, triangles):
     return od.materials.thin_appendages(graph, vertices, _with_particles(od, graph, vertices, triangles))
 
 
-def appendages_text(parts, particles, shown=3, along=3):
+def appendages_text(parts, particles, length=None, shown=3, along=3):
     """The panel's warning for thin_appendages (None when there are none): what to raise Particles to for
-    ``along`` particles in each (particles scale with the count)."""
+    ``along`` particles in each (particles scale with the count); ``length`` writes a length with its unit
+    (default: metres; the panel's follows the scene's units)."""
     if not parts:
         return None
-    named = ", ".join(f"{_metres(length)} m at {_place(c)}: {n}" for c, length, n in parts[:shown])
+    length = length or (lambda x: f"{_metres(x)} m")
+    named = ", ".join(f"{length(size)} at {_place(c)}: {n}" for c, size, n in parts[:shown])
     more = f" and {len(parts) - shown} more" if len(parts) > shown else ""
     enough = -(-particles * along // max(1, min(n for _, _, n in parts)) // 50) * 50
     return (f"{len(parts)} thin part{'s' if len(parts) > 1 else ''} with under {along} particles along "
