@@ -556,3 +556,15 @@ def test_thin_appendages_are_named_with_the_particles_that_would_do():
     v, t = meshes.character()
     graph = opdeform.Graph.from_mesh(v, t, particles=100)
     assert len(checks.thin_appendages(opdeform, graph, v, t)) == 5
+
+
+def test_the_particle_count_names_the_pieces_beyond_the_body():
+    """The panel's "N particles": with detached shells of their own, how many are on the body, the largest piece
+    (what Particles asks for), and how many on the other shells (an outside tester's fish, Particles 100, read 193)."""
+    e, _, _, _, _ = _tailed_engine(60)
+    count, piece, body = e.pieces()
+    text = checks.particles_text(e.graph.n_particles, e.graph.n_edges, e.pieces())
+    on_body = int((piece == body).sum())
+    assert count > 1 and text[1].startswith(f"{on_body} on the body, {e.graph.n_particles - on_body} on "), text
+    assert checks.particles_text(50, 120, (1, np.zeros(50, dtype=int), 0)) == ["50 particles, 120 edges"]
+

@@ -188,7 +188,8 @@ class PHYSICS_PT_opdeform_graph(SubPanel, bpy.types.Panel):
         if rt is not None:
             g = rt.engine.graph
             col = layout.column(align=True)
-            col.label(text=f"{g.n_particles} particles, {g.n_edges} edges", icon='INFO')
+            for k, line in enumerate(checks.particles_text(g.n_particles, g.n_edges, rt.engine.pieces())):
+                col.label(text=line, icon='BLANK1' if k else 'INFO')
             col.label(text=f"{rt.engine.n_vertices} vertices skinned", icon='BLANK1')
         elif s.built:
             layout.label(text="Built: rebuilt on the next frame", icon='INFO')
