@@ -297,12 +297,20 @@ def _own_cards(graph: Graph, mesh: MeshArg | None, ratio: Ratio | None) -> Ratio
     for piece in np.unique(shells[~_main_shells(graph, graph.pieces()[1])]):
         chosen = np.flatnonzero(shells == piece)
         own_faces = triangles[(shell[triangles] == piece).all(axis=1)]
-        if links[piece] >= len(chosen) or _closed_mesh_moments(vertices, own_faces) is not None:
+        if links[piece] >= len(chosen) or not _open_mesh(own_faces):
             continue
         found = _calibrated_ratio(_widened(_subgraph(graph, chosen)), None, "measured")
         if found is not None and np.all(np.isfinite(found)):  # nan: no edge among its particles
             ratio[chosen] = _volume_geometric_mean(graph.volumes[chosen], np.broadcast_to(found, len(chosen)))
     return ratio
+
+
+def _open_mesh(triangles: Arr) -> bool:
+    """Whether a triangle mesh has an edge in one face only (a card), whichever way its faces turn: a closed
+    shell turned inside out (a mirrored tail) has no volume for _closed_mesh_moments and was taken for a card
+    (the add-on tests' tailed body at 1,000 particles: its tail's k 0.81x, settling 0.107 mm 1.5 s after)."""
+    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    return bool((np.unique(edges, axis=0, return_counts=True)[1] == 1).any())
 
 
 def _widened(graph: Graph) -> Graph:
