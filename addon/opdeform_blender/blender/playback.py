@@ -100,6 +100,7 @@ def note_overlaps(objects, runtimes, runs):
     for rt, named in zip(runtimes, names):
         rt.overlaps = tuple(named)
 
+
 def frame_shown(obj, rt, run, out):
     """Live playback, second half: writes the frame reached (the catch-up goes on when frames are missing)."""
     frame = run.frame
