@@ -1,0 +1,418 @@
+"""Outside tester (issue 24): a stocky 1.8 m knight the add-on has not seen. One object: a skinned body with a
+forward belly (one shell, Skin + Subdivision applied), a ponytail tube, a cape card, a pointed hat and a sword
+held in the right hand (separate shells); a 9-bone armature with automatic weights (the sword weighted 1 to the
+hand, as an artist would); a jump keyed over frames 1-48, then still until 96; a floor with a Collision modifier.
+
+    blender -b --factory-startup --python-exit-code 1 -P scripts/outside_knight.py -- ZIP legacy OUT [opts]
+    bpy-python scripts/outside_knight.py ZIP extension OUT [opts]
+    (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
+opts: particles=N (set before Enable), looks (after the first playback: Subtle, Fleshy, Floppy from the Goal
+panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
+mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
+when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
+open=OUT reopens it), render=F (Cycles CPU, 8 samples, frame F, into OUT/knight_F.png).
+The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play.
+Every replay prints a ROW line (JSON): core (follow 1) / per part distance to the armature-only pose, loose
+parts' secondary motion in % of 1.8 m during the jump, the largest distance 1 s after it stops, edge stretch,
+floor penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
+"""
+import json, math, os, sys, time
+import bpy, bmesh
+import numpy as np
+from mathutils import Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rig_parts import base, install, link, paint, parent_auto, twin_of, world  # noqa: E402
+
+args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+ZIP, KIND, OUT = args[:3]
+OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+FPS, FRAMES, STOP, HEIGHT = 24, 96, 48, 1.8
+os.makedirs(OUT, exist_ok=True)
+
+# the Skin modifier's skeleton: (position, radius); edges by index
+NODES = [((0, 0, 0.92), 0.17), ((0, 0, 1.15), 0.19), ((0, 0, 1.38), 0.2), ((0, 0, 1.53), 0.07),
+         ((0, 0, 1.66), 0.12)]
+for sx in (1, -1):
+    NODES += [((0.12 * sx, 0, 0.88), 0.09), ((0.14 * sx, 0, 0.5), 0.07), ((0.14 * sx, 0, 0.1), 0.055),
+              ((0.14 * sx, -0.14, 0.05), 0.05), ((0.24 * sx, 0, 1.45), 0.075), ((0.33 * sx, 0, 1.18), 0.06),
+              ((0.40 * sx, 0, 0.93), 0.045), ((0.42 * sx, -0.02, 0.84), 0.05)]
+NODES.append(((0, 0, 1.71), 0.13))  # the top of the head
+EDGES = [(0, 1), (1, 2), (2, 3), (3, 4), (4, len(NODES) - 1)]
+for k in (5, 13):
+    EDGES += [(0, k), (k, k + 1), (k + 1, k + 2), (k + 2, k + 3), (2, k + 4), (k + 4, k + 5), (k + 5, k + 6),
+              (k + 6, k + 7)]
+
+BONES = [("root", (0, 0, 0), (0, 0.3, 0), None, False),
+         ("hips", (0, 0, 0.9), (0, 0, 1.15), "root", True),
+         ("spine", (0, 0, 1.15), (0, 0, 1.5), "hips", True),
+         ("head", (0, 0, 1.5), (0, 0, 1.8), "spine", True),
+         ("arm.L", (0.24, 0, 1.45), (0.40, 0, 0.93), "spine", True),
+         ("arm.R", (-0.24, 0, 1.45), (-0.40, 0, 0.93), "spine", True),
+         ("hand.R", (-0.40, 0, 0.93), (-0.43, -0.03, 0.80), "arm.R", True),
+         ("leg.L", (0.12, 0, 0.88), (0.14, 0, 0.08), "hips", True),
+         ("leg.R", (-0.12, 0, 0.88), (-0.14, 0, 0.08), "hips", True)]
+
+
+def body_mesh():
+    """The Skin modifier on the skeleton, Subdivision 2, both applied; the belly pushed 13 cm forward (-y)."""
+    me = bpy.data.meshes.new("Knight")
+    me.from_pydata([p for p, _ in NODES], EDGES, [])
+    obj = link(bpy.data.objects.new("Knight", me))
+    bpy.context.view_layer.objects.active = obj
+    obj.modifiers.new("Skin", 'SKIN')
+    for i, (_, r) in enumerate(NODES):
+        me.skin_vertices[0].data[i].radius = (r, r)
+    me.skin_vertices[0].data[0].use_root = True
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 2
+    for m in list(obj.modifiers):
+        bpy.ops.object.modifier_apply(modifier=m.name)
+    v = np.array([x.co for x in me.vertices])
+    bulge = np.exp(-((v[:, 2] - 1.08) / 0.14) ** 2 - (v[:, 0] / 0.17) ** 2) * (v[:, 1] < 0)
+    v[:, 1] -= 0.13 * bulge
+    v[:, 2] -= v[:, 2].min() - 0.004  # soles 4 mm over the floor
+    me.vertices.foreach_set("co", v.ravel())
+    me.update()
+    return obj, bulge
+
+
+def tube(bm, points, rx, ry, seg, up=(0, 1, 0)):
+    """A closed tube through points with per-point radii rx, ry (two axes across it); its new vertices and the
+    parameter 0..1 of each along the tube."""
+    pts = [Vector(p) for p in points]
+    verts, param = [], []
+    for k, p in enumerate(pts):
+        t = (pts[min(k + 1, len(pts) - 1)] - pts[max(k - 1, 0)]).normalized()
+        a = t.cross(Vector(up)).normalized()
+        b = a.cross(t)
+        ring = [bm.verts.new(p + a * rx[k] * math.cos(2 * math.pi * j / seg) + b * ry[k] * math.sin(2 * math.pi * j / seg))
+                for j in range(seg)]
+        verts.append(ring)
+        param += [k / (len(pts) - 1)] * seg
+    for r0, r1 in zip(verts, verts[1:]):
+        for j in range(seg):
+            bm.faces.new((r0[j], r0[(j + 1) % seg], r1[(j + 1) % seg], r1[j]))
+    bm.faces.new(verts[0][::-1])
+    bm.faces.new(verts[-1])
+    return [v for r in verts for v in r], param
+
+
+def cape(bm):
+    """An open card behind the back, shoulders (z 1.45) to the knees (z 0.5), curved around the back."""
+    rows, cols = 16, 10
+    grid = [[bm.verts.new((-0.26 + 0.52 * i / cols, 0.25 + 0.35 * (-0.26 + 0.52 * i / cols) ** 2, 1.45 - 0.95 * j / rows))
+             for i in range(cols + 1)] for j in range(rows + 1)]
+    for j in range(rows):
+        for i in range(cols):
+            bm.faces.new((grid[j][i], grid[j][i + 1], grid[j + 1][i + 1], grid[j + 1][i]))
+    return [v for r in grid for v in r], [j / rows for j in range(rows + 1) for _ in range(cols + 1)]
+
+
+def add_parts(obj):
+    """Ponytail, cape, hat and sword as separate shells of the body's mesh; vertex indices per part and each
+    vertex's parameter from its attached end (0) to its free end (1)."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    n = len(bm.verts)
+    parts, param = {}, np.zeros(n)
+    pieces = {
+        "hair": tube(bm, [(0, 0.12 + 0.015 * k, 1.72 - 0.05 * k) for k in range(8)],
+                     [0.045 - 0.004 * k for k in range(8)], [0.035 - 0.003 * k for k in range(8)], 10, (1, 0, 0)),
+        "cape": cape(bm),
+        "hat": tube(bm, [(0, 0.01 * k, 1.66 + 0.045 * k) for k in range(8)], [0.17 * (1 - k / 7.5) for k in range(8)],
+                    [0.17 * (1 - k / 7.5) for k in range(8)], 16),
+        "sword": tube(bm, [(-0.43, -0.04 - 0.09 * k, 0.84 + 0.01 * k) for k in range(11)],
+                      [0.028 if k else 0.07 for k in range(11)][:-1] + [0.004], [0.006] * 10 + [0.002], 4, (0, 0, 1)),
+    }
+    for name, (verts, t) in pieces.items():
+        parts[name] = np.arange(n, n + len(verts))
+        param = np.concatenate([param, t])
+        n += len(verts)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    return parts, param
+
+
+def armature():
+    arm = link(bpy.data.objects.new("KnightRig", bpy.data.armatures.new("KnightRig")))
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    for name, h, t, p, d in BONES:
+        b = arm.data.edit_bones.new(name)
+        b.head, b.tail, b.use_deform = Vector(h), Vector(t), d
+        if p:
+            b.parent, b.use_connect = arm.data.edit_bones[p], p in ("hips", "spine") and name in ("spine", "head")
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return arm
+
+
+def bump(f, a, b):
+    """0 outside [a, b], a smooth hump of height 1 inside."""
+    return math.sin(math.pi * (f - a) / (b - a)) ** 2 if a < f < b else 0.0
+
+
+def animate(arm):
+    """A jump: crouch lean (frames 2-12), take-off at 12, 0.4 m up at 22, landing at 32, landing lean 30-44, 0.5 m
+    forward; arms swing up, legs tuck; still from frame 46 (keys to 48)."""
+    pb = arm.pose.bones
+    for b in pb:
+        b.rotation_mode = 'XYZ'
+    for f in range(1, STOP + 1, 2):
+        air = 1 - ((f - 22) / 10) ** 2 if 12 < f < 32 else 0.0
+        pb["root"].location = (0, -0.5 * min(max((f - 12) / 20, 0), 1), 0.4 * air)
+        pb["spine"].rotation_euler = (0.3 * bump(f, 2, 14) + 0.35 * bump(f, 30, 46), 0, 0)
+        for side in ("L", "R"):
+            pb["arm." + side].rotation_euler = (-0.9 * bump(f, 8, 34), 0, 0)
+            pb["leg." + side].rotation_euler = (-0.45 * air, 0, 0)
+        pb["hand.R"].rotation_euler = (0.4 * bump(f, 14, 40), 0, 0)
+        for b in pb:
+            b.keyframe_insert("location" if b.name == "root" else "rotation_euler", frame=f)
+
+
+def sword_rigid(obj, sword):
+    """The sword weighted 1 to the hand only; the vertices automatic weights missed weighted to the nearest bone
+    (as an artist does). Returns how many had no weight."""
+    for g in obj.vertex_groups:
+        g.remove([int(i) for i in sword])
+    obj.vertex_groups["hand.R"].add([int(i) for i in sword], 1.0, 'REPLACE')
+    empty = [v.index for v in obj.data.vertices if not any(g.weight > 0 for g in v.groups)]
+    mids = [(n, (Vector(h) + Vector(t)) * 0.5) for n, h, t, _, d in BONES if d]
+    for i in empty:
+        co = obj.data.vertices[i].co
+        name = min(mids, key=lambda b: (b[1] - co).length)[0]
+        obj.vertex_groups[name].add([i], 1.0, 'REPLACE')
+    return len(empty)
+
+
+def follow_map(n, bulge, parts, param):
+    """1 on the body and sword; 0.15 at the belly's front; hair and cape 1 at the top to 0.1 at the free end; the
+    hat 1 at the brim to 0.3 at the tip."""
+    w = np.ones(n)
+    w[:len(bulge)] = 1 - 0.85 * bulge
+    for name, low in (("hair", 0.1), ("cape", 0.1), ("hat", 0.3)):
+        w[parts[name]] = 1 - (1 - low) * param[parts[name]]
+    return w.round(3)
+
+
+def reports(log):
+    return [e[2] or e[1] if e[0] == "operator" else e[1] for e in log if e[0] in ("label", "operator")]
+
+
+class Shot:
+    def __init__(self, obj, twin, parts, follow, H):
+        self.obj, self.twin, self.parts, self.H = obj, twin, parts, H
+        self.core = np.where(follow >= 0.99)[0]
+        self.edges = np.array([e.vertices[:] for e in obj.data.edges]).T
+        self.before = base(obj)
+        self.shown = {}
+
+    def play(self, label):
+        """Frames 1..FRAMES from the start; one ROW of figures."""
+        sc, s = bpy.context.scene, self.obj.opdeform
+        rows, errors, cpu = [], [], 0.0
+        for f in range(1, FRAMES + 1):
+            t0 = time.process_time()
+            sc.frame_set(f)
+            cpu += time.process_time() - t0
+            if s.error:
+                errors.append((f, s.error))
+            a, b = world(self.obj), world(self.twin)
+            self.shown[f] = a
+            d = np.linalg.norm(a - b, axis=1)
+            i, j = self.edges
+            st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
+            rows.append(dict(core=d[self.core].max(), all=d.max(), stretch=st.max(), low=a[:, 2].min(),
+                             low_twin=b[:, 2].min(), **{k: d[ix].max() for k, ix in self.parts.items()}))
+        col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        fr = np.arange(1, FRAMES + 1)
+        moving, after = fr <= STOP, fr >= STOP + FPS
+        late = np.where((fr >= STOP) & (col["all"] > 2e-3))[0]
+        loose = ("belly", "hair", "cape", "hat")
+        row = dict(label=label, host=bpy.app.version_string, particles=s.particles, look=self.look(),
+                   core_mm=1e3 * col["core"].max(), core_frame=int(fr[np.argmax(col["core"])]),
+                   **{k + "_mm": round(1e3 * col[k][moving].max(), 2) for k in self.parts},
+                   loose_pct={k: round(100 * col[k][moving].max() / HEIGHT, 2) for k in loose},
+                   after_1s_mm=1e3 * col["all"][after].max(),
+                   after_1s_worst={k: round(1e3 * col[k][after].max(), 2) for k in self.parts},
+                   settle_s=0.0 if len(late) == 0 else (fr[late[-1]] + 1 - STOP) / FPS,
+                   stretch=col["stretch"].max(), stretch_frame=int(fr[np.argmax(col["stretch"])]),
+                   floor_pen_mm=-1e3 * min(col["low"].min(), 0.0), lowest_mm=1e3 * col["low"].min(),
+                   lowest_twin_mm=1e3 * col["low_twin"].min(),
+                   base_kept=bool(np.array_equal(base(self.obj), self.before)), errors=errors[:3],
+                   cpu_ms_frame=1e3 * cpu / FRAMES)
+        print("ROW " + json.dumps(row, default=float))
+        print("PANEL", reports(self.H.draw_panels()))
+        return row
+
+    def look(self):
+        name = self.H.ADDON
+        return sys.modules[name + ".blender.presets"].current_look(self.obj.opdeform)
+
+
+def build_scene(name):
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    sc = bpy.context.scene
+    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    obj, bulge = body_mesh()
+    parts, param = add_parts(obj)
+    body = np.arange(len(bulge))
+    parts = dict(core_body=body[bulge < 0.01], belly=body[bulge >= 0.05], **parts)
+    arm = armature()
+    parent_auto(obj, arm)
+    unweighted = sword_rigid(obj, parts["sword"])
+    animate(arm)
+    follow = follow_map(len(obj.data.vertices), bulge, parts, param)
+    paint(obj, "Follow", follow)
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.context.active_object.name = "Floor"
+    bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
+    twin = twin_of(obj)
+    v = np.array([x.co for x in obj.data.vertices])
+    print(f"KNIGHT {len(v)} vertices, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, "
+          f"unweighted after auto {unweighted}", {k: len(i) for k, i in parts.items()})
+    return obj, twin, parts, follow, bulge
+
+
+def artist_enable(obj):
+    bpy.context.view_layer.objects.active = obj
+    for x in bpy.context.scene.objects:
+        x.select_set(x == obj)
+    s = obj.opdeform
+    if "particles" in OPT:
+        s.particles = int(OPT["particles"])
+    print("ENABLE ->", bpy.ops.opdeform.enable())
+    s.use_goal = True
+    s.goal_group = "Follow"
+
+
+def settings(s):
+    return {k: round(getattr(s, k), 4) for k in ("particles", "goal_strength", "goal_min", "goal_max",
+                                                  "shell_follow_min", "sag", "modulus", "damping_rate",
+                                                  "soft_stiffness", "region_damping")}
+
+
+def render(frame):
+    """Cycles, frame F: the simulated knight (left) and the armature-only twin 1.1 m to its right."""
+    sc = bpy.context.scene
+    twin = bpy.data.objects["Knight_twin"]
+    twin.location.x += 1.1
+    sc.frame_set(frame)
+    cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
+    cam.location = (3.4, -4.2, 1.6)
+    cam.rotation_euler = (Vector((0.55, -0.3, 1.0)) - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN')))
+    sun.rotation_euler = (0.7, 0.2, 0.8)
+    sun.data.energy = 3.0
+    sc.camera, sc.render.engine = cam, 'CYCLES'
+    sc.cycles.device, sc.cycles.samples, sc.cycles.use_denoising = 'CPU', 8, False
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 480, 400, 100
+    sc.render.filepath = os.path.join(OUT, f"knight_{frame}.png")
+    t0 = time.time()
+    bpy.ops.render.render(write_still=True)
+    print("RENDER", sc.render.filepath, f"{time.time() - t0:.1f} s")
+    twin.location.x -= 1.1
+    bpy.data.objects.remove(cam)
+
+
+def weight_paint_belly(obj, belly, value):
+    """Weight Paint mode, vertex selection masking on the belly, Set Weight at the brush's weight."""
+    bpy.context.view_layer.objects.active = obj
+    obj.vertex_groups.active_index = obj.vertex_groups["Follow"].index
+    sel = np.zeros(len(obj.data.vertices), bool)
+    sel[belly] = True
+    obj.data.vertices.foreach_set("select", sel)
+    bpy.ops.object.mode_set(mode='WEIGHT_PAINT')
+    obj.data.use_paint_mask_vertex = True
+    ts = bpy.context.scene.tool_settings
+    if hasattr(ts, "unified_paint_settings"):
+        ts.unified_paint_settings.use_unified_weight = True
+        ts.unified_paint_settings.weight = value
+    try:
+        print("WEIGHT_SET ->", bpy.ops.paint.weight_set())
+    except Exception as e:  # report how the operator failed in this host
+        print("WEIGHT_SET failed:", repr(e))
+    bpy.ops.object.mode_set(mode='OBJECT')
+    g = obj.vertex_groups["Follow"]
+    got = np.array([g.weight(int(i)) for i in belly])
+    print("BELLY FOLLOW after Weight Paint: min %.3f max %.3f" % (got.min(), got.max()))
+
+
+def particles_per_part(name, obj, parts):
+    """How many particles lie in each part (each particle by its nearest vertex)."""
+    st = sys.modules[name + ".blender.state"].get(obj)
+    if st is None:
+        print("PARTICLES PER PART: no state")
+        return
+    v = np.array([x.co for x in obj.data.vertices])
+    part_of = np.full(len(v), "between", object)
+    for k, ix in parts.items():
+        part_of[ix] = k
+    near = [part_of[int(np.argmin(np.linalg.norm(v - c, axis=1)))] for c in st.engine.graph.centers]
+    print("PARTICLES PER PART", {k: near.count(k) for k in (*parts, "between")})
+
+
+def main():
+    name = install(ZIP, KIND)
+    import helpers as H
+    H.ADDON = name
+    obj, twin, parts, follow, bulge = build_scene(name)
+    artist_enable(obj)
+    s = obj.opdeform
+    log = H.draw_panels()
+    print("PANEL AFTER GROUP", reports(log))
+    print("CUT", [c[0] for c in H.cut_texts(log)])
+    print("SETTINGS", settings(s), "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+    particles_per_part(name, obj, parts)
+    shot = Shot(obj, twin, parts, follow, H)
+    shot.play("default")
+    if "render" in OPT:
+        render(int(OPT["render"]))
+    if "bake" in OPT:
+        s.cache_directory = os.path.join(OUT, "cache")
+        print("BAKE ->", bpy.ops.opdeform.bake())
+        sc = bpy.context.scene
+        diff = max(1e3 * np.abs(world(obj) - shot.shown[f]).max() for f in (1, 12, 25, 40, 70, FRAMES)
+                   if sc.frame_set(f) is None)
+        print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
+        print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
+    if "save" in OPT:
+        bpy.context.scene.frame_set(30)
+        np.save(os.path.join(OUT, "f30.npy"), world(obj))
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
+        return
+    if "looks" in OPT:
+        for look in ("Subtle", "Fleshy", "Floppy"):
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            shot.play("look " + look)
+        bpy.ops.opdeform.apply_preset(preset="Fleshy")
+    if "repaint" in OPT:
+        obj.vertex_groups["Follow"].add([int(i) for i in parts["belly"]], 1.0, 'REPLACE')
+        shot.play("belly follow 1 (script)")
+        weight_paint_belly(obj, parts["belly"], 0.15)
+        shot.play("belly follow 0.15 (weight paint)")
+    for n in [int(x) for x in OPT["counts"].split(",")] if "counts" in OPT else []:
+        s.particles = n
+        panel = reports(H.draw_panels())
+        print("PANEL AFTER PARTICLES", n, panel)
+        if any("Build" in t for t in panel):
+            print("BUILD ->", bpy.ops.opdeform.build())
+        particles_per_part(H.ADDON, obj, parts)
+        shot.play(f"particles {n}")
+
+
+def reopen(folder):
+    """Opens the saved file as an artist does: is frame 30 the simulated pose, before and after a frame change?"""
+    install(ZIP, KIND)
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, "knight.blend"))
+    obj, ref = bpy.data.objects["Knight"], np.load(os.path.join(folder, "f30.npy"))
+    twin = world(bpy.data.objects["Knight_twin"])
+    print("REOPEN frame", bpy.context.scene.frame_current, "vs saved mm", 1e3 * np.abs(world(obj) - ref).max(),
+          "saved vs armature-only mm", 1e3 * np.abs(ref - twin).max(), "error", repr(obj.opdeform.error))
+    for f in (31, 30):
+        bpy.context.scene.frame_set(f)
+    print("REOPEN after 31->30 vs saved mm", 1e3 * np.abs(world(obj) - ref).max())
+
+
+reopen(OPT["open"]) if "open" in OPT else main()
