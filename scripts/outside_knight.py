@@ -377,11 +377,6 @@ def main():
                    if sc.frame_set(f) is None)
         print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
         print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
-    if "save" in OPT:
-        bpy.context.scene.frame_set(30)
-        np.save(os.path.join(OUT, "f30.npy"), world(obj))
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
-        return
     if "looks" in OPT:
         for look in ("Subtle", "Fleshy", "Floppy"):
             print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
@@ -400,6 +395,10 @@ def main():
             print("BUILD ->", bpy.ops.opdeform.build())
         particles_per_part(H.ADDON, obj, parts)
         shot.play(f"particles {n}")
+    if "save" in OPT:
+        bpy.context.scene.frame_set(30)
+        np.save(os.path.join(OUT, "f30.npy"), world(obj))
+        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
 
 
 def reopen(folder):
