@@ -6,7 +6,8 @@ hand, as an artist would); a jump keyed over frames 1-48, then still until 96; a
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_knight.py -- ZIP legacy OUT [opts]
     bpy-python scripts/outside_knight.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
-opts: particles=N (set before Enable), looks (after the first playback: Subtle, Fleshy, Floppy from the Goal
+opts: particles=N (set before Enable), soft (a Softness group painted 1 - Follow and picked, replayed at
+Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Subtle, Fleshy, Floppy from the Goal
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
 when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
@@ -387,6 +388,14 @@ def main():
         shot.play("belly follow 1 (script)")
         weight_paint_belly(obj, parts["belly"], 0.15)
         shot.play("belly follow 0.15 (weight paint)")
+    if "soft" in OPT:  # the artist paints a Softness group too (1 - Follow: 1 at the belly's front and the tips)
+        paint(obj, "Softness", (1 - follow).round(3))
+        s.softness_group = "Softness"
+        shot.play("softness group, Fleshy")
+        print("LOOK ->", bpy.ops.opdeform.apply_preset(preset="Floppy"), settings(s))
+        shot.play("softness group, Floppy")
+        s.modulus = 0.3
+        shot.play("softness group, Floppy, Stiffness 0.3")
     for n in [int(x) for x in OPT["counts"].split(",")] if "counts" in OPT else []:
         s.particles = n
         panel = reports(H.draw_panels())
