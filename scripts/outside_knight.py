@@ -11,7 +11,8 @@ Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Sub
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
 when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
-open=OUT reopens it), render=F (Cycles CPU, 8 samples, frame F, into OUT/knight_F.png).
+open=OUT reopens it), render=F / side=F (Cycles CPU, 8
+samples, frame F, the armature-only twin beside it; OUT/knight_render_F.png, OUT/knight_side_F.png).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play.
 Every replay prints a ROW line (JSON): core (follow 1) / per part distance to the armature-only pose, loose
 parts' secondary motion in % of 1.8 m during the jump, the largest distance 1 s after it stops, edge stretch,
@@ -294,27 +295,34 @@ def settings(s):
                                                   "soft_stiffness", "region_damping")}
 
 
-def render(frame):
-    """Cycles, frame F: the simulated knight (left) and the armature-only twin 1.1 m to its right."""
+VIEWS = {"render": ((1.1, 0, 0), (3.4, -4.2, 1.6), (0.55, -0.3, 1.0)),  # 3/4 front, twin to the right
+         "side": ((0, 1.3, 0), (5.0, 0.0, 1.3), (0, 0.0, 1.0))}  # from the knight's left, twin behind
+
+
+def render(frame, view):
+    """Cycles, frame F: the simulated knight and the armature-only twin beside it (VIEWS: twin offset, camera,
+    target)."""
     sc = bpy.context.scene
     twin = bpy.data.objects["Knight_twin"]
-    twin.location.x += 1.1
+    offset, eye, target = (Vector(x) for x in VIEWS[view])
+    twin.location += offset
     sc.frame_set(frame)
     cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
-    cam.location = (3.4, -4.2, 1.6)
-    cam.rotation_euler = (Vector((0.55, -0.3, 1.0)) - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    cam.location = eye
+    cam.rotation_euler = (target - cam.location).to_track_quat('-Z', 'Y').to_euler()
     sun = link(bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", 'SUN')))
     sun.rotation_euler = (0.7, 0.2, 0.8)
     sun.data.energy = 3.0
     sc.camera, sc.render.engine = cam, 'CYCLES'
     sc.cycles.device, sc.cycles.samples, sc.cycles.use_denoising = 'CPU', 8, False
     sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 480, 400, 100
-    sc.render.filepath = os.path.join(OUT, f"knight_{frame}.png")
+    sc.render.filepath = os.path.join(OUT, f"knight_{view}_{frame}.png")
     t0 = time.time()
     bpy.ops.render.render(write_still=True)
     print("RENDER", sc.render.filepath, f"{time.time() - t0:.1f} s")
-    twin.location.x -= 1.1
+    twin.location -= offset
     bpy.data.objects.remove(cam)
+    bpy.data.objects.remove(sun)
 
 
 def weight_paint_belly(obj, belly, value):
@@ -368,8 +376,9 @@ def main():
     particles_per_part(name, obj, parts)
     shot = Shot(obj, twin, parts, follow, H)
     shot.play("default")
-    if "render" in OPT:
-        render(int(OPT["render"]))
+    for view in VIEWS:
+        if view in OPT:
+            render(int(OPT[view]), view)
     if "bake" in OPT:
         s.cache_directory = os.path.join(OUT, "cache")
         print("BAKE ->", bpy.ops.opdeform.bake())
