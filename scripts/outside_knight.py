@@ -11,7 +11,8 @@ Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Sub
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
 when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
-open=OUT reopens it), render=F / side=F (Cycles CPU, 8
+open=OUT reopens it), inside (cape and hair vertices inside the body, frames 1-48),
+render=F / side=F (Cycles CPU, 8
 samples, frame F, the armature-only twin beside it; OUT/knight_render_F.png, OUT/knight_side_F.png).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play.
 Every replay prints a ROW line (JSON): core (follow 1) / per part distance to the armature-only pose, loose
@@ -348,6 +349,35 @@ def weight_paint_belly(obj, belly, value):
     print("BELLY FOLLOW after Weight Paint: min %.3f max %.3f" % (got.min(), got.max()))
 
 
+def inside_body(obj, parts, frames):
+    """Per frame: how many cape and hair vertices lie more than 5 mm inside the body shell (nearest body vertex,
+    its normal), and the deepest (mm)."""
+    from mathutils.kdtree import KDTree
+    body = np.concatenate([parts["core_body"], parts["belly"]])
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        me = ev.to_mesh()
+        nor = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("normal", nor)
+        ev.to_mesh_clear()
+        nor = nor.reshape(-1, 3) @ np.array(ev.matrix_world)[:3, :3].T
+        a = world(obj)
+        tree = KDTree(len(body))
+        for k, i in enumerate(body):
+            tree.insert(a[i], k)
+        tree.balance()
+        out = {}
+        for name in ("cape", "hair"):
+            depth = []
+            for i in parts[name]:
+                _, k, _ = tree.find(a[i])
+                depth.append(-np.dot(a[i] - a[body[k]], nor[body[k]]))
+            depth = np.array(depth)
+            out[name] = (int((depth > 5e-3).sum()), round(1e3 * depth.max(), 1))
+        print("INSIDE BODY frame", f, out)
+
+
 def particles_per_part(name, obj, parts):
     """How many particles lie in each part (each particle by its nearest vertex)."""
     st = sys.modules[name + ".blender.state"].get(obj)
@@ -376,6 +406,9 @@ def main():
     particles_per_part(name, obj, parts)
     shot = Shot(obj, twin, parts, follow, H)
     shot.play("default")
+    if "inside" in OPT:
+        inside_body(obj, parts, range(1, STOP + 1, 3))
+        inside_body(twin, parts, (26, 34))
     for view in VIEWS:
         if view in OPT:
             render(int(OPT[view]), view)
