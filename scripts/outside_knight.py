@@ -13,7 +13,7 @@ mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed
 when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
 open=OUT reopens it), inside (cape and hair vertices inside the body, frames 1-48),
 render=F / side=F (Cycles CPU, 8
-samples, frame F, the armature-only twin beside it; OUT/knight_render_F.png, OUT/knight_side_F.png).
+samples, frame F, the knight and the armature-only twin: OUT/knight_VIEW_F.png, OUT/knight_VIEW_F_twin.png).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play.
 Every replay prints a ROW line (JSON): core (follow 1) / per part distance to the armature-only pose, loose
 parts' secondary motion in % of 1.8 m during the jump, the largest distance 1 s after it stops, edge stretch,
@@ -296,17 +296,15 @@ def settings(s):
                                                   "soft_stiffness", "region_damping")}
 
 
-VIEWS = {"render": ((1.1, 0, 0), (3.4, -4.2, 1.6), (0.55, -0.3, 1.0)),  # 3/4 front, twin to the right
-         "side": ((0, 1.3, 0), (5.0, 0.0, 1.3), (0, 0.0, 1.0))}  # from the knight's left, twin behind
+VIEWS = {"render": ((3.0, -3.8, 1.6), (0.1, -0.3, 1.0)),  # 3/4 front: camera, target
+         "side": ((4.5, -0.3, 1.3), (0, -0.3, 1.0))}  # from the knight's left
 
 
 def render(frame, view):
-    """Cycles, frame F: the simulated knight and the armature-only twin beside it (VIEWS: twin offset, camera,
-    target)."""
+    """Cycles, frame F: the simulated knight, then the armature-only twin alone, the same camera (moving the twin
+    would move it off its armature's pivots): OUT/knight_VIEW_F.png and OUT/knight_VIEW_F_twin.png."""
     sc = bpy.context.scene
-    twin = bpy.data.objects["Knight_twin"]
-    offset, eye, target = (Vector(x) for x in VIEWS[view])
-    twin.location += offset
+    eye, target = (Vector(x) for x in VIEWS[view])
     sc.frame_set(frame)
     cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
     cam.location = eye
@@ -316,12 +314,15 @@ def render(frame, view):
     sun.data.energy = 3.0
     sc.camera, sc.render.engine = cam, 'CYCLES'
     sc.cycles.device, sc.cycles.samples, sc.cycles.use_denoising = 'CPU', 8, False
-    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 480, 400, 100
-    sc.render.filepath = os.path.join(OUT, f"knight_{view}_{frame}.png")
-    t0 = time.time()
-    bpy.ops.render.render(write_still=True)
-    print("RENDER", sc.render.filepath, f"{time.time() - t0:.1f} s")
-    twin.location -= offset
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 400, 400, 100
+    knight, twin = bpy.data.objects["Knight"], bpy.data.objects["Knight_twin"]
+    for shown, tail in ((knight, ""), (twin, "_twin")):
+        knight.hide_render, twin.hide_render = shown is twin, shown is knight
+        sc.render.filepath = os.path.join(OUT, f"knight_{view}_{frame}{tail}.png")
+        t0 = time.time()
+        bpy.ops.render.render(write_still=True)
+        print("RENDER", sc.render.filepath, f"{time.time() - t0:.1f} s")
+    knight.hide_render = twin.hide_render = False
     bpy.data.objects.remove(cam)
     bpy.data.objects.remove(sun)
 
