@@ -211,6 +211,25 @@ def _off_animation(objects, frames):
     return worst
 
 
+def test_the_pins_hint_shows_with_a_pin_group_only():
+    """The Pins panel's hint: none without a Pin Group; with one, that pins hold at any weight, and the advice to
+    paint a Follow group for a soft hold only while none is picked (an outside tester read that advice beside a
+    picked Follow group and no pins)."""
+    v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
+    body = H.mesh_object("Body", v, t)
+    bpy.ops.opdeform.enable(object=body.name)
+    body.vertex_groups.new(name="Pin").add([0], 1.0, 'REPLACE')
+    body.vertex_groups.new(name="Follow").add(list(range(len(v))), 1.0, 'REPLACE')
+    s = body.opdeform
+    s.use_goal, s.goal_group = True, "Follow"
+    assert "Pins hold" not in H.labels(H.draw_panels())
+    s.pin_group = "Pin"
+    text = H.labels(H.draw_panels())
+    assert "Pins hold firmly at any weight" in text and "soft hold" not in text, text
+    s.goal_group = ""
+    assert "for a soft hold paint a Follow Group" in H.labels(H.draw_panels())
+
+
 def test_a_sleeve_over_its_tail_on_one_rig_moves_as_the_tail_alone():
     """Issue 24, finding (4) of docs/goals.md's outside creature: two enabled objects on one armature that overlap
     at rest (a sleeve 5 or 25 % wider than its tail) stepped in contact started interpenetrating and blew up (the

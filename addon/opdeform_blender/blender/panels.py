@@ -218,7 +218,9 @@ class PHYSICS_PT_opdeform_pins(SubPanel, bpy.types.Panel):
         layout, obj, s = split(self.layout, context)
         layout.prop_search(s, "pin_group", obj, "vertex_groups", text="Pin Group")
         layout.prop(s, "pin_strength", text="Strength")
-        wrapped(layout, "Pins hold firmly at any weight; for a soft hold paint a Follow Group (Goal)", 'INFO')
+        if s.pin_group:
+            soft = "" if s.use_goal and s.goal_group else "; for a soft hold paint a Follow Group (Goal)"
+            wrapped(layout, "Pins hold firmly at any weight" + soft, 'INFO')
 
 
 class OPDEFORM_MT_looks(bpy.types.Menu):
