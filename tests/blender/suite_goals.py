@@ -211,10 +211,11 @@ def _off_animation(objects, frames):
     return worst
 
 
-def test_the_pins_hint_shows_with_a_pin_group_only():
+def test_the_pins_hint_and_the_share_of_gravity():
     """The Pins panel's hint: none without a Pin Group; with one, that pins hold at any weight, and the advice to
     paint a Follow group for a soft hold only while none is picked (an outside tester read that advice beside a
-    picked Follow group and no pins)."""
+    picked Follow group and no pins); with Goal, the share of gravity that Sag lets pull the flesh off (it read
+    "Gravity 0, 0, -9.81" at Sag 0 as the flesh sagging)."""
     v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
     body = H.mesh_object("Body", v, t)
     bpy.ops.opdeform.enable(object=body.name)
@@ -228,6 +229,10 @@ def test_the_pins_hint_shows_with_a_pin_group_only():
     assert "Pins hold firmly at any weight" in text and "soft hold" not in text, text
     s.goal_group = ""
     assert "for a soft hold paint a Follow Group" in H.labels(H.draw_panels())
+    text = H.labels(H.draw_panels())  # the Goal's share of gravity is said beside it
+    assert "Sag 0% of it pulls the flesh off the animation" in text, text
+    s.sag = 0.5
+    assert "Sag 50% of it" in H.labels(H.draw_panels())
 
 
 def test_a_sleeve_over_its_tail_on_one_rig_moves_as_the_tail_alone():

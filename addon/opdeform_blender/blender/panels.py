@@ -160,13 +160,22 @@ class PHYSICS_PT_opdeform(PhysicsPanel, bpy.types.Panel):
         draw_warnings(layout, obj, context.scene)
         col = layout.column()
         if s.mode == 'DYNAMIC':
-            g = context.scene.gravity
-            col.label(text=("Gravity %.3g, %.3g, %.3g" % tuple(g)) if context.scene.use_gravity
-                      else "Gravity off (scene)", icon='FORCE_FORCE')
+            wrapped(col, gravity_text(context.scene, s), 'FORCE_FORCE')
         else:
             col.prop(s, "pose_iterations")
             col.prop(s, "pose_gravity")
             col.operator("opdeform.solve_pose", icon='ARMATURE_DATA')
+
+
+def gravity_text(scene, s):
+    """The scene's gravity, and with Goal how much of it Sag lets pull the flesh off its animation (an outside
+    tester read "Gravity 0, 0, -9.81" as the flesh sagging at Sag 0)."""
+    if not scene.use_gravity:
+        return "Gravity off (scene)"
+    text = "Gravity %.3g, %.3g, %.3g" % tuple(scene.gravity)
+    if s.use_goal:
+        text += f"; Sag {s.sag:.0%} of it pulls the flesh off the animation (Goal)"
+    return text
 
 
 class PHYSICS_PT_opdeform_graph(SubPanel, bpy.types.Panel):
