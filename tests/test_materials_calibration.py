@@ -62,6 +62,16 @@ def test_the_l_bracket_droops_alike_at_75_and_300_particles():
     assert max(d) / min(d) < 1.1, d
 
 
+def test_an_l_bracket_whose_straight_part_falls_apart_is_calibrated():
+    """At 1.5 and 3 times its size and 200 particles the particles nearest the long arm's segment made two pieces,
+    one held at neither end: stiffness_for raised solve_static's "no position constraint" (a traceback on Build
+    in the add-on). Now the part's largest piece is calibrated, and the L droops as at its own size."""
+    v, t = bracket()
+    held, tip = v[:, 0] <= v[:, 0].min() + 1e-3, v[:, 1] >= v[:, 1].max() - 0.02
+    d = [droop(v * s, t, 200, held, tip, 1.6 * s) for s in (1.0, 1.5, 3.0)]
+    assert max(d) / min(d) < 1.1, d
+
+
 def test_the_continuum_frame_bends_a_straight_bar_as_beam_theory_and_twists_an_l():
     """_frame_tip, the levelling's reference: a 1 x 0.2 x 0.1 m cantilever of cells within 2 % of q L^4 / 8 E I
     both ways across; an L of two such arms (0.8 and 0.6 m) deflects at its tip about twice what its arms' bending alone
