@@ -11,7 +11,8 @@ Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Sub
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
 when the panel asks, replayed), bake (bake, compare with playback), save (frame 30 and the file into OUT; then
-open=OUT reopens it), inside (cape and hair vertices inside the body, frames 1-48),
+open=OUT reopens it), perparticle (after Enable and
+the group: each particle's part, Follow, goal Hz, k and softness as the solver has them), inside (cape and hair vertices inside the body, frames 1-48),
 render=F / side=F (Cycles CPU, 8
 samples, frame F, the knight and the armature-only twin: OUT/knight_VIEW_F.png, OUT/knight_VIEW_F_twin.png).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play.
@@ -391,6 +392,24 @@ def particles_per_part(name, obj, parts):
         part_of[ix] = k
     near = [part_of[int(np.argmin(np.linalg.norm(v - c, axis=1)))] for c in st.engine.graph.centers]
     print("PARTICLES PER PART", {k: near.count(k) for k in (*parts, "between")})
+    if "perparticle" in OPT:  # the maps reach the engine on a frame change
+        bpy.context.scene.frame_set(bpy.context.scene.frame_current)
+        per_particle(st.engine, near)
+
+
+def per_particle(e, near):
+    """Per particle as the solver has it: part, mesh piece, Follow (after Shell Min), its goal in Hz, the
+    calibrated k before and after the Softness map, the map's scale, its volume."""
+    import opdeform
+    follow = e.goal_strength
+    hz = opdeform.goal_frequency(follow)
+    count = e.graph.n_particles
+    given, k = (np.broadcast_to(x["stiffness"], (count,)) for x in (e._given, e._params))
+    soft = np.ones(count) if e._softness is None else e._softness
+    piece = e.pieces()[1]
+    for i in np.argsort(near, kind="stable"):
+        print(f"PARTICLE {near[i]:9s} {i:4d} piece {piece[i]} follow {follow[i]:.3f} goal {hz[i]:8.2f} Hz "
+              f"k {given[i]:.3e} -> {k[i]:.3e} softness {soft[i]:.3f} volume {e.graph.volumes[i]:.2e}")
 
 
 def main():
