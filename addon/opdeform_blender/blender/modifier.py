@@ -12,6 +12,11 @@ Its nodes do three things, read the same way in Blender 3.4 through 5.x:
   carry both attributes along; a Subdivision keeps the original vertices first and copies their attributes
   unchanged, so the index tells the add-on where they are in the evaluated mesh (and that a count differing
   at the modifier itself comes from a modifier before it).
+- Store Named Attribute ``opdeform_follow``, ``opdeform_softness``, ``opdeform_damping``: the weights of the
+  vertex groups picked as the painted maps (the group inputs Follow, Softness and Damping, each fed by its group
+  on the modifier, ``set_maps``; 0 where none is picked). The add-on reads them each frame (0.01-0.02 ms for the
+  5,850-vertex character against 5-8 ms walking the groups in Python), so a group changed in any way (a script,
+  Weight Paint, Edit Mode) is applied on the next frame.
 - Set Position by the offset in the mesh attribute ``opdeform_offset``, which the add-on writes each frame.
   The vertex positions of the mesh are never written. Without the attribute (a saved file: the save handler
   removes it; the add-on disabled or absent) the offset is zero and the modifier passes its input through,
@@ -28,14 +33,27 @@ ABOUT = ("OPDeform soft body: the OPDeform add-on writes each frame's simulated 
 INPUT = "opdeform_input"
 INDEX = "opdeform_index"
 OFFSET = "opdeform_offset"
-VERSION = 3  # the node group's layout: 1 had no index, 2 no explanation; an older group is replaced on Build
+MAPS = ("Follow", "Softness", "Damping")  # the group inputs carrying the painted maps' groups
+VERSION = 4  # the node group's layout: 1 had no index, 2 no explanation, 3 no maps; an older group is replaced on Build
 
 
-def _socket(group, name, in_out):
+def _socket(group, name, in_out, kind='NodeSocketGeometry'):
     if hasattr(group, "interface"):  # Blender 4.0+
-        group.interface.new_socket(name, in_out=in_out, socket_type='NodeSocketGeometry')
+        group.interface.new_socket(name, in_out=in_out, socket_type=kind)
     else:
-        (group.inputs if in_out == 'INPUT' else group.outputs).new('NodeSocketGeometry', name)
+        (group.inputs if in_out == 'INPUT' else group.outputs).new(kind, name)
+
+
+def _inputs(group):
+    """The group's inputs: name -> identifier (the modifier's keys)."""
+    if hasattr(group, "interface"):  # Blender 4.0+
+        return {i.name: i.identifier for i in group.interface.items_tree
+                if i.item_type == 'SOCKET' and i.in_out == 'INPUT'}
+    return {i.name: i.identifier for i in group.inputs}
+
+
+def map_attribute(name):
+    return f"opdeform_{name.lower()}"
 
 
 def _value(sockets, kind='VECTOR'):
@@ -58,11 +76,16 @@ def _new_group():
     if hasattr(group, "description"):  # Blender 4.0+
         group.description = ABOUT
     _socket(group, "Geometry", 'INPUT')
+    for name in MAPS:
+        _socket(group, name, 'INPUT', 'NodeSocketFloat')
     _socket(group, "Geometry", 'OUTPUT')
     nodes, links = group.nodes, group.links
+    given = nodes.new('NodeGroupInput').outputs
     geometry = _store(nodes, links, INPUT, 'FLOAT_VECTOR', 'VECTOR',
-                      nodes.new('GeometryNodeInputPosition').outputs[0], nodes.new('NodeGroupInput').outputs[0])
+                      nodes.new('GeometryNodeInputPosition').outputs[0], given[0])
     geometry = _store(nodes, links, INDEX, 'INT', 'INT', nodes.new('GeometryNodeInputIndex').outputs[0], geometry)
+    for name in MAPS:
+        geometry = _store(nodes, links, map_attribute(name), 'FLOAT', 'VALUE', given[name], geometry)
     offset = nodes.new('GeometryNodeInputNamedAttribute')
     offset.data_type = 'FLOAT_VECTOR'
     offset.inputs["Name"].default_value = OFFSET
@@ -95,6 +118,46 @@ def ensure(obj):
     if mod.node_group is None or mod.node_group.get("opdeform") != VERSION:
         mod.node_group = node_group()
     return mod
+
+
+def _fed(mod, key):
+    """The vertex group feeding the modifier's input ``key`` ("" for none)."""
+    if hasattr(mod, "properties"):  # Blender 5.0+
+        socket = getattr(mod.properties.inputs, key)
+        return socket.attribute_name if socket.type == 'ATTRIBUTE' else ""
+    return mod.get(f"{key}_attribute_name", "") if mod.get(f"{key}_use_attribute") else ""
+
+
+def _feed(mod, key, group):
+    """Feeds the modifier's input ``key`` with the vertex group ``group`` (its value, 0, for "")."""
+    if hasattr(mod, "properties"):  # Blender 5.0+
+        socket = getattr(mod.properties.inputs, key)
+        socket.type, socket.attribute_name = 'ATTRIBUTE' if group else 'VALUE', group
+    else:
+        mod[f"{key}_use_attribute"], mod[f"{key}_attribute_name"] = int(bool(group)), group
+
+
+def set_maps(obj, names):
+    """Feeds the modifier's Follow, Softness and Damping inputs with the vertex groups ``names`` (MAPS order; ""
+    for none). Returns whether anything changed (the object is then evaluated again)."""
+    mod = get(obj)
+    ids = _inputs(mod.node_group)
+    changed = False
+    for name, group in zip(MAPS, names):
+        if _fed(mod, ids[name]) != group:
+            _feed(mod, ids[name], group)
+            changed = True
+    if changed:
+        obj.update_tag()
+    return changed
+
+
+def read_map(evaluated_mesh, name, n):
+    """The weights (float32 (n,)) the modifier stored for its map input ``name`` (MAPS), None where missing (an
+    older node group, Edit Mode, where the modifier does not run). A later modifier that grew the mesh keeps the
+    original vertices first (``read_input`` checks it)."""
+    weights = _read(evaluated_mesh, map_attribute(name), "value", np.float32, 1)
+    return None if weights is None or len(weights) < n else weights[:n]
 
 
 def remove(obj):

@@ -21,21 +21,24 @@ from . import modifier, presets
 from .compiled import AddonError, module
 from .discovery import mark_discovery
 from .handle_data import active_handles, bind_handle, bind_new_handles, handle_matrix
-from .mesh_data import bone_moved, check_object, read_vertex_group, read_weights, triangles, vertex_positions
+from .mesh_data import (bone_moved, check_object, group_index, read_vertex_group, read_weights, triangles,
+                        vertex_positions)
 from .parameters import (body_contact, cache_folder, floor, frame_range, frame_rate, gravity, goal_strength,
                          graph_key, maps, self_contact, settings_key, sim_settings)
 from .state import Runtime, get, put, renamed
 
 MODIFIER_NAME = "OPDeform Cache"
+MAP_NAMES = ("follow", "softness", "damping")  # the painted maps as errors name them (modifier.MAPS order)
 
 
 # -- build ---------------------------------------------------------------------------------------------
 def configure(rt, obj, scene, depsgraph=None):
     """Applies the current settings to the engine (a change clears the in-memory cache). Skipped while what it
     reads is as last time (parameters.settings_key, 0.01 ms; configuring the character: 0.15 ms a frame) and no
-    painted map is to be read again (group_weights)."""
+    painted map is to be read again (group_weights, changed_maps)."""
     key = settings_key(obj, scene)
-    if (key, tuple(rt.groups)) == rt.configured and obj.mode == 'OBJECT':  # other modes paint or assign groups
+    changed = changed_maps(rt, obj, depsgraph)
+    if (key, tuple(rt.groups)) == rt.configured and not changed and obj.mode == 'OBJECT':
         return
     rt.configured = None  # a failure below leaves it to be configured again
     s = obj.opdeform
@@ -62,11 +65,39 @@ def find_unrigged(rt, obj):
     rt.unrigged = checks.unrigged_pieces(rt.pieces, bone_moved(obj), rt.engine.rest_local)
 
 
+def picked_groups(s):
+    """The vertex groups the painted maps use (modifier.MAPS order: follow, softness, damping; "" for none)."""
+    group, _, _, soft_group, _, damp_group, _ = maps(s)
+    return (group if goal_strength(s) is not None else "", soft_group, damp_group)
+
+
+def changed_maps(rt, obj, depsgraph):
+    """Whether a picked group's weights differ from those read (group_weights reads them again): compared with
+    the weights OPDeform's modifier stored in this evaluation (modifier.read_map; 0.02 ms a frame for the
+    5,850-vertex character), so a change by a script, Weight Paint or Edit Mode is applied on the next frame.
+    A picked group that is gone (removed, renamed) raises AddonError naming it."""
+    names = picked_groups(obj.opdeform)
+    for what, name in zip(MAP_NAMES, names):
+        if name:
+            group_index(obj, name, what)
+    if modifier.get(obj) is None or modifier.set_maps(obj, names):  # no evaluation of these groups yet
+        return False
+    mesh = obj.evaluated_get(depsgraph or bpy.context.evaluated_depsgraph_get()).data
+    changed = False
+    for label, name in zip(modifier.MAPS, names):
+        if name in rt.groups:
+            weights = modifier.read_map(mesh, label, rt.engine.n_vertices)
+            if weights is not None and not np.array_equal(weights, rt.groups[name]):
+                del rt.groups[name]
+                changed = True
+    return changed
+
+
 def group_weights(rt, obj, name, what):
-    """A painted map's per-vertex weights (None without a group), kept in the runtime until the object is seen
-    in another mode than Object Mode (where groups are painted and assigned; handlers.on_depsgraph_update looks
-    after each edit): reading a group walks every vertex in Python (about 5 ms for 6,000 vertices), too slow for
-    every frame."""
+    """A painted map's per-vertex weights (None without a group), kept in the runtime until they change
+    (changed_maps) or the object is seen in another mode than Object Mode (Edit Mode, where the modifier does not
+    run): reading a group walks every vertex in Python (about 5 ms for 6,000 vertices), too slow for every
+    frame."""
     if obj.mode != 'OBJECT':
         rt.groups.clear()
     if name not in rt.groups:
@@ -80,10 +111,10 @@ def set_maps(rt, obj, scene):
     group, follow_range, shell_min, soft_group, soft, damp_group, damping = maps(s)
     strength = goal_strength(s)
     try:
-        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, "follow"), follow_range,
-                   shell_min)
-        soft_w = group_weights(rt, obj, soft_group, "softness")
-        damp_w = group_weights(rt, obj, damp_group, "damping")
+        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, MAP_NAMES[0]),
+                   follow_range, shell_min)
+        soft_w = group_weights(rt, obj, soft_group, MAP_NAMES[1])
+        damp_w = group_weights(rt, obj, damp_group, MAP_NAMES[2])
         units = presets.units(s, frame_rate(scene))
         e.set_regions(None if soft_w is None else soft ** soft_w,
                       None if damp_w is None else region_damping(units, e.timestep[0], damp_w, damping))
