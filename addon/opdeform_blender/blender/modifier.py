@@ -139,17 +139,16 @@ def _feed(mod, key, group):
 
 def set_maps(obj, names):
     """Feeds the modifier's Follow, Softness and Damping inputs with the vertex groups ``names`` (MAPS order; ""
-    for none). Returns whether anything changed (the object is then evaluated again)."""
+    for none); the object is evaluated again. A node group older than VERSION has no such inputs (replaced on
+    Build)."""
     mod = get(obj)
+    if mod.node_group.get("opdeform") != VERSION:
+        return
     ids = _inputs(mod.node_group)
-    changed = False
     for name, group in zip(MAPS, names):
         if _fed(mod, ids[name]) != group:
             _feed(mod, ids[name], group)
-            changed = True
-    if changed:
-        obj.update_tag()
-    return changed
+    obj.update_tag()
 
 
 def read_map(evaluated_mesh, name, n):

@@ -32,12 +32,13 @@ MAP_NAMES = ("follow", "softness", "damping")  # the painted maps as errors name
 
 
 # -- build ---------------------------------------------------------------------------------------------
-def configure(rt, obj, scene, depsgraph=None):
+def configure(rt, obj, scene, depsgraph=None, evaluated=None):
     """Applies the current settings to the engine (a change clears the in-memory cache). Skipped while what it
     reads is as last time (parameters.settings_key, 0.01 ms; configuring the character: 0.15 ms a frame) and no
-    painted map is to be read again (group_weights, changed_maps)."""
+    painted map is to be read again (group_weights; changed_maps with ``evaluated``, the object of this frame's
+    evaluation)."""
     key = settings_key(obj, scene)
-    changed = changed_maps(rt, obj, depsgraph)
+    changed = evaluated is not None and changed_maps(rt, obj, evaluated)
     if (key, tuple(rt.groups)) == rt.configured and not changed and obj.mode == 'OBJECT':
         return
     rt.configured = None  # a failure below leaves it to be configured again
@@ -71,21 +72,24 @@ def picked_groups(s):
     return (group if goal_strength(s) is not None else "", soft_group, damp_group)
 
 
-def changed_maps(rt, obj, depsgraph):
+def changed_maps(rt, obj, evaluated):
     """Whether a picked group's weights differ from those read (group_weights reads them again): compared with
-    the weights OPDeform's modifier stored in this evaluation (modifier.read_map; 0.02 ms a frame for the
-    5,850-vertex character), so a change by a script, Weight Paint or Edit Mode is applied on the next frame.
-    A picked group that is gone (removed, renamed) raises AddonError naming it."""
+    the weights OPDeform's modifier stored in the evaluated object (modifier.read_map), so a change by a script,
+    Weight Paint or Edit Mode is applied on the next frame. A picked group that is gone (removed, renamed) raises
+    AddonError naming it. The modifier's inputs are fed again only when the picked groups change."""
     names = picked_groups(obj.opdeform)
     for what, name in zip(MAP_NAMES, names):
         if name:
             group_index(obj, name, what)
-    if modifier.get(obj) is None or modifier.set_maps(obj, names):  # no evaluation of these groups yet
+    if names != rt.fed:
+        rt.fed = names if modifier.get(obj) is not None else None
+        if rt.fed is not None:
+            modifier.set_maps(obj, names)  # evaluated again after this frame: nothing of these groups to read yet
         return False
-    mesh = obj.evaluated_get(depsgraph or bpy.context.evaluated_depsgraph_get()).data
+    mesh = evaluated.data
     changed = False
     for label, name in zip(modifier.MAPS, names):
-        if name in rt.groups:
+        if name and name in rt.groups:
             weights = modifier.read_map(mesh, label, rt.engine.n_vertices)
             if weights is not None and not np.array_equal(weights, rt.groups[name]):
                 del rt.groups[name]
@@ -203,11 +207,13 @@ def check_writable(obj):
                          "or Bake (each object plays its own bake)")
 
 
-def frame_input(obj, rt, depsgraph):
-    """(the object-space positions reaching opdeform's modifier, the object's transform) in this evaluation."""
-    if depsgraph is None:
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
+def evaluated_object(obj, depsgraph):
+    return obj.evaluated_get(bpy.context.evaluated_depsgraph_get() if depsgraph is None else depsgraph)
+
+
+def frame_input(obj, rt, evaluated):
+    """(the object-space positions reaching opdeform's modifier, the object's transform) in this evaluation
+    (``evaluated``: the object there, evaluated_object)."""
     positions, index = modifier.read_input(evaluated.data, rt.engine.n_vertices)
     if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")
