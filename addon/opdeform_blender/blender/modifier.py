@@ -134,7 +134,8 @@ def _feed(mod, key, group):
         socket = getattr(mod.properties.inputs, key)
         socket.type, socket.attribute_name = 'ATTRIBUTE' if group else 'VALUE', group
     else:
-        mod[f"{key}_use_attribute"], mod[f"{key}_attribute_name"] = int(bool(group)), group
+        use = f"{key}_use_attribute"  # an int ID property up to 4.x, a Boolean one in 5.0 (which takes no int)
+        mod[use], mod[f"{key}_attribute_name"] = type(mod.get(use, 0))(bool(group)), group
 
 
 def set_maps(obj, names):
