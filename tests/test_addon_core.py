@@ -16,8 +16,9 @@ import opdeform
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
-from opdeform_blender.core.engine import Engine, EngineError, check_matrix, original_input, to_world  # noqa: E402
+from opdeform_blender.core import checks, frame_report, frames, handles, loader, tumbling  # noqa: E402
+from opdeform_blender.core.engine import (Engine, EngineError, check_matrix, original_input, to_world,  # noqa: E402
+                                          triangle_edges)
 
 
 def test_pc2_round_trip_and_partial_file(tmp_path):
@@ -116,6 +117,23 @@ def _bar_engine():
     tip = int(np.argmax(v[:, 0]))
     e.set_constraints(pins, None, 1.0, [(tip, True, 1.0)])
     return e, v, tip
+
+
+def test_reports_give_the_shown_mesh_edges_stretch():
+    """A frame shown reports the largest stretch of the mesh's own edges (what the artist sees) besides the
+    particles': the bar's tip pulled 0.6 m up from its pinned root stretches them differently."""
+    e, v, tip = _bar_engine()
+    m0 = np.eye(4)
+    m0[:3, 3] = v[tip]
+    edges = triangle_edges(e.triangles).T
+    for f in range(1, 13):
+        m = m0.copy()
+        m[2, 3] += 0.05 * f
+        out = e.goto(f, handles.targets(v[tip], m0, m)[None])
+    rep = e.reports.get(12)
+    d = np.linalg.norm(out[edges[0]] - out[edges[1]], axis=1) / np.linalg.norm(v[edges[0]] - v[edges[1]], axis=1)
+    assert rep.mesh == pytest.approx(d.max(), rel=1e-5) and rep.mesh > 1.01 and abs(rep.mesh - rep.stretch) > 0.01
+    assert frame_report.shown_stretch(rep) == rep.mesh, rep
 
 
 def test_engine_replay_is_bit_exact():

@@ -40,6 +40,12 @@ def vertex_positions(mesh):
     return buf.reshape(-1, 3)
 
 
+def edges(mesh):
+    e = np.empty(len(mesh.edges) * 2, dtype=np.int32)
+    mesh.edges.foreach_get("vertices", e)
+    return e.reshape(-1, 2)
+
+
 def triangles(mesh):
     mesh.calc_loop_triangles()
     tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)

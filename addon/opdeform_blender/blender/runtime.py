@@ -21,8 +21,8 @@ from . import modifier, presets
 from .compiled import AddonError, module
 from .discovery import mark_discovery
 from .handle_data import active_handles, bind_handle, bind_new_handles, handle_matrix
-from .mesh_data import (bone_moved, check_object, group_index, read_vertex_group, read_weights, triangles,
-                        vertex_positions)
+from .mesh_data import (bone_moved, check_object, edges, group_index, read_vertex_group, read_weights,
+                        triangles, vertex_positions)
 from .parameters import (body_contact, cache_folder, floor, frame_range, frame_rate, gravity, goal_strength,
                          graph_key, maps, self_contact, settings_key, sim_settings)
 from .state import Runtime, get, put, renamed
@@ -142,7 +142,7 @@ def build(obj, scene, depsgraph=None):
             raise AddonError(str(exc)) from None
     try:
         engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors,
-                        small_pieces(obj))
+                        small_pieces(obj), edges(obj.data))
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     rt = Runtime(engine, graph_key(s), pins)

@@ -16,7 +16,8 @@ def report_lines(rt, frame, solver_units):
     error = "fixed iterations" if solver_units or rep.error < 0 else \
         f"error {100 * rep.error:.4f} % of the size"
     return [f"Frame {frame}: {error}", f"{rep.iterations:.1f} iterations a step (most {rep.most})",
-            f"Largest stretch {rep.stretch:.2f}x"]
+            *([] if rep.mesh is None else [f"Largest stretch (mesh edges) {rep.mesh:.2f}x"]),
+            f"Largest stretch (particles) {rep.stretch:.2f}x"]
 
 
 class PHYSICS_PT_opdeform_quality(SubPanel, bpy.types.Panel):

@@ -175,9 +175,16 @@ def canonical_triangles(triangles):
     return np.ascontiguousarray(turned[np.lexsort((turned[:, 1], by_size[:, 0], by_size[:, 1], by_size[:, 2]))])
 
 
+def triangle_edges(triangles):
+    """The distinct edges (E, 2) of triangles (T, 3)."""
+    t = np.asarray(triangles).reshape(-1, 3)
+    pairs = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    return np.unique(pairs, axis=0)
+
+
 class Engine:
     def __init__(self, od, rest_local, triangles, matrix_world=None, particles=100, mode="auto",
-                 neighbors=4, small_pieces="attach"):
+                 neighbors=4, small_pieces="attach", edges=None):
         self.od = od
         rest_local = np.asarray(rest_local, dtype=np.float32).reshape(-1, 3)
         triangles = canonical_triangles(triangles)
@@ -235,7 +242,9 @@ class Engine:
         self._pin_ids = []
         self.cache = StateCache()
         self.reports = FrameReports()
-        self.stretch = Stretch(self.graph)  # the reports' largest edge stretch
+        self.stretch = Stretch(self.graph.edges, self.graph.centers)  # the reports' largest particle edge stretch
+        # the mesh's (edges: the mesh's own, (E, 2); None: its triangles'), added to a frame's report when shown
+        self.mesh_stretch = Stretch(triangle_edges(triangles) if edges is None else edges, self.rest_local)
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
@@ -621,6 +630,8 @@ class Engine:
             self.offset[:] = moved
             np.add(incoming, self.offset, out=self.out)
         self.timing["skin"] += time.perf_counter() - t
+        if frame is not None:
+            self.reports.note_mesh(frame, self.mesh_stretch, self.out)
         self.shown_state = (positions, rotations)
         return self.out
 
