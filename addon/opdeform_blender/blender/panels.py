@@ -60,7 +60,7 @@ def warnings(rt, frame, current=True):
     last configured (a Follow group just picked is read on the next frame), so what depends on them is left out
     until then rather than shown for the old ones."""
     out = []
-    rep = rt.engine.reports.get(frame)
+    rep = rt.engine.report(frame)
     stretch = frame_report.shown_stretch(rep)
     if stretch > frame_report.STRETCH_LIMIT:
         out.append(f"{'Mesh edges' if rep.mesh is not None else 'Particles'} stretched {stretch:.1f}x the rest "

@@ -10,7 +10,7 @@ from .panel_base import SubPanel, split
 
 def report_lines(rt, frame, solver_units):
     """The Quality sub-panel's text for the frame shown."""
-    rep = rt.engine.reports.get(frame)
+    rep = rt.engine.report(frame)
     if rep is None:
         return ["No frame simulated yet: play the timeline"]
     error = "fixed iterations" if solver_units or rep.error < 0 else \

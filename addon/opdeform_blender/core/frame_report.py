@@ -15,8 +15,8 @@ Report = namedtuple("Report", "error iterations most stretch handle_step handle_
 # local/global pairs per step (mean); most: in one step; stretch: the largest particle edge length / rest length;
 # handle_step: the fastest handle's travel in one step / the body's size; handle_fast: too fast for the steps;
 # turn: the fastest goal's turn into the frame, degrees (checks.goal_turn); mesh: the mesh's largest edge length /
-# rest length where the frame was shown (what the artist sees: a thin card's edges stretch beyond the particles'),
-# None until then (a frame a jump skipped)
+# rest length in the frame shown (what the artist sees: a thin card's edges stretch beyond the particles'), None
+# until asked while that frame was shown (Engine.report)
 HISTORY = 2000  # frames of reports kept (the plot shows the last PLOT_FRAMES)
 PLOT_FRAMES = 250
 STRETCH_LIMIT = 2.0  # warn beyond twice the rest length
