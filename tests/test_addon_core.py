@@ -564,6 +564,25 @@ def test_shells_and_thin_parts_are_placed_at_any_size():
     assert "0.0033 m at (0.0000, 0.0039, 0.0079): 1" in text, text
 
 
+def test_the_thin_part_warning_leaves_out_shells_particles_do_not_reach():
+    """A 1.2 cm fin detached above a 40 cm body (an outside tester's fish: its dorsal fin) keeps its particles of
+    its own at any count, so "raise Particles" cannot help it: the thinnest part measured is the body's."""
+    from opdeform import meshes
+    body, fin = meshes.capsule(radius=0.2, length=0.6), meshes.bar(length=0.3, width=0.16, segments=6)
+    v = np.vstack([body[0], fin[0] * (1.0, 0.075, 1.0) + (-0.15, 0.0, 0.3)])
+    t = np.vstack([body[1], fin[1] + len(body[0])])
+    on_fin = []
+    for particles in (100, 200):
+        e = Engine(opdeform, v, t, particles=particles, small_pieces="own")
+        _, piece, found = e.pieces()
+        on_fin.append(int((piece != found).sum()))
+        thickness, _, warned = e.thin_part
+        assert thickness > 0.3 and not warned, e.thin_part
+    assert on_fin[0] == on_fin[1] > 0, on_fin
+    whole = opdeform.materials.thin_part_warning(e.graph, e.rest, e.triangles)
+    assert whole[0] < 0.013 and whole[2], whole  # measured with the fin: 1.2 cm, too thin at any count
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""
