@@ -12,11 +12,11 @@ Its nodes do three things, read the same way in Blender 3.4 through 5.x:
   carry both attributes along; a Subdivision keeps the original vertices first and copies their attributes
   unchanged, so the index tells the add-on where they are in the evaluated mesh (and that a count differing
   at the modifier itself comes from a modifier before it).
-- Store Named Attribute ``opdeform_follow``, ``opdeform_softness``, ``opdeform_damping``: the weights of the
-  vertex groups picked as the painted maps (the group inputs Follow, Softness and Damping, each fed by its group
-  on the modifier, ``set_maps``; 0 where none is picked). The add-on reads them each frame (0.01-0.02 ms for the
-  5,850-vertex character against 5-8 ms walking the groups in Python), so a group changed in any way (a script,
-  Weight Paint, Edit Mode) is applied on the next frame.
+- Store Named Attribute ``opdeform_maps``: per vertex the weights of the vertex groups picked as the painted
+  maps (the group inputs Follow, Softness and Damping, each fed by its group on the modifier, ``set_maps``; 0
+  where none is picked), one vector. The add-on reads it each frame in one call (``read_maps``; walking the
+  groups in Python takes 5-8 ms for 5,000 vertices), so a group changed in any way (a script, Weight Paint, Edit
+  Mode) is applied on the next frame.
 - Set Position by the offset in the mesh attribute ``opdeform_offset``, which the add-on writes each frame.
   The vertex positions of the mesh are never written. Without the attribute (a saved file: the save handler
   removes it; the add-on disabled or absent) the offset is zero and the modifier passes its input through,
@@ -33,6 +33,7 @@ ABOUT = ("OPDeform soft body: the OPDeform add-on writes each frame's simulated 
 INPUT = "opdeform_input"
 INDEX = "opdeform_index"
 OFFSET = "opdeform_offset"
+WEIGHTS = "opdeform_maps"
 MAPS = ("Follow", "Softness", "Damping")  # the group inputs carrying the painted maps' groups
 VERSION = 4  # the node group's layout: 1 had no index, 2 no explanation, 3 no maps; an older group is replaced on Build
 
@@ -50,10 +51,6 @@ def _inputs(group):
         return {i.name: i.identifier for i in group.interface.items_tree
                 if i.item_type == 'SOCKET' and i.in_out == 'INPUT'}
     return {i.name: i.identifier for i in group.inputs}
-
-
-def map_attribute(name):
-    return f"opdeform_{name.lower()}"
 
 
 def _value(sockets, kind='VECTOR'):
@@ -84,8 +81,10 @@ def _new_group():
     geometry = _store(nodes, links, INPUT, 'FLOAT_VECTOR', 'VECTOR',
                       nodes.new('GeometryNodeInputPosition').outputs[0], given[0])
     geometry = _store(nodes, links, INDEX, 'INT', 'INT', nodes.new('GeometryNodeInputIndex').outputs[0], geometry)
-    for name in MAPS:
-        geometry = _store(nodes, links, map_attribute(name), 'FLOAT', 'VALUE', given[name], geometry)
+    combine = nodes.new('ShaderNodeCombineXYZ')
+    for k, name in enumerate(MAPS):
+        links.new(given[name], combine.inputs[k])
+    geometry = _store(nodes, links, WEIGHTS, 'FLOAT_VECTOR', 'VECTOR', combine.outputs[0], geometry)
     offset = nodes.new('GeometryNodeInputNamedAttribute')
     offset.data_type = 'FLOAT_VECTOR'
     offset.inputs["Name"].default_value = OFFSET
@@ -152,11 +151,11 @@ def set_maps(obj, names):
     obj.update_tag()
 
 
-def read_map(evaluated_mesh, name, n):
-    """The weights (float32 (n,)) the modifier stored for its map input ``name`` (MAPS), None where missing (an
-    older node group, Edit Mode, where the modifier does not run). A later modifier that grew the mesh keeps the
+def read_maps(evaluated_mesh, n):
+    """The weights the modifier stored for its map inputs, float32 (n, 3) in MAPS order, None where missing (an
+    older node group; Edit Mode, where the modifier does not run). A later modifier that grew the mesh keeps the
     original vertices first (``read_input`` checks it)."""
-    weights = _read(evaluated_mesh, map_attribute(name), "value", np.float32, 1)
+    weights = _read(evaluated_mesh, WEIGHTS, "vector", np.float32, 3)
     return None if weights is None or len(weights) < n else weights[:n]
 
 

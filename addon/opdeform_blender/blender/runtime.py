@@ -74,7 +74,7 @@ def picked_groups(s):
 
 def changed_maps(rt, obj, evaluated):
     """Whether a picked group's weights differ from those read (group_weights reads them again): compared with
-    the weights OPDeform's modifier stored in the evaluated object (modifier.read_map), so a change by a script,
+    the weights OPDeform's modifier stored in the evaluated object (modifier.read_maps), so a change by a script,
     Weight Paint or Edit Mode is applied on the next frame. A picked group that is gone (removed, renamed) raises
     AddonError naming it. The modifier's inputs are fed again only when the picked groups change."""
     names = picked_groups(obj.opdeform)
@@ -86,15 +86,14 @@ def changed_maps(rt, obj, evaluated):
         if rt.fed is not None:
             modifier.set_maps(obj, names)  # evaluated again after this frame: nothing of these groups to read yet
         return False
-    mesh = evaluated.data
-    changed = False
-    for label, name in zip(modifier.MAPS, names):
-        if name and name in rt.groups:
-            weights = modifier.read_map(mesh, label, rt.engine.n_vertices)
-            if weights is not None and not np.array_equal(weights, rt.groups[name]):
-                del rt.groups[name]
-                changed = True
-    return changed
+    read = [k for k, name in enumerate(names) if name and name in rt.groups]
+    weights = modifier.read_maps(evaluated.data, rt.engine.n_vertices) if read else None
+    if weights is None:
+        return False
+    changed = [names[k] for k in read if not np.array_equal(weights[:, k], rt.groups[names[k]])]
+    for name in set(changed):
+        del rt.groups[name]
+    return bool(changed)
 
 
 def group_weights(rt, obj, name, what):
