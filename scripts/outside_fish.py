@@ -5,7 +5,8 @@ automatic weights, swimming (body wave, dips to the floor) until frame 40 of 96,
     bpy-python scripts/outside_fish.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
 opts: turn (a 90-degree snap turn in 4 frames), scale=S (everything S times), unit=U (the scene's Unit Scale), dip=D (how far the swim dips, m; 0.14), look=Subtle|Fleshy|Floppy (picked from the Goal panel's menu after the group),
-particles=N, repaint (Follow all 1 after playing, in Weight Paint; repaint=script: by a script in Object Mode; replay), relook=NAME (another look after
+particles=N, repaint (Follow all 1 after playing, in Weight Paint, replay; repaint=script: set by a script in Object
+Mode), relook=NAME (another look after
 playing, replay), save (frame 30 and the file into OUT; then open=OUT reopens it), trace (frames 17-32: the barbels), noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, [pick a look], play.
 """
