@@ -40,9 +40,8 @@ VERSION = 4  # the node group's layout: 1 had no index, 2 no explanation, 3 no m
 
 def _socket(group, name, in_out, kind='NodeSocketGeometry'):
     if hasattr(group, "interface"):  # Blender 4.0+
-        group.interface.new_socket(name, in_out=in_out, socket_type=kind)
-    else:
-        (group.inputs if in_out == 'INPUT' else group.outputs).new(kind, name)
+        return group.interface.new_socket(name, in_out=in_out, socket_type=kind)
+    return (group.inputs if in_out == 'INPUT' else group.outputs).new(kind, name)
 
 
 def _inputs(group):
@@ -74,7 +73,9 @@ def _new_group():
         group.description = ABOUT
     _socket(group, "Geometry", 'INPUT')
     for name in MAPS:
-        _socket(group, name, 'INPUT', 'NodeSocketFloat')
+        socket = _socket(group, name, 'INPUT', 'NodeSocketFloat')
+        socket.hide_value = True  # fed a vertex group by the add-on, never a value
+        socket.description = f"The {name} group picked in the Physics tab (Oriented Particles), set by the add-on"
     _socket(group, "Geometry", 'OUTPUT')
     nodes, links = group.nodes, group.links
     given = nodes.new('NodeGroupInput').outputs

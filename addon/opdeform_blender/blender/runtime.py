@@ -81,10 +81,7 @@ def changed_maps(rt, obj, evaluated):
     for what, name in zip(MAP_NAMES, names):
         if name:
             group_index(obj, name, what)
-    if names != rt.fed:
-        rt.fed = names if modifier.get(obj) is not None else None
-        if rt.fed is not None:
-            modifier.set_maps(obj, names)  # evaluated again after this frame: nothing of these groups to read yet
+    if feed_maps(rt, obj, names):  # evaluated again after this frame: nothing of these groups to read yet
         return False
     read = [k for k, name in enumerate(names) if name and name in rt.groups]
     weights = modifier.read_maps(evaluated.data, rt.engine.n_vertices) if read else None
@@ -94,6 +91,17 @@ def changed_maps(rt, obj, evaluated):
     for name in set(changed):
         del rt.groups[name]
     return bool(changed)
+
+
+def feed_maps(rt, obj, names):
+    """Feeds OPDeform's modifier the picked groups ``names`` (picked_groups) where they changed since it was last
+    fed; returns whether they did."""
+    if names == rt.fed:
+        return False
+    rt.fed = names if modifier.get(obj) is not None else None
+    if rt.fed is not None:
+        modifier.set_maps(obj, names)
+    return True
 
 
 def group_weights(rt, obj, name, what):
@@ -158,6 +166,7 @@ def build(obj, scene, depsgraph=None):
         raise AddonError(f"{obj.name}: {exc}") from None
     # committed: from here on the object changes
     modifier.ensure(obj)
+    feed_maps(rt, obj, picked_groups(s))
     put(obj, rt)
     s.built = True
     if s.error:
