@@ -5,7 +5,8 @@ automatic weights, swimming (body wave, dips to the floor) until frame 40 of 96,
     bpy-python scripts/outside_fish.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
 opts: turn (a 90-degree snap turn in 4 frames), scale=S (everything S times), unit=U (the scene's Unit Scale), dip=D (how far the swim dips, m; 0.14), look=Subtle|Fleshy|Floppy (picked from the Goal panel's menu after the group),
-particles=N, repaint (Follow all 1 after playing, replay), relook=NAME (another look after
+particles=N, repaint (Follow all 1 after playing, in Weight Paint, replay; repaint=script: set by a script in Object
+Mode), relook=NAME (another look after
 playing, replay), save (frame 30 and the file into OUT; then open=OUT reopens it), trace (frames 17-32: the barbels), noweights (leave the vertices automatic weights missed unweighted), bake (bake, then compare with playback).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, [pick a look], play.
 """
@@ -248,11 +249,14 @@ def main():
                                          for f in (1, 12, 25, STOP, 70, FRAMES) if sc.frame_set(f) is None)
         print("BAKED PANEL", reports(H.draw_panels()))
     if "repaint" in OPT:  # the artist paints the Follow group all 1 after playing, then replays: nothing may move
-        bpy.ops.object.mode_set(mode='WEIGHT_PAINT')  # as an artist paints: in Weight Paint mode
+        painted = OPT["repaint"] != "script"  # repaint=script: set by a script in Object Mode
+        if painted:
+            bpy.ops.object.mode_set(mode='WEIGHT_PAINT')  # as an artist paints: in Weight Paint mode
         obj.vertex_groups["Follow"].add(list(range(len(follow))), 1.0, 'REPLACE')
-        obj.data.update()
-        sc.frame_set(sc.frame_current)
-        bpy.ops.object.mode_set(mode='OBJECT')
+        if painted:
+            obj.data.update()
+            sc.frame_set(sc.frame_current)
+            bpy.ops.object.mode_set(mode='OBJECT')
         summary["repaint_all1_mm"] = replay(sc, obj, twin, bpy.context.view_layer, H)
     if "relook" in OPT:  # the artist picks another look after playing, then replays
         print("RELOOK ->", bpy.ops.opdeform.apply_preset(preset=OPT["relook"]))

@@ -16,8 +16,9 @@ import opdeform
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 
-from opdeform_blender.core import checks, frames, handles, loader, tumbling  # noqa: E402
-from opdeform_blender.core.engine import Engine, EngineError, check_matrix, original_input, to_world  # noqa: E402
+from opdeform_blender.core import checks, frame_report, frames, handles, loader, tumbling  # noqa: E402
+from opdeform_blender.core.engine import (Engine, EngineError, check_matrix, original_input, to_world,  # noqa: E402
+                                          triangle_edges)
 
 
 def test_pc2_round_trip_and_partial_file(tmp_path):
@@ -116,6 +117,26 @@ def _bar_engine():
     tip = int(np.argmax(v[:, 0]))
     e.set_constraints(pins, None, 1.0, [(tip, True, 1.0)])
     return e, v, tip
+
+
+def test_reports_give_the_shown_mesh_edges_stretch():
+    """The frame shown reports, when asked, the largest stretch of the mesh's own edges (what the artist sees)
+    besides the particles': the bar's tip pulled 0.6 m up from its pinned root stretches them 2.00x where the
+    particles' edges stretch 1.72x."""
+    e, v, tip = _bar_engine()
+    m0 = np.eye(4)
+    m0[:3, 3] = v[tip]
+    edges = triangle_edges(e.triangles).T
+    for f in range(1, 13):
+        m = m0.copy()
+        m[2, 3] += 0.05 * f
+        out = e.goto(f, handles.targets(v[tip], m0, m)[None])
+    assert e.reports.get(12).mesh is None  # measured when asked, for the frame shown only
+    rep = e.report(12)
+    assert e.report(11).mesh is None and e.reports.get(12) == rep, (e.report(11), rep)
+    d = np.linalg.norm(out[edges[0]] - out[edges[1]], axis=1) / np.linalg.norm(v[edges[0]] - v[edges[1]], axis=1)
+    assert rep.mesh == pytest.approx(d.max(), rel=1e-5) and rep.mesh > 1.01 and abs(rep.mesh - rep.stretch) > 0.01
+    assert frame_report.shown_stretch(rep) == rep.mesh, rep
 
 
 def test_engine_replay_is_bit_exact():
@@ -541,6 +562,25 @@ def test_shells_and_thin_parts_are_placed_at_any_size():
     assert "(0.00, 0.00, 0.00)" in checks.unrigged_text(((3, (0.0, 0.0, 0.0)),))
     text = checks.appendages_text([((0.0, 0.0039, 0.0079), 0.0033, 1)], 100)
     assert "0.0033 m at (0.0000, 0.0039, 0.0079): 1" in text, text
+
+
+def test_the_thin_part_warning_leaves_out_shells_particles_do_not_reach():
+    """A 1.2 cm fin detached above a 40 cm body (an outside tester's fish: its dorsal fin) keeps its particles of
+    its own at any count, so "raise Particles" cannot help it: the thinnest part measured is the body's."""
+    from opdeform import meshes
+    body, fin = meshes.capsule(radius=0.2, length=0.6), meshes.bar(length=0.3, width=0.16, segments=6)
+    v = np.vstack([body[0], fin[0] * (1.0, 0.075, 1.0) + (-0.15, 0.0, 0.3)])
+    t = np.vstack([body[1], fin[1] + len(body[0])])
+    on_fin = []
+    for particles in (100, 200):
+        e = Engine(opdeform, v, t, particles=particles, small_pieces="own")
+        _, piece, found = e.pieces()
+        on_fin.append(int((piece != found).sum()))
+        thickness, _, warned = e.thin_part
+        assert thickness > 0.3 and not warned, e.thin_part
+    assert on_fin[0] == on_fin[1] > 0, on_fin
+    whole = opdeform.materials.thin_part_warning(e.graph, e.rest, e.triangles)
+    assert whole[0] < 0.013 and whole[2], whole  # measured with the fin: 1.2 cm, too thin at any count
 
 
 def test_thin_appendages_are_named_with_the_particles_that_would_do():

@@ -80,7 +80,7 @@ def test_error_plot_marks_the_tolerance_and_errors_above_it():
 
 def test_report_stretch_is_the_stretch_warnings_ratio():
     g = opdeform.Graph.from_mesh(*opdeform.meshes.bar(), particles=30)
-    stretch = frame_report.Stretch(g)
+    stretch = frame_report.Stretch(g.edges, g.centers)
     assert stretch(g.centers) == pytest.approx(1.0)
     rng = np.random.default_rng(3)
     for scale in (1.0, 3.0):  # the limit's two sides

@@ -25,6 +25,7 @@ PIECES = (  # label, module (relative to the add-on), attribute
     ("rest mesh compared", "blender.playback", "ensure"),
     ("settings read", "blender.runtime", "settings_key"),
     ("configure", "blender.playback", "configure"),
+    ("maps compared", "blender.runtime", "changed_maps"),
     ("input read", "blender.playback", "frame_input"),
     ("colliders read", "blender.colliders", "surroundings"),
     ("begin", "core.engine", "Engine.begin"),

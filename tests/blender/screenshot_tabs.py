@@ -49,6 +49,7 @@ def _setup():
     s.use_goal, s.goal_group, s.softness_group, s.damping_group = True, "Follow", "Soft", "Damp"
     s.use_floor, s.use_solver_units = True, False  # material units: a new object's settings
     bpy.ops.opdeform.handle_add(object=obj.name, location=(2.0, 0.0, 0.0))
+    bpy.context.scene.frame_set(2)  # a frame played: the modifier's inputs read the picked groups
     bpy.context.view_layer.objects.active = obj
     obj.select_set(True)
     open_all_panels()

@@ -118,6 +118,33 @@ def test_maps_apply_on_the_next_frame_without_a_build():
     assert ops and all(e[2] != "Build (settings changed)" for e in ops), ops
 
 
+def test_maps_changed_by_a_script_apply_on_the_next_frame():
+    """A picked Follow group reweighted by a script in Object Mode (no Weight Paint, no Edit Mode) is used on the
+    next frame; a Softness group so too; a picked group removed is a report naming it, not a traceback."""
+    tail = H.tail_rig(0.3)
+    s = tail.opdeform
+    g = tail.vertex_groups.new(name="Follow")
+    everything = list(range(len(tail.data.vertices)))
+    g.add(everything, 1.0, 'REPLACE')
+    s.goal_group = "Follow"
+    motion = {}
+    for weight in (1.0, 0.2):
+        g.add(everything, weight, 'REPLACE')
+        motion[weight] = max(d for _, _, d in H.tail_motion(tail, range(1, H.SWING_FRAMES + 4)))
+    assert motion[1.0] < 1e-3 * LENGTH and motion[0.2] > 0.05, motion
+    soft = tail.vertex_groups.new(name="Soft")
+    soft.add(everything, 0.0, 'REPLACE')
+    soft.add(everything[:1], 1.0, 'REPLACE')
+    s.softness_group = "Soft"
+    stiff = H.tail_motion(tail, range(1, H.SWING_FRAMES + 4))
+    soft.add(everything, 1.0, 'REPLACE')
+    softened = H.tail_motion(tail, range(1, H.SWING_FRAMES + 4))
+    assert not np.array_equal(stiff[-1][0], softened[-1][0]), (stiff[-1][0], softened[-1][0])
+    tail.vertex_groups.remove(soft)
+    bpy.context.scene.frame_set(2)
+    assert "softness group 'Soft' is not a vertex group" in s.error, s.error
+
+
 def test_looks_and_goal_out_of_the_box():
     """Ticking Goal on the default material gives the default look; a look is applied and recognised by name,
     with its Shell Min (Floppy 0.4, Fleshy back to 0.3); a material chosen first stays."""

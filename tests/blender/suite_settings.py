@@ -209,6 +209,12 @@ def test_quality_report_plot_and_panel():
     assert 0.0 <= rep.error <= obj.opdeform.tolerance / 100.0 and rep.iterations >= 1, rep
     text = H.labels(H.draw_panels())
     assert "Frame 12: error" in text and "iterations a step" in text, text
+    shown = H.positions(obj)  # the mesh's edges in the frame shown against the rest mesh: what the artist sees
+    e = np.array([tuple(edge.vertices) for edge in obj.data.edges])
+    rest = H.base_positions(obj)
+    ratio = (np.linalg.norm(shown[e[:, 0]] - shown[e[:, 1]], axis=1) / np.linalg.norm(rest[e[:, 0]] - rest[e[:, 1]],
+                                                                                      axis=1)).max()
+    assert f"Largest stretch (mesh edges) {ratio:.2f}x" in text and "Largest stretch (particles)" in text, text
     p = _module("blender.error_plot").preview(rt, 12, obj.opdeform.tolerance / 100.0)
     assert tuple(p.image_size) == _module("blender.error_plot").SIZE
     pixels = np.array(p.image_pixels_float[:]).reshape(-1, 4)
@@ -222,7 +228,7 @@ def test_warnings_stretch_thin_part_and_fast_handle():
     for f in range(1, 25):
         bpy.context.scene.frame_set(f)
     text = H.labels(H.draw_panels())
-    assert "Stretched" in text and "Thinnest part" in text, text
+    assert "Mesh edges stretched" in text and "Thinnest part" in text, text
     bpy.context.scene.unit_settings.scale_length = 0.01  # modelled in centimetres: its lengths read in them
     thin = [t for t in _module("blender.panels").warnings(H.runtime().get(obj), 24) if t.startswith("Thinnest")]
     bpy.context.scene.unit_settings.scale_length = 1.0

@@ -40,6 +40,12 @@ def vertex_positions(mesh):
     return buf.reshape(-1, 3)
 
 
+def edges(mesh):
+    e = np.empty(len(mesh.edges) * 2, dtype=np.int32)
+    mesh.edges.foreach_get("vertices", e)
+    return e.reshape(-1, 2)
+
+
 def triangles(mesh):
     mesh.calc_loop_triangles()
     tri = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
@@ -47,14 +53,21 @@ def triangles(mesh):
     return tri.reshape(-1, 3)
 
 
+def group_index(obj, name, what):
+    """The index of the object's vertex group ``name``; AddonError naming it when there is none (removed or
+    renamed since it was picked)."""
+    group = obj.vertex_groups.get(name)
+    if group is None:
+        raise AddonError(f"{what} group {name!r} is not a vertex group of {obj.name!r} (removed or renamed? "
+                         "pick it again in the Physics tab)")
+    return group.index
+
+
 def read_vertex_group(obj, name, what):
     """(indices, weights) of the group's vertices with a weight above zero; None without a group name."""
     if not name:
         return None
-    group = obj.vertex_groups.get(name)
-    if group is None:
-        raise AddonError(f"{what} group {name!r} is not a vertex group of {obj.name!r}")
-    gi = group.index
+    gi = group_index(obj, name, what)
     idx, w = [], []
     for v in obj.data.vertices:
         for g in v.groups:

@@ -60,9 +60,11 @@ def warnings(rt, frame, current=True):
     last configured (a Follow group just picked is read on the next frame), so what depends on them is left out
     until then rather than shown for the old ones."""
     out = []
-    rep = rt.engine.reports.get(frame)
-    if rep is not None and rep.stretch > frame_report.STRETCH_LIMIT:
-        out.append(f"Stretched {rep.stretch:.1f}x the rest length: raise Stiffness or Substeps")
+    rep = rt.engine.report(frame)
+    stretch = frame_report.shown_stretch(rep)
+    if stretch > frame_report.STRETCH_LIMIT:
+        out.append(f"{'Mesh edges' if rep.mesh is not None else 'Particles'} stretched {stretch:.1f}x the rest "
+                   "length: raise Stiffness or Substeps")
     if rep is not None and rep.handle_fast:
         out.append(f"A handle moves {100 * rep.handle_step:.0f} % of the body a step: raise Substeps")
     turn = checks.turn_text(rep.turn, frame_rate(bpy.context.scene)) if rep is not None else None

@@ -19,7 +19,7 @@ from .compiled import AddonError, module
 from .discovery import enabled_objects
 from .handle_data import handle_targets
 from .parameters import frame_range
-from .runtime import cache_modifier, configure, ensure, frame_input, show
+from .runtime import cache_modifier, configure, ensure, evaluated_object, frame_input, show
 from .state import bodies, forget_groups, get
 
 _catch_up = {"running": False}  # the modal Catch Up (catch_up.py) is running
@@ -61,8 +61,9 @@ def frame_run(obj, scene, depsgraph=None):
     rt = ensure(obj, scene, depsgraph)
     if rt is None or obj.opdeform.mode != 'DYNAMIC':
         return None
-    configure(rt, obj, scene, depsgraph)
-    incoming, matrix = frame_input(obj, rt, depsgraph)
+    evaluated = evaluated_object(obj, depsgraph)
+    configure(rt, obj, scene, depsgraph, evaluated)
+    incoming, matrix = frame_input(obj, rt, evaluated)
     frame, subframe = scene.frame_current, scene.frame_subframe
     if subframe > 0.0:
         offset = subframe_offset(rt, frame, subframe, incoming)
@@ -128,7 +129,7 @@ def pose_update(obj, scene, depsgraph=None, force=False):
     targets = handle_targets(rt, s, depsgraph)
     if not force and rt.handle_matrices == before and rt.shown is not None and rt.shown[0] == "pose":
         return False
-    incoming = frame_input(obj, rt, depsgraph)[0]
+    incoming = frame_input(obj, rt, evaluated_object(obj, depsgraph))[0]
     try:
         rt.engine.pose(targets, s.pose_iterations, incoming)
     except EngineError as exc:

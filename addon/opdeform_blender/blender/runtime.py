@@ -21,21 +21,25 @@ from . import modifier, presets
 from .compiled import AddonError, module
 from .discovery import mark_discovery
 from .handle_data import active_handles, bind_handle, bind_new_handles, handle_matrix
-from .mesh_data import bone_moved, check_object, read_vertex_group, read_weights, triangles, vertex_positions
+from .mesh_data import (bone_moved, check_object, edges, group_index, read_vertex_group, read_weights,
+                        triangles, vertex_positions)
 from .parameters import (body_contact, cache_folder, floor, frame_range, frame_rate, gravity, goal_strength,
                          graph_key, maps, self_contact, settings_key, sim_settings)
 from .state import Runtime, get, put, renamed
 
 MODIFIER_NAME = "OPDeform Cache"
+MAP_NAMES = ("follow", "softness", "damping")  # the painted maps as errors name them (modifier.MAPS order)
 
 
 # -- build ---------------------------------------------------------------------------------------------
-def configure(rt, obj, scene, depsgraph=None):
+def configure(rt, obj, scene, depsgraph=None, evaluated=None):
     """Applies the current settings to the engine (a change clears the in-memory cache). Skipped while what it
     reads is as last time (parameters.settings_key, 0.01 ms; configuring the character: 0.15 ms a frame) and no
-    painted map is to be read again (group_weights)."""
+    painted map is to be read again (group_weights; changed_maps with ``evaluated``, the object of this frame's
+    evaluation)."""
     key = settings_key(obj, scene)
-    if (key, tuple(rt.groups)) == rt.configured and obj.mode == 'OBJECT':  # other modes paint or assign groups
+    changed = evaluated is not None and changed_maps(rt, obj, evaluated)
+    if (key, tuple(rt.groups)) == rt.configured and not changed and obj.mode == 'OBJECT':
         return
     rt.configured = None  # a failure below leaves it to be configured again
     s = obj.opdeform
@@ -62,11 +66,49 @@ def find_unrigged(rt, obj):
     rt.unrigged = checks.unrigged_pieces(rt.pieces, bone_moved(obj), rt.engine.rest_local)
 
 
+def picked_groups(s):
+    """The vertex groups the painted maps use (modifier.MAPS order: follow, softness, damping; "" for none)."""
+    group, _, _, soft_group, _, damp_group, _ = maps(s)
+    return (group if goal_strength(s) is not None else "", soft_group, damp_group)
+
+
+def changed_maps(rt, obj, evaluated):
+    """Whether a picked group's weights differ from those read (group_weights reads them again): compared with
+    the weights OPDeform's modifier stored in the evaluated object (modifier.read_maps), so a change by a script,
+    Weight Paint or Edit Mode is applied on the next frame. A picked group that is gone (removed, renamed) raises
+    AddonError naming it. The modifier's inputs are fed again only when the picked groups change."""
+    names = picked_groups(obj.opdeform)
+    for what, name in zip(MAP_NAMES, names):
+        if name:
+            group_index(obj, name, what)
+    if feed_maps(rt, obj, names):  # evaluated again after this frame: nothing of these groups to read yet
+        return False
+    read = [k for k, name in enumerate(names) if name and name in rt.groups]
+    weights = modifier.read_maps(evaluated.data, rt.engine.n_vertices) if read else None
+    if weights is None:
+        return False
+    changed = [names[k] for k in read if not np.array_equal(weights[:, k], rt.groups[names[k]])]
+    for name in set(changed):
+        del rt.groups[name]
+    return bool(changed)
+
+
+def feed_maps(rt, obj, names):
+    """Feeds OPDeform's modifier the picked groups ``names`` (picked_groups) where they changed since it was last
+    fed; returns whether they did."""
+    if names == rt.fed:
+        return False
+    rt.fed = names if modifier.get(obj) is not None else None
+    if rt.fed is not None:
+        modifier.set_maps(obj, names)
+    return True
+
+
 def group_weights(rt, obj, name, what):
-    """A painted map's per-vertex weights (None without a group), kept in the runtime until the object is seen
-    in another mode than Object Mode (where groups are painted and assigned; handlers.on_depsgraph_update looks
-    after each edit): reading a group walks every vertex in Python (about 5 ms for 6,000 vertices), too slow for
-    every frame."""
+    """A painted map's per-vertex weights (None without a group), kept in the runtime until they change
+    (changed_maps) or the object is seen in another mode than Object Mode (Edit Mode, where the modifier does not
+    run): reading a group walks every vertex in Python (about 5 ms for 6,000 vertices), too slow for every
+    frame."""
     if obj.mode != 'OBJECT':
         rt.groups.clear()
     if name not in rt.groups:
@@ -80,10 +122,10 @@ def set_maps(rt, obj, scene):
     group, follow_range, shell_min, soft_group, soft, damp_group, damping = maps(s)
     strength = goal_strength(s)
     try:
-        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, "follow"), follow_range,
-                   shell_min)
-        soft_w = group_weights(rt, obj, soft_group, "softness")
-        damp_w = group_weights(rt, obj, damp_group, "damping")
+        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, MAP_NAMES[0]),
+                   follow_range, shell_min)
+        soft_w = group_weights(rt, obj, soft_group, MAP_NAMES[1])
+        damp_w = group_weights(rt, obj, damp_group, MAP_NAMES[2])
         units = presets.units(s, frame_rate(scene))
         e.set_regions(None if soft_w is None else soft ** soft_w,
                       None if damp_w is None else region_damping(units, e.timestep[0], damp_w, damping))
@@ -107,7 +149,7 @@ def build(obj, scene, depsgraph=None):
             raise AddonError(str(exc)) from None
     try:
         engine = Engine(od, rest, triangles(obj.data), matrix, s.particles, s.graph_mode, s.neighbors,
-                        small_pieces(obj))
+                        small_pieces(obj), edges(obj.data))
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
     rt = Runtime(engine, graph_key(s), pins)
@@ -124,6 +166,7 @@ def build(obj, scene, depsgraph=None):
         raise AddonError(f"{obj.name}: {exc}") from None
     # committed: from here on the object changes
     modifier.ensure(obj)
+    feed_maps(rt, obj, picked_groups(s))
     put(obj, rt)
     s.built = True
     if s.error:
@@ -172,11 +215,13 @@ def check_writable(obj):
                          "or Bake (each object plays its own bake)")
 
 
-def frame_input(obj, rt, depsgraph):
-    """(the object-space positions reaching opdeform's modifier, the object's transform) in this evaluation."""
-    if depsgraph is None:
-        depsgraph = bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
+def evaluated_object(obj, depsgraph):
+    return obj.evaluated_get(bpy.context.evaluated_depsgraph_get() if depsgraph is None else depsgraph)
+
+
+def frame_input(obj, rt, evaluated):
+    """(the object-space positions reaching opdeform's modifier, the object's transform) in this evaluation
+    (``evaluated``: the object there, evaluated_object)."""
     positions, index = modifier.read_input(evaluated.data, rt.engine.n_vertices)
     if positions is None:
         raise AddonError(f"{obj.name}: the OPDeform modifier is missing or disabled: press Build to add it")

@@ -10,13 +10,14 @@ from .panel_base import SubPanel, split
 
 def report_lines(rt, frame, solver_units):
     """The Quality sub-panel's text for the frame shown."""
-    rep = rt.engine.reports.get(frame)
+    rep = rt.engine.report(frame)
     if rep is None:
         return ["No frame simulated yet: play the timeline"]
     error = "fixed iterations" if solver_units or rep.error < 0 else \
         f"error {100 * rep.error:.4f} % of the size"
     return [f"Frame {frame}: {error}", f"{rep.iterations:.1f} iterations a step (most {rep.most})",
-            f"Largest stretch {rep.stretch:.2f}x"]
+            *([] if rep.mesh is None else [f"Largest stretch (mesh edges) {rep.mesh:.2f}x"]),
+            f"Largest stretch (particles) {rep.stretch:.2f}x"]
 
 
 class PHYSICS_PT_opdeform_quality(SubPanel, bpy.types.Panel):

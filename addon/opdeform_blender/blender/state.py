@@ -29,8 +29,9 @@ class Runtime:
         self.unrigged = ()  # the mesh's pieces that no bone moves, found at Build (core/checks.unrigged_pieces)
         self.overlaps = ()  # the objects stepping with it that overlap it at rest without a Goal on both
         # group name -> per-vertex weights of the painted maps (follow, softness, damping), read when first
-        # used and again after the object was in Weight Paint or Edit Mode (runtime.group_weights)
+        # used and again when they changed or the object was in Edit Mode (runtime.group_weights, changed_maps)
         self.groups = {}
+        self.fed = None  # the groups OPDeform's modifier was last given for the maps (runtime.changed_maps)
         self.handle_matrices = None  # bytes of the handle transforms last used
         self.configured = None  # (settings_key, groups read) of the last runtime.configure
         self.shown = None  # what the modifier shows: ("rest"|"frame"|"pose", frame)

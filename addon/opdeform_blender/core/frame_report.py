@@ -10,31 +10,41 @@ from collections import namedtuple
 
 import numpy as np
 
-Report = namedtuple("Report", "error iterations most stretch handle_step handle_fast turn")
+Report = namedtuple("Report", "error iterations most stretch handle_step handle_fast turn mesh", defaults=(None,))
 # error: the largest residual of the frame's steps (fraction of the size, -1: fixed iterations); iterations:
 # local/global pairs per step (mean); most: in one step; stretch: the largest particle edge length / rest length;
 # handle_step: the fastest handle's travel in one step / the body's size; handle_fast: too fast for the steps;
-# turn: the fastest goal's turn into the frame, degrees (checks.goal_turn)
+# turn: the fastest goal's turn into the frame, degrees (checks.goal_turn); mesh: the mesh's largest edge length /
+# rest length in the frame shown (what the artist sees: a thin card's edges stretch beyond the particles'), None
+# until asked while that frame was shown (Engine.report)
 HISTORY = 2000  # frames of reports kept (the plot shows the last PLOT_FRAMES)
 PLOT_FRAMES = 250
 STRETCH_LIMIT = 2.0  # warn beyond twice the rest length
 
 
 class Stretch:
-    """A graph's largest edge length / rest length for given particle positions: the ratio of
-    ``materials.stretch_warning`` with the edges' ends and rest lengths kept from the graph (0.016 ms a frame
+    """The largest edge length / rest length of the edges (E, 2) between points at rest at ``rest``, for given
+    positions: of a graph's edges between its particles (``Stretch(graph.edges, graph.centers)``), the ratio of
+    ``materials.stretch_warning`` with the edges' ends and rest lengths kept (0.016 ms a frame
     for the character's 447 edges at 100 particles, where the warning took 0.044 ms). The ends' positions are
     gathered by ``np.take`` (the same rows; indexing took 0.045 ms a gather for its 5,495 edges at 1,000
     particles, take 0.008)."""
 
-    def __init__(self, graph):
-        e, c = graph.edges, graph.centers
+    def __init__(self, edges, rest):
+        e, c = np.asarray(edges).reshape(-1, 2), np.asarray(rest, dtype=np.float64)
+        length = np.linalg.norm(c[e[:, 0]] - c[e[:, 1]], axis=1)
+        e = e[length > 0.0]  # an edge of zero length at rest (welded vertices) has no stretch
         self.ends = np.ascontiguousarray(e[:, 0]), np.ascontiguousarray(e[:, 1])
-        self.rest = np.linalg.norm(c[self.ends[0]] - c[self.ends[1]], axis=1)
+        self.rest = length[length > 0.0]
+        self.inverse_squares = {}  # dtype -> 1 / rest length squared: squared ratios, one root (of the largest)
 
     def __call__(self, positions):
-        d = np.take(positions, self.ends[0], axis=0) - np.take(positions, self.ends[1], axis=0)
-        return float((np.sqrt(np.einsum("ij,ij->i", d, d)) / self.rest).max(initial=0.0))
+        scale = self.inverse_squares.get(positions.dtype)
+        if scale is None:
+            scale = self.inverse_squares[positions.dtype] = (1.0 / self.rest ** 2).astype(positions.dtype)
+        d = np.take(positions, self.ends[0], axis=0)
+        d -= np.take(positions, self.ends[1], axis=0)
+        return float(np.sqrt(float((np.einsum("ij,ij->i", d, d) * scale).max(initial=0.0))))
 
 
 def report(stretch, sim, handle, turn=0.0):
@@ -43,6 +53,14 @@ def report(stretch, sim, handle, turn=0.0):
     r = sim.step_report
     return Report(float(r["error"]), r["iterations"] / max(1, r["steps"]), int(r["most_iterations"]),
                   stretch(sim.positions), *handle, turn)
+
+
+def shown_stretch(rep):
+    """The largest stretch a frame's report gives: the mesh's edges' where the frame was shown, else the
+    particles' (0 without a report)."""
+    if rep is None:
+        return 0.0
+    return rep.stretch if rep.mesh is None else rep.mesh
 
 
 class FrameReports:
@@ -63,6 +81,12 @@ class FrameReports:
 
     def get(self, frame):
         return self.frames.get(frame)
+
+    def note_mesh(self, frame, stretch, positions):
+        """Adds the mesh's stretch (a Stretch of its edges) at ``positions`` to the frame's report, once."""
+        rep = self.frames.get(frame)
+        if rep is not None and rep.mesh is None:
+            self.frames[frame] = rep._replace(mesh=stretch(positions))
 
     def worst_stretch(self):
         return max((r.stretch for r in self.frames.values()), default=0.0)
