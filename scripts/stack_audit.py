@@ -1,7 +1,8 @@
 """Issue 27's stacks as a new user sets them up in the add-on's panel, in either Blender host:
 
     OPDEFORM_PYTHONPATH=build/python blender -b --factory-startup --python-exit-code 1 -P scripts/stack_audit.py \
-        -- [--presets Jelly,Flesh,Rubber,Stiff] [--cases spheres,small,suzannes,monkeys] [--until 13] [--render DIR]
+        -- [--presets Jelly,Flesh,Rubber,Stiff] [--cases spheres,small,suzannes,monkeys] [--until 13] [--render DIR] \
+        [--friction MU]
     OPDEFORM_PYTHONPATH=build/python <python with the bpy module> scripts/stack_audit.py [same options]
 
 Per preset (applied from the panel's menu, every other setting at the panel's defaults, the panel's Floor
@@ -12,7 +13,8 @@ tests/blender/suite_colliders.py's) dropped 1 m onto another; "monkeys", the sam
 last second (UNTIL), how far above the lower's highest vertex it is then, its creep (how much the distance aside
 changed over the last second, m/s), whether it stayed on top (its centre 0.2 m above that vertex every second from
 3 s, as the suite's stack tests ask) and any error or NaN. --render DIR writes a Workbench still at the last second
-of every case that ends off the top (DIR/stack_PRESET_CASE.png).
+of every case that ends off the top (DIR/stack_PRESET_CASE.png). --friction MU gives both bodies' Floor and their
+contact with each other the Coulomb MU (the panel's Floor Friction MU, Object Friction 10 MU; its defaults: 0.5).
 """
 
 import argparse
@@ -54,6 +56,13 @@ def play(low, high, until):
     return figures, on_top, None
 
 
+def set_friction(objects, mu):
+    """Coulomb ``mu`` for the objects' Floor and their contact with each other (Object Friction is 10 mu)."""
+    for obj in objects:
+        obj.opdeform.floor_friction = mu
+        obj.opdeform_contact.object_friction = 10.0 * mu
+
+
 def still(path, low, high):
     """A Workbench render of the pair on a 6 m square (the Floor, drawn), the camera aimed at their middle from
     the side of the line between them."""
@@ -90,6 +99,8 @@ def main(argv):
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--until", type=int, default=13, help="the last second")
     ap.add_argument("--render", default=None)
+    ap.add_argument("--friction", type=float, default=None,
+                    help="Coulomb mu of both bodies' Floor and Object Friction (default: the panel's)")
     args = ap.parse_args(argv)
     host = ("Blender " if bpy.app.binary_path else "bpy ") + "%d.%d.%d" % tuple(bpy.app.version)
     print(header(args.until), flush=True)
@@ -97,6 +108,8 @@ def main(argv):
         for case in args.cases.split(","):
             H.fresh()
             low, high = CASES[case](preset)
+            if args.friction is not None:
+                set_friction((low, high), args.friction)
             figures, on_top, error = play(low, high, args.until)
             print(row(host, preset, case, figures, on_top, error, args.until), flush=True)
             if args.render and not on_top and not error:

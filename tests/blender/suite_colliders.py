@@ -454,11 +454,18 @@ def suzanne_pair(on_floor, preset=None, levels=2):
     vertex at 0) or on a Collision plane (5 mm above it), the upper 1 m above its head: (lower, upper)."""
     if not on_floor:
         _collision_plane()
+    low, high = placed_suzannes(levels, 0.0 if on_floor else 0.005)
+    return tuple(_stack_member(obj, on_floor, preset) for obj in (low, high))
+
+
+def placed_suzannes(levels, ground):
+    """Two Suzannes (subdivided ``levels`` times), the lower's lowest vertex at ``ground``, the upper 1 m above its
+    head: (lower, upper), not enabled."""
     low, high = _suzanne("Low", levels), _suzanne("High", levels)
     z = np.array([v.co.z for v in low.data.vertices])
-    low.location.z = (0.0 if on_floor else 0.005) - z.min()
+    low.location.z = ground - z.min()
     high.location.z = low.location.z + z.max() + 1.0 - z.min()
-    return tuple(_stack_member(obj, on_floor, preset) for obj in (low, high))
+    return low, high
 
 
 def sphere_pair(on_floor, preset, upper=0.5, high=2.0, suffix=""):
