@@ -319,6 +319,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->supported);
 	od_Free(s->climbing);
 	od_Free(s->fast);
+	od_Free(s->perched);
 	od_Free(s->storeys);
 	od_Free(s->mass);
 	od_Free(s->load);
@@ -365,6 +366,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
 	s->fast = od_AllocZero((size_t)particles, sizeof(int));
+	s->perched = od_AllocZero((size_t)particles, sizeof(int));
 	s->storeys = od_Alloc(sizeof(int) * (size_t)particles);
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
@@ -375,7 +377,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
 	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing ||
 		!s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported ||
-		!s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys || !s->alone ||
+		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys || !s->alone ||
 		!s->box)
 	{
 		od_PairScratch_Destroy(s);
@@ -820,6 +822,13 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
+// Whether a pair's normal rises towards its lighter member by more than OD_HELD_RISE: the lighter rests on it.
+static bool od_LightOnTop(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
+	return (ma > mb ? pair->n[2] : -pair->n[2]) > OD_HELD_RISE;
+}
+
 // Whether a pair's two members' masses are within s->comparable of each other (od_MemberMasses): only
 // such pairs press a member onto its floor's reaction (od_FloorReaction), take the members' rigid step
 // (od_Coarse) and hold a push (od_Held). Beyond it the light member was squeezed out from under the heavy one
@@ -838,9 +847,15 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
-	double rise = ma > mb ? pair->n[2] : -pair->n[2]; // towards the lighter end
-	bool lightOnTop = s->comparable < OD_COMPARABLE && rise > OD_HELD_RISE;
-	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || lightOnTop;
+	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || (s->comparable < OD_COMPARABLE && od_LightOnTop(s, pair));
+}
+
+// The lighter member of a pair whose normal rises towards it by more than OD_HELD_RISE (it rests on the heavier
+// one), between members that are not comparable (od_Comparable); else -1.
+static int od_Perched(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	int ma = s->body[pair->a], mb = s->body[pair->b];
+	return ma != mb && !od_Comparable(s, pair) && od_LightOnTop(s, pair) ? (s->mass[ma] > s->mass[mb] ? mb : ma) : -1;
 }
 
 // The inverse of a symmetric 3 × 3 matrix a (its adjugate over its determinant), zero where a is singular.
@@ -1492,11 +1507,12 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
-// relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
+// relative tangential displacement over the step, within μ times the normal force, at `slide` (od_SlideRate).
+// The rate is the pair's
 // stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
 // particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  const od_Interface* e)
+						  double slide, const od_Interface* e)
 {
 	if (!pair->touching)
 	{
@@ -1510,7 +1526,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
-				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
+				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
@@ -1818,6 +1834,30 @@ static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 	}
 }
 
+// How many pairs in contact each member rests on that lead to much heavier members (s->perched, od_Perched).
+static void od_CountPerched(od_PairScratch* s, int count)
+{
+	memset(s->perched, 0, sizeof(int) * (size_t)count);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int m = od_InContact(&s->pairs[k]) ? od_Perched(s, &s->pairs[k]) : -1;
+		s->perched[m >= 0 ? m : 0] += m >= 0;
+	}
+}
+
+// The rate of a pair's friction (od_UpdatePair): its own, but for a member resting on much heavier ones
+// (od_Perched), which takes no rigid step of friction (od_CoarseFriction: comparable members only), that of its
+// whole mass shared over the pairs it rests on, M / (h² count), where larger: a particle's own rate moves a
+// stiff body by the share of its particles that touch, and the friction lagged the pairs' leaning normals (a
+// Rubber slab on one 1,000 times as dense, crushed bumpy under its own weight, at 24 steps a second resting on
+// 5-10 pairs each at its Coulomb bound in ever-changing directions, shook at 0.167 m/s; docs/contact.md,
+// "Stacks", stop 46). The heavier end hardly moves: the light member's inertia alone is what the rate stands for.
+static double od_SlideRate(const od_PairScratch* s, const od_ContactPair* pair, double rate, double h2)
+{
+	int m = od_Perched(s, pair);
+	return m >= 0 && s->perched[m] > 0 ? fmax(rate, s->mass[m] / (h2 * s->perched[m])) : rate;
+}
+
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
 // the particles' right sides for the next solve. The pairs pressing a particle are those counted at the
 // last update (s->active; none at the first), so that one pass does it.
@@ -1836,6 +1876,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	od_Interfaces(s, sims);
 	od_Coarse(s, h2);
 	od_CoarseFriction(s, sims, h2);
+	od_CountPerched(s, count);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
@@ -1843,7 +1884,8 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
-		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+		od_UpdatePair(pair, &a, &b, between->friction, rate, od_SlideRate(s, pair, rate, h2),
+					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;
