@@ -850,8 +850,8 @@ static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || (s->comparable < OD_COMPARABLE && od_LightOnTop(s, pair));
 }
 
-// The lighter member of a pair whose normal rises towards it by more than OD_HELD_RISE (it rests on the heavier
-// one), between members that are not comparable (od_Comparable); else -1.
+// The lighter member of a pair between members that are not comparable (od_Comparable) whose normal rises towards
+// it (od_LightOnTop): it rests on the much heavier one; else -1.
 static int od_Perched(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	int ma = s->body[pair->a], mb = s->body[pair->b];
@@ -1507,12 +1507,11 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
-// relative tangential displacement over the step, within μ times the normal force, at `slide` (od_SlideRate).
-// The rate is the pair's
+// relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
 // stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
 // particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  double slide, const od_Interface* e)
+						  const od_Interface* e)
 {
 	if (!pair->touching)
 	{
@@ -1526,7 +1525,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
-				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
+				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
@@ -1845,17 +1844,24 @@ static void od_CountPerched(od_PairScratch* s, int count)
 	}
 }
 
-// The rate of a pair's friction (od_UpdatePair): its own, but for a member resting on much heavier ones
-// (od_Perched), which takes no rigid step of friction (od_CoarseFriction: comparable members only), that of its
-// whole mass shared over the pairs it rests on, M / (h² count), where larger: a particle's own rate moves a
-// stiff body by the share of its particles that touch, and the friction lagged the pairs' leaning normals (a
-// Rubber slab on one 1,000 times as dense, crushed bumpy under its own weight, at 24 steps a second resting on
-// 5-10 pairs each at its Coulomb bound in ever-changing directions, shook at 0.167 m/s; docs/contact.md,
-// "Stacks", stop 46). The heavier end hardly moves: the light member's inertia alone is what the rate stands for.
-static double od_SlideRate(const od_PairScratch* s, const od_ContactPair* pair, double rate, double h2)
+// The rate of a pair's forces (od_UpdatePair): `rate`, its particles' own, but for a member resting on much heavier
+// ones (od_Perched) that of its whole mass shared over the pairs it rests on, with its particle's own compliance
+// (od_OwnCompliance), 1 / (h² count / M + c), where larger. Such a member takes no rigid step (od_Coarse,
+// od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its particles
+// that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a second
+// rested on 3-10 pairs, its friction at its Coulomb bound on each, their normal forces over and under its weight
+// by a tenth from step to step; it rocked at 0.17 m/s, or slid off after settling on the lower one first
+// (docs/contact.md, "Stacks", stop 46). The heavier end hardly moves: the light member's inertia is what counts.
+static double od_PerchedRate(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
+							 double h2)
 {
 	int m = od_Perched(s, pair);
-	return m >= 0 && s->perched[m] > 0 ? fmax(rate, s->mass[m] / (h2 * s->perched[m])) : rate;
+	if (m < 0 || s->perched[m] == 0)
+	{
+		return rate;
+	}
+	int p = s->body[pair->a] == m ? pair->a : pair->b;
+	return fmax(rate, 1.0 / (h2 * s->perched[m] / s->mass[m] + od_OwnCompliance(sims[m], s->local[p])));
 }
 
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
@@ -1883,9 +1889,8 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
-		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
-		od_UpdatePair(pair, &a, &b, between->friction, rate, od_SlideRate(s, pair, rate, h2),
-					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+		double rate = od_PerchedRate(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2);
+		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;
