@@ -44,6 +44,8 @@
 // their friction lagged their leaning normals. A member on its floor pushed down by its pairs gets the floor's
 // reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only between members
 // within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
+// A member resting on much heavier ones takes its pairs' forces at its whole mass's rate shared over them instead
+// (od_PerchedRate).
 // Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
@@ -1849,9 +1851,9 @@ static void od_CountPerched(od_PairScratch* s, int count)
 // (od_OwnCompliance), 1 / (h² count / M + c), where larger. Such a member takes no rigid step (od_Coarse,
 // od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its particles
 // that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a second
-// rested on 3-10 pairs, its friction at its Coulomb bound on each, their normal forces over and under its weight
-// by a tenth from step to step; it rocked at 0.17 m/s, or slid off after settling on the lower one first
-// (docs/contact.md, "Stacks", stop 46). The heavier end hardly moves: the light member's inertia is what counts.
+// rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one settled first
+// (0.95 m aside at 7 s); with this rate it rests from 1 s (docs/contact.md, "Stacks", stop 46). The heavier end
+// hardly moves: the light member's inertia is what counts. At 3 or 10 times this rate it slid off.
 static double od_PerchedRate(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
 							 double h2)
 {
