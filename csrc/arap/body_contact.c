@@ -44,8 +44,8 @@
 // their friction lagged their leaning normals. A member on its floor pushed down by its pairs gets the floor's
 // reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only between members
 // within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
-// A member resting on much heavier ones takes its pairs' forces at its whole mass's rate shared over them instead
-// (od_PerchedRate).
+// A member resting on much heavier ones takes its pairs' forces at its rigid rate shared over them instead
+// (od_PerchedRates).
 // Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
@@ -234,6 +234,8 @@
 // and 0.028 without), two of its pairs' friction opposing each other at ±600 N (docs/contact.md, "Stacks", eleventh
 // round).
 #define OD_FRICTION_STEP (1.0 / 60.0)
+// The fewest pairs a member resting on much heavier ones takes its rigid rates on (od_PerchedRates).
+#define OD_PERCHED_PAIRS 3
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -1509,11 +1511,12 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
-// relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
+// relative tangential displacement over the step, within μ times the normal force (at `slide`, od_PerchedRates).
+// The rate is the pair's
 // stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
 // particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  const od_Interface* e)
+						  double slide, const od_Interface* e)
 {
 	if (!pair->touching)
 	{
@@ -1527,7 +1530,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
-				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
+				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
@@ -1846,24 +1849,44 @@ static void od_CountPerched(od_PairScratch* s, int count)
 	}
 }
 
-// The rate of a pair's forces (od_UpdatePair): `rate`, its particles' own, but for a member resting on much heavier
-// ones (od_Perched) that of its whole mass shared over the pairs it rests on, with its particle's own compliance
-// (od_OwnCompliance), 1 / (h² count / M + c), where larger. Such a member takes no rigid step (od_Coarse,
-// od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its particles
-// that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a second
-// rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one settled first
-// (0.95 m aside at 7 s); with this rate it rests from 1 s (docs/contact.md, "Stacks", stop 46). The heavier end
-// hardly moves: the light member's inertia is what counts. At 3 or 10 times this rate it slid off.
-static double od_PerchedRate(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
-							 double h2)
+// How far member m's point at r from its centre (at the step's start) moves along unit u per newton along u, as a
+// rigid body that also turns: h² (1 / M + (r × u)ᵀ I⁻¹ (r × u)).
+static double od_PointCompliance(const od_PairScratch* s, int m, od_Vec3 r, od_Vec3 u, double h2)
+{
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * m + 3);
+	od_Vec3 ru = od_Cross(r, u);
+	return h2 * (1.0 / s->mass[m] + od_Dot(ru, od_M3MulV(&inverse, ru)));
+}
+
+// The rates of a pair's normal force and friction (od_UpdatePair): `rate`, its particles' own, but for a member
+// resting on much heavier ones (od_Perched) those of the member as a rigid body at the pair's particle (along the
+// normal; across it, the larger of two directions' compliances), its count pairs sharing it, plus the particle's own
+// compliance (od_OwnCompliance): 1 / (count c_rigid + c_own), where larger. Such a member takes no rigid step
+// (od_Coarse, od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its
+// particles that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a
+// second rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one settled
+// first (0.95 m aside at 7 s); with these rates it rests from 1 s (docs/contact.md, "Stacks", stop 46). The heavier
+// end hardly moves: the light member's inertia is what counts. At 3 or 10 times the rates the slab slid off.
+//
+// Only for a member resting on OD_PERCHED_PAIRS pairs or more: on fewer it is balanced on them and turns about
+// them, and at the rigid rate a Rubber sphere on one 100 times as dense at 60 steps a second rolled off (0.70 m aside
+// at 6 s in 3 of 4 drops; 0.07-0.09 m with the limit, as before).
+static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
+							double h2, double* normal, double* friction)
 {
 	int m = od_Perched(s, pair);
-	if (m < 0 || s->perched[m] == 0)
+	*normal = *friction = rate;
+	if (m < 0 || s->perched[m] < OD_PERCHED_PAIRS)
 	{
-		return rate;
+		return;
 	}
-	int p = s->body[pair->a] == m ? pair->a : pair->b;
-	return fmax(rate, 1.0 / (h2 * s->perched[m] / s->mass[m] + od_OwnCompliance(sims[m], s->local[p])));
+	int p = s->body[pair->a] == m ? pair->a : pair->b, i = s->local[p];
+	od_Vec3 r = od_Sub(od_V3Load(sims[m]->state.x + 3 * i), od_V3Load(s->pose + 13 * m)), n = od_V3Load(pair->n), t[2];
+	od_Across(n, t);
+	double own = od_OwnCompliance(sims[m], i), count = s->perched[m];
+	double across = fmax(od_PointCompliance(s, m, r, t[0], h2), od_PointCompliance(s, m, r, t[1], h2));
+	*normal = fmax(rate, 1.0 / (count * od_PointCompliance(s, m, r, n, h2) + own));
+	*friction = fmax(rate, 1.0 / (count * across + own));
 }
 
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
@@ -1891,8 +1914,10 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
-		double rate = od_PerchedRate(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2);
-		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+		double rate, slide;
+		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
+		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
+					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;
