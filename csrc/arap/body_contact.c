@@ -381,8 +381,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
 	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing ||
 		!s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported ||
-		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys || !s->alone ||
-		!s->box)
+		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->kept ||
+		!s->storeys || !s->alone || !s->box)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -1512,9 +1512,8 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
 // relative tangential displacement over the step, within μ times the normal force (at `slide`, od_PerchedRates).
-// The rate is the pair's
-// stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
-// particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
+// The rate is the pair's stiffness as two free particles, shared among the pairs pressing each (so that several
+// pairs on one particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
 						  double slide, const od_Interface* e)
 {
@@ -1845,7 +1844,10 @@ static void od_CountPerched(od_PairScratch* s, int count)
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		int m = od_InContact(&s->pairs[k]) ? od_Perched(s, &s->pairs[k]) : -1;
-		s->perched[m >= 0 ? m : 0] += m >= 0;
+		if (m >= 0)
+		{
+			s->perched[m]++;
+		}
 	}
 }
 
