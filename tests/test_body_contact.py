@@ -699,3 +699,17 @@ def test_three_slabs_the_upper_much_denser_stay_stacked(preset, densities):
             assert _centres_energy(sims) <= start, second
         z = [s.positions[:, 2].mean() for s in sims]
         assert z[1] - z[0] > 0.1 and z[2] - z[1] > 0.1, (second, z)
+
+
+def test_at_24_steps_a_second_a_slab_on_one_1000_times_as_dense_rests_on_top():
+    """Issue 27, at one step a frame (1/24 s): a Rubber slab dropped 0.05 m onto one 1,000 times as dense resting on
+    the floor (crushed bumpy under its own weight) rests on top from 3 s to 13 s without gaining energy. It rests on
+    3-5 pairs, each updated at a particle's own rate, most at their Coulomb bound: it slid off at 6 s (0.186 m/s at
+    3 s); the pairs of a member resting on much heavier ones now take its rate as a rigid body, shared over them
+    (docs/contact.md, stacks, stop 46)."""
+    density = 1100.0  # Rubber's own
+    lower, upper = _on_a_settled_slab("Rubber", density * 1000, density, 24)
+    for second, (above, aside, fastest, rise) in enumerate(_stacked_seconds(lower, upper, 13, 24), 1):
+        assert rise <= 0.0, (second, rise)
+        if second >= 3:
+            assert above > 0.1 and aside < 0.05 and fastest < 0.05, (second, above, aside, fastest)

@@ -44,6 +44,8 @@
 // their friction lagged their leaning normals. A member on its floor pushed down by its pairs gets the floor's
 // reaction in the solves (od_FloorReaction) and is held vertically in the rigid step. Both only between members
 // within OD_COMPARABLE of each other's mass (od_Comparable: beyond, drops gained energy).
+// A member resting on much heavier ones takes its pairs' forces at its rigid rate shared over them instead
+// (od_PerchedRates).
 // Beyond it, a member supported from the floor up stands immovable and still to a heavier one resting on it
 // (shock propagation, od_Braced, od_Brace): its pairs' forces and pushes stop the heavy one alone, so it is
 // never pushed through the floor and passed through (slabs 100 to 1e6 times as dense as the one below rest on
@@ -232,6 +234,8 @@
 // and 0.028 without), two of its pairs' friction opposing each other at ±600 N (docs/contact.md, "Stacks", eleventh
 // round).
 #define OD_FRICTION_STEP (1.0 / 60.0)
+// The fewest pairs a member resting on much heavier ones takes its rigid rates on (od_PerchedRates).
+#define OD_PERCHED_PAIRS 3
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -319,6 +323,7 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->supported);
 	od_Free(s->climbing);
 	od_Free(s->fast);
+	od_Free(s->perched);
 	od_Free(s->storeys);
 	od_Free(s->mass);
 	od_Free(s->load);
@@ -365,6 +370,7 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->supported = od_AllocZero((size_t)particles, sizeof(int));
 	s->climbing = od_AllocZero((size_t)particles, sizeof(int));
 	s->fast = od_AllocZero((size_t)particles, sizeof(int));
+	s->perched = od_AllocZero((size_t)particles, sizeof(int));
 	s->storeys = od_Alloc(sizeof(int) * (size_t)particles);
 	s->mass = od_Alloc(sizeof(double) * (size_t)particles);
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
@@ -375,8 +381,8 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
 	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing ||
 		!s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported ||
-		!s->climbing || !s->fast || !s->mass || !s->load || !s->pose || !s->roll || !s->kept || !s->storeys || !s->alone ||
-		!s->box)
+		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->kept ||
+		!s->storeys || !s->alone || !s->box)
 	{
 		od_PairScratch_Destroy(s);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the contact of %d particles", particles);
@@ -820,6 +826,13 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
+// Whether a pair's normal rises towards its lighter member by more than OD_HELD_RISE: the lighter rests on it.
+static bool od_LightOnTop(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
+	return (ma > mb ? pair->n[2] : -pair->n[2]) > OD_HELD_RISE;
+}
+
 // Whether a pair's two members' masses are within s->comparable of each other (od_MemberMasses): only
 // such pairs press a member onto its floor's reaction (od_FloorReaction), take the members' rigid step
 // (od_Coarse) and hold a push (od_Held). Beyond it the light member was squeezed out from under the heavy one
@@ -838,9 +851,15 @@ static void od_CacheMoments(od_PairScratch* s, od_Sim* const* sims, int count)
 static bool od_Comparable(const od_PairScratch* s, const od_ContactPair* pair)
 {
 	double ma = s->mass[s->body[pair->a]], mb = s->mass[s->body[pair->b]];
-	double rise = ma > mb ? pair->n[2] : -pair->n[2]; // towards the lighter end
-	bool lightOnTop = s->comparable < OD_COMPARABLE && rise > OD_HELD_RISE;
-	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || lightOnTop;
+	return fmax(ma, mb) <= s->comparable * fmin(ma, mb) || (s->comparable < OD_COMPARABLE && od_LightOnTop(s, pair));
+}
+
+// The lighter member of a pair between members that are not comparable (od_Comparable) whose normal rises towards
+// it (od_LightOnTop): it rests on the much heavier one; else -1.
+static int od_Perched(const od_PairScratch* s, const od_ContactPair* pair)
+{
+	int ma = s->body[pair->a], mb = s->body[pair->b];
+	return ma != mb && !od_Comparable(s, pair) && od_LightOnTop(s, pair) ? (s->mass[ma] > s->mass[mb] ? mb : ma) : -1;
 }
 
 // The inverse of a symmetric 3 × 3 matrix a (its adjugate over its determinant), zero where a is singular.
@@ -1492,11 +1511,11 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
 // is deeper than allowed and shrinks (to 0) while it is apart; the friction force grows against the pair's
-// relative tangential displacement over the step, within μ times the normal force. The rate is the pair's
-// stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
-// particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
+// relative tangential displacement over the step, within μ times the normal force (at `slide`, od_PerchedRates).
+// The rate is the pair's stiffness as two free particles, shared among the pairs pressing each (so that several
+// pairs on one particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  const od_Interface* e)
+						  double slide, const od_Interface* e)
 {
 	if (!pair->touching)
 	{
@@ -1510,7 +1529,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
-				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
+				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
@@ -1818,6 +1837,60 @@ static void od_CoarseFriction(od_PairScratch* s, od_Sim* const* sims, double h2)
 	}
 }
 
+// How many pairs in contact each member rests on that lead to much heavier members (s->perched, od_Perched).
+static void od_CountPerched(od_PairScratch* s, int count)
+{
+	memset(s->perched, 0, sizeof(int) * (size_t)count);
+	for (int k = 0; k < s->nearCount; ++k)
+	{
+		int m = od_InContact(&s->pairs[k]) ? od_Perched(s, &s->pairs[k]) : -1;
+		if (m >= 0)
+		{
+			s->perched[m]++;
+		}
+	}
+}
+
+// How far member m's point at r from its centre (at the step's start) moves along unit u per newton along u, as a
+// rigid body that also turns: h² (1 / M + (r × u)ᵀ I⁻¹ (r × u)).
+static double od_PointCompliance(const od_PairScratch* s, int m, od_Vec3 r, od_Vec3 u, double h2)
+{
+	od_Mat3 inverse = od_M3Load(s->pose + 13 * m + 3);
+	od_Vec3 ru = od_Cross(r, u);
+	return h2 * (1.0 / s->mass[m] + od_Dot(ru, od_M3MulV(&inverse, ru)));
+}
+
+// The rates of a pair's normal force and friction (od_UpdatePair): `rate`, its particles' own, but for a member
+// resting on much heavier ones (od_Perched) those of the member as a rigid body at the pair's particle (along the
+// normal; across it, the larger of two directions' compliances), its count pairs sharing it, plus the particle's own
+// compliance (od_OwnCompliance): 1 / (count c_rigid + c_own), where larger. Such a member takes no rigid step
+// (od_Coarse, od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its
+// particles that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a
+// second rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one settled
+// first (0.95 m aside at 7 s); with these rates it rests from 1 s (docs/contact.md, "Stacks", stop 46). The heavier
+// end hardly moves: the light member's inertia is what counts. At 3 or 10 times the rates the slab slid off.
+//
+// Only for a member resting on OD_PERCHED_PAIRS pairs or more: on fewer it is balanced on them and turns about
+// them, and at the rigid rate a Rubber sphere on one 100 times as dense at 60 steps a second rolled off (0.70 m aside
+// at 6 s in 3 of 4 drops; 0.07-0.09 m with the limit, as before).
+static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
+							double h2, double* normal, double* friction)
+{
+	int m = od_Perched(s, pair);
+	*normal = *friction = rate;
+	if (m < 0 || s->perched[m] < OD_PERCHED_PAIRS)
+	{
+		return;
+	}
+	int p = s->body[pair->a] == m ? pair->a : pair->b, i = s->local[p];
+	od_Vec3 r = od_Sub(od_V3Load(sims[m]->state.x + 3 * i), od_V3Load(s->pose + 13 * m)), n = od_V3Load(pair->n), t[2];
+	od_Across(n, t);
+	double own = od_OwnCompliance(sims[m], i), count = s->perched[m];
+	double across = fmax(od_PointCompliance(s, m, r, t[0], h2), od_PointCompliance(s, m, r, t[1], h2));
+	*normal = fmax(rate, 1.0 / (count * od_PointCompliance(s, m, r, n, h2) + own));
+	*friction = fmax(rate, 1.0 / (count * across + own));
+}
+
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
 // the particles' right sides for the next solve. The pairs pressing a particle are those counted at the
 // last update (s->active; none at the first), so that one pass does it.
@@ -1836,14 +1909,17 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	od_Interfaces(s, sims);
 	od_Coarse(s, h2);
 	od_CoarseFriction(s, sims, h2);
+	od_CountPerched(s, count);
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
-		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
-		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+		double rate, slide;
+		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
+		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
+					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;

@@ -222,6 +222,7 @@ typedef struct od_PairScratch
 	int* supported;   // per member: on its floor or resting on supported members (od_Supports)
 	int* climbing;    // per member: rising at the step's start faster than gravity stops in a step (od_MemberMasses)
 	int* fast;        // per member: moving up or down at the step's start faster than OD_ROLL_LANDING (od_MemberMasses)
+	int* perched;     // per member: its pairs in contact resting on much heavier members (od_CountPerched)
 	int* storeys;     // per storey, from the floor up: its member (od_BodyContact_Carry)
 	double* load;     // per member: the vertical force of its comparable pairs (od_FloorReaction)
 	double* pose;     // 13 per member: its centre of mass at the step's start, the inverse of its inertia about it
