@@ -346,7 +346,7 @@ def test_a_group_saved_and_restored_with_its_members_steps_on_bit_for_bit(bar):
     group = opdeform.ContactGroup([a, b])
     group.step(40)  # the upper bar rests on the lower one
     saved, members = group.save_state(), pickle.dumps((a, b))
-    assert saved[0].shape[1] == 2 and saved[1].shape == (len(saved[0]), 7) and (saved[1][:, 0] > 0).any()
+    assert saved[0].shape[1] == 2 and saved[1].shape == (len(saved[0]), 10) and (saved[1][:, 0] > 0).any()
     group.step(5)
     again = opdeform.ContactGroup(pickle.loads(members))
     again.restore_state(saved)
@@ -376,9 +376,10 @@ def test_bad_input(bar):
         opdeform.ContactGroup([a, other]).step()
     group = opdeform.ContactGroup([a, _body(g, (0, 0, 1))])
     n = 2 * g.n_particles
-    for pairs, forces, match in (([[0, n]], np.zeros((1, 7)), "pairs"), ([[3, 2]], np.zeros((1, 7)), "pairs"),
-                                 ([[0, 1]], [[np.nan] + [0] * 6], "finite"), ([[0, 1]], [[-1.0] + [0] * 6], ">= 0"),
-                                 ([[0, 1]], np.zeros((2, 7)), "forces")):
+    for pairs, forces, match in (([[0, n]], np.zeros((1, 10)), "pairs"), ([[3, 2]], np.zeros((1, 10)), "pairs"),
+                                 ([[0, 1]], [[np.nan] + [0] * 9], "finite"), ([[0, 1]], [[-1.0] + [0] * 9], ">= 0"),
+                                 ([[0, 1]], [[0] * 6 + [1, 0, 0, np.inf]], "finite"),
+                                 ([[0, 1]], np.zeros((1, 7)), "forces"), ([[0, 1]], np.zeros((2, 10)), "forces")):
         with pytest.raises(ValueError, match=match):
             group.restore_state((pairs, forces))
         assert group.save_state()[0].shape == (0, 2)
