@@ -193,13 +193,15 @@
 // of two free particles, more overshoots a particle loosely bound to its body (soft, or a long step).
 #define OD_FORCE_RATE 1.0
 // How much of a sticking pair's slip since it began to stick, beyond this step's own, its friction asks back in a
-// step (od_Slip). Against the step's start alone, static friction let what a step's last solve left slide: a Stiff
-// sphere resting on another on one pair 5° from the vertical, its friction a tenth to a third of its bound, slid
-// 15 µm a step (4 updates; 240 steps a second) and went 0.072 m aside in 10 s. Anchored, the slip stays near the
-// step's residual over this (0.5 mm) and the sphere rests (0.011 m aside at 13 s); 0.1 let the 0.35 m Stiff sphere
-// of the same test rest 0.015 m aside (0.007 at 0.03, 0.009 before), at 0.3 the spheres rattled (kinetic 1-2 J)
-// and slid 0.13 m, asked back faster than a stiff member's pairs' friction can move it (docs/contact.md, "Stacks",
-// stop 46).
+// step (od_Slip), at steps of OD_FRICTION_STEP or shorter. Against the step's start alone, static friction let what a
+// step's last solve left slide: a Stiff sphere resting on another on one pair 5° from the vertical, its friction a
+// tenth to a third of its bound, slid 15 µm a step (4 updates; 240 steps a second) and went 0.072 m aside in 10 s.
+// Anchored, the slip stays near the step's residual over this (0.5 mm) and the sphere rests (0.011 m aside at 13
+// s); 0.1 let the 0.35 m Stiff sphere of the same test rest 0.015 m aside (0.007 at 0.03, 0.009 before); at 0.3 the
+// spheres rattled (kinetic 1-2 J) and slid 0.13 m, asked back faster than a stiff member's pairs' friction moves it.
+// At longer steps, where the members' rigid step takes friction (od_CoarseFriction), it asks back nothing: there
+// (1/24 s) a Jelly slab on one 10 times as dense jolted to 0.116 m/s and a Rubber slab under one 1,000 times as light
+// threw it off (docs/contact.md, "Stacks", stop 46).
 #define OD_ANCHOR_PULL 0.03
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
@@ -1504,9 +1506,9 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 	return od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
 }
 
-// A pair's friction's measure: its displacement in this step and OD_ANCHOR_PULL of how far b had moved from a
-// before it since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid).
-static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b)
+// A pair's friction's measure: its displacement in this step and `pull` of how far b had moved from a before it
+// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid).
+static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0);
 	if (!pair->anchored)
@@ -1514,7 +1516,7 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b)
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	return od_MulAdd(od_Displacement(a, b), OD_ANCHOR_PULL, od_Sub(d0, od_V3Load(pair->anchor)));
+	return od_MulAdd(od_Displacement(a, b), pull, od_Sub(d0, od_V3Load(pair->anchor)));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -1523,7 +1525,7 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b)
 // stiffness as two free particles, shared among the pairs pressing each (so that several pairs on one
 // particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  const od_Interface* e)
+						  const od_Interface* e, double pull)
 {
 	if (!pair->touching)
 	{
@@ -1535,7 +1537,7 @@ static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b
 	double share = e && e->load > 0.0 ? pair->force * e->count / e->load : 1.0;
 	pair->force = e ? fmax(pair->force + e->change - rate * (pair->gap - e->gap), 0.0)
 					: fmax(pair->force - rate * pair->gap, 0.0);
-	od_Vec3 n = od_V3Load(pair->n), rel = od_Slip(pair, a, b);
+	od_Vec3 n = od_V3Load(pair->n), rel = od_Slip(pair, a, b, pull);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
 				  : od_MulAdd(od_V3Load(pair->tangent), -rate, rel);
@@ -1665,8 +1667,6 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			if (friction)
 			{
 				od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-				// The step's slip alone: with the anchors' (od_Slip) in the members' rigid step, the Jelly spheres of
-				// tests/test_body_contact.py stacked at 1/24 s jolted to 0.012 m/s at 11 s (0.0008 before).
 				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
 				od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
 				od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
@@ -1867,6 +1867,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	od_Interfaces(s, sims);
 	od_Coarse(s, h2);
 	od_CoarseFriction(s, sims, h2);
+	double pull = od_FrictionStep(sims) ? 0.0 : OD_ANCHOR_PULL;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
@@ -1874,7 +1875,8 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate = OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass));
-		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+		od_UpdatePair(pair, &a, &b, between->friction, rate, pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL,
+					  pull);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;
