@@ -235,14 +235,14 @@ def test_contact_group_pairs_are_not_wrapped_to_int32(bar):
 
 
 @pytest.mark.parametrize("column, value, message", [(0, 1e300, "force"), (1, -1e300, "force"), (4, 5.0, "normal"),
-                                                     (5, 0.0, "normal")])
+                                                     (5, 0.0, "normal"), (7, 1e308, "anchor"), (9, -2e3, "anchor")])
 def test_contact_group_forces_out_of_range_are_refused(bar, column, value, message):
     group = touching_group(bar[2])
     pairs, forces = group.save_state()
     bad = forces.copy()
     bad[0, column] = value
-    if column >= 4:
-        bad[0, 4:] = (value, 0.0, 0.0)
+    if 4 <= column < 7:
+        bad[0, 4:7] = (value, 0.0, 0.0)
     with pytest.raises(ValueError, match=message):
         group.restore_state((pairs, bad))
     group.restore_state((pairs, forces))

@@ -23,7 +23,10 @@
 // the same iteration) they are updated by dual ascent towards the pair's constraints: f grows by a rate
 // times the depth beyond the allowed one and shrinks while the pair is apart; t grows against the pair's
 // relative tangential displacement since the step's start, so friction is a constraint on the whole step,
-// not re-applied per iteration. The next solve sees them (its matrix unchanged: the forces are on the right
+// not re-applied per iteration, and against a share (OD_ANCHOR_PULL) of its slip before the step since it began to
+// stick (its anchor, od_Slip; kept while t is inside its bound, taken anew where it reaches it: the pair slides), so
+// what a step's truncated iterations leave does not add up to a creep (Müller et al. 2020 and IPC keep such an
+// anchor while a contact sticks). The next solve sees them (its matrix unchanged: the forces are on the right
 // side only), and the local step then fits the rotations to positions that already hold the contact. The
 // forces start each step where the last one left them (warm start: matched by particle pair), so a resting
 // contact carries its weight from the first solve. Why (docs/contact.md, stacking): the projection after the
@@ -191,6 +194,17 @@
 // update); 2 overshot there (-0.104 m, the upper blob kicked 0.16 m aside within 1 s): 1 is the Newton step
 // of two free particles, more overshoots a particle loosely bound to its body (soft, or a long step).
 #define OD_FORCE_RATE 1.0
+// How much of a sticking pair's slip since it began to stick, beyond this step's own, its friction asks back in a
+// step (od_Slip), at steps of OD_FRICTION_STEP or shorter. Against the step's start alone, static friction let what a
+// step's last solve left slide: a Stiff sphere resting on another on one pair 5° from the vertical, its friction a
+// tenth to a third of its bound, slid 15 µm a step (4 updates; 240 steps a second) and went 0.072 m aside in 10 s.
+// Anchored, the slip stays near the step's residual over this (0.5 mm) and the sphere rests (0.011 m aside at 13
+// s); 0.1 let the 0.35 m Stiff sphere of the same test rest 0.015 m aside (0.007 at 0.03, 0.009 before); at 0.3 the
+// spheres rattled (kinetic 1-2 J) and slid 0.13 m, asked back faster than a stiff member's pairs' friction moves it.
+// At longer steps, where the members' rigid step takes friction (od_CoarseFriction), it asks back nothing: there
+// (1/24 s) a Jelly slab on one 10 times as dense jolted to 0.116 m/s and a Rubber slab under one 1,000 times as light
+// threw it off (docs/contact.md, "Stacks", stop 46).
+#define OD_ANCHOR_PULL 0.03
 #define OD_HELD_RISE 0.5 // a pair's normal rising more than this presses its lower end down (od_Held)
 #define OD_HELD_PUSH 0.2 // of the two largest radii: how much of such a push moves the upper end alone
 // The largest ratio of two members' masses for the floor's reaction and rigid step, at steps of OD_CLIMB_TIME or
@@ -1054,6 +1068,8 @@ static void od_TakeForce(od_ContactPair* p, const od_ContactPair* from)
 	p->force = from ? from->force : 0.0;
 	memcpy(p->tangent, from ? from->tangent : (double[3]){ 0, 0, 0 }, sizeof p->tangent);
 	memcpy(p->n, from ? from->n : (double[3]){ 0, 0, 1 }, sizeof p->n);
+	memcpy(p->anchor, from ? from->anchor : (double[3]){ 0, 0, 0 }, sizeof p->anchor);
+	p->anchored = from && from->anchored;
 }
 
 // The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
@@ -1503,10 +1519,23 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 	od_FloorReaction(s, sims, count);
 }
 
-// How far a pair's end b moved since the step's start less its end a (its friction's measure).
+// How far a pair's end b moved since the step's start less its end a.
 static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 {
 	return od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
+}
+
+// A pair's friction's measure: its displacement in this step and `pull` of how far b had moved from a before it
+// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid).
+static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
+{
+	od_Vec3 d0 = od_Sub(b->x0, a->x0);
+	if (!pair->anchored)
+	{
+		od_V3Store(pair->anchor, d0);
+		pair->anchored = true;
+	}
+	return od_MulAdd(od_Displacement(a, b), pull, od_Sub(d0, od_V3Load(pair->anchor)));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -1515,24 +1544,26 @@ static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 // The rate is the pair's stiffness as two free particles, shared among the pairs pressing each (so that several
 // pairs on one particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
 static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
-						  double slide, const od_Interface* e)
+						  double slide, const od_Interface* e, double pull)
 {
 	if (!pair->touching)
 	{
 		pair->force = 0.0;
 		memset(pair->tangent, 0, sizeof pair->tangent);
+		pair->anchored = false;
 		return;
 	}
 	double share = e && e->load > 0.0 ? pair->force * e->count / e->load : 1.0;
 	pair->force = e ? fmax(pair->force + e->change - rate * (pair->gap - e->gap), 0.0)
 					: fmax(pair->force - rate * pair->gap, 0.0);
-	od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(a, b);
+	od_Vec3 n = od_V3Load(pair->n), rel = od_Slip(pair, a, b, pull);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
 				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
 	t = od_MulAdd(t, -od_Dot(t, n), n);
 	double length = od_Length(t), limit = mu * pair->force;
 	od_V3Store(pair->tangent, length > limit ? od_Scale(limit / length, t) : t);
+	pair->anchored = length <= limit;
 }
 
 // Measures a near pair at the current centres (gap, touching, its normal) and counts it on its
@@ -1910,6 +1941,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 	od_Coarse(s, h2);
 	od_CoarseFriction(s, sims, h2);
 	od_CountPerched(s, count);
+	double pull = od_FrictionStep(sims) ? 0.0 : OD_ANCHOR_PULL;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
@@ -1919,7 +1951,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		double rate, slide;
 		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
 		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
-					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL);
+					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL, pull);
 	}
 	od_Rolls(s, sims, count, h2);
 	int* swap = s->active;

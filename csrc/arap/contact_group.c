@@ -150,16 +150,30 @@ int od_ContactGroup_GetPairCount(const od_ContactGroup* group)
 	return group->pairs.pairCount;
 }
 
+// Where particle p of the group (particles numbered over the members in order) is now.
+static const double* od_GroupPosition(const od_ContactGroup* group, int p)
+{
+	const od_PairScratch* s = &group->pairs;
+	return group->sims[s->body[p]]->state.x + 3 * s->local[p];
+}
+
 void od_ContactGroup_GetPairs(const od_ContactGroup* group, int* pairs, double* forces)
 {
 	for (int k = 0; k < od_ContactGroup_GetPairCount(group); ++k)
 	{
 		const od_ContactPair* p = &group->pairs.pairs[k];
+		double* f = forces + OD_PAIR_VALUES * k;
 		pairs[2 * k] = p->a;
 		pairs[2 * k + 1] = p->b;
-		forces[7 * k] = p->force;
-		memcpy(forces + 7 * k + 1, p->tangent, sizeof p->tangent);
-		memcpy(forces + 7 * k + 4, p->n, sizeof p->n);
+		f[0] = p->force;
+		memcpy(f + 1, p->tangent, sizeof p->tangent);
+		memcpy(f + 4, p->n, sizeof p->n);
+		// A pair not anchored takes its anchor at the next step's start (od_Slip), where its particles are now.
+		const double *xa = od_GroupPosition(group, p->a), *xb = od_GroupPosition(group, p->b);
+		for (int c = 0; c < 3; ++c)
+		{
+			f[7 + c] = p->anchored ? p->anchor[c] : xb[c] - xa[c];
+		}
 	}
 }
 
@@ -179,10 +193,11 @@ static double od_GroupMass(const od_ContactGroup* group, int p)
 	return group->sims[b]->def.density * group->sims[b]->graph->volumes[p];
 }
 
-// A pair's carried forces: finite, the normal force >= 0, the normal a unit vector, the push bounded.
+// A pair's carried forces: finite, the normal force >= 0, the normal a unit vector, the push and the anchor
+// bounded.
 static od_Status od_CheckPairForces(const od_ContactGroup* group, int k, const int* pair, const double* f)
 {
-	for (int c = 0; c < 7; ++c)
+	for (int c = 0; c < OD_PAIR_VALUES; ++c)
 	{
 		if (!isfinite(f[c]) || (c == 0 && f[0] < 0.0))
 		{
@@ -195,6 +210,12 @@ static od_Status od_CheckPairForces(const od_ContactGroup* group, int k, const i
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "forces[%d, 4:7]: the normal (%g, %g, %g) is not a unit vector", k, f[4],
 					   f[5], f[6]);
+	}
+	double anchor = sqrt(f[7] * f[7] + f[8] * f[8] + f[9] * f[9]);
+	if (!(anchor <= OD_PAIR_MAX_PUSH))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "forces[%d, 7:10]: the anchor (%g, %g, %g) is %g m long (at most %g)", k, f[7],
+					   f[8], f[9], anchor, OD_PAIR_MAX_PUSH);
 	}
 	double h = group->sims[0]->def.dt, size = f[0] + sqrt(f[1] * f[1] + f[2] * f[2] + f[3] * f[3]);
 	double push = size * h * h * (1.0 / od_GroupMass(group, pair[0]) + 1.0 / od_GroupMass(group, pair[1]));
@@ -224,7 +245,7 @@ od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int*
 			return od_Fail(OD_ERROR_ARGUMENT, "pairs[%d] = (%d, %d) must be particles 0 <= a < b < %d", k,
 						   pairs[2 * k], pairs[2 * k + 1], total);
 		}
-		od_Status status = od_CheckPairForces(group, k, pairs + 2 * k, forces + 7 * k);
+		od_Status status = od_CheckPairForces(group, k, pairs + 2 * k, forces + OD_PAIR_VALUES * k);
 		if (status != OD_OK)
 		{
 			return status;
@@ -244,9 +265,11 @@ od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int*
 	for (int k = 0; k < count; ++k)
 	{
 		od_ContactPair* p = &s->pairs[k];
-		*p = (od_ContactPair){ .a = pairs[2 * k], .b = pairs[2 * k + 1], .force = forces[7 * k] };
-		memcpy(p->tangent, forces + 7 * k + 1, sizeof p->tangent);
-		memcpy(p->n, forces + 7 * k + 4, sizeof p->n);
+		const double* f = forces + OD_PAIR_VALUES * k;
+		*p = (od_ContactPair){ .a = pairs[2 * k], .b = pairs[2 * k + 1], .force = f[0], .anchored = true };
+		memcpy(p->tangent, f + 1, sizeof p->tangent);
+		memcpy(p->n, f + 4, sizeof p->n);
+		memcpy(p->anchor, f + 7, sizeof p->anchor);
 	}
 	// The particles' bodies, which the first solve's forces read (a new group's first broad phase sets them).
 	for (int b = 0, g = 0; b < group->count; ++b)

@@ -11,13 +11,16 @@ from .simulation import Simulation
 
 __all__ = ["ContactGroup"]
 
+PAIR_VALUES = 10  # a pair's forces in the group's state (OD_PAIR_VALUES, csrc/include/opdeform/colliders.h)
+
 
 class ContactGroup:
     """Two or more simulations whose particles collide: ``step`` advances them all together (each as its own
     ``step`` would, with its floor, colliders, fields and self-contact), their iterations side by side:
     particles of different bodies closer than ``thickness`` (m) push each other apart with forces inside
-    every solve, with Coulomb ``friction`` against the step's start, and what is still in contact after the
-    iterations is pushed apart along the line between their centres, mass weighted. A body dropped on
+    every solve, with Coulomb ``friction`` against their slip (a pair that sticks pulled back towards where it
+    began to stick), and what is still in contact after the iterations is pushed apart along the line between
+    their centres, mass weighted. A body dropped on
     another comes to rest on it. ``in_iterations=False``: the push after the iterations only (the earlier
     model: a stack does not stay, but a step depends on the simulations' states alone, not on the forces the
     group kept from its last step). The simulations must share dt; while the group steps, each of them is
@@ -50,11 +53,12 @@ class ContactGroup:
 
     def save_state(self) -> tuple[Ints, Floats]:
         """What the group keeps from one step to the next besides its members' states: its pairs of particles
-        ((m, 2) int32, indices over the members' particles in order) and their forces ((m, 7) float64: the
-        normal force, the friction force and the normal), the warm start of the next step's forces. Restored
+        ((m, 2) int32, indices over the members' particles in order) and their forces ((m, 10) float64: the
+        normal force, the friction force, the normal and the friction's anchor, where the second particle was
+        from the first when the pair began to stick), the warm start of the next step's forces. Restored
         together with the members' states, the next step is the one that followed the save, bit for bit."""
         m = self._core.pair_count()
-        pairs, forces = np.empty((m, 2), np.int32), np.empty((m, 7))
+        pairs, forces = np.empty((m, 2), np.int32), np.empty((m, PAIR_VALUES))
         self._core.read_pairs(pairs, forces)
         return pairs, forces
 
@@ -63,11 +67,11 @@ class ContactGroup:
         (no forces). ValueError on pairs out of range (never wrapped to int32) or forces out of range
         (docs/hardening.md), nothing changed."""
         if state is None:
-            pairs, forces = np.empty((0, 2), np.int32), np.empty((0, 7))
+            pairs, forces = np.empty((0, 2), np.int32), np.empty((0, PAIR_VALUES))
         else:
             given_pairs, given_forces = state
             pairs, forces = int32_pairs(given_pairs), np.ascontiguousarray(given_forces, np.float64)
-            if pairs.ndim != 2 or pairs.shape[1] != 2 or forces.shape != (len(pairs), 7):
-                raise ValueError(f"state: pairs (m, 2) and forces (m, 7) expected, got {pairs.shape} and "
+            if pairs.ndim != 2 or pairs.shape[1] != 2 or forces.shape != (len(pairs), PAIR_VALUES):
+                raise ValueError(f"state: pairs (m, 2) and forces (m, {PAIR_VALUES}) expected, got {pairs.shape} and "
                                  f"{forces.shape}")
         self._core.write_pairs(pairs, forces)

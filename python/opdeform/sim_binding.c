@@ -987,7 +987,7 @@ static PyObject* Group_pair_count(PyObject* obj, PyObject* args)
 	return PyLong_FromLong(od_ContactGroup_GetPairCount(((GroupObject*)obj)->group));
 }
 
-// read_pairs(pairs, forces): writable int32 (pair_count * 2) and float64 (pair_count * 7) buffers
+// read_pairs(pairs, forces): writable int32 (pair_count * 2) and float64 (pair_count * OD_PAIR_VALUES) buffers
 static PyObject* Group_read_pairs(PyObject* obj, PyObject* args)
 {
 	PyObject *pairs, *forces;
@@ -998,7 +998,7 @@ static PyObject* Group_read_pairs(PyObject* obj, PyObject* args)
 	od_ContactGroup* group = ((GroupObject*)obj)->group;
 	Py_ssize_t m = od_ContactGroup_GetPairCount(group);
 	Py_buffer views[2] = { { 0 }, { 0 } };
-	if (GetArray(pairs, "pairs", 'i', 2 * m, 1, &views[0]) < 0 || GetArray(forces, "forces", 'd', 7 * m, 1, &views[1]) < 0)
+	if (GetArray(pairs, "pairs", 'i', 2 * m, 1, &views[0]) < 0 || GetArray(forces, "forces", 'd', OD_PAIR_VALUES * m, 1, &views[1]) < 0)
 	{
 		ReleaseArrays(views, 2);
 		return NULL;
@@ -1008,7 +1008,7 @@ static PyObject* Group_read_pairs(PyObject* obj, PyObject* args)
 	Py_RETURN_NONE;
 }
 
-// write_pairs(pairs, forces): int32 (m * 2) and float64 (m * 7) buffers (od_ContactGroup_SetPairs)
+// write_pairs(pairs, forces): int32 (m * 2) and float64 (m * OD_PAIR_VALUES) buffers (od_ContactGroup_SetPairs)
 static PyObject* Group_write_pairs(PyObject* obj, PyObject* args)
 {
 	PyObject *pairs, *forces;
@@ -1022,7 +1022,7 @@ static PyObject* Group_write_pairs(PyObject* obj, PyObject* args)
 		return m < 0 ? NULL : PyErr_Format(PyExc_ValueError, "pairs: too many (%zd)", m);
 	}
 	Py_buffer views[2] = { { 0 }, { 0 } };
-	if (GetArray(pairs, "pairs", 'i', 2 * m, 0, &views[0]) < 0 || GetArray(forces, "forces", 'd', 7 * m, 0, &views[1]) < 0)
+	if (GetArray(pairs, "pairs", 'i', 2 * m, 0, &views[0]) < 0 || GetArray(forces, "forces", 'd', OD_PAIR_VALUES * m, 0, &views[1]) < 0)
 	{
 		ReleaseArrays(views, 2);
 		return NULL;

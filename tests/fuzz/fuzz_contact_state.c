@@ -1,9 +1,10 @@
 // libFuzzer target: od_ContactGroup_SetPairs, the core of ContactGroup.restore_state (a saved group state is
 // untrusted input, issue 28), on two 8-particle chains 0.15 m apart (their ellipsoids overlap), the group
 // tests/fuzz/make_state_corpus.py saves its corpus from. Input: an int32 pair count m, then m pairs (int32 a,
-// b) and m rows of 7 doubles (normal force, friction force, normal); the count is passed as given when
-// negative, else cut to the pairs the bytes hold. Invariants: a refused state leaves the group's pairs as they
-// were; an accepted one reads back bit for bit; a step after it ends finite or fails keeping both states.
+// b) and m rows of OD_PAIR_VALUES doubles (normal force, friction force, normal, friction's anchor); the count is
+// passed as given when negative, else cut to the pairs the bytes hold. Invariants: a refused state leaves the
+// group's pairs as they were; an accepted one reads back bit for bit; a step after it ends finite or fails keeping
+// both states.
 #include "fuzz_chain.h"
 
 #include "opdeform/colliders.h"
@@ -24,7 +25,7 @@ static Pairs read_pairs(const od_ContactGroup* group)
 {
 	Pairs p = { od_ContactGroup_GetPairCount(group), NULL, NULL };
 	p.pairs = malloc(sizeof(int) * 2 * (size_t)p.count + 1);
-	p.forces = malloc(sizeof(double) * 7 * (size_t)p.count + 1);
+	p.forces = malloc(sizeof(double) * OD_PAIR_VALUES * (size_t)p.count + 1);
 	CHECK(p.pairs && p.forces);
 	od_ContactGroup_GetPairs(group, p.pairs, p.forces);
 	return p;
@@ -33,7 +34,7 @@ static Pairs read_pairs(const od_ContactGroup* group)
 static int same_pairs(const Pairs* a, int count, const int* pairs, const double* forces)
 {
 	return a->count == count && memcmp(a->pairs, pairs, sizeof(int) * 2 * (size_t)count) == 0 &&
-		   memcmp(a->forces, forces, sizeof(double) * 7 * (size_t)count) == 0;
+		   memcmp(a->forces, forces, sizeof(double) * OD_PAIR_VALUES * (size_t)count) == 0;
 }
 
 static void release(Pairs* p)
@@ -46,13 +47,13 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size)
 {
 	int32_t count = 0;
 	memcpy(&count, data, size < 4 ? size : 4);
-	size_t rest = size < 4 ? 0 : size - 4, fit = rest / (8 + 7 * 8);
+	size_t rest = size < 4 ? 0 : size - 4, fit = rest / (8 + OD_PAIR_VALUES * 8);
 	int m = count < 0 ? count : (int)((size_t)count < fit ? (size_t)count : fit);
 	int* pairs = malloc(sizeof(int) * 2 * (fit + 1));
-	double* forces = malloc(sizeof(double) * 7 * (fit + 1));
+	double* forces = malloc(sizeof(double) * OD_PAIR_VALUES * (fit + 1));
 	CHECK(pairs && forces);
 	memcpy(pairs, data + 4, 8 * fit);
-	memcpy(forces, data + 4 + 8 * fit, 56 * fit);
+	memcpy(forces, data + 4 + 8 * fit, OD_PAIR_VALUES * 8 * fit);
 
 	od_SimDef def = od_DefaultSimDef();
 	od_Sim* sims[2] = { NULL, NULL };

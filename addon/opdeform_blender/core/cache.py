@@ -1,9 +1,9 @@
 """In-memory cache of solver states per frame (positions, rotations, velocities, angular velocities, the
 goals' motion while they carry the rest and the floor's and colliders' carried normal forces) and the handle targets and goal frames that produced them, and for a
 member of a contact group the group's state after that frame (``opdeform.ContactGroup.save_state``: the pairs
-and forces its next step starts from; 170-310 kB a frame for two stacked 1,000-particle bodies, shared by the
-members' caches), and the skinned vertices that the frame's colliders and floor pushed out (indices and
-positions: only those). A few kilobytes per frame for a hundred particles: the skinned vertices are not kept,
+and forces its next step starts from; about 230-430 kB a frame for two stacked 1,000-particle bodies, shared by
+the members' caches: 88 bytes a pair since stop 46's friction anchor, 170-310 kB measured at 64 before), and the
+skinned vertices that the frame's colliders and floor pushed out (indices and positions: only those). A few kilobytes per frame for a hundred particles: the skinned vertices are not kept,
 they are recomputed from the state when a cached frame is shown.
 
 Bounded: at most ``CACHE_BYTES`` (256 MiB; about 18,000 frames of 100 particles, 1,800 of 1,000). Past it the

@@ -109,13 +109,15 @@ void od_ContactGroup_Destroy(od_ContactGroup* group);
 od_Status od_ContactGroup_SetContact(od_ContactGroup* group, const od_BodyContactDef* def);
 od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps);
 // What a group keeps from one step to the next besides its members' states: its pairs (global particle
-// indices a < b, body-major in the members' order) with their forces (7 each: the normal force, the friction
-// force (3) and the normal (3)), the warm start of the next step's forces. Saved with the members' states and
+// indices a < b, body-major in the members' order) with their forces (OD_PAIR_VALUES each: the normal force, the
+// friction force (3), the normal (3) and the friction's anchor (3): where particle b was from particle a when the
+// pair began to stick), the warm start of the next step's forces. Saved with the members' states and
 // set back with them, the next step is the one that followed the save, bit for bit (an empty list: a new
 // group's). GetPairs writes od_ContactGroup_GetPairCount pairs; SetPairs checks everything before it changes
 // anything (indices in range, a < b, finite values, force >= 0, a unit normal, forces that would push their
-// particles at most 1 km in one step; |friction| <= friction coefficient × force is not checked: the next
-// update bounds it).
+// particles at most 1 km in one step, an anchor at most 1 km long; |friction| <= friction coefficient × force is
+// not checked: the next update bounds it).
+#define OD_PAIR_VALUES 10
 int od_ContactGroup_GetPairCount(const od_ContactGroup* group);
 void od_ContactGroup_GetPairs(const od_ContactGroup* group, int* pairs, double* forces);
 od_Status od_ContactGroup_SetPairs(od_ContactGroup* group, int count, const int* pairs, const double* forces);
