@@ -14,9 +14,12 @@ and skirt of tests/test_loose_parts.py, Suzanne (tests/reference), two equal cap
 cube and plane. Each at every scale, particle count, graph mode and small-pieces choice (or ``--sample N`` of
 those cases, drawn with ``--seed``).
 
-A case is "refused" when Build would refuse it with a clear report (EngineError), "failed" on any other exception
-or on a non-finite or non-positive stiffness or a non-finite output. Prints one line per case that did not
-pass, then the counts and each kind of failure with its first case.
+Each case goes two ways: "build", the add-on's Build as above, and "direct", what a script does with the mesh as
+given (Graph.from_mesh of the float64 vertices in their triangles' order, then materials.stiffness_for: the lead's
+L bracket at 1.5 times, 200 particles, failed only this way). A run is "refused" when the input is turned down with
+a clear report (EngineError; in "direct", a ValueError of Graph.from_mesh), "failed" on any other exception or
+RuntimeWarning (numpy's NaN on the way), a non-finite or non-positive stiffness or a non-finite output. Prints one
+line per run that did not pass, then the counts and each kind of failure with its first case.
 
     PYTHONPATH=build/python python3 scripts/calibration_sweep.py [--sample N] [--seed S] [--bodies a,b]
         [--scales 0.01,1.5] [--particles 20,200] [--modes auto,chain] [--small attach,own]
@@ -27,6 +30,7 @@ import random
 import sys
 import time
 import traceback
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -136,31 +140,51 @@ def signature(exc):
     return f"{type(exc).__name__}: {words} ({Path(where.filename).name}:{where.name})"
 
 
+def direct(v, t, particles, mode, small):
+    """What a script does (the lead's L bracket at 1.5 times: issue 24): Graph.from_mesh of the mesh as given
+    (float64, its triangles' order; Build's float32 and canonical order make another graph), then
+    materials.stiffness_for; the problems found. A ValueError of Graph.from_mesh refuses the input."""
+    try:
+        g = opdeform.Graph.from_mesh(v, t, particles=particles, mode=mode, small_pieces=small)
+    except ValueError as exc:
+        raise EngineError(str(exc)) from None
+    k = np.asarray(opdeform.materials.stiffness_for(g, LOOK["modulus"] * settings.MPA), dtype=np.float64)
+    return [] if np.all(np.isfinite(k) & (k > 0.0)) else [f"stiffness: non-finite or <= 0 ({k.min()})"]
+
+
+def attempt(path, v, t, *case):
+    """(outcome: passed, refused or failed; its lines) of one path (build or direct) on one case."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # numpy's NaN on the way
+            problems = path(v, t, *case)
+    except EngineError as exc:
+        return "refused", [str(exc)]
+    except Exception as exc:  # noqa: BLE001 (what the sweep looks for)
+        problems = [signature(exc)]
+    return ("failed" if problems else "passed"), problems
+
+
 def run(args):
-    made, counts, kinds = {}, {"passed": 0, "refused": 0, "failed": 0}, {}
+    made, counts, kinds = {}, {}, {}
     t0 = time.process_time()
-    for body, scale, particles, mode, small in cases(args):
+    for body, scale, *case in cases(args):
         if body not in made:
             made[body] = BODIES[body]()
         v, t = made[body]
-        case = f"{body} scale={scale:g} particles={particles} mode={mode} small={small}"
-        try:
-            problems = build(np.asarray(v) * scale, t, particles, mode, small)
-        except EngineError as exc:
-            counts["refused"] += 1
-            print(f"refused  {case}: {exc}", flush=True)
-            continue
-        except Exception as exc:  # noqa: BLE001 (what the sweep looks for)
-            problems = [signature(exc)]
-        counts["failed" if problems else "passed"] += 1
-        for p in problems:
-            kinds.setdefault(p, []).append(case)
-            print(f"FAILED   {case}: {p}", flush=True)
-    print(f"\n{sum(counts.values())} cases, {time.process_time() - t0:.0f} s of processor time: "
-          + ", ".join(f"{n} {k}" for k, n in counts.items()))
+        name = f"{body} scale={scale:g} particles={case[0]} mode={case[1]} small={case[2]}"
+        for path in (build, direct):
+            outcome, lines = attempt(path, np.asarray(v, dtype=np.float64) * scale, t, *case)
+            counts[outcome] = counts.get(outcome, 0) + 1
+            for line in lines:
+                print(f"{outcome:8} {path.__name__:6} {name}: {line}", flush=True)
+                if outcome == "failed":
+                    kinds.setdefault(f"{path.__name__}: {line}", []).append(name)
+    print(f"\n{sum(counts.values())} runs (build and direct), {time.process_time() - t0:.0f} s of "
+          "processor time: " + ", ".join(f"{n} {k}" for k, n in sorted(counts.items())))
     for kind, where in sorted(kinds.items(), key=lambda x: -len(x[1])):
         print(f"{len(where):4d} x {kind}\n       first: {where[0]}")
-    return 1 if counts["failed"] else 0
+    return 1 if counts.get("failed") else 0
 
 
 def listed(kind, choices=None):
