@@ -1288,7 +1288,10 @@ class _Grid:
 
     def __init__(self, vertices: Arr, triangles: Arr, cells: int = _GRID_CELLS) -> None:
         self.lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-        self.h = float(np.cbrt(np.prod(hi - self.lo) / cells))
+        a, b, c = np.sort(hi - self.lo)[::-1]
+        # at least a side at which the two largest extents take ``cells``: a closed capsule 1.2 x 0.2 m squashed
+        # to 2e-8 m wanted 1.2e9 columns (8.8 GiB) and Build raised MemoryError (scripts/calibration_sweep.py)
+        self.h = float(max(np.cbrt(a * b * c / cells), np.sqrt(a * b / cells), a / cells))
         self.shape = tuple(int(x) for x in np.ceil((hi - self.lo) / self.h))
         self.inside = self._fill((vertices[triangles] - self.lo) / self.h - 0.5)
 
