@@ -2,6 +2,7 @@
 droop, the error tolerance reached on every step and reported, the frame-rate helper and the panel's warnings.
 Figures in docs/settings.md."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -312,6 +313,17 @@ def test_thin_part_warning():
     assert thickness == pytest.approx(0.2, rel=0.05) and warn
     _, _, fine = tail(particles=400)
     assert not materials.thin_part_warning(fine, v, t)[2]
+
+
+def test_an_open_sheet_has_no_thin_part():
+    """No ray from a sheet meets an opposite side: infinite thickness, no warning (before: NaN and numpy's
+    "invalid value" warning at every Build of a sheet; scripts/calibration_sweep.py)."""
+    v, t = meshes.sheet()
+    g = opdeform.Graph.from_mesh(v, t, particles=50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        thickness, _, warn = materials.thin_part_warning(g, v, t)
+    assert thickness == math.inf and not warn
 
 
 def test_thin_appendages_with_too_few_particles():

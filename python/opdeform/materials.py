@@ -815,10 +815,12 @@ def thin_part_warning(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
     """(thinnest part of the mesh, particle spacing, whether the spacing is too coarse): a part thinner than
     ``across`` particle spacings has a particle or less across and bends like a chain, not like the body.
     The thickness at a vertex is the distance along its inward normal to the opposite side (rays against
-    the triangles; the 5th percentile over vertices, so that a crease does not decide)."""
+    the triangles; the 5th percentile over vertices, so that a crease does not decide); infinite where no ray
+    meets an opposite side (an open sheet: before, NaN and numpy's "invalid value" warning at every Build)."""
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64)
-    thickness = np.percentile(_thickness(v, t), 5)
+    depths = _thickness(v, t)
+    thickness = np.percentile(depths, 5) if len(depths) else math.inf
     spacing = float(np.cbrt(graph.volumes.mean()) * 1.2)
     return float(thickness), spacing, bool(thickness < across * spacing)
 
@@ -851,7 +853,8 @@ def thin_appendages(graph: Graph, vertices: ArrayLike, triangles: ArrayLike,
 
 
 def _thickness(v: Arr, t: Arr) -> Arr:
-    """Per vertex, the distance along its inward normal to the nearest other triangle (Moller-Trumbore)."""
+    """The distance along each vertex's inward normal to the nearest other triangle, of the vertices whose
+    normal meets one (Moller-Trumbore)."""
     a, b, c = v[t[:, 0]], v[t[:, 1]], v[t[:, 2]]
     fn = np.cross(b - a, c - a)
     normal = np.zeros_like(v)
@@ -873,7 +876,7 @@ def _thickness(v: Arr, t: Arr) -> Arr:
         hit = ok & (u >= 0) & (w >= 0) & (u + w <= 1) & (dist > 1e-9 * (1 + np.abs(p).max()))
         if hit.any():
             out[i] = dist[hit].min()
-    return out[np.isfinite(out)] if np.isfinite(out).any() else np.array([np.inf])
+    return out[np.isfinite(out)]
 
 
 def handle_warning(sim: Simulation, speed: float, angular_speed: float = 0.0, substeps: int = 1,
@@ -1285,7 +1288,10 @@ class _Grid:
 
     def __init__(self, vertices: Arr, triangles: Arr, cells: int = _GRID_CELLS) -> None:
         self.lo, hi = vertices.min(axis=0), vertices.max(axis=0)
-        self.h = float(np.cbrt(np.prod(hi - self.lo) / cells))
+        a, b, c = np.sort(hi - self.lo)[::-1]
+        # at least a side at which the two largest extents take ``cells``: a closed capsule 1.2 x 0.2 m squashed
+        # to 2e-8 m wanted 1.2e9 columns (8.8 GiB) and Build raised MemoryError (scripts/calibration_sweep.py)
+        self.h = float(max(np.cbrt(a * b * c / cells), np.sqrt(a * b / cells), a / cells))
         self.shape = tuple(int(x) for x in np.ceil((hi - self.lo) / self.h))
         self.inside = self._fill((vertices[triangles] - self.lo) / self.h - 0.5)
 
