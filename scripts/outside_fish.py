@@ -16,7 +16,8 @@ import numpy as np
 from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import base, install, link, paint, parent_auto, shells, twin_of, world  # noqa: E402
+from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
+                       paint, parent_auto, reopen, shells, twin_of, world)
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -84,19 +85,6 @@ BONES = [("root", (0, 0.2, 0), (0, 0.5, 0), None, False),
          ("tail2", (0, 0.45, 0.32), (0, 0.7, 0.32), "tail1", True)]
 
 
-def armature():
-    arm = link(bpy.data.objects.new("FishRig", bpy.data.armatures.new("FishRig")))
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode='EDIT')
-    for name, h, t, p, d in BONES:
-        b = arm.data.edit_bones.new(name)
-        b.head, b.tail, b.use_deform = Vector(h) * S, Vector(t) * S, d
-        if p:
-            b.parent, b.use_connect = arm.data.edit_bones[p], p != "root"
-    bpy.ops.object.mode_set(mode='OBJECT')
-    return arm
-
-
 def animate(arm):
     """Swims 1.5 m forward (-y) with a body wave (2 Hz) and a dip to 1 cm over the floor, stopped at frame STOP."""
     pb = arm.pose.bones
@@ -158,7 +146,7 @@ def main():
         sc.unit_settings.scale_length = float(OPT["unit"])
     obj = fish_mesh()
     parts = parts_of(obj)
-    arm = armature()
+    arm = armature("FishRig", BONES, lambda b, p: p != "root", S)
     parent_auto(obj, arm)
     unweighted = 0 if "noweights" in OPT else weights_fixed(obj, parts)
     animate(arm)
@@ -174,15 +162,7 @@ def main():
     print(f"FISH scale {S}: {len(obj.data.vertices)} vertices, {len(np.unique(sh))} shells, unweighted after auto {unweighted}",
           {k: len(i) for k, i in parts.items()})
     before = base(obj)
-    bpy.context.view_layer.objects.active = obj
-    for x in sc.objects:
-        x.select_set(x == obj)
-    s = obj.opdeform
-    if "particles" in OPT:
-        s.particles = int(OPT["particles"])
-    print("ENABLE ->", bpy.ops.opdeform.enable())
-    s.use_goal = True
-    s.goal_group = "Follow"
+    s = artist_enable(obj, OPT.get("particles"))
     if "look" in OPT:
         print("LOOK ->", bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
     import helpers as H
@@ -287,17 +267,4 @@ def replay(sc, obj, twin, layer, H):
     return worst
 
 
-def reopen(folder):
-    """Opens the saved file as an artist does: is frame 30 the simulated pose, before and after a frame change?"""
-    install(ZIP, KIND)
-    bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, "fish.blend"))
-    obj, ref = bpy.data.objects["Fish"], np.load(os.path.join(folder, "f30.npy"))
-    twin = world(bpy.data.objects["Fish_twin"])
-    print("REOPEN frame", bpy.context.scene.frame_current, "vs saved mm", 1e3 * np.abs(world(obj) - ref).max(),
-          "saved vs armature-only mm", 1e3 * np.abs(ref - twin).max(), "error", repr(obj.opdeform.error))
-    for f in (31, 30):
-        bpy.context.scene.frame_set(f)
-    print("REOPEN after 31->30 vs saved mm", 1e3 * np.abs(world(obj) - ref).max())
-
-
-reopen(OPT["open"]) if "open" in OPT else main()
+reopen(OPT["open"], ZIP, KIND, "Fish") if "open" in OPT else main()

@@ -26,7 +26,8 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import base, install, link, paint, parent_auto, twin_of, world  # noqa: E402
+from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
+                       paint, parent_auto, reopen, twin_of, world)
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -136,19 +137,6 @@ def add_parts(obj):
     bm.free()
     obj.data.update()
     return parts, param
-
-
-def armature():
-    arm = link(bpy.data.objects.new("KnightRig", bpy.data.armatures.new("KnightRig")))
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode='EDIT')
-    for name, h, t, p, d in BONES:
-        b = arm.data.edit_bones.new(name)
-        b.head, b.tail, b.use_deform = Vector(h), Vector(t), d
-        if p:
-            b.parent, b.use_connect = arm.data.edit_bones[p], p in ("hips", "spine") and name in ("spine", "head")
-    bpy.ops.object.mode_set(mode='OBJECT')
-    return arm
 
 
 def bump(f, a, b):
@@ -263,7 +251,7 @@ def build_scene(name):
     parts, param = add_parts(obj)
     body = np.arange(len(bulge))
     parts = dict(core_body=body[bulge < 0.01], belly=body[bulge >= 0.05], **parts)
-    arm = armature()
+    arm = armature("KnightRig", BONES, lambda b, p: p in ("hips", "spine") and b in ("spine", "head"))
     parent_auto(obj, arm)
     unweighted = sword_rigid(obj, parts["sword"])
     animate(arm)
@@ -277,18 +265,6 @@ def build_scene(name):
     print(f"KNIGHT {len(v)} vertices, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, "
           f"unweighted after auto {unweighted}", {k: len(i) for k, i in parts.items()})
     return obj, twin, parts, follow, bulge
-
-
-def artist_enable(obj):
-    bpy.context.view_layer.objects.active = obj
-    for x in bpy.context.scene.objects:
-        x.select_set(x == obj)
-    s = obj.opdeform
-    if "particles" in OPT:
-        s.particles = int(OPT["particles"])
-    print("ENABLE ->", bpy.ops.opdeform.enable())
-    s.use_goal = True
-    s.goal_group = "Follow"
 
 
 def settings(s):
@@ -417,8 +393,7 @@ def main():
     import helpers as H
     H.ADDON = name
     obj, twin, parts, follow, bulge = build_scene(name)
-    artist_enable(obj)
-    s = obj.opdeform
+    s = artist_enable(obj, OPT.get("particles"))
     log = H.draw_panels()
     print("PANEL AFTER GROUP", reports(log))
     print("CUT", [c[0] for c in H.cut_texts(log)])
@@ -472,17 +447,4 @@ def main():
         bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
 
 
-def reopen(folder):
-    """Opens the saved file as an artist does: is frame 30 the simulated pose, before and after a frame change?"""
-    install(ZIP, KIND)
-    bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, "knight.blend"))
-    obj, ref = bpy.data.objects["Knight"], np.load(os.path.join(folder, "f30.npy"))
-    twin = world(bpy.data.objects["Knight_twin"])
-    print("REOPEN frame", bpy.context.scene.frame_current, "vs saved mm", 1e3 * np.abs(world(obj) - ref).max(),
-          "saved vs armature-only mm", 1e3 * np.abs(ref - twin).max(), "error", repr(obj.opdeform.error))
-    for f in (31, 30):
-        bpy.context.scene.frame_set(f)
-    print("REOPEN after 31->30 vs saved mm", 1e3 * np.abs(world(obj) - ref).max())
-
-
-reopen(OPT["open"]) if "open" in OPT else main()
+reopen(OPT["open"], ZIP, KIND, "Knight") if "open" in OPT else main()

@@ -1,11 +1,13 @@
-"""Pieces shared by the outside-view rig scripts (scripts/outside_rigs.py, scripts/outside_bird.py): objects linked
-into the scene, parented to an armature with automatic weights, painted groups, mesh shells, world positions, the
-base mesh and the armature-only twin; the add-on installed from a zip."""
+"""Pieces shared by the outside-view rig scripts (scripts/outside_rigs.py, outside_bird.py, outside_fish.py,
+outside_knight.py): objects linked into the scene, parented to an armature with automatic weights, painted groups,
+mesh shells, world positions, the base mesh and the armature-only twin; the add-on installed from a zip; a saved
+file reopened."""
 import os
 import sys
 
 import bpy
 import numpy as np
+from mathutils import Vector
 
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
 
@@ -83,3 +85,47 @@ def twin_of(obj):
         t.modifiers.remove(m)
     bpy.context.scene.collection.objects.link(t)
     return t
+
+
+def reopen(folder, zip_path, kind, name):
+    """Opens folder/NAME.blend (NAME the object's name in lower case) as an artist does, the add-on installed from
+    the zip: is frame 30 the simulated pose saved beside it (f30.npy), before and after a frame change?"""
+    install(zip_path, kind)
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(folder, f"{name.lower()}.blend"))
+    obj, ref = bpy.data.objects[name], np.load(os.path.join(folder, "f30.npy"))
+    twin = world(bpy.data.objects[f"{name}_twin"])
+    print("REOPEN frame", bpy.context.scene.frame_current, "vs saved mm", 1e3 * np.abs(world(obj) - ref).max(),
+          "saved vs armature-only mm", 1e3 * np.abs(ref - twin).max(), "error", repr(obj.opdeform.error))
+    for f in (31, 30):
+        bpy.context.scene.frame_set(f)
+    print("REOPEN after 31->30 vs saved mm", 1e3 * np.abs(world(obj) - ref).max())
+
+
+def artist_enable(obj, particles=None):
+    """The artist's order on obj, made active and alone selected: [Particles,] Enable (printed), Goal ticked, the
+    Follow group picked."""
+    bpy.context.view_layer.objects.active = obj
+    for x in bpy.context.scene.objects:
+        x.select_set(x == obj)
+    s = obj.opdeform
+    if particles is not None:
+        s.particles = int(particles)
+    print("ENABLE ->", bpy.ops.opdeform.enable())
+    s.use_goal = True
+    s.goal_group = "Follow"
+    return s
+
+
+def armature(name, bones, connected, scale=1.0):
+    """An armature object ``name`` of ``bones`` (name, head, tail, parent or None, deforms) scaled by ``scale``,
+    each joined to its parent where connected(name, parent)."""
+    arm = link(bpy.data.objects.new(name, bpy.data.armatures.new(name)))
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    for bone, h, t, p, d in bones:
+        b = arm.data.edit_bones.new(bone)
+        b.head, b.tail, b.use_deform = Vector(h) * scale, Vector(t) * scale, d
+        if p:
+            b.parent, b.use_connect = arm.data.edit_bones[p], connected(bone, p)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return arm
