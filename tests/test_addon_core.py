@@ -583,6 +583,22 @@ def test_the_thin_part_warning_leaves_out_shells_particles_do_not_reach():
     assert whole[0] < 0.013 and whole[2], whole  # measured with the fin: 1.2 cm, too thin at any count
 
 
+def test_the_thin_part_warning_names_a_count_that_clears_it():
+    """A 1 x 1 x 0.15 m slab at 50 and 100 particles: fewer than two across; the count the warning names builds a
+    graph with two across (before: "raise Particles" without a count, which an outside tester's knight still read
+    at 400 particles)."""
+    from opdeform import meshes
+    v, t = meshes.bar(length=1.0, width=1.0, segments=20, cross=20)
+    v = v * [1.0, 1.0, 0.15]
+    for n in (50, 100):
+        graph = opdeform.Graph.from_mesh(v, t, particles=n)
+        text = checks.thin_part_text(checks.thin_part(opdeform, graph, v, t), graph.n_particles)
+        assert text.startswith("Thinnest part 0.15 m") and "raise Particles to about " in text, text
+        enough = opdeform.Graph.from_mesh(v, t, particles=int(text.rsplit(" ", 1)[1]))
+        assert not checks.thin_part(opdeform, enough, v, t)[2], text
+    assert checks.thin_part_text(None, 100) is None and checks.thin_part_text((0.2, 0.05, False), 100) is None
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""

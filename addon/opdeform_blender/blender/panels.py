@@ -70,10 +70,10 @@ def warnings(rt, frame, current=True):
     turn = checks.turn_text(rep.turn, frame_rate(bpy.context.scene)) if rep is not None else None
     if turn:
         out.append(turn)
-    thin, length = rt.engine.thin_part, length_text(bpy.context.scene)
-    if thin is not None and thin[2]:
-        out.append(f"Thinnest part {length(thin[0])}, particles {length(thin[1])} apart: fewer than two across; "
-                   "raise Particles")
+    length = length_text(bpy.context.scene)
+    thin = checks.thin_part_text(rt.engine.thin_part, rt.engine.graph.n_particles, length)
+    if thin:
+        out.append(thin)
     appendages = checks.appendages_text(rt.engine.thin_appendages, rt.engine.graph.n_particles, length)
     if appendages:
         out.append(appendages)
