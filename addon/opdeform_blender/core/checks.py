@@ -85,7 +85,7 @@ def thin_part_text(thin, particles, length=None):
     if thin is None or not thin[2]:
         return None
     length = length or (lambda x: f"{_metres(x)} m")
-    enough = -(-particles * (THIN_PART_SPARE * 2.0 * thin[1] / thin[0]) ** 3 // 50) * 50
+    enough = _round_up(particles * (THIN_PART_SPARE * 2.0 * thin[1] / thin[0]) ** 3)
     return (f"Thinnest part {length(thin[0])}, particles {length(thin[1])} apart: fewer than two across; raise "
             f"Particles to about {enough:.0f}")
 
@@ -99,7 +99,7 @@ def appendages_text(parts, particles, length=None, shown=3, along=3):
     length = length or (lambda x: f"{_metres(x)} m")
     named = ", ".join(f"{length(size)} at {_place(c)}: {n}" for c, size, n in parts[:shown])
     more = f" and {len(parts) - shown} more" if len(parts) > shown else ""
-    enough = -(-particles * along // max(1, min(n for _, _, n in parts)) // 50) * 50
+    enough = _round_up(-(-particles * along // max(1, min(n for _, _, n in parts))))
     return (f"{len(parts)} thin part{'s' if len(parts) > 1 else ''} with under {along} particles along "
             f"({named}{more}): each turns nearly rigidly and hardly jiggles; raise Particles to about {enough}")
 
@@ -280,6 +280,11 @@ def _decimals(largest):
     are told apart as a 2 m one's are."""
     largest = abs(float(largest))
     return 2 if largest == 0.0 or not np.isfinite(largest) else max(2, 1 - int(np.floor(np.log10(largest))))
+
+
+def _round_up(count, step=50):
+    """A particle count the panel names: ``count`` rounded up to a multiple of ``step``."""
+    return -(-count // step) * step
 
 
 def _metres(x):
