@@ -129,7 +129,7 @@ def test_a_soft_particle_softens_both_halves_of_its_links():
     assert hundredth > 20 * base and scaled < hundredth / 20  # measured 26.6x and 1/35
 
 
-def test_a_change_refactors_once_and_bad_input_raises_naming_the_entry():
+def test_a_change_refactors_once_a_stiffness_keeps_it_and_bad_input_raises_naming_the_entry():
     sim = scenes.fig1_bar()
     n = sim.graph.n_particles
     softness = np.linspace(0.1, 1.0, n)
@@ -139,6 +139,8 @@ def test_a_change_refactors_once_and_bad_input_raises_naming_the_entry():
     sim.set_link_softness(softness.copy())  # the same values: the factor is kept
     sim.step()
     assert sim.counters["factorizations"] == 2
+    sim.set_params(stiffness=np.linspace(1e9, 2e9, n))  # a new k and scale keep the softness
+    assert np.array_equal(sim.link_softness, softness)
     for bad, shown in ((0.0, "0"), (-0.5, "-0.5"), (1.5, "1.5"), (np.nan, "nan"), (np.inf, "inf")):
         with pytest.raises(ValueError, match=rf"^link softness\[3\] = {shown} must be in \(0, 1\]$"):
             sim.set_link_softness(one_particle(n, 3, bad))
