@@ -134,17 +134,19 @@ def suzanne_pairs(particles=100, kind="sphere", frames=48):
     touched = [p for p, c in zip(pairs, touching) if c]
     return (*out, np.mean(touched) if touched else float("nan"), len(touched), frames)
 
-def suzanne_slide(rate, mu, seconds=2.0):
+def suzanne_slide(rate, mu, particles=1000, seconds=2.0):
     """The Suzanne on the ramp: its centre's speed down the ramp at 0.6 s (landed), its acceleration from 1 s while
-    its centre is 0.7 m or more from the ramp's lower rim, the friction coefficient that acceleration means, and
-    its contact patch's mean speed over its centre's then (1: sliding; below: rolling or tumbling)."""
-    rows = _suzanne_on_the_ramp(rate, mu, seconds)
+    its centre is 0.7 m or more from the ramp's lower rim, the friction coefficient that acceleration means, its
+    contact patch's mean speed over its centre's then (1: sliding; below: rolling or tumbling), and in how many of
+    those steps its skin is more than 1 cm off the ramp (hopping)."""
+    rows = _suzanne_on_the_ramp(rate, mu, seconds, particles)
     t = np.arange(1, len(rows) + 1) / rate
     window = (t >= 1.0) & (rows[:, 1] < 3.3)
     a = np.polyfit(t[window], rows[window, 0], 1)[0]
     sin, cos = math.sin(math.radians(30.0)), math.cos(math.radians(30.0))
     return (rows[int(0.6 * rate) - 1, 0], a, 9.81 * (sin - mu * cos), (9.81 * sin - a) / (9.81 * cos),
-            rows[window, 2].mean() / rows[window, 0].mean(), t[window].max())
+            rows[window, 2].mean() / rows[window, 0].mean(), t[window].max(), (rows[window, 3] > 0.01).sum(),
+            window.sum())
 
 if __name__ == "__main__":
     what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob", "tolerance", "slide"]
@@ -172,9 +174,10 @@ if __name__ == "__main__":
             print("Suzanne, 100 particles, on a mesh %s at the add-on's defaults: %.1f pairs a step free, %.1f with it, "
                   "%.1f over the %d of %d steps in contact" % (kind, *suzanne_pairs(100, kind)))
     if "slide" in what:
-        for rate in (24, 60, 240):
-            for mu in (0.3, 0.5):
-                print("Suzanne on the ramp, %d Hz, mu %.1f: %.2f m/s at 0.6 s, then %.3f m/s2 (Coulomb %.3f, mu' %.3f), "
-                      "its patch at %.2f of its centre's speed (1 s to %.2f s)" % (rate, mu, *suzanne_slide(rate, mu)),
-                      flush=True)
+        for particles in (1000, 100):
+            for rate in (24, 60, 240):
+                for mu in (0.3, 0.5):
+                    print("Suzanne on the ramp, %d particles, %d Hz, mu %.1f: %.2f m/s at 0.6 s, then %.3f m/s2 (Coulomb "
+                          "%.3f, mu' %.3f), its patch at %.2f of its centre's speed (1 s to %.2f s), off the ramp in %d "
+                          "of %d steps" % (particles, rate, mu, *suzanne_slide(rate, mu, particles)), flush=True)
     print("%.1f s" % (time.time() - t0))
