@@ -1,8 +1,10 @@
 """The figures of docs/contact.md's "Contact inside the iterations" (issue 27): the 0.3 m cube on a 30-degree
 plane at 1/24, 1/60 and 1/240 s (mu = 1 and 0.3), the k = 1e15 capsule at rest on the floor and on a plane
 (mu = 0.5, 3 s, 1/24 to 1/240 s), the blob's rebound from a 1 m drop, and the add-on test's soft blob dropped on
-a sphere at 24 fps (its skin's mean height over 10 s), and the pairs a step takes under the presets' tolerance (the cube, Rubber). `PYTHONPATH=build/python
-python3 scripts/contact_figures.py [ramp|stiff|drop|blob|tolerance]`."""
+a sphere at 24 fps (its skin's mean height over 10 s), and the pairs a step takes under the presets' tolerance (the cube, Rubber);
+slide: the colliders bench's Suzanne dropped on a 30-degree mesh ramp (tests/test_contact.py) at 24, 60 and 240 Hz,
+mu = 0.3 and 0.5, against Coulomb. `PYTHONPATH=build/python
+python3 scripts/contact_figures.py [ramp|stiff|drop|blob|tolerance|slide]`."""
 import math, os, sys, time
 import numpy as np
 import opdeform
@@ -11,6 +13,7 @@ from opdeform.simulation import frame_from_normal
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "tests"))
 from test_contact import _cube_on_a_ramp as cube_on_ramp  # the tests' cube on the ramp: (distance, degrees)
+from test_contact import _suzanne_on_the_ramp
 
 def cube():
     return scenes.RampCube(0.0, 24).graph
@@ -131,8 +134,22 @@ def suzanne_pairs(particles=100, kind="sphere", frames=48):
     touched = [p for p, c in zip(pairs, touching) if c]
     return (*out, np.mean(touched) if touched else float("nan"), len(touched), frames)
 
+def suzanne_slide(rate, mu, particles=1000, seconds=2.0):
+    """The Suzanne on the ramp: its centre's speed down the ramp at 0.6 s (landed), its acceleration from 1 s while
+    its centre is 0.7 m or more from the ramp's lower rim, the friction coefficient that acceleration means, its
+    contact patch's mean speed over its centre's then (1: sliding; below: rolling or tumbling), and in how many of
+    those steps its skin is more than 1 cm off the ramp (hopping)."""
+    rows = _suzanne_on_the_ramp(rate, mu, seconds, particles)
+    t = np.arange(1, len(rows) + 1) / rate
+    window = (t >= 1.0) & (rows[:, 1] < 3.3)
+    a = np.polyfit(t[window], rows[window, 0], 1)[0]
+    sin, cos = math.sin(math.radians(30.0)), math.cos(math.radians(30.0))
+    return (rows[int(0.6 * rate) - 1, 0], a, 9.81 * (sin - mu * cos), (9.81 * sin - a) / (9.81 * cos),
+            rows[window, 2].mean() / rows[window, 0].mean(), t[window].max(), (rows[window, 3] > 0.01).sum(),
+            window.sum())
+
 if __name__ == "__main__":
-    what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob", "tolerance"]
+    what = sys.argv[1:] or ["ramp", "stiff", "drop", "blob", "tolerance", "slide"]
     g = cube()
     t0 = time.time()
     if "ramp" in what:
@@ -156,4 +173,11 @@ if __name__ == "__main__":
         for kind in ("sphere", "ramp"):
             print("Suzanne, 100 particles, on a mesh %s at the add-on's defaults: %.1f pairs a step free, %.1f with it, "
                   "%.1f over the %d of %d steps in contact" % (kind, *suzanne_pairs(100, kind)))
+    if "slide" in what:
+        for particles in (1000, 100):
+            for rate in (24, 60, 240):
+                for mu in (0.3, 0.5):
+                    print("Suzanne on the ramp, %d particles, %d Hz, mu %.1f: %.2f m/s at 0.6 s, then %.3f m/s2 (Coulomb "
+                          "%.3f, mu' %.3f), its patch at %.2f of its centre's speed (1 s to %.2f s), off the ramp in %d "
+                          "of %d steps" % (particles, rate, mu, *suzanne_slide(rate, mu, particles)), flush=True)
     print("%.1f s" % (time.time() - t0))

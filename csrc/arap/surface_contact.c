@@ -135,8 +135,8 @@ typedef struct od_Patch
 	od_Vec3 shift;
 	od_Mat3 inverse;                       // od_SurfaceContact_Turn: the inverse inertia about the centre of mass,
 	od_Vec3 middle, move, spin;            // the centre of mass, the rigid correction's translation and rotation,
-	od_Vec3 slip;                          // Σ m l s over its particles the projection will lift by l, s their slide,
-	double lifted, grip;                   // Σ m l and Σ μ m l
+	od_Vec3 slip;                          // Σ m l s over its particles lifted by l after the iterations (the
+	double lifted, grip;                   // projection's, the turn's keep-out), s their slide; Σ m l and Σ μ m l
 } od_Patch;
 
 void od_SurfaceContact_Destroy(od_SurfaceContact* s)
@@ -771,12 +771,44 @@ static void od_RollBack(od_Patch* p, double h, bool level)
 	p->shift = od_Add(od_Sub(c, od_M3MulV(&p->turn, c)), shift);
 }
 
+// Particle i's part, m l, of its piece's support by a lift l along its surface's normal after the iterations, and its
+// slide along the surface since the step's start, summed for od_SlideBack.
+static void od_AddLift(od_Sim* sim, int i, double l)
+{
+	od_SurfaceContact* s = &sim->surface;
+	od_Patch* p = &s->patch[sim->graph->piece[i]];
+	double weight = l * sim->def.density * sim->graph->volumes[i];
+	od_Vec3 n = od_V3Load(s->normal + 3 * i);
+	od_Vec3 slide = od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(s->anchor + 3 * i));
+	p->slip = od_MulAdd(p->slip, weight, od_MulAdd(slide, -od_Dot(slide, n), n));
+	p->lifted += weight;
+	p->grip += od_FrictionOf(sim, s->source[i]) * weight;
+}
+
+// The friction of the lifts summed by od_AddLift, for each piece as a whole (p->move): its mean slide, weighted by
+// m l, taken back by at most Σ μ m l / M (Coulomb's bound on that support, as a move of the piece). Taken back
+// from the lifted particles alone (the keep-out's, od_KeepOut), it bent the k = 1e15 capsule at rest 1.6 mm off
+// its rigid shape at 1/24 s (0.73 mm as a move of the piece; tests/test_contact.py).
+static void od_SlideBack(od_Sim* sim)
+{
+	for (int q = 0; q < sim->graph->pieceCount; ++q)
+	{
+		od_Patch* p = &sim->surface.patch[q];
+		od_Vec3 mean = p->lifted > 0.0 ? od_Scale(1.0 / p->lifted, p->slip) : od_V3(0, 0, 0);
+		double size = od_Length(mean), cut = p->lifted > 0.0 ? p->grip / p->mass : 0.0;
+		p->move = size > cut ? od_Scale(-cut / size, mean) : od_Scale(-1.0, mean);
+	}
+}
+
 // The turn may not take a particle deeper into its surface's plane than the projections left it (turned
 // about the patch centre, the skin of a Suzanne on the floor went 0.14 mm into it): lifted back by the
-// difference along the normal.
+// difference along the normal; that lift is part of the piece's support, and has its friction (od_SlideBack):
+// without it, 3-8 % of the weight of the colliders bench's Suzanne sliding down the 30-degree ramp was held by these
+// lifts, with no friction, and it slid at 0.97 m/s² at 60 Hz with μ = 0.5 (Coulomb 0.66; docs/contact.md).
 static void od_KeepOut(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
+	bool any = false;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		int i = s->near[k];
@@ -784,6 +816,21 @@ static void od_KeepOut(od_Sim* sim)
 		if (s->patch[sim->graph->piece[i]].force > 0.0 && lift > 0.0)
 		{
 			od_V3Store(sim->state.x + 3 * i, od_MulAdd(od_V3Load(sim->state.x + 3 * i), lift, od_V3Load(s->normal + 3 * i)));
+			od_AddLift(sim, i, lift);
+			any = true;
+		}
+	}
+	if (!any)
+	{
+		return;
+	}
+	od_SlideBack(sim);
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		const od_Patch* p = &s->patch[sim->graph->piece[i]];
+		if (p->force > 0.0 && p->lifted > 0.0)
+		{
+			od_V3Store(sim->state.x + 3 * i, od_Add(od_V3Load(sim->state.x + 3 * i), p->move));
 		}
 	}
 }
@@ -880,36 +927,23 @@ static void od_TurnSweep(od_Sim* sim)
 	}
 }
 
-// The friction of what the projection will lift (its part of the support), for each turned piece as a whole: the
-// piece's mean slide along its surfaces, weighted by m l (l the lift after the turn), taken back by at most
-// Σ μ m l / M (Coulomb's bound on that support, as a move of the piece). The projection's own friction, μ l on
-// each particle alone, is what a stiff body's next step undoes (docs/contact.md, the Suzanne on the ramp).
+// The friction of what the projection will lift (its part of the support), for each turned piece as a whole
+// (od_SlideBack, l the lift after the turn). The projection's own friction, μ l on each particle alone, is what a
+// stiff body's next step undoes (docs/contact.md, the Suzanne on the ramp).
 static void od_TurnFriction(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
-	const od_Graph* g = sim->graph;
 	for (int k = 0; k < s->nearCount; ++k)
 	{
 		int i = s->near[k];
-		od_Patch* p = &s->patch[g->piece[i]];
-		double weight = (s->excess[i] - od_Dot(p->spin, od_V3Load(s->impulse + OD_TURN_ROW * k + 2))) *
-						sim->def.density * g->volumes[i]; // m l
-		if (p->force > 0.0 && weight > 0.0)
+		const od_Patch* p = &s->patch[sim->graph->piece[i]];
+		double lift = s->excess[i] - od_Dot(p->spin, od_V3Load(s->impulse + OD_TURN_ROW * k + 2));
+		if (p->force > 0.0 && lift > 0.0)
 		{
-			od_Vec3 n = od_V3Load(s->normal + 3 * i);
-			od_Vec3 slide = od_Sub(od_V3Load(sim->state.x + 3 * i), od_V3Load(s->anchor + 3 * i));
-			p->slip = od_MulAdd(p->slip, weight, od_MulAdd(slide, -od_Dot(slide, n), n));
-			p->lifted += weight;
-			p->grip += od_FrictionOf(sim, s->source[i]) * weight;
+			od_AddLift(sim, i, lift);
 		}
 	}
-	for (int q = 0; q < g->pieceCount; ++q)
-	{
-		od_Patch* p = &s->patch[q];
-		od_Vec3 mean = p->lifted > 0.0 ? od_Scale(1.0 / p->lifted, p->slip) : od_V3(0, 0, 0);
-		double size = od_Length(mean), cut = p->grip / p->mass;
-		p->move = size > cut ? od_Scale(-cut / size, mean) : od_Scale(-1.0, mean); // now the piece's move
-	}
+	od_SlideBack(sim);
 }
 
 void od_SurfaceContact_Turn(od_Sim* sim)
