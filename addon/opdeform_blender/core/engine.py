@@ -38,6 +38,7 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # particle's strength is a mean over its vertices, so a core vertex near a soft region would otherwise take
 # that region's lag), follow 0.9 and below the whole offset.
 LOCK_RAMP = 10.0
+LINK_SOFTNESS_MIN = 1e-6  # jiggle_softness's floor: a link softness is > 0
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -121,6 +122,24 @@ def _same_points(a, b):
 
 def _same(a, b):
     return a is b or (a is not None and b is not None and np.array_equal(a, b))
+
+
+def elastic_frequency(graph, stiffness, density):
+    """Each particle's elastic frequency (Hz) on its links with its neighbours held: sqrt(K / m) / 2π, K = k Σj
+    (vi + vj) the global step's diagonal (METHOD.md, eq. 6), m = ρ vi; ``stiffness`` k a number or one per
+    particle."""
+    v = graph.volumes
+    i, j = np.asarray(graph.edges).T
+    links = np.bincount(i, v[i] + v[j], len(v)) + np.bincount(j, v[i] + v[j], len(v))
+    return np.sqrt(np.asarray(stiffness) * links / (density * v)) / (2.0 * np.pi)
+
+
+def jiggle_softness(elastic_hz, follow, jiggle_hz):
+    """Per-particle link softness (``Simulation.set_link_softness``) that brings a particle of Follow f from its
+    elastic frequency toward ``jiggle_hz``: (jiggle_hz / elastic)^(2 (1 - f)), the frequency interpolated in log
+    by Follow (f = 1: unchanged), never stiffer (at most 1)."""
+    ratio = np.minimum(jiggle_hz / elastic_hz, 1.0)
+    return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
 def _same_params(a, b):
@@ -225,6 +244,7 @@ class Engine:
         self._lock = None
         self._softness = None  # set_regions' per-particle stiffness scale (None: 1)
         self._damping = None  # set_regions' per-particle damping per step (None: the body's)
+        self._links = None  # set_regions' per-particle link softness of the jiggle rule (None: 1)
         self._given = None  # configure's last parameters, before the softness map
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
@@ -421,7 +441,7 @@ class Engine:
             follow = self._follow(strength, vertex_weights, (*follow_range, shell_min))
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
-        values = None if follow is None else np.clip(self._particle_values(follow), 0.0, 1.0)  # a mean may round past 1
+        values = None if follow is None else self._particle_values(follow, lowest=True)
         if vertex_weights is not None and shell_min > 0.0:  # a painted Follow: a shell's held above shell_min
             values = self._shells_held(values, shell_min)
         if _same(values, self.goal_strength) and _same(follow, self.follow):
@@ -442,13 +462,16 @@ class Engine:
             return values
         return np.where(piece != body, shell_min + (1.0 - shell_min) * values, values)
 
-    def _particle_values(self, vertex_values):
-        """Per-vertex values (a painted map) as per-particle values: each particle's goal-fit mean
-        (``GoalFit.particle_values``, over the vertices of its own mesh piece)."""
+    def _particle_values(self, vertex_values, lowest=False):
+        """Per-vertex values (a painted map) as per-particle values over each particle's goal-fit vertices (its 16
+        nearest of its own mesh piece): their weighted mean (``GoalFit.particle_values``), or with ``lowest`` the
+        least of them, so that a spot painted low (a soft belly among Follow 1) reaches the particles over it
+        (their mean gave the outside knight's belly 0.45-0.94 where 0.15 was painted, docs/goals.md) and a particle
+        whose vertices are all 1 stays 1."""
         values = np.asarray(vertex_values, dtype=np.float64)
         if values.shape != (self.n_vertices,):
             raise EngineError(f"a map must have one value per vertex ({self.n_vertices}), got shape {values.shape}")
-        return self.fit.particle_values(values)
+        return values[self.fit.indices].min(axis=1) if lowest else self.fit.particle_values(values)
 
     def pieces(self):
         """(the number of mesh pieces, each particle's piece, the body: the piece with most particles), pieces
@@ -473,18 +496,20 @@ class Engine:
         lo, hi = limits[:2]
         return lo + w * (hi - lo)
 
-    def set_regions(self, stiffness_scale=None, damping=None):
+    def set_regions(self, stiffness_scale=None, damping=None, jiggle_hz=None):
         """Per-vertex maps (a painted softness and damping; None: uniform) as per-particle values: the stiffness
         of each particle times ``stiffness_scale`` (> 0), and its damping per step in [0, 1] in place of the
-        body's (relative to the goals' motion while a goal is on). Call after ``configure``. A change outdates
-        the cache; a new softness refactors once."""
-        if stiffness_scale is None and damping is None and self._softness is None and self._damping is None:
+        body's (relative to the goals' motion while a goal is on). ``jiggle_hz`` (None: off; needs a goal): each
+        particle's links softened by its Follow toward that frequency (``jiggle_softness``). Call after
+        ``configure`` and ``set_goal``. A change outdates the cache; a new softness refactors once."""
+        if all(x is None for x in (stiffness_scale, damping, jiggle_hz, self._softness, self._damping, self._links)):
             return False
         if self.fit is None:
             self.fit = self.od.GoalFit(self.graph, self.rest)
-        softness = None if stiffness_scale is None else self._particle_values(stiffness_scale)
+        softness = None if stiffness_scale is None else self._particle_values(stiffness_scale, lowest=True)
         per_particle = None if damping is None else np.clip(self._particle_values(damping), 0.0, 1.0)
-        if _same(softness, self._softness) and _same(per_particle, self._damping):
+        links = self._jiggle_links(jiggle_hz)
+        if _same(softness, self._softness) and _same(per_particle, self._damping) and _same(links, self._links):
             return False
         if softness is not None and not np.all(np.isfinite(softness) & (softness > 0.0)):
             raise EngineError("the softness map must be finite and > 0")
@@ -492,11 +517,22 @@ class Engine:
             self.sim.set_particle_damping(per_particle)
         except ValueError as exc:
             raise EngineError(f"the damping map: {exc}") from None
-        self._softness, self._damping = softness, per_particle
+        self.sim.set_link_softness(links)
+        self._softness, self._damping, self._links = softness, per_particle, links
         given, self._params = self._given, None  # the stiffness with the new softness
         self.configure(given, self._substeps, self._floor, self.start, self.end, self._solver)
         self.invalidate()
         return True
+
+    def _jiggle_links(self, jiggle_hz):
+        """The jiggle rule's link softness (None: off, or no goal)."""
+        if jiggle_hz is None or self.goal_strength is None:
+            return None
+        if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
+            raise EngineError(f"the jiggle frequency must be > 0 Hz, got {jiggle_hz}")
+        given = self._given
+        return jiggle_softness(elastic_frequency(self.graph, given["stiffness"], given["density"]),
+                               self.goal_strength, jiggle_hz)
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed

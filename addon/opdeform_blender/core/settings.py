@@ -69,11 +69,11 @@ class Units:
 # that settles").
 LOOKS = {
     "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0,
-                   shell_follow_min=SHELL_FOLLOW_MIN),
+                   jiggle_hz=6.0, shell_follow_min=SHELL_FOLLOW_MIN),
     "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0,
-                   shell_follow_min=SHELL_FOLLOW_MIN),
+                   jiggle_hz=3.0, shell_follow_min=SHELL_FOLLOW_MIN),
     "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=12.0, soft_stiffness=0.1, region_damping=12.0,
-                   shell_follow_min=0.4),
+                   jiggle_hz=1.5, shell_follow_min=0.4),
 }
 DEFAULT_LOOK = "Fleshy"
 
