@@ -1597,7 +1597,7 @@ static void od_MeasurePair(od_PairScratch* s, od_ContactPair* pair, const od_End
 }
 
 // How far particle i moves per newton pushed at it with its member held: the inverse of its row's diagonal
-// in the global matrix (inertia m/h² and its edges' k (u_i + u_j)).
+// in the global matrix (inertia m/h² and its edges' k w_ij (u_i + u_j)).
 static double od_OwnCompliance(const od_Sim* sim, int i)
 {
 	const od_Graph* graph = sim->graph;
@@ -1605,7 +1605,7 @@ static double od_OwnCompliance(const od_Sim* sim, int i)
 	double diagonal = sim->def.density * graph->volumes[i] / (sim->def.dt * sim->def.dt);
 	for (int k = graph->adjStart[i]; k < graph->adjStart[i + 1]; ++k)
 	{
-		diagonal += sim->def.stiffness * (u[i] + u[graph->adj[k]]);
+		diagonal += sim->def.stiffness * od_EdgeVolume(sim, u, i, k);
 	}
 	return 1.0 / diagonal;
 }

@@ -20,6 +20,19 @@ static inline const double* od_ElasticVolumes(const od_Sim* sim)
 	return sim->elasticVolumes ? sim->elasticVolumes : sim->graph->volumes;
 }
 
+// w_ij = min(r_i, r_j) of directed edge e from i to j (od_Sim_SetLinkSoftness): 1 without a link softness.
+static inline double od_LinkWeight(const od_Sim* sim, int e)
+{
+	return sim->linkWeight ? sim->linkWeight[e] : 1.0;
+}
+
+// w_ij (u_i + u_j) of directed edge e from particle i, u = od_ElasticVolumes: the edge's entry on row i's
+// diagonal of the global matrix, over k.
+static inline double od_EdgeVolume(const od_Sim* sim, const double* u, int i, int e)
+{
+	return od_LinkWeight(sim, e) * (u[i] + u[sim->graph->adj[e]]);
+}
+
 // c_i of particle i, the damping of its prediction (od_Sim_SetParticleDamping): def.damping without one.
 static inline double od_Damping(const od_Sim* sim, int i)
 {

@@ -3,7 +3,8 @@
 // ∂E/∂x = 0 is one n x n sparse SPD system with three right-hand sides (x, y, z share the matrix):
 //   Σ_j k (v_i + v_j)(x_i - x_j) + (m_i/h²) x_i + Σ_c w_c w_a (Σ_b w_b x_b)
 //     = Σ_j k (v_j R_i + v_i R_j)(X̄_i - X̄_j) + (m_i/h²) y_i + Σ_c w_c w_a (t_c - Σ_b w_b R_b (p̄_c - X̄_b)),
-// with each elastic v_i taken as s_i v_i under a stiffness scale s (od_ElasticScale).
+// with each elastic v_i taken as s_i v_i under a stiffness scale s (od_ElasticScale) and each edge's terms weighted
+// by its link weight w_ij (od_LinkWeight).
 // With goals carrying the rest, X̄_i - X̄_j is the goal shape's, seen from i's goal frame in the R_i term and from
 // j's in the R_j term (goal.c); the matrix is the same.
 // Static poses drop the mass term and put gravity m_i g on the right. The matrix depends only on the
@@ -136,10 +137,11 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 		double diag = (sim->mode == OD_DYNAMIC ? rho * g->volumes[i] / (h * h) : 0.0) + od_Goals_Diagonal(sim, i);
 		od_PushEntry(t, i, i, diag);
 	}
+	const double* r = sim->linkSoftness;
 	for (int e = 0; e < g->edgeCount; ++e)
 	{
 		int a = g->edges[2 * e], b = g->edges[2 * e + 1];
-		double kab = k * (u[a] + u[b]);
+		double kab = k * ((r ? fmin(r[a], r[b]) : 1.0) * (u[a] + u[b])); // w_ab (u_a + u_b), as od_EdgeVolume
 		od_PushEntry(t, a, a, kab);
 		od_PushEntry(t, b, b, kab);
 		od_PushEntry(t, a, b, -kab);
@@ -173,7 +175,7 @@ static bool od_NeedsCorrection(const od_Sim* sim)
 		double elastic = 0.0;
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
-			elastic += u[i] + u[g->adj[e]];
+			elastic += od_EdgeVolume(sim, u, i, e);
 		}
 		double inertia = d->density * g->volumes[i] / (d->dt * d->dt);
 		if (sim->mode == OD_DYNAMIC && d->stiffness * elastic > OD_STIFF_STEP * inertia)
@@ -308,11 +310,11 @@ static inline void od_EdgeOffsets(const double* rest, int e, const od_Vec3* ci, 
 }
 
 // Row i of the right side b: the inertia (m/h²) y_i or gravity m_i g, the constraints' row
-// (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j and u = s v the scaled volumes,
-// k u_j R_i d + k u_i R_j d, gathered as R_i (k Σ_j u_j d) + k u_i Σ_j R_j d, the first sum kept per particle
-// (rowArm, local_step.c). With `residual`, row i of b - A x instead, each term taken against the
-// current centres before it is summed so that nothing large cancels: (m/h²)(y_i - x_i) and
-// k u_j (R_i d - (x_i - x_j)) + k u_i (R_j d - (x_i - x_j)); the constraints' part is added apart
+// (od_Positions_RhsRow) and per neighbour j, with d = X̄_i - X̄_j, u = s v the scaled volumes and w the link
+// weights, k w_ij u_j R_i d + k w_ij u_i R_j d, gathered as R_i (k Σ_j w_ij u_j d) + k u_i Σ_j w_ij R_j d, the
+// first sum kept per particle (rowArm, local_step.c). With `residual`, row i of b - A x instead, each term taken
+// against the current centres before it is summed so that nothing large cancels: (m/h²)(y_i - x_i) and
+// k w_ij u_j (R_i d - (x_i - x_j)) + k w_ij u_i (R_j d - (x_i - x_j)); the constraints' part is added apart
 // (od_FillResidual). Rows are independent, so threads split them.
 static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 {
@@ -323,6 +325,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 	od_Vec3 xi = od_V3Load(st->x + 3 * i), ci = od_V3Load(g->centers + 3 * i);
 	od_Mat3 ri = od_M3Load(st->R + 9 * i);
 	const double* rest = sim->goals.edgeRest; // NULL unless the goals carry the rest
+	const double* w = sim->linkWeight;        // NULL without a link softness: a weight of 1, the same bits
 	od_Vec3 arm = od_V3(0, 0, 0), turned = arm;
 	if (residual) // read in place like the branch below, the same operations as od_MulAdd(.., od_M3MulV(..))
 	{
@@ -331,7 +334,7 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
 			int j = g->adj[e];
-			double uj = u[j];
+			double we = w ? w[e] : 1.0, uj = we * u[j], wi = we * ui;
 			const double* rj = st->R + 9 * j;
 			const double* xj = st->x + 3 * j;
 			double b[3], d[3]; // X̄_i - X̄_j in i's frame and in j's
@@ -340,9 +343,9 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 			a0 = a0 + uj * ((r[0] * b[0] + r[1] * b[1] + r[2] * b[2]) - x0);
 			a1 = a1 + uj * ((r[3] * b[0] + r[4] * b[1] + r[5] * b[2]) - x1);
 			a2 = a2 + uj * ((r[6] * b[0] + r[7] * b[1] + r[8] * b[2]) - x2);
-			t0 = t0 + ui * ((rj[0] * d[0] + rj[1] * d[1] + rj[2] * d[2]) - x0);
-			t1 = t1 + ui * ((rj[3] * d[0] + rj[4] * d[1] + rj[5] * d[2]) - x1);
-			t2 = t2 + ui * ((rj[6] * d[0] + rj[7] * d[1] + rj[8] * d[2]) - x2);
+			t0 = t0 + wi * ((rj[0] * d[0] + rj[1] * d[1] + rj[2] * d[2]) - x0);
+			t1 = t1 + wi * ((rj[3] * d[0] + rj[4] * d[1] + rj[5] * d[2]) - x1);
+			t2 = t2 + wi * ((rj[6] * d[0] + rj[7] * d[1] + rj[8] * d[2]) - x2);
 		}
 		arm = od_V3(a0, a1, a2);
 		turned = od_V3(t0, t1, t2);
@@ -356,10 +359,10 @@ static od_Vec3 od_RhsRow(const od_Sim* sim, int i, bool residual)
 			const double* rj = st->R + 9 * j;
 			double b[3], d[3];
 			od_EdgeOffsets(rest, e, &ci, g->centers + 3 * j, b, d);
-			double d0 = d[0], d1 = d[1], d2 = d[2];
-			t0 = t0 + (rj[0] * d0 + rj[1] * d1 + rj[2] * d2);
-			t1 = t1 + (rj[3] * d0 + rj[4] * d1 + rj[5] * d2);
-			t2 = t2 + (rj[6] * d0 + rj[7] * d1 + rj[8] * d2);
+			double d0 = d[0], d1 = d[1], d2 = d[2], we = w ? w[e] : 1.0;
+			t0 = t0 + we * (rj[0] * d0 + rj[1] * d1 + rj[2] * d2);
+			t1 = t1 + we * (rj[3] * d0 + rj[4] * d1 + rj[5] * d2);
+			t2 = t2 + we * (rj[6] * d0 + rj[7] * d1 + rj[8] * d2);
 		}
 		turned = od_V3(t0, t1, t2);
 	}

@@ -1,9 +1,9 @@
 // The local step: each particle's rotation, the others held fixed (eqs. 4 and 13, METHOD.md).
 //
 // R_i maximizes tr(R_iᵀ C_i) with
-//   C_i = k Σ_j [R_j (s_j Ā_j + s_i Ā_i) + s_j v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ] + (ρ/h²) R̃_i Ā_i + constraint terms
-// (s the stiffness scale, od_ElasticScale: 1 without one; with goals carrying the rest, the edges' terms of
-// goal.c's note).
+//   C_i = k Σ_j w_ij [R_j (s_j Ā_j + s_i Ā_i) + s_j v_j (x_j - x_i)(X̄_j - X̄_i)ᵀ] + (ρ/h²) R̃_i Ā_i + constraint terms
+// (s the stiffness scale, od_ElasticScale, and w the link weight, od_LinkWeight: 1 without them; with goals
+// carrying the rest, the edges' terms of goal.c's note).
 // The energy is exactly -tr(R_iᵀ C_i) + const in R_i, so each update is an exact block-coordinate
 // minimization. Updates are Gauss-Seidel (each particle sees its neighbours' new rotations): with
 // Jacobi updates the iteration can climb to a garbage state (METHOD.md, measured fact 1).
@@ -48,25 +48,25 @@ void od_LocalStep_PrepareEdges(od_Sim* sim)
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
 			int j = g->adj[e];
-			double sj = od_ElasticScale(sim, j);
+			double w = od_LinkWeight(sim, e), wi = w * si, wj = w * od_ElasticScale(sim, j);
 			od_Mat3 sum = od_M3Zero();
 			od_Vec3 rest;
 			if (od_Goals_CarryRest(sim)) // measured against the goal shape (goal.c)
 			{
-				od_Goals_PrepareEdge(sim, i, e, si, sj, &sum, &rest);
+				od_Goals_PrepareEdge(sim, i, e, wi, wj, &sum, &rest);
 			}
 			else
 			{
 				od_Mat3 aj = od_M3Load(g->moments + 9 * j);
-				od_M3AddScaled(&sum, sj, &aj);
-				od_M3AddScaled(&sum, si, &ai);
+				od_M3AddScaled(&sum, wj, &aj);
+				od_M3AddScaled(&sum, wi, &ai);
 				rest = od_Sub(od_V3Load(g->centers + 3 * j), ci);
 			}
 			for (int c = 0; c < 9; ++c)
 			{
 				sim->edgeMoment[9 * e + c] = k * sum.m[c];
 			}
-			od_Vec3 arm = od_Scale(k * (sj * g->volumes[j]), rest);
+			od_Vec3 arm = od_Scale(k * (wj * g->volumes[j]), rest);
 			od_V3Store(sim->edgeArm + 3 * e, arm);
 			row = od_Sub(row, arm);
 		}

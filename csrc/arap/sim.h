@@ -331,14 +331,19 @@ struct od_Sim
 	// term of the elastic energy integrated over ellipsoid j (v_j and Ā_j) is weighted by s_j. NULL: all 1.
 	double* stiffnessScale;
 	double* elasticVolumes;    // s_i v_i with a scale (the right side's weights, od_ElasticVolumes), else NULL
-	unsigned stiffnessVersion; // advances with every change of the scale (it enters the global matrix)
+	// Per particle i, its link softness r_i in (0, 1] (od_Sim_SetLinkSoftness): both halves of link (i, j) are
+	// weighted w_ij = min(r_i, r_j), so the term over ellipsoid j of directed edge (i, j) weighs s_j w_ij.
+	double* linkSoftness; // NULL: all 1
+	double* linkWeight;   // w_ij per directed edge (CSR order of graph->adj) with a softness, else NULL
+	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 
-	// Per directed edge (CSR order of graph->adj), scaled by k and the scale; rebuilt when either changes:
-	// k (s_j Ā_j + s_i Ā_i) and k s_j v_j (X̄_j - X̄_i) of the local step, k s_j v_j (X̄_i - X̄_j) of the right side.
+	// Per directed edge (CSR order of graph->adj), scaled by k, the scale and the link weight; rebuilt when one
+	// changes: k w_ij (s_j Ā_j + s_i Ā_i) and k w_ij s_j v_j (X̄_j - X̄_i) of the local step, k w_ij s_j v_j
+	// (X̄_i - X̄_j) of the right side.
 	double* edgeMoment; // 9 per directed edge
 	double* edgeArm;    // 3 per directed edge
-	double* rowArm;     // 3 per particle: k Σ_j s_j v_j (X̄_i - X̄_j), the right side's R_i term (global_solve.c)
-	double edgeStiffness; // the k they were made with; 0 when the scale changed (k > 0)
+	double* rowArm;     // 3 per particle: k Σ_j w_ij s_j v_j (X̄_i - X̄_j), the right side's R_i term (global_solve.c)
+	double edgeStiffness; // the k they were made with; 0 when the scale or the softness changed (k > 0)
 
 	od_SolverDef solverDef;
 	od_Accelerator accelerator;

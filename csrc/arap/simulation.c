@@ -298,6 +298,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->rowArm);
 	od_Free(sim->stiffnessScale);
 	od_Free(sim->elasticVolumes);
+	od_Free(sim->linkSoftness);
+	od_Free(sim->linkWeight);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
@@ -338,6 +340,13 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	}
 	sim->predictionValid = false;
 	return OD_OK;
+}
+
+// The elastic weights (scale or link softness) changed: they enter the global matrix and the edges' terms.
+static void od_ElasticWeightsChanged(od_Sim* sim)
+{
+	sim->stiffnessVersion++;
+	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
 }
 
 static void od_DropStiffnessScale(od_Sim* sim)
@@ -384,14 +393,77 @@ od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
 	{
 		od_DropStiffnessScale(sim);
 	}
-	sim->stiffnessVersion++;
-	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
+	od_ElasticWeightsChanged(sim);
 	return OD_OK;
 }
 
 const double* od_Sim_GetStiffnessScale(const od_Sim* sim)
 {
 	return sim->stiffnessScale;
+}
+
+static void od_DropLinkSoftness(od_Sim* sim)
+{
+	od_Free(sim->linkSoftness);
+	od_Free(sim->linkWeight);
+	sim->linkSoftness = sim->linkWeight = NULL;
+}
+
+// w_ij = min(r_i, r_j) of every directed edge.
+static void od_FillLinkWeights(od_Sim* sim)
+{
+	const od_Graph* g = sim->graph;
+	const double* r = sim->linkSoftness;
+	for (int i = 0; i < g->n; ++i)
+	{
+		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+		{
+			sim->linkWeight[e] = fmin(r[i], r[g->adj[e]]);
+		}
+	}
+}
+
+od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness)
+{
+	int n = sim->graph->n;
+	for (int i = 0; softness && i < n; ++i)
+	{
+		if (!(softness[i] > 0.0 && softness[i] <= 1.0))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "link softness[%d] = %g must be in (0, 1]", i, softness[i]);
+		}
+	}
+	if (softness ? sim->linkSoftness && !memcmp(softness, sim->linkSoftness, sizeof(double) * (size_t)n)
+				 : !sim->linkSoftness)
+	{
+		return OD_OK; // unchanged: keep the factor
+	}
+	if (softness && !sim->linkSoftness)
+	{
+		sim->linkSoftness = od_Alloc(sizeof(double) * (size_t)n);
+		sim->linkWeight = od_Alloc(sizeof(double) * 2 * (size_t)sim->graph->edgeCount);
+		if (!sim->linkSoftness || !sim->linkWeight)
+		{
+			od_DropLinkSoftness(sim);
+			return od_Fail(OD_ERROR_MEMORY, "out of memory for the link softness of %d particles", n);
+		}
+	}
+	if (softness)
+	{
+		memcpy(sim->linkSoftness, softness, sizeof(double) * (size_t)n);
+		od_FillLinkWeights(sim);
+	}
+	else
+	{
+		od_DropLinkSoftness(sim);
+	}
+	od_ElasticWeightsChanged(sim);
+	return OD_OK;
+}
+
+const double* od_Sim_GetLinkSoftness(const od_Sim* sim)
+{
+	return sim->linkSoftness;
 }
 
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)

@@ -212,6 +212,12 @@ static PyObject* Sim_set_stiffness_scale(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "scale", od_Sim_SetStiffnessScale);
 }
 
+// set_link_softness(softness or None): n values in (0, 1]
+static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
+{
+	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
+}
+
 // set_goals(positions, rotations or None)
 static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
 {
@@ -621,7 +627,7 @@ static PyObject* Sim_restore_state(PyObject* obj, PyObject* args)
 }
 
 // read(name, out) -> count: "positions", "rotations", "velocities", "angular_velocities", "energy_trace",
-// "stiffness_scale" or "particle_damping" (the last two: 0 when not set).
+// "stiffness_scale", "link_softness" or "particle_damping" (the last three: 0 when not set).
 static PyObject* Sim_read(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
@@ -635,8 +641,9 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 								od_Sim_GetAngularVelocities(sim) };
 	int index = StateArrayIndex(name), traceCount = 0;
 	bool scale = strcmp(name, "stiffness_scale") == 0; // n values, or none (0) when all 1
+	bool softness = strcmp(name, "link_softness") == 0; // n values, or none (0) when all 1
 	bool damping = strcmp(name, "particle_damping") == 0; // n values, or none (0) when def.damping for all
-	if (index < 0 && !scale && !damping && strcmp(name, "energy_trace") != 0)
+	if (index < 0 && !scale && !softness && !damping && strcmp(name, "energy_trace") != 0)
 	{
 		PyErr_Format(PyExc_ValueError, "unknown state array '%s'", name);
 		return NULL;
@@ -644,9 +651,9 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 	Py_ssize_t n = ((SimObject*)obj)->n;
 	const double* data = index >= 0 ? fields[index] : od_Sim_GetEnergyTrace(sim, &traceCount);
 	Py_ssize_t count = index >= 0 ? StateArrayCount(index, n) : traceCount;
-	if (scale || damping)
+	if (scale || softness || damping)
 	{
-		data = scale ? od_Sim_GetStiffnessScale(sim) : od_Sim_GetParticleDamping(sim);
+		data = scale ? od_Sim_GetStiffnessScale(sim) : softness ? od_Sim_GetLinkSoftness(sim) : od_Sim_GetParticleDamping(sim);
 		count = data ? n : 0;
 	}
 	if (count > 0 && CopyOut(out, "out", data, count, 'd') < 0)
@@ -809,6 +816,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goal_frequencies", Sim_set_goal_frequencies, METH_VARARGS, "set_goal_frequencies(frequencies or None)" },
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
+	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },
 	{ "goal_motion", Sim_goal_motion, METH_VARARGS, "goal_motion(velocities_out, angular_velocities_out) -> steps" },

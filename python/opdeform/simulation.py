@@ -244,6 +244,22 @@ class Simulation(CoreObject, ForceFields):
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("stiffness_scale", out) else None
 
+    def set_link_softness(self, softness: ArrayLike | None) -> None:
+        """A softness per link: one value r_i in (0, 1] per particle, and each link (i, j) weighted min(r_i, r_j)
+        on both of its halves (its terms over ellipsoid i and over ellipsoid j, each also times that particle's
+        ``stiffness_scale``), so that a soft particle among stiff ones has soft links, where a scale softens
+        only its own half of each. None: all 1, the same bits as never set. A change refactors the global
+        matrix once, on the next step."""
+        n = self.graph.n_particles
+        self._core.set_link_softness(None if softness is None else as_array("softness", softness, (n,)))
+
+    @property
+    def link_softness(self) -> Floats | None:
+        """The softness per particle whose minimum weights each link (set_link_softness), a copy; None when all
+        1."""
+        out = np.empty(self.graph.n_particles)
+        return out if self._core.read("link_softness", out) else None
+
     # -- goals ----------------------------------------------------------------------------------------
     def set_goal_strength(self, strength: float | ArrayLike | None) -> None:
         """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
@@ -493,12 +509,13 @@ class Simulation(CoreObject, ForceFields):
 
     # -- pickling ---------------------------------------------------------------------------------------
     def __getstate__(self) -> dict[str, Any]:
-        """Everything a step reads: graph, parameters, stiffness scale, damping per particle, solver settings,
-        floor, goals (with their rest setting and motion), constraints
-        (ids, slot order, targets as stored), force fields, colliders (ids, frames, targets, deformed vertices),
-        self-contact and the state with velocities. The factorization is rebuilt; counters restart."""
+        """Everything a step reads: graph, parameters, stiffness scale, link softness, damping per particle, solver
+        settings, floor, goals (with their rest setting and motion), constraints (ids, slot order, targets as
+        stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact and the state
+        with velocities. The factorization is rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
-        return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale, "solver": solver,
+        return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale,
+                "link_softness": self.link_softness, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
                 "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self.goal_motion,
                 "surface_forces": self.surface_forces,
@@ -524,6 +541,7 @@ class Simulation(CoreObject, ForceFields):
             self.set_floor(*saved["floor"])
         if saved["stiffness_scale"] is not None:
             self.set_stiffness_scale(saved["stiffness_scale"])
+        self.set_link_softness(saved.get("link_softness"))
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
         self.set_goals_carry_rest(saved.get("goal_rest", False))

@@ -46,6 +46,11 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def);
 // never set). The global matrix is refactored once, on the next solve. Get: NULL when all 1.
 od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale);
 const double* od_Sim_GetStiffnessScale(const od_Sim* sim);
+// A softness per link: each link (i, j) is weighted min(r_i, r_j) on both of its halves (the term over ellipsoid
+// j then weighs s_j min(r_i, r_j)), so a soft particle among stiff ones has soft links; n values in (0, 1];
+// NULL = all 1 (the same bits as never set). Refactored once, on the next solve. Get: NULL when all 1.
+od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness);
+const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
 od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
