@@ -375,17 +375,19 @@ def particles_per_part(name, obj, parts):
 
 def per_particle(e, near):
     """Per particle as the solver has it: part, mesh piece, Follow (after Shell Min), its goal in Hz, the
-    calibrated k before and after the Softness map, the map's scale, its volume."""
+    calibrated k before and after the Softness map, the map's scale, the jiggle rule's link softness, its volume."""
     import opdeform
     follow = e.goal_strength
     hz = opdeform.goal_frequency(follow)
     count = e.graph.n_particles
     given, k = (np.broadcast_to(x["stiffness"], (count,)) for x in (e._given, e._params))
     soft = np.ones(count) if e._softness is None else e._softness
+    links = np.ones(count) if e._links is None else e._links
     piece = e.pieces()[1]
     for i in np.argsort(near, kind="stable"):
         print(f"PARTICLE {near[i]:9s} {i:4d} piece {piece[i]} follow {follow[i]:.3f} goal {hz[i]:8.2f} Hz "
-              f"k {given[i]:.3e} -> {k[i]:.3e} softness {soft[i]:.3f} volume {e.graph.volumes[i]:.2e}")
+              f"k {given[i]:.3e} -> {k[i]:.3e} softness {soft[i]:.3f} links {links[i]:.2e} "
+              f"volume {e.graph.volumes[i]:.2e}")
 
 
 def main():
