@@ -6,7 +6,8 @@ hand, as an artist would); a jump keyed over frames 1-48, then still until 96; a
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_knight.py -- ZIP legacy OUT [opts]
     bpy-python scripts/outside_knight.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
-opts: particles=N (set before Enable), soft (a Softness group painted 1 - Follow and picked, replayed at
+opts: particles=N (set before Enable), look=NAME (a look applied after Enable), +NAME=VALUE (an obj.opdeform
+setting after Enable and the look, e.g. +damping_rate=12), soft (a Softness group painted 1 - Follow and picked, replayed at
 Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Subtle, Fleshy, Floppy from the Goal
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
@@ -396,6 +397,10 @@ def main():
     H.ADDON = name
     obj, twin, parts, follow, bulge = build_scene(name)
     s = artist_enable(obj, OPT.get("particles"))
+    if "look" in OPT:
+        print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
+    for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
+        setattr(s, key, type(getattr(s, key))(value))
     log = H.draw_panels()
     print("PANEL AFTER GROUP", reports(log))
     print("CUT", [c[0] for c in H.cut_texts(log)])

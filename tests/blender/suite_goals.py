@@ -147,7 +147,8 @@ def test_maps_changed_by_a_script_apply_on_the_next_frame():
 
 def test_looks_and_goal_out_of_the_box():
     """Ticking Goal on the default material gives the default look; a look is applied and recognised by name,
-    with its Shell Min (Floppy 0.4, Fleshy back to 0.3); a material chosen first stays."""
+    with its Shell Min (Floppy 0.25, Fleshy 0.3) and its jiggle frequency (Floppy 1.4 Hz, Fleshy 1.75 Hz); a
+    material chosen first stays."""
     v, t = H.box_mesh((0.0, 0.0, 1.0), (1.0, 0.5, 0.5), (4, 2, 2))
     tail = H.mesh_object("Body", v, t)  # the add-on's defaults, as Enable gives them
     bpy.ops.opdeform.enable(object=tail.name)
@@ -157,9 +158,10 @@ def test_looks_and_goal_out_of_the_box():
     assert presets.current_look(s) == "Fleshy" and abs(s.modulus - 3.0) < 1e-6, (presets.current_look(s), s.modulus)
     bpy.ops.opdeform.apply_preset(object=tail.name, preset="Floppy")
     assert presets.current_look(s) == "Floppy" and abs(s.soft_stiffness - 0.1) < 1e-6
-    assert abs(s.shell_follow_min - 0.4) < 1e-6, s.shell_follow_min  # a look sets Shell Min too
+    assert abs(s.jiggle_hz - 1.4) < 1e-6 and abs(s.shell_follow_min - 0.25) < 1e-6, (s.jiggle_hz, s.shell_follow_min)
     bpy.ops.opdeform.apply_preset(object=tail.name, preset="Fleshy")
     assert presets.current_look(s) == "Fleshy" and abs(s.shell_follow_min - 0.3) < 1e-6, s.shell_follow_min
+    assert abs(s.jiggle_hz - 1.75) < 1e-6, s.jiggle_hz
     other = H.mesh_object("Other", v, t)
     bpy.ops.opdeform.enable(object=other.name)
     bpy.ops.opdeform.apply_preset(object=other.name, preset="Stiff")
@@ -531,15 +533,15 @@ def test_suzanne_dropped_keeps_its_edges_and_eyes():
 
 
 def _jumping_belly():
-    """A 1.6 m block of a body with a belly bulging 0.12 m forward, skinned to one bone that jumps 0.4 m up and
-    0.5 m forward over frames 1-36 (the outside knight's jump, scripts/outside_knight.py) and stands still to
-    frame 72; Follow painted 1 on the body, falling to 0.15 at the belly's front. Returns (body, the rig, each
+    """A 1.6 m block of a body with a belly bulging 0.13 m forward, skinned to one bone that jumps 0.4 m up and
+    0.5 m forward over frames 1-48 (the outside knight's jump, scripts/outside_knight.py) and stands still to
+    frame 96; Follow painted 1 on the body, falling to 0.15 at the belly's front. Returns (body, the rig, each
     vertex's bulge in [0, 1], the frame the motion stops)."""
-    scene, stop = bpy.context.scene, 36
+    scene, stop = bpy.context.scene, 48
     scene.use_gravity, scene.render.fps, scene.frame_start, scene.frame_end = False, H.FPS, 1, 2 * stop
     v, t = H.box_mesh((-0.25, -0.2, 0.0), (0.25, 0.2, 1.6), (11, 9, 33))
-    bulge = np.exp(-((v[:, 2] - 0.9) / 0.2) ** 2 - (v[:, 0] / 0.18) ** 2) * (v[:, 1] < -0.19)
-    v[:, 1] -= 0.12 * bulge
+    bulge = np.exp(-((v[:, 2] - 0.9) / 0.14) ** 2 - (v[:, 0] / 0.17) ** 2) * (v[:, 1] < -0.19)  # the knight's
+    v[:, 1] -= 0.13 * bulge
     body = H.mesh_object("Body", v, t)
     rig = bpy.data.objects.new("Rig", bpy.data.armatures.new("Rig"))
     scene.collection.objects.link(rig)
@@ -551,8 +553,8 @@ def _jumping_belly():
     body.modifiers.new("Armature", 'ARMATURE').object = rig
     bone = rig.pose.bones["Root"]
     for f in range(1, stop + 1, 2):
-        air = 1.0 - ((f - 18) / 8.0) ** 2 if 10 < f < 26 else 0.0
-        bone.location = (0.0, 0.4 * air, 0.5 * min(max((f - 10) / 16.0, 0.0), 1.0))  # the bone's y is up
+        air = 1.0 - ((f - 22) / 10.0) ** 2 if 12 < f < 32 else 0.0
+        bone.location = (0.0, 0.4 * air, 0.5 * min(max((f - 12) / 20.0, 0.0), 1.0))  # the bone's y is up
         bone.keyframe_insert("location", frame=f)
     body.vertex_groups.new(name="Follow")
     for i, w in enumerate(1.0 - 0.85 * bulge):
