@@ -35,7 +35,7 @@ from .settings import SHELL_FOLLOW_MIN
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
-# particle's strength is a mean over its vertices, so a core vertex near a soft region would otherwise take
+# particle's strength is the least of its vertices', so a core vertex near a soft region would otherwise take
 # that region's lag), follow 0.9 and below the whole offset.
 LOCK_RAMP = 10.0
 LINK_SOFTNESS_MIN = 1e-6  # jiggle_softness's floor: a link softness is > 0

@@ -67,8 +67,8 @@ class Units:
 # Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm). Each look settles within 2 mm 1 s after
 # the motion stops (the issue's aim). Floppy took 12/s and Shell Min 0.4 to settle the dog's tail and ellie's
 # trunk (docs/goals.md, "Floppy that settles"), which swung the knight's cape less than Fleshy; with each
-# particle's Follow the least of its vertices' (stop 47) those rigs settle at 9/s and 0.3 too, so the looks
-# differ in their material, their regions' softness and their jiggle frequency, and are ordered in motion.
+# particle's Follow the least of its vertices' (stop 47) they settle at 9/s and Shell Min 0.25 (Fleshy's 3 MPa;
+# at 1.5 MPa the creature's tail did not), so the looks are ordered in motion (Subtle < Fleshy < Floppy).
 LOOKS = {
     "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0,
                    jiggle_hz=3.5, shell_follow_min=SHELL_FOLLOW_MIN),
