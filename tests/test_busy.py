@@ -79,6 +79,7 @@ def _sim_case(scale):
         "set_particle_damping": lambda: sim.set_particle_damping(0.1), "particle_damping": lambda: sim.particle_damping,
         "set_stiffness_scale": lambda: sim.set_stiffness_scale(np.ones(n)),
         "stiffness_scale": lambda: sim.stiffness_scale,
+        "set_link_softness": lambda: sim.set_link_softness(np.ones(n)), "link_softness": lambda: sim.link_softness,
         "step": lambda: sim.step(1), "solve_static": lambda: sim.solve_static(1), "energy": lambda: sim.energy(),
         "set_state": lambda: sim.set_state(np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1))),
         "positions": lambda: sim.positions, "rotations": lambda: sim.rotations,

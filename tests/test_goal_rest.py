@@ -116,14 +116,17 @@ def test_settles_onto_a_bent_animation(bar):
     assert error[False] > 0.3  # measured 0.67
 
 
+@pytest.mark.parametrize("soft_links", [False, True])
 @pytest.mark.parametrize("stiffness", [1e6, 1e10])  # 1e10: the right side from residuals (global_solve.c)
-def test_energy_decreases_every_iteration(bar, stiffness):
+def test_energy_decreases_every_iteration(bar, stiffness, soft_links):
     """Exact block minimisation: every local and every global step lowers the objective, on goals that bend
-    and twist the bar non-rigidly, with a stiffness scale, gravity and relative damping."""
+    and twist the bar non-rigidly, with a stiffness scale, gravity and relative damping (and a link softness)."""
     _, g, _ = bar
     sim = simulation(g, True, strength=np.linspace(0.0, 0.7, g.n_particles), stiffness=stiffness, damping=0.1,
                      gravity=(0, 0, -9.81))
     sim.set_stiffness_scale(np.linspace(0.3, 3.0, g.n_particles))
+    if soft_links:
+        sim.set_link_softness(np.random.default_rng(5).uniform(0.01, 1.0, g.n_particles))
     sim.trace_energy = True
     for f in range(20):
         x, rot = bent_goals(g, 0.08 * f)

@@ -151,8 +151,8 @@ def bar():
 
 
 def rigged(v, graph):
-    """Goals carrying the rest with their motion, damping per particle, a collider, a floor, a field,
-    constraints with a removal: every part of a Simulation's pickle."""
+    """Goals carrying the rest with their motion, damping and link softness per particle, a collider, a floor, a
+    field, constraints with a removal: every part of a Simulation's pickle."""
     sim = opdeform.Simulation(graph, 1e6, dt=1 / 48, damping=0.01)
     sim.set_floor(-0.4, 0.5)
     pins = opdeform.pin_vertices(sim, v, np.flatnonzero(v[:, 0] < 1e-9))
@@ -166,6 +166,7 @@ def rigged(v, graph):
     sim.step(2)
     sim.set_goals(graph.centers + (0.0, 0.0, 0.02))
     sim.set_particle_damping(np.linspace(0.0, 0.1, graph.n_particles))
+    sim.set_link_softness(np.linspace(0.05, 1.0, graph.n_particles))
     sim.step(3)
     return sim
 
@@ -187,7 +188,7 @@ def test_simulation_constraint_counts_are_refused_up_front(bar):
         assert time.perf_counter() - start < 1.0, change
 
 
-def test_simulation_goal_motion_and_damping_are_checked(bar):
+def test_simulation_goal_motion_damping_and_link_softness_are_checked(bar):
     v, _, graph = bar
     saved = rigged(v, graph).__getstate__()
     velocities, angular, steps = saved["goal_motion"]
@@ -201,6 +202,9 @@ def test_simulation_goal_motion_and_damping_are_checked(bar):
     for damping in (np.full(n, 2.0), np.full(n, np.nan), np.zeros(n + 1)):
         with pytest.raises(ValueError, match="damping"):
             opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, particle_damping=damping))
+    for softness in (np.zeros(n), np.full(n, np.nan), np.ones(n + 1)):
+        with pytest.raises(ValueError, match="softness"):
+            opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, link_softness=softness))
 
 
 def test_simulation_pickle_continues_to_the_same_bits(bar):

@@ -128,7 +128,8 @@ static double od_ElasticEnergy(const od_Sim* sim)
 				dbar = od_Sub(od_V3Load(g->centers + 3 * j), ci);
 			}
 			od_Vec3 r = od_Sub(od_M3MulV(&ri, dbar), od_Sub(od_V3Load(s->x + 3 * j), xi));
-			e += od_ElasticScale(sim, j) * od_LinkWeight(sim, k) * (od_MomentNorm(&turned, &rj, &aj) + g->volumes[j] * od_Dot(r, r));
+			double w = od_ElasticScale(sim, j) * od_LinkWeight(sim, k); // s_j w_ij
+			e += w * (od_MomentNorm(&turned, &rj, &aj) + g->volumes[j] * od_Dot(r, r));
 		}
 	}
 	return 0.5 * sim->def.stiffness * e;

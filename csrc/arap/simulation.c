@@ -342,74 +342,16 @@ od_Status od_Sim_SetDef(od_Sim* sim, const od_SimDef* def)
 	return OD_OK;
 }
 
-// The elastic weights (scale or link softness) changed: they enter the global matrix and the edges' terms.
-static void od_ElasticWeightsChanged(od_Sim* sim)
+// s_i v_i of every particle, the right side's weights (od_ElasticVolumes).
+static void od_FillElasticVolumes(od_Sim* sim)
 {
-	sim->stiffnessVersion++;
-	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		sim->elasticVolumes[i] = sim->stiffnessScale[i] * sim->graph->volumes[i];
+	}
 }
 
-static void od_DropStiffnessScale(od_Sim* sim)
-{
-	od_Free(sim->stiffnessScale);
-	od_Free(sim->elasticVolumes);
-	sim->stiffnessScale = sim->elasticVolumes = NULL;
-}
-
-od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
-{
-	int n = sim->graph->n;
-	for (int i = 0; scale && i < n; ++i)
-	{
-		if (!(scale[i] > 0.0) || !isfinite(scale[i]))
-		{
-			return od_Fail(OD_ERROR_ARGUMENT, "stiffness scale[%d] = %g must be finite and > 0", i, scale[i]);
-		}
-	}
-	if (scale ? sim->stiffnessScale && !memcmp(scale, sim->stiffnessScale, sizeof(double) * (size_t)n)
-			  : !sim->stiffnessScale)
-	{
-		return OD_OK; // unchanged: keep the factor
-	}
-	if (scale && !sim->stiffnessScale)
-	{
-		sim->stiffnessScale = od_Alloc(sizeof(double) * (size_t)n);
-		sim->elasticVolumes = od_Alloc(sizeof(double) * (size_t)n);
-		if (!sim->stiffnessScale || !sim->elasticVolumes)
-		{
-			od_DropStiffnessScale(sim);
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for the stiffness scale of %d particles", n);
-		}
-	}
-	if (scale)
-	{
-		memcpy(sim->stiffnessScale, scale, sizeof(double) * (size_t)n);
-		for (int i = 0; i < n; ++i)
-		{
-			sim->elasticVolumes[i] = scale[i] * sim->graph->volumes[i];
-		}
-	}
-	else
-	{
-		od_DropStiffnessScale(sim);
-	}
-	od_ElasticWeightsChanged(sim);
-	return OD_OK;
-}
-
-const double* od_Sim_GetStiffnessScale(const od_Sim* sim)
-{
-	return sim->stiffnessScale;
-}
-
-static void od_DropLinkSoftness(od_Sim* sim)
-{
-	od_Free(sim->linkSoftness);
-	od_Free(sim->linkWeight);
-	sim->linkSoftness = sim->linkWeight = NULL;
-}
-
-// w_ij = min(r_i, r_j) of every directed edge.
+// w_ij = min(r_i, r_j) of every directed edge (od_LinkWeight).
 static void od_FillLinkWeights(od_Sim* sim)
 {
 	const od_Graph* g = sim->graph;
@@ -423,42 +365,68 @@ static void od_FillLinkWeights(od_Sim* sim)
 	}
 }
 
-od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness)
+// Keeps n checked values per particle (the scale or the link softness) in *kept and the `count` weights fill
+// makes of them in *made; NULL frees both. Both enter the global matrix and the edges' terms: a change refactors
+// once, the same values keep the factor.
+static od_Status od_SetElasticWeights(od_Sim* sim, const double* values, double** kept, double** made, size_t count,
+									  void (*fill)(od_Sim*), const char* what)
+{
+	size_t n = (size_t)sim->graph->n;
+	if (values ? *kept && !memcmp(values, *kept, sizeof(double) * n) : !*kept)
+	{
+		return OD_OK; // unchanged: keep the factor
+	}
+	if (values && !*kept)
+	{
+		*kept = od_Alloc(sizeof(double) * n);
+		*made = od_Alloc(sizeof(double) * count);
+	}
+	if (values && *kept && *made)
+	{
+		memcpy(*kept, values, sizeof(double) * n);
+		fill(sim);
+	}
+	else
+	{
+		od_Free(*kept);
+		od_Free(*made);
+		*kept = *made = NULL;
+	}
+	sim->stiffnessVersion++;
+	sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
+	return values && !*kept ? od_Fail(OD_ERROR_MEMORY, "out of memory for the %s of %zu particles", what, n) : OD_OK;
+}
+
+od_Status od_Sim_SetStiffnessScale(od_Sim* sim, const double* scale)
 {
 	int n = sim->graph->n;
-	for (int i = 0; softness && i < n; ++i)
+	for (int i = 0; scale && i < n; ++i)
+	{
+		if (!(scale[i] > 0.0) || !isfinite(scale[i]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "stiffness scale[%d] = %g must be finite and > 0", i, scale[i]);
+		}
+	}
+	return od_SetElasticWeights(sim, scale, &sim->stiffnessScale, &sim->elasticVolumes, (size_t)n,
+								od_FillElasticVolumes, "stiffness scale");
+}
+
+const double* od_Sim_GetStiffnessScale(const od_Sim* sim)
+{
+	return sim->stiffnessScale;
+}
+
+od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness)
+{
+	for (int i = 0; softness && i < sim->graph->n; ++i)
 	{
 		if (!(softness[i] > 0.0 && softness[i] <= 1.0))
 		{
 			return od_Fail(OD_ERROR_ARGUMENT, "link softness[%d] = %g must be in (0, 1]", i, softness[i]);
 		}
 	}
-	if (softness ? sim->linkSoftness && !memcmp(softness, sim->linkSoftness, sizeof(double) * (size_t)n)
-				 : !sim->linkSoftness)
-	{
-		return OD_OK; // unchanged: keep the factor
-	}
-	if (softness && !sim->linkSoftness)
-	{
-		sim->linkSoftness = od_Alloc(sizeof(double) * (size_t)n);
-		sim->linkWeight = od_Alloc(sizeof(double) * 2 * (size_t)sim->graph->edgeCount);
-		if (!sim->linkSoftness || !sim->linkWeight)
-		{
-			od_DropLinkSoftness(sim);
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for the link softness of %d particles", n);
-		}
-	}
-	if (softness)
-	{
-		memcpy(sim->linkSoftness, softness, sizeof(double) * (size_t)n);
-		od_FillLinkWeights(sim);
-	}
-	else
-	{
-		od_DropLinkSoftness(sim);
-	}
-	od_ElasticWeightsChanged(sim);
-	return OD_OK;
+	return od_SetElasticWeights(sim, softness, &sim->linkSoftness, &sim->linkWeight,
+								2 * (size_t)sim->graph->edgeCount, od_FillLinkWeights, "link softness");
 }
 
 const double* od_Sim_GetLinkSoftness(const od_Sim* sim)

@@ -653,7 +653,8 @@ static PyObject* Sim_read(PyObject* obj, PyObject* args)
 	Py_ssize_t count = index >= 0 ? StateArrayCount(index, n) : traceCount;
 	if (scale || softness || damping)
 	{
-		data = scale ? od_Sim_GetStiffnessScale(sim) : softness ? od_Sim_GetLinkSoftness(sim) : od_Sim_GetParticleDamping(sim);
+		data = scale ? od_Sim_GetStiffnessScale(sim)
+					 : (softness ? od_Sim_GetLinkSoftness(sim) : od_Sim_GetParticleDamping(sim));
 		count = data ? n : 0;
 	}
 	if (count > 0 && CopyOut(out, "out", data, count, 'd') < 0)

@@ -593,7 +593,7 @@ class Simulation(CoreObject, ForceFields):
     # -- parameters and diagnostics --------------------------------------------------------------------
     def set_params(self, **changes: Any) -> None:
         """Changes parameters (same names as the constructor); the state is kept. A stiffness replaces the
-        stiffness scale too: one per particle sets it, a number makes it uniform."""
+        stiffness scale too: one per particle sets it, a number makes it uniform; the link softness stays."""
         p = self._changed_params(changes)
         p["stiffness"], scale = split_stiffness(p["stiffness"], self.graph.n_particles)
         self._core.set_params(*core_params(**p))

@@ -73,6 +73,37 @@ static int check_monotone(od_Sim* sim)
 	return 0;
 }
 
+// A link softness from C: values outside (0, 1] are refused with OD_ERROR_ARGUMENT and change nothing; set, it
+// refactors once and steps without allocating; NULL clears it.
+static int check_link_softness(const od_Graph* g)
+{
+	int tip;
+	od_Sim* sim = make_pinned(g, &tip);
+	ENSURE(sim != NULL && od_Sim_Step(sim, 1) == OD_OK);
+	double r[N];
+	for (int i = 0; i < N; ++i)
+	{
+		r[i] = 1.0;
+	}
+	const double bad[4] = { 0.0, -0.5, 1.5, NAN };
+	for (int k = 0; k < 4; ++k)
+	{
+		r[7] = bad[k];
+		ENSURE(od_Sim_SetLinkSoftness(sim, r) == OD_ERROR_ARGUMENT && od_Sim_GetLinkSoftness(sim) == NULL);
+	}
+	r[7] = 0.01;
+	ENSURE(od_Sim_SetLinkSoftness(sim, r) == OD_OK && od_Sim_GetLinkSoftness(sim)[7] == 0.01);
+	ENSURE(od_Sim_Step(sim, 1) == OD_OK);
+	od_SimCounters before = od_Sim_GetCounters(sim);
+	long long allocations = od_GetAllocationCount();
+	ENSURE(od_Sim_Step(sim, 20) == OD_OK);
+	ENSURE(od_GetAllocationCount() == allocations);
+	ENSURE(od_Sim_GetCounters(sim).factorizations == before.factorizations && before.factorizations == 2);
+	ENSURE(od_Sim_SetLinkSoftness(sim, NULL) == OD_OK && od_Sim_GetLinkSoftness(sim) == NULL);
+	od_Sim_Destroy(sim);
+	return 0;
+}
+
 int test_sim(void)
 {
 	od_Graph* g = make_bar();
@@ -136,6 +167,7 @@ int test_sim(void)
 	ENSURE(od_Sim_Create(g, &plain, &sim) == OD_OK);
 	ENSURE(od_Sim_SolveStatic(sim, 5) == OD_ERROR_ARGUMENT);
 	od_Sim_Destroy(sim);
+	ENSURE(check_link_softness(g) == 0);
 	od_Graph_Destroy(g);
 	return 0;
 }
