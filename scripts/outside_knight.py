@@ -6,7 +6,8 @@ hand, as an artist would); a jump keyed over frames 1-48, then still until 96; a
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_knight.py -- ZIP legacy OUT [opts]
     bpy-python scripts/outside_knight.py ZIP extension OUT [opts]
     (ZIP "-" and kind dev: the repository's add-on with $OPDEFORM_PYTHONPATH)
-opts: particles=N (set before Enable), soft (a Softness group painted 1 - Follow and picked, replayed at
+opts: particles=N (set before Enable), look=NAME (a look applied after Enable), +NAME=VALUE (an obj.opdeform
+setting after Enable and the look, e.g. +damping_rate=12), soft (a Softness group painted 1 - Follow and picked, replayed at
 Fleshy, Floppy, Floppy with Stiffness 0.3), looks (after the first playback: Subtle, Fleshy, Floppy from the Goal
 panel's menu, each replayed), repaint (Follow: belly 1 by script, replay; belly back to 0.15 in Weight Paint
 mode with the Set Weight operator, replay), counts=50,200,400 (Particles changed after playing, Build pressed
@@ -375,17 +376,19 @@ def particles_per_part(name, obj, parts):
 
 def per_particle(e, near):
     """Per particle as the solver has it: part, mesh piece, Follow (after Shell Min), its goal in Hz, the
-    calibrated k before and after the Softness map, the map's scale, its volume."""
+    calibrated k before and after the Softness map, the map's scale, the jiggle rule's link softness, its volume."""
     import opdeform
     follow = e.goal_strength
     hz = opdeform.goal_frequency(follow)
     count = e.graph.n_particles
     given, k = (np.broadcast_to(x["stiffness"], (count,)) for x in (e._given, e._params))
     soft = np.ones(count) if e._softness is None else e._softness
+    links = np.ones(count) if e._links is None else e._links
     piece = e.pieces()[1]
     for i in np.argsort(near, kind="stable"):
         print(f"PARTICLE {near[i]:9s} {i:4d} piece {piece[i]} follow {follow[i]:.3f} goal {hz[i]:8.2f} Hz "
-              f"k {given[i]:.3e} -> {k[i]:.3e} softness {soft[i]:.3f} volume {e.graph.volumes[i]:.2e}")
+              f"k {given[i]:.3e} -> {k[i]:.3e} softness {soft[i]:.3f} links {links[i]:.2e} "
+              f"volume {e.graph.volumes[i]:.2e}")
 
 
 def main():
@@ -394,6 +397,10 @@ def main():
     H.ADDON = name
     obj, twin, parts, follow, bulge = build_scene(name)
     s = artist_enable(obj, OPT.get("particles"))
+    if "look" in OPT:
+        print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
+    for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
+        setattr(s, key, type(getattr(s, key))(value))
     log = H.draw_panels()
     print("PANEL AFTER GROUP", reports(log))
     print("CUT", [c[0] for c in H.cut_texts(log)])

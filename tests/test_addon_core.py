@@ -441,6 +441,69 @@ def test_a_painted_value_stays_on_its_own_piece(particles):
     np.testing.assert_allclose(e.goal_strength[piece == found], 1.0)
 
 
+def test_a_painted_spot_reaches_the_particles_over_it():
+    """A particle's Follow and softness are the least of its goal-fit vertices' values: a few vertices painted 0.15
+    among Follow 1 give a particle over them 0.15 (their mean gave the outside knight's belly 0.45-0.94), and the
+    particles none of whose vertices were painted stay exactly 1 (the core on the rig)."""
+    e, v, _, _, _ = _tailed_engine(100)
+    spot = np.argsort(np.linalg.norm(v - v[0], axis=1))[:6]  # a few vertices about one of them
+    painted = np.ones(len(v))
+    painted[spot] = 0.15
+    e.set_goal(0.0, painted)
+    touched = np.isin(e.fit.indices, spot).any(axis=1)
+    assert touched.any() and not touched.all()
+    np.testing.assert_array_equal(e.goal_strength[touched], 0.15)
+    np.testing.assert_array_equal(e.goal_strength[~touched], 1.0)
+    e.set_regions(0.01 ** (1.0 - painted))
+    np.testing.assert_allclose(e._softness[touched], 0.01 ** 0.85)
+    np.testing.assert_array_equal(e._softness[~touched], 1.0)
+
+
+def test_the_jiggle_rule_softens_links_by_follow_toward_its_frequency():
+    """engine.jiggle_softness: Follow 1 keeps its links (1), Follow 0 brings a particle's frequency to the jiggle
+    frequency (softness (jiggle / elastic)^2), in between in log by Follow; never stiffer than 1 (0 Hz: nothing
+    to soften). set_regions gives it the simulation as its link softness, only with a goal; None takes it away."""
+    from opdeform_blender.core import engine
+    elastic = np.array([100.0, 100.0, 100.0, 2.0, 0.0])
+    r = engine.jiggle_softness(elastic, np.array([1.0, 0.0, 0.5, 0.0, 0.0]), 4.0)
+    np.testing.assert_allclose(r, [1.0, 0.04 ** 2, 0.04, 1.0, 1.0])
+    e, v, _, _, _ = _tailed_engine(100)
+    spot = np.argsort(np.linalg.norm(v - v[0], axis=1))[:40]
+    painted = np.ones(len(v))
+    painted[spot] = 0.15
+    e.set_regions(jiggle_hz=3.0)
+    assert e.sim.link_softness is None  # no goal: nothing to soften by
+    e.set_goal(0.0, painted)
+    e.set_regions(jiggle_hz=3.0)
+    soft = e.goal_strength < engine.HELD_FOLLOW
+    assert soft.any() and e.sim.link_softness[soft].max() < 0.1, e.sim.link_softness[soft]
+    np.testing.assert_array_equal(e.sim.link_softness[~soft], 1.0)
+    e.set_regions()
+    assert e.sim.link_softness is None
+
+
+def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
+    """engine.region_frequency on a capsule: a soft patch among held particles rings at its particles' own
+    frequency scaled by l / d (its reach from them); the capsule's free half, held at one end only (the worm of
+    tests/blender/other_rig.py: 41 -> 448 mm and 1.04 s to settle when its Follow-0.1 top was softened), is left
+    alone (0 Hz: nothing to soften)."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    v, t = meshes.capsule(radius=0.2, length=1.2)
+    g = opdeform.Graph.from_mesh(v, t, particles=100)
+    hz = engine.elastic_frequency(g, 1e7, 1000.0)
+    axis = g.centers[:, np.argmax(np.ptp(g.centers, axis=0))]
+    half = axis > np.median(axis)
+    np.testing.assert_array_equal(engine.region_frequency(g, hz, ~half)[half], 0.0)
+    patch = np.argsort(np.linalg.norm(g.centers - g.centers[np.argmin(np.abs(axis - np.median(axis)))],
+                                      axis=1))[:3]
+    held = np.ones(len(axis), bool)
+    held[patch] = False
+    got = engine.region_frequency(g, hz, held)
+    assert np.all((got[patch] > 0.2 * hz[patch]) & (got[patch] <= hz[patch])), (got[patch], hz[patch])
+    np.testing.assert_array_equal(got[held], 0.0)
+
+
 def test_to_world_of_an_unturned_object_is_the_product():
     local = np.random.default_rng(5).normal(size=(50, 3)).astype(np.float32)
     local[0] = (-0.0, 0.0, 2.0)

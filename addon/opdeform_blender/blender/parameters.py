@@ -74,9 +74,10 @@ def goal_strength(settings):
 def maps(settings):
     """The painted maps' settings (what the engine is given besides the groups' weights, and what a bake
     depends on): (follow group, follow range, detached shells' follow minimum, softness group, soft stiffness,
-    damping group, its damping per second)."""
+    damping group, its damping per second, the jiggle frequency)."""
     return (settings.goal_group, (settings.goal_min, settings.goal_max), settings.shell_follow_min,
-            settings.softness_group, settings.soft_stiffness, settings.damping_group, settings.region_damping)
+            settings.softness_group, settings.soft_stiffness, settings.damping_group, settings.region_damping,
+            settings.jiggle_hz)
 
 
 def cache_folder(folder):

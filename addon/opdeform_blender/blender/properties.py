@@ -189,6 +189,10 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                                                "stiffness is Soft Stiffness times the body's")
     soft_stiffness: FloatProperty(name="Soft Stiffness", default=0.2, min=0.01, max=1.0, subtype='FACTOR',
                                   description="Stiffness at Softness Group weight 1, as a share of the body's")
+    jiggle_hz: FloatProperty(name="Jiggle", default=0.0, min=0.0, soft_max=20.0, unit='NONE',
+                             description="Hz that flesh painted Follow 0 rings at where no Softness Group is "
+                                         "picked: a particle's links softened by its Follow toward it (Follow 1 "
+                                         "keeps the body's stiffness; each Look sets it; 0: off)")
     damping_group: StringProperty(name="Damping Group", default="",
                                   description="Vertex group of regions damped to Region Damping at weight 1")
     region_damping: FloatProperty(name="Region Damping", default=5.0, min=0.0, soft_max=50.0,

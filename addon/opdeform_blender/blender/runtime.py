@@ -68,7 +68,7 @@ def find_unrigged(rt, obj):
 
 def picked_groups(s):
     """The vertex groups the painted maps use (modifier.MAPS order: follow, softness, damping; "" for none)."""
-    group, _, _, soft_group, _, damp_group, _ = maps(s)
+    group, _, _, soft_group, _, damp_group, _, _ = maps(s)
     return (group if goal_strength(s) is not None else "", soft_group, damp_group)
 
 
@@ -119,16 +119,18 @@ def group_weights(rt, obj, name, what):
 def set_maps(rt, obj, scene):
     """The goal's follow values and the softness and damping maps, applied on the next frame (no Build)."""
     s, e = obj.opdeform, rt.engine
-    group, follow_range, shell_min, soft_group, soft, damp_group, damping = maps(s)
+    group, follow_range, shell_min, soft_group, soft, damp_group, damping, jiggle_hz = maps(s)
     strength = goal_strength(s)
     try:
-        e.set_goal(strength, None if strength is None else group_weights(rt, obj, group, MAP_NAMES[0]),
-                   follow_range, shell_min)
+        follow_w = None if strength is None else group_weights(rt, obj, group, MAP_NAMES[0])
+        e.set_goal(strength, follow_w, follow_range, shell_min)
         soft_w = group_weights(rt, obj, soft_group, MAP_NAMES[1])
         damp_w = group_weights(rt, obj, damp_group, MAP_NAMES[2])
         units = presets.units(s, frame_rate(scene))
+        jiggle = follow_w is not None and soft_w is None and jiggle_hz > 0.0  # painted flesh, no Softness group
         e.set_regions(None if soft_w is None else soft ** soft_w,
-                      None if damp_w is None else region_damping(units, e.timestep[0], damp_w, damping))
+                      None if damp_w is None else region_damping(units, e.timestep[0], damp_w, damping),
+                      jiggle_hz if jiggle else None)
     except EngineError as exc:
         raise AddonError(f"{obj.name}: {exc}") from None
 

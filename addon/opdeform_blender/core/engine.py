@@ -35,9 +35,14 @@ from .settings import SHELL_FOLLOW_MIN
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
-# particle's strength is a mean over its vertices, so a core vertex near a soft region would otherwise take
+# particle's strength is the least of its vertices', so a core vertex near a soft region would otherwise take
 # that region's lag), follow 0.9 and below the whole offset.
 LOCK_RAMP = 10.0
+LINK_SOFTNESS_MIN = 1e-6  # jiggle_softness's floor: a link softness is > 0
+HELD_FOLLOW = 0.9  # the jiggle rule: a particle this held by its goal (a 200 Hz spring) holds the flesh around it
+# the jiggle rule: a soft patch is enclosed by held flesh (a belly) when its farthest reach from it is at most this
+# share of its extent (its box's diagonal and a link each side); one held at one end (a worm's top) reaches ~0.9
+ENCLOSED_REACH = 0.65
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -121,6 +126,71 @@ def _same_points(a, b):
 
 def _same(a, b):
     return a is b or (a is not None and b is not None and np.array_equal(a, b))
+
+
+def elastic_frequency(graph, stiffness, density):
+    """Each particle's elastic frequency (Hz) on its links with its neighbours held: sqrt(K / m) / 2π, K = k Σj
+    (vi + vj) the global step's diagonal (METHOD.md, eq. 6), m = ρ vi; ``stiffness`` k a number or one per
+    particle."""
+    v = graph.volumes
+    i, j = np.asarray(graph.edges).T
+    links = np.bincount(i, v[i] + v[j], len(v)) + np.bincount(j, v[i] + v[j], len(v))
+    return np.sqrt(np.asarray(stiffness) * links / (density * v)) / (2.0 * np.pi)
+
+
+def _link_lengths(graph):
+    """(i, j, length) of each link and each particle's mean link length."""
+    c = graph.centers
+    i, j = np.asarray(graph.edges).T
+    length = np.linalg.norm(c[i] - c[j], axis=1)
+    count = np.bincount(i, minlength=len(c)) + np.bincount(j, minlength=len(c))
+    mean = (np.bincount(i, length, len(c)) + np.bincount(j, length, len(c))) / np.maximum(count, 1)
+    return i, j, length, mean
+
+
+def _relaxed(values, i, j, step, joined=None):
+    """values lowered along the links until they hold: each at most a neighbour's plus ``step`` (per link), over
+    the links ``joined`` (a mask; None: all). Bellman-Ford, a pass a link."""
+    if joined is not None:
+        i, j, step = i[joined], j[joined], np.broadcast_to(step, joined.shape)[joined]
+    while True:
+        lower = values.copy()
+        np.minimum.at(lower, i, values[j] + step)
+        np.minimum.at(lower, j, values[i] + step)
+        if np.array_equal(lower, values):
+            return values
+        values = lower
+
+
+def region_frequency(graph, elastic_hz, held):
+    """Each particle's elastic frequency as a part of the soft patch it lies in, held where ``held`` (a mask):
+    its own (``elastic_frequency``) times l / max(d, l), l its mean link length, d its distance along the links
+    to the nearest held particle: a patch rings lower the farther it reaches from what holds it (as 1 / d, alike
+    at any particle count, the elastic frequency growing as 1 / l). 0 on a patch that is not enclosed (its
+    farthest reach over ENCLOSED_REACH of its extent: a part held at one end, which swings as a beam, far below
+    this) and where nothing holds it."""
+    i, j, length, mean = _link_lengths(graph)
+    c = graph.centers
+    far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
+    patch = _relaxed(np.where(held, len(c), np.arange(len(c))), i, j, 0, ~held[i] & ~held[j])
+    soft = ~held & np.isfinite(far)
+    reach = np.zeros(len(c) + 1)
+    np.maximum.at(reach, patch[soft], far[soft])
+    box = [np.full((len(c) + 1, 3), bound) for bound in (np.inf, -np.inf)]
+    np.minimum.at(box[0], patch[soft], c[soft])
+    np.maximum.at(box[1], patch[soft], c[soft])
+    extent = np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1) + 2.0 * length.mean()
+    enclosed = soft & (reach <= ENCLOSED_REACH * extent)[patch]
+    return np.where(enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0)
+
+
+def jiggle_softness(elastic_hz, follow, jiggle_hz):
+    """Per-particle link softness (``Simulation.set_link_softness``) that brings a particle of Follow f from its
+    elastic frequency toward ``jiggle_hz``: (jiggle_hz / elastic)^(2 (1 - f)), the frequency interpolated in log
+    by Follow (f = 1: unchanged), never stiffer (at most 1)."""
+    with np.errstate(divide="ignore"):
+        ratio = np.minimum(jiggle_hz / elastic_hz, 1.0)  # 1 where elastic_hz is 0 (nothing to soften)
+    return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
 def _same_params(a, b):
@@ -225,6 +295,8 @@ class Engine:
         self._lock = None
         self._softness = None  # set_regions' per-particle stiffness scale (None: 1)
         self._damping = None  # set_regions' per-particle damping per step (None: the body's)
+        self._links = None  # set_regions' per-particle link softness of the jiggle rule (None: 1)
+        self._jiggle_key, self._jiggle = None, None  # _jiggle_links' inputs and answer, found again when they change
         self._given = None  # configure's last parameters, before the softness map
         self.sim = None
         self.colliders = None  # the scene's colliders in the simulation (core/colliders.py)
@@ -421,7 +493,7 @@ class Engine:
             follow = self._follow(strength, vertex_weights, (*follow_range, shell_min))
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
-        values = None if follow is None else np.clip(self._particle_values(follow), 0.0, 1.0)  # a mean may round past 1
+        values = None if follow is None else self._particle_values(follow, lowest=True)
         if vertex_weights is not None and shell_min > 0.0:  # a painted Follow: a shell's held above shell_min
             values = self._shells_held(values, shell_min)
         if _same(values, self.goal_strength) and _same(follow, self.follow):
@@ -442,13 +514,16 @@ class Engine:
             return values
         return np.where(piece != body, shell_min + (1.0 - shell_min) * values, values)
 
-    def _particle_values(self, vertex_values):
-        """Per-vertex values (a painted map) as per-particle values: each particle's goal-fit mean
-        (``GoalFit.particle_values``, over the vertices of its own mesh piece)."""
+    def _particle_values(self, vertex_values, lowest=False):
+        """Per-vertex values (a painted map) as per-particle values over each particle's goal-fit vertices (its 16
+        nearest of its own mesh piece): their weighted mean (``GoalFit.particle_values``), or with ``lowest`` the
+        least of them, so that a spot painted low (a soft belly among Follow 1) reaches the particles over it
+        (their mean gave the outside knight's belly 0.45-0.94 where 0.15 was painted, docs/goals.md) and a particle
+        whose vertices are all 1 stays 1."""
         values = np.asarray(vertex_values, dtype=np.float64)
         if values.shape != (self.n_vertices,):
             raise EngineError(f"a map must have one value per vertex ({self.n_vertices}), got shape {values.shape}")
-        return self.fit.particle_values(values)
+        return values[self.fit.indices].min(axis=1) if lowest else self.fit.particle_values(values)
 
     def pieces(self):
         """(the number of mesh pieces, each particle's piece, the body: the piece with most particles), pieces
@@ -473,18 +548,20 @@ class Engine:
         lo, hi = limits[:2]
         return lo + w * (hi - lo)
 
-    def set_regions(self, stiffness_scale=None, damping=None):
+    def set_regions(self, stiffness_scale=None, damping=None, jiggle_hz=None):
         """Per-vertex maps (a painted softness and damping; None: uniform) as per-particle values: the stiffness
         of each particle times ``stiffness_scale`` (> 0), and its damping per step in [0, 1] in place of the
-        body's (relative to the goals' motion while a goal is on). Call after ``configure``. A change outdates
-        the cache; a new softness refactors once."""
-        if stiffness_scale is None and damping is None and self._softness is None and self._damping is None:
+        body's (relative to the goals' motion while a goal is on). ``jiggle_hz`` (None: off; needs a goal): each
+        particle's links softened by its Follow toward that frequency (``jiggle_softness``). Call after
+        ``configure`` and ``set_goal``. A change outdates the cache; a new softness refactors once."""
+        if all(x is None for x in (stiffness_scale, damping, jiggle_hz, self._softness, self._damping, self._links)):
             return False
         if self.fit is None:
             self.fit = self.od.GoalFit(self.graph, self.rest)
-        softness = None if stiffness_scale is None else self._particle_values(stiffness_scale)
+        softness = None if stiffness_scale is None else self._particle_values(stiffness_scale, lowest=True)
         per_particle = None if damping is None else np.clip(self._particle_values(damping), 0.0, 1.0)
-        if _same(softness, self._softness) and _same(per_particle, self._damping):
+        links = self._jiggle_links(jiggle_hz)
+        if _same(softness, self._softness) and _same(per_particle, self._damping) and _same(links, self._links):
             return False
         if softness is not None and not np.all(np.isfinite(softness) & (softness > 0.0)):
             raise EngineError("the softness map must be finite and > 0")
@@ -492,11 +569,32 @@ class Engine:
             self.sim.set_particle_damping(per_particle)
         except ValueError as exc:
             raise EngineError(f"the damping map: {exc}") from None
-        self._softness, self._damping = softness, per_particle
+        self.sim.set_link_softness(links)
+        self._softness, self._damping, self._links = softness, per_particle, links
         given, self._params = self._given, None  # the stiffness with the new softness
         self.configure(given, self._substeps, self._floor, self.start, self.end, self._solver)
         self.invalidate()
         return True
+
+    def _jiggle_links(self, jiggle_hz):
+        """The jiggle rule's link softness on the body's particles, the mesh piece with most (None: off, or no
+        goal). A detached shell keeps its links: a slender one (a fin, a card) swings far below the elastic
+        frequency of its particles, and softened by it the outside fish's tail fin stretched 2.5x (docs/goals.md,
+        "Jiggle")."""
+        if jiggle_hz is None or self.goal_strength is None:
+            return None
+        if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
+            raise EngineError(f"the jiggle frequency must be > 0 Hz, got {jiggle_hz}")
+        kept = self._jiggle_key
+        if kept is None or not (_same(self.goal_strength, kept[0]) and _same_params(self._given, kept[1])
+                                and jiggle_hz == kept[2]):
+            given, (_, piece, body) = self._given, self.pieces()
+            follow = self.goal_strength
+            hz = region_frequency(self.graph, elastic_frequency(self.graph, given["stiffness"], given["density"]),
+                                  follow >= HELD_FOLLOW)
+            self._jiggle_key = (follow, given, jiggle_hz)
+            self._jiggle = np.where(piece == body, jiggle_softness(hz, follow, jiggle_hz), 1.0)
+        return self._jiggle
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed

@@ -60,20 +60,22 @@ class Units:
 
 # Looks for secondary motion on an animated character (the Goal sub-panel's menu), named by what the artist
 # sees, as Maya's jiggle and the Wiggle add-ons name theirs: the body's material (MPa, density, damping per
-# second) and the painted regions' softness and damping. Measured on tests/blender/character_scene.py's creature
-# (docs/goals.md, "Looks"). Ticking Goal on an object whose material is still the default preset gives it
-# DEFAULT_LOOK: a body as stiff as Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm).
-# Each look settles within 2 mm 1 s after the motion stops (the issue's aim): a swing of ω rad/s comes back at
-# best as e^-ωt (critically damped), so Floppy's softer shells take a faster floor (Shell Min 0.4, a 0.78 Hz
-# goal) and more damping (12/s): at 5/s and 0.3 the dog's tail swung 12.5 mm 1 s after (docs/goals.md, "Floppy
-# that settles").
+# second), the painted regions' softness and damping, and the jiggle frequency that flesh painted Follow 0 rings
+# at where no Softness group is picked (engine.jiggle_softness, on the body's links). Measured on
+# tests/blender/character_scene.py's creature and scripts/outside_knight.py (docs/goals.md, "Looks", "Jiggle").
+# Ticking Goal on an object whose material is still the default preset gives it DEFAULT_LOOK: a body as stiff as
+# Rubber barely moves around its animation (tail 17 mm, ears 0.01 mm). Each look settles within 2 mm 1 s after
+# the motion stops (the issue's aim). Floppy took 12/s and Shell Min 0.4 to settle the dog's tail and ellie's
+# trunk (docs/goals.md, "Floppy that settles"), which swung the knight's cape less than Fleshy; with each
+# particle's Follow the least of its vertices' (stop 47) they settle at 9/s and Shell Min 0.25 (Fleshy's 3 MPa;
+# at 1.5 MPa the creature's tail did not), so the looks are ordered in motion (Subtle < Fleshy < Floppy).
 LOOKS = {
     "Subtle": dict(modulus=8.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.3, region_damping=9.0,
-                   shell_follow_min=SHELL_FOLLOW_MIN),
+                   jiggle_hz=3.5, shell_follow_min=SHELL_FOLLOW_MIN),
     "Fleshy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.15, region_damping=9.0,
-                   shell_follow_min=SHELL_FOLLOW_MIN),
-    "Floppy": dict(modulus=1.5, density=1050.0, damping_rate=12.0, soft_stiffness=0.1, region_damping=12.0,
-                   shell_follow_min=0.4),
+                   jiggle_hz=1.75, shell_follow_min=SHELL_FOLLOW_MIN),
+    "Floppy": dict(modulus=3.0, density=1050.0, damping_rate=9.0, soft_stiffness=0.1, region_damping=9.0,
+                   jiggle_hz=1.4, shell_follow_min=0.25),
 }
 DEFAULT_LOOK = "Fleshy"
 
