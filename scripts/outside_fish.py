@@ -17,7 +17,7 @@ from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
-                       paint, parent_auto, reopen, shells, twin_of, world)
+                       paint, parent_auto, reopen, reports, shells, twin_of, world)
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -130,10 +130,6 @@ def follow_map(obj, parts):
     fade(parts["dorsal"], lambda p: p[:, 2])
     fade(parts["tailfin"], lambda p: p[:, 1])
     return w.round(3)
-
-
-def reports(log):
-    return [e[2] or e[1] if e[0] == "operator" else e[1] for e in log if e[0] in ("label", "operator")]
 
 
 def main():

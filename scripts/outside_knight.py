@@ -27,8 +27,9 @@ import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
-                       paint, parent_auto, reopen, twin_of, world)
+import rig_parts  # noqa: E402
+from rig_parts import (armature, artist_enable, base, collision_floor, install, link,  # noqa: E402
+                       paint, parent_auto, reopen, reports, skin_body, taper, twin_of, world)
 
 args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
 ZIP, KIND, OUT = args[:3]
@@ -62,17 +63,8 @@ BONES = [("root", (0, 0, 0), (0, 0.3, 0), None, False),
 
 def body_mesh():
     """The Skin modifier on the skeleton, Subdivision 2, both applied; the belly pushed 13 cm forward (-y)."""
-    me = bpy.data.meshes.new("Knight")
-    me.from_pydata([p for p, _ in NODES], EDGES, [])
-    obj = link(bpy.data.objects.new("Knight", me))
-    bpy.context.view_layer.objects.active = obj
-    obj.modifiers.new("Skin", 'SKIN')
-    for i, (_, r) in enumerate(NODES):
-        me.skin_vertices[0].data[i].radius = (r, r)
-    me.skin_vertices[0].data[0].use_root = True
-    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 2
-    for m in list(obj.modifiers):
-        bpy.ops.object.modifier_apply(modifier=m.name)
+    obj = skin_body("Knight", NODES, EDGES, 2)
+    me = obj.data
     v = np.array([x.co for x in me.vertices])
     bulge = np.exp(-((v[:, 2] - 1.08) / 0.14) ** 2 - (v[:, 0] / 0.17) ** 2) * (v[:, 1] < 0)
     v[:, 1] -= 0.13 * bulge
@@ -183,21 +175,12 @@ def follow_map(n, bulge, parts, param):
     hat 1 at the brim to 0.3 at the tip."""
     w = np.ones(n)
     w[:len(bulge)] = 1 - 0.85 * bulge
-    for name, low in (("hair", 0.1), ("cape", 0.1), ("hat", 0.3)):
-        w[parts[name]] = 1 - (1 - low) * param[parts[name]]
-    return w.round(3)
+    return taper(w, parts, param, (("hair", 0.1), ("cape", 0.1), ("hat", 0.3)))
 
 
-def reports(log):
-    return [e[2] or e[1] if e[0] == "operator" else e[1] for e in log if e[0] in ("label", "operator")]
-
-
-class Shot:
+class Shot(rig_parts.Shot):
     def __init__(self, obj, twin, parts, follow, H):
-        self.obj, self.twin, self.parts, self.H = obj, twin, parts, H
-        self.core = np.where(follow >= 0.99)[0]
-        self.edges = np.array([e.vertices[:] for e in obj.data.edges]).T
-        self.before = base(obj)
+        super().__init__(obj, twin, parts, follow >= 0.99, H)
         self.shown = {}
 
     def play(self, label):
@@ -258,9 +241,7 @@ def build_scene(name):
     animate(arm)
     follow = follow_map(len(obj.data.vertices), bulge, parts, param)
     paint(obj, "Follow", follow)
-    bpy.ops.mesh.primitive_plane_add(size=20.0)
-    bpy.context.active_object.name = "Floor"
-    bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
+    collision_floor()
     twin = twin_of(obj)
     v = np.array([x.co for x in obj.data.vertices])
     print(f"KNIGHT {len(v)} vertices, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, "

@@ -129,3 +129,51 @@ def armature(name, bones, connected, scale=1.0):
             b.parent, b.use_connect = arm.data.edit_bones[p], connected(bone, p)
     bpy.ops.object.mode_set(mode='OBJECT')
     return arm
+
+
+def reports(log):
+    """The panel's labels and the operators' reports in a draw log (helpers' draw_panels)."""
+    return [e[2] or e[1] if e[0] == "operator" else e[1] for e in log if e[0] in ("label", "operator")]
+
+
+def taper(w, parts, param, lows):
+    """Follow weights w with each named part (name, low) going from 1 at its root to low at its tip (param: 0 to 1
+    along it), rounded as painted."""
+    for name, low in lows:
+        w[parts[name]] = 1 - (1 - low) * param[parts[name]]
+    return w.round(3)
+
+
+class Shot:
+    """A shot replayed against its armature-only twin: the Follow-1 core (a vertex mask), the mesh's edges and its
+    base mesh as found, for the scripts' measures."""
+
+    def __init__(self, obj, twin, parts, core, H):
+        self.obj, self.twin, self.parts, self.H = obj, twin, parts, H
+        self.core = np.where(core)[0]
+        self.edges = np.array([e.vertices[:] for e in obj.data.edges]).T
+        self.before = base(obj)
+
+
+def skin_body(name, nodes, edges, levels):
+    """A body made as artists block one out: a skeleton of (position, radius) nodes and edges under the Skin
+    modifier, then Subdivision ``levels``, both applied. The linked object, made active."""
+    me = bpy.data.meshes.new(name)
+    me.from_pydata([p for p, _ in nodes], edges, [])
+    obj = link(bpy.data.objects.new(name, me))
+    bpy.context.view_layer.objects.active = obj
+    obj.modifiers.new("Skin", 'SKIN')
+    for i, (_, r) in enumerate(nodes):
+        me.skin_vertices[0].data[i].radius = (r, r)
+    me.skin_vertices[0].data[0].use_root = True
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = levels
+    for m in list(obj.modifiers):
+        bpy.ops.object.modifier_apply(modifier=m.name)
+    return obj
+
+
+def collision_floor():
+    """A 20 m floor plane with a Collision modifier, as the shots stand on."""
+    bpy.ops.mesh.primitive_plane_add(size=20.0)
+    bpy.context.active_object.name = "Floor"
+    bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
