@@ -1033,12 +1033,29 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	return true;
 }
 
+// How far a pair's end a turned since the step's start (R_a R_a⁽¹⁾ᵀ; none where it is braced immovable, od_Brace):
+// the frame a pair's slip is measured in.
+static od_Mat3 od_Turned(const od_End* a)
+{
+	od_Mat3 now = od_M3Load(a->sim->state.R + 9 * a->i), start = od_M3Load(a->sim->previous.R + 9 * a->i);
+	return isinf(a->mass) ? od_M3Identity() : od_M3MulNT(&now, &start);
+}
+
+// How far a pair's end b moved from its end a since the step's start, in a's frame: where b is from a now less
+// where it was, turned as a's particle turned since (od_Turned). Two members that turn together read no slip: in
+// world coordinates a stack tilted or rolled as one slid its pairs by the turn times their centres' distance.
+static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
+{
+	od_Mat3 turned = od_Turned(a);
+	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
+}
+
 // Coulomb friction of a pair that was pushed: its relative tangential displacement cut by μ times the push.
 static void od_PairFriction(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b, double mu)
 {
 	od_Vec3 n = od_V3Load(pair->n);
 	od_Brace(s, pair, a, b);
-	od_Vec3 rel = od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
+	od_Vec3 rel = od_Displacement(a, b);
 	od_Vec3 slip = od_MulAdd(rel, -od_Dot(rel, n), n);
 	double length = od_Length(slip), cut = 1.0 - od_CoulombKeep(length, mu * pair->push);
 	if (length > 0.0 && cut > 0.0)
@@ -1519,14 +1536,9 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 	od_FloorReaction(s, sims, count);
 }
 
-// How far a pair's end b moved since the step's start less its end a.
-static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
-{
-	return od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
-}
-
 // A pair's friction's measure: its displacement in this step and `pull` of how far b had moved from a before it
-// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid).
+// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid), both in
+// a's frame (the anchor turned with a's particle at every step's end, od_BodyContact_TurnAnchors).
 static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0);
@@ -1535,7 +1547,8 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, d
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	return od_MulAdd(od_Displacement(a, b), pull, od_Sub(d0, od_V3Load(pair->anchor)));
+	od_Mat3 turned = od_Turned(a);
+	return od_MulAdd(od_Displacement(a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -2647,6 +2660,20 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 			od_V3Store(sim->state.x + 3 * i, od_Add(od_V3Load(sim->state.x + 3 * i), carry));
 			od_V3Store(sim->state.v + 3 * i, od_MulAdd(od_V3Load(sim->state.v + 3 * i), 1.0 / sim->def.dt, carry));
 		}
+	}
+}
+
+// A sticking pair's anchor is kept in its end a's frame (od_Slip): at a step's end it turns as a's particle turned
+// over the step, so that it stays where b was from a, in world coordinates, as a's particle now stands.
+void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims)
+{
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_Brace(s, pair, &a, &b);
+		od_Mat3 turned = od_Turned(&a);
+		od_V3Store(pair->anchor, od_M3MulV(&turned, od_V3Load(pair->anchor)));
 	}
 }
 
