@@ -26,5 +26,5 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 // then turns the sticking pairs' anchors as their first particles turned over the step (od_Slip).
 void od_BodyContact_Keep(od_PairScratch* s, od_Sim* const* sims, int count);
 void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count);
-void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims);
+void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims, int count);
 od_Status od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);
