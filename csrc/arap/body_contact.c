@@ -181,6 +181,7 @@
 #include "step.h"
 
 #include <math.h>
+#include <stdlib.h> // EXPERIMENT
 #include <stdint.h>
 #include <string.h>
 
@@ -1054,7 +1055,7 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 // immovable, od_Brace): the frame a pair's slip is measured in.
 static od_Mat3 od_Turned(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a)
 {
-	return isinf(a->mass) ? od_M3Identity() : od_M3Load(s->turn + 9 * s->body[pair->a]);
+	return isinf(a->mass) || getenv("X_WORLD") ? od_M3Identity() : od_M3Load(s->turn + 9 * s->body[pair->a]);
 }
 
 // How far a pair's end b moved from its end a since the step's start, in the frame of a's member: where b is from
@@ -2694,22 +2695,20 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// A sticking pair's anchor is kept in its end a's frame (od_Slip): at a step's end it turns as a's particle turned
-// over the step, so that it stays where b was from a, in world coordinates, as a's particle now stands.
+// A pair's friction force and anchor are kept in the frame of its end a's member (od_Slip): at a step's end they
+// turn as that member turned over the step (od_MemberTurns), so that a stack turning as one carries its friction
+// with it.
 void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims, int count)
 {
 	od_MemberTurns(s, sims, count);
 	for (int k = 0; k < s->pairCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
-		if (!pair->anchored)
-		{
-			continue; // anchored at the next step's start
-		}
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_Brace(s, pair, &a, &b);
 		od_Mat3 turned = od_Turned(s, pair, &a);
 		od_V3Store(pair->anchor, od_M3MulV(&turned, od_V3Load(pair->anchor)));
+		od_V3Store(pair->tangent, od_M3MulV(&turned, od_V3Load(pair->tangent)));
 	}
 }
 
