@@ -181,7 +181,6 @@
 #include "step.h"
 
 #include <math.h>
-#include <stdlib.h> // EXPERIMENT
 #include <stdint.h>
 #include <string.h>
 
@@ -344,7 +343,6 @@ void od_PairScratch_Destroy(od_PairScratch* s)
 	od_Free(s->load);
 	od_Free(s->pose);
 	od_Free(s->roll);
-	od_Free(s->turn);
 	od_Free(s->alone);
 	od_Free(s->box);
 	od_Free(s->couples);
@@ -392,13 +390,12 @@ od_Status od_PairScratch_Reserve(od_PairScratch* s, int particles)
 	s->load = od_Alloc(sizeof(double) * (size_t)particles);
 	s->pose = od_AllocZero(13 * (size_t)particles, sizeof(double));
 	s->roll = od_AllocZero(3 * (size_t)particles, sizeof(double)); // none outside a group's iterations (od_ApplyForces)
-	s->turn = od_AllocZero(9 * (size_t)particles, sizeof(double));
 	s->kept = od_Alloc(sizeof(double) * 3 * (size_t)particles);
 	s->alone = od_Alloc(sizeof(int) * (size_t)particles);
 	s->box = od_Alloc(sizeof(double) * 6 * (size_t)particles);
 	if (!s->body || !s->local || !s->cell || !s->sorted || !s->cellStart || !s->sphere || !s->active || !s->pressing ||
 		!s->moved || !s->moment || !s->outward || !s->grounded || !s->held || !s->bearing || !s->rise || !s->supported ||
-		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->turn || !s->kept ||
+		!s->climbing || !s->fast || !s->perched || !s->mass || !s->load || !s->pose || !s->roll || !s->kept ||
 		!s->storeys || !s->alone || !s->box)
 	{
 		od_PairScratch_Destroy(s);
@@ -906,21 +903,8 @@ static od_Vec3 od_MemberMean(const od_PairScratch* s, const od_Sim* sim, int b, 
 	return mean;
 }
 
-// A member's angular momentum about `centre` at the step's start: Σ m_i r_i × v_i.
-static od_Vec3 od_Spin(const od_Sim* sim, od_Vec3 centre)
-{
-	od_Vec3 spin = od_V3(0, 0, 0);
-	for (int i = 0; i < sim->graph->n; ++i)
-	{
-		od_Vec3 r = od_Sub(od_V3Load(sim->previous.x + 3 * i), centre);
-		spin = od_MulAdd(spin, sim->def.density * sim->graph->volumes[i], od_Cross(r, od_V3Load(sim->state.v + 3 * i)));
-	}
-	return spin;
-}
-
 // Member b's centre of mass at the step's start and the inverse of its particles' inertia about it (s->pose), for
-// its turn (od_Turn) and the floor's rolling couple on it (od_ApplyRolls); and the turn its angular velocity then
-// gives it over the step (s->turn: the frame of its pairs' slip, od_Turned).
+// its turn (od_Turn) and the floor's rolling couple on it (od_ApplyRolls).
 static void od_Pose(od_PairScratch* s, const od_Sim* sim, int b)
 {
 	const double* x = sim->previous.x;
@@ -939,8 +923,6 @@ static void od_Pose(od_PairScratch* s, const od_Sim* sim, int b)
 	od_V3Store(s->pose + 13 * b, centre);
 	od_M3Store(s->pose + 13 * b + 3, &inverse);
 	s->pose[13 * b + 12] = height;
-	od_Mat3 turn = od_M3ExpSkew(od_M3MulV(&inverse, od_Scale(sim->def.dt, od_Spin(sim, centre))));
-	od_M3Store(s->turn + 9 * b, &turn);
 }
 
 // The ratio of masses beyond which members are not comparable this step (s->comparable, OD_COMPARABLE), each
@@ -1051,20 +1033,32 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	return true;
 }
 
-// How far a pair's end a's member turned since the step's start (s->turn, od_MemberTurns; none where a is braced
-// immovable, od_Brace): the frame a pair's slip is measured in.
-static od_Mat3 od_Turned(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a)
+// The frame a pair's slip is measured in: how far its end a's particle turns over the step as its angular velocity
+// at the step's start turns it (none where a is braced immovable, od_Brace). Measured in world coordinates, a stack
+// tilted or rolled as one read the turn times the pair's centres' distance as a slip, and friction, warm started
+// from step to step, pulled the upper member back to where it had been in the world: a Stiff slab on one its goals
+// tilted 15 degrees crept 3.4-4.6 cm down it (docs/contact.md, "Stacks", stop 47). Turned with the particle's
+// rotation within the iterations instead, the measure took the solves' transients (Jelly slabs 10:1 at 24 steps a
+// second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly slab on one 1,000 times as dense landed
+// 6 cm aside and crept.
+static od_Mat3 od_Turning(const od_End* a)
 {
-	return isinf(a->mass) || getenv("X_WORLD") ? od_M3Identity() : od_M3Load(s->turn + 9 * s->body[pair->a]);
+	return isinf(a->mass) ? od_M3Identity()
+						  : od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)));
 }
 
-// How far a pair's end b moved from its end a since the step's start, in the frame of a's member: where b is from
-// a now less where it was, turned as that member turned since (od_Turned). Two members that turn together read no
-// slip: in world coordinates a stack tilted or rolled as one slid its pairs by the turn times their centres'
-// distance.
-static od_Vec3 od_Displacement(const od_PairScratch* s, const od_ContactPair* pair, const od_End* a, const od_End* b)
+// How far a pair's end a's particle turned over the step that ended (R_a R_a⁽¹⁾ᵀ; none where it is braced).
+static od_Mat3 od_Turned(const od_End* a)
 {
-	od_Mat3 turned = od_Turned(s, pair, a);
+	od_Mat3 now = od_M3Load(a->sim->state.R + 9 * a->i), start = od_M3Load(a->sim->previous.R + 9 * a->i);
+	return isinf(a->mass) ? od_M3Identity() : od_M3MulNT(&now, &start);
+}
+
+// How far a pair's end b moved from its end a since the step's start, in a's frame (od_Turning): where b is from a
+// now less where it was, turned as a turns. Two members that turn together read no slip.
+static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
+{
+	od_Mat3 turned = od_Turning(a);
 	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
 }
 
@@ -1073,7 +1067,7 @@ static void od_PairFriction(const od_PairScratch* s, const od_ContactPair* pair,
 {
 	od_Vec3 n = od_V3Load(pair->n);
 	od_Brace(s, pair, a, b);
-	od_Vec3 rel = od_Displacement(s, pair, a, b);
+	od_Vec3 rel = od_Displacement(a, b);
 	od_Vec3 slip = od_MulAdd(rel, -od_Dot(rel, n), n);
 	double length = od_Length(slip), cut = 1.0 - od_CoulombKeep(length, mu * pair->push);
 	if (length > 0.0 && cut > 0.0)
@@ -1379,18 +1373,6 @@ static od_Vec3 od_Turn(const od_PairScratch* s, const od_Sim* sim, int b)
 	return od_M3MulV(&inverse, moment);
 }
 
-// Every member's rotation since the step's start (od_Turn, as a rotation matrix) into s->turn: the frame its pairs'
-// slip is measured in (od_Turned), at each update of the forces; the projection after the iterations takes the last
-// update's (none in a group without forces, od_BodyContact_Step).
-static void od_MemberTurns(od_PairScratch* s, od_Sim* const* sims, int count)
-{
-	for (int b = 0; b < count; ++b)
-	{
-		od_Mat3 turn = od_M3ExpSkew(od_Turn(s, sims[b], b));
-		od_M3Store(s->turn + 9 * b, &turn);
-	}
-}
-
 // Whether member b, or a member pressing it with a comparable pair, moves up or down at the step's start faster than
 // OD_ROLL_LANDING (s->fast): an impact, not a rest (od_Rolls).
 static bool od_Landing(const od_PairScratch* s, int b)
@@ -1569,7 +1551,7 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 // A pair's friction's measure: its displacement in this step and `pull` of how far b had moved from a before it
 // since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid), both in
 // a's frame (the anchor turned with a's particle at every step's end, od_BodyContact_TurnAnchors).
-static od_Vec3 od_Slip(const od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
+static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0);
 	if (!pair->anchored)
@@ -1577,8 +1559,8 @@ static od_Vec3 od_Slip(const od_PairScratch* s, od_ContactPair* pair, const od_E
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	od_Mat3 turned = od_Turned(s, pair, a);
-	return od_MulAdd(od_Displacement(s, pair, a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
+	od_Mat3 turned = od_Turning(a);
+	return od_MulAdd(od_Displacement(a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -1586,8 +1568,8 @@ static od_Vec3 od_Slip(const od_PairScratch* s, od_ContactPair* pair, const od_E
 // relative tangential displacement over the step, within μ times the normal force (at `slide`, od_PerchedRates).
 // The rate is the pair's stiffness as two free particles, shared among the pairs pressing each (so that several
 // pairs on one particle do not overshoot it); a particle bound to its body moves less, so this under-relaxes.
-static void od_UpdatePair(const od_PairScratch* s, od_ContactPair* pair, const od_End* a, const od_End* b, double mu,
-						  double rate, double slide, const od_Interface* e, double pull)
+static void od_UpdatePair(od_ContactPair* pair, const od_End* a, const od_End* b, double mu, double rate,
+						  double slide, const od_Interface* e, double pull)
 {
 	if (!pair->touching)
 	{
@@ -1599,7 +1581,7 @@ static void od_UpdatePair(const od_PairScratch* s, od_ContactPair* pair, const o
 	double share = e && e->load > 0.0 ? pair->force * e->count / e->load : 1.0;
 	pair->force = e ? fmax(pair->force + e->change - rate * (pair->gap - e->gap), 0.0)
 					: fmax(pair->force - rate * pair->gap, 0.0);
-	od_Vec3 n = od_V3Load(pair->n), rel = od_Slip(s, pair, a, b, pull);
+	od_Vec3 n = od_V3Load(pair->n), rel = od_Slip(pair, a, b, pull);
 	od_Vec3 t = e ? od_MulAdd(od_MulAdd(od_V3Load(pair->tangent), share, od_V3Load(e->shift)), -rate,
 							  od_Sub(rel, od_V3Load(e->slip)))
 				  : od_MulAdd(od_V3Load(pair->tangent), -slide, rel);
@@ -1729,7 +1711,7 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			if (friction)
 			{
 				od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(s, pair, &a, &b);
+				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
 				od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
 				od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
 				ie->load += pair->force;
@@ -1993,7 +1975,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate, slide;
 		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
-		od_UpdatePair(s, pair, &a, &b, between->friction, rate, slide,
+		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
 					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL, pull);
 	}
 	od_Rolls(s, sims, count, h2);
@@ -2535,8 +2517,6 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 	od_MarkAlone(s, sims, count, forces);
 	for (int b = 0; b < count; ++b)
 	{
-		od_Mat3 still = od_M3Identity(); // until an update turns it (od_MemberTurns)
-		od_M3Store(s->turn + 9 * b, &still);
 		// The floor and colliders of a group's members with forces act after the iterations, as before issue 27:
 		// inside them, their forces (from zero each step) beside the group's (carried from the last step) left
 		// the upper of two stacked bars on the floor at 0.12 m/s after 6 s (0.013 with the projection).
@@ -2695,18 +2675,16 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// A pair's friction force and anchor are kept in the frame of its end a's member (od_Slip): at a step's end they
-// turn as that member turned over the step (od_MemberTurns), so that a stack turning as one carries its friction
-// with it.
-void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims, int count)
+// A pair's friction force and anchor are kept in its end a's frame (od_Slip): at a step's end they turn as a's
+// particle turned over the step, so that a stack turning as one carries its friction with it.
+void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims)
 {
-	od_MemberTurns(s, sims, count);
 	for (int k = 0; k < s->pairCount; ++k)
 	{
 		od_ContactPair* pair = &s->pairs[k];
 		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
 		od_Brace(s, pair, &a, &b);
-		od_Mat3 turned = od_Turned(s, pair, &a);
+		od_Mat3 turned = od_Turned(&a);
 		od_V3Store(pair->anchor, od_M3MulV(&turned, od_V3Load(pair->anchor)));
 		od_V3Store(pair->tangent, od_M3MulV(&turned, od_V3Load(pair->tangent)));
 	}

@@ -230,7 +230,6 @@ typedef struct od_PairScratch
 	double* pose;     // 13 per member: its centre of mass at the step's start, the inverse of its inertia about it
 	                  // (row-major; zero where it has none) and Σ m r_z² about it (od_MemberMasses)
 	double* roll;     // 3 per member: the floor's rolling couple on it this step (od_Rolls)
-	double* turn;     // 9 per member: its rotation since the step's start at the last update (od_MemberTurns)
 	double* kept;     // 3 per particle: where it was before its member's finish (od_BodyContact_Carry)
 	int* alone;       // per member: far from every other this step, so it steps as alone (od_MarkAlone)
 	double* box;      // 6 per member: its particles' bounding box at the step's start, their reach included
