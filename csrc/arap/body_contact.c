@@ -1033,6 +1033,13 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	return true;
 }
 
+// Whether the group's friction between members takes their rigid step (od_CoarseFriction): at steps longer than
+// OD_FRICTION_STEP (a group's members step alike).
+static bool od_FrictionStep(od_Sim* const* sims)
+{
+	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
+}
+
 // The frame a pair's slip is measured in: how far its end a's particle turns over the step as its angular velocity
 // at the step's start turns it (none where a is braced immovable, od_Brace). Measured in world coordinates, a stack
 // tilted or rolled as one read the turn times the pair's centres' distance as a slip, and friction, warm started
@@ -1040,11 +1047,14 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 // tilted 15 degrees crept 3.4-4.6 cm down it (docs/contact.md, "Stacks", stop 47). Turned with the particle's
 // rotation within the iterations instead, the measure took the solves' transients (Jelly slabs 10:1 at 24 steps a
 // second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly slab on one 1,000 times as dense landed
-// 6 cm aside and crept.
+// 6 cm aside and crept. None at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes the
+// members' rigid step and asks back no anchor: there a Jelly particle's turn in a step is mostly its wobble, and
+// Jelly slabs 10:1 rocked at 0.059 m/s.
 static od_Mat3 od_Turning(const od_End* a)
 {
-	return isinf(a->mass) ? od_M3Identity()
-						  : od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)));
+	return isinf(a->mass) || od_FrictionStep(&a->sim)
+			   ? od_M3Identity()
+			   : od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)));
 }
 
 // How far a pair's end a's particle turned over the step that ended (R_a R_a⁽¹⁾ᵀ; none where it is braced).
@@ -1055,10 +1065,11 @@ static od_Mat3 od_Turned(const od_End* a)
 }
 
 // How far a pair's end b moved from its end a since the step's start, in a's frame (od_Turning): where b is from a
-// now less where it was, turned as a turns. Two members that turn together read no slip.
+// now less where it was, turned as a turns. Two members that turn together read no slip. A self-contact pair's in
+// world coordinates, as its forces' (od_IterateSelf).
 static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
 {
-	od_Mat3 turned = od_Turning(a);
+	od_Mat3 turned = a->sim == b->sim ? od_M3Identity() : od_Turning(a);
 	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
 }
 
@@ -1668,13 +1679,6 @@ static int od_InterfaceOf(od_PairScratch* s, int lower, int upper)
 static bool od_InContact(const od_ContactPair* pair)
 {
 	return pair->touching && (pair->gap < 0.0 || pair->force > 0.0);
-}
-
-// Whether the group's friction between members takes their rigid step (od_CoarseFriction): at steps longer than
-// OD_FRICTION_STEP (a group's members step alike).
-static bool od_FrictionStep(od_Sim* const* sims)
-{
-	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
 }
 
 // A pair's gap as its interface's mean gap counts it (od_Coarse): a skin pair's (od_SkinPair_Used) none beyond
@@ -2675,8 +2679,9 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 	}
 }
 
-// A pair's friction force and anchor are kept in its end a's frame (od_Slip): at a step's end they turn as a's
-// particle turned over the step, so that a stack turning as one carries its friction with it.
+// A sticking pair's anchor is kept in its end a's frame (od_Slip): at a step's end it turns as a's particle turned
+// over the step. Its friction force stays in world coordinates: turned with the particle too, that of a Jelly sphere
+// resting on another at 24 steps a second turned with its particle's wobble, and the upper one shook at 0.014 m/s.
 void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims)
 {
 	for (int k = 0; k < s->pairCount; ++k)
@@ -2686,7 +2691,6 @@ void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims)
 		od_Brace(s, pair, &a, &b);
 		od_Mat3 turned = od_Turned(&a);
 		od_V3Store(pair->anchor, od_M3MulV(&turned, od_V3Load(pair->anchor)));
-		od_V3Store(pair->tangent, od_M3MulV(&turned, od_V3Load(pair->tangent)));
 	}
 }
 
