@@ -1044,11 +1044,11 @@ static bool od_FrictionStep(od_Sim* const* sims)
 // at the step's start turns it (none where a is braced immovable, od_Brace). Measured in world coordinates, a stack
 // tilted or rolled as one read the turn times the pair's centres' distance as a slip, and friction, warm started
 // from step to step, pulled the upper member back to where it had been in the world: a Stiff slab on one its goals
-// tilted 15 degrees crept 3.4-4.6 cm down it (docs/contact.md, "Stacks", stop 47). Turned with the particle's
-// rotation within the iterations instead, the measure took the solves' transients (Jelly slabs 10:1 at 24 steps a
-// second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly slab on one 1,000 times as dense landed
-// 6 cm aside and crept. None at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes the
-// members' rigid step and asks back no anchor: there a Jelly particle's turn in a step is mostly its wobble, and
+// tilted 15 degrees crept 3.6-4.6 cm on it (0.2-0.5 cm now; docs/contact.md, "Stacks", stop 47). Turned with the
+// particle's rotation within the iterations instead, the measure took the solves' transients (Jelly slabs 10:1 at 24
+// steps a second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly slab on one 1,000 times as dense
+// landed 6 cm aside and crept. None at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes
+// the members' rigid step and asks back no anchor: there a Jelly particle's turn in a step is mostly its wobble, and
 // Jelly slabs 10:1 rocked at 0.059 m/s.
 static od_Mat3 od_Turning(const od_End* a)
 {
