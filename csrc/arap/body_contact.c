@@ -26,7 +26,8 @@
 // not re-applied per iteration, and against a share (OD_ANCHOR_PULL) of its slip before the step since it began to
 // stick (its anchor, od_Slip; kept while t is inside its bound, taken anew where it reaches it: the pair slides), so
 // what a step's truncated iterations leave does not add up to a creep (Müller et al. 2020 and IPC keep such an
-// anchor while a contact sticks). The next solve sees them (its matrix unchanged: the forces are on the right
+// anchor while a contact sticks); both measured in the frame of the pair's first particle (od_Turning), so that
+// members turning together read no slip. The next solve sees them (its matrix unchanged: the forces are on the right
 // side only), and the local step then fits the rotations to positions that already hold the contact. The
 // forces start each step where the last one left them (warm start: matched by particle pair), so a resting
 // contact carries its weight from the first solve. Why (docs/contact.md, stacking): the projection after the
