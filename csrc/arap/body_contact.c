@@ -1068,9 +1068,9 @@ static od_Mat3 od_Turned(const od_End* a)
 // How far a pair's end b moved from its end a since the step's start, in a's frame (od_Turning): where b is from a
 // now less where it was, turned as a turns. Two members that turn together read no slip. A self-contact pair's in
 // world coordinates, as its forces' (od_IterateSelf).
-static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
+static od_Vec3 od_Displacement(const od_ContactPair* pair, const od_End* a, const od_End* b)
 {
-	od_Mat3 turned = a->sim == b->sim ? od_M3Identity() : od_Turning(a);
+	od_Mat3 turned = a->sim != b->sim && pair->resting ? od_Turning(a) : od_M3Identity();
 	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
 }
 
@@ -1079,7 +1079,7 @@ static void od_PairFriction(const od_PairScratch* s, const od_ContactPair* pair,
 {
 	od_Vec3 n = od_V3Load(pair->n);
 	od_Brace(s, pair, a, b);
-	od_Vec3 rel = od_Displacement(a, b);
+	od_Vec3 rel = od_Displacement(pair, a, b);
 	od_Vec3 slip = od_MulAdd(rel, -od_Dot(rel, n), n);
 	double length = od_Length(slip), cut = 1.0 - od_CoulombKeep(length, mu * pair->push);
 	if (length > 0.0 && cut > 0.0)
@@ -1111,6 +1111,7 @@ static void od_TakeForce(od_ContactPair* p, const od_ContactPair* from)
 	memcpy(p->n, from ? from->n : (double[3]){ 0, 0, 1 }, sizeof p->n);
 	memcpy(p->anchor, from ? from->anchor : (double[3]){ 0, 0, 0 }, sizeof p->anchor);
 	p->anchored = from && from->anchored;
+	p->resting = from && from->resting;
 }
 
 // The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
@@ -1571,8 +1572,8 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, d
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	od_Mat3 turned = od_Turning(a);
-	return od_MulAdd(od_Displacement(a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
+	od_Mat3 turned = pair->resting ? od_Turning(a) : od_M3Identity();
+	return od_MulAdd(od_Displacement(pair, a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -1716,7 +1717,7 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			if (friction)
 			{
 				od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
+				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(pair, &a, &b);
 				od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
 				od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
 				ie->load += pair->force;
@@ -2101,6 +2102,10 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 {
 	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
 	od_MemberMasses(s, sims, count);
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		s->pairs[k].resting = s->pairs[k].force > 0.0;
+	}
 	memset(s->roll, 0, sizeof(double) * 3 * (size_t)count); // none at a step's start: not part of the group's state
 	s->coupleCount = 0;
 	s->rollUpdates = 0;
