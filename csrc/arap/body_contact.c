@@ -1042,20 +1042,23 @@ static bool od_FrictionStep(od_Sim* const* sims)
 }
 
 // The frame a pair's slip is measured in: how far its end a's particle turns over the step as its angular velocity
-// at the step's start turns it (none where a is braced immovable, od_Brace). Measured in world coordinates, a stack
-// tilted or rolled as one read the turn times the pair's centres' distance as a slip, and friction, warm started
-// from step to step, pulled the upper member back to where it had been in the world: a Stiff slab on one its goals
-// tilted 15 degrees crept 3.6-4.6 cm on it (0.2-0.5 cm now; docs/contact.md, "Stacks", stop 47). Turned with the
-// particle's rotation within the iterations instead, the measure took the solves' transients (Jelly slabs 10:1 at 24
-// steps a second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly slab on one 1,000 times as dense
-// landed 6 cm aside and crept. None at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes
-// the members' rigid step and asks back no anchor: there a Jelly particle's turn in a step is mostly its wobble, and
-// Jelly slabs 10:1 rocked at 0.059 m/s.
-static od_Mat3 od_Turning(const od_End* a)
+// at the step's start turns it, where the pair carried a force into the step (pair->resting) between two members.
+// Measured in world coordinates, a stack tilted or rolled as one read the turn times the pair's centres' distance as
+// a slip, and friction, warm started from step to step, pulled the upper member back to where it had been in the
+// world: a Stiff slab on one its goals tilted 15 degrees crept 3.6-4.6 cm on it (0.1-0.4 cm now; docs/contact.md,
+// "Stacks", stop 47). Turned with the particle's rotation within the iterations instead, the measure took the solves'
+// transients (Jelly slabs 10:1 at 24 steps a second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly
+// slab on one 1,000 times as dense landed 6 cm aside and crept. None at an impact (a pair new to the step: its
+// particles' spins are the impact's; a Suzanne landing on another at 240 steps a second slid 0.4 m aside, still
+// moving at 3 s), for self-contact (as its forces, od_IterateSelf), where an end is braced immovable (od_Brace), and
+// at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes the members' rigid step and asks
+// back no anchor: there a Jelly particle's turn in a step is mostly its wobble (Jelly slabs 10:1 rocked at 0.059
+// m/s).
+static od_Mat3 od_Turning(const od_ContactPair* pair, const od_End* a, const od_End* b)
 {
-	return isinf(a->mass) || od_FrictionStep(&a->sim)
-			   ? od_M3Identity()
-			   : od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)));
+	bool turns = pair->resting && a->sim != b->sim && !isinf(a->mass) && !od_FrictionStep(&a->sim);
+	return turns ? od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)))
+				 : od_M3Identity();
 }
 
 // How far a pair's end a's particle turned over the step that ended (R_a R_a⁽¹⁾ᵀ; none where it is braced).
@@ -1065,12 +1068,11 @@ static od_Mat3 od_Turned(const od_End* a)
 	return isinf(a->mass) ? od_M3Identity() : od_M3MulNT(&now, &start);
 }
 
-// How far a pair's end b moved from its end a since the step's start, in a's frame (od_Turning): where b is from a
-// now less where it was, turned as a turns. Two members that turn together read no slip. A self-contact pair's in
-// world coordinates, as its forces' (od_IterateSelf).
+// How far a pair's end b moved from its end a since the step's start, in its frame (od_Turning): where b is from a
+// now less where it was, turned as a turns. Two members that turn together read no slip.
 static od_Vec3 od_Displacement(const od_ContactPair* pair, const od_End* a, const od_End* b)
 {
-	od_Mat3 turned = a->sim != b->sim && pair->resting ? od_Turning(a) : od_M3Identity();
+	od_Mat3 turned = od_Turning(pair, a, b);
 	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
 }
 
@@ -1572,7 +1574,7 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, d
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	od_Mat3 turned = pair->resting ? od_Turning(a) : od_M3Identity();
+	od_Mat3 turned = od_Turning(pair, a, b);
 	return od_MulAdd(od_Displacement(pair, a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
 }
 
@@ -2102,10 +2104,6 @@ static od_Status od_IterateWithForces(od_PairScratch* s, od_Sim* const* sims, in
 {
 	od_CacheMoments(s, sims, count); // the first solve's floor reaction (od_FloorWeight)
 	od_MemberMasses(s, sims, count);
-	for (int k = 0; k < s->pairCount; ++k)
-	{
-		s->pairs[k].resting = s->pairs[k].force > 0.0;
-	}
 	memset(s->roll, 0, sizeof(double) * 3 * (size_t)count); // none at a step's start: not part of the group's state
 	s->coupleCount = 0;
 	s->rollUpdates = 0;
@@ -2525,6 +2523,10 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 	// the forces the others' later solves set. With all three changed it rests (0.011 m/s, 0.55 ms a step).
 	bool forces = count > 1 && between->inIterations;
 	od_MarkAlone(s, sims, count, forces);
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		s->pairs[k].resting = forces && s->pairs[k].force > 0.0; // its slip in its first particle's frame (od_Turning)
+	}
 	for (int b = 0; b < count; ++b)
 	{
 		// The floor and colliders of a group's members with forces act after the iterations, as before issue 27:
