@@ -728,3 +728,40 @@ def test_at_24_steps_a_second_a_slab_on_one_1000_times_as_dense_rests_on_top():
         assert rise <= 0.0, (second, rise)
         if second >= 3:
             assert above > 0.1 and aside < 0.05 and fastest < 0.05, (second, above, aside, fastest)
+
+
+def _turn_of(now, then):
+    """The rotation that best takes the points `then` to `now` about their means (Kabsch)."""
+    u, _, vt = np.linalg.svd((now - now.mean(axis=0)).T @ (then - then.mean(axis=0)))
+    return u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+
+
+@pytest.mark.parametrize("rate, axis, degrees", [(60, 0, 15.0), (60, 1, -15.0), (240, 0, -15.0)])
+def test_a_slab_resting_on_a_tilting_one_rides_it_without_creeping(rate, axis, degrees):
+    """Issue 27: a Stiff slab resting on another that its goals hold in the air and tilt 15 degrees about a
+    horizontal axis over 2 s (μ = 1 between them: the pairs' normals, leaning up to 15 degrees on the particles'
+    bumps, stay inside their cones) stays where it rests on it: its centre, seen from the lower slab, moves less
+    than 1.5 cm from before the tilt to 2 s after it. Friction measured in world coordinates read the common turn as
+    a slip and pulled the upper slab back to where it had been in the world: it crept 3.6-4.6 cm; measured in the
+    frame of the lower slab's particle, which turns with it, 0.1-0.4 cm (docs/contact.md, "Stacks", stop 47)."""
+    v, t = _slab()
+    lower, upper = _preset_body(v, t, 0.5, "Stiff", rate=rate), _preset_body(v, t, 0.71, "Stiff", rate=rate)
+    rest, rotations = lower.positions.copy(), lower.rotations.copy()
+    lower.set_goal_strength(1.0)
+    lower.set_goals(rest, rotations)
+    group = opdeform.ContactGroup([lower, upper], friction=1.0)
+    group.step(2 * rate)
+    before = upper.positions.mean(axis=0) - lower.positions.mean(axis=0)
+    centre = rest.mean(axis=0)
+    for k in range(1, 2 * rate + 1):
+        angle = np.radians(degrees) * (0.5 - 0.5 * np.cos(np.pi * k / (2 * rate)))
+        c, s = np.cos(angle), np.sin(angle)
+        tilt = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+        tilt = tilt if axis == 0 else tilt[[1, 0, 2]][:, [1, 0, 2]]  # about x, or about y
+        lower.set_goals((rest - centre) @ tilt.T + centre, tilt @ rotations)
+        group.step()
+    group.step(2 * rate)
+    turn = _turn_of(lower.positions, rest)
+    assert abs(np.degrees(np.arccos((np.trace(turn) - 1.0) / 2.0)) - abs(degrees)) < 0.5  # the lower slab tilted
+    after = turn.T @ (upper.positions.mean(axis=0) - lower.positions.mean(axis=0))
+    assert after[2] > 0.15 and np.linalg.norm(after - before) < 0.015, (before, after)

@@ -26,7 +26,8 @@
 // not re-applied per iteration, and against a share (OD_ANCHOR_PULL) of its slip before the step since it began to
 // stick (its anchor, od_Slip; kept while t is inside its bound, taken anew where it reaches it: the pair slides), so
 // what a step's truncated iterations leave does not add up to a creep (Müller et al. 2020 and IPC keep such an
-// anchor while a contact sticks). The next solve sees them (its matrix unchanged: the forces are on the right
+// anchor while a contact sticks); both measured in the frame of the pair's first particle (od_Turning), so that
+// members turning together read no slip. The next solve sees them (its matrix unchanged: the forces are on the right
 // side only), and the local step then fits the rotations to positions that already hold the contact. The
 // forces start each step where the last one left them (warm start: matched by particle pair), so a resting
 // contact carries its weight from the first solve. Why (docs/contact.md, stacking): the projection after the
@@ -1033,12 +1034,54 @@ static bool od_ResolvePair(const od_PairScratch* s, od_ContactPair* pair, od_End
 	return true;
 }
 
+// Whether the group's friction between members takes their rigid step (od_CoarseFriction): at steps longer than
+// OD_FRICTION_STEP (a group's members step alike).
+static bool od_FrictionStep(od_Sim* const* sims)
+{
+	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
+}
+
+// The frame a pair's slip is measured in: how far its end a's particle turns over the step as its angular velocity
+// at the step's start turns it, where the pair carried a force into the step (pair->resting) between two members.
+// Measured in world coordinates, a stack tilted or rolled as one read the turn times the pair's centres' distance as
+// a slip, and friction, warm started from step to step, pulled the upper member back to where it had been in the
+// world: a Stiff slab on one its goals tilted 15 degrees crept 3.6-4.6 cm on it (0.1-0.4 cm now; docs/contact.md,
+// "Stacks", stop 47). Turned with the particle's rotation within the iterations instead, the measure took the solves'
+// transients (Jelly slabs 10:1 at 24 steps a second rocked at 0.16 m/s); with its member's rigid turn, a light Jelly
+// slab on one 1,000 times as dense landed 6 cm aside and crept. None at an impact (a pair new to the step: its
+// particles' spins are the impact's; a Suzanne landing on another at 240 steps a second slid 0.4 m aside, still
+// moving at 3 s), for self-contact (as its forces, od_IterateSelf), where an end is braced immovable (od_Brace), and
+// at longer steps than OD_FRICTION_STEP (od_FrictionStep), where friction takes the members' rigid step and asks
+// back no anchor: there a Jelly particle's turn in a step is mostly its wobble (Jelly slabs 10:1 rocked at 0.059
+// m/s).
+static od_Mat3 od_Turning(const od_ContactPair* pair, const od_End* a, const od_End* b)
+{
+	bool turns = pair->resting && a->sim != b->sim && !isinf(a->mass) && !od_FrictionStep(&a->sim);
+	return turns ? od_M3ExpSkew(od_Scale(a->sim->def.dt, od_V3Load(a->sim->state.omega + 3 * a->i)))
+				 : od_M3Identity();
+}
+
+// How far a pair's end a's particle turned over the step that ended (R_a R_a⁽¹⁾ᵀ; none where it is braced).
+static od_Mat3 od_Turned(const od_End* a)
+{
+	od_Mat3 now = od_M3Load(a->sim->state.R + 9 * a->i), start = od_M3Load(a->sim->previous.R + 9 * a->i);
+	return isinf(a->mass) ? od_M3Identity() : od_M3MulNT(&now, &start);
+}
+
+// How far a pair's end b moved from its end a since the step's start, in its frame (od_Turning): where b is from a
+// now less where it was, turned as a turns. Two members that turn together read no slip.
+static od_Vec3 od_Displacement(const od_ContactPair* pair, const od_End* a, const od_End* b)
+{
+	od_Mat3 turned = od_Turning(pair, a, b);
+	return od_Sub(od_Sub(b->x1, a->x1), od_M3MulV(&turned, od_Sub(b->x0, a->x0)));
+}
+
 // Coulomb friction of a pair that was pushed: its relative tangential displacement cut by μ times the push.
 static void od_PairFriction(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b, double mu)
 {
 	od_Vec3 n = od_V3Load(pair->n);
 	od_Brace(s, pair, a, b);
-	od_Vec3 rel = od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
+	od_Vec3 rel = od_Displacement(pair, a, b);
 	od_Vec3 slip = od_MulAdd(rel, -od_Dot(rel, n), n);
 	double length = od_Length(slip), cut = 1.0 - od_CoulombKeep(length, mu * pair->push);
 	if (length > 0.0 && cut > 0.0)
@@ -1070,6 +1113,7 @@ static void od_TakeForce(od_ContactPair* p, const od_ContactPair* from)
 	memcpy(p->n, from ? from->n : (double[3]){ 0, 0, 1 }, sizeof p->n);
 	memcpy(p->anchor, from ? from->anchor : (double[3]){ 0, 0, 0 }, sizeof p->anchor);
 	p->anchored = from && from->anchored;
+	p->resting = from && from->resting;
 }
 
 // The forces of the pairs found again start where the last step's (`previous`) left them (warm start), new
@@ -1519,14 +1563,9 @@ static void od_ApplyForces(od_PairScratch* s, od_Sim* const* sims, int count)
 	od_FloorReaction(s, sims, count);
 }
 
-// How far a pair's end b moved since the step's start less its end a.
-static od_Vec3 od_Displacement(const od_End* a, const od_End* b)
-{
-	return od_Sub(od_Sub(b->x1, b->x0), od_Sub(a->x1, a->x0));
-}
-
 // A pair's friction's measure: its displacement in this step and `pull` of how far b had moved from a before it
-// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid).
+// since the pair began to stick (its anchor, taken at the step's start where it has none: new, or slid), both in
+// a's frame (the anchor turned with a's particle at every step's end, od_BodyContact_TurnAnchors).
 static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, double pull)
 {
 	od_Vec3 d0 = od_Sub(b->x0, a->x0);
@@ -1535,7 +1574,8 @@ static od_Vec3 od_Slip(od_ContactPair* pair, const od_End* a, const od_End* b, d
 		od_V3Store(pair->anchor, d0);
 		pair->anchored = true;
 	}
-	return od_MulAdd(od_Displacement(a, b), pull, od_Sub(d0, od_V3Load(pair->anchor)));
+	od_Mat3 turned = od_Turning(pair, a, b);
+	return od_MulAdd(od_Displacement(pair, a, b), pull, od_M3MulV(&turned, od_Sub(d0, od_V3Load(pair->anchor))));
 }
 
 // One update of a pair's forces towards its constraints (dual ascent): the normal force grows while the pair
@@ -1645,13 +1685,6 @@ static bool od_InContact(const od_ContactPair* pair)
 	return pair->touching && (pair->gap < 0.0 || pair->force > 0.0);
 }
 
-// Whether the group's friction between members takes their rigid step (od_CoarseFriction): at steps longer than
-// OD_FRICTION_STEP (a group's members step alike).
-static bool od_FrictionStep(od_Sim* const* sims)
-{
-	return sims[0]->def.dt > OD_FRICTION_STEP * (1.0 + 1e-9);
-}
-
 // A pair's gap as its interface's mean gap counts it (od_Coarse): a skin pair's (od_SkinPair_Used) none beyond
 // contact. Its normal, the separating axis re-aimed at every update, can turn and find it a few mm apart at once,
 // which the members' rigid step read as the whole interface lifting: two Rubber spheres at rest on each other, one
@@ -1686,7 +1719,7 @@ static void od_Interfaces(od_PairScratch* s, od_Sim* const* sims)
 			if (friction)
 			{
 				od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
-				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(&a, &b);
+				od_Vec3 n = od_V3Load(pair->n), rel = od_Displacement(pair, &a, &b);
 				od_V3Store(ie->slip, od_Add(od_V3Load(ie->slip), od_MulAdd(rel, -od_Dot(rel, n), n)));
 				od_V3Store(ie->point, od_Add(od_V3Load(ie->point), od_Scale(0.5, od_Add(a.x1, b.x1))));
 				ie->load += pair->force;
@@ -2490,6 +2523,10 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 	// the forces the others' later solves set. With all three changed it rests (0.011 m/s, 0.55 ms a step).
 	bool forces = count > 1 && between->inIterations;
 	od_MarkAlone(s, sims, count, forces);
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		s->pairs[k].resting = forces && s->pairs[k].force > 0.0; // its slip in its first particle's frame (od_Turning)
+	}
 	for (int b = 0; b < count; ++b)
 	{
 		// The floor and colliders of a group's members with forces act after the iterations, as before issue 27:
@@ -2647,6 +2684,21 @@ void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count)
 			od_V3Store(sim->state.x + 3 * i, od_Add(od_V3Load(sim->state.x + 3 * i), carry));
 			od_V3Store(sim->state.v + 3 * i, od_MulAdd(od_V3Load(sim->state.v + 3 * i), 1.0 / sim->def.dt, carry));
 		}
+	}
+}
+
+// A sticking pair's anchor is kept in its end a's frame (od_Slip): at a step's end it turns as a's particle turned
+// over the step. Its friction force stays in world coordinates: turned with the particle too, that of a Jelly sphere
+// resting on another at 24 steps a second turned with its particle's wobble, and the upper one shook at 0.014 m/s.
+void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims)
+{
+	for (int k = 0; k < s->pairCount; ++k)
+	{
+		od_ContactPair* pair = &s->pairs[k];
+		od_End a = od_EndOf(s, sims, pair->a), b = od_EndOf(s, sims, pair->b);
+		od_Brace(s, pair, &a, &b);
+		od_Mat3 turned = od_Turned(&a);
+		od_V3Store(pair->anchor, od_M3MulV(&turned, od_V3Load(pair->anchor)));
 	}
 }
 

@@ -135,6 +135,7 @@ od_Status od_ContactGroup_Step(od_ContactGroup* group, int steps)
 			od_Step_Finish(group->sims[b], k, steps);
 		}
 		od_BodyContact_Carry(&group->pairs, group->sims, group->count);
+		od_BodyContact_TurnAnchors(&group->pairs, group->sims);
 		status = status == OD_OK ? od_BodyContact_Impacts(&group->pairs, group->sims, group->count, &group->def) : status;
 	}
 	od_Status ended = status;

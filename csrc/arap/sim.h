@@ -171,8 +171,10 @@ typedef struct od_ContactPair
 	double n[3];      // the normal, a towards b
 	double force;     // the normal force on b (N, >= 0; -force on a), inside the iterations, kept step to step
 	double tangent[3]; // the friction force on b (N, |tangent| <= μ force)
-	double anchor[3];  // where b was from a (x_b - x_a) when the pair last stuck: its friction's measure (od_Slip)
+	double anchor[3];  // where b was from a (x_b - x_a) when the pair last stuck, turned with a's particle since
+	                   // (od_BodyContact_TurnAnchors): its friction's measure (od_Slip)
 	bool anchored;     // anchor set: the pair sticks; else its next update anchors it at the step's start
+	bool resting;      // it carried a force into this step: its slip in its first particle's frame (od_Turning)
 	double gap;       // of the last update: how far apart beyond contact (m, < 0: in)
 	double allowed;   // self-contact: how deep it may stay this step (od_MeasureSelfPair)
 	bool touching;    // near enough for a force in this iteration

@@ -55,7 +55,8 @@ class ContactGroup:
         """What the group keeps from one step to the next besides its members' states: its pairs of particles
         ((m, 2) int32, indices over the members' particles in order) and their forces ((m, 10) float64: the
         normal force, the friction force, the normal and the friction's anchor, where the second particle was
-        from the first when the pair began to stick), the warm start of the next step's forces. Restored
+        from the first when the pair began to stick, turned with the first particle since), the warm start of the
+        next step's forces. Restored
         together with the members' states, the next step is the one that followed the save, bit for bit."""
         m = self._core.pair_count()
         pairs, forces = np.empty((m, 2), np.int32), np.empty((m, PAIR_VALUES))
