@@ -20,6 +20,13 @@ static inline const double* od_ElasticVolumes(const od_Sim* sim)
 	return sim->elasticVolumes ? sim->elasticVolumes : sim->graph->volumes;
 }
 
+// The link rule, in one place: link (a, b) weighs w_ab = min(r_a, r_b) of the link softness r (NULL: 1) on both
+// halves (od_Sim_SetLinkSoftness), in the per-edge weights (simulation.c) and the global matrix alike.
+static inline double od_SofterEnd(const double* r, int a, int b)
+{
+	return r ? fmin(r[a], r[b]) : 1.0;
+}
+
 // w_ij = min(r_i, r_j) of directed edge e from i to j (od_Sim_SetLinkSoftness): 1 without a link softness.
 static inline double od_LinkWeight(const od_Sim* sim, int e)
 {

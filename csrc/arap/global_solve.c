@@ -141,7 +141,7 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 	for (int e = 0; e < g->edgeCount; ++e)
 	{
 		int a = g->edges[2 * e], b = g->edges[2 * e + 1];
-		double kab = k * ((r ? fmin(r[a], r[b]) : 1.0) * (u[a] + u[b])); // w_ab (u_a + u_b), as od_EdgeVolume
+		double kab = k * (od_SofterEnd(r, a, b) * (u[a] + u[b])); // w_ab (u_a + u_b), as od_EdgeVolume
 		od_PushEntry(t, a, a, kab);
 		od_PushEntry(t, b, b, kab);
 		od_PushEntry(t, a, b, -kab);

@@ -360,7 +360,7 @@ static void od_FillLinkWeights(od_Sim* sim)
 	{
 		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
 		{
-			sim->linkWeight[e] = fmin(r[i], r[g->adj[e]]);
+			sim->linkWeight[e] = od_SofterEnd(r, i, g->adj[e]);
 		}
 	}
 }
