@@ -381,7 +381,8 @@ def main():
     if "look" in OPT:
         print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
     for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
-        setattr(s, key, type(getattr(s, key))(value))
+        kind = type(getattr(s, key))
+        setattr(s, key, value in ("1", "True", "true") if kind is bool else kind(value))
     log = H.draw_panels()
     print("PANEL AFTER GROUP", reports(log))
     print("CUT", [c[0] for c in H.cut_texts(log)])

@@ -23,8 +23,9 @@ od_Status od_BodyContact_Step(od_PairScratch* s, od_Sim* const* sims, int count,
 // Fails when the list of interfaces cannot grow (out of memory).
 // Before the members' od_Step_Finish: keeps where their particles are. After it: moves each member resting on
 // another so that their patch rolls after the projections did not slide it on what it rests on (body_contact.c);
-// then turns the pairs' friction forces and anchors as their first particles turned over the step (od_Slip).
 void od_BodyContact_Keep(od_PairScratch* s, od_Sim* const* sims, int count);
 void od_BodyContact_Carry(od_PairScratch* s, od_Sim* const* sims, int count);
+// After Carry: turns the anchors of the pairs whose slip is measured in their first particle's frame as those
+// particles turned over the step (od_Slip); the friction forces stay in world coordinates.
 void od_BodyContact_TurnAnchors(od_PairScratch* s, od_Sim* const* sims);
 od_Status od_BodyContact_Impacts(od_PairScratch* s, od_Sim* const* sims, int count, const od_BodyContactDef* between);

@@ -804,7 +804,7 @@ static void od_SlideBack(od_Sim* sim)
 // about the patch centre, the skin of a Suzanne on the floor went 0.14 mm into it): lifted back by the
 // difference along the normal; that lift is part of the piece's support, and has its friction (od_SlideBack):
 // without it, 3-8 % of the weight of the colliders bench's Suzanne sliding down the 30-degree ramp was held by these
-// lifts, with no friction, and it slid at 0.97 m/s² at 60 Hz with μ = 0.5 (Coulomb 0.66; docs/contact.md).
+// lifts, with no friction, and it slid at 0.93 m/s² at 60 Hz with μ = 0.5 (Coulomb 0.66; docs/contact.md).
 static void od_KeepOut(od_Sim* sim)
 {
 	od_SurfaceContact* s = &sim->surface;
