@@ -55,6 +55,7 @@ def _nbytes(entry):
 class StateCache:
     def __init__(self, max_bytes=CACHE_BYTES):
         self.frames = {}
+        self.blended = set()  # frames simulated past a jump, from inputs blended over the frames it skipped
         self.sizes = {}  # frame -> the bytes its entry holds (_nbytes), kept: walking an entry took 0.1 ms a frame
         self.last = None
         self.keep = None  # the start frame: never dropped
@@ -63,6 +64,7 @@ class StateCache:
 
     def clear(self):
         self.frames.clear()
+        self.blended.clear()
         self.sizes.clear()
         self.last = None
         self.bytes = 0
@@ -78,8 +80,11 @@ class StateCache:
         """The oldest frame kept after the start (None: none)."""
         return next((f for f in self.frames if f != self.keep), None)
 
-    def store(self, frame, state, targets, goals=None):
+    def store(self, frame, state, targets, goals=None, blended=False):
+        """A frame's entry; ``blended``: simulated past a jump (its inputs or a frame before it blended)."""
         self._drop(frame)
+        if blended:
+            self.blended.add(frame)
         entry = (state, None if targets is None else np.array(targets, copy=True), goals, None, None)
         self.frames[frame] = entry
         self.sizes[frame] = _nbytes(entry)
@@ -90,6 +95,7 @@ class StateCache:
             self._drop(self.first)
 
     def _drop(self, frame):
+        self.blended.discard(frame)
         if self.frames.pop(frame, None) is not None:
             self.bytes -= self.sizes.pop(frame)
 

@@ -215,6 +215,7 @@ class FrameRun:
         self.goals, self.surroundings = goals, surroundings
         self.plan = engine.plan(frame)
         self.last = self.before = self.inputs = None
+        self.blended = False  # simulated past a jump (_restore_for)
 
 
 def simulate(runs, step, budget=None):
@@ -805,9 +806,18 @@ class Engine:
         if not self._follows(incoming, matrix):  # else GoalFit.follow checks it
             _check_finite(incoming)
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
-        if self.colliders.outdated(min(int(frame), self.end), surroundings):
+        if self.colliders.outdated(min(int(frame), self.end), surroundings) or self._reached_in_order(frame):
             self.invalidate(keep_until=min(int(frame), self.end) - 1)
         return FrameRun(self, int(frame), targets, incoming, matrix, goals, surroundings)
+
+    def _reached_in_order(self, frame):
+        """Whether ``frame`` was simulated past a jump (from blended inputs) while the frame before it was not:
+        playback reaching it in order simulates it again from its own inputs. Kept, a jump's frames replaced the
+        animation between its ends (the knight's jump, Build at frame 96 and the frame shown, then played from 1:
+        the flesh did not move)."""
+        frame = min(int(frame), self.end)
+        blended = self.cache.blended
+        return frame in blended and frame - 1 in self.cache and frame - 1 not in blended
 
     def _frame_matrix(self, matrix, incoming):
         """The frame's transform checked (with a goal; without one the simulation keeps Build's); a non-finite
@@ -841,6 +851,7 @@ class Engine:
         elif run.plan.restore is not None:
             self._restore(run.plan.restore)
         run.last = last = self.solver_frame
+        run.blended = len(run.plan.steps) > 1 or last in self.cache.blended
         run.before = (self.cache.targets(last), self.cache.goals(last), self.colliders.at(last, run.surroundings))
 
     def _prepare(self, run, k):
@@ -865,7 +876,7 @@ class Engine:
         handle = checks.handle(self.od.materials, self.sim, self.cache.targets(k - 1) if k - 1 in self.cache
                                else None, tk, self._substeps, fps)
         self.solver_frame = k
-        self.cache.store(k, self._state(), tk, gk)
+        self.cache.store(k, self._state(), tk, gk, blended=run.blended)
         self._push_out(k)
         self.colliders.remember(k, sk)
         self.reports.store(k, report(self.stretch, self.sim, handle, checks.goal_turn(self.sim, fps)))
