@@ -526,10 +526,10 @@ class Engine:
 
     def _particle_values(self, vertex_values, lowest=False):
         """Per-vertex values (a painted map) as per-particle values over each particle's goal-fit vertices (its 16
-        nearest, or all if fewer, of its own mesh piece and the pieces it carries: GoalFit): their weighted mean (``GoalFit.particle_values``), or with ``lowest`` the
-        least of them, so that a spot painted low (a soft belly among Follow 1) reaches the particles over it
-        (their mean gave the outside knight's belly 0.45-0.94 where 0.15 was painted, docs/goals.md) and a particle
-        whose vertices are all 1 stays 1."""
+        nearest, or all if fewer, of its own mesh piece and the pieces it carries: GoalFit): their weighted mean
+        (``GoalFit.particle_values``), or with ``lowest`` the least of them, so that a spot painted low (a soft
+        belly among Follow 1) reaches the particles over it (their mean gave the outside knight's belly 0.45-0.94
+        where 0.15 was painted, docs/goals.md) and a particle whose vertices are all 1 stays 1."""
         values = np.asarray(vertex_values, dtype=np.float64)
         if values.shape != (self.n_vertices,):
             raise EngineError(f"a map must have one value per vertex ({self.n_vertices}), got shape {values.shape}")
@@ -806,8 +806,9 @@ class Engine:
         if not self._follows(incoming, matrix):  # else GoalFit.follow checks it
             _check_finite(incoming)
         goals = None if self.goal_strength is None else self.goal_frames(incoming, matrix)
-        if self.colliders.outdated(min(int(frame), self.end), surroundings) or self._reached_in_order(frame):
-            self.invalidate(keep_until=min(int(frame), self.end) - 1)
+        last = min(int(frame), self.end)  # the frame the plan reaches
+        if self.colliders.outdated(last, surroundings) or self._reached_in_order(last):
+            self.invalidate(keep_until=last - 1)
         return FrameRun(self, int(frame), targets, incoming, matrix, goals, surroundings)
 
     def _reached_in_order(self, frame):
@@ -815,7 +816,6 @@ class Engine:
         playback reaching it in order simulates it again from its own inputs. Kept, a jump's frames replaced the
         animation between its ends (the knight's jump, Build at frame 96 and the frame shown, then played from 1:
         the flesh did not move)."""
-        frame = min(int(frame), self.end)
         blended = self.cache.blended
         return frame in blended and frame - 1 in self.cache and frame - 1 not in blended
 
