@@ -2,21 +2,25 @@
 dead. One object: a body blocked out with the Skin modifier (+ Subdivision, applied) along a horizontal spine,
 four short legs and a thin tail, its belly pushed 11 cm down and a jowl pushed down and out under the jaw; two
 floppy ears made of metaball ellipsoids converted to mesh and joined in (separate shells). A 9-bone armature
-(root, hips, spine, neck, head, tail, four legs) with automatic weights (the ears, which they miss, weighted 1 to
-the head as an artist would); a trot keyed over frames 1-48 (two strides of 0.7 m, diagonal legs together, the
+(root, hips, spine, neck, head, tail, four legs) with automatic weights (any vertex they miss weighted 1 to the
+head, tail or hips as an artist would); a trot keyed over frames 1-48 (two strides of 0.7 m, diagonal legs together, the
 body bobbing twice a stride), then still until 96; a floor with a Collision modifier. Follow 1 on the core,
 falling to 0.15 over the belly and the jowl, 1 -> 0.15 out to the ear tips, 1 -> 0.3 out along the tail.
 
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_pig.py -- - dev OUT [opts]
     bpy-python scripts/outside_pig.py - dev OUT [opts]      (both with OPDEFORM_PYTHONPATH=$PWD/build/python)
     (or ZIP legacy / ZIP extension: the packaged add-on installed as a new user does)
-opts: particles=N (set before Enable), looks (Subtle, Fleshy, Floppy from the look menu, each replayed), bake (after
-the first replay: bake, compare with playback, free), render=F (Workbench, frame F, after every replay: a strip
-OUT/pig_LABEL_F.png, the armature-only twin left and OPDeform right, side and 3/4 front views).
+opts: particles=N (set before Enable), look=NAME (a look applied after Enable), +NAME=VALUE (an obj.opdeform
+setting after Enable and the look, e.g. +damping_rate=12), floor=Z (the floor's height, 0: the hooves 4 mm over
+it; none: no floor), trace=PART (belly, jowl, ears or tail: its distance per frame, and the farthest vertex at the
+last frame), looks (Subtle, Fleshy, Floppy from the look menu, each replayed), bake (after the first replay: bake,
+compare with playback, free), render=F (Workbench, frame F, after every replay: a strip OUT/pig_LABEL_F.png, the
+armature-only twin left and OPDeform right, side view above a 3/4 front view).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play. Every replay prints a ROW line
 (JSON): the core's (Follow 1) largest distance to the armature-only pose, each loose part's largest distance
-during the trot (mm and % of the body's length), the largest 1 s after it stops, edge stretch against the
-animated length, floor penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
+during the trot (mm and % of the body's length) and in the second after the stop (%), the largest from 1 s after
+the stop and when each last moved 2 mm (s after the stop), edge stretch against the animated length, floor
+penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
 """
 import json, math, os, sys, time
 import bpy, bmesh
@@ -155,10 +159,11 @@ def follow_map(n, belly, jowl, ear_parts, tail, param):
     return np.where(tail[0], np.minimum(w, 1 - 0.7 * tail[1]), w).round(3)
 
 
-def tail_of(v):
-    """The tail: body vertices behind the rump's skin (y > 0.70), and each one's parameter out to its tip."""
-    mask = v[:, 1] > 0.70
-    return mask, np.clip((v[:, 1] - 0.70) / (v[:, 1].max() - 0.70), 0, 1)
+def tail_of(v, n_body):
+    """The tail: the first n_body vertices (the skinned body) behind the rump (y > 0.70), and each vertex's
+    parameter out to the tail's tip."""
+    mask = (np.arange(len(v)) < n_body) & (v[:, 1] > 0.70)
+    return mask, np.clip((v[:, 1] - 0.70) / (v[mask, 1].max() - 0.70), 0, 1)
 
 
 class Shot(rig_parts.Shot):
@@ -178,6 +183,7 @@ class Shot(rig_parts.Shot):
         st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
         return cpu, dict(core=d[self.core].max(), stretch=st.max(), stretch_edge=int(np.argmax(st)),
                          low=a[:, 2].min(), low_twin=b[:, 2].min(), nan=bool(np.isnan(a).any()),
+                         far=int(np.argmax(d)),
                          **{k: d[ix].max() for k, ix in self.parts.items()})
 
     def play(self, label):
@@ -190,7 +196,21 @@ class Shot(rig_parts.Shot):
             if s.error:
                 errors.append((f, s.error))
         col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
-        fr = np.arange(1, FRAMES + 1)
+        row = self.row(label, col, errors, cpu)
+        print("ROW " + json.dumps(row, default=float))
+        print("PANEL", reports(self.H.draw_panels()))
+        if "trace" in OPT:
+            print("TRACE", OPT["trace"], "mm per frame", np.round(1e3 * col[OPT["trace"]], 1).tolist())
+            last = col["far"][-1]
+            print("TRACE farthest vertex at frame", FRAMES, "rest", np.round(self.obj.data.vertices[last].co, 3)[:],
+                  "follow", self.follow[last])
+        if "render" in OPT:
+            strip(int(OPT["render"]), label.replace(" ", "_"))
+        return row
+
+    def row(self, label, col, errors, cpu):
+        """The ROW's figures from the per-frame columns."""
+        s, fr = self.obj.opdeform, np.arange(1, FRAMES + 1)
         moving, after = fr <= STOP, fr >= STOP + FPS
         worst = int(np.argmax(col["stretch"]))
         e = col["stretch_edge"][worst]
@@ -198,22 +218,18 @@ class Shot(rig_parts.Shot):
         for k in self.parts:
             late = np.where((fr > STOP) & (col[k] >= 2e-3))[0]
             settle[k] = round((fr[late[-1]] - STOP) / FPS, 2) if len(late) else 0.0
-        row = dict(label=label, host=bpy.app.version_string, particles=s.particles, look=self.look(),
-                   size_m=round(self.size, 3), core_mm=round(1e3 * col["core"].max(), 3),
-                   moving_mm={k: round(1e3 * col[k][moving].max(), 2) for k in self.parts},
-                   moving_pct={k: round(100 * col[k][moving].max() / self.size, 2) for k in self.parts},
-                   after_1s_mm={k: round(1e3 * col[k][after].max(), 3) for k in self.parts},
-                   settle_s_2mm=settle, stretch=round(col["stretch"].max(), 3), stretch_frame=int(fr[worst]),
-                   stretch_follow=[float(self.follow[v]) for v in self.edges[:, e]],
-                   floor_pen_mm=round(-1e3 * min(col["low"].min(), 0.0), 2),
-                   lowest_mm=round(1e3 * col["low"].min(), 2), lowest_twin_mm=round(1e3 * col["low_twin"].min(), 2),
-                   nan=bool(col["nan"].any()), base_kept=bool(np.array_equal(base(self.obj), self.before)),
-                   errors=errors[:3], cpu_ms_frame=round(1e3 * cpu / FRAMES, 2))
-        print("ROW " + json.dumps(row, default=float))
-        print("PANEL", reports(self.H.draw_panels()))
-        if "render" in OPT:
-            strip(int(OPT["render"]), label.replace(" ", "_"))
-        return row
+        return dict(label=label, host=bpy.app.version_string, particles=s.particles, look=self.look(),
+                    size_m=round(self.size, 3), core_mm=round(1e3 * col["core"].max(), 3),
+                    moving_mm={k: round(1e3 * col[k][moving].max(), 2) for k in self.parts},
+                    moving_pct={k: round(100 * col[k][moving].max() / self.size, 2) for k in self.parts},
+                    stop_pct={k: round(100 * col[k][(fr > STOP) & ~after].max() / self.size, 2) for k in self.parts},
+                    after_1s_mm={k: round(1e3 * col[k][after].max(), 3) for k in self.parts},
+                    settle_s_2mm=settle, stretch=round(col["stretch"].max(), 3), stretch_frame=int(fr[worst]),
+                    stretch_follow=[float(self.follow[v]) for v in self.edges[:, e]],
+                    floor_pen_mm=round(-1e3 * min(col["low"].min(), 0.0), 2),
+                    lowest_mm=round(1e3 * col["low"].min(), 2), lowest_twin_mm=round(1e3 * col["low_twin"].min(), 2),
+                    nan=bool(col["nan"].any()), base_kept=bool(np.array_equal(base(self.obj), self.before)),
+                    errors=errors[:3], cpu_ms_frame=round(1e3 * cpu / FRAMES, 2))
 
     def look(self):
         return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
@@ -227,20 +243,23 @@ def build_scene():
     obj, belly, jowl = body_mesh()
     ear_parts, param = ears(obj)
     v = np.array([x.co for x in obj.data.vertices])
-    tail = tail_of(v[:len(belly)])
+    tail = tail_of(v, len(belly))
     body = np.arange(len(belly))
     arm = armature("PigRig", BONES, lambda b, p: b in ("spine", "neck", "head"))
     parent_auto(obj, arm)
     leftovers = weight_leftovers(obj)
     animate(arm)
-    follow = follow_map(len(v), belly, jowl, ear_parts, (np.pad(tail[0], (0, len(v) - len(belly))),
-                                                         np.pad(tail[1], (0, len(v) - len(belly)))), param)
+    follow = follow_map(len(v), belly, jowl, ear_parts, tail, param)
     paint(obj, "Follow", follow)
-    collision_floor()
+    if OPT.get("floor") != "none":
+        collision_floor()
+        bpy.data.objects["Floor"].location.z = float(OPT.get("floor", 0.0))
     twin = twin_of(obj)
     parts = dict(belly=body[belly >= 0.3], jowl=body[jowl >= 0.3],
-                 ears=np.concatenate([ear_parts["ear.L"], ear_parts["ear.R"]]), tail=body[tail[0]])
-    print(f"PIG {len(v)} vertices, {len(obj.data.polygons)} faces, shells (vertices) {np.unique(rig_parts.shells(obj), return_counts=True)[1].tolist()}, "
+                 ears=np.concatenate([ear_parts["ear.L"], ear_parts["ear.R"]]), tail=np.where(tail[0])[0])
+    shell, count = np.unique(rig_parts.shells(obj), return_counts=True)
+    print(f"PIG {len(v)} vertices, {len(obj.data.polygons)} faces, shells (vertices) {count.tolist()}, loose vertices "
+          f"at {v[shell[count == 1]].round(3).tolist()}, "
           f"box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, leftovers weighted {leftovers}",
           {k: len(i) for k, i in parts.items()}, "core", int((follow >= 0.999).sum()),
           "follow min per part", {k: float(follow[i].min()) for k, i in parts.items()})
@@ -259,11 +278,11 @@ def strip(frame, label):
     sc = bpy.context.scene
     sc.frame_set(frame)
     sc.render.engine = 'BLENDER_WORKBENCH'
-    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 400, 300, 100
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 520, 360, 100
     pig, twin = bpy.data.objects["Pig"], bpy.data.objects["Pig_twin"]
     y = -trot(frame)[0]
     tiles = []
-    for eye, target in (((3.4, y, 0.8), (0, y, 0.5)), ((1.9, y - 2.6, 1.4), (0, y - 0.3, 0.5))):
+    for eye, target in (((2.6, y, 0.45), (0, y, 0.45)), ((1.5, y - 2.1, 1.1), (0, y - 0.3, 0.45))):
         cam = link(bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam")))
         cam.location = Vector(eye)
         cam.rotation_euler = (Vector(target) - cam.location).to_track_quat('-Z', 'Y').to_euler()
@@ -313,6 +332,11 @@ def main():
     H.ADDON = name
     obj, twin, parts, follow = build_scene()
     s = artist_enable(obj, OPT.get("particles"))
+    if "look" in OPT:
+        print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
+    for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
+        kind = type(getattr(s, key))
+        setattr(s, key, value in ("1", "True", "true") if kind is bool else kind(value))
     log = H.draw_panels()
     print("PANEL AFTER GROUP", reports(log))
     print("CUT", [c[0] for c in H.cut_texts(log)])
