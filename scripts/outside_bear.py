@@ -16,21 +16,18 @@ The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play
 during the hops (mm and % of the height), the largest 1 s after the motion stops, edge stretch, floor
 penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
 """
-import json, os, sys, time
+import json, os, sys
 import bpy, bmesh
 import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, collision_floor, install, link,  # noqa: E402
-                       paint, parent_auto, reports, skin_body, taper, twin_of, world)
+from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels, gauss,  # noqa: E402
+                       install, link, paint, parent_auto, reports, settings, skin_body, taper, twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP = 24, 96, 48
-os.makedirs(OUT, exist_ok=True)
 
 NODES = [((0, 0, 0.45), 0.25), ((0, 0, 0.70), 0.31), ((0, 0, 0.92), 0.26), ((0, 0, 1.05), 0.16),
          ((0, 0, 1.17), 0.21), ((0, 0, 1.28), 0.17)]
@@ -50,10 +47,6 @@ BONES = [("root", (0, 0, 0), (0, 0.3, 0), None, False),
          ("arm.R", (-0.27, 0, 0.95), (-0.46, -0.04, 0.67), "spine", True),
          ("leg.L", (0.14, 0, 0.40), (0.15, 0, 0.06), "hips", True),
          ("leg.R", (-0.14, 0, 0.40), (-0.15, 0, 0.06), "hips", True)]
-
-
-def gauss(v, centre, radii):
-    return np.exp(-sum(((v[:, k] - centre[k]) / radii[k]) ** 2 for k in range(3)))
 
 
 def body_mesh():
@@ -154,9 +147,7 @@ class Shot(rig_parts.Shot):
         self.height = tw[:, 2].max() - tw[:, 2].min()
 
     def frame(self, f):
-        t0 = time.process_time()
-        bpy.context.scene.frame_set(f)
-        cpu = time.process_time() - t0
+        cpu = self.timed(f)
         a, b = world(self.obj), world(self.twin)
         d = np.linalg.norm(a - b, axis=1)
         i, j = self.edges
@@ -173,14 +164,8 @@ class Shot(rig_parts.Shot):
 
     def play(self, label):
         """Frames 1..FRAMES from the start; one ROW of figures."""
-        s, rows, errors, cpu = self.obj.opdeform, [], [], 0.0
-        for f in range(1, FRAMES + 1):
-            c, r = self.frame(f)
-            cpu += c
-            rows.append(r)
-            if s.error:
-                errors.append((f, s.error))
-        col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        s = self.obj.opdeform
+        col, errors, cpu = self.played(FRAMES)
         fr = np.arange(1, FRAMES + 1)
         moving, after = fr <= STOP, fr >= STOP + FPS
         loose = [k for k in self.parts if k != "core_body"]
@@ -205,9 +190,6 @@ class Shot(rig_parts.Shot):
         if "render" in OPT:
             render(int(OPT["render"]), label.replace(" ", "_"))
         return row
-
-    def look(self):
-        return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
 
 
 def build_scene():
@@ -236,12 +218,6 @@ def build_scene():
           f"unweighted after auto {unweighted}", {k: len(i) for k, i in parts.items()},
           "follow min per part", {k: float(follow[i].min()) for k, i in parts.items()})
     return obj, twin, parts, follow
-
-
-def settings(s):
-    return {k: round(getattr(s, k), 4) for k in ("particles", "goal_strength", "goal_min", "goal_max",
-                                                  "shell_follow_min", "sag", "modulus", "damping_rate",
-                                                  "soft_stiffness", "jiggle_hz")}
 
 
 VIEWS = {"front": ((1.5, -2.3, 1.1), (0, -0.45, 0.7)), "side": ((2.6, -0.45, 0.8), (0, -0.45, 0.7))}
@@ -273,38 +249,24 @@ def render(frame, label):
     bear.hide_render = twin.hide_render = False
 
 
-def bake(s, shot, H):
-    """Bake, compare frames with the playback just before, free the bake."""
-    shown = {f: world(shot.obj) for f in (1, 16, 24, 40, 70, FRAMES) if bpy.context.scene.frame_set(f) is None}
-    s.cache_directory = os.path.join(OUT, "cache")
-    print("BAKE ->", bpy.ops.opdeform.bake())
-    diff = max(1e3 * np.abs(world(shot.obj) - a).max() for f, a in shown.items()
-               if bpy.context.scene.frame_set(f) is None)
-    print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
-    print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
-
-
 def main():
     name = install(ZIP, KIND)
     import helpers as H
     H.ADDON = name
     obj, twin, parts, follow = build_scene()
     s = artist_enable(obj, OPT.get("particles"))
-    log = H.draw_panels()
-    print("PANEL AFTER GROUP", reports(log))
-    print("CUT", [c[0] for c in H.cut_texts(log)])
-    print("SETTINGS", settings(s), "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+    first_panels(obj, H, settings(s, "jiggle_hz"))
     shot = Shot(obj, twin, parts, follow, H)
     shot.play("default")
     if "bake" in OPT:
-        bake(s, shot, H)
+        bake_check(obj, H, OUT, (1, 16, 24, 40, 70, FRAMES))
     if "looks" in OPT:
         for look in ("Subtle", "Fleshy", "Floppy"):
-            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s, "jiggle_hz"))
             shot.play(look)
         bpy.ops.opdeform.apply_preset(preset="Fleshy")
         s.jiggle_hz = 0.0
-        print("JIGGLE 0", settings(s))
+        print("JIGGLE 0", settings(s, "jiggle_hz"))
         shot.play("Fleshy jiggle 0")
 
 

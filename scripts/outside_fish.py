@@ -16,16 +16,14 @@ import numpy as np
 from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rig_parts  # noqa: E402
 from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
                        paint, parent_auto, reopen, reports, shells, twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 S = float(OPT.get("scale", 1.0))
 FPS, FRAMES, STOP = 24, 96, 40
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
-os.makedirs(OUT, exist_ok=True)
 
 
 def place(bm, verts, loc, scale=(1, 1, 1), rot=Matrix()):

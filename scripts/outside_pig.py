@@ -22,21 +22,18 @@ during the trot (mm and % of the body's length) and in the second after the stop
 the stop and when each last moved 2 mm (s after the stop), edge stretch against the animated length, floor
 penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
 """
-import json, math, os, sys, time
-import bpy, bmesh
+import json, math, os, sys
+import bpy
 import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, collision_floor, install, link,  # noqa: E402
-                       paint, parent_auto, reports, skin_body, taper, twin_of, world)
+from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels, gauss,  # noqa: E402
+                       install, link, paint, parent_auto, reports, settings, skin_body, taper, tuned, twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP, STRIDE = 24, 96, 48, 24
-os.makedirs(OUT, exist_ok=True)
 
 # the Skin skeleton: spine from the rump (0) to the snout tip (8), tail 9-10, legs from node 12 on
 NODES = [((0, 0.50, 0.62), 0.22), ((0, 0.28, 0.63), 0.30), ((0, 0.0, 0.63), 0.33), ((0, -0.28, 0.65), 0.30),
@@ -56,10 +53,6 @@ BONES = [("root", (0, 0, 0), (0, -0.3, 0), None, False),
          ("head", (0, -0.62, 0.72), (0, -0.97, 0.65), "neck", True),
          ("tail", (0, 0.64, 0.65), (0, 0.94, 0.59), "hips", True)]
 BONES += [(name, (x, y, 0.46), (x, y, 0.03), "spine" if y < 0 else "hips", True) for name, (x, y) in LEGS.items()]
-
-
-def gauss(v, centre, radii):
-    return np.exp(-sum(((v[:, k] - centre[k]) / radii[k]) ** 2 for k in range(3)))
 
 
 def body_mesh():
@@ -174,9 +167,7 @@ class Shot(rig_parts.Shot):
         self.follow = follow
 
     def frame(self, f):
-        t0 = time.process_time()
-        bpy.context.scene.frame_set(f)
-        cpu = time.process_time() - t0
+        cpu = self.timed(f)
         a, b = world(self.obj), world(self.twin)
         d = np.linalg.norm(a - b, axis=1)
         i, j = self.edges
@@ -188,14 +179,7 @@ class Shot(rig_parts.Shot):
 
     def play(self, label):
         """Frames 1..FRAMES from the start; one ROW of figures."""
-        s, rows, errors, cpu = self.obj.opdeform, [], [], 0.0
-        for f in range(1, FRAMES + 1):
-            c, r = self.frame(f)
-            cpu += c
-            rows.append(r)
-            if s.error:
-                errors.append((f, s.error))
-        col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        col, errors, cpu = self.played(FRAMES)
         row = self.row(label, col, errors, cpu)
         print("ROW " + json.dumps(row, default=float))
         print("PANEL", reports(self.H.draw_panels()))
@@ -231,9 +215,6 @@ class Shot(rig_parts.Shot):
                     nan=bool(col["nan"].any()), base_kept=bool(np.array_equal(base(self.obj), self.before)),
                     errors=errors[:3], cpu_ms_frame=round(1e3 * cpu / FRAMES, 2))
 
-    def look(self):
-        return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
-
 
 def build_scene():
     for o in list(bpy.data.objects):
@@ -264,12 +245,6 @@ def build_scene():
           {k: len(i) for k, i in parts.items()}, "core", int((follow >= 0.999).sum()),
           "follow min per part", {k: float(follow[i].min()) for k, i in parts.items()})
     return obj, twin, parts, follow
-
-
-def settings(s):
-    return {k: round(getattr(s, k), 4) for k in ("particles", "goal_strength", "goal_min", "goal_max",
-                                                  "shell_follow_min", "sag", "modulus", "damping_rate",
-                                                  "soft_stiffness", "jiggle_hz")}
 
 
 def strip(frame, label):
@@ -309,45 +284,23 @@ def strip(frame, label):
     print("RENDER", out.filepath_raw)
 
 
-def bake(s, shot, H):
-    """Bake, compare frames with the playback just before, free the bake."""
-    frames = (1, 12, 24, 36, 48, 60, 72, FRAMES)
-    shown = {}
-    for f in frames:
-        bpy.context.scene.frame_set(f)
-        shown[f] = world(shot.obj)
-    s.cache_directory = os.path.join(OUT, "cache")
-    print("BAKE ->", bpy.ops.opdeform.bake())
-    diff = 0.0
-    for f in frames:
-        bpy.context.scene.frame_set(f)
-        diff = max(diff, 1e3 * np.abs(world(shot.obj) - shown[f]).max())
-    print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
-    print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
-
-
 def main():
     name = install(ZIP, KIND)
     import helpers as H
     H.ADDON = name
     obj, twin, parts, follow = build_scene()
-    s = artist_enable(obj, OPT.get("particles"))
-    if "look" in OPT:
-        print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
-    for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
-        kind = type(getattr(s, key))
-        setattr(s, key, value in ("1", "True", "true") if kind is bool else kind(value))
-    log = H.draw_panels()
-    print("PANEL AFTER GROUP", reports(log))
-    print("CUT", [c[0] for c in H.cut_texts(log)])
-    print("SETTINGS", settings(s), "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
     shot = Shot(obj, twin, parts, follow, H)
+    print("ARMATURE ONLY: CPU ms per frame", round(1e3 * sum(map(shot.timed, range(1, FRAMES + 1))) / FRAMES, 2))
+    bpy.context.scene.frame_set(1)
+    s = artist_enable(obj, OPT.get("particles"))
+    tuned(s, OPT)
+    first_panels(obj, H, settings(s, "jiggle_hz"))
     shot.play("default")
     if "bake" in OPT:
-        bake(s, shot, H)
+        bake_check(obj, H, OUT, (1, 12, 24, 36, 48, 60, 72, FRAMES))
     if "looks" in OPT:
         for look in ("Subtle", "Fleshy", "Floppy"):
-            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s, "jiggle_hz"))
             shot.play(look)
 
 
