@@ -23,8 +23,9 @@ from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels, gauss,  # noqa: E402
-                       install, link, paint, parent_auto, reports, settings, skin_body, taper, twin_of, world)
+from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels,  # noqa: E402
+                       gauss, install, link, paint, parent_auto, reports, reshaped, settings, skin_body, taper,
+                       twin_of, world)
 
 ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP = 24, 96, 48
@@ -53,16 +54,14 @@ def body_mesh():
     """Skin + Subdivision (levels=, 2) applied; the belly pushed 12 cm forward (-y), the cheeks 5 cm out and
     forward. The body mesh and per vertex its belly and cheek weights (0..1)."""
     obj = skin_body("Bear", NODES, EDGES, int(OPT.get("levels", 2)))
-    me = obj.data
-    v = np.array([x.co for x in me.vertices])
-    belly = gauss(v, (0, -0.3, 0.68), (0.22, 0.3, 0.17)) * (v[:, 1] < -0.05)
-    cheeks = sum(gauss(v, (0.14 * sx, -0.12, 1.13), (0.08, 0.1, 0.07)) for sx in (1, -1))
-    v[:, 1] -= 0.12 * belly + 0.02 * cheeks
-    v[:, 0] += 0.05 * cheeks * np.sign(v[:, 0])
-    v[:, 2] -= v[:, 2].min() - 0.004  # soles 4 mm over the floor
-    me.vertices.foreach_set("co", v.ravel())
-    me.update()
-    return obj, belly, cheeks
+
+    def push(v):
+        belly = gauss(v, (0, -0.3, 0.68), (0.22, 0.3, 0.17)) * (v[:, 1] < -0.05)
+        cheeks = sum(gauss(v, (0.14 * sx, -0.12, 1.13), (0.08, 0.1, 0.07)) for sx in (1, -1))
+        v[:, 1] -= 0.12 * belly + 0.02 * cheeks
+        v[:, 0] += 0.05 * cheeks * np.sign(v[:, 0])
+        return belly, cheeks
+    return (obj, *reshaped(obj, push))  # the soles 4 mm over the floor
 
 
 def ball(bm, centre, radii, axis):
@@ -148,10 +147,8 @@ class Shot(rig_parts.Shot):
 
     def frame(self, f):
         cpu = self.timed(f)
-        a, b = world(self.obj), world(self.twin)
-        d = np.linalg.norm(a - b, axis=1)
+        a, b, d, st = self.against_twin()
         i, j = self.edges
-        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
         worst = int(np.argmax(st))
         parts_st = {k: st[(self.part_of[i] == k) | (self.part_of[j] == k)].max() for k in self.parts}
         return cpu, dict(core=d[self.core].max(), all=d.max(), stretch=st.max(),
@@ -193,10 +190,7 @@ class Shot(rig_parts.Shot):
 
 
 def build_scene():
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    rig_parts.empty_scene(FPS, FRAMES)
     obj, belly, cheeks = body_mesh()
     parts, param = add_parts(obj)
     body = np.arange(len(belly))

@@ -132,10 +132,7 @@ def follow_map(obj, parts):
 
 def main():
     name = install(ZIP, KIND)
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    sc = rig_parts.empty_scene(FPS, FRAMES)
     if "unit" in OPT:  # an artist in cm: Unit Scale 0.01 with scale=100
         sc.unit_settings.scale_length = float(OPT["unit"])
     obj = fish_mesh()

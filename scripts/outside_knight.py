@@ -220,10 +220,7 @@ class Shot(rig_parts.Shot):
 
 
 def build_scene(name):
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    rig_parts.empty_scene(FPS, FRAMES)
     obj, bulge = body_mesh()
     parts, param = add_parts(obj)
     body = np.arange(len(bulge))

@@ -29,8 +29,9 @@ from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels, gauss,  # noqa: E402
-                       install, link, paint, parent_auto, reports, settings, skin_body, taper, tuned, twin_of, world)
+from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels,  # noqa: E402
+                       gauss, install, link, paint, parent_auto, reports, reshaped, settings, skin_body, taper,
+                       tuned, twin_of, world)
 
 ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP, STRIDE = 24, 96, 48, 24
@@ -59,16 +60,14 @@ def body_mesh():
     """Skin + Subdivision 2, applied; the belly pushed 11 cm down, the jowl 6 cm down and 3 cm out. The body and
     per vertex its belly and jowl weights (0..1)."""
     obj = skin_body("Pig", NODES, EDGES, int(OPT.get("levels", 2)))
-    me = obj.data
-    v = np.array([x.co for x in me.vertices])
-    belly = gauss(v, (0, 0.0, 0.32), (0.24, 0.36, 0.16)) * (v[:, 2] < 0.6) * (np.abs(v[:, 0]) < 0.34)
-    jowl = gauss(v, (0, -0.70, 0.55), (0.17, 0.10, 0.08)) * (v[:, 2] < 0.72)
-    v[:, 2] -= 0.11 * belly + 0.06 * jowl
-    v[:, 0] += 0.03 * jowl * np.sign(v[:, 0])
-    v[:, 2] -= v[:, 2].min() - 0.004  # hooves 4 mm over the floor
-    me.vertices.foreach_set("co", v.ravel())
-    me.update()
-    return obj, belly, jowl
+
+    def push(v):
+        belly = gauss(v, (0, 0.0, 0.32), (0.24, 0.36, 0.16)) * (v[:, 2] < 0.6) * (np.abs(v[:, 0]) < 0.34)
+        jowl = gauss(v, (0, -0.70, 0.55), (0.17, 0.10, 0.08)) * (v[:, 2] < 0.72)
+        v[:, 2] -= 0.11 * belly + 0.06 * jowl
+        v[:, 0] += 0.03 * jowl * np.sign(v[:, 0])
+        return belly, jowl
+    return (obj, *reshaped(obj, push))  # the hooves 4 mm over the floor
 
 
 EAR_ROOT, EAR_LENGTH = (0.09, -0.64, 0.86), 0.26
@@ -168,10 +167,7 @@ class Shot(rig_parts.Shot):
 
     def frame(self, f):
         cpu = self.timed(f)
-        a, b = world(self.obj), world(self.twin)
-        d = np.linalg.norm(a - b, axis=1)
-        i, j = self.edges
-        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
+        a, b, d, st = self.against_twin()
         return cpu, dict(core=d[self.core].max(), stretch=st.max(), stretch_edge=int(np.argmax(st)),
                          low=a[:, 2].min(), low_twin=b[:, 2].min(), nan=bool(np.isnan(a).any()),
                          far=int(np.argmax(d)),
@@ -217,10 +213,7 @@ class Shot(rig_parts.Shot):
 
 
 def build_scene():
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    rig_parts.empty_scene(FPS, FRAMES)
     obj, belly, jowl = body_mesh()
     ear_parts, param = ears(obj)
     v = np.array([x.co for x in obj.data.vertices])

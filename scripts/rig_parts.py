@@ -39,6 +39,15 @@ def install(zip_path, kind):
     return helpers.install_package(zip_path, kind)
 
 
+def empty_scene(fps, frames):
+    """The scene emptied of objects, at fps, frames 1..frames; the scene."""
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    sc = bpy.context.scene
+    sc.render.fps, sc.frame_start, sc.frame_end = fps, 1, frames
+    return sc
+
+
 def link(obj):
     bpy.context.scene.collection.objects.link(obj)
     return obj
@@ -220,6 +229,14 @@ class Shot:
         bpy.context.scene.frame_set(f)
         return time.process_time() - t0
 
+    def against_twin(self):
+        """The shown frame: the mesh's and the twin's world positions, each vertex's distance between them and
+        each edge's length over its length in the twin (its stretch against the animation)."""
+        a, b = world(self.obj), world(self.twin)
+        i, j = self.edges
+        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
+        return a, b, np.linalg.norm(a - b, axis=1), st
+
     def played(self, frames):
         """Frames 1..frames from the start through self.frame(f) -> (CPU s, {figure: value}): the figures per
         frame as columns, the errors the settings showed (frame, error) and the CPU seconds in all."""
@@ -252,6 +269,18 @@ def skin_body(name, nodes, edges, levels):
     for m in list(obj.modifiers):
         bpy.ops.object.modifier_apply(modifier=m.name)
     return obj
+
+
+def reshaped(obj, push, gap=0.004):
+    """obj's mesh moved by push(v) (it moves the vertices' positions v, an (n, 3) array, in place), then lifted
+    to stand gap over z = 0; what push returns."""
+    me = obj.data
+    v = np.array([x.co for x in me.vertices])
+    out = push(v)
+    v[:, 2] -= v[:, 2].min() - gap
+    me.vertices.foreach_set("co", v.ravel())
+    me.update()
+    return out
 
 
 def collision_floor():
