@@ -233,9 +233,7 @@ def main():
         print("RELOOK ->", bpy.ops.opdeform.apply_preset(preset=OPT["relook"]))
         summary["relook_all_mm"] = replay(sc, obj, twin, bpy.context.view_layer, H)
     if "save" in OPT:  # then: the same command with open=OUT
-        sc.frame_set(30)
-        np.save(os.path.join(OUT, "f30.npy"), world(obj))
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "fish.blend"))
+        rig_parts.save(obj, OUT)
     if "trace" in OPT:
         print("TRACE stretch", [round(float(x), 2) for x in col["barbels_stretch"][16:32]], "barbels mm",
               [round(1e3 * float(x)) for x in col["barbels"][16:32]])

@@ -408,9 +408,7 @@ def main():
         particles_per_part(H.ADDON, obj, parts)
         shot.play(f"particles {n}")
     if "save" in OPT:
-        bpy.context.scene.frame_set(30)
-        np.save(os.path.join(OUT, "f30.npy"), world(obj))
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
+        rig_parts.save(obj, OUT)
 
 
 reopen(OPT["open"], ZIP, KIND, "Knight") if "open" in OPT else main()

@@ -14,7 +14,8 @@ opts: particles=N (set before Enable), look=NAME (a look applied after Enable), 
 setting after Enable and the look, e.g. +damping_rate=12), floor=Z (the floor's height, 0: the hooves 4 mm over
 it; none: no floor), trace=PART (belly, jowl, ears or tail: its distance per frame, and the farthest vertex at the
 last frame), looks (Subtle, Fleshy, Floppy from the look menu, each replayed), bake (after the first replay: bake,
-compare with playback, free), render=F (Workbench, frame F, after every replay: a strip OUT/pig_LABEL_F.png, the
+compare with playback, free), save (frame 30 and the file into OUT, after the replays; then open=OUT reopens it:
+is frame 30 the simulated pose, before and after a frame change?), render=F (Workbench, frame F, after every replay: a strip OUT/pig_LABEL_F.png, the
 armature-only twin left and OPDeform right, side view above a 3/4 front view).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play. Every replay prints a ROW line
 (JSON): the core's (Follow 1) largest distance to the armature-only pose, each loose part's largest distance
@@ -295,6 +296,8 @@ def main():
         for look in ("Subtle", "Fleshy", "Floppy"):
             print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s, "jiggle_hz"))
             shot.play(look)
+    if "save" in OPT:
+        rig_parts.save(obj, OUT)
 
 
-main()
+rig_parts.reopen(OPT["open"], ZIP, KIND, "Pig") if "open" in OPT else main()

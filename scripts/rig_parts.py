@@ -111,6 +111,14 @@ def twin_of(obj):
     return t
 
 
+def save(obj, folder):
+    """Frame 30 shown, its world positions into folder/f30.npy and the file into folder/NAME.blend (NAME the
+    object's name in lower case), for reopen."""
+    bpy.context.scene.frame_set(30)
+    np.save(os.path.join(folder, "f30.npy"), world(obj))
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, f"{obj.name.lower()}.blend"))
+
+
 def reopen(folder, zip_path, kind, name):
     """Opens folder/NAME.blend (NAME the object's name in lower case) as an artist does, the add-on installed from
     the zip: is frame 30 the simulated pose saved beside it (f30.npy), before and after a frame change?"""
