@@ -12,11 +12,12 @@ falling to 0.15 over the belly and the jowl, 1 -> 0.15 out to the ear tips, 1 ->
     (or ZIP legacy / ZIP extension: the packaged add-on installed as a new user does)
 opts: particles=N (set before Enable), look=NAME (a look applied after Enable), +NAME=VALUE (an obj.opdeform setting
 after Enable and the look, e.g. +damping_rate=12), floor=Z (the floor's height, 0: the hooves 4 mm over it; none: no
-floor), trace=PART (belly, jowl, ears or tail: its distance per frame, and the farthest vertex at the last frame),
-looks (Subtle, Fleshy, Floppy from the look menu, each replayed), bake (after the first replay: bake, compare with
-playback, free), save (frame 30 and the file into OUT, after the replays; then open=OUT reopens it: is frame 30 the
-simulated pose, before and after a frame change?), render=F (Workbench, frame F, after every replay: a strip
-OUT/pig_LABEL_F.png, the armature-only twin left and OPDeform right, side view above a 3/4 front view).
+floor), bleed (the belly's push and paint not stopped at the legs: Follow 0.75-0.99 down the legs), trace=PART
+(belly, jowl, ears or tail: its distance per frame, and the farthest vertex at the last frame), looks (Subtle,
+Fleshy, Floppy from the look menu, each replayed), bake (after the first replay: bake, compare with playback, free),
+save (frame 30 and the file into OUT, after the replays; then open=OUT reopens it: is frame 30 the simulated pose,
+before and after a frame change?), render=F (Workbench, frame F, after every replay: a strip OUT/pig_LABEL_F.png,
+the armature-only twin left and OPDeform right, side view above a 3/4 front view).
 The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play. Every replay prints a ROW line
 (JSON): the core's (Follow 1) largest distance to the armature-only pose, each loose part's largest distance
 during the trot (mm and % of the body's length) and in the second after the stop (%), the largest from 1 s after
@@ -64,7 +65,7 @@ def body_mesh():
 
     def push(v):
         near_leg = np.min([np.hypot(v[:, 0] - x, v[:, 1] - y) for x, y in LEGS.values()], axis=0) < 0.13
-        leg = near_leg * np.clip((0.36 - v[:, 2]) / 0.08, 0, 1)  # 1 below the body's underside (painted 1 there)
+        leg = near_leg * np.clip((0.36 - v[:, 2]) / 0.08, 0, 1) * ("bleed" not in OPT)  # below the underside
         belly = gauss(v, (0, 0.0, 0.32), (0.24, 0.36, 0.16)) * (v[:, 2] < 0.6) * (np.abs(v[:, 0]) < 0.34) * (1 - leg)
         jowl = gauss(v, (0, -0.70, 0.55), (0.17, 0.10, 0.08)) * (v[:, 2] < 0.72)
         v[:, 2] -= 0.11 * belly + 0.06 * jowl
