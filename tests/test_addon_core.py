@@ -707,6 +707,18 @@ def test_the_thin_part_warning_names_a_count_that_clears_it():
     assert checks.thin_part_text(None, 100) is None and checks.thin_part_text((0.2, 0.05, False), 100) is None
 
 
+def test_thin_part_advice_past_the_slider_says_what_it_would_take():
+    """A 6 cm tail on a 1.8 m pig (an outside tester's) was told "raise Particles to about 15350", past the
+    slider's 2,000: past checks.PARTICLES_OFFERED the warning says the count it would take and what the part does
+    instead of asking for it; at or under it, the count to raise to, as before."""
+    far = checks.thin_part_text((0.06, 0.2, True), 100)
+    assert "raise Particles" not in far and "would take about 39450 particles, past the 2000" in far, far
+    near = checks.thin_part_text((0.06, 0.05, True), 100)
+    assert near.endswith("raise Particles to about 650"), near
+    text = checks.appendages_text([((0.0, 0.0, 0.0), 0.3, 1)], 1000)
+    assert "3 along would take about 3000 particles" in text and "raise Particles" not in text, text
+
+
 def test_thin_appendages_are_named_with_the_particles_that_would_do():
     """The panel's text for thin parts: each by length, centre and particles, and the count that gives the
     fewest-particle part three (rounded up to 50); None without any."""
