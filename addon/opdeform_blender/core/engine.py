@@ -55,7 +55,7 @@ PATCH_SHARE_POWER = 1.5
 # stretched 2.1-3.1x softened (under 1.1x left alone).
 LONG_SHELL = 1.5
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
-SHELL_ITERATIONS = 800  # shell_frequency: the static solve's iterations (opdeform.materials' from rest)
+SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -635,10 +635,11 @@ class Engine:
         return True
 
     def _jiggle_links(self, jiggle_hz):
-        """The jiggle rule's link softness on the body's particles, the mesh piece with most (None: off, or no
-        goal). A detached shell's particles keep softness 1 (its links to a softened body particle take that
-        one's, min(r_i, r_j)): a slender shell (a fin, a card) swings far below the elastic frequency of its
-        particles, and softened by it the outside fish's tail fin stretched 2.5x (docs/goals.md, "Jiggle")."""
+        """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
+        most, by each one's Follow and patch frequency; on a long closed shell linked to the body, one softness by
+        its own frequency (``_shells_jiggle``); other shells keep 1 (a slender card swings far below the elastic
+        frequency of its particles: softened by it the outside fish's tail fin stretched 2.5x; docs/goals.md,
+        "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
             return None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
