@@ -222,7 +222,8 @@ def shell_frequency(od, graph, stiffness, density, label):
 
 def swinging_shells(vertex_piece, triangles, graph, piece, body):
     """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: each
-    triangle edge shared by two; linked to the body in the graph; long: LONG_SHELL), else 0."""
+    triangle edge shared by two; linked to the body in the graph; long: LONG_SHELL, so not a lone particle), else
+    0."""
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     found, count = np.unique(edges, axis=0, return_counts=True)
@@ -234,7 +235,7 @@ def swinging_shells(vertex_piece, triangles, graph, piece, body):
         c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
         if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
-                spread[2] >= LONG_SHELL * spread[1]:
+                spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
 
