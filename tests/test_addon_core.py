@@ -525,6 +525,56 @@ def test_the_jiggle_rule_keeps_a_body_painted_soft_nearly_all_over():
     assert softest[1] > 30 * softest[0], softest
 
 
+def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
+    """A detached shell painted soft (the tailed body's 0.46 m tail, Follow 1 -> 0.1; the knight's ponytail moved
+    2.6 mm with the rule leaving shells alone): its links are softened as one, from its own lowest frequency
+    (engine.shell_frequency: a few Hz, a cantilever's, not its particles' elastic one) toward the jiggle frequency by
+    its least painted Follow, before Shell Min; painted 1 it keeps them, and the body's links are the rule's on the
+    body."""
+    from opdeform_blender.core import engine
+    e, _, is_tail, _, follow = _tailed_engine(100)
+    _, piece, body = e.pieces()
+    tail = piece != body
+    e.set_goal(0.0, follow, shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    r = e.sim.link_softness
+    assert r[tail].max() < 0.5 and np.ptp(r[tail]) == 0.0, r[tail]
+    label = engine.swinging_shells(checks.vertex_pieces(e.rest, e.triangles)[0], e.triangles, e.graph, piece, body)
+    np.testing.assert_array_equal(label > 0, tail)
+    hz = engine.shell_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label)
+    assert np.all(hz[~tail] == 0.0) and np.ptp(hz[tail]) == 0.0 and 1.75 < hz[tail][0] < 100.0, hz[tail]
+    least = e._painted[tail].min()
+    assert least < 0.2 < e.goal_strength[tail].min(), least  # as painted, not Shell Min's
+    np.testing.assert_allclose(r[tail], (1.75 / hz[tail][0]) ** (2.0 * (1.0 - least)))
+    e.set_goal(0.0, np.where(is_tail, 1.0, follow), shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    np.testing.assert_array_equal(e.sim.link_softness[tail], 1.0)
+
+
+def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
+    """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open: the fish's fins
+    swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor a short one
+    (the bear's ears, 2.1-3.1x)."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    body, tail, ball = (meshes.capsule(radius=0.2, length=0.6), meshes.capsule(radius=0.03, length=0.4),
+                        meshes.capsule(radius=0.06, length=0.0))
+    card_v = np.array([[x, y, 0.45] for x in (0.0, 0.2, 0.4, 0.6) for y in (-0.1, 0.0, 0.1)])  # 0.6 x 0.2 m
+    cells = (0, 1, 3, 4, 6, 7)
+    card_t = np.array([[i, i + 3, i + 1] for i in cells] + [[i + 1, i + 3, i + 4] for i in cells])  # one-sided
+    parts = [(body[0] + (0.0, 0.0, 0.2), body[1]), (tail[0] + (0.0, 0.0, 0.45), tail[1]),
+             (ball[0] + (-0.3, 0.0, 0.45), ball[1]), (card_v, card_t)]
+    v = np.vstack([p[0] for p in parts])
+    start = np.cumsum([0] + [len(p[0]) for p in parts])
+    t = np.vstack([p[1] + s for p, s in zip(parts, start)])
+    e = Engine(opdeform, v, t, particles=100, small_pieces="own")
+    _, piece, body_piece = e.pieces()
+    vertex_piece = checks.vertex_pieces(e.rest, e.triangles)[0]
+    label = engine.swinging_shells(vertex_piece, e.triangles, e.graph, piece, body_piece)
+    taken = np.unique(piece[label > 0])
+    assert list(taken) == [vertex_piece[start[1]]], (taken, vertex_piece[start])
+
+
 def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
     """engine.region_frequency on a capsule: a soft patch among held particles rings at its particles' own
     frequency scaled by l / d (its reach from them); the capsule's free half, held at one end only (the worm of
