@@ -1963,7 +1963,8 @@ static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const 
 // slab's friction, at its Coulomb bound, held against those (load-weighted cosine to the step's true slip -0.05 to
 // -0.7), 0.1 of its weight of the 0.55 its bounds allowed against the normals' lean, and the slab slid off (0.88 m
 // aside at 3 s; docs/contact.md, "Stop 48"). The normal force keeps the heavier end where it is: measured against
-// its start too, light slabs on ones 10 times as dense shook (0.10-0.47 m/s at 24 steps a second).
+// its start too, at 24 steps a second Rubber and Stiff slabs on ones 10 times as dense shook (0.47, 0.10 m/s) and a
+// Stiff slab on one 1,000 times as dense (0.12 m/s).
 static void od_StillBelow(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b)
 {
 	int light = od_Perched(s, pair);
