@@ -142,6 +142,7 @@ typedef struct od_SurfaceContact
 	double* anchor;  // n*3, where its slide is measured from
 	double* excess;  // n, the depth beyond the allowed one at the last update
 	double* hold;    // n, the friction its forces left unused at the step's end, as a slide: (μ f - |t|) h²/m
+	double* given;   // n, the lift after the iterations whose friction its piece's turn took (od_TurnFriction), m
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
 	struct od_Patch* patch; // per connected piece: its contact patch and rigid motion at a step's end (rolling)
 	int* source;     // n
@@ -377,6 +378,14 @@ static inline double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source
 {
 	const od_SurfaceContact* s = &sim->surface;
 	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
+}
+
+// How much of particle i's lift off `source` after the iterations already had its friction, its piece's as a whole
+// (surface_contact.c, od_TurnFriction): the projection's own friction is on the rest of its push.
+static inline double od_SurfaceContact_Given(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->given && s->source[i] == source ? s->given[i] : 0.0;
 }
 
 // Whether particle i was near `source` in this step's iterations (from the first solve on, on the side it began:
