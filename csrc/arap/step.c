@@ -23,6 +23,7 @@
 #include "polar.h"
 #include "position_constraints.h"
 #include "scene_colliders.h"
+#include "stretch_bound.h"
 #include "surface_contact.h"
 #include "tolerance.h"
 
@@ -279,6 +280,10 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		sim->mode = previous;
 		atomic_store(&sim->busy, 0);
 		return status;
+	}
+	if (mode == OD_DYNAMIC)
+	{
+		od_StretchBound(sim);
 	}
 	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);

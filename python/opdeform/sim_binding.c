@@ -218,6 +218,25 @@ static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
 }
 
+// set_stretch_limit(limit): 0 off, else > 1
+static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	double limit;
+	if (!sim || !PyArg_ParseTuple(args, "d", &limit))
+	{
+		return NULL;
+	}
+	return Binding_Done(obj, od_Sim_SetStretchLimit(sim, limit));
+}
+
+static PyObject* Sim_stretch_limit(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyFloat_FromDouble(od_Sim_GetStretchLimit(sim)) : NULL;
+}
+
 // set_goals(positions, rotations or None)
 static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
 {
@@ -818,6 +837,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
+	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit): 0 off, else > 1" },
+	{ "stretch_limit", Sim_stretch_limit, METH_NOARGS, "stretch_limit() -> the stretch bound's limit (0: off)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },
 	{ "goal_motion", Sim_goal_motion, METH_VARARGS, "goal_motion(velocities_out, angular_velocities_out) -> steps" },

@@ -260,6 +260,20 @@ class Simulation(CoreObject, ForceFields):
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("link_softness", out) else None
 
+    def set_stretch_limit(self, limit: float) -> None:
+        """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
+        particle whose link is stretched past ``limit`` times its animated length (its goals' with the goals
+        carrying the rest, else its rest length) has its link softness raised toward 1, all the way 10 % of the
+        length further; the raise is a function of the call's start alone, so a frame simulated again from a
+        restored state gets the same. A raise refactors the global matrix. 0: off (the default); else > 1. With
+        no link past the limit: the same bits as off."""
+        self._core.set_stretch_limit(float(limit))
+
+    @property
+    def stretch_limit(self) -> float:
+        """The stretch bound's limit (set_stretch_limit; 0: off)."""
+        return self._core.stretch_limit()
+
     # -- goals ----------------------------------------------------------------------------------------
     def set_goal_strength(self, strength: float | ArrayLike | None) -> None:
         """Pull toward the goal frames (``set_goals``), a number or one per particle in [0, 1] (opdeform.goals):
@@ -515,7 +529,7 @@ class Simulation(CoreObject, ForceFields):
         with velocities. The factorization is rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale,
-                "link_softness": self.link_softness, "solver": solver,
+                "link_softness": self.link_softness, "stretch_limit": self.stretch_limit, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
                 "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self.goal_motion,
                 "surface_forces": self.surface_forces,
@@ -542,6 +556,7 @@ class Simulation(CoreObject, ForceFields):
         if saved["stiffness_scale"] is not None:
             self.set_stiffness_scale(saved["stiffness_scale"])
         self.set_link_softness(saved.get("link_softness"))
+        self.set_stretch_limit(saved.get("stretch_limit", 0.0))
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
         self.set_goals_carry_rest(saved.get("goal_rest", False))
