@@ -302,6 +302,7 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->linkSoftness);
 	od_Free(sim->linkWeight);
 	od_Free(sim->linkRaised);
+	od_Free(sim->skinGradient);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
@@ -432,35 +433,56 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim)
 	return sim->linkSoftness;
 }
 
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit)
+// The raised softness back to the softness as set, and the bound's arrays freed.
+static void od_StretchBoundOff(od_Sim* sim)
 {
+	size_t bytes = sizeof(double) * (size_t)sim->graph->n;
+	if (sim->linkSoftness && sim->linkRaised && memcmp(sim->linkRaised, sim->linkSoftness, bytes))
+	{
+		od_MakeLinkWeights(sim, sim->linkSoftness);
+		sim->stiffnessVersion++;
+		sim->edgeStiffness = 0.0;
+	}
+	od_Free(sim->linkRaised);
+	od_Free(sim->skinGradient);
+	sim->linkRaised = sim->skinGradient = NULL;
+	sim->stretchLimit = 0.0;
+}
+
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient)
+{
+	int n = sim->graph->n;
 	if (!(limit == 0.0 || (limit > 1.0 && isfinite(limit))))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "stretch limit = %g must be 0 (off) or finite and > 1", limit);
 	}
-	size_t bytes = sizeof(double) * (size_t)sim->graph->n;
-	if (limit > 0.0 && !sim->linkRaised)
+	for (int e = 0; gradient && e < sim->graph->edgeCount; ++e)
 	{
-		sim->linkRaised = od_Alloc(bytes);
-		if (!sim->linkRaised)
+		if (!(gradient[e] >= 0.0) || !isfinite(gradient[e]))
 		{
-			return od_Fail(OD_ERROR_MEMORY, "out of memory for the stretch bound of %d particles", sim->graph->n);
-		}
-		if (sim->linkSoftness)
-		{
-			memcpy(sim->linkRaised, sim->linkSoftness, bytes);
+			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", e, gradient[e]);
 		}
 	}
-	if (limit == 0.0 && sim->linkRaised)
+	od_StretchBoundOff(sim);
+	if (limit == 0.0)
 	{
-		if (sim->linkSoftness && memcmp(sim->linkRaised, sim->linkSoftness, bytes))
-		{
-			od_MakeLinkWeights(sim, sim->linkSoftness); // back to the softness as set
-			sim->stiffnessVersion++;
-			sim->edgeStiffness = 0.0;
-		}
-		od_Free(sim->linkRaised);
-		sim->linkRaised = NULL;
+		return OD_OK;
+	}
+	size_t bytes = sizeof(double) * (size_t)n, links = sizeof(double) * (size_t)sim->graph->edgeCount;
+	sim->linkRaised = od_Alloc(2 * bytes); // and the bound's scratch (stretch_bound.c)
+	sim->skinGradient = gradient ? od_Alloc(links) : NULL;
+	if (!sim->linkRaised || (gradient && !sim->skinGradient))
+	{
+		od_StretchBoundOff(sim);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the stretch bound of %d particles", n);
+	}
+	if (sim->linkSoftness)
+	{
+		memcpy(sim->linkRaised, sim->linkSoftness, bytes);
+	}
+	if (gradient)
+	{
+		memcpy(sim->skinGradient, gradient, links);
 	}
 	sim->stretchLimit = limit;
 	return OD_OK;

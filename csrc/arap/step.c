@@ -281,10 +281,6 @@ static od_Status od_Begin(od_Sim* sim, od_Mode mode)
 		atomic_store(&sim->busy, 0);
 		return status;
 	}
-	if (mode == OD_DYNAMIC)
-	{
-		od_StretchBound(sim);
-	}
 	od_LocalStep_PrepareEdges(sim);
 	od_CopyState(&sim->saved, &sim->state, sim->graph->n);
 	od_SwapPrediction(sim);
@@ -315,6 +311,11 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 od_Status od_Step_Begin(od_Sim* sim, int steps)
 {
 	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	if (status == OD_OK)
+	{
+		od_StretchBound(sim, steps * sim->def.dt);
+		od_LocalStep_PrepareEdges(sim);
+	}
 	status = status == OD_OK ? od_SurfaceContact_Reserve(sim) : status;
 	if (status == OD_ERROR_MEMORY)
 	{

@@ -11,6 +11,9 @@
 #include "math3.h"
 
 #include <math.h>
+#include <string.h>
+#include <stdio.h>
+#include <stdlib.h>
 
 // The stretch over the limit at which a link's ends are raised all the way to 1.
 #define OD_STRETCH_RAMP 0.1
@@ -27,23 +30,50 @@ void od_MakeLinkWeights(od_Sim* sim, const double* r)
 	}
 }
 
-// t of particle i's most stretched link, 0 when none is past the limit.
-static double od_MostStretched(const od_Sim* sim, const double* rest, int i)
+// The rest vector d_ij of link (i, j) in particle i's frame: the goal shape's G_iᵀ (g_j - g_i) when the goals
+// carry the rest, else the rest's c_j - c_i.
+static od_Vec3 od_RestVector(const od_Sim* sim, int i, int j)
 {
-	const od_Graph* g = sim->graph;
-	od_Vec3 xi = od_V3Load(sim->state.x + 3 * i), ri = od_V3Load(rest + 3 * i);
-	double most = 0.0;
-	for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
+	if (!od_Goals_CarryRest(sim))
 	{
-		int j = g->adj[e];
-		double length = od_Length(od_Sub(od_V3Load(rest + 3 * j), ri));
-		double over = od_Length(od_Sub(od_V3Load(sim->state.x + 3 * j), xi)) - sim->stretchLimit * length;
-		most = fmax(most, over / (OD_STRETCH_RAMP * length));
+		const double* c = sim->graph->centers;
+		return od_Sub(od_V3Load(c + 3 * j), od_V3Load(c + 3 * i));
 	}
-	return fmin(most, 1.0);
+	od_Mat3 gi = od_M3Load(sim->goals.R + 9 * i);
+	return od_M3MulTV(&gi, od_Sub(od_V3Load(sim->goals.x + 3 * j), od_V3Load(sim->goals.x + 3 * i)));
 }
 
-void od_StretchBound(od_Sim* sim)
+// Particle i at the call's end as its velocities carry it there: its centre, and its rotation.
+static od_Vec3 od_Ahead(const od_Sim* sim, double ahead, int i, od_Mat3* r)
+{
+	const od_State* s = &sim->state;
+	od_Mat3 turn = od_M3ExpSkew(od_Scale(ahead, od_V3Load(s->omega + 3 * i))), now = od_M3Load(s->R + 9 * i);
+	*r = od_M3Mul(&turn, &now);
+	return od_MulAdd(od_V3Load(s->x + 3 * i), ahead, od_V3Load(s->v + 3 * i));
+}
+
+// The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead): the gap at its
+// middle between the skin its ends carry, δ = x_j - x_i - (R_i d_ij - R_j d_ji) / 2 (their stretch, and their
+// disagreement on their turn where it parts the skin), times the link's skin gradient (the most half the
+// difference of its ends' skin weights changes per metre along a mesh edge: a gap δ stretches such an edge by
+// about |δ| g), or over the link's length |d_ij| without a gradient. Past the limit, over OD_STRETCH_RAMP, in
+// [0, 1].
+static double dbgMax; static int dbgE;
+static double od_Over(const od_Sim* sim, double ahead, int e)
+{
+	int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
+	od_Mat3 ri, rj;
+	od_Vec3 xi = od_Ahead(sim, ahead, i, &ri), xj = od_Ahead(sim, ahead, j, &rj);
+	od_Vec3 dij = od_RestVector(sim, i, j), dji = od_RestVector(sim, j, i);
+	od_Vec3 carried = od_Scale(0.5, od_Sub(od_M3MulV(&ri, dij), od_M3MulV(&rj, dji)));
+	double gap = od_Length(od_Sub(od_Sub(xj, xi), carried));
+	const double* g = sim->skinGradient;
+	double stretch = g ? gap * g[e] : gap / od_Length(dij);
+	if (stretch > dbgMax && fmin(sim->linkSoftness[i], sim->linkSoftness[j]) < 0.9) { dbgMax = stretch; dbgE = e; }
+	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
+}
+
+void od_StretchBound(od_Sim* sim, double ahead)
 {
 	const double* r = sim->linkSoftness;
 	double* raised = sim->linkRaised;
@@ -51,15 +81,24 @@ void od_StretchBound(od_Sim* sim)
 	{
 		return;
 	}
-	const double* rest = od_Goals_CarryRest(sim) ? sim->goals.x : sim->graph->centers;
-	bool changed = false;
-	for (int i = 0; i < sim->graph->n; ++i)
+	int n = sim->graph->n;
+	double* most = raised + n;
+	memset(most, 0, sizeof(double) * (size_t)n);
+	for (int e = 0; e < sim->graph->edgeCount; ++e)
 	{
-		double t = od_MostStretched(sim, rest, i);
-		double value = t > 0.0 ? r[i] + (1.0 - r[i]) * t : r[i];
+		double t = od_Over(sim, ahead, e);
+		int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
+		most[i] = fmax(most[i], t);
+		most[j] = fmax(most[j], t);
+	}
+	bool changed = false;
+	for (int i = 0; i < n; ++i)
+	{
+		double value = most[i] > 0.0 ? r[i] + (1.0 - r[i]) * most[i] : r[i];
 		changed = changed || value != raised[i];
 		raised[i] = value;
 	}
+	if (getenv("OD_DBG")) { double m = 0; int nr = 0; for (int i = 0; i < n; ++i) { nr += raised[i] != r[i]; m = fmax(m, most[i]); } fprintf(stderr, "DBG t %.3f raised %d est %.3f e %d r %.4f %.4f\n", m, nr, dbgMax, dbgE, r[sim->graph->edges[2*dbgE]], r[sim->graph->edges[2*dbgE+1]]); } dbgMax = 0;
 	if (changed)
 	{
 		od_MakeLinkWeights(sim, raised);

@@ -8,4 +8,4 @@ void od_MakeLinkWeights(od_Sim* sim, const double* r);
 // At a dynamic call's start, with a link softness and a stretch limit (od_Sim_SetStretchLimit): the weights
 // made from the softness raised where links stretch past the limit; the edges' terms and the matrix made again
 // only when a raised value changed.
-void od_StretchBound(od_Sim* sim);
+void od_StretchBound(od_Sim* sim, double ahead);

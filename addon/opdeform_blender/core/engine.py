@@ -51,7 +51,7 @@ ENCLOSED_REACH = 0.65
 PATCH_SHARE_POWER = 1.5
 # The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link past this times its
 # animated length at a frame's start stiffens its ends for that frame (docs/goals.md, "Stretch bound (stop 48)").
-STRETCH_LIMIT = 1.3
+STRETCH_LIMIT = float(__import__("os").environ.get("OD_LIMIT", "1.3"))
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -205,6 +205,31 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
+def skin_gradient(indices, weights, edges, rest, links):
+    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
+    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``: its two (E,) end arrays, edges of nonzero
+    length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
+    skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
+    a, b = edges
+    length = np.linalg.norm(rest[a] - rest[b], axis=1)
+    near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
+
+    def weight(rows, c):
+        return np.where(indices[rows] == near[:, c, None], weights[rows], 0.0).sum(axis=1)
+
+    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
+    n = int(max(indices.max(), links.max())) + 1
+    key = np.sort(links, axis=1) @ [n, 1]
+    order = np.argsort(key)
+    out = np.zeros(len(links))
+    for c, d in zip(*np.triu_indices(near.shape[1], 1)):
+        lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
+        at = np.minimum(np.searchsorted(key, lo * n + hi, sorter=order), len(key) - 1)
+        linked = (key[order[at]] == lo * n + hi) & (lo != hi)
+        np.maximum.at(out, order[at[linked]], 0.5 * np.abs(change[d] - change[c])[linked])
+    return out
+
+
 def _same_params(a, b):
     """Whether two Simulation parameter dicts are equal (a stiffness may be one per particle)."""
     return b is not None and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
@@ -331,6 +356,7 @@ class Engine:
         # the mesh's (edges: the mesh's own, (E, 2); None: its triangles'), added to the report of the frame shown
         # when asked (report)
         self.mesh_stretch = Stretch(triangle_edges(triangles) if edges is None else edges, self.rest_local)
+        self._gradient = None  # the stretch bound's skin gradient (_skin_gradient)
         self.shown_frame = None  # the cached frame whose output ``out`` holds (None: the rest, a pose, none yet)
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
@@ -581,7 +607,8 @@ class Engine:
         try:
             self.sim.set_particle_damping(per_particle)
             self.sim.set_link_softness(links)
-            self.sim.set_stretch_limit(0.0 if links is None else STRETCH_LIMIT)
+            self.sim.set_stretch_limit(0.0, None) if links is None else \
+                self.sim.set_stretch_limit(STRETCH_LIMIT, self._skin_gradient())
         except ValueError as exc:
             raise EngineError(f"the damping map or the jiggle rule: {exc}") from None
         self._softness, self._damping, self._links = softness, per_particle, links
@@ -610,6 +637,13 @@ class Engine:
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
             self._jiggle = np.where(piece == body, jiggle_softness(hz, follow, target), 1.0)
         return self._jiggle
+
+    def _skin_gradient(self):
+        """``skin_gradient`` of the skin and the mesh's edges, found once."""
+        if self._gradient is None:
+            self._gradient = skin_gradient(self.skin.indices, self.skin.weights, self.mesh_stretch.ends, self.rest,
+                                           np.asarray(self.graph.edges))
+        return self._gradient
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed

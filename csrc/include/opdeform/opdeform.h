@@ -51,11 +51,14 @@ const double* od_Sim_GetStiffnessScale(const od_Sim* sim);
 // NULL = all 1 (the same bits as never set). Refactored once, on the next solve. Get: NULL when all 1.
 od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness);
 const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
-// A stretch bound on the softened links: at each call's start, a particle whose link is stretched past `limit`
-// times its animated length (the goals' when they carry the rest, else the rest's) has its link softness raised
-// toward 1, all the way 10 % of the length further; the raise is a function of the call's start alone. 0: off
-// (the default); else > 1. With no link past the limit: the same bits as off.
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit);
+// A stretch bound on the softened links: at each call's start, a particle whose link would stretch the skin past
+// `limit` (its velocities carrying it to the call's end) has its link softness raised toward 1, all the way 0.1
+// further; the raise is a function of the call's start alone. A link's stretch of the skin: the gap between where
+// one end puts the other and where that one is, times the larger of its ends' skin `gradient` (n values >= 0: the
+// most the particle's skin weight changes per metre along a mesh edge), or over the link's length (gradient
+// NULL). The link's length and the ends' frames: the goals' when they carry the rest, else the rest's. limit 0:
+// off (the default); else > 1. With no link past the limit: the same bits as off.
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
