@@ -340,7 +340,7 @@ struct od_Sim
 	// The stretch bound (od_Sim_SetStretchLimit, stretch_bound.c): 0 off, else the limit L > 1, and the softness
 	// the weights were last made from, linkSoftness raised where links stretch past L (n; NULL while off).
 	double stretchLimit;
-	double* linkRaised;   // 2n: the raised softness, then the bound's scratch
+	double* linkRaised;   // OD_STRETCH_SCRATCH n: the raised softness, then the bound's scratch
 	double* skinGradient; // per link (graph->edges order): its skin gradient (stretch_bound.c; NULL: none)
 	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 

@@ -469,7 +469,7 @@ od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradie
 		return OD_OK;
 	}
 	size_t bytes = sizeof(double) * (size_t)n, links = sizeof(double) * (size_t)sim->graph->edgeCount;
-	sim->linkRaised = od_Alloc(2 * bytes); // and the bound's scratch (stretch_bound.c)
+	sim->linkRaised = od_Alloc(OD_STRETCH_SCRATCH * bytes); // and the bound's scratch (stretch_bound.c)
 	sim->skinGradient = gradient ? od_Alloc(links) : NULL;
 	if (!sim->linkRaised || (gradient && !sim->skinGradient))
 	{

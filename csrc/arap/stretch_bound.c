@@ -1,10 +1,10 @@
-// The stretch bound: flesh stiffens as it stretches. Each particle's link softness r_i is raised toward 1 by its
-// most stretched link at the call's start, r_i + (1 - r_i) t, t = (s - L) / OD_STRETCH_RAMP clamped to [0, 1],
-// s = |x_i - x_j| over the link's animated length |g_i - g_j| (the goal centres when the goals carry the rest,
-// else the rest centres) and L the stretch limit. The weights of a call are held through it (lagged from its
-// start, so each step minimises one objective) and are a function of the call's start alone: a call from a
-// restored state makes the same weights, and with no link past L the weights, the factor and the bits are
-// those of the softness as set (docs/goals.md, "Stretch bound (stop 48)").
+// The stretch bound (od_Sim_SetStretchLimit): flesh stiffens as it stretches. At a call's start, each link's
+// stretch of the skin at the call's end, as the particles' velocities carry them there (od_Over), past the limit L
+// by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t): gently at first, all the
+// way to 1 at L + OD_STRETCH_RAMP. The weights of a call are held through it (each step minimises one objective)
+// and are a function of the call's start alone: a call from a restored state makes the same, and with no link
+// past L the weights, the factor and the bits are those of the softness as set (docs/goals.md, "Stretch bound
+// (stop 48)").
 #include "stretch_bound.h"
 #include "energy.h"
 #include "goal.h"
@@ -12,11 +12,9 @@
 
 #include <math.h>
 #include <string.h>
-#include <stdio.h>
-#include <stdlib.h>
 
 // The stretch over the limit at which a link's ends are raised all the way to 1.
-#define OD_STRETCH_RAMP 0.1
+#define OD_STRETCH_RAMP 0.2
 
 void od_MakeLinkWeights(od_Sim* sim, const double* r)
 {
@@ -43,33 +41,36 @@ static od_Vec3 od_RestVector(const od_Sim* sim, int i, int j)
 	return od_M3MulTV(&gi, od_Sub(od_V3Load(sim->goals.x + 3 * j), od_V3Load(sim->goals.x + 3 * i)));
 }
 
-// Particle i at the call's end as its velocities carry it there: its centre, and its rotation.
-static od_Vec3 od_Ahead(const od_Sim* sim, double ahead, int i, od_Mat3* r)
+// Each particle at the call's end (`ahead` seconds on) as its velocities carry it there: its centre into x (3n)
+// and its rotation into R (9n).
+static void od_Ahead(const od_Sim* sim, double ahead, double* x, double* R)
 {
 	const od_State* s = &sim->state;
-	od_Mat3 turn = od_M3ExpSkew(od_Scale(ahead, od_V3Load(s->omega + 3 * i))), now = od_M3Load(s->R + 9 * i);
-	*r = od_M3Mul(&turn, &now);
-	return od_MulAdd(od_V3Load(s->x + 3 * i), ahead, od_V3Load(s->v + 3 * i));
+	for (int i = 0; i < sim->graph->n; ++i)
+	{
+		od_Mat3 turn = od_M3ExpSkew(od_Scale(ahead, od_V3Load(s->omega + 3 * i))), now = od_M3Load(s->R + 9 * i);
+		od_Mat3 r = od_M3Mul(&turn, &now);
+		od_M3Store(R + 9 * i, &r);
+		od_V3Store(x + 3 * i, od_MulAdd(od_V3Load(s->x + 3 * i), ahead, od_V3Load(s->v + 3 * i)));
+	}
 }
 
-// The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead): the gap at its
+// The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead's x, R): the gap at its
 // middle between the skin its ends carry, δ = x_j - x_i - (R_i d_ij - R_j d_ji) / 2 (their stretch, and their
 // disagreement on their turn where it parts the skin), times the link's skin gradient (the most half the
 // difference of its ends' skin weights changes per metre along a mesh edge: a gap δ stretches such an edge by
 // about |δ| g), or over the link's length |d_ij| without a gradient. Past the limit, over OD_STRETCH_RAMP, in
 // [0, 1].
-static double dbgMax; static int dbgE;
-static double od_Over(const od_Sim* sim, double ahead, int e)
+static double od_Over(const od_Sim* sim, const double* x, const double* R, int e)
 {
 	int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
-	od_Mat3 ri, rj;
-	od_Vec3 xi = od_Ahead(sim, ahead, i, &ri), xj = od_Ahead(sim, ahead, j, &rj);
+	od_Mat3 ri = od_M3Load(R + 9 * i), rj = od_M3Load(R + 9 * j);
+	od_Vec3 xi = od_V3Load(x + 3 * i), xj = od_V3Load(x + 3 * j);
 	od_Vec3 dij = od_RestVector(sim, i, j), dji = od_RestVector(sim, j, i);
 	od_Vec3 carried = od_Scale(0.5, od_Sub(od_M3MulV(&ri, dij), od_M3MulV(&rj, dji)));
 	double gap = od_Length(od_Sub(od_Sub(xj, xi), carried));
 	const double* g = sim->skinGradient;
 	double stretch = g ? gap * g[e] : gap / od_Length(dij);
-	if (stretch > dbgMax && fmin(sim->linkSoftness[i], sim->linkSoftness[j]) < 0.9) { dbgMax = stretch; dbgE = e; }
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
 }
 
@@ -82,23 +83,23 @@ void od_StretchBound(od_Sim* sim, double ahead)
 		return;
 	}
 	int n = sim->graph->n;
-	double* most = raised + n;
+	double *most = raised + n, *x = most + n, *R = x + 3 * n; // the scratch (od_Sim_SetStretchLimit)
 	memset(most, 0, sizeof(double) * (size_t)n);
+	od_Ahead(sim, ahead, x, R);
 	for (int e = 0; e < sim->graph->edgeCount; ++e)
 	{
-		double t = od_Over(sim, ahead, e);
 		int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
+		double t = r[i] < 1.0 || r[j] < 1.0 ? od_Over(sim, x, R, e) : 0.0; // a stiff link has nothing to raise
 		most[i] = fmax(most[i], t);
 		most[j] = fmax(most[j], t);
 	}
 	bool changed = false;
 	for (int i = 0; i < n; ++i)
 	{
-		double value = most[i] > 0.0 ? r[i] + (1.0 - r[i]) * most[i] : r[i];
+		double value = most[i] > 0.0 ? pow(r[i], 1.0 - most[i]) : r[i];
 		changed = changed || value != raised[i];
 		raised[i] = value;
 	}
-	if (getenv("OD_DBG")) { double m = 0; int nr = 0; for (int i = 0; i < n; ++i) { nr += raised[i] != r[i]; m = fmax(m, most[i]); } fprintf(stderr, "DBG t %.3f raised %d est %.3f e %d r %.4f %.4f\n", m, nr, dbgMax, dbgE, r[sim->graph->edges[2*dbgE]], r[sim->graph->edges[2*dbgE+1]]); } dbgMax = 0;
 	if (changed)
 	{
 		od_MakeLinkWeights(sim, raised);

@@ -51,7 +51,7 @@ ENCLOSED_REACH = 0.65
 PATCH_SHARE_POWER = 1.5
 # The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link past this times its
 # animated length at a frame's start stiffens its ends for that frame (docs/goals.md, "Stretch bound (stop 48)").
-STRETCH_LIMIT = float(__import__("os").environ.get("OD_LIMIT", "1.3"))
+STRETCH_LIMIT = 1.2
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
