@@ -211,6 +211,9 @@ def skin_gradient(indices, weights, edges, rest, links):
     length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
     skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
     a, b = edges
+    out = np.zeros(len(links))
+    if len(links) == 0 or len(a) == 0:
+        return out
     length = np.linalg.norm(rest[a] - rest[b], axis=1)
     near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
 
@@ -221,7 +224,6 @@ def skin_gradient(indices, weights, edges, rest, links):
     n = int(max(indices.max(), links.max())) + 1
     key = np.sort(links, axis=1) @ [n, 1]
     order = np.argsort(key)
-    out = np.zeros(len(links))
     for c, d in zip(*np.triu_indices(near.shape[1], 1)):
         lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
         at = np.minimum(np.searchsorted(key, lo * n + hi, sorter=order), len(key) - 1)
