@@ -320,20 +320,6 @@ void od_Goals_Place(od_Sim* sim)
 	od_UpdateTerms(sim);
 }
 
-void od_Goals_SwapFrame(od_Sim* sim)
-{
-	od_Goals* goals = &sim->goals;
-	if (goals->placed)
-	{
-		double* x = goals->x;
-		double* r = goals->R;
-		goals->x = goals->frameX;
-		goals->R = goals->frameR;
-		goals->frameX = x;
-		goals->frameR = r;
-	}
-}
-
 od_Vec3 od_Goals_StepVelocity(const od_Sim* sim, int i)
 {
 	const od_Goals* goals = &sim->goals;

@@ -34,5 +34,3 @@ void od_Goals_Place(od_Sim* sim);
 od_Vec3 od_Goals_StepVelocity(const od_Sim* sim, int i);
 // The frame set back in place after a call (or a failed one).
 void od_Goals_EndCall(od_Sim* sim);
-// Swaps the goals placed for a step with the frame set (nothing while none are placed); twice: back as they were.
-void od_Goals_SwapFrame(od_Sim* sim);

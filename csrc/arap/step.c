@@ -314,7 +314,7 @@ od_Status od_Step_Begin(od_Sim* sim, int steps)
 	if (status == OD_OK)
 	{
 		od_StretchBound(sim, steps * sim->def.dt);
-		od_LocalStep_PrepareEdges(sim); // made again where the bound changed the weights
+		od_LocalStep_PrepareEdges(sim);
 	}
 	status = status == OD_OK ? od_SurfaceContact_Reserve(sim) : status;
 	if (status == OD_ERROR_MEMORY)
@@ -418,10 +418,6 @@ void od_Step_Finish(od_Sim* sim, int k, int steps)
 	od_UpdateVelocities(sim, &sim->previous);
 	sim->counters.steps++;
 	sim->goals.step++;
-	if (k + 1 == steps / 2)
-	{
-		od_StretchBound_Midway(sim, (steps - k - 1) * sim->def.dt);
-	}
 }
 
 od_Status od_Step_End(od_Sim* sim, od_Status status)

@@ -1,14 +1,13 @@
-// The stretch bound (od_Sim_SetStretchLimit): flesh stiffens as it stretches. At a call's start and again halfway
-// through it, each link's stretch of the skin at the call's end, as the particles' velocities carry them there
-// (od_Over), past the limit L by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t):
-// gently at first, all the way to 1 at L + OD_STRETCH_RAMP. The weights are held through each step (each
-// minimises one objective) and are a function of the call's start state and its inputs alone: a call from a
-// restored state makes the same, and with no link past L the weights, the factor and the bits are those of the
-// softness as set (docs/goals.md, "Stretch bound (stop 48)").
+// The stretch bound (od_Sim_SetStretchLimit): flesh stiffens as it stretches. At a call's start, each link's
+// stretch of the skin at the call's end, as the particles' velocities carry them there (od_Over), past the limit L
+// by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t): gently at first, all the
+// way to 1 at L + OD_STRETCH_RAMP. The weights of a call are held through it (each step minimises one objective)
+// and are a function of the call's start alone: a call from a restored state makes the same, and with no link
+// past L the weights, the factor and the bits are those of the softness as set (docs/goals.md, "Stretch bound
+// (stop 48)").
 #include "stretch_bound.h"
 #include "energy.h"
 #include "goal.h"
-#include "local_step.h"
 #include "math3.h"
 
 #include <math.h>
@@ -75,13 +74,13 @@ static double od_Over(const od_Sim* sim, const double* x, const double* R, int e
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
 }
 
-bool od_StretchBound(od_Sim* sim, double ahead)
+void od_StretchBound(od_Sim* sim, double ahead)
 {
 	const double* r = sim->linkSoftness;
 	double* raised = sim->linkRaised;
 	if (!r || !raised)
 	{
-		return false;
+		return;
 	}
 	int n = sim->graph->n;
 	double *most = raised + n, *x = most + n, *R = x + 3 * n; // the scratch (od_Sim_SetStretchLimit)
@@ -106,16 +105,5 @@ bool od_StretchBound(od_Sim* sim, double ahead)
 		od_MakeLinkWeights(sim, raised);
 		sim->stiffnessVersion++;
 		sim->edgeStiffness = 0.0; // the edges' terms are made again (local_step.c)
-	}
-	return changed;
-}
-
-void od_StretchBound_Midway(od_Sim* sim, double ahead)
-{
-	if (od_StretchBound(sim, ahead))
-	{
-		od_Goals_SwapFrame(sim);
-		od_LocalStep_PrepareEdges(sim);
-		od_Goals_SwapFrame(sim);
 	}
 }

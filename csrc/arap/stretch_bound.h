@@ -12,8 +12,4 @@ void od_MakeLinkWeights(od_Sim* sim, const double* r);
 // At a dynamic call's start (`ahead`: the call's duration), with a link softness and a stretch limit
 // (od_Sim_SetStretchLimit): the weights made from the softness raised where links would stretch the skin past
 // the limit; the edges' terms and the matrix made again only when a raised value changed.
-bool od_StretchBound(od_Sim* sim, double ahead);
-// The bound's second look, halfway through a call (`ahead`: the call's time left): the raise made again from the
-// state there; where it changes, the edges' terms made from the frame set, as at the call's start (the goals
-// placed between frames keep the frame's edges, od_Goals_Place).
-void od_StretchBound_Midway(od_Sim* sim, double ahead);
+void od_StretchBound(od_Sim* sim, double ahead);
