@@ -49,8 +49,9 @@ ENCLOSED_REACH = 0.65
 # 1.22x at power 1), and the outside bear's 74-particle belly and cheeks 1.37 times its held ones stretch 1.46x at
 # Fleshy (1.63x without, 1.52x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's.
 PATCH_SHARE_POWER = 1.5
-# The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link past this times its
-# animated length at a frame's start stiffens its ends for that frame (docs/goals.md, "Stretch bound (stop 48)").
+# The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link that would stretch the
+# mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
+# bound (stop 48)").
 STRETCH_LIMIT = 1.2
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
