@@ -16,21 +16,19 @@ The artist's order: Enable (Physics tab), tick Goal, pick the Follow group, play
 during the hops (mm and % of the height), the largest 1 s after the motion stops, edge stretch, floor
 penetration, base mesh kept, errors, CPU ms per frame of frame_set alone.
 """
-import json, os, sys, time
+import json, os, sys
 import bpy, bmesh
 import numpy as np
 from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, collision_floor, install, link,  # noqa: E402
-                       paint, parent_auto, reports, skin_body, taper, twin_of, world)
+from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels,  # noqa: E402
+                       gauss, install, link, paint, parent_auto, reports, reshaped, settings, skin_body, taper,
+                       twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP = 24, 96, 48
-os.makedirs(OUT, exist_ok=True)
 
 NODES = [((0, 0, 0.45), 0.25), ((0, 0, 0.70), 0.31), ((0, 0, 0.92), 0.26), ((0, 0, 1.05), 0.16),
          ((0, 0, 1.17), 0.21), ((0, 0, 1.28), 0.17)]
@@ -52,24 +50,18 @@ BONES = [("root", (0, 0, 0), (0, 0.3, 0), None, False),
          ("leg.R", (-0.14, 0, 0.40), (-0.15, 0, 0.06), "hips", True)]
 
 
-def gauss(v, centre, radii):
-    return np.exp(-sum(((v[:, k] - centre[k]) / radii[k]) ** 2 for k in range(3)))
-
-
 def body_mesh():
     """Skin + Subdivision (levels=, 2) applied; the belly pushed 12 cm forward (-y), the cheeks 5 cm out and
     forward. The body mesh and per vertex its belly and cheek weights (0..1)."""
     obj = skin_body("Bear", NODES, EDGES, int(OPT.get("levels", 2)))
-    me = obj.data
-    v = np.array([x.co for x in me.vertices])
-    belly = gauss(v, (0, -0.3, 0.68), (0.22, 0.3, 0.17)) * (v[:, 1] < -0.05)
-    cheeks = sum(gauss(v, (0.14 * sx, -0.12, 1.13), (0.08, 0.1, 0.07)) for sx in (1, -1))
-    v[:, 1] -= 0.12 * belly + 0.02 * cheeks
-    v[:, 0] += 0.05 * cheeks * np.sign(v[:, 0])
-    v[:, 2] -= v[:, 2].min() - 0.004  # soles 4 mm over the floor
-    me.vertices.foreach_set("co", v.ravel())
-    me.update()
-    return obj, belly, cheeks
+
+    def push(v):
+        belly = gauss(v, (0, -0.3, 0.68), (0.22, 0.3, 0.17)) * (v[:, 1] < -0.05)
+        cheeks = sum(gauss(v, (0.14 * sx, -0.12, 1.13), (0.08, 0.1, 0.07)) for sx in (1, -1))
+        v[:, 1] -= 0.12 * belly + 0.02 * cheeks
+        v[:, 0] += 0.05 * cheeks * np.sign(v[:, 0])
+        return belly, cheeks
+    return (obj, *reshaped(obj, push))  # the soles 4 mm over the floor
 
 
 def ball(bm, centre, radii, axis):
@@ -154,13 +146,9 @@ class Shot(rig_parts.Shot):
         self.height = tw[:, 2].max() - tw[:, 2].min()
 
     def frame(self, f):
-        t0 = time.process_time()
-        bpy.context.scene.frame_set(f)
-        cpu = time.process_time() - t0
-        a, b = world(self.obj), world(self.twin)
-        d = np.linalg.norm(a - b, axis=1)
+        cpu = self.timed(f)
+        a, b, d, st = self.against_twin()
         i, j = self.edges
-        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
         worst = int(np.argmax(st))
         parts_st = {k: st[(self.part_of[i] == k) | (self.part_of[j] == k)].max() for k in self.parts}
         return cpu, dict(core=d[self.core].max(), all=d.max(), stretch=st.max(),
@@ -173,14 +161,8 @@ class Shot(rig_parts.Shot):
 
     def play(self, label):
         """Frames 1..FRAMES from the start; one ROW of figures."""
-        s, rows, errors, cpu = self.obj.opdeform, [], [], 0.0
-        for f in range(1, FRAMES + 1):
-            c, r = self.frame(f)
-            cpu += c
-            rows.append(r)
-            if s.error:
-                errors.append((f, s.error))
-        col = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        s = self.obj.opdeform
+        col, errors, cpu = self.played(FRAMES)
         fr = np.arange(1, FRAMES + 1)
         moving, after = fr <= STOP, fr >= STOP + FPS
         loose = [k for k in self.parts if k != "core_body"]
@@ -206,15 +188,9 @@ class Shot(rig_parts.Shot):
             render(int(OPT["render"]), label.replace(" ", "_"))
         return row
 
-    def look(self):
-        return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
-
 
 def build_scene():
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    rig_parts.empty_scene(FPS, FRAMES)
     obj, belly, cheeks = body_mesh()
     parts, param = add_parts(obj)
     body = np.arange(len(belly))
@@ -236,12 +212,6 @@ def build_scene():
           f"unweighted after auto {unweighted}", {k: len(i) for k, i in parts.items()},
           "follow min per part", {k: float(follow[i].min()) for k, i in parts.items()})
     return obj, twin, parts, follow
-
-
-def settings(s):
-    return {k: round(getattr(s, k), 4) for k in ("particles", "goal_strength", "goal_min", "goal_max",
-                                                  "shell_follow_min", "sag", "modulus", "damping_rate",
-                                                  "soft_stiffness", "jiggle_hz")}
 
 
 VIEWS = {"front": ((1.5, -2.3, 1.1), (0, -0.45, 0.7)), "side": ((2.6, -0.45, 0.8), (0, -0.45, 0.7))}
@@ -273,38 +243,24 @@ def render(frame, label):
     bear.hide_render = twin.hide_render = False
 
 
-def bake(s, shot, H):
-    """Bake, compare frames with the playback just before, free the bake."""
-    shown = {f: world(shot.obj) for f in (1, 16, 24, 40, 70, FRAMES) if bpy.context.scene.frame_set(f) is None}
-    s.cache_directory = os.path.join(OUT, "cache")
-    print("BAKE ->", bpy.ops.opdeform.bake())
-    diff = max(1e3 * np.abs(world(shot.obj) - a).max() for f, a in shown.items()
-               if bpy.context.scene.frame_set(f) is None)
-    print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
-    print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
-
-
 def main():
     name = install(ZIP, KIND)
     import helpers as H
     H.ADDON = name
     obj, twin, parts, follow = build_scene()
     s = artist_enable(obj, OPT.get("particles"))
-    log = H.draw_panels()
-    print("PANEL AFTER GROUP", reports(log))
-    print("CUT", [c[0] for c in H.cut_texts(log)])
-    print("SETTINGS", settings(s), "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+    first_panels(obj, H, settings(s, "jiggle_hz"))
     shot = Shot(obj, twin, parts, follow, H)
     shot.play("default")
     if "bake" in OPT:
-        bake(s, shot, H)
+        bake_check(obj, H, OUT, (1, 16, 24, 40, 70, FRAMES))
     if "looks" in OPT:
         for look in ("Subtle", "Fleshy", "Floppy"):
-            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s, "jiggle_hz"))
             shot.play(look)
         bpy.ops.opdeform.apply_preset(preset="Fleshy")
         s.jiggle_hz = 0.0
-        print("JIGGLE 0", settings(s))
+        print("JIGGLE 0", settings(s, "jiggle_hz"))
         shot.play("Fleshy jiggle 0")
 
 

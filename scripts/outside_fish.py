@@ -16,16 +16,14 @@ import numpy as np
 from mathutils import Vector, Matrix
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import rig_parts  # noqa: E402
 from rig_parts import (armature, artist_enable, base, install, link,  # noqa: E402
                        paint, parent_auto, reopen, reports, shells, twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 S = float(OPT.get("scale", 1.0))
 FPS, FRAMES, STOP = 24, 96, 40
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
-os.makedirs(OUT, exist_ok=True)
 
 
 def place(bm, verts, loc, scale=(1, 1, 1), rot=Matrix()):
@@ -134,10 +132,7 @@ def follow_map(obj, parts):
 
 def main():
     name = install(ZIP, KIND)
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    sc = rig_parts.empty_scene(FPS, FRAMES)
     if "unit" in OPT:  # an artist in cm: Unit Scale 0.01 with scale=100
         sc.unit_settings.scale_length = float(OPT["unit"])
     obj = fish_mesh()
@@ -238,9 +233,7 @@ def main():
         print("RELOOK ->", bpy.ops.opdeform.apply_preset(preset=OPT["relook"]))
         summary["relook_all_mm"] = replay(sc, obj, twin, bpy.context.view_layer, H)
     if "save" in OPT:  # then: the same command with open=OUT
-        sc.frame_set(30)
-        np.save(os.path.join(OUT, "f30.npy"), world(obj))
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "fish.blend"))
+        rig_parts.save(obj, OUT)
     if "trace" in OPT:
         print("TRACE stretch", [round(float(x), 2) for x in col["barbels_stretch"][16:32]], "barbels mm",
               [round(1e3 * float(x)) for x in col["barbels"][16:32]])

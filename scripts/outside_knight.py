@@ -28,14 +28,11 @@ from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, collision_floor, install, link,  # noqa: E402
-                       paint, parent_auto, reopen, reports, skin_body, taper, twin_of, world)
+from rig_parts import (armature, artist_enable, base, collision_floor, first_panels, install, link,  # noqa: E402
+                       paint, parent_auto, reopen, reports, settings, skin_body, taper, tuned, twin_of, world)
 
-args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
-ZIP, KIND, OUT = args[:3]
-OPT = dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:])
+ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP, HEIGHT = 24, 96, 48, 1.8
-os.makedirs(OUT, exist_ok=True)
 
 # the Skin modifier's skeleton: (position, radius); edges by index
 NODES = [((0, 0, 0.92), 0.17), ((0, 0, 1.15), 0.19), ((0, 0, 1.38), 0.2), ((0, 0, 1.53), 0.07),
@@ -221,16 +218,9 @@ class Shot(rig_parts.Shot):
         print("PANEL", reports(self.H.draw_panels()))
         return row
 
-    def look(self):
-        name = self.H.ADDON
-        return sys.modules[name + ".blender.presets"].current_look(self.obj.opdeform)
-
 
 def build_scene(name):
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.render.fps, sc.frame_start, sc.frame_end = FPS, 1, FRAMES
+    rig_parts.empty_scene(FPS, FRAMES)
     obj, bulge = body_mesh()
     parts, param = add_parts(obj)
     body = np.arange(len(bulge))
@@ -247,12 +237,6 @@ def build_scene(name):
     print(f"KNIGHT {len(v)} vertices, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, "
           f"unweighted after auto {unweighted}", {k: len(i) for k, i in parts.items()})
     return obj, twin, parts, follow, bulge
-
-
-def settings(s):
-    return {k: round(getattr(s, k), 4) for k in ("particles", "goal_strength", "goal_min", "goal_max",
-                                                  "shell_follow_min", "sag", "modulus", "damping_rate",
-                                                  "soft_stiffness", "region_damping")}
 
 
 VIEWS = {"render": ((3.0, -3.8, 1.6), (0.1, -0.3, 1.0)),  # 3/4 front: camera, target
@@ -378,15 +362,8 @@ def main():
     H.ADDON = name
     obj, twin, parts, follow, bulge = build_scene(name)
     s = artist_enable(obj, OPT.get("particles"))
-    if "look" in OPT:
-        print("LOOK ->", OPT["look"], bpy.ops.opdeform.apply_preset(preset=OPT["look"]))
-    for key, value in ((k[1:], v) for k, v in OPT.items() if k.startswith("+")):
-        kind = type(getattr(s, key))
-        setattr(s, key, value in ("1", "True", "true") if kind is bool else kind(value))
-    log = H.draw_panels()
-    print("PANEL AFTER GROUP", reports(log))
-    print("CUT", [c[0] for c in H.cut_texts(log)])
-    print("SETTINGS", settings(s), "error", repr(s.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+    tuned(s, OPT)
+    first_panels(obj, H, settings(s, "region_damping"))
     particles_per_part(name, obj, parts)
     shot = Shot(obj, twin, parts, follow, H)
     shot.play("default")
@@ -406,7 +383,7 @@ def main():
         print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
     if "looks" in OPT:
         for look in ("Subtle", "Fleshy", "Floppy"):
-            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s, "region_damping"))
             shot.play("look " + look)
         bpy.ops.opdeform.apply_preset(preset="Fleshy")
     if "repaint" in OPT:
@@ -418,7 +395,7 @@ def main():
         paint(obj, "Softness", (1 - follow).round(3))
         s.softness_group = "Softness"
         shot.play("softness group, Fleshy")
-        print("LOOK ->", bpy.ops.opdeform.apply_preset(preset="Floppy"), settings(s))
+        print("LOOK ->", bpy.ops.opdeform.apply_preset(preset="Floppy"), settings(s, "region_damping"))
         shot.play("softness group, Floppy")
         s.modulus = 0.3
         shot.play("softness group, Floppy, Stiffness 0.3")
@@ -431,9 +408,7 @@ def main():
         particles_per_part(H.ADDON, obj, parts)
         shot.play(f"particles {n}")
     if "save" in OPT:
-        bpy.context.scene.frame_set(30)
-        np.save(os.path.join(OUT, "f30.npy"), world(obj))
-        bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "knight.blend"))
+        rig_parts.save(obj, OUT)
 
 
 reopen(OPT["open"], ZIP, KIND, "Knight") if "open" in OPT else main()

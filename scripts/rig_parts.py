@@ -1,15 +1,30 @@
 """Pieces shared by the outside-view rig scripts (scripts/outside_rigs.py, outside_bird.py, outside_fish.py,
-outside_knight.py): objects linked into the scene, parented to an armature with automatic weights, painted groups,
-mesh shells, world positions, the base mesh and the armature-only twin; the add-on installed from a zip; a saved
-file reopened."""
+outside_knight.py, outside_bear.py, outside_pig.py): the arguments, objects linked into the scene, parented to an
+armature with automatic weights, painted groups, mesh shells, world positions, the base mesh and the armature-only
+twin; the add-on installed from a zip, its settings tuned and printed, the panels after the group picked, a bake
+against playback; a saved file reopened."""
 import os
 import sys
+import time
 
 import bpy
 import numpy as np
 from mathutils import Vector
 
 TESTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "blender")
+
+
+def options():
+    """The script's arguments (after "--" under Blender, else after the script): ZIP, KIND, OUT (made) and the
+    options after them as a dict (NAME=VALUE, or NAME: True)."""
+    args = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else sys.argv[1:]
+    os.makedirs(args[2], exist_ok=True)
+    return (*args[:3], dict((a.partition("=")[0], a.partition("=")[2] or True) for a in args[3:]))
+
+
+def gauss(v, centre, radii):
+    """Per point of v, a bump of 1 at centre falling off over radii (x, y, z): where a body is pushed out."""
+    return np.exp(-sum(((v[:, k] - centre[k]) / radii[k]) ** 2 for k in range(3)))
 
 
 def install(zip_path, kind):
@@ -22,6 +37,15 @@ def install(zip_path, kind):
         return helpers.ADDON
     sys.path[:] = [p for p in sys.path if os.path.abspath(p) != os.path.abspath(helpers.ADDON_DIR)]
     return helpers.install_package(zip_path, kind)
+
+
+def empty_scene(fps, frames):
+    """The scene emptied of objects, at fps, frames 1..frames; the scene."""
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    sc = bpy.context.scene
+    sc.render.fps, sc.frame_start, sc.frame_end = fps, 1, frames
+    return sc
 
 
 def link(obj):
@@ -87,6 +111,14 @@ def twin_of(obj):
     return t
 
 
+def save(obj, folder):
+    """Frame 30 shown, its world positions into folder/f30.npy and the file into folder/NAME.blend (NAME the
+    object's name in lower case), for reopen."""
+    bpy.context.scene.frame_set(30)
+    np.save(os.path.join(folder, "f30.npy"), world(obj))
+    bpy.ops.wm.save_as_mainfile(filepath=os.path.join(folder, f"{obj.name.lower()}.blend"))
+
+
 def reopen(folder, zip_path, kind, name):
     """Opens folder/NAME.blend (NAME the object's name in lower case) as an artist does, the add-on installed from
     the zip: is frame 30 the simulated pose saved beside it (f30.npy), before and after a frame change?"""
@@ -114,6 +146,50 @@ def artist_enable(obj, particles=None):
     s.use_goal = True
     s.goal_group = "Follow"
     return s
+
+
+def tuned(s, opt):
+    """The options' look=NAME (picked from the Goal panel's menu) and +NAME=VALUE settings of obj.opdeform, in
+    that order, as an artist sets them after the group."""
+    if "look" in opt:
+        print("LOOK ->", opt["look"], bpy.ops.opdeform.apply_preset(preset=opt["look"]))
+    for key, value in ((k[1:], v) for k, v in opt.items() if k.startswith("+")):
+        kind = type(getattr(s, key))
+        setattr(s, key, value in ("1", "True", "true") if kind is bool else kind(value))
+
+
+SETTINGS = ("particles", "goal_strength", "goal_min", "goal_max", "shell_follow_min", "sag", "modulus",
+            "damping_rate", "soft_stiffness")
+
+
+def settings(s, *more):
+    """The settings that make a look (and the named ones more), rounded, for a print."""
+    return {k: round(getattr(s, k), 4) for k in SETTINGS + more}
+
+
+def first_panels(obj, H, shown):
+    """What the artist sees once the group is picked: the panel's labels and reports, the labels cut at the
+    default width, and the settings (shown, a dict), the error and the modifier stack."""
+    log = H.draw_panels()
+    print("PANEL AFTER GROUP", reports(log))
+    print("CUT", [c[0] for c in H.cut_texts(log)])
+    print("SETTINGS", shown, "error", repr(obj.opdeform.error), "mods", [(m.name, m.type) for m in obj.modifiers])
+
+
+def bake_check(obj, H, folder, frames):
+    """Bake into folder/cache, compare the frames with the playback just before, free the bake."""
+    s, shown = obj.opdeform, {}
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        shown[f] = world(obj)
+    s.cache_directory = os.path.join(folder, "cache")
+    print("BAKE ->", bpy.ops.opdeform.bake())
+    diff = 0.0
+    for f in frames:
+        bpy.context.scene.frame_set(f)
+        diff = max(diff, 1e3 * np.abs(world(obj) - shown[f]).max())
+    print("BAKED", bool(s.baked), "bake vs playback mm", diff, "PANEL", reports(H.draw_panels()))
+    print("FREE BAKE ->", bpy.ops.opdeform.free_bake())
 
 
 def armature(name, bones, connected, scale=1.0):
@@ -154,6 +230,37 @@ class Shot:
         self.edges = np.array([e.vertices[:] for e in obj.data.edges]).T
         self.before = base(obj)
 
+    @staticmethod
+    def timed(f):
+        """Frame f set; the processor seconds it took."""
+        t0 = time.process_time()
+        bpy.context.scene.frame_set(f)
+        return time.process_time() - t0
+
+    def against_twin(self):
+        """The shown frame: the mesh's and the twin's world positions, each vertex's distance between them and
+        each edge's length over its length in the twin (its stretch against the animation)."""
+        a, b = world(self.obj), world(self.twin)
+        i, j = self.edges
+        st = np.linalg.norm(a[i] - a[j], axis=1) / np.linalg.norm(b[i] - b[j], axis=1)
+        return a, b, np.linalg.norm(a - b, axis=1), st
+
+    def played(self, frames):
+        """Frames 1..frames from the start through self.frame(f) -> (CPU s, {figure: value}): the figures per
+        frame as columns, the errors the settings showed (frame, error) and the CPU seconds in all."""
+        s, rows, errors, cpu = self.obj.opdeform, [], [], 0.0
+        for f in range(1, frames + 1):
+            c, r = self.frame(f)
+            cpu += c
+            rows.append(r)
+            if s.error:
+                errors.append((f, s.error))
+        return {k: np.array([r[k] for r in rows]) for k in rows[0]}, errors, cpu
+
+    def look(self):
+        """The look the settings hold (presets.current_look), "Custom" for none."""
+        return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
+
 
 def skin_body(name, nodes, edges, levels):
     """A body made as artists block one out: a skeleton of (position, radius) nodes and edges under the Skin
@@ -170,6 +277,18 @@ def skin_body(name, nodes, edges, levels):
     for m in list(obj.modifiers):
         bpy.ops.object.modifier_apply(modifier=m.name)
     return obj
+
+
+def reshaped(obj, push, gap=0.004):
+    """obj's mesh moved by push(v) (it moves the vertices' positions v, an (n, 3) array, in place), then lifted
+    to stand gap over z = 0; what push returns."""
+    me = obj.data
+    v = np.array([x.co for x in me.vertices])
+    out = push(v)
+    v[:, 2] -= v[:, 2].min() - gap
+    me.vertices.foreach_set("co", v.ravel())
+    me.update()
+    return out
 
 
 def collision_floor():
