@@ -338,6 +338,11 @@ struct od_Sim
 	// weighted w_ij = min(r_i, r_j), so the term over ellipsoid j of directed edge (i, j) weighs s_j w_ij.
 	double* linkSoftness; // NULL: all 1
 	double* linkWeight;   // w_ij per directed edge (CSR order of graph->adj) with a softness, else NULL
+	// The stretch bound (od_Sim_SetStretchLimit, stretch_bound.c): 0 off, else the limit L > 1, and the softness
+	// the weights were last made from, linkSoftness raised where links stretch past L (n; NULL while off).
+	double stretchLimit;
+	double* linkRaised;   // OD_STRETCH_SCRATCH n: the raised softness, then the bound's scratch
+	double* skinGradient; // per link (graph->edges order): its skin gradient (stretch_bound.c; NULL: none)
 	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 
 	// Per directed edge (CSR order of graph->adj), scaled by k, the scale and the link weight; rebuilt when one
