@@ -464,9 +464,9 @@ class Simulation(CoreObject, ForceFields):
         the skin, not the ellipsoids, rests on them. While the goals carry the rest (``set_goals_carry_rest``) a
         particle carries only the vertices it skins with a weight of at least ``CONTACT_WEIGHT`` (or its vertex's
         largest): a far copy of small weight met a floor the skin never came near. None: the ellipsoids again
-        (the default). In a ContactGroup these points also meet the other members (their skin points, or their ellipsoids where they have none);
-        ``bodies=False``: the other members meet this body's ellipsoids (the add-on's groups). Self-contact keeps
-        the ellipsoids."""
+        (the default). In a ContactGroup these points also meet the other members (their skin points, or their
+        ellipsoids where they have none); ``bodies=False``: the other members meet this body's ellipsoids (the
+        add-on's groups). Self-contact keeps the ellipsoids."""
         if skin is None:
             self.set_contact_points(None)
             return
