@@ -187,9 +187,13 @@ def test_with_goals_carrying_the_rest_the_skin_is_pushed_by_its_excess_only(kind
     sim.set_goals(*start)
     gc.add_contact(sim, kind)
     sim.set_contact_skin(skin)
-    tip, lowest = v[:, 0] > 1.5, np.inf
+    tip, lowest, shown = v[:, 0] > 1.5, np.inf, np.inf
     for f in range(gc.STOP + 60):
         sim.set_goals(*fit.fit(gc.falling(v, f)))
         sim.step()
         lowest = min(lowest, skin.deform_sim(sim, push_out=False)[tip, 2].min())
-    assert gc.SURFACE[kind] - 1e-6 < lowest < gc.SURFACE[kind] + 1e-3  # the tip's skin reached it, not past
+        shown = min(shown, skin.deform_sim(sim)[tip, 2].min())
+    # the tip's skin reached it, not past: with goals carrying the rest a particle carries no copy of weight below
+    # CONTACT_WEIGHT, so the skin as blended may dip 0.1 mm (0.005 % of the bar), which the push-out lifts
+    assert gc.SURFACE[kind] - 2e-4 < lowest < gc.SURFACE[kind] + 1e-3
+    assert shown > gc.SURFACE[kind] - 1e-6

@@ -7,9 +7,10 @@
 // rigidly by particles, at x_i + R_i (v - X̄_i), and the floor and the colliders meet those points instead of
 // the ellipsoids, with the same push of the particle's centre and the same friction (floor.c, contact.c); the
 // ARAP solve is not touched. Which particles carry a vertex is the caller's choice: Simulation.set_contact_skin
-// gives it to every particle that skins it (weight > 0). A skinned vertex is a convex combination of those
-// carried copies, so where each copy is out of a plane the vertex is too: Suzanne's skin rests on the floor at
-// 0 and at the thickness (5 mm) on a sphere or a ramp, never inside. Given to its largest weight's particle
+// gives it to every particle that skins it (weight > 0; from 0.05 on while the goals carry the rest: a far copy
+// of small weight met a floor the skin never neared, docs/contact.md). A skinned vertex is a convex combination
+// of those carried copies, so where each copy is out of a plane the vertex is too: Suzanne's skin rests on the
+// floor at 0 and at the thickness (5 mm) on a sphere or a ramp, never inside. Given to its largest weight's particle
 // alone, the vertex dipped 4-7 mm into them (the other particles' copies lower), the push-out hiding it.
 // A particle given no point keeps its centre, so an interior particle still stops at a collider once the skin
 // has gone past.

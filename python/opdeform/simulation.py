@@ -15,6 +15,13 @@ from .graph import Graph
 
 __all__ = ["Simulation"]
 
+# With goals carrying the rest, the least skin weight with which a particle carries a vertex as its contact shape
+# (set_contact_skin). A copy carried with a smaller weight moves the skinned vertex little, but a far one swings
+# far as its particle turns: the outside pig's belly and leg particles carried its hooves' vertices 21-28 cm below
+# their centres, whose copies met a floor the skin stayed 0.8 mm above, so the floor moved a belly it never touched
+# and kept it bouncing after the stop (docs/contact.md, "A floor out of reach (stop 48)"). Free bodies keep every
+# copy: a vertex then never dips into a plane (without them Suzanne's skin went 0.12 mm into the floor).
+CONTACT_WEIGHT = 0.05
 MAX_WEIGHT_RATIO = 1e12  # a constraint's weight is at most this many default weights (Simulation._weight)
 
 
@@ -169,6 +176,7 @@ class Simulation(CoreObject, ForceFields):
         self._colliders: dict[int, dict[str, Any]] = {}
         self._collider_ids = 0
         self._contact_points: tuple[Floats, npt.NDArray[np.int32], bool] | None = None
+        self._contact_skin: tuple[Any, bool] | None = None  # set_contact_skin's, remade when the goals change
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind: str = "position") -> float:
@@ -319,8 +327,12 @@ class Simulation(CoreObject, ForceFields):
         parameter): it never drags a moving body behind its animation. The goal velocities are measured between
         successive ``set_goals`` over the steps taken between them (0 until the second frame after enabling).
         Each ``set_goals`` remakes the edges' rest terms, without refactoring. Acts while goals exist; off (the
-        default) gives the same bits as never set."""
+        default) gives the same bits as never set. A skin set as the contact shape is then carried from
+        ``CONTACT_WEIGHT`` on (``set_contact_skin``)."""
+        changed = bool(enabled) != self.goals_carry_rest
         self._core.set_goal_rest(bool(enabled))
+        if changed and self._contact_skin is not None:
+            self.set_contact_skin(*self._contact_skin)
 
     @property
     def goals_carry_rest(self) -> bool:
@@ -470,24 +482,30 @@ class Simulation(CoreObject, ForceFields):
         the skin"): each rest vertex of ``skin`` (an ``opdeform.Skin`` of this graph) is carried rigidly by each
         particle that skins it (weight > 0), and these points meet them instead of the particles' ellipsoids:
         the skinned vertex, a blend of its carried copies, stays out of a plane that each copy stays out of, so
-        the skin, not the ellipsoids, rests on them. None: the ellipsoids again (the default). In a ContactGroup
-        these points also meet the other members (their skin points, or their ellipsoids where they have none);
-        ``bodies=False``: the other members meet this body's ellipsoids (the add-on's groups). Self-contact keeps
-        the ellipsoids."""
+        the skin, not the ellipsoids, rests on them. While the goals carry the rest (``set_goals_carry_rest``) a
+        particle carries only the vertices it skins with a weight of at least ``CONTACT_WEIGHT`` (or its vertex's
+        largest): a far copy of small weight met a floor the skin never came near. None: the ellipsoids again
+        (the default). In a ContactGroup these points also meet the other members (their skin points, or their
+        ellipsoids where they have none); ``bodies=False``: the other members meet this body's ellipsoids (the
+        add-on's groups). Self-contact keeps the ellipsoids."""
         if skin is None:
             self.set_contact_points(None)
             return
         if getattr(skin, "graph", None) is not self.graph:
             raise ValueError("skin: an opdeform.Skin bound to this simulation's graph expected")
-        carried = skin.weights > 0.0
+        weights = skin.weights
+        least = np.minimum(CONTACT_WEIGHT if self.goals_carry_rest else 0.0, weights.max(axis=1, keepdims=True))
+        carried = (weights > 0.0) & (weights >= least)
         vertex = np.broadcast_to(np.arange(skin.n_vertices)[:, None], carried.shape)[carried]
         rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
         self.set_contact_points(rest[vertex], skin.indices[carried], bodies)
+        self._contact_skin = (skin, bodies)
 
     def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None,
                            bodies: bool = True) -> None:
         """``set_contact_skin`` with any rest-space points (m,3) (a sampling of the skin), each carried by the
         particle of ``particles`` (m,) int; a particle given none keeps its centre. None: the ellipsoids."""
+        self._contact_skin = None
         if points is None:
             self._core.set_contact_skin(np.empty((0, 3)), np.empty(0, np.int32), False)
             self._contact_points = None
