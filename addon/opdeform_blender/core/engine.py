@@ -49,6 +49,12 @@ ENCLOSED_REACH = 0.65
 # 1.22x at power 1), and the outside bear's 74-particle belly and cheeks 1.37 times its held ones stretch 1.46x at
 # Fleshy (1.63x without, 1.52x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's.
 PATCH_SHARE_POWER = 1.5
+# patch_softness: a soft patch's scale on the rule's softness kept within this range, found in this many passes
+# (each a conjugate-gradient solve to this relative residual, at most this many iterations)
+PATCH_SCALE_RANGE = (1.0 / 16.0, 16.0)
+PATCH_SCALE_PASSES = 4
+PATCH_SAG_TOLERANCE = 1e-6
+PATCH_SAG_ITERATIONS = 1000
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -168,6 +174,13 @@ def _relaxed(values, i, j, step, joined=None):
         values = lower
 
 
+def _soft_patches(held, i, j):
+    """Each particle's soft patch (the least particle index of the patch; len(held) where held): the particles
+    joined by links between two not held."""
+    n = len(held)
+    return _relaxed(np.where(held, n, np.arange(n)), i, j, 0, ~held[i] & ~held[j])
+
+
 def region_frequency(graph, elastic_hz, held):
     """Each particle's elastic frequency as a part of the soft patch it lies in, held where ``held`` (a mask):
     its own (``elastic_frequency``) times l / max(d, l), l its mean link length, d its distance along the links
@@ -179,7 +192,7 @@ def region_frequency(graph, elastic_hz, held):
     i, j, length, mean = _link_lengths(graph)
     c = graph.centers
     far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
-    patch = _relaxed(np.where(held, len(c), np.arange(len(c))), i, j, 0, ~held[i] & ~held[j])
+    patch = _soft_patches(held, i, j)
     soft = ~held & np.isfinite(far)
     reach = np.zeros(len(c) + 1)
     np.maximum.at(reach, patch[soft], far[soft])
@@ -200,6 +213,66 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     with np.errstate(divide="ignore"):
         ratio = np.minimum(jiggle_hz / elastic_hz, 1.0)  # 1 where elastic_hz is 0 (nothing to soften)
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
+
+
+def _patch_sag(graph, link, goal, mass, free):
+    """Each particle's sag under a unit acceleration (m per m/s²) in the scalar model of the patch calibration:
+    particles where ``free`` on links of stiffness ``link`` (one per graph edge, N/m) and goal springs ``goal``
+    (N/m), the others held still; conjugate gradients with a Jacobi preconditioner."""
+    i, j = np.asarray(graph.edges).T
+    diagonal = goal + np.bincount(i, link, len(mass)) + np.bincount(j, link, len(mass))
+
+    def apply(u):
+        pull = link * (u[i] - u[j])
+        return np.where(free, goal * u + np.bincount(i, pull, len(u)) - np.bincount(j, pull, len(u)), 0.0)
+
+    u = np.zeros(len(mass))
+    residual = np.where(free, mass, 0.0)
+    z = residual / diagonal
+    direction, rz = z.copy(), residual @ z
+    for _ in range(PATCH_SAG_ITERATIONS):
+        pushed = apply(direction)
+        step = rz / (direction @ pushed)
+        u += step * direction
+        residual -= step * pushed
+        if np.linalg.norm(residual) <= PATCH_SAG_TOLERANCE * np.linalg.norm(mass[free]):
+            break
+        z = residual / diagonal
+        rz, last = residual @ z, rz
+        direction = z + (rz / last) * direction
+    return u
+
+
+def patch_softness(graph, stiffness, density, held, goal_hz, softness, region_hz):
+    """The jiggle rule's link softness with each soft patch's scaled so that the patch sags, under a unit
+    acceleration in a scalar model of it (its links k (v_i + v_j) min(r_i, r_j) as in ``elastic_frequency``, its
+    goal springs, the held particles still), as far as a spring of the rule's frequency for its particle that
+    sags most, sqrt(r) f (f its elastic frequency: (J / f)^(2 (1 - Follow)) f^2 = J^2 (1 - Follow) f^(2 Follow)),
+    sags: 1 / (2π sqrt(r) f)². A patch that one particle carries (a painted spot at 50 particles) then sags as
+    one that ten carry (at 400); before, the rule set each particle's own frequency and the spot's sag grew with
+    the count (docs/goals.md, "Jiggle over the counts"). The scale is kept within PATCH_SCALE_RANGE; softness 1
+    (held, or a shell) stays 1."""
+    v = graph.volumes
+    i, j = np.asarray(graph.edges).T
+    k = np.broadcast_to(np.asarray(stiffness, dtype=np.float64), v.shape)
+    mass = density * v
+    goal = mass * (2.0 * np.pi * np.asarray(goal_hz)) ** 2
+    free = ~held & (softness < 1.0)
+    patch = _soft_patches(~free, i, j)
+    with np.errstate(divide="ignore"):  # inf where not free (region_hz 0): never wanted
+        target = 1.0 / (2.0 * np.pi * np.sqrt(softness) * region_hz) ** 2
+    scale = np.ones(len(v) + 1)
+    for _ in range(PATCH_SCALE_PASSES):
+        r = np.where(free, np.clip(scale[patch] * softness, LINK_SOFTNESS_MIN, 1.0), softness)
+        sag = _patch_sag(graph, 0.5 * (k[i] + k[j]) * (v[i] + v[j]) * np.minimum(r[i], r[j]), goal, mass, free)
+        most = np.zeros(len(v) + 1)
+        np.maximum.at(most, patch[free], sag[free])
+        wanted = np.zeros(len(v) + 1)
+        sags_most = free & (sag >= most[patch])
+        wanted[patch[sags_most]] = target[sags_most]
+        ratio = np.divide(most, wanted, out=np.ones_like(most), where=wanted > 0.0)
+        scale = np.clip(scale * ratio, *PATCH_SCALE_RANGE)
+    return np.where(free, np.clip(scale[patch] * softness, LINK_SOFTNESS_MIN, 1.0), softness)
 
 
 def _same_params(a, b):
@@ -604,7 +677,9 @@ class Engine:
                                                                         given["density"]), follow >= HELD_FOLLOW)
             self._jiggle_key = (follow, given, jiggle_hz)
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
-            self._jiggle = np.where(piece == body, jiggle_softness(hz, follow, target), 1.0)
+            softness = np.where(piece == body, jiggle_softness(hz, follow, target), 1.0)
+            self._jiggle = patch_softness(self.graph, given["stiffness"], given["density"], follow >= HELD_FOLLOW,
+                                          self.od.goal_frequency(follow), softness, hz)
         return self._jiggle
 
     def goal_frames(self, incoming, matrix):
