@@ -51,7 +51,7 @@ ENCLOSED_REACH = 0.65
 PATCH_SHARE_POWER = 1.5
 # patch_softness: a soft patch's scale on the rule's softness kept within this range, found in this many passes
 # (each a conjugate-gradient solve to this relative residual, at most this many iterations)
-PATCH_SCALE_RANGE = (1.0 / 16.0, 16.0)
+PATCH_SCALE_RANGE = (1.0, 16.0)
 PATCH_SCALE_PASSES = 4
 PATCH_SAG_TOLERANCE = 1e-6
 PATCH_SAG_ITERATIONS = 1000
