@@ -263,6 +263,8 @@ def patch_softness(graph, stiffness, density, held, goal_hz, softness, region_hz
     mass = density * v
     goal = mass * (2.0 * np.pi * np.asarray(goal_hz)) ** 2
     free = ~held & (softness < 1.0)
+    if not free.any():
+        return softness
     patch = _soft_patches(~free, i, j)
     with np.errstate(divide="ignore"):  # inf where not free (region_hz 0): never wanted
         target = 1.0 / (2.0 * np.pi * np.sqrt(softness) * region_hz) ** 2
