@@ -525,6 +525,116 @@ def test_the_jiggle_rule_keeps_a_body_painted_soft_nearly_all_over():
     assert softest[1] > 30 * softest[0], softest
 
 
+def test_the_skin_gradient_is_how_fast_a_links_ends_trade_the_skin_per_metre():
+    """engine.skin_gradient on a strip of three vertices 1 m apart, skinned to particle 0, half and half, then
+    particle 1: (w_1 - w_0) / 2 goes -0.5, 0, 0.5, so the link's gradient is 0.5 a metre; halving the edges
+    doubles it; a link no mesh edge's skin names gets 0, and no links or edges give an empty or zero result."""
+    from opdeform_blender.core import engine
+    indices = np.array([[0, 1], [0, 1], [1, 0], [2, 0]])
+    weights = np.array([[1.0, 0.0], [0.5, 0.5], [1.0, 0.0], [1.0, 0.0]])
+    edges = (np.array([0, 1]), np.array([1, 2]))
+    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    links = np.array([[0, 1], [1, 2]])
+    np.testing.assert_allclose(engine.skin_gradient(indices, weights, edges, rest, links), [0.5, 0.0])
+    np.testing.assert_allclose(engine.skin_gradient(indices, weights, edges, 0.5 * rest, links), [1.0, 0.0])
+    assert engine.skin_gradient(indices, weights, edges, rest, np.zeros((0, 2), int)).shape == (0,)
+    empty = (np.array([], int), np.array([], int))
+    np.testing.assert_array_equal(engine.skin_gradient(indices, weights, empty, rest, links), 0.0)
+
+
+def _hop(v, f):
+    """The tailed body's vertices ``v`` at frame f of two 0.2 m hops in 1 s, then still (float32)."""
+    animated = v.copy()
+    animated[:, 2] += 0.2 * abs(math.sin(2 * math.pi * (min(f, 25) - 1) / 24))
+    return animated.astype(np.float32)
+
+
+def _belly_hops(bound, frames=36):
+    """The tailed body's front painted Follow 0.15 falling to 1 over 0.5 m (a belly), the jiggle rule at Fleshy,
+    hopping 0.2 m twice in 1 s, then still, 100 particles; ``bound`` False: the stretch bound off. The engine,
+    each frame's output, the largest mesh edge stretch and the largest distance from the animation (m)."""
+    from opdeform_blender.core import settings
+    e, v, is_tail, _, _ = _tailed_engine(100)
+    front = v[~is_tail][np.argmin(v[~is_tail][:, 1])]
+    e.set_goal(0.0, np.where(is_tail, 1.0, np.clip(0.15 + 1.7 * np.linalg.norm(v - front, axis=1), 0.0, 1.0)))
+    e.set_regions(jiggle_hz=settings.LOOKS["Fleshy"]["jiggle_hz"])
+    if not bound:
+        e.sim.set_stretch_limit(0.0, None)
+    outs, stretch, moved = [], 1.0, 0.0
+    for f in range(1, frames + 1):
+        animated = _hop(v, f)
+        out = e.goto(f, None, animated).copy()
+        outs.append(out)
+        stretch = max(stretch, e.mesh_stretch(out))
+        moved = max(moved, float(np.linalg.norm(out - animated, axis=1).max()))
+    return e, v, outs, stretch, moved
+
+
+def test_the_stretch_bound_keeps_a_jiggling_belly_under_one_and_a_half_and_replays_it():
+    """Issue 24: no mesh edge over 1.5x its animated length. Without the bound the belly's links, softened by the
+    jiggle rule, stretch its edges 1.80x during the hops (the outside bear: 1.46-1.64x); with it 1.38x while the
+    belly still moves 95 of its 108 mm. The raise is a function of each frame's start state, so frames simulated
+    again from the cache make the same bits."""
+    e, v, outs, stretch, moved = _belly_hops(True)
+    assert stretch < 1.45, stretch
+    *_, free_stretch, free_moved = _belly_hops(False)
+    assert free_stretch > 1.6, free_stretch
+    assert moved > 0.8 * free_moved, (moved, free_moved)
+    e.invalidate(keep_until=10)
+    for f in range(11, len(outs) + 1):
+        assert np.array_equal(e.goto(f, None, _hop(v, f)), outs[f - 1]), f
+
+
+def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
+    """A detached shell painted soft (the tailed body's 0.46 m tail, Follow 1 -> 0.1; the knight's ponytail moved
+    2.6 mm with the rule leaving shells alone): its links are softened as one, from its own lowest frequency
+    (engine.shell_frequency: a few Hz, a cantilever's, not its particles' elastic one) toward the jiggle frequency by
+    its least painted Follow, before Shell Min; painted 1 it keeps them, and the body's links are the rule's on the
+    body."""
+    from opdeform_blender.core import engine
+    e, _, is_tail, _, follow = _tailed_engine(100)
+    _, piece, body = e.pieces()
+    tail = piece != body
+    e.set_goal(0.0, follow, shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    r = e.sim.link_softness
+    assert r[tail].max() < 0.5 and np.ptp(r[tail]) == 0.0, r[tail]
+    label = engine.swinging_shells(checks.vertex_pieces(e.rest, e.triangles)[0], e.triangles, e.graph, piece, body)
+    np.testing.assert_array_equal(label > 0, tail)
+    hz = engine.shell_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label)
+    assert np.all(hz[~tail] == 0.0) and np.ptp(hz[tail]) == 0.0 and 1.75 < hz[tail][0] < 100.0, hz[tail]
+    least = e._painted[tail].min()
+    assert least < 0.2 < e.goal_strength[tail].min(), least  # as painted, not Shell Min's
+    np.testing.assert_allclose(r[tail], (1.75 / hz[tail][0]) ** (2.0 * (1.0 - least)))
+    e.set_goal(0.0, np.where(is_tail, 1.0, follow), shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    np.testing.assert_array_equal(e.sim.link_softness[tail], 1.0)
+
+
+def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
+    """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open: the fish's fins
+    swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor a short one
+    (the bear's ears, 2.1-3.1x)."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    body, tail, ball = (meshes.capsule(radius=0.2, length=0.6), meshes.capsule(radius=0.03, length=0.4),
+                        meshes.capsule(radius=0.06, length=0.0))
+    card_v = np.array([[x, y, 0.45] for x in (0.0, 0.2, 0.4, 0.6) for y in (-0.1, 0.0, 0.1)])  # 0.6 x 0.2 m
+    cells = (0, 1, 3, 4, 6, 7)
+    card_t = np.array([[i, i + 3, i + 1] for i in cells] + [[i + 1, i + 3, i + 4] for i in cells])  # one-sided
+    parts = [(body[0] + (0.0, 0.0, 0.2), body[1]), (tail[0] + (0.0, 0.0, 0.45), tail[1]),
+             (ball[0] + (-0.3, 0.0, 0.45), ball[1]), (card_v, card_t)]
+    v = np.vstack([p[0] for p in parts])
+    start = np.cumsum([0] + [len(p[0]) for p in parts])
+    t = np.vstack([p[1] + s for p, s in zip(parts, start)])
+    e = Engine(opdeform, v, t, particles=100, small_pieces="own")
+    _, piece, body_piece = e.pieces()
+    vertex_piece = checks.vertex_pieces(e.rest, e.triangles)[0]
+    label = engine.swinging_shells(vertex_piece, e.triangles, e.graph, piece, body_piece)
+    taken = np.unique(piece[label > 0])
+    assert list(taken) == [vertex_piece[start[1]]], (taken, vertex_piece[start])
+
+
 def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
     """engine.region_frequency on a capsule: a soft patch among held particles rings at its particles' own
     frequency scaled by l / d (its reach from them); the capsule's free half, held at one end only (the worm of
@@ -760,6 +870,18 @@ def test_the_thin_part_warning_names_a_count_that_clears_it():
         enough = opdeform.Graph.from_mesh(v, t, particles=int(text.rsplit(" ", 1)[1]))
         assert not checks.thin_part(opdeform, enough, v, t)[2], text
     assert checks.thin_part_text(None, 100) is None and checks.thin_part_text((0.2, 0.05, False), 100) is None
+
+
+def test_thin_part_advice_past_the_slider_says_what_it_would_take():
+    """A 6 cm tail on a 1.8 m pig (an outside tester's) was told "raise Particles to about 15350", past the
+    slider's 2,000: past checks.PARTICLES_OFFERED the warning says the count it would take and what the part does
+    instead of asking for it; at or under it, the count to raise to, as before."""
+    far = checks.thin_part_text((0.06, 0.2, True), 100)
+    assert "raise Particles" not in far and "would take about 39450 particles, past the 2000" in far, far
+    near = checks.thin_part_text((0.06, 0.05, True), 100)
+    assert near.endswith("raise Particles to about 650"), near
+    text = checks.appendages_text([((0.0, 0.0, 0.0), 0.3, 1)], 1000)
+    assert "3 along would take about 3000 particles" in text and "raise Particles" not in text, text
 
 
 def test_thin_appendages_are_named_with_the_particles_that_would_do():

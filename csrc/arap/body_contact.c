@@ -1955,6 +1955,26 @@ static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const 
 	*friction = fmax(rate, 1.0 / (count * across + own));
 }
 
+// A pair whose lighter member rests on a much heavier one (od_Perched) measures its friction's slip against where
+// the heavier end stood at the step's start. The heavier member's floor holds it after the iterations, so in the
+// solves it falls (a Jelly slab 1,000 times as dense as the one on it: its top particles 20 mm a step at 1/24 s,
+// under 0.3 mm once the floor has put them back), and across pair normals leaning 10-25 degrees on its crushed,
+// bumpy top that fall read as the pairs' slip: 2-5 mm a step, in as many directions as the normals lean. The light
+// slab's friction, at its Coulomb bound, held against those (load-weighted cosine to the step's true slip -0.05 to
+// -0.7), 0.1 of its weight of the 0.55 its bounds allowed against the normals' lean, and the slab slid off (0.88 m
+// aside at 3 s; docs/contact.md, "Stop 48"). The normal force keeps the heavier end where it is: measured against
+// its start too, at 24 steps a second Rubber and Stiff slabs on ones 10 times as dense shook (0.47, 0.10 m/s) and a
+// Stiff slab on one 1,000 times as dense (0.12 m/s).
+static void od_StillBelow(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b)
+{
+	int light = od_Perched(s, pair);
+	od_End* heavy = light < 0 ? NULL : s->body[pair->a] == light ? b : a;
+	if (heavy)
+	{
+		heavy->x1 = heavy->x0;
+	}
+}
+
 // After each solve of a step's iterations: measures the near pairs, updates their forces and puts them on
 // the particles' right sides for the next solve. The pairs pressing a particle are those counted at the
 // last update (s->active; none at the first), so that one pass does it.
@@ -1983,6 +2003,7 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate, slide;
 		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
+		od_StillBelow(s, pair, &a, &b);
 		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
 					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL, pull);
 	}

@@ -240,6 +240,7 @@ typedef struct od_Body
 	od_Mat3 M;
 	double reach, step, recovery;
 	double hold;  // the friction the forces inside the iterations left unused (surface_contact.c), on one collider
+	double given; // the lift whose friction its piece's turn took (od_SurfaceContact_Given), on that collider
 	bool near;    // that collider, in the iterations (od_SurfaceContact_Near): not swept when it is still
 	od_Vec3 side; // the normal of the surface it was near then (world; zero when not near)
 	bool goal;
@@ -292,6 +293,7 @@ static void od_BodyAt(const od_Sim* sim, int i, const double* rotation, od_Body*
 	b->step = 0.5 * (least < r[2] ? least : r[2]);
 	b->recovery = od_RecoveryLimit(sim);
 	b->hold = 0.0;
+	b->given = 0.0;
 	b->near = false;
 	b->side = od_V3(0, 0, 0);
 	b->goal = od_Goals_CarryRest(sim);
@@ -630,7 +632,7 @@ static void od_Touch(const od_SimCollider* c, const od_Body* b, od_Vec3 start, o
 		// a 2 cm box (an outside review, 2026-11-24).
 		od_Vec3 slip = od_M3MulV(&c->Rb, od_Sub(l, la));
 		slip = od_MulAdd(slip, -od_Dot(slip, nb), nb);
-		double k = od_CoulombKeep(od_Length(slip), c->friction * fmax(push, 0.0) + b->hold);
+		double k = od_CoulombKeep(od_Length(slip), c->friction * fmax(push - b->given, 0.0) + b->hold);
 		moved = od_MulAdd(moved, k - 1.0, slip);
 		*keep *= k;
 	}
@@ -667,6 +669,7 @@ void od_ContactStep(od_Sim* sim, const od_State* before, double s0, double s1, d
 		for (int k = 0; k < sim->colliders.count; ++k)
 		{
 			b.hold = od_SurfaceContact_Hold(sim, i, k);
+			b.given = od_SurfaceContact_Given(sim, i, k);
 			b.near = od_SurfaceContact_Near(sim, i, k);
 			b.side = b.near ? od_V3Load(sim->surface.normal + 3 * i) : od_V3(0, 0, 0);
 			od_Vec3 by = od_V3(0, 0, 0);

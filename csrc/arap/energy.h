@@ -27,6 +27,12 @@ static inline double od_SofterEnd(const double* r, int a, int b)
 	return r ? fmin(r[a], r[b]) : 1.0;
 }
 
+// The softness the link weights are made of: the one set, or the stretch bound's raise of it (stretch_bound.c).
+static inline const double* od_LinkSoftnessInUse(const od_Sim* sim)
+{
+	return sim->linkSoftness && sim->linkRaised ? sim->linkRaised : sim->linkSoftness;
+}
+
 // w_ij = min(r_i, r_j) of directed edge e from i to j (od_Sim_SetLinkSoftness): 1 without a link softness.
 static inline double od_LinkWeight(const od_Sim* sim, int e)
 {

@@ -83,7 +83,8 @@ void od_FloorStep(od_Sim* sim, const od_State* before, double* angularScale, dou
 			continue;
 		}
 		double dx = x[3 * i] - before->x[3 * i], dy = x[3 * i + 1] - before->x[3 * i + 1];
-		double keep = od_CoulombKeep(sqrt(dx * dx + dy * dy), mu * lift + hold);
+		double given = od_SurfaceContact_Given(sim, i, OD_SURFACE_FLOOR);
+		double keep = od_CoulombKeep(sqrt(dx * dx + dy * dy), mu * fmax(lift - given, 0.0) + hold);
 		x[3 * i] = before->x[3 * i] + keep * dx;
 		x[3 * i + 1] = before->x[3 * i + 1] + keep * dy;
 		angularScale[i] = keep;

@@ -137,7 +137,7 @@ static void od_FillMatrix(const od_Sim* sim, cholmod_triplet* t)
 		double diag = (sim->mode == OD_DYNAMIC ? rho * g->volumes[i] / (h * h) : 0.0) + od_Goals_Diagonal(sim, i);
 		od_PushEntry(t, i, i, diag);
 	}
-	const double* r = sim->linkSoftness;
+	const double* r = od_LinkSoftnessInUse(sim);
 	for (int e = 0; e < g->edgeCount; ++e)
 	{
 		int a = g->edges[2 * e], b = g->edges[2 * e + 1];

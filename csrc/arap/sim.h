@@ -142,6 +142,7 @@ typedef struct od_SurfaceContact
 	double* anchor;  // n*3, where its slide is measured from
 	double* excess;  // n, the depth beyond the allowed one at the last update
 	double* hold;    // n, the friction its forces left unused at the step's end, as a slide: (μ f - |t|) h²/m
+	double* given;   // n, the lift after the iterations whose friction its piece's turn took (od_TurnFriction), m
 	double* piece;   // 3 per connected piece: its mass, its pressing particles' mass and Σ m_i excess_i of those
 	struct od_Patch* patch; // per connected piece: its contact patch and rigid motion at a step's end (rolling)
 	int* source;     // n
@@ -337,6 +338,11 @@ struct od_Sim
 	// weighted w_ij = min(r_i, r_j), so the term over ellipsoid j of directed edge (i, j) weighs s_j w_ij.
 	double* linkSoftness; // NULL: all 1
 	double* linkWeight;   // w_ij per directed edge (CSR order of graph->adj) with a softness, else NULL
+	// The stretch bound (od_Sim_SetStretchLimit, stretch_bound.c): 0 off, else the limit L > 1, and the softness
+	// the weights were last made from, linkSoftness raised where links stretch past L (n; NULL while off).
+	double stretchLimit;
+	double* linkRaised;   // OD_STRETCH_SCRATCH n: the raised softness, then the bound's scratch
+	double* skinGradient; // per link (graph->edges order): its skin gradient (stretch_bound.c; NULL: none)
 	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 
 	// Per directed edge (CSR order of graph->adj), scaled by k, the scale and the link weight; rebuilt when one
@@ -377,6 +383,14 @@ static inline double od_SurfaceContact_Hold(const od_Sim* sim, int i, int source
 {
 	const od_SurfaceContact* s = &sim->surface;
 	return s->hold && s->source[i] == source ? s->hold[i] : 0.0;
+}
+
+// How much of particle i's lift off `source` after the iterations already had its friction, its piece's as a whole
+// (surface_contact.c, od_TurnFriction): the projection's own friction is on the rest of its push.
+static inline double od_SurfaceContact_Given(const od_Sim* sim, int i, int source)
+{
+	const od_SurfaceContact* s = &sim->surface;
+	return s->given && s->source[i] == source ? s->given[i] : 0.0;
 }
 
 // Whether particle i was near `source` in this step's iterations (from the first solve on, on the side it began:

@@ -23,6 +23,7 @@
 #include "skin_shape.h"
 #include "sim.h"
 #include "step.h"
+#include "stretch_bound.h"
 #include "surface_contact.h"
 #include "tolerance.h"
 
@@ -300,6 +301,8 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->elasticVolumes);
 	od_Free(sim->linkSoftness);
 	od_Free(sim->linkWeight);
+	od_Free(sim->linkRaised);
+	od_Free(sim->skinGradient);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
@@ -351,18 +354,14 @@ static void od_FillElasticVolumes(od_Sim* sim)
 	}
 }
 
-// w_ij = min(r_i, r_j) of every directed edge (od_LinkWeight).
+// w_ij = min(r_i, r_j) of every directed edge (od_LinkWeight), and the stretch bound's raised softness as set.
 static void od_FillLinkWeights(od_Sim* sim)
 {
-	const od_Graph* g = sim->graph;
-	const double* r = sim->linkSoftness;
-	for (int i = 0; i < g->n; ++i)
+	if (sim->linkRaised)
 	{
-		for (int e = g->adjStart[i]; e < g->adjStart[i + 1]; ++e)
-		{
-			sim->linkWeight[e] = od_SofterEnd(r, i, g->adj[e]);
-		}
+		memcpy(sim->linkRaised, sim->linkSoftness, sizeof(double) * (size_t)sim->graph->n);
 	}
+	od_MakeLinkWeights(sim, sim->linkSoftness);
 }
 
 // Keeps n checked values per particle (the scale or the link softness) in *kept and the `count` weights fill
@@ -432,6 +431,66 @@ od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness)
 const double* od_Sim_GetLinkSoftness(const od_Sim* sim)
 {
 	return sim->linkSoftness;
+}
+
+// The raised softness back to the softness as set, and the bound's arrays freed.
+static void od_StretchBoundOff(od_Sim* sim)
+{
+	size_t bytes = sizeof(double) * (size_t)sim->graph->n;
+	if (sim->linkSoftness && sim->linkRaised && memcmp(sim->linkRaised, sim->linkSoftness, bytes))
+	{
+		od_MakeLinkWeights(sim, sim->linkSoftness);
+		sim->stiffnessVersion++;
+		sim->edgeStiffness = 0.0;
+	}
+	od_Free(sim->linkRaised);
+	od_Free(sim->skinGradient);
+	sim->linkRaised = sim->skinGradient = NULL;
+	sim->stretchLimit = 0.0;
+}
+
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient)
+{
+	int n = sim->graph->n;
+	if (!(limit == 0.0 || (limit > 1.0 && isfinite(limit))))
+	{
+		return od_Fail(OD_ERROR_ARGUMENT, "stretch limit = %g must be 0 (off) or finite and > 1", limit);
+	}
+	for (int e = 0; gradient && e < sim->graph->edgeCount; ++e)
+	{
+		if (!(gradient[e] >= 0.0) || !isfinite(gradient[e]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", e, gradient[e]);
+		}
+	}
+	od_StretchBoundOff(sim);
+	if (limit == 0.0)
+	{
+		return OD_OK;
+	}
+	size_t bytes = sizeof(double) * (size_t)n, links = sizeof(double) * (size_t)sim->graph->edgeCount;
+	sim->linkRaised = od_Alloc(OD_STRETCH_SCRATCH * bytes); // and the bound's scratch (stretch_bound.c)
+	sim->skinGradient = gradient ? od_Alloc(links) : NULL;
+	if (!sim->linkRaised || (gradient && !sim->skinGradient))
+	{
+		od_StretchBoundOff(sim);
+		return od_Fail(OD_ERROR_MEMORY, "out of memory for the stretch bound of %d particles", n);
+	}
+	if (sim->linkSoftness)
+	{
+		memcpy(sim->linkRaised, sim->linkSoftness, bytes);
+	}
+	if (gradient)
+	{
+		memcpy(sim->skinGradient, gradient, links);
+	}
+	sim->stretchLimit = limit;
+	return OD_OK;
+}
+
+double od_Sim_GetStretchLimit(const od_Sim* sim)
+{
+	return sim->stretchLimit;
 }
 
 od_Status od_Sim_SetFloor(od_Sim* sim, double height, double friction)

@@ -23,6 +23,7 @@
 #include "polar.h"
 #include "position_constraints.h"
 #include "scene_colliders.h"
+#include "stretch_bound.h"
 #include "surface_contact.h"
 #include "tolerance.h"
 
@@ -310,6 +311,11 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 od_Status od_Step_Begin(od_Sim* sim, int steps)
 {
 	od_Status status = od_Begin(sim, OD_DYNAMIC);
+	if (status == OD_OK)
+	{
+		od_StretchBound(sim, steps * sim->def.dt);
+		od_LocalStep_PrepareEdges(sim);
+	}
 	status = status == OD_OK ? od_SurfaceContact_Reserve(sim) : status;
 	if (status == OD_ERROR_MEMORY)
 	{

@@ -149,6 +149,7 @@ void od_SurfaceContact_Destroy(od_SurfaceContact* s)
 	od_Free(s->anchor);
 	od_Free(s->excess);
 	od_Free(s->hold);
+	od_Free(s->given);
 	od_Free(s->piece);
 	od_Free(s->patch);
 	od_Free(s->source);
@@ -178,6 +179,7 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->anchor = od_AllocZero(3 * n, sizeof(double));
 	s->excess = od_AllocZero(n, sizeof(double));
 	s->hold = od_AllocZero(n, sizeof(double));
+	s->given = od_AllocZero(n, sizeof(double));
 	s->piece = od_AllocZero(OD_PIECE * (size_t)sim->graph->pieceCount, sizeof(double));
 	s->patch = od_AllocZero((size_t)sim->graph->pieceCount, sizeof(od_Patch));
 	s->source = od_AllocZero(n, sizeof(int));
@@ -188,7 +190,7 @@ od_Status od_SurfaceContact_Reserve(od_Sim* sim)
 	s->keptCarried = od_AllocZero(3 * n, sizeof(double));
 	s->keptSource = od_AllocZero(n, sizeof(int));
 	s->impulse = od_AllocZero(OD_TURN_ROW * n, sizeof(double));
-	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold ||
+	if (!s->force || !s->normal || !s->tangent || !s->push || !s->level || !s->anchor || !s->excess || !s->hold || !s->given ||
 		!s->piece || !s->patch || !s->source || !s->point || !s->near || !s->carried || !s->carriedSource ||
 		!s->keptCarried || !s->keptSource || !s->impulse)
 	{
@@ -329,6 +331,7 @@ bool od_SurfaceContact_Start(od_Sim* sim)
 	if (s->force)
 	{
 		memset(s->hold, 0, sizeof(double) * (size_t)sim->graph->n);
+		memset(s->given, 0, sizeof(double) * (size_t)sim->graph->n);
 	}
 	if (!s->force || s->after)
 	{
@@ -941,6 +944,7 @@ static void od_TurnFriction(od_Sim* sim)
 		if (p->force > 0.0 && lift > 0.0)
 		{
 			od_AddLift(sim, i, lift);
+			s->given[i] = lift;
 		}
 	}
 	od_SlideBack(sim);

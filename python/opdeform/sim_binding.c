@@ -218,6 +218,36 @@ static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
 }
 
+// set_stretch_limit(limit, gradient or None): limit 0 off, else > 1; n gradients >= 0
+static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
+{
+	od_Sim* sim = Sim_Enter(obj);
+	double limit;
+	PyObject* arg;
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "dO", &limit, &arg))
+	{
+		return NULL;
+	}
+	PyObject* edges = PyObject_GetAttrString(((SimObject*)obj)->graph, "n_edges"); // the links, one value each
+	Py_ssize_t links = edges ? PyLong_AsSsize_t(edges) : -1;
+	Py_XDECREF(edges);
+	if (links < 0 || GetOptionalArray(arg, "gradient", 'd', links, &view) < 0)
+	{
+		return NULL;
+	}
+	od_Status status = od_Sim_SetStretchLimit(sim, limit, ArrayData(&view));
+	ReleaseArray(&view);
+	return Binding_Done(obj, status);
+}
+
+static PyObject* Sim_stretch_limit(PyObject* obj, PyObject* unused)
+{
+	(void)unused;
+	od_Sim* sim = Sim_Enter(obj);
+	return sim ? PyFloat_FromDouble(od_Sim_GetStretchLimit(sim)) : NULL;
+}
+
 // set_goals(positions, rotations or None)
 static PyObject* Sim_set_goals(PyObject* obj, PyObject* args)
 {
@@ -818,6 +848,8 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
+	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None): limit 0 off, else > 1" },
+	{ "stretch_limit", Sim_stretch_limit, METH_NOARGS, "stretch_limit() -> the stretch bound's limit (0: off)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },
 	{ "goal_motion", Sim_goal_motion, METH_VARARGS, "goal_motion(velocities_out, angular_velocities_out) -> steps" },

@@ -159,6 +159,7 @@ class Simulation(CoreObject, ForceFields):
         self._constraints: dict[int, list[Any]] = {}
         self._history: list[int] = []
         self._ids_before = 0
+        self._stretch_bound: tuple[float, Floats | None] = (0.0, None)  # set_stretch_limit's arguments
         self._floor: tuple[float, float] | None = None
         self._goal_hz: Floats | None = None
         self._goal_frames: tuple[Floats, Floats | None] | None = None
@@ -259,6 +260,26 @@ class Simulation(CoreObject, ForceFields):
         1."""
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("link_softness", out) else None
+
+    def set_stretch_limit(self, limit: float, gradient: ArrayLike | None = None) -> None:
+        """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
+        link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
+        there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
+        function of the call's start alone, so a frame simulated again from a restored state gets the same. A
+        link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
+        ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
+        weights changes per metre along a mesh edge), or over the link's length (None). Its length and its ends'
+        frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
+        default); else > 1. With no link past the limit: the same bits as off."""
+        links = len(self.graph.edges)
+        gradient = None if gradient is None else as_array("gradient", gradient, (links,))
+        self._core.set_stretch_limit(float(limit), gradient)
+        self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
+
+    @property
+    def stretch_limit(self) -> float:
+        """The stretch bound's limit (set_stretch_limit; 0: off)."""
+        return self._core.stretch_limit()
 
     # -- goals ----------------------------------------------------------------------------------------
     def set_goal_strength(self, strength: float | ArrayLike | None) -> None:
@@ -515,7 +536,7 @@ class Simulation(CoreObject, ForceFields):
         with velocities. The factorization is rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale,
-                "link_softness": self.link_softness, "solver": solver,
+                "link_softness": self.link_softness, "stretch_bound": self._stretch_bound, "solver": solver,
                 "trace_energy": self.trace_energy, "floor": self._floor, "goal_hz": self._goal_hz,
                 "goal_frames": self._goal_frames, "goal_rest": self.goals_carry_rest, "goal_motion": self.goal_motion,
                 "surface_forces": self.surface_forces,
@@ -542,6 +563,7 @@ class Simulation(CoreObject, ForceFields):
         if saved["stiffness_scale"] is not None:
             self.set_stiffness_scale(saved["stiffness_scale"])
         self.set_link_softness(saved.get("link_softness"))
+        self.set_stretch_limit(*saved.get("stretch_bound", (0.0, None)))
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
         self.set_goals_carry_rest(saved.get("goal_rest", False))

@@ -196,6 +196,44 @@ def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():
     assert abs(size - 4.0) < 0.02 and m.acting_modulus(1.0, size, "goal") == size * size / m.GOAL_REFERENCE_SIZE
 
 
+def test_version_5_file_gets_its_looks_jiggle():
+    """A file saved before the looks set Jiggle (Hz) (settings version 5, the property never set): an object whose
+    other values are a look's gets that look's jiggle on load, and its look is named again; a Jiggle the user set,
+    and an object of no look, keep theirs; what was set is printed."""
+    looks = _module("core.settings").LOOKS
+    for name, look, jiggle in (("Fleshy", "Fleshy", None), ("Floppy", "Floppy", None), ("Set", "Subtle", 0.5),
+                               ("Custom", "Fleshy", None)):
+        obj = _tail(name)
+        bpy.ops.opdeform.apply_preset(object=obj.name, preset=look)
+        s = obj.opdeform
+        s.property_unset("jiggle_hz")  # as saved before the property: never set
+        if jiggle is not None:
+            s.jiggle_hz = jiggle
+        if name == "Custom":
+            s.modulus = 4.0
+        s.settings_version = 5
+    presets = _module("blender.presets")
+    assert presets.current_look(bpy.data.objects["Fleshy"].opdeform) == "Custom"  # what the artist saw
+    path = os.path.join(H.tmpdir(), "v5.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    for name, jiggle, look in (("Fleshy", looks["Fleshy"]["jiggle_hz"], "Fleshy"),
+                               ("Floppy", looks["Floppy"]["jiggle_hz"], "Floppy"), ("Set", 0.5, "Custom"),
+                               ("Custom", 0.0, "Custom")):
+        s = bpy.data.objects[name].opdeform
+        assert s.settings_version == _version() and abs(s.jiggle_hz - jiggle) < 1e-6, (name, s.jiggle_hz)
+        assert presets.current_look(s) == look, (name, presets.current_look(s))
+    lines = _module("blender.versioning").upgrade(bpy.data.objects)
+    assert lines == [], lines  # stamped: a second load changes nothing
+    obj = _tail("Old")
+    obj.opdeform.settings_version = 5
+    obj.opdeform.property_unset("jiggle_hz")
+    bpy.ops.opdeform.apply_preset(object=obj.name, preset="Subtle")
+    obj.opdeform.property_unset("jiggle_hz")
+    lines = _module("blender.versioning").upgrade([obj])
+    assert obj.opdeform.jiggle_hz == looks["Subtle"]["jiggle_hz"] and len(lines) == 1 and "Subtle" in lines[0], lines
+
+
 def _version():
     return _module("core.settings").SETTINGS_VERSION
 

@@ -5,7 +5,7 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from ..core import engine, tumbling
+from ..core import checks, engine, tumbling
 from . import presets
 from .compiled import AddonError, mpm
 from .discovery import mark_discovery
@@ -90,7 +90,7 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     error: StringProperty(name="Error", default="", description="The last error; the simulation is paused "
                                                                 "until Reset")
     # graph
-    particles: IntProperty(name="Particles", default=100, min=2, soft_max=2000,
+    particles: IntProperty(name="Particles", default=100, min=2, soft_max=checks.PARTICLES_OFFERED,
                            description="Number of ellipsoid particles (press Build after changing); a long or "
                            "flat closed detached shell of a rigged mesh gets at least 16 in all, those it "
                            "lacks added beyond this count")

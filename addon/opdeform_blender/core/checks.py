@@ -10,6 +10,7 @@ frame)."""
 import numpy as np
 
 THIN_PART_SPARE = 1.1  # thin_part_text's count asks a tenth more than two across
+PARTICLES_OFFERED = 2000  # the Particles slider's soft maximum (blender/properties.py): advice past it reads apart
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 SMALL_PIECE_RATIO = 0.1  # a detached shell under this share of the largest piece is small (opdeform.graph)
@@ -86,8 +87,8 @@ def thin_part_text(thin, particles, length=None):
         return None
     length = length or (lambda x: f"{_metres(x)} m")
     enough = _round_up(particles * (THIN_PART_SPARE * 2.0 * thin[1] / thin[0]) ** 3)
-    return (f"Thinnest part {length(thin[0])}, particles {length(thin[1])} apart: fewer than two across; raise "
-            f"Particles to about {enough:.0f}")
+    return (f"Thinnest part {length(thin[0])}, particles {length(thin[1])} apart: fewer than two across; "
+            f"{_raise_to(enough, 'two across')}")
 
 
 def appendages_text(parts, particles, length=None, shown=3, along=3):
@@ -101,7 +102,17 @@ def appendages_text(parts, particles, length=None, shown=3, along=3):
     more = f" and {len(parts) - shown} more" if len(parts) > shown else ""
     enough = _round_up(-(-particles * along // max(1, min(n for _, _, n in parts))))
     return (f"{len(parts)} thin part{'s' if len(parts) > 1 else ''} with under {along} particles along "
-            f"({named}{more}): each turns nearly rigidly and hardly jiggles; raise Particles to about {enough}")
+            f"({named}{more}): each turns nearly rigidly and hardly jiggles; {_raise_to(enough, f'{along} along')}")
+
+
+def _raise_to(enough, what):
+    """The advice of a thin-part warning: the count to raise Particles to, or, past the slider's PARTICLES_OFFERED
+    (an outside tester's pig, a 6 cm tail on a 1.8 m body, was told "raise Particles to about 15350"), what it
+    would take and what the part does meanwhile."""
+    if enough <= PARTICLES_OFFERED:
+        return f"raise Particles to about {enough:.0f}"
+    return (f"{what} would take about {enough:.0f} particles, past the {PARTICLES_OFFERED} offered: it moves "
+            f"with the particles around it")
 
 
 def _growing(od, graph, vertices, triangles):

@@ -57,6 +57,17 @@ PATCH_SCALE_RANGE = (1.0, 16.0)
 PATCH_SCALE_PASSES = 4
 PATCH_SAG_TOLERANCE = 1e-6
 PATCH_SAG_ITERATIONS = 1000
+# The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link that would stretch the
+# mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
+# bound (stop 48)").
+STRETCH_LIMIT = 1.2
+# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only a closed one linked to the body and
+# long (its particles spread this much more along one axis than the next, as the core's od_BeamShell): a ponytail.
+# Cards (the fish's fins) swing far below their particles' frequency already, and short ones (the bear's ears)
+# stretched 2.1-3.1x softened (under 1.1x left alone).
+LONG_SHELL = 1.5
+SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
+SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -211,6 +222,46 @@ def region_frequency(graph, elastic_hz, held, counted=None):
     return np.where(enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
 
 
+def shell_frequency(od, graph, stiffness, density, label):
+    """The lowest frequency (Hz) of each shell ``label`` numbers (per particle, 1 ..; 0: the body, held still) as it
+    hangs from the body: the Rayleigh quotient of its static deflection u under a uniform acceleration a along
+    each axis, w^2 = sum m a.u / sum m |u|^2 over its particles, the least of the three axes; 0 on the body."""
+    held, mass = label == 0, density * graph.volumes
+    least = np.full(label.max() + 1, np.inf)
+    for axis in np.eye(3):
+        sim = od.Simulation(graph, stiffness, density=density, gravity=SHELL_LOAD * axis)
+        for point in graph.centers[held]:
+            sim.add_position_constraint(point)
+        sim.set_solver("chebyshev")
+        sim.solve_static(SHELL_ITERATIONS)
+        u = sim.positions - graph.centers
+        work = np.bincount(label, mass * SHELL_LOAD * (u @ axis), len(least))
+        square = np.bincount(label, mass * (u * u).sum(axis=1), len(least))
+        least = np.minimum(least, work / np.maximum(square, 1e-300))
+    least[0] = 0.0
+    return np.sqrt(np.maximum(least, 0.0))[label] / (2.0 * np.pi)
+
+
+def swinging_shells(vertex_piece, triangles, graph, piece, body):
+    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: each
+    triangle edge shared by two; linked to the body in the graph; long: LONG_SHELL, so not a lone particle), else
+    0."""
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    found, count = np.unique(edges, axis=0, return_counts=True)
+    open_pieces = np.unique(vertex_piece[found[count != 2, 0]])
+    _, linked = graph.pieces()
+    label = np.zeros(len(piece), dtype=np.int64)
+    for p in np.unique(piece[(piece != body) & (piece >= 0)]):
+        mine = piece == p
+        c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
+        spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
+        if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
+                spread[2] > LONG_SHELL * spread[1]:
+            label[mine] = p + 1
+    return label
+
+
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
     """Per-particle link softness (``Simulation.set_link_softness``) that brings a particle of Follow f from its
     elastic frequency toward ``jiggle_hz``: (jiggle_hz / elastic)^(2 (1 - f)), the frequency interpolated in log
@@ -280,6 +331,33 @@ def patch_softness(graph, stiffness, density, held, goal_hz, softness, region_hz
         ratio = np.divide(most, wanted, out=np.ones_like(most), where=wanted > 0.0)
         scale = np.clip(scale * ratio, *PATCH_SCALE_RANGE)
     return np.where(free, np.clip(scale[patch] * softness, LINK_SOFTNESS_MIN, 1.0), softness)
+
+
+def skin_gradient(indices, weights, edges, rest, links):
+    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
+    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``: its two (E,) end arrays, edges of nonzero
+    length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
+    skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
+    a, b = edges
+    out = np.zeros(len(links))
+    if len(links) == 0 or len(a) == 0:
+        return out
+    length = np.linalg.norm(rest[a] - rest[b], axis=1)
+    near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
+
+    def weight(rows, c):
+        return np.where(indices[rows] == near[:, c, None], weights[rows], 0.0).sum(axis=1)
+
+    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
+    n = int(max(indices.max(), links.max())) + 1
+    key = np.sort(links, axis=1) @ [n, 1]
+    order = np.argsort(key)
+    for c, d in zip(*np.triu_indices(near.shape[1], 1)):
+        lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
+        at = np.minimum(np.searchsorted(key, lo * n + hi, sorter=order), len(key) - 1)
+        linked = (key[order[at]] == lo * n + hi) & (lo != hi)
+        np.maximum.at(out, order[at[linked]], 0.5 * np.abs(change[d] - change[c])[linked])
+    return out
 
 
 def _same_params(a, b):
@@ -386,6 +464,7 @@ class Engine:
         self._softness = None  # set_regions' per-particle stiffness scale (None: 1)
         self._damping = None  # set_regions' per-particle damping per step (None: the body's)
         self._links = None  # set_regions' per-particle link softness of the jiggle rule (None: 1)
+        self._painted = None  # set_goal's per-particle Follow before Shell Min
         self._jiggle_key, self._jiggle = None, None  # _jiggle_links' inputs and answer, found again when they change
         self._given = None  # configure's last parameters, before the softness map
         self.sim = None
@@ -408,6 +487,7 @@ class Engine:
         # the mesh's (edges: the mesh's own, (E, 2); None: its triangles'), added to the report of the frame shown
         # when asked (report)
         self.mesh_stretch = Stretch(triangle_edges(triangles) if edges is None else edges, self.rest_local)
+        self._gradient = None  # the stretch bound's skin gradient (_skin_gradient)
         self.shown_frame = None  # the cached frame whose output ``out`` holds (None: the rest, a pose, none yet)
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
@@ -584,6 +664,7 @@ class Engine:
             if self.fit is None:
                 self.fit = self.od.GoalFit(self.graph, self.rest)
         values = None if follow is None else self._particle_values(follow, lowest=True)
+        self._painted = values  # the jiggle rule reads a shell's Follow as painted, before Shell Min
         if vertex_weights is not None and shell_min > 0.0:  # a painted Follow: a shell's held above shell_min
             values = self._shells_held(values, shell_min)
         if _same(values, self.goal_strength) and _same(follow, self.follow):
@@ -658,6 +739,8 @@ class Engine:
         try:
             self.sim.set_particle_damping(per_particle)
             self.sim.set_link_softness(links)
+            self.sim.set_stretch_limit(0.0, None) if links is None else \
+                self.sim.set_stretch_limit(STRETCH_LIMIT, self._skin_gradient())
         except ValueError as exc:
             raise EngineError(f"the damping map or the jiggle rule: {exc}") from None
         self._softness, self._damping, self._links = softness, per_particle, links
@@ -667,10 +750,11 @@ class Engine:
         return True
 
     def _jiggle_links(self, jiggle_hz):
-        """The jiggle rule's link softness on the body's particles, the mesh piece with most (None: off, or no
-        goal). A detached shell's particles keep softness 1 (its links to a softened body particle take that
-        one's, min(r_i, r_j)): a slender shell (a fin, a card) swings far below the elastic frequency of its
-        particles, and softened by it the outside fish's tail fin stretched 2.5x (docs/goals.md, "Jiggle")."""
+        """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
+        most, by each one's Follow and patch frequency; on a long closed shell linked to the body, one softness by
+        its own frequency (``_shells_jiggle``); other shells keep 1 (a slender card swings far below the elastic
+        frequency of its particles: softened by it the outside fish's tail fin stretched 2.5x; docs/goals.md,
+        "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
             return None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
@@ -685,10 +769,33 @@ class Engine:
                                          piece == body)
             self._jiggle_key = (follow, given, jiggle_hz)
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
-            softness = np.where(piece == body, jiggle_softness(hz, follow, target), 1.0)
-            self._jiggle = patch_softness(self.graph, given["stiffness"], given["density"], follow >= HELD_FOLLOW,
-                                          self.od.goal_frequency(follow), softness, hz)
+            softness = np.where(piece == body, jiggle_softness(hz, follow, target),
+                                self._shells_jiggle(given, piece, body, jiggle_hz))
+            self._jiggle = patch_softness(self.graph, given["stiffness"], given["density"],
+                                          (follow >= HELD_FOLLOW) | (piece != body), self.od.goal_frequency(follow),
+                                          softness, hz)
         return self._jiggle
+
+    def _skin_gradient(self):
+        """``skin_gradient`` of the skin and the mesh's edges, found once."""
+        if self._gradient is None:
+            self._gradient = skin_gradient(self.skin.indices, self.skin.weights, self.mesh_stretch.ends, self.rest,
+                                           np.asarray(self.graph.edges))
+        return self._gradient
+
+    def _shells_jiggle(self, given, piece, body, jiggle_hz):
+        """The jiggle rule's link softness on the shells ``swinging_shells`` takes (1 elsewhere): each shell's links
+        softened as one, from its lowest frequency (``shell_frequency``) toward ``jiggle_hz`` by the least Follow
+        painted on it (before Shell Min): a ponytail painted 1 -> 0.1 rings near the look's frequency, one painted
+        1 keeps its links."""
+        label = swinging_shells(checks.vertex_pieces(self.rest, self.triangles)[0], self.triangles, self.graph,
+                                piece, body)
+        if not label.any():
+            return 1.0
+        hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)
+        least = np.ones(label.max() + 1)
+        np.minimum.at(least, label, self._painted)
+        return jiggle_softness(hz, least[label], jiggle_hz)
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed

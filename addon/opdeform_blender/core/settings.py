@@ -16,11 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-SETTINGS_VERSION = 5  # stamped on an object when oriented particles are enabled; 0: a file made before
+SETTINGS_VERSION = 6  # stamped on an object when oriented particles are enabled; 0: a file made before
 MATERIAL_UNITS_VERSION = 1  # the first version in material units (below it: solver units)
 FOLLOW_VERSION = 3  # the first version whose goal weight is the follow value itself
 SHELL_MIN_VERSION = 4  # the first version whose detached shells' Follow is mapped into [Shell Min, 1]
 SIZE_FREE_VERSION = 5  # the first version whose goal look is the same at any size
+JIGGLE_VERSION = 6  # the first version whose looks set Jiggle (Hz)
+# Version 6: each look sets the Regions panel's Jiggle (Hz) (stop 47); an object saved before, its Jiggle never
+# set, opened with Jiggle 0 and its look shown as Custom: it gets the jiggle of the look its other values hold.
 # Version 5: with a goal (Goal on, Dynamic mode) the modulus and Sag's gravity scale with the body's size so that
 # the same scene at any size moves the same in units of its size (opdeform.materials' "goal" rule); an older
 # object keeps the "froude" rule of free bodies (Physical Scaling on), and with it its look.
@@ -78,6 +81,15 @@ LOOKS = {
                    jiggle_hz=1.4, shell_follow_min=0.25),
 }
 DEFAULT_LOOK = "Fleshy"
+
+
+def look_but_jiggle(values, rel=1e-4):
+    """The name of the look whose values but Jiggle (Hz) these are (a dict of the looks' keys; within ``rel``),
+    else CUSTOM."""
+    for name, look in LOOKS.items():
+        if all(abs(values[k] - v) <= rel * abs(v) for k, v in look.items() if k != "jiggle_hz"):
+            return name
+    return CUSTOM
 
 
 def preset_values(materials, name):
