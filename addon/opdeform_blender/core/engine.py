@@ -49,14 +49,6 @@ ENCLOSED_REACH = 0.65
 # 1.22x at power 1), and the outside bear's 74-particle belly and cheeks 1.37 times its held ones stretch 1.46x at
 # Fleshy (1.63x without, 1.52x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's.
 PATCH_SHARE_POWER = 1.5
-# patch_softness: a soft patch's scale on the rule's softness kept within this range (it only stiffens: scales
-# down to 1/16 evened the outside pig's belly over 50-400 particles, 2.6x -> 1.5x, but stretched suite_goals'
-# jumping belly 1.71x and the outside bear 1.72x: for when the core bounds stretch), found in this many passes
-# (each a conjugate-gradient solve to this relative residual, at most this many iterations)
-PATCH_SCALE_RANGE = (1.0, 16.0)
-PATCH_SCALE_PASSES = 4
-PATCH_SAG_TOLERANCE = 1e-6
-PATCH_SAG_ITERATIONS = 1000
 # The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link that would stretch the
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
 # bound (stop 48)").
@@ -187,13 +179,6 @@ def _relaxed(values, i, j, step, joined=None):
         values = lower
 
 
-def _soft_patches(held, i, j):
-    """Each particle's soft patch (the least particle index of the patch; len(held) where held): the particles
-    joined by links between two not held."""
-    n = len(held)
-    return _relaxed(np.where(held, n, np.arange(n)), i, j, 0, ~held[i] & ~held[j])
-
-
 def region_frequency(graph, elastic_hz, held, counted=None):
     """Each particle's elastic frequency as a part of the soft patch it lies in, held where ``held`` (a mask):
     its own (``elastic_frequency``) times l / max(d, l), l its mean link length, d its distance along the links
@@ -201,13 +186,14 @@ def region_frequency(graph, elastic_hz, held, counted=None):
     at any particle count, the elastic frequency growing as 1 / l). 0 on a patch that is not enclosed (its
     farthest reach over ENCLOSED_REACH of its extent: a part held at one end, which swings as a beam, far below
     this) and where nothing holds it. With it, each particle's patch's share: its particles over the held ones
-    (0 where held), both counted only where ``counted`` (None: everywhere; the engine counts the body's, not a
-    detached shell's: a shell's particles, a larger part of the graph at fewer particles, gave the outside bear's
-    belly a share of 1.69 / 1.37 / 0.79 at 50 / 100 / 400 particles where its body's is 0.59 / 0.78 / 0.65)."""
+    (0 where held), the patch's counted only where ``counted`` (None: everywhere; the engine counts the body's: a
+    detached shell's soft particles linked into the patch, a larger part of the graph at fewer particles, gave
+    the outside bear's belly a share of 1.69 / 1.37 / 0.79 at 50 / 100 / 400 particles, its body's 0.59 / 0.78 /
+    0.65 of its held ones)."""
     i, j, length, mean = _link_lengths(graph)
     c = graph.centers
     far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
-    patch = _soft_patches(held, i, j)
+    patch = _relaxed(np.where(held, len(c), np.arange(len(c))), i, j, 0, ~held[i] & ~held[j])
     soft = ~held & np.isfinite(far)
     reach = np.zeros(len(c) + 1)
     np.maximum.at(reach, patch[soft], far[soft])
@@ -218,7 +204,7 @@ def region_frequency(graph, elastic_hz, held, counted=None):
     enclosed = soft & (reach <= ENCLOSED_REACH * extent)[patch]
     counted = np.ones(len(c), bool) if counted is None else counted
     size = np.bincount(patch[soft & counted], minlength=len(c) + 1)
-    share = np.where(soft, size[patch] / max(np.count_nonzero(held & counted), 1), 0.0)
+    share = np.where(soft, size[patch] / max(np.count_nonzero(held), 1), 0.0)
     return np.where(enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
 
 
@@ -269,68 +255,6 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     with np.errstate(divide="ignore"):
         ratio = np.minimum(jiggle_hz / elastic_hz, 1.0)  # 1 where elastic_hz is 0 (nothing to soften)
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
-
-
-def _patch_sag(graph, link, goal, mass, free):
-    """Each particle's sag under a unit acceleration (m per m/s²) in the scalar model of the patch calibration:
-    particles where ``free`` on links of stiffness ``link`` (one per graph edge, N/m) and goal springs ``goal``
-    (N/m), the others held still; conjugate gradients with a Jacobi preconditioner."""
-    i, j = np.asarray(graph.edges).T
-    diagonal = goal + np.bincount(i, link, len(mass)) + np.bincount(j, link, len(mass))
-
-    def apply(u):
-        pull = link * (u[i] - u[j])
-        return np.where(free, goal * u + np.bincount(i, pull, len(u)) - np.bincount(j, pull, len(u)), 0.0)
-
-    u = np.zeros(len(mass))
-    residual = np.where(free, mass, 0.0)
-    z = residual / diagonal
-    direction, rz = z.copy(), residual @ z
-    for _ in range(PATCH_SAG_ITERATIONS):
-        pushed = apply(direction)
-        step = rz / (direction @ pushed)
-        u += step * direction
-        residual -= step * pushed
-        if np.linalg.norm(residual) <= PATCH_SAG_TOLERANCE * np.linalg.norm(mass[free]):
-            break
-        z = residual / diagonal
-        rz, last = residual @ z, rz
-        direction = z + (rz / last) * direction
-    return u
-
-
-def patch_softness(graph, stiffness, density, held, goal_hz, softness, region_hz):
-    """The jiggle rule's link softness with each soft patch's scaled so that the patch sags, under a unit
-    acceleration in a scalar model of it (its links k (v_i + v_j) min(r_i, r_j) as in ``elastic_frequency``, its
-    goal springs, the held particles still), as far as a spring of the rule's frequency for its particle that
-    sags most, sqrt(r) f (f its elastic frequency: (J / f)^(2 (1 - Follow)) f^2 = J^2 (1 - Follow) f^(2 Follow)),
-    sags: 1 / (2π sqrt(r) f)², as far as PATCH_SCALE_RANGE allows (it only stiffens). The rule sets each
-    particle's own frequency; a spot a dozen particles carry (at 400) sagged more than one that a few carry (at 50)
-    and, where the scalar model finds it softer than its frequency, is now stiffened (docs/goals.md, "Jiggle over
-    the counts (stop 48)"). Softness 1 (held, or a shell) stays 1."""
-    v = graph.volumes
-    i, j = np.asarray(graph.edges).T
-    k = np.broadcast_to(np.asarray(stiffness, dtype=np.float64), v.shape)
-    mass = density * v
-    goal = mass * (2.0 * np.pi * np.asarray(goal_hz)) ** 2
-    free = ~held & (softness < 1.0)
-    if not free.any():
-        return softness
-    patch = _soft_patches(~free, i, j)
-    with np.errstate(divide="ignore"):  # inf where not free (region_hz 0): never wanted
-        target = 1.0 / (2.0 * np.pi * np.sqrt(softness) * region_hz) ** 2
-    scale = np.ones(len(v) + 1)
-    for _ in range(PATCH_SCALE_PASSES):
-        r = np.where(free, np.clip(scale[patch] * softness, LINK_SOFTNESS_MIN, 1.0), softness)
-        sag = _patch_sag(graph, 0.5 * (k[i] + k[j]) * (v[i] + v[j]) * np.minimum(r[i], r[j]), goal, mass, free)
-        most = np.zeros(len(v) + 1)
-        np.maximum.at(most, patch[free], sag[free])
-        wanted = np.zeros(len(v) + 1)
-        sags_most = free & (sag >= most[patch])
-        wanted[patch[sags_most]] = target[sags_most]
-        ratio = np.divide(most, wanted, out=np.ones_like(most), where=wanted > 0.0)
-        scale = np.clip(scale * ratio, *PATCH_SCALE_RANGE)
-    return np.where(free, np.clip(scale[patch] * softness, LINK_SOFTNESS_MIN, 1.0), softness)
 
 
 def skin_gradient(indices, weights, edges, rest, links):
@@ -769,11 +693,8 @@ class Engine:
                                          piece == body)
             self._jiggle_key = (follow, given, jiggle_hz)
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
-            softness = np.where(piece == body, jiggle_softness(hz, follow, target),
-                                self._shells_jiggle(given, piece, body, jiggle_hz))
-            self._jiggle = patch_softness(self.graph, given["stiffness"], given["density"],
-                                          (follow >= HELD_FOLLOW) | (piece != body), self.od.goal_frequency(follow),
-                                          softness, hz)
+            self._jiggle = np.where(piece == body, jiggle_softness(hz, follow, target),
+                                    self._shells_jiggle(given, piece, body, jiggle_hz))
         return self._jiggle
 
     def _skin_gradient(self):
