@@ -46,8 +46,8 @@ ENCLOSED_REACH = 0.65
 # the jiggle rule: a soft patch with more particles than the held flesh has rings higher than the look's frequency,
 # by (its particles / the held ones) to this power: a body painted soft nearly all over (Blender's Suzanne with
 # Follow 1 -> 0.1 from the chin up, 96 of 100 particles soft, 4 held) keeps its shape (stretched 3.2x at Fleshy;
-# 1.22x at power 1), and the outside bear's 74-particle belly and cheeks 1.37 times its held ones stretch 1.46x at
-# Fleshy (1.63x without, 1.52x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's.
+# 1.22x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's; the outside bear's belly
+# and cheeks, 0.78 of its held counted on its body (region_frequency's ``counted``), too (1.37 with its shells').
 PATCH_SHARE_POWER = 1.5
 # The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link that would stretch the
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
