@@ -53,18 +53,11 @@ PATCH_SHARE_POWER = 1.5
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
 # bound (stop 48)").
 STRETCH_LIMIT = 1.2
-# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)", "Ears (stop 48)"): a closed one linked to
-# the body (cards, the fish's fins, swing far below their particles' frequency already). A long one (its particles
-# spread this much more along one axis than the next, as the core's od_BeamShell: a ponytail) is softened toward
-# the look's frequency; a short one (the bear's ears: 1.85x so, with the stretch bound) no lower than a strain
-# bound gives (SHELL_STRAIN).
+# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only a closed one linked to the body and
+# long (its particles spread this much more along one axis than the next, as the core's od_BeamShell): a ponytail.
+# Cards (the fish's fins) swing far below their particles' frequency already, and short ones (the bear's ears)
+# stretched 2.1-3.1x softened (under 1.1x left alone).
 LONG_SHELL = 1.5
-# the jiggle rule on a short shell: the lowest frequency it is softened to, sqrt(SHELL_PUSH / (SHELL_STRAIN e)) / 2pi
-# with e its extent: the frequency at which a shell hanging from a body accelerating at SHELL_PUSH (a hop's, about
-# g) sags SHELL_STRAIN of its extent (the bear's ears, 100 particles, Fleshy: 0.003 / 0.01 / 0.02 / 0.04: 5.8 / 18.3
-# / 34.6 / 43.0 mm, 1.09 / 1.34 / 1.67 / 1.73x; 50 particles at 0.01: 21.0 mm, 1.58x)
-SHELL_STRAIN = 0.01
-SHELL_PUSH = 9.81
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -233,7 +226,8 @@ def shell_frequency(od, graph, stiffness, density, label):
 
 def swinging_shells(vertex_piece, triangles, graph, piece, body):
     """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: each
-    triangle edge shared by two; linked to the body in the graph; more than one particle's place), else 0."""
+    triangle edge shared by two; linked to the body in the graph; long: LONG_SHELL, so not a lone particle), else
+    0."""
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     found, count = np.unique(edges, axis=0, return_counts=True)
@@ -242,24 +236,12 @@ def swinging_shells(vertex_piece, triangles, graph, piece, body):
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
         mine = piece == p
+        c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
+        spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
         if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
-                np.ptp(graph.centers[mine], axis=0).any():
+                spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
-
-
-def shell_target(centers, label, jiggle_hz):
-    """Per particle, the frequency (Hz) the jiggle rule softens the shell ``label`` numbers toward (0: the body):
-    ``jiggle_hz`` on a long shell (LONG_SHELL), on a short one at least the strain bound's
-    sqrt(SHELL_PUSH / (SHELL_STRAIN e)) / 2pi, e the diagonal of its particles' box."""
-    target = np.full(label.max() + 1, float(jiggle_hz))
-    for k in np.unique(label[label > 0]):
-        c = centers[label == k]
-        spread = np.sqrt(np.maximum(np.linalg.eigvalsh(np.cov(c.T, bias=True)), 0.0))
-        if spread[2] <= LONG_SHELL * spread[1]:
-            extent = np.linalg.norm(np.ptp(c, axis=0))
-            target[k] = max(jiggle_hz, np.sqrt(SHELL_PUSH / (SHELL_STRAIN * extent)) / (2.0 * np.pi))
-    return target[label]
 
 
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
@@ -689,10 +671,10 @@ class Engine:
 
     def _jiggle_links(self, jiggle_hz):
         """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
-        most, by each one's Follow and patch frequency; on a closed shell linked to the body, one softness by
+        most, by each one's Follow and patch frequency; on a long closed shell linked to the body, one softness by
         its own frequency (``_shells_jiggle``); other shells keep 1 (a slender card swings far below the elastic
         frequency of its particles: softened by it the outside fish's tail fin stretched 2.5x; docs/goals.md,
-        "Jiggle", "Shells (stop 48)", "Ears (stop 48)")."""
+        "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
             return None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
@@ -719,7 +701,7 @@ class Engine:
 
     def _shells_jiggle(self, given, piece, body, jiggle_hz):
         """The jiggle rule's link softness on the shells ``swinging_shells`` takes (1 elsewhere): each shell's links
-        softened as one, from its lowest frequency (``shell_frequency``) toward ``shell_target`` by the least Follow
+        softened as one, from its lowest frequency (``shell_frequency``) toward ``jiggle_hz`` by the least Follow
         painted on it (before Shell Min): a ponytail painted 1 -> 0.1 rings near the look's frequency, one painted
         1 keeps its links."""
         label = swinging_shells(checks.vertex_pieces(self.rest, self.triangles)[0], self.triangles, self.graph,
@@ -729,7 +711,7 @@ class Engine:
         hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)
         least = np.ones(label.max() + 1)
         np.minimum.at(least, label, self._painted)
-        return jiggle_softness(hz, least[label], shell_target(self.graph.centers, label, jiggle_hz))
+        return jiggle_softness(hz, least[label], jiggle_hz)
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed
