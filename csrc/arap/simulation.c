@@ -436,13 +436,7 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim)
 // The raised softness back to the softness as set, and the bound's arrays freed.
 static void od_StretchBoundOff(od_Sim* sim)
 {
-	size_t bytes = sizeof(double) * (size_t)sim->graph->n;
-	if (sim->linkSoftness && sim->linkRaised && memcmp(sim->linkRaised, sim->linkSoftness, bytes))
-	{
-		od_MakeLinkWeights(sim, sim->linkSoftness);
-		sim->stiffnessVersion++;
-		sim->edgeStiffness = 0.0;
-	}
+	od_StretchBound_Lower(sim);
 	od_Free(sim->linkRaised);
 	od_Free(sim->skinGradient);
 	sim->linkRaised = sim->skinGradient = NULL;

@@ -440,6 +440,8 @@ od_Status od_Sim_SolveStatic(od_Sim* sim, int iterations)
 	{
 		return status;
 	}
+	od_StretchBound_Lower(sim); // a static pose does not depend on the last call's raise
+	od_LocalStep_PrepareEdges(sim);
 	status = od_Iterate(sim, iterations);
 	if (status == OD_OK)
 	{

@@ -2,7 +2,8 @@
 // stretch of the skin at the call's end, as the particles' velocities carry them there (od_Over), past the limit L
 // by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t): gently at first, all the
 // way to 1 at L + OD_STRETCH_RAMP. The weights of a call are held through it (each step minimises one objective)
-// and are a function of the call's start alone: a call from a restored state makes the same, and with no link
+// and are a function of the call's start and its duration: a call from a restored state makes the same (a frame
+// split into several calls looks ahead less far), a static solve uses the softness as set, and with no link
 // past L the weights, the factor and the bits are those of the softness as set (docs/goals.md, "Stretch bound
 // (stop 48)").
 #include "stretch_bound.h"
@@ -70,8 +71,21 @@ static double od_Over(const od_Sim* sim, const double* x, const double* R, int e
 	od_Vec3 carried = od_Scale(0.5, od_Sub(od_M3MulV(&ri, dij), od_M3MulV(&rj, dji)));
 	double gap = od_Length(od_Sub(od_Sub(xj, xi), carried));
 	const double* g = sim->skinGradient;
-	double stretch = g ? gap * g[e] : gap / od_Length(dij);
+	double length = od_Length(dij); // 0 where goal centres coincide: nothing to measure the stretch against
+	double stretch = g ? gap * g[e] : (length > 0.0 ? gap / length : 0.0);
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
+}
+
+void od_StretchBound_Lower(od_Sim* sim)
+{
+	size_t bytes = sizeof(double) * (size_t)sim->graph->n;
+	if (sim->linkSoftness && sim->linkRaised && memcmp(sim->linkRaised, sim->linkSoftness, bytes))
+	{
+		memcpy(sim->linkRaised, sim->linkSoftness, bytes);
+		od_MakeLinkWeights(sim, sim->linkSoftness);
+		sim->stiffnessVersion++;
+		sim->edgeStiffness = 0.0;
+	}
 }
 
 void od_StretchBound(od_Sim* sim, double ahead)

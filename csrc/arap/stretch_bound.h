@@ -13,3 +13,6 @@ void od_MakeLinkWeights(od_Sim* sim, const double* r);
 // (od_Sim_SetStretchLimit): the weights made from the softness raised where links would stretch the skin past
 // the limit; the edges' terms and the matrix made again only when a raised value changed.
 void od_StretchBound(od_Sim* sim, double ahead);
+// The raised softness back to the softness as set (a static solve, the bound turned off): the weights and the
+// edges' terms made again only when a value was raised.
+void od_StretchBound_Lower(od_Sim* sim);

@@ -218,7 +218,7 @@ static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
 }
 
-// set_stretch_limit(limit, gradient or None): limit 0 off, else > 1; n gradients >= 0
+// set_stretch_limit(limit, gradient or None): limit 0 off, else > 1; one gradient >= 0 per link
 static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);

@@ -273,14 +273,17 @@ class Simulation(CoreObject, ForceFields):
         """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
         link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
         there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
-        function of the call's start alone, so a frame simulated again from a restored state gets the same. A
+        function of the call's start (and duration), so a frame simulated again from a restored state gets the same. A
         link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
         ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
         weights changes per metre along a mesh edge), or over the link's length (None). Its length and its ends'
         frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
-        default); else > 1. With no link past the limit: the same bits as off."""
+        default); else > 1. With no link past the limit: the same bits as off. The raise depends on the call's
+        duration too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as
+        set."""
         links = len(self.graph.edges)
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
+        self._stretch_bound = (0.0, None)  # the core turns the bound off first, also when it then fails
         self._core.set_stretch_limit(float(limit), gradient)
         self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
 

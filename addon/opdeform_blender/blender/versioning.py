@@ -79,8 +79,9 @@ def keep_shells(s):
 def keep_look(s):
     """An object from before version 6 whose Jiggle (Hz) was never set, and whose other values are a look's, gets
     that look's jiggle (saved before the looks set it, it opened with Jiggle 0 and its look read Custom); a Jiggle
-    the user set stays. Returns a line saying what it set, or None."""
-    if s.is_property_set("jiggle_hz") or uses_solver_units(s):
+    the user set stays, and so does a baked object's (what it simulates past its bake goes on from what it
+    baked). Returns a line saying what it set, or None."""
+    if s.is_property_set("jiggle_hz") or uses_solver_units(s) or s.baked:
         return None
     name = core_settings.look_but_jiggle({k: getattr(s, k) for k in core_settings.LOOKS[core_settings.DEFAULT_LOOK]})
     if name == core_settings.CUSTOM:

@@ -146,9 +146,8 @@ def vertex_pieces(vertices, triangles):
     their first triangle."""
     v = np.asarray(vertices, dtype=np.float64)
     t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
-    tolerance = max(float(np.ptp(v, axis=0).max()), 1e-30) * WELD
-    _, weld = np.unique(np.round(v / tolerance), axis=0, return_inverse=True)
-    tri = weld.reshape(-1)[t]
+    weld = welded(v)
+    tri = weld[t]
     label = np.arange(weld.max() + 1)
     while True:  # each welded vertex takes the lowest label of its triangles' vertices, then its label's label
         low = label[tri].min(axis=1)
@@ -164,8 +163,16 @@ def vertex_pieces(vertices, triangles):
     number[roots[np.argsort(first)]] = np.arange(len(roots))
     piece = np.full(len(v), -1)
     used = np.unique(t)
-    piece[used] = number[label[weld.reshape(-1)[used]]]
+    piece[used] = number[label[weld[used]]]
     return piece, len(roots)
+
+
+def welded(vertices):
+    """Each vertex's index among the welded ones: vertices closer than WELD of the bounding box are one, as the core
+    welds them (a mesh split along its seams is whole again)."""
+    v = np.asarray(vertices, dtype=np.float64)
+    tolerance = max(float(np.ptp(v, axis=0).max()), 1e-30) * WELD
+    return np.unique(np.round(v / tolerance), axis=0, return_inverse=True)[1].reshape(-1)
 
 
 def attached_pieces(od, graph, vertices, triangles, shown=None):

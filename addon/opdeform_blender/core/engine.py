@@ -228,14 +228,17 @@ def shell_frequency(od, graph, stiffness, density, label):
     return np.sqrt(np.maximum(least, 0.0))[label] / (2.0 * np.pi)
 
 
-def swinging_shells(vertex_piece, triangles, graph, piece, body):
+def swinging_shells(vertices, triangles, graph, piece, body):
     """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: each
-    triangle edge shared by two; linked to the body in the graph; long: LONG_SHELL, so not a lone particle), else
-    0."""
-    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    triangle edge shared by two once the vertices are welded, so a shell split along its seams counts; linked to
+    the body in the graph; long: LONG_SHELL, of three particles or more, as two are always "long"), else 0."""
+    weld = checks.welded(vertices)
+    t = weld[np.asarray(triangles, dtype=np.int64).reshape(-1, 3)]
     edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
     found, count = np.unique(edges, axis=0, return_counts=True)
-    open_pieces = np.unique(vertex_piece[found[count != 2, 0]])
+    piece_of = np.full(weld.max() + 1, -1)
+    piece_of[weld] = checks.vertex_pieces(vertices, triangles)[0]
+    open_pieces = np.unique(piece_of[found[count != 2, 0]])
     _, linked = graph.pieces()
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
@@ -243,7 +246,7 @@ def swinging_shells(vertex_piece, triangles, graph, piece, body):
         c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
         if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
-                spread[2] > LONG_SHELL * spread[1]:
+                np.count_nonzero(mine) >= 3 and spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
 
@@ -685,13 +688,13 @@ class Engine:
             raise EngineError(f"the jiggle frequency must be > 0 Hz, got {jiggle_hz}")
         kept = self._jiggle_key
         if kept is None or not (_same(self.goal_strength, kept[0]) and _same_params(self._given, kept[1])
-                                and jiggle_hz == kept[2]):
+                                and jiggle_hz == kept[2] and _same(self._painted, kept[3])):
             given, (_, piece, body) = self._given, self.pieces()
             follow = self.goal_strength
             hz, share = region_frequency(self.graph, elastic_frequency(self.graph, given["stiffness"],
                                                                         given["density"]), follow >= HELD_FOLLOW,
                                          piece == body)
-            self._jiggle_key = (follow, given, jiggle_hz)
+            self._jiggle_key = (follow, given, jiggle_hz, self._painted)  # a shell's Follow as painted too
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
             self._jiggle = np.where(piece == body, jiggle_softness(hz, follow, target),
                                     self._shells_jiggle(given, piece, body, jiggle_hz))
@@ -709,8 +712,7 @@ class Engine:
         softened as one, from its lowest frequency (``shell_frequency``) toward ``jiggle_hz`` by the least Follow
         painted on it (before Shell Min): a ponytail painted 1 -> 0.1 rings near the look's frequency, one painted
         1 keeps its links."""
-        label = swinging_shells(checks.vertex_pieces(self.rest, self.triangles)[0], self.triangles, self.graph,
-                                piece, body)
+        label = swinging_shells(self.rest, self.triangles, self.graph, piece, body)
         if not label.any():
             return 1.0
         hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)

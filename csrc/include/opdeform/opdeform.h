@@ -54,7 +54,7 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // A stretch bound on the softened links (flesh stiffens as it stretches): at each dynamic call's start, a link
 // that would stretch the skin past `limit` at the call's end (its ends' velocities carrying them there) by t
 // (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a function of the call's
-// start alone. A link's stretch of the skin: the gap at its middle between the skin its ends carry, times its
+// start and its duration (a static solve uses the softness as set). A link's stretch of the skin: the gap at its middle between the skin its ends carry, times its
 // `gradient` (one value >= 0 per link of the graph's edges: the most half the difference of its ends' skin
 // weights changes per metre along a mesh edge), or over the link's length (gradient NULL). The link's length and
 // its ends' frames: the goals' when they carry the rest, else the rest's. limit 0: off (the default); else > 1.
