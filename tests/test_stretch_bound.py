@@ -61,17 +61,17 @@ def test_a_soft_link_past_the_limit_stiffens():
     assert bound.counters["factorizations"] > 1
 
 
-def test_a_pair_that_is_no_link_stiffens_the_particles_between_its_ends():
-    """A pair (SOFT - 1, SOFT + 1) across the bar's soft particle, with the links' gradients 0 so that no link is
-    measured: the pair raises the particle linked to both its ends (the links' weight is their softer end's, so
-    raising its stiff ends alone would hold nothing); without it the bar stretches as if off."""
+def test_pairs_that_are_not_links_stiffen_their_ends():
+    """Pairs (i, i + 2) across the bar's soft middle (particles 4-6), with the links' gradients 0 so that no link
+    is measured: the pairs alone hold the links near the limit; without them the bar stretches as if off."""
     def bar(pairs):
         sim = scenes.fig1_bar()
-        sim.set_link_softness(one_particle(sim.graph.n_particles, SOFT, 1e-3))
+        sim.set_link_softness(np.where(abs(np.arange(sim.graph.n_particles) - SOFT) <= 1, 1e-3, 1.0))
         sim.set_stretch_limit(1.05, np.zeros(len(sim.graph.edges)), pairs)
         return sim
 
-    alone, paired = worst_strain(bar(None)), worst_strain(bar([(SOFT - 1, SOFT + 1)]))
+    across = [(i, i + 2) for i in range(SOFT - 2, SOFT + 1)]
+    alone, paired = worst_strain(bar(None)), worst_strain(bar(across))
     assert alone > 0.3, alone
     assert paired < 0.25 * alone, (paired, alone)
 

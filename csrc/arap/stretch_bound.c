@@ -74,31 +74,15 @@ static double od_Over(const od_Sim* sim, const double* x, const double* R, int i
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
 }
 
-// How far over the limit a link or pair ij = (i, j) of gradient g is (od_Over), kept in `most` for its ends.
-static double od_RaiseEnds(const od_Sim* sim, const double* x, const double* R, const int* ij, const double* g,
-						   double* most)
+// The most over the limit each end of a link or pair ij = (i, j) of gradient g (od_Over) is kept in `most`.
+static void od_RaiseEnds(const od_Sim* sim, const double* x, const double* R, const int* ij, const double* g,
+						 double* most)
 {
-	double t = od_Over(sim, x, R, ij[0], ij[1], g);
-	most[ij[0]] = fmax(most[ij[0]], t);
-	most[ij[1]] = fmax(most[ij[1]], t);
-	return t;
-}
-
-// A pair (i, j) t over the limit raises the particles linked to both as well: its ends are no link, so the skin
-// between them is held by the links through those (a link's weight is its softer end's).
-static void od_RaiseBetween(const od_Graph* g, const int* ij, double t, double* most)
-{
-	for (int e = g->adjStart[ij[0]]; e < g->adjStart[ij[0] + 1]; ++e)
-	{
-		int k = g->adj[e];
-		for (int f = g->adjStart[k]; f < g->adjStart[k + 1]; ++f)
-		{
-			if (g->adj[f] == ij[1])
-			{
-				most[k] = fmax(most[k], t);
-			}
-		}
-	}
+	const double* r = sim->linkSoftness;
+	int i = ij[0], j = ij[1];
+	double t = r[i] < 1.0 || r[j] < 1.0 ? od_Over(sim, x, R, i, j, g) : 0.0; // stiff ends have nothing to raise
+	most[i] = fmax(most[i], t);
+	most[j] = fmax(most[j], t);
 }
 
 void od_StretchBound_Lower(od_Sim* sim)
@@ -128,20 +112,11 @@ void od_StretchBound(od_Sim* sim, double ahead)
 	const double *g = sim->skinGradient, *pg = sim->pairGradient;
 	for (int e = 0; e < sim->graph->edgeCount; ++e)
 	{
-		const int* ij = sim->graph->edges + 2 * e;
-		if (r[ij[0]] < 1.0 || r[ij[1]] < 1.0) // a stiff link has nothing to raise (a pair may: od_RaiseBetween)
-		{
-			(void)od_RaiseEnds(sim, x, R, ij, g ? g + e : NULL, most);
-		}
+		od_RaiseEnds(sim, x, R, sim->graph->edges + 2 * e, g ? g + e : NULL, most);
 	}
 	for (int p = 0; p < sim->pairCount; ++p)
 	{
-		const int* ij = sim->stretchPairs + 2 * p;
-		double t = od_RaiseEnds(sim, x, R, ij, pg ? pg + p : NULL, most);
-		if (t > 0.0)
-		{
-			od_RaiseBetween(sim->graph, ij, t, most);
-		}
+		od_RaiseEnds(sim, x, R, sim->stretchPairs + 2 * p, pg ? pg + p : NULL, most);
 	}
 	bool changed = false;
 	for (int i = 0; i < n; ++i)
