@@ -542,24 +542,6 @@ def test_the_skin_gradient_is_how_fast_a_links_ends_trade_the_skin_per_metre():
     np.testing.assert_array_equal(engine.skin_gradient(indices, weights, empty, rest, links), 0.0)
 
 
-def test_edge_pairs_are_the_unlinked_heaviest_particles_of_a_mesh_edges_ends():
-    """engine.edge_pairs on a strip of four vertices 1 m apart, skinned to particle 0, half and half, then 1, then
-    2: edge (2, 3) trades particle 1 for 2 in a metre (gradient (1 - -1) / 2 = 1), and they are no link, so
-    (1, 2) is the one pair; edge (0, 1)'s heaviest ends are both particle 0, edge (1, 2)'s are link (0, 1); linked,
-    (1, 2) goes too; no edges give none."""
-    from opdeform_blender.core import engine
-    indices = np.array([[0, 1], [0, 1], [1, 0], [2, 0]])
-    weights = np.array([[1.0, 0.0], [0.5, 0.5], [1.0, 0.0], [1.0, 0.0]])
-    edges = (np.array([0, 1, 2]), np.array([1, 2, 3]))
-    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
-    pairs, gradient = engine.edge_pairs(indices, weights, edges, rest, np.array([[0, 1]]))
-    np.testing.assert_array_equal(pairs, [[1, 2]])
-    np.testing.assert_allclose(gradient, [1.0])
-    assert engine.edge_pairs(indices, weights, edges, rest, np.array([[0, 1], [2, 1]]))[0].shape == (0, 2)
-    empty = (np.array([], int), np.array([], int))
-    assert engine.edge_pairs(indices, weights, empty, rest, np.array([[0, 1]]))[0].shape == (0, 2)
-
-
 def _hop(v, f):
     """The tailed body's vertices ``v`` at frame f of two 0.2 m hops in 1 s, then still (float32)."""
     animated = v.copy()

@@ -260,36 +260,24 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
-def _skin_trade(indices, weights, edges, rest):
-    """Per mesh edge (``edges``: its two (E,) end arrays, edges of nonzero length at ``rest``; ``indices``,
-    ``weights``: the skin's (V, m)): the particles either end's skin names, (E, 2m), and how fast the edge trades
-    each one's weight per metre, w(a) - w(b) over its length, (2m, E)."""
+def skin_gradient(indices, weights, edges, rest, links):
+    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
+    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``: its two (E,) end arrays, edges of nonzero
+    length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
+    skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
     a, b = edges
+    out = np.zeros(len(links))
+    if len(links) == 0 or len(a) == 0:
+        return out
     length = np.linalg.norm(rest[a] - rest[b], axis=1)
-    near = np.concatenate([indices[a], indices[b]], axis=1)
+    near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
 
     def weight(rows, c):
         return np.where(indices[rows] == near[:, c, None], weights[rows], 0.0).sum(axis=1)
 
-    return near, np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
-
-
-def _pair_keys(pairs, n):
-    """Each (lo, hi) particle pair's one number, lo n + hi."""
-    return np.sort(pairs, axis=1) @ [n, 1]
-
-
-def skin_gradient(indices, weights, edges, rest, links):
-    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
-    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``, ``rest``, ``indices``, ``weights``:
-    ``_skin_trade``'s): a gap δ at the link's middle between the skin its ends carry stretches such an edge by
-    about |δ| times it (Simulation.set_stretch_limit)."""
-    out = np.zeros(len(links))
-    if len(links) == 0 or len(edges[0]) == 0:
-        return out
-    near, change = _skin_trade(indices, weights, edges, rest)
+    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
     n = int(max(indices.max(), links.max())) + 1
-    key = _pair_keys(links, n)
+    key = np.sort(links, axis=1) @ [n, 1]
     order = np.argsort(key)
     for c, d in zip(*np.triu_indices(near.shape[1], 1)):
         lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
@@ -297,27 +285,6 @@ def skin_gradient(indices, weights, edges, rest, links):
         linked = (key[order[at]] == lo * n + hi) & (lo != hi)
         np.maximum.at(out, order[at[linked]], 0.5 * np.abs(change[d] - change[c])[linked])
     return out
-
-
-def edge_pairs(indices, weights, edges, rest, links):
-    """The particle pairs that skin a mesh edge's ends with no link between them, for the stretch bound
-    (Simulation.set_stretch_limit's pairs): per mesh edge (``_skin_trade``'s arguments) the heaviest particle of
-    either end's skin, where they differ and are no link of ``links`` (L, 2), with the most half the difference
-    of their skin weights changes per metre along such an edge (as ``skin_gradient``): (P, 2) pairs, (P,)
-    gradients, each pair once."""
-    if len(edges[0]) == 0:
-        return np.zeros((0, 2), np.int32), np.zeros(0)
-    near, change = _skin_trade(indices, weights, edges, rest)
-    m, rows = indices.shape[1], np.arange(len(near))
-    c, d = np.argmax(weights[edges[0]], axis=1), m + np.argmax(weights[edges[1]], axis=1)
-    pairs = np.sort(np.stack([near[rows, c], near[rows, d]], axis=1), axis=1)
-    gradient = 0.5 * np.abs(change[d, rows] - change[c, rows])
-    n = int(max(indices.max(), np.max(links, initial=0))) + 1
-    keep = (pairs[:, 0] != pairs[:, 1]) & ~np.isin(_pair_keys(pairs, n), _pair_keys(links, n)) & (gradient > 0.0)
-    key, at = np.unique(_pair_keys(pairs[keep], n), return_inverse=True)
-    most = np.zeros(len(key))
-    np.maximum.at(most, at.ravel(), gradient[keep])
-    return np.stack([key // n, key % n], axis=1).astype(np.int32), most
 
 
 def _same_params(a, b):
@@ -447,7 +414,7 @@ class Engine:
         # the mesh's (edges: the mesh's own, (E, 2); None: its triangles'), added to the report of the frame shown
         # when asked (report)
         self.mesh_stretch = Stretch(triangle_edges(triangles) if edges is None else edges, self.rest_local)
-        self._gradient = None  # the stretch bound's skin gradient, pairs and their gradient (_skin_gradient)
+        self._gradient = None  # the stretch bound's skin gradient (_skin_gradient)
         self.shown_frame = None  # the cached frame whose output ``out`` holds (None: the rest, a pose, none yet)
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
@@ -700,7 +667,7 @@ class Engine:
             self.sim.set_particle_damping(per_particle)
             self.sim.set_link_softness(links)
             self.sim.set_stretch_limit(0.0, None) if links is None else \
-                self.sim.set_stretch_limit(STRETCH_LIMIT, *self._skin_gradient())
+                self.sim.set_stretch_limit(STRETCH_LIMIT, self._skin_gradient())
         except ValueError as exc:
             raise EngineError(f"the damping map or the jiggle rule: {exc}") from None
         self._softness, self._damping, self._links = softness, per_particle, links
@@ -734,11 +701,10 @@ class Engine:
         return self._jiggle
 
     def _skin_gradient(self):
-        """``skin_gradient`` and ``edge_pairs`` of the skin and the mesh's edges, found once."""
+        """``skin_gradient`` of the skin and the mesh's edges, found once."""
         if self._gradient is None:
-            skin = (self.skin.indices, self.skin.weights, self.mesh_stretch.ends, self.rest)
-            links = np.asarray(self.graph.edges)
-            self._gradient = (skin_gradient(*skin, links), *edge_pairs(*skin, links))
+            self._gradient = skin_gradient(self.skin.indices, self.skin.weights, self.mesh_stretch.ends, self.rest,
+                                           np.asarray(self.graph.edges))
         return self._gradient
 
     def _shells_jiggle(self, given, piece, body, jiggle_hz):
