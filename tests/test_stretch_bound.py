@@ -61,21 +61,6 @@ def test_a_soft_link_past_the_limit_stiffens():
     assert bound.counters["factorizations"] > 1
 
 
-def test_pairs_that_are_not_links_stiffen_their_ends():
-    """Pairs (i, i + 2) across the bar's soft middle (particles 4-6), with the links' gradients 0 so that no link
-    is measured: the pairs alone hold the links near the limit; without them the bar stretches as if off."""
-    def bar(pairs):
-        sim = scenes.fig1_bar()
-        sim.set_link_softness(np.where(abs(np.arange(sim.graph.n_particles) - SOFT) <= 1, 1e-3, 1.0))
-        sim.set_stretch_limit(1.05, np.zeros(len(sim.graph.edges)), pairs)
-        return sim
-
-    across = [(i, i + 2) for i in range(SOFT - 2, SOFT + 1)]
-    alone, paired = worst_strain(bar(None)), worst_strain(bar(across))
-    assert alone > 0.3, alone
-    assert paired < 0.25 * alone, (paired, alone)
-
-
 def test_energy_never_rises_while_the_bound_acts():
     sim = soft_bar(1.05)
     sim.step(5)  # past the limit: the weights raised
@@ -84,7 +69,6 @@ def test_energy_never_rises_while_the_bound_acts():
 
 def test_a_copy_stepped_from_the_same_state_makes_the_same_bits():
     sim = soft_bar(1.05)
-    sim.set_stretch_limit(1.05, None, [(SOFT, SOFT + 2)], [3.0])  # a pair raising the soft particle
     sim.step(8)
     copy = pickle.loads(pickle.dumps(sim))
     assert copy.stretch_limit == 1.05
@@ -116,13 +100,4 @@ def test_bad_input_raises_naming_it():
         sim.set_stretch_limit(1.2, np.ones(links + 1))
     with pytest.raises(ValueError, match=r"skin gradient\[2\] = -1"):
         sim.set_stretch_limit(1.2, one_particle(links, 2, -1.0))
-    n = sim.graph.n_particles
-    for pairs, message in (([(0, n)], rf"stretch pair 0 = \(0, {n}\)"), ([(1, 2), (3, 3)], "stretch pair 1"),
-                           ([(0, 1, 2)], "pairs")):
-        with pytest.raises(ValueError, match=message):
-            sim.set_stretch_limit(1.2, None, pairs)
-    with pytest.raises(ValueError, match=r"pair gradient\[1\] = nan"):
-        sim.set_stretch_limit(1.2, None, [(0, 2), (1, 3)], [1.0, np.nan])
-    with pytest.raises(ValueError, match="pair_gradient"):
-        sim.set_stretch_limit(1.2, None, [(0, 2)], [1.0, 2.0])
     assert sim.stretch_limit == 0.0

@@ -303,8 +303,6 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->linkWeight);
 	od_Free(sim->linkRaised);
 	od_Free(sim->skinGradient);
-	od_Free(sim->stretchPairs);
-	od_Free(sim->pairGradient);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);
@@ -441,98 +439,33 @@ static void od_StretchBoundOff(od_Sim* sim)
 	od_StretchBound_Lower(sim);
 	od_Free(sim->linkRaised);
 	od_Free(sim->skinGradient);
-	od_Free(sim->stretchPairs);
-	od_Free(sim->pairGradient);
-	sim->linkRaised = sim->skinGradient = sim->pairGradient = NULL;
-	sim->stretchPairs = NULL;
-	sim->pairCount = 0;
+	sim->linkRaised = sim->skinGradient = NULL;
 	sim->stretchLimit = 0.0;
 }
 
-// -1 where count values (none for NULL) are >= 0 and finite, else the first bad one's index.
-static int od_BadGradient(const double* gradient, int count)
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient)
 {
-	for (int e = 0; gradient && e < count; ++e)
-	{
-		if (!(gradient[e] >= 0.0) || !isfinite(gradient[e]))
-		{
-			return e;
-		}
-	}
-	return -1;
-}
-
-// The stretch bound's extra pairs checked: -1 where each is two different particles of the n, else the first bad
-// one's index.
-static int od_BadPair(const int* pairs, int count, int n)
-{
-	for (int p = 0; p < count; ++p)
-	{
-		int i = pairs[2 * p], j = pairs[2 * p + 1];
-		if (i < 0 || i >= n || j < 0 || j >= n || i == j)
-		{
-			return p;
-		}
-	}
-	return -1;
-}
-
-// A copy of `bytes` from `from` (NULL from NULL or nothing; NULL too when out of memory: od_Copied tells).
-static void* od_CopyOf(const void* from, size_t bytes)
-{
-	void* to = from && bytes ? od_Alloc(bytes) : NULL;
-	if (to)
-	{
-		memcpy(to, from, bytes);
-	}
-	return to;
-}
-
-// Whether od_CopyOf(from, bytes) made `to`, or had nothing to copy.
-static bool od_Copied(const void* to, const void* from, size_t bytes)
-{
-	return to || !from || !bytes;
-}
-
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient, int pairCount, const int* pairs,
-								 const double* pairGradient)
-{
-	int n = sim->graph->n, links = sim->graph->edgeCount, bad;
+	int n = sim->graph->n;
 	if (!(limit == 0.0 || (limit > 1.0 && isfinite(limit))))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "stretch limit = %g must be 0 (off) or finite and > 1", limit);
 	}
-	if ((bad = od_BadGradient(gradient, links)) >= 0)
+	for (int e = 0; gradient && e < sim->graph->edgeCount; ++e)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", bad, gradient[bad]);
-	}
-	if (pairCount < 0 || (pairCount > 0 && !pairs))
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "%d stretch pairs must be >= 0 and given", pairCount);
-	}
-	if ((bad = od_BadPair(pairs, pairCount, n)) >= 0)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "stretch pair %d = (%d, %d) must be two different particles of %d", bad,
-					   pairs[2 * bad], pairs[2 * bad + 1], n);
-	}
-	if ((bad = od_BadGradient(pairGradient, pairCount)) >= 0)
-	{
-		return od_Fail(OD_ERROR_ARGUMENT, "pair gradient[%d] = %g must be finite and >= 0", bad, pairGradient[bad]);
+		if (!(gradient[e] >= 0.0) || !isfinite(gradient[e]))
+		{
+			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", e, gradient[e]);
+		}
 	}
 	od_StretchBoundOff(sim);
 	if (limit == 0.0)
 	{
 		return OD_OK;
 	}
-	size_t bytes = sizeof(double) * (size_t)n;
+	size_t bytes = sizeof(double) * (size_t)n, links = sizeof(double) * (size_t)sim->graph->edgeCount;
 	sim->linkRaised = od_Alloc(OD_STRETCH_SCRATCH * bytes); // and the bound's scratch (stretch_bound.c)
-	size_t gradientBytes = sizeof(double) * (size_t)links, pairBytes = sizeof(int) * 2 * (size_t)pairCount;
-	size_t pairGradientBytes = sizeof(double) * (size_t)pairCount;
-	sim->skinGradient = od_CopyOf(gradient, gradientBytes);
-	sim->stretchPairs = od_CopyOf(pairs, pairBytes);
-	sim->pairGradient = od_CopyOf(pairGradient, pairGradientBytes);
-	if (!sim->linkRaised || !od_Copied(sim->skinGradient, gradient, gradientBytes) ||
-		!od_Copied(sim->stretchPairs, pairs, pairBytes) || !od_Copied(sim->pairGradient, pairGradient, pairGradientBytes))
+	sim->skinGradient = gradient ? od_Alloc(links) : NULL;
+	if (!sim->linkRaised || (gradient && !sim->skinGradient))
 	{
 		od_StretchBoundOff(sim);
 		return od_Fail(OD_ERROR_MEMORY, "out of memory for the stretch bound of %d particles", n);
@@ -541,7 +474,10 @@ od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradie
 	{
 		memcpy(sim->linkRaised, sim->linkSoftness, bytes);
 	}
-	sim->pairCount = pairCount;
+	if (gradient)
+	{
+		memcpy(sim->skinGradient, gradient, links);
+	}
 	sim->stretchLimit = limit;
 	return OD_OK;
 }

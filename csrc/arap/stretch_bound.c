@@ -1,6 +1,6 @@
-// The stretch bound (od_Sim_SetStretchLimit): flesh stiffens as it stretches. At a call's start, each link's (and
-// each extra pair's: particles that skin one mesh edge's ends with no link between them) stretch of the skin at
-// the call's end, as the particles' velocities carry them there (od_Over), past the limit L by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t): gently at first, all the
+// The stretch bound (od_Sim_SetStretchLimit): flesh stiffens as it stretches. At a call's start, each link's
+// stretch of the skin at the call's end, as the particles' velocities carry them there (od_Over), past the limit L
+// by t (over OD_STRETCH_RAMP, at most 1) raises its ends' link softness r to r^(1 - t): gently at first, all the
 // way to 1 at L + OD_STRETCH_RAMP. The weights of a call are held through it (each step minimises one objective)
 // and are a function of the call's start and its duration: a call from a restored state makes the same (a frame
 // split into several calls looks ahead less far), a static solve uses the softness as set, and with no link
@@ -56,33 +56,24 @@ static void od_Ahead(const od_Sim* sim, double ahead, double* x, double* R)
 	}
 }
 
-// The stretch a link or a pair (i, j) adds to the skin between its ends at the call's end (od_Ahead's x, R): the
-// gap at its middle between the skin its ends carry, δ = x_j - x_i - (R_i d_ij - R_j d_ji) / 2 (their stretch, and
-// their disagreement on their turn where it parts the skin), times its skin gradient *g (the most half the
+// The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead's x, R): the gap at its
+// middle between the skin its ends carry, δ = x_j - x_i - (R_i d_ij - R_j d_ji) / 2 (their stretch, and their
+// disagreement on their turn where it parts the skin), times the link's skin gradient (the most half the
 // difference of its ends' skin weights changes per metre along a mesh edge: a gap δ stretches such an edge by
-// about |δ| g), or over its length |d_ij| without a gradient (g NULL). Past the limit, over OD_STRETCH_RAMP, in
+// about |δ| g), or over the link's length |d_ij| without a gradient. Past the limit, over OD_STRETCH_RAMP, in
 // [0, 1].
-static double od_Over(const od_Sim* sim, const double* x, const double* R, int i, int j, const double* g)
+static double od_Over(const od_Sim* sim, const double* x, const double* R, int e)
 {
+	int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
 	od_Mat3 ri = od_M3Load(R + 9 * i), rj = od_M3Load(R + 9 * j);
 	od_Vec3 xi = od_V3Load(x + 3 * i), xj = od_V3Load(x + 3 * j);
 	od_Vec3 dij = od_RestVector(sim, i, j), dji = od_RestVector(sim, j, i);
 	od_Vec3 carried = od_Scale(0.5, od_Sub(od_M3MulV(&ri, dij), od_M3MulV(&rj, dji)));
 	double gap = od_Length(od_Sub(od_Sub(xj, xi), carried));
+	const double* g = sim->skinGradient;
 	double length = od_Length(dij); // 0 where goal centres coincide: nothing to measure the stretch against
-	double stretch = g ? gap * *g : (length > 0.0 ? gap / length : 0.0);
+	double stretch = g ? gap * g[e] : (length > 0.0 ? gap / length : 0.0);
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
-}
-
-// The most over the limit each end of a link or pair ij = (i, j) of gradient g (od_Over) is kept in `most`.
-static void od_RaiseEnds(const od_Sim* sim, const double* x, const double* R, const int* ij, const double* g,
-						 double* most)
-{
-	const double* r = sim->linkSoftness;
-	int i = ij[0], j = ij[1];
-	double t = r[i] < 1.0 || r[j] < 1.0 ? od_Over(sim, x, R, i, j, g) : 0.0; // stiff ends have nothing to raise
-	most[i] = fmax(most[i], t);
-	most[j] = fmax(most[j], t);
 }
 
 void od_StretchBound_Lower(od_Sim* sim)
@@ -109,14 +100,12 @@ void od_StretchBound(od_Sim* sim, double ahead)
 	double *most = raised + n, *x = most + n, *R = x + 3 * n; // the scratch (od_Sim_SetStretchLimit)
 	memset(most, 0, sizeof(double) * (size_t)n);
 	od_Ahead(sim, ahead, x, R);
-	const double *g = sim->skinGradient, *pg = sim->pairGradient;
 	for (int e = 0; e < sim->graph->edgeCount; ++e)
 	{
-		od_RaiseEnds(sim, x, R, sim->graph->edges + 2 * e, g ? g + e : NULL, most);
-	}
-	for (int p = 0; p < sim->pairCount; ++p)
-	{
-		od_RaiseEnds(sim, x, R, sim->stretchPairs + 2 * p, pg ? pg + p : NULL, most);
+		int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
+		double t = r[i] < 1.0 || r[j] < 1.0 ? od_Over(sim, x, R, e) : 0.0; // a stiff link has nothing to raise
+		most[i] = fmax(most[i], t);
+		most[j] = fmax(most[j], t);
 	}
 	bool changed = false;
 	for (int i = 0; i < n; ++i)

@@ -218,31 +218,26 @@ static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
 }
 
-// set_stretch_limit(limit, gradient or None, pair_count, pairs or None, pair_gradient or None): limit 0 off, else
-// > 1; one gradient >= 0 per link; pairs int32 (pair_count * 2) of different particles, one pair gradient each
+// set_stretch_limit(limit, gradient or None): limit 0 off, else > 1; one gradient >= 0 per link
 static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
 	double limit;
-	int count;
-	PyObject* arrays[3];
-	if (!sim || !PyArg_ParseTuple(args, "dOiOO", &limit, &arrays[0], &count, &arrays[1], &arrays[2]))
+	PyObject* arg;
+	Py_buffer view;
+	if (!sim || !PyArg_ParseTuple(args, "dO", &limit, &arg))
 	{
 		return NULL;
 	}
 	PyObject* edges = PyObject_GetAttrString(((SimObject*)obj)->graph, "n_edges"); // the links, one value each
 	Py_ssize_t links = edges ? PyLong_AsSsize_t(edges) : -1;
 	Py_XDECREF(edges);
-	const ArraySpec specs[3] = { { "gradient", 'd', links, 1 }, { "pairs", 'i', 2 * (Py_ssize_t)count, 1 },
-								 { "pair_gradient", 'd', count, 1 } };
-	Py_buffer views[3];
-	if (links < 0 || GetArrays(arrays, specs, 3, views) < 0)
+	if (links < 0 || GetOptionalArray(arg, "gradient", 'd', links, &view) < 0)
 	{
 		return NULL;
 	}
-	od_Status status = od_Sim_SetStretchLimit(sim, limit, ArrayData(&views[0]), count, ArrayData(&views[1]),
-											  ArrayData(&views[2]));
-	ReleaseArrays(views, 3);
+	od_Status status = od_Sim_SetStretchLimit(sim, limit, ArrayData(&view));
+	ReleaseArray(&view);
 	return Binding_Done(obj, status);
 }
 
@@ -853,7 +848,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
-	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None, pair_count, pairs or None, pair_gradient or None): limit 0 off, else > 1" },
+	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None): limit 0 off, else > 1" },
 	{ "stretch_limit", Sim_stretch_limit, METH_NOARGS, "stretch_limit() -> the stretch bound's limit (0: off)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },

@@ -166,8 +166,7 @@ class Simulation(CoreObject, ForceFields):
         self._constraints: dict[int, list[Any]] = {}
         self._history: list[int] = []
         self._ids_before = 0
-        # set_stretch_limit's arguments
-        self._stretch_bound: tuple[float, Floats | None, Ints | None, Floats | None] = (0.0, None, None, None)
+        self._stretch_bound: tuple[float, Floats | None] = (0.0, None)  # set_stretch_limit's arguments
         self._floor: tuple[float, float] | None = None
         self._goal_hz: Floats | None = None
         self._goal_frames: tuple[Floats, Floats | None] | None = None
@@ -270,8 +269,7 @@ class Simulation(CoreObject, ForceFields):
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("link_softness", out) else None
 
-    def set_stretch_limit(self, limit: float, gradient: ArrayLike | None = None, pairs: ArrayLike | None = None,
-                          pair_gradient: ArrayLike | None = None) -> None:
+    def set_stretch_limit(self, limit: float, gradient: ArrayLike | None = None) -> None:
         """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
         link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
         there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
@@ -279,20 +277,15 @@ class Simulation(CoreObject, ForceFields):
         link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
         ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
         weights changes per metre along a mesh edge), or over the link's length (None). Its length and its ends'
-        frames are the goals' while they carry the rest. ``pairs`` (P, 2) of different particles that are not
-        links (e.g. those that skin one mesh edge's ends) are measured the same way, with ``pair_gradient`` (P
-        values >= 0; None: over their length). A raise refactors the global matrix. 0: off (the default); else >
-        1. With no link or pair past the limit: the same bits as off. The raise depends on the call's duration
-        too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as set."""
+        frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
+        default); else > 1. With no link past the limit: the same bits as off. The raise depends on the call's
+        duration too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as
+        set."""
         links = len(self.graph.edges)
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
-        pairs = np.zeros((0, 2), np.int32) if pairs is None else as_array("pairs", pairs, (None, 2), np.int32)
-        if pair_gradient is not None:
-            pair_gradient = as_array("pair_gradient", pair_gradient, (len(pairs),))
-        self._stretch_bound = (0.0, None, None, None)  # the core turns the bound off first, also when it then fails
-        self._core.set_stretch_limit(float(limit), gradient, len(pairs), pairs, pair_gradient)
-        copies = (None if a is None else a.copy() for a in (gradient, pairs, pair_gradient))
-        self._stretch_bound = (float(limit), *copies)
+        self._stretch_bound = (0.0, None)  # the core turns the bound off first, also when it then fails
+        self._core.set_stretch_limit(float(limit), gradient)
+        self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
 
     @property
     def stretch_limit(self) -> float:

@@ -58,11 +58,8 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // `gradient` (one value >= 0 per link of the graph's edges: the most half the difference of its ends' skin
 // weights changes per metre along a mesh edge), or over the link's length (gradient NULL). The link's length and
 // its ends' frames: the goals' when they carry the rest, else the rest's. limit 0: off (the default); else > 1.
-// With no link past the limit: the same bits as off. `pairCount` extra pairs (i, j) of particles (`pairs`, 2
-// pairCount indices, i != j; e.g. those that skin one mesh edge's ends with no link between them) are measured
-// the same way, with `pairGradient` (pairCount values >= 0; NULL: over their length); pairCount 0: none.
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient, int pairCount, const int* pairs,
-								 const double* pairGradient);
+// With no link past the limit: the same bits as off.
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
