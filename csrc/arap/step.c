@@ -304,7 +304,6 @@ static od_Status od_End(od_Sim* sim, od_Status status)
 		sim->mode = sim->keptMode;
 		sim->counters.steps = sim->keptSteps;
 	}
-	if (status == OD_OK && sim->mode == OD_DYNAMIC) od_StretchBound_DebugEnd(sim);
 	atomic_store(&sim->busy, 0);
 	return status;
 }

@@ -16,4 +16,3 @@ void od_StretchBound(od_Sim* sim, double ahead);
 // The raised softness back to the softness as set (a static solve, the bound turned off): the weights and the
 // edges' terms made again only when a value was raised.
 void od_StretchBound_Lower(od_Sim* sim);
-void od_StretchBound_DebugEnd(od_Sim* sim);
