@@ -331,22 +331,12 @@ od_Vec3 od_Goals_StepVelocity(const od_Sim* sim, int i)
 	return od_M3MulV(&both, od_V3Load(goals->velocity + 3 * i));
 }
 
-bool od_Goals_Moving(const od_Sim* sim)
-{
-	const od_Goals* goals = &sim->goals;
-	return od_Goals_CarryRest(sim) && goals->framed && goals->mark == sim->counters.steps;
-}
-
-od_Vec3 od_Goals_CallVelocity(const od_Sim* sim, int i, double time)
-{
-	od_Mat3 screw = od_ScrewMatrix(od_Scale(-time, od_V3Load(sim->goals.spin + 3 * i)));
-	return od_M3MulV(&screw, od_V3Load(sim->goals.velocity + 3 * i));
-}
-
 void od_Goals_BeginCall(od_Sim* sim, int steps)
 {
-	sim->goals.step = 0;
-	sim->goals.steps = od_Goals_Moving(sim) ? steps : 0;
+	od_Goals* goals = &sim->goals;
+	bool moving = od_Goals_CarryRest(sim) && goals->framed && goals->mark == sim->counters.steps;
+	goals->step = 0;
+	goals->steps = moving ? steps : 0;
 }
 
 void od_Goals_EndCall(od_Sim* sim)

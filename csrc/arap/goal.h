@@ -25,11 +25,6 @@ void od_Goals_EdgeRest(const od_Sim* sim, int i, int j, od_Vec3* arm, od_Mat3* t
 // Directed edge e = (i, j) from the goal shape: its moment s_j Ā_j Q_ji + s_i Q_ji Ā_i and arm d_ij of the local
 // step (without k and s_j v_j), and goals.edgeRest's six numbers for the right side (global_solve.c).
 void od_Goals_PrepareEdge(const od_Sim* sim, int i, int e, double si, double sj, od_Mat3* moment, od_Vec3* arm);
-// Whether the goals carry the rest and their frame was set just before this call (their motion then leads to it).
-bool od_Goals_Moving(const od_Sim* sim);
-// Goal i's mean velocity over a call of `time` seconds that ends at its frame (od_Goals_Moving): the chord of its
-// screw motion, V(-T Ω_i) u_i (od_TrackMotion); its angular velocity over the call is Ω_i (goals.spin).
-od_Vec3 od_Goals_CallVelocity(const od_Sim* sim, int i, double time);
 // A call of `steps` steps begins (od_Step_Begin); each step's goals are then placed by od_Goals_Place (goal.c).
 void od_Goals_BeginCall(od_Sim* sim, int steps);
 // Places goals carrying the rest for the call's step goals.step (od_Step_Start); the last has the frame set.

@@ -42,39 +42,17 @@ static od_Vec3 od_RestVector(const od_Sim* sim, int i, int j)
 	return od_M3MulTV(&gi, od_Sub(od_V3Load(sim->goals.x + 3 * j), od_V3Load(sim->goals.x + 3 * i)));
 }
 
-// How much of particle i's own motion relative to its goal's it keeps over `ahead` seconds: a goal spring of
-// angular frequency ω alone turns a velocity w relative to the goal into an offset w sin(ωT) / ω, so the
-// particle moves with its goal plus f = sin(ωT) / (ωT) of that velocity (0 from ωT = π on: a held particle
-// goes where its goal goes).
-static double od_OwnMotion(const od_Sim* sim, int i, double ahead)
-{
-	double angle = ahead * sqrt(sim->goals.omega2[i]);
-	return angle < 1e-8 ? 1.0 : (angle < M_PI ? sin(angle) / angle : 0.0);
-}
-
-// Each particle at the call's end (`ahead` seconds on): its centre into x (3n) and its rotation into R (9n), as
-// its velocity v and angular velocity ω carry it there; when the goals' frame was set for this call
-// (od_Goals_Moving) as u + f (v - u) and Ω + f (ω - Ω) carry it, u and Ω its goal's over the call
-// (od_Goals_CallVelocity) and f its own motion's share (od_OwnMotion): a held particle stops where the
-// animation stops within the call, which its velocity at the call's start does not show.
+// Each particle at the call's end (`ahead` seconds on) as its velocities carry it there: its centre into x (3n)
+// and its rotation into R (9n).
 static void od_Ahead(const od_Sim* sim, double ahead, double* x, double* R)
 {
 	const od_State* s = &sim->state;
-	bool goals = sim->goals.omega2 && od_Goals_Moving(sim);
 	for (int i = 0; i < sim->graph->n; ++i)
 	{
-		od_Vec3 v = od_V3Load(s->v + 3 * i), omega = od_V3Load(s->omega + 3 * i);
-		if (goals)
-		{
-			double f = od_OwnMotion(sim, i, ahead);
-			od_Vec3 u = od_Goals_CallVelocity(sim, i, ahead), spin = od_V3Load(sim->goals.spin + 3 * i);
-			v = od_MulAdd(u, f, od_Sub(v, u));
-			omega = od_MulAdd(spin, f, od_Sub(omega, spin));
-		}
-		od_Mat3 turn = od_M3ExpSkew(od_Scale(ahead, omega)), now = od_M3Load(s->R + 9 * i);
+		od_Mat3 turn = od_M3ExpSkew(od_Scale(ahead, od_V3Load(s->omega + 3 * i))), now = od_M3Load(s->R + 9 * i);
 		od_Mat3 r = od_M3Mul(&turn, &now);
 		od_M3Store(R + 9 * i, &r);
-		od_V3Store(x + 3 * i, od_MulAdd(od_V3Load(s->x + 3 * i), ahead, v));
+		od_V3Store(x + 3 * i, od_MulAdd(od_V3Load(s->x + 3 * i), ahead, od_V3Load(s->v + 3 * i)));
 	}
 }
 
