@@ -80,6 +80,7 @@ def _sim_case(scale):
         "set_stiffness_scale": lambda: sim.set_stiffness_scale(np.ones(n)),
         "stiffness_scale": lambda: sim.stiffness_scale,
         "set_link_softness": lambda: sim.set_link_softness(np.ones(n)), "link_softness": lambda: sim.link_softness,
+        "set_stretch_limit": lambda: sim.set_stretch_limit(1.2), "stretch_limit": lambda: sim.stretch_limit,
         "step": lambda: sim.step(1), "solve_static": lambda: sim.solve_static(1), "energy": lambda: sim.energy(),
         "set_state": lambda: sim.set_state(np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1))),
         "positions": lambda: sim.positions, "rotations": lambda: sim.rotations,

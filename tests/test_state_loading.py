@@ -167,6 +167,7 @@ def rigged(v, graph):
     sim.set_goals(graph.centers + (0.0, 0.0, 0.02))
     sim.set_particle_damping(np.linspace(0.0, 0.1, graph.n_particles))
     sim.set_link_softness(np.linspace(0.05, 1.0, graph.n_particles))
+    sim.set_stretch_limit(1.2)
     sim.step(3)
     return sim
 
@@ -205,6 +206,10 @@ def test_simulation_goal_motion_damping_and_link_softness_are_checked(bar):
     for softness in (np.zeros(n), np.full(n, np.nan), np.ones(n + 1)):
         with pytest.raises(ValueError, match="softness"):
             opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, link_softness=softness))
+    for bound, message in [((0.5, None), "stretch limit"), ((np.nan, None), "stretch limit"),
+                           ((1.2, np.ones(3)), "gradient"), ((1.2, np.full(len(graph.edges), -1.0)), "gradient")]:
+        with pytest.raises(ValueError, match=message):
+            opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, stretch_bound=bound))
 
 
 def test_simulation_pickle_continues_to_the_same_bits(bar):
