@@ -47,7 +47,8 @@ SMOKE = ("test_core.py", "test_arguments.py", "test_io.py", "test_pickle.py", "t
 
 def wine_env():
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "LD_LIBRARY_PATH", "LD_PRELOAD")}
-    env.update(WINEPREFIX=str(WINE / "prefix"), WINEDEBUG="-all")
+    env.update(WINEPREFIX=str(WINE / "prefix"), WINEDEBUG="-all",
+               PYTHONIOENCODING="utf-8")  # read back as UTF-8: a failure's "±" in cp1252 broke the reading
     return env
 
 
