@@ -138,6 +138,26 @@ def test_a_pickle_keeps_the_skin(blob):
     assert np.array_equal(sim.positions, copy.positions)
 
 
+def test_a_pickle_carries_the_skin_again_when_the_goals_rest_changes(blob):
+    """With goals carrying the rest a particle carries only its vertices of weight >= CONTACT_WEIGHT; a restored
+    copy turned off and on again carries what a simulation never pickled does, to the bit."""
+    fresh, restored = _scene(blob), _scene(blob)
+    for sim in (fresh, restored):
+        sim.set_goal_strength(0.5)
+        sim.set_goals_carry_rest(True)
+        sim.set_contact_skin(opdeform.Skin(sim.graph, blob[0]))
+    restored = pickle.loads(pickle.dumps(restored))
+    carried = fresh.n_contact_points
+    for carry in (False, True, False):
+        for sim in (fresh, restored):
+            sim.set_goals_carry_rest(carry)
+        assert restored.n_contact_points == fresh.n_contact_points
+    assert fresh.n_contact_points > carried
+    for sim in (fresh, restored):
+        sim.step(20)
+    assert np.array_equal(fresh.positions, restored.positions)
+
+
 def test_bad_skin_input_raises_and_changes_nothing(blob):
     v, t, g = blob
     sim = _scene(blob, True)

@@ -44,6 +44,7 @@ def check_simulation(saved: object) -> None:
     _check_fields(saved["fields"])
     _check_goal_motion(saved.get("goal_motion"))
     _check_surface_forces(saved.get("surface_forces"))
+    _check_contact_skin(saved.get("contact_skin"))
 
 
 def _check_history(ids_before: object, history: object) -> set[int]:
@@ -98,6 +99,11 @@ def _check_goal_motion(motion: object) -> None:
 def _check_surface_forces(carried: object) -> None:
     if carried is not None and not (isinstance(carried, (tuple, list)) and len(carried) == 2):
         raise ValueError("surface_forces: (forces, surfaces) or None expected")
+
+
+def _check_contact_skin(skin: object) -> None:
+    if skin is not None and not (isinstance(skin, (tuple, list)) and len(skin) == 4):
+        raise ValueError("contact_skin: (rest vertices, indices, weights, bodies) or None expected")
 
 
 def int32_pairs(pairs: Any) -> Ints:

@@ -176,7 +176,8 @@ class Simulation(CoreObject, ForceFields):
         self._colliders: dict[int, dict[str, Any]] = {}
         self._collider_ids = 0
         self._contact_points: tuple[Floats, npt.NDArray[np.int32], bool] | None = None
-        self._contact_skin: tuple[Any, bool] | None = None  # set_contact_skin's, remade when the goals change
+        # set_contact_skin's rest vertices, indices, weights and bodies: carried again when the goals' rest changes
+        self._contact_skin: tuple[Floats, npt.NDArray[np.int32], Floats, bool] | None = None
 
     # -- constraints ----------------------------------------------------------------------------------
     def default_weight(self, kind: str = "position") -> float:
@@ -335,7 +336,7 @@ class Simulation(CoreObject, ForceFields):
         changed = bool(enabled) != self.goals_carry_rest
         self._core.set_goal_rest(bool(enabled))
         if changed and self._contact_skin is not None:
-            self.set_contact_skin(*self._contact_skin)
+            self._carry_skin(*self._contact_skin)
 
     @property
     def goals_carry_rest(self) -> bool:
@@ -496,13 +497,20 @@ class Simulation(CoreObject, ForceFields):
             return
         if getattr(skin, "graph", None) is not self.graph:
             raise ValueError("skin: an opdeform.Skin bound to this simulation's graph expected")
-        weights = skin.weights
+        rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
+        self._carry_skin(rest, skin.indices, skin.weights, bodies)
+
+    def _carry_skin(self, rest: ArrayLike, indices: ArrayLike, weights: ArrayLike, bodies: bool) -> None:
+        """set_contact_skin's points from the skin's rest vertices (V,3), indices and weights (V,m): those the
+        goals' rest setting carries. Kept (and pickled), so that a change of that setting carries them again."""
+        rest = as_array("contact_skin rest", rest, (None, 3))
+        indices = as_array("contact_skin indices", indices, (len(rest), None), np.int32)
+        weights = as_array("contact_skin weights", weights, indices.shape)
         least = np.minimum(CONTACT_WEIGHT if self.goals_carry_rest else 0.0, weights.max(axis=1, keepdims=True))
         carried = (weights > 0.0) & (weights >= least)
-        vertex = np.broadcast_to(np.arange(skin.n_vertices)[:, None], carried.shape)[carried]
-        rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
-        self.set_contact_points(rest[vertex], skin.indices[carried], bodies)
-        self._contact_skin = (skin, bodies)
+        vertex = np.broadcast_to(np.arange(len(rest))[:, None], carried.shape)[carried]
+        self.set_contact_points(rest[vertex], indices[carried], bodies)
+        self._contact_skin = (rest, indices, weights, bool(bodies))
 
     def set_contact_points(self, points: ArrayLike | None, particles: ArrayLike | None = None,
                            bodies: bool = True) -> None:
@@ -553,8 +561,9 @@ class Simulation(CoreObject, ForceFields):
     def __getstate__(self) -> dict[str, Any]:
         """Everything a step reads: graph, parameters, stiffness scale, link softness, damping per particle, solver
         settings, floor, goals (with their rest setting and motion), constraints (ids, slot order, targets as
-        stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact and the state
-        with velocities. The factorization is rebuilt; counters restart."""
+        stored), force fields, colliders (ids, frames, targets, deformed vertices), self-contact, the contact points
+        (a skin's carried again when the goals' rest changes) and the state with velocities. The factorization is
+        rebuilt; counters restart."""
         solver = dict(self.solver, tolerance=self.tolerance, max_iterations=self.max_iterations)
         return {"graph": self.graph, "params": self.params, "stiffness_scale": self.stiffness_scale,
                 "link_softness": self.link_softness, "stretch_bound": self._stretch_bound, "solver": solver,
@@ -566,7 +575,8 @@ class Simulation(CoreObject, ForceFields):
                 "targets": {id: self._core.constraint_target(id) for id in self._constraints},
                 "state": (self.positions, self.rotations, self.velocities, self.angular_velocities),
                 "fields": self._calls, "colliders": self._colliders, "collider_ids": self._collider_ids,
-                "self_contact": self.self_contact, "contact_points": self._contact_points}
+                "self_contact": self.self_contact, "contact_points": self._contact_points,
+                "contact_skin": self._contact_skin}
 
     def __setstate__(self, saved: dict[str, Any]) -> None:
         """Unpickling: the saved calls replayed after ``check_simulation`` bounds them. ``pickle.loads`` runs
@@ -598,7 +608,9 @@ class Simulation(CoreObject, ForceFields):
         self._replay_colliders(saved["collider_ids"], saved["colliders"])
         if saved["self_contact"] is not None:
             self.set_self_contact(True, **saved["self_contact"])
-        if saved.get("contact_points") is not None:
+        if saved.get("contact_skin") is not None:  # carried again when the goals' rest changes, as set
+            self._carry_skin(*saved["contact_skin"])
+        elif saved.get("contact_points") is not None:
             self.set_contact_points(*saved["contact_points"])
         self._core.restore_state(*saved["state"])
         self.set_surface_forces(saved.get("surface_forces"))
