@@ -90,6 +90,24 @@ def test_a_static_solve_after_raising_steps_uses_the_softness_as_set():
     assert np.array_equal(copy.positions, sim.positions)
 
 
+def test_setting_the_limit_again_refactors_nothing():
+    """The same limit and gradient set again on raised links keep the raise: no refactorization, the same bits as
+    not set again (it lowered the softness and the next step raised it again, refactoring once)."""
+    sims = [soft_bar(1.05) for _ in range(2)]
+    gradient = np.full(len(sims[0].graph.edges), 1e6)  # every soft link past the limit: raised to 1 each step
+    for sim in sims:
+        sim.set_stretch_limit(1.05, gradient)
+        for _ in range(8):
+            sim.step(1)
+    sims[1].set_stretch_limit(1.05, gradient.copy())
+    for sim in sims:
+        for _ in range(4):
+            sim.step(1)
+    assert sims[0].counters["factorizations"] == sims[1].counters["factorizations"] == 2
+    assert np.array_equal(sims[0].positions, sims[1].positions)
+    assert np.array_equal(sims[0].rotations, sims[1].rotations)
+
+
 def test_bad_input_raises_naming_it():
     sim = soft_bar(0.0)
     for bad in (1.0, 0.5, -1.0, np.nan, np.inf):

@@ -443,6 +443,16 @@ static void od_StretchBoundOff(od_Sim* sim)
 	sim->stretchLimit = 0.0;
 }
 
+// Whether limit and gradient are the bound's as set (the same bits).
+static bool od_SameStretchBound(const od_Sim* sim, double limit, const double* gradient)
+{
+	if (limit != sim->stretchLimit || !gradient != !sim->skinGradient)
+	{
+		return false;
+	}
+	return !gradient || !memcmp(gradient, sim->skinGradient, sizeof(double) * (size_t)sim->graph->edgeCount);
+}
+
 od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient)
 {
 	int n = sim->graph->n;
@@ -456,6 +466,10 @@ od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradie
 		{
 			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", e, gradient[e]);
 		}
+	}
+	if (od_SameStretchBound(sim, limit, gradient)) // the raise kept: setting it again refactors nothing
+	{
+		return OD_OK;
 	}
 	od_StretchBoundOff(sim);
 	if (limit == 0.0)

@@ -281,7 +281,7 @@ class Simulation(CoreObject, ForceFields):
         frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
         default); else > 1. With no link past the limit: the same bits as off. The raise depends on the call's
         duration too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as
-        set."""
+        set. The limit and gradient already set again change nothing (nothing refactored)."""
         links = len(self.graph.edges)
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
         self._stretch_bound = (0.0, None)  # the core turns the bound off first, also when it then fails

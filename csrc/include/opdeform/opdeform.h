@@ -58,7 +58,8 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // `gradient` (one value >= 0 per link of the graph's edges: the most half the difference of its ends' skin
 // weights changes per metre along a mesh edge), or over the link's length (gradient NULL). The link's length and
 // its ends' frames: the goals' when they carry the rest, else the rest's. limit 0: off (the default); else > 1.
-// With no link past the limit: the same bits as off.
+// With no link past the limit: the same bits as off. The limit and gradient already set again: nothing changes
+// (the raise kept, nothing refactored).
 od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
 
