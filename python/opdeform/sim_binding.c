@@ -15,9 +15,10 @@ typedef struct
 {
 	GuardedObject head;
 	od_Sim* sim;
-	PyObject* graph; // keeps the od_Graph alive
-	Py_ssize_t n;    // particles
-	int tracing;     // whether set_energy_trace is on (the core has no getter)
+	PyObject* graph;  // keeps the od_Graph alive
+	Py_ssize_t n;     // particles
+	Py_ssize_t links; // the graph's edges (links)
+	int tracing;      // whether set_energy_trace is on (the core has no getter)
 } SimObject;
 
 // The od_Sim of obj, or NULL with RuntimeError while a call on another thread runs.
@@ -60,6 +61,7 @@ static PyObject* Sim_new(PyTypeObject* type, PyObject* args, PyObject* kwargs)
 	self->sim = sim;
 	self->graph = Py_NewRef(graphObj);
 	self->n = od_Graph_GetParticleCount(graph);
+	self->links = od_Graph_GetEdgeCount(graph);
 	return (PyObject*)self;
 }
 
@@ -229,10 +231,7 @@ static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
 	{
 		return NULL;
 	}
-	PyObject* edges = PyObject_GetAttrString(((SimObject*)obj)->graph, "n_edges"); // the links, one value each
-	Py_ssize_t links = edges ? PyLong_AsSsize_t(edges) : -1;
-	Py_XDECREF(edges);
-	if (links < 0 || GetOptionalArray(arg, "gradient", 'd', links, &view) < 0)
+	if (GetOptionalArray(arg, "gradient", 'd', ((SimObject*)obj)->links, &view) < 0)
 	{
 		return NULL;
 	}
