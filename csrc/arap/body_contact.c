@@ -1924,23 +1924,22 @@ static double od_PointCompliance(const od_PairScratch* s, int m, od_Vec3 r, od_V
 	return h2 * (1.0 / s->mass[m] + od_Dot(ru, od_M3MulV(&inverse, ru)));
 }
 
-// The rates of a pair's normal force and friction (od_UpdatePair): `rate`, its particles' own, but for a member
-// resting on much heavier ones (od_Perched) those of the member as a rigid body at the pair's particle (along the
-// normal; across it, the larger of two directions' compliances), its count pairs sharing it, plus the particle's own
-// compliance (od_OwnCompliance): 1 / (count c_rigid + c_own), where larger. Such a member takes no rigid step
-// (od_Coarse, od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share of its
-// particles that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24 steps a
-// second rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one settled
-// first (0.95 m aside at 7 s); with these rates it rests from 1 s (docs/contact.md, "Stacks", stop 46). The heavier
-// end hardly moves: the light member's inertia is what counts. At 3 or 10 times the rates the slab slid off.
+// The rates of a pair's normal force and friction (od_UpdatePair): `rate`, its particles' own, but for a member m
+// resting on much heavier ones (the pair's od_Perched; -1: none) those of the member as a rigid body at the pair's
+// particle (along the normal; across it, the larger of two directions' compliances), its count pairs sharing it, plus
+// the particle's own compliance (od_OwnCompliance): 1 / (count c_rigid + c_own), where larger. Such a member takes no
+// rigid step (od_Coarse, od_CoarseFriction: comparable members only), and a particle's own rate moves it by the share
+// of its particles that touch: a Rubber slab on one 1,000 times as dense (crushed bumpy under its own weight) at 24
+// steps a second rested on 3-5 pairs, two of three at their Coulomb bound, and rocked at 0.17 m/s, or slid off one
+// settled first (0.95 m aside at 7 s); with these rates it rests from 1 s (docs/contact.md, "Stacks", stop 46). The
+// heavier end hardly moves: the light member's inertia is what counts. At 3 or 10 times the rates the slab slid off.
 //
 // Only for a member resting on OD_PERCHED_PAIRS pairs or more: on fewer it is balanced on them and turns about
 // them, and at the rigid rate a Rubber sphere on one 100 times as dense at 60 steps a second rolled off (0.70 m aside
 // at 6 s in 3 of 4 drops; 0.07-0.09 m with the limit, as before).
-static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, double rate,
-							double h2, double* normal, double* friction)
+static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const od_ContactPair* pair, int m,
+							double rate, double h2, double* normal, double* friction)
 {
-	int m = od_Perched(s, pair);
 	*normal = *friction = rate;
 	if (m < 0 || s->perched[m] < OD_PERCHED_PAIRS)
 	{
@@ -1955,19 +1954,18 @@ static void od_PerchedRates(const od_PairScratch* s, od_Sim* const* sims, const 
 	*friction = fmax(rate, 1.0 / (count * across + own));
 }
 
-// A pair whose lighter member rests on a much heavier one (od_Perched) measures its friction's slip against where
-// the heavier end stood at the step's start. The heavier member's floor holds it after the iterations, so in the
-// solves it falls (a Jelly slab 1,000 times as dense as the one on it: its top particles 20 mm a step at 1/24 s,
-// under 0.3 mm once the floor has put them back), and across pair normals leaning 10-25 degrees on its crushed,
-// bumpy top that fall read as the pairs' slip: 2-5 mm a step, in as many directions as the normals lean. The light
-// slab's friction, at its Coulomb bound, held against those (load-weighted cosine to the step's true slip -0.05 to
-// -0.7), 0.1 of its weight of the 0.55 its bounds allowed against the normals' lean, and the slab slid off (0.88 m
-// aside at 3 s; docs/contact.md, "Stop 48"). The normal force keeps the heavier end where it is: measured against
-// its start too, at 24 steps a second Rubber and Stiff slabs on ones 10 times as dense shook (0.47, 0.10 m/s) and a
-// Stiff slab on one 1,000 times as dense (0.12 m/s).
-static void od_StillBelow(const od_PairScratch* s, const od_ContactPair* pair, od_End* a, od_End* b)
+// A pair whose lighter member `light` rests on a much heavier one (od_Perched; -1: none) measures its friction's slip
+// against where the heavier end stood at the step's start. The heavier member's floor holds it after the iterations, so
+// in the solves it falls (a Jelly slab 1,000 times as dense as the one on it: its top particles 20 mm a step at 1/24 s,
+// under 0.3 mm once the floor has put them back), and across pair normals leaning 10-25 degrees on its crushed, bumpy
+// top that fall read as the pairs' slip: 2-5 mm a step, in as many directions as the normals lean. The light slab's
+// friction, at its Coulomb bound, held against those (load-weighted cosine to the step's true slip -0.05 to -0.7), 0.1
+// of its weight of the 0.55 its bounds allowed against the normals' lean, and the slab slid off (0.88 m aside at 3 s;
+// docs/contact.md, "Stop 48"). The normal force keeps the heavier end where it is: measured against its start too, at
+// 24 steps a second Rubber and Stiff slabs on ones 10 times as dense shook (0.47, 0.10 m/s) and a Stiff slab on one
+// 1,000 times as dense (0.12 m/s).
+static void od_StillBelow(const od_PairScratch* s, const od_ContactPair* pair, int light, od_End* a, od_End* b)
 {
-	int light = od_Perched(s, pair);
 	od_End* heavy = light < 0 ? NULL : s->body[pair->a] == light ? b : a;
 	if (heavy)
 	{
@@ -2002,8 +2000,9 @@ static void od_UpdateForces(od_PairScratch* s, od_Sim* const* sims, int count, c
 		od_Brace(s, pair, &a, &b);
 		int ca = s->active[pair->a] > 1 ? s->active[pair->a] : 1, cb = s->active[pair->b] > 1 ? s->active[pair->b] : 1;
 		double rate, slide;
-		od_PerchedRates(s, sims, pair, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
-		od_StillBelow(s, pair, &a, &b);
+		int light = od_Perched(s, pair);
+		od_PerchedRates(s, sims, pair, light, OD_FORCE_RATE / (h2 * (ca / a.mass + cb / b.mass)), h2, &rate, &slide);
+		od_StillBelow(s, pair, light, &a, &b);
 		od_UpdatePair(pair, &a, &b, between->friction, rate, slide,
 					  pair->interface >= 0 ? &s->interfaces[pair->interface] : NULL, pull);
 	}
