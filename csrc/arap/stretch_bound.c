@@ -88,15 +88,29 @@ void od_StretchBound_Lower(od_Sim* sim)
 	}
 }
 
+// Whether any of the n particles has softened links (r < 1): else no link has anything to raise, and the raised
+// softness is r (od_Sim_SetStretchLimit, od_FillLinkWeights and each call here leave it so).
+static bool od_Softened(const double* r, int n)
+{
+	for (int i = 0; i < n; ++i)
+	{
+		if (r[i] < 1.0)
+		{
+			return true;
+		}
+	}
+	return false;
+}
+
 void od_StretchBound(od_Sim* sim, double ahead)
 {
 	const double* r = sim->linkSoftness;
 	double* raised = sim->linkRaised;
-	if (!r || !raised)
+	int n = sim->graph->n;
+	if (!r || !raised || !od_Softened(r, n))
 	{
 		return;
 	}
-	int n = sim->graph->n;
 	double *most = raised + n, *x = most + n, *R = x + 3 * n; // the scratch (od_Sim_SetStretchLimit)
 	memset(most, 0, sizeof(double) * (size_t)n);
 	od_Ahead(sim, ahead, x, R);
