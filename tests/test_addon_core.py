@@ -599,7 +599,7 @@ def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
     e.set_regions(jiggle_hz=1.75)
     r = e.sim.link_softness
     assert r[tail].max() < 0.5 and np.ptp(r[tail]) == 0.0, r[tail]
-    label = engine.swinging_shells(e.rest, e.triangles, e.graph, piece, body)
+    label = engine.swinging_shells(e.graph, piece, body, checks.open_pieces(e.rest, e.triangles))
     np.testing.assert_array_equal(label > 0, tail)
     hz = engine.shell_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label)
     assert np.all(hz[~tail] == 0.0) and np.ptp(hz[tail]) == 0.0 and 1.75 < hz[tail][0] < 100.0, hz[tail]
@@ -612,9 +612,9 @@ def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
 
 
 def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
-    """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open: the fish's fins
-    swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor a short one
-    (the bear's ears, 2.1-3.1x)."""
+    """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open, checks.open_pieces:
+    the fish's fins swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor
+    a short one (the bear's ears, 2.1-3.1x)."""
     from opdeform import meshes
     from opdeform_blender.core import engine
     body, tail, ball = (meshes.capsule(radius=0.2, length=0.6), meshes.capsule(radius=0.03, length=0.4),
@@ -630,11 +630,12 @@ def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
     e = Engine(opdeform, v, t, particles=100, small_pieces="own")
     _, piece, body_piece = e.pieces()
     vertex_piece = checks.vertex_pieces(e.rest, e.triangles)[0]
-    label = engine.swinging_shells(e.rest, e.triangles, e.graph, piece, body_piece)
+    label = engine.swinging_shells(e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
     taken = np.unique(piece[label > 0])
     assert list(taken) == [vertex_piece[start[1]]], (taken, vertex_piece[start])
     split = e.rest[e.triangles].reshape(-1, 3)  # every triangle its own vertices, as an export split at its seams
-    label = engine.swinging_shells(split, np.arange(len(split)).reshape(-1, 3), e.graph, piece, body_piece)
+    seams = checks.open_pieces(split, np.arange(len(split)).reshape(-1, 3))
+    label = engine.swinging_shells(e.graph, piece, body_piece, seams)
     assert list(np.unique(piece[label > 0])) == list(taken)
 
 

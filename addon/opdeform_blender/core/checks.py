@@ -167,6 +167,18 @@ def vertex_pieces(vertices, triangles):
     return piece, len(roots)
 
 
+def open_pieces(vertices, triangles):
+    """The mesh pieces (numbered as vertex_pieces numbers them) with an edge not shared by two triangles once the
+    vertices are welded: a shell split along its seams is closed."""
+    weld = welded(vertices)
+    t = weld[np.asarray(triangles, dtype=np.int64).reshape(-1, 3)]
+    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    found, count = np.unique(edges, axis=0, return_counts=True)
+    piece_of = np.full(weld.max() + 1, -1)
+    piece_of[weld] = vertex_pieces(vertices, triangles)[0]
+    return np.unique(piece_of[found[count != 2, 0]])
+
+
 def welded(vertices):
     """Each vertex's index among the welded ones: vertices closer than WELD of the bounding box are one, as the core
     welds them (a mesh split along its seams is whole again)."""

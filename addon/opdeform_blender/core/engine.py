@@ -228,17 +228,10 @@ def shell_frequency(od, graph, stiffness, density, label):
     return np.sqrt(np.maximum(least, 0.0))[label] / (2.0 * np.pi)
 
 
-def swinging_shells(vertices, triangles, graph, piece, body):
-    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: each
-    triangle edge shared by two once the vertices are welded, so a shell split along its seams counts; linked to
-    the body in the graph; long: LONG_SHELL, of three particles or more, as two are always "long"), else 0."""
-    weld = checks.welded(vertices)
-    t = weld[np.asarray(triangles, dtype=np.int64).reshape(-1, 3)]
-    edges = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    found, count = np.unique(edges, axis=0, return_counts=True)
-    piece_of = np.full(weld.max() + 1, -1)
-    piece_of[weld] = checks.vertex_pieces(vertices, triangles)[0]
-    open_pieces = np.unique(piece_of[found[count != 2, 0]])
+def swinging_shells(graph, piece, body, open_pieces):
+    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: not of
+    ``open_pieces``, ``checks.open_pieces``; linked to the body in the graph; long: LONG_SHELL, of three particles
+    or more, as two are always "long"), else 0."""
     _, linked = graph.pieces()
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
@@ -420,6 +413,7 @@ class Engine:
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
         self.thin_appendages = checks.thin_appendages(od, self.graph, self.rest, triangles)
         self._pieces = None  # pieces()'s answer, found once: the graph never changes
+        self._open_pieces = None  # the mesh pieces with an open edge (checks.open_pieces), found once
         self._solver = None
         self.solver_frame = None
         self.start, self.end = 1, 250
@@ -712,7 +706,9 @@ class Engine:
         softened as one, from its lowest frequency (``shell_frequency``) toward ``jiggle_hz`` by the least Follow
         painted on it (before Shell Min): a ponytail painted 1 -> 0.1 rings near the look's frequency, one painted
         1 keeps its links."""
-        label = swinging_shells(self.rest, self.triangles, self.graph, piece, body)
+        if self._open_pieces is None:  # the mesh's, found once: it never changes
+            self._open_pieces = checks.open_pieces(self.rest, self.triangles)
+        label = swinging_shells(self.graph, piece, body, self._open_pieces)
         if not label.any():
             return 1.0
         hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)
