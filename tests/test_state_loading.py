@@ -168,6 +168,7 @@ def rigged(v, graph):
     sim.set_particle_damping(np.linspace(0.0, 0.1, graph.n_particles))
     sim.set_link_softness(np.linspace(0.05, 1.0, graph.n_particles))
     sim.set_stretch_limit(1.2)
+    sim.set_contact_skin(opdeform.Skin(graph, v))
     sim.step(3)
     return sim
 
@@ -189,7 +190,7 @@ def test_simulation_constraint_counts_are_refused_up_front(bar):
         assert time.perf_counter() - start < 1.0, change
 
 
-def test_simulation_goal_motion_damping_and_link_softness_are_checked(bar):
+def test_simulation_goal_motion_damping_link_softness_and_contact_skin_are_checked(bar):
     v, _, graph = bar
     saved = rigged(v, graph).__getstate__()
     velocities, angular, steps = saved["goal_motion"]
@@ -210,6 +211,12 @@ def test_simulation_goal_motion_damping_and_link_softness_are_checked(bar):
                            ((1.2, np.ones(3)), "gradient"), ((1.2, np.full(len(graph.edges), -1.0)), "gradient")]:
         with pytest.raises(ValueError, match=message):
             opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, stretch_bound=bound))
+    rest, indices, weights, bodies = saved["contact_skin"]
+    for skin, message in [((rest, indices), "contact_skin"), ((rest, indices[:3], weights, bodies), "indices"),
+                          ((rest, indices, weights[:, :1], bodies), "weights"),
+                          ((rest, indices + n, weights, bodies), "out of range")]:
+        with pytest.raises(ValueError, match=message):
+            opdeform.Simulation.__new__(opdeform.Simulation).__setstate__(dict(saved, contact_skin=skin))
 
 
 def test_simulation_pickle_continues_to_the_same_bits(bar):
