@@ -2,8 +2,8 @@
 Blender's 2.7 m Suzanne at 100 particles rests with its skin within 0.5 cm of the floor, a sphere and a ramp
 (with the ellipsoids 3-4 cm above) and never dips into them; a drop gains no energy; a box slides down a ramp
 as Coulomb says or sticks; with goals carrying the rest it is pushed by its excess only; without a skin the
-steps are those of before, bit for bit; a pickle keeps the skin; bad input raises naming the argument with
-nothing changed."""
+steps are those of before, bit for bit; a pickle keeps the skin (and carries it again when the goals' rest
+changes); bad input raises naming the argument with nothing changed."""
 
 import math
 import pathlib
