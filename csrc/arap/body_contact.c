@@ -806,7 +806,7 @@ static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPai
 		// Two bodies that began overlapping: measured along the push direction, which the bodies' surfaces
 		// make the same for the pairs of a face; along each pair's own line, a particle sandwiched between
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
-		// 3.0 m/s, 1.2 m/s along the push direction). Barely overlapping, turned back towards c0.
+		// 3.0 m/s, 1.2 m/s along the push direction; 1.3 turned back towards c0 while barely overlapping).
 		bool between = a->sim != b->sim && d->inIterations;
 		p.c = between && !skin && l0 > 0.0 ? od_OverlapNormal(s, pair, c0, supports - l0, p.c, d->thickness)
 			  : between ? od_PushDirection(s, pair, p.c)
