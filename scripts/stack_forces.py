@@ -3,6 +3,7 @@ slabs, the upper dropped 0.05 m onto the lower, as the bench places them).
 
     PYTHONPATH=build/python:scripts python3 scripts/stack_forces.py friction [RATE [FROM TO]]
     PYTHONPATH=build/python:scripts python3 scripts/stack_forces.py ring [RATE]
+    PYTHONPATH=build/python:scripts python3 scripts/stack_forces.py flap [RATE [FROM STEPS]]
 
 friction: a Jelly slab on one 1,000 times as dense (24 steps a second unless RATE), every step from FROM to TO s
 (0.2 to 0.7): the upper's centre's move (mm), its pairs at their Coulomb bound, the load-weighted cosine between each
@@ -10,6 +11,9 @@ pair's friction and its relative slip over the step (-1: friction against the sl
 normal over the weight, the sum of the friction's magnitudes and of the bounds μ f_n over the weight.
 ring: a Stiff slab 1e6 times as dense (1e8 kg/m³) on the lower one and alone on the floor dropped as far (240 steps a
 second unless RATE), 2 to 4 s: the fastest particle's strongest frequencies and its speed over each second.
+flap: the Jelly slab on one 1,000 times as dense (24 steps a second unless RATE), STEPS steps (8) from FROM s (3): the
+light slab's fastest particle, its velocity and height (mm), and the normal force and normal's z of each of its pairs
+with a force (docs/contact.md, "Stop 49").
 """
 
 import sys
@@ -23,11 +27,16 @@ JELLY = 1050.0  # kg/m³, the preset's
 MU = 0.5  # the bench's friction
 
 
-def friction(rate, start, end):
+def jelly_on_dense(rate):
+    """The bench's Jelly slab dropped on one 1,000 times as dense: (lower, upper, their group)."""
     v, t = slab()
     lower = preset_body(v, t, 0.1, "Jelly", 1000 * JELLY, rate)
     upper = preset_body(v, t, 0.35, "Jelly", JELLY, rate)
-    group = opdeform.ContactGroup([lower, upper], friction=MU)
+    return lower, upper, opdeform.ContactGroup([lower, upper], friction=MU)
+
+
+def friction(rate, start, end):
+    lower, upper, group = jelly_on_dense(rate)
     weight = JELLY * 0.128 * 9.81  # the 0.8 x 0.8 x 0.2 m slab's
     group.step(int(start * rate))
     for k in range(int((end - start) * rate)):
@@ -49,6 +58,20 @@ def friction(rate, start, end):
               f"{np.sum(cosine * forces[:, 0]) / forces[:, 0].sum():+.2f}, friction/W {tangent[:, 0].sum() / weight:+.3f} "
               f"{tangent[:, 1].sum() / weight:+.3f}, sum |friction|/W {size.sum() / weight:.3f}, sum μ f_n/W "
               f"{bound.sum() / weight:.3f}", flush=True)
+
+
+def flap(rate, start, steps):
+    lower, upper, group = jelly_on_dense(rate)
+    first = len(lower.positions)
+    group.step(int(start * rate))
+    for k in range(steps):
+        group.step(1)
+        i = np.abs(upper.velocities).max(axis=1).argmax()
+        pairs, forces = (np.asarray(a) for a in group.save_state())
+        mine = (pairs[:, 1] == first + i) & (forces[:, 0] > 0.0)
+        listed = "; ".join(f"lower {p[0]}: {f[0]:.0f} N, n_z {f[6]:.2f}" for p, f in zip(pairs[mine], forces[mine]))
+        print(f"{start + (k + 1) / rate:.3f} s: particle {i} at {np.round(upper.velocities[i], 3)} m/s, "
+              f"{1e3 * upper.positions[i, 2]:.1f} mm; {listed or 'no pair with a force'}", flush=True)
 
 
 def ring(rate):
@@ -77,9 +100,11 @@ def ring(rate):
 
 
 def main(args):
-    rate = int(args[1]) if len(args) > 1 else (24 if args[0] == "friction" else 240)
+    rate = int(args[1]) if len(args) > 1 else (240 if args[0] == "ring" else 24)
     if args[0] == "friction":
         friction(rate, *(map(float, args[2:4]) if len(args) > 3 else (0.2, 0.7)))
+    elif args[0] == "flap":
+        flap(rate, float(args[2]) if len(args) > 2 else 3.0, int(args[3]) if len(args) > 3 else 8)
     else:
         ring(rate)
 

@@ -11,7 +11,9 @@
 // closer than s_i + s_j + thickness is in contact. The direction: a pair apart at the step's start keeps the
 // start's centre line, and is tested only when its relative path came within reach: a fast particle cannot
 // pass through another, whatever its speed. A pair that began overlapping (placed so, or excluded before)
-// uses the end's centre line and leaves at 1 m/s at most, as the colliders' (contact.c). Pairs push along
+// uses the end's centre line (between members, its push direction, turned back towards the start's centre line while
+// it began less than OD_OVERLAP_TURN thicknesses deep: od_OverlapNormal) and leaves at 1 m/s at most, as the
+// colliders' (contact.c). Pairs push along
 // the centre line turned towards the bodies' surface normals there (od_PushDirection), but for a pair apart at the
 // start that is its members' only contact, at steps of 1/60 s or shorter, which pushes along the line it is measured
 // on: pushed off it, its force did work (a Suzanne resting on another on one pair gained 509 J; od_PushAlong).
@@ -251,6 +253,9 @@
 #define OD_FRICTION_STEP (1.0 / 60.0)
 // The fewest pairs a member resting on much heavier ones takes its rigid rates on (od_PerchedRates).
 #define OD_PERCHED_PAIRS 3
+// How deep (in thicknesses) along its start's centre line a pair between members that began a step overlapping is
+// when it is measured along its push direction alone; shallower, along a blend of the two (od_OverlapNormal).
+#define OD_OVERLAP_TURN 3.0
 
 od_BodyContactDef od_DefaultBodyContactDef(void)
 {
@@ -674,6 +679,25 @@ static od_Vec3 od_PushDirection(const od_PairScratch* s, const od_ContactPair* p
 	return length > 0.0 && od_Dot(m, c) > 0.5 * length ? od_Scale(1.0 / length, m) : c;
 }
 
+// The normal of a pair between members that began the step overlapping along its start's centre line c0 (unit) by
+// `overlap`: the push direction of its centre line c1 now, turned back towards c0 by how far the overlap is from
+// OD_OVERLAP_TURN thicknesses, so that the normal is continuous in the state where the pair turns from apart (measured
+// along c0) to overlapping. Measured along the push direction alone from the least overlap, a corner particle of a
+// light Jelly slab perched on one 1,000 times as dense (24 steps a second) flapped ±5.9 mm every other step: 0.3 mm
+// into the other along c0 it read 6.9 mm deep along its push direction (24° off c0: the two flat ellipsoids' overlap
+// that is not there) and was lifted 6 mm, the next step it began apart and, measured along c0, read a 15 mm gap and
+// fell back (docs/contact.md, "Stop 49").
+static od_Vec3 od_OverlapNormal(const od_PairScratch* s, const od_ContactPair* pair, od_Vec3 c0, double overlap,
+								od_Vec3 c1, double thickness)
+{
+	od_Vec3 push = od_PushDirection(s, pair, c1);
+	double turn = OD_OVERLAP_TURN * thickness;
+	double w = overlap < turn ? overlap / turn : 1.0;
+	od_Vec3 m = od_MulAdd(od_Scale(w, push), 1.0 - w, c0);
+	double length = od_Length(m);
+	return length > 0.0 ? od_Scale(1.0 / length, m) : push;
+}
+
 // Where a pair stands (see the top of the file): the centre line c along which it is measured, how deep it
 // is within reach (> 0: in contact), how deep it may stay (a pair that began overlapping leaves at the
 // recovery speed), whether its path never came within reach (a pair apart at the start that passed by), and
@@ -777,12 +801,16 @@ static od_PairState od_MeasureAlong(const od_PairScratch* s, const od_ContactPai
 	bool apart = l0 > 0.0 && (skin ? od_Dot(p.c, d0) : l0) >= supports;
 	if (!apart && l1 > 0.0)
 	{
+		od_Vec3 c0 = p.c;
 		p.c = od_Scale(1.0 / l1, d1);
 		// Two bodies that began overlapping: measured along the push direction, which the bodies' surfaces
 		// make the same for the pairs of a face; along each pair's own line, a particle sandwiched between
 		// pairs of different lines was pushed by all (bars started 10 cm into each other: fastest particle
-		// 3.0 m/s, 1.2 m/s along the push direction).
-		p.c = a->sim != b->sim && d->inIterations ? od_PushDirection(s, pair, p.c) : p.c;
+		// 3.0 m/s, 1.2 m/s along the push direction; 1.3 turned back towards c0 while barely overlapping).
+		bool between = a->sim != b->sim && d->inIterations;
+		p.c = between && !skin && l0 > 0.0 ? od_OverlapNormal(s, pair, c0, supports - l0, p.c, d->thickness)
+			  : between ? od_PushDirection(s, pair, p.c)
+						: p.c;
 		p.c = skin ? od_SkinNormal(s, pair, a, b, d1, p.c, d->thickness, settle) : p.c;
 		supports = od_ShapeReaches(s, pair, a, b, p.c);
 	}
