@@ -572,13 +572,13 @@ def _belly_hops(bound, frames=36):
 
 def test_the_stretch_bound_keeps_a_jiggling_belly_under_one_and_a_half_and_replays_it():
     """Issue 24: no mesh edge over 1.5x its animated length. Without the bound the belly's links, softened by the
-    jiggle rule, stretch its edges 1.80x during the hops (the outside bear: 1.46-1.64x); with it 1.38x while the
-    belly still moves 95 of its 108 mm. The raise is a function of each frame's start state, so frames simulated
-    again from the cache make the same bits."""
+    jiggle rule, stretch its edges 1.58x during the hops (1.80x before the patch's softness was calibrated as one,
+    the outside bear: 1.46-1.64x); with it 1.46x (1.38x) while the belly still moves as far (95 mm). The raise is
+    a function of each frame's start state, so frames simulated again from the cache make the same bits."""
     e, v, outs, stretch, moved = _belly_hops(True)
-    assert stretch < 1.45, stretch
+    assert stretch < 1.5, stretch
     *_, free_stretch, free_moved = _belly_hops(False)
-    assert free_stretch > 1.6, free_stretch
+    assert free_stretch > 1.55, free_stretch
     assert moved > 0.8 * free_moved, (moved, free_moved)
     e.invalidate(keep_until=10)
     for f in range(11, len(outs) + 1):
