@@ -572,13 +572,13 @@ def _belly_hops(bound, frames=36):
 
 def test_the_stretch_bound_keeps_a_jiggling_belly_under_one_and_a_half_and_replays_it():
     """Issue 24: no mesh edge over 1.5x its animated length. Without the bound the belly's links, softened by the
-    jiggle rule, stretch its edges 1.80x during the hops (the outside bear: 1.46-1.64x); with it 1.38x while the
-    belly still moves 95 of its 108 mm. The raise is a function of each frame's start state, so frames simulated
-    again from the cache make the same bits."""
+    jiggle rule, stretch its edges 1.58x during the hops (1.80x before the patch's softness was calibrated as one,
+    the outside bear: 1.46-1.64x); with it 1.46x (1.38x) while the belly still moves as far (95 mm). The raise is
+    a function of each frame's start state, so frames simulated again from the cache make the same bits."""
     e, v, outs, stretch, moved = _belly_hops(True)
-    assert stretch < 1.45, stretch
+    assert stretch < 1.5, stretch
     *_, free_stretch, free_moved = _belly_hops(False)
-    assert free_stretch > 1.6, free_stretch
+    assert free_stretch > 1.55, free_stretch
     assert moved > 0.8 * free_moved, (moved, free_moved)
     e.invalidate(keep_until=10)
     for f in range(11, len(outs) + 1):
@@ -681,6 +681,29 @@ def test_the_jiggle_rule_counts_a_patch_share_on_the_body_alone():
     counted[np.flatnonzero(held)[:2]] = False
     share = engine.region_frequency(g, engine.elastic_frequency(g, 1e7, 1000.0), held, counted)[1]
     np.testing.assert_allclose(share[patch], 4 / held.sum())
+
+
+def test_the_jiggle_rule_sags_a_painted_spot_alike_at_50_and_400_particles():
+    """Issue 24: a spot painted Follow 0.15 under a 1.6 m capsule (Fleshy) is 4 particles at 50 and 30 at 400; each
+    particle's softness by the rule alone is about the same at both, but the mesh over the 30 sagged 2.7 times
+    farther under a uniform load (engine.patch_sag_frequency 3.35 / 2.03 Hz; the outside pig's belly 12.9 / 41.0 mm
+    at 50 / 400). The patch's softness is scaled as one: its mesh's sag frequency within 15 % at both counts, near
+    the frequency the rule means for its softest particle."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    v, t = meshes.capsule(radius=0.25, length=1.1)  # lying along x
+    follow = np.clip(0.15 + 6.0 * np.linalg.norm(v - (0.0, 0.0, v[:, 2].min()), axis=1), 0.0, 1.0)
+    sags = []
+    for particles in (50, 400):
+        e = _tailed_engine(particles, mesh=(v, t))[0]
+        e.set_goal(0.0, follow)
+        e.set_regions(jiggle_hz=1.75)
+        label = (e.goal_strength < engine.HELD_FOLLOW).astype(np.int64)
+        hz = engine.patch_sag_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label,
+                                        e.sim.link_softness, e.skin)
+        assert label.sum() > 1 and np.ptp(hz[label == 1]) == 0.0 and np.all(hz[label == 0] == 0.0)
+        sags.append(hz[label == 1][0])
+    assert max(sags) < 1.15 * min(sags) and 2.0 < min(sags) < 5.0, sags
 
 
 def test_to_world_of_an_unturned_object_is_the_product():
