@@ -651,12 +651,16 @@ def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
     hz = engine.elastic_frequency(g, 1e7, 1000.0)
     axis = g.centers[:, np.argmax(np.ptp(g.centers, axis=0))]
     half = axis > np.median(axis)
-    np.testing.assert_array_equal(engine.region_frequency(g, hz, ~half)[0][half], 0.0)
+    follow = np.where(v[:, 0] > 0.0, 0.1, 1.0)
+    assert not engine.enclosed_vertices(v, engine.triangle_edges(t).T, follow).any()
+    np.testing.assert_array_equal(engine.region_frequency(g, hz, ~half, np.zeros(len(half), bool))[0], 0.0)
     patch = np.argsort(np.linalg.norm(g.centers - g.centers[np.argmin(np.abs(axis - np.median(axis)))],
                                       axis=1))[:3]
+    spot = np.where(np.linalg.norm(v - g.centers[patch].mean(axis=0), axis=1) < 0.15, 0.1, 1.0)
+    assert engine.enclosed_vertices(v, engine.triangle_edges(t).T, spot).sum() == (spot < 1.0).sum() > 0
     held = np.ones(len(axis), bool)
     held[patch] = False
-    got, share = engine.region_frequency(g, hz, held)
+    got, share = engine.region_frequency(g, hz, held, ~held)
     assert np.all((got[patch] > 0.2 * hz[patch]) & (got[patch] <= hz[patch])), (got[patch], hz[patch])
     np.testing.assert_array_equal(got[held], 0.0)
     np.testing.assert_allclose(share[patch], 3 / held.sum())
@@ -679,7 +683,7 @@ def test_the_jiggle_rule_counts_a_patch_share_on_the_body_alone():
     counted = np.ones(len(axis), bool)
     counted[patch[:2]] = False  # two of the patch's particles and two held ones a shell's: held all the same
     counted[np.flatnonzero(held)[:2]] = False
-    share = engine.region_frequency(g, engine.elastic_frequency(g, 1e7, 1000.0), held, counted)[1]
+    share = engine.region_frequency(g, engine.elastic_frequency(g, 1e7, 1000.0), held, ~held, counted)[1]
     np.testing.assert_allclose(share[patch], 4 / held.sum())
 
 
