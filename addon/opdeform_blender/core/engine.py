@@ -42,8 +42,8 @@ LINK_SOFTNESS_MIN = 1e-6  # jiggle_softness's floor: a link softness is > 0
 HELD_FOLLOW = 0.9  # the jiggle rule: a particle this held by its goal (a 200 Hz spring) holds the flesh around it
 # the jiggle rule: a soft patch of the mesh is enclosed by held flesh (a belly) when its farthest reach from it is at
 # most this share of its extent (its box's diagonal and an edge each side): a spot 0.42, the belly of
-# tests/test_addon_core.py's _belly_hops (a 0.5 m spot wrapping a 0.4 m body's side) 0.74; one held at one end (a
-# worm's top) 0.92
+# tests/test_addon_core.py's _belly_hops (a 0.5 m spot wrapping a 0.4 m body's side) 0.74, the outside pig's tail
+# with the rump's end painted with it 0.62; one held at one end (a worm's top) 0.92
 ENCLOSED_REACH = 0.8
 # the jiggle rule: a soft patch with more particles than the held flesh has rings higher than the look's frequency,
 # by (its particles / the held ones) to this power: a body painted soft nearly all over (Blender's Suzanne with
@@ -193,8 +193,8 @@ def enclosed_vertices(rest, ends, follow):
     """Per vertex, whether it lies in a soft patch of the mesh (its vertices of ``follow`` under HELD_FOLLOW linked by
     the mesh's edges ``ends``, two (E,) arrays) enclosed by held flesh: its farthest reach along the edges from a
     held vertex at most ENCLOSED_REACH of its extent (its box's diagonal and a mean edge each side). On the mesh, not
-    the particles, so that the answer is the same at any particle count: the outside pig's tail, held at its root,
-    was left out at 50 and 100 particles and taken at 400, where a particle linked it into its belly's patch."""
+    the particles, so that the answer is the same at any particle count: a particle's Follow is its softest
+    vertex's, so the particles can link a tail held at its root into a belly's patch, enclosed as one."""
     a, b = ends
     length = np.linalg.norm(rest[a] - rest[b], axis=1)
     held = follow >= HELD_FOLLOW
@@ -227,8 +227,7 @@ def region_frequency(graph, elastic_hz, held, enclosed, counted=None):
     counted = np.ones(len(held), bool) if counted is None else counted
     size = np.bincount(patch[soft & counted], minlength=len(held) + 1)
     share = np.where(soft, size[patch] / max(np.count_nonzero(held), 1), 0.0)
-    taken = soft & enclosed
-    return np.where(taken, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
+    return np.where(soft & enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
 
 
 def _static_loads(od, graph, stiffness, density, held, softness):
