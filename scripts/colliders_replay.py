@@ -1,10 +1,10 @@
-"""The colliders benchmark's 1,000-particle Suzanne replayed without Blender (docs/contact.md, "Cost").
+"""The colliders benchmark's Suzanne replayed without Blender (docs/contact.md, "Cost").
 
 Inside Debian's Blender, the benchmark's own scene (scripts/benchmarks/colliders.py: Suzanne with contact on the
-sphere or the ramp) is stepped to frame 2 and its simulation pickled:
+sphere or the ramp, 1,000 particles or PARTICLES) is stepped to frame 2 and its simulation pickled:
 
     OPDEFORM_PYTHONPATH=$PWD/build/python scripts/blender -b --factory-startup -t 1 -P scripts/colliders_replay.py \
-        -- --dump ramp /tmp/ramp1000.pkl
+        -- --dump ramp /tmp/ramp1000.pkl [PARTICLES]
 
 then, with any build (builds compared one after another, in turns):
 
@@ -13,6 +13,12 @@ then, with any build (builds compared one after another, in turns):
 prints the median process time of its 47 steps with and without the collider (best of 3 each), the local step's
 SVD fallbacks, the mean centre, a hash of the positions and rotations after each step with contact (equal hashes:
 the same trajectory), and (--slide, the ramp) the centre of mass's speed along and across the ramp.
+
+`--once contact|free` steps the 47 steps once, with the collider or without, and prints the state's hash alone:
+the run to count under callgrind (docs/contact.md, "Cost"; the real interpreter, not a pyenv shim):
+
+    PYTHONPATH=build/python valgrind --tool=callgrind --toggle-collect='od_Sim_Step*' \
+        $(python3 -c 'import sys; print(sys.executable)') scripts/colliders_replay.py /tmp/ramp1000.pkl --once free
 """
 
 import hashlib
@@ -28,12 +34,12 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 STEPS = 47
 
 
-def dump(kind, path):
+def dump(kind, path, particles=1000):
     sys.path[:0] = [os.path.join(ROOT, "tests", "blender"), os.path.join(ROOT, "scripts")]
     import bpy
     import helpers
     from benchmarks import colliders
-    scene, obj = colliders._scenes(kind)[(1000, True)]
+    scene, obj = colliders._scenes(kind)[(particles, True)]
     with bpy.context.temp_override(scene=scene):
         scene.frame_set(1)
         scene.frame_set(2)
@@ -87,6 +93,8 @@ def main():
 if __name__ == "__main__":
     if "--dump" in sys.argv:
         args = sys.argv[sys.argv.index("--dump") + 1:]
-        dump(args[0], args[1])
+        dump(args[0], args[1], *map(int, args[2:3]))
+    elif "--once" in sys.argv:
+        print("state", replay(sys.argv[1], sys.argv[sys.argv.index("--once") + 1] == "contact")[2])
     else:
         main()
