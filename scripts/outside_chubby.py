@@ -11,19 +11,17 @@ Floor with Collision.
 opts as scripts/outside_pig.py: particles=N look=NAME +NAME=VALUE looks bake save open=OUT; levels=L (Subdivision,
 3); capetop=W (the cape's top row's Follow, 1);
 capethick=T (the cape closed by a Solidify of thickness T, applied); bonemove (the root bone carries the jump and
-step, not the armature object); capehit (per frame the cape's deepest vertex behind the body's surface, against the
-armature-only twin; reads about 0.1 m on the twin too: not a measure yet); lunge=M (the step forward with the
+step, not the armature object); lunge=M (the step forward with the
 punch, frames 32-44 at constant speed, then a dead stop; 0.6)
 """
-import json, math, os, sys
+import math, os, sys
 import bpy
 import numpy as np
-from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, artist_enable, base, bake_check, collision_floor, first_panels, gauss, install,
-                       link, paint, parent_auto, reports, reshaped, settings, skin_body, world, twin_of, tuned)
+from rig_parts import (armature, collision_floor, gauss, install, link, paint, parent_auto, reshaped, skin_body,
+                       twin_of)
 
 ZIP, KIND, OUT, OPT = rig_parts.options()
 FPS, FRAMES, STOP = 24, 96, 44
@@ -162,104 +160,16 @@ def build_scene():
     return obj, twin, parts, follow
 
 
-class Shot(rig_parts.Shot):
+class Shot(rig_parts.PartsShot):
+    """The shot's parts named as the blob's; a vertex of the cape's top, outside the named parts, "cape-top/body"."""
+
     def __init__(self, obj, twin, parts, follow, H):
-        super().__init__(obj, twin, parts, follow >= 0.999, H)
-        self.size = np.ptp(world(twin)[:, 2])
-        self.follow = follow
+        super().__init__(obj, twin, parts, follow, H, FRAMES, STOP, FPS)
         self.nbody = len(follow) - (850 if "capethick" in OPT else 425)
 
-    def cape_inside(self, obj):
-        """The lower cape's (rest z < 1.3) deepest vertex behind the torso's surface (mm, 0 if none): signed distance to the nearest body
-        vertex along that vertex's normal, world space."""
-        from mathutils.kdtree import KDTree
-        dg = bpy.context.evaluated_depsgraph_get()
-        ev = obj.evaluated_get(dg)
-        me = ev.to_mesh()
-        n = len(me.vertices)
-        co, no = np.empty(3 * n, np.float32), np.empty(3 * n, np.float32)
-        me.vertices.foreach_get("co", co)
-        me.vertices.foreach_get("normal", no)
-        ev.to_mesh_clear()
-        m = np.array(ev.matrix_world)
-        co = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-        no = no.reshape(-1, 3) @ m[:3, :3].T
-        rest = np.array([v.co for v in self.obj.data.vertices])
-        torso = np.where((np.arange(n) < self.nbody) & (np.abs(rest[:, 0]) < 0.3) & (rest[:, 2] > 0.6) &
-                         (rest[:, 2] < 1.45))[0]
-        lower = np.arange(self.nbody, n)[rest[self.nbody:, 2] < 1.3]  # the cape below the shoulders
-        tree = KDTree(len(torso))
-        for i in torso:
-            tree.insert(co[i], int(i))
-        tree.balance()
-        deepest = 0.0
-        for p in co[lower]:
-            q, i, _ = tree.find(p)
-            deepest = min(deepest, float(np.dot(p - np.array(q), no[i])))
-        return -1e3 * deepest
-
-    def frame(self, f):
-        cpu = self.timed(f)
-        if "capehit" in OPT:
-            self.hits = getattr(self, "hits", []) + [(f, self.cape_inside(self.obj), self.cape_inside(self.twin))]
-        a, b, d, st = self.against_twin()
-        return cpu, dict(core=d[self.core].max(), stretch=st.max(), stretch999=np.percentile(st, 99.9), over=int((st > 1.5).sum()), stretch_edge=int(np.argmax(st)), low=a[:, 2].min(), low_twin=b[:, 2].min(),
-                         nan=bool(np.isnan(a).any()), **{k: d[ix].max() for k, ix in self.parts.items()})
-
-    def where(self, e):
-        """The worst edge's vertices: rest position, Follow, and which part (or body)."""
-        i = int(self.edges[0, e])
-        part = [k for k, ix in self.parts.items() if i in ix]
-        return dict(rest_len_mm=round(1e3 * (self.obj.data.vertices[i].co - self.obj.data.vertices[int(self.edges[1, e])].co).length, 2), co=[round(c, 3) for c in self.obj.data.vertices[i].co], follow=float(self.follow[i]),
-                    part=part[0] if part else "cape-top/body" if i >= self.nbody else "body")
-
-    def play(self, label):
-        col, errors, cpu = self.played(FRAMES)
-        s, fr = self.obj.opdeform, np.arange(1, FRAMES + 1)
-        moving, after = fr <= STOP, fr >= STOP + FPS
-        settle = {}
-        for k in self.parts:
-            late = np.where((fr > STOP) & (col[k] >= 2e-3))[0]
-            settle[k] = round((fr[late[-1]] - STOP) / FPS, 2) if len(late) else 0.0
-        row = dict(label=label, host=bpy.app.version_string, particles=s.particles, look=self.look(),
-                   size_m=round(self.size, 3), core_mm=round(1e3 * col["core"].max(), 3),
-                   moving_pct={k: round(100 * col[k][moving].max() / self.size, 2) for k in self.parts},
-                   moving_mm={k: round(1e3 * col[k][moving].max(), 1) for k in self.parts},
-                   after_1s_mm={k: round(1e3 * col[k][after].max(), 3) for k in self.parts},
-                   settle_s_2mm=settle, stretch=round(col["stretch"].max(), 3),
-                   stretch_p99_9=round(col["stretch999"].max(), 3),
-                   edges_over_1_5x_worst_frame=int(col["over"].max()), edges=self.edges.shape[1],
-                   stretch_frame=int(fr[np.argmax(col["stretch"])]),
-                   stretch_at=self.where(col["stretch_edge"][np.argmax(col["stretch"])]),
-                   floor_pen_mm=round(-1e3 * min(col["low"].min(), 0.0), 2),
-                   lowest_twin_mm=round(1e3 * col["low_twin"].min(), 2), nan=bool(col["nan"].any()),
-                   base_kept=bool(np.array_equal(base(self.obj), self.before)), errors=errors[:3],
-                   cpu_ms_frame=round(1e3 * cpu / FRAMES, 2))
-        print("ROW " + json.dumps(row, default=float), flush=True)
-        if "capehit" in OPT:
-            h = np.array(self.hits)
-            print("CAPEHIT cape vertex behind the body surface, deepest mm: opdeform", round(h[:, 1].max(), 1),
-                  "at frame", int(h[np.argmax(h[:, 1]), 0]), "armature only", round(h[:, 2].max(), 1),
-                  "frames with > 5 mm (opdeform)", int((h[:, 1] > 5).sum()))
-            self.hits = []
-        print("PANEL", reports(self.H.draw_panels()))
-        return row
-
-
-def scrub(obj, shot):
-    """The artist scrubs: frame 30 and 60 shown after a straight play, then 96 -> 30, 10 -> 60 (a jump ahead),
-    1 -> 60 again: each against the straight play (mm) and the armature-only twin (mm)."""
-    sc, ref = bpy.context.scene, {}
-    for f in range(1, 61):
-        sc.frame_set(f)
-        if f in (30, 60):
-            ref[f] = world(obj)
-    for a, b in ((96, 30), (10, 60), (1, 60)):
-        sc.frame_set(a)
-        sc.frame_set(b)
-        print(f"SCRUB {a}->{b} vs straight play mm", round(1e3 * np.abs(world(obj) - ref[b]).max(), 3),
-              "vs armature-only mm", round(1e3 * np.abs(world(obj) - world(shot.twin)).max(), 3),
-              "error", repr(obj.opdeform.error))
+    def part_of(self, i):
+        part = super().part_of(i)
+        return "cape-top/body" if part == "body" and i >= self.nbody else part
 
 
 def main():
@@ -267,22 +177,7 @@ def main():
     import helpers as H
     H.ADDON = name
     obj, twin, parts, follow = build_scene()
-    shot = Shot(obj, twin, parts, follow, H)
-    bpy.context.scene.frame_set(1)
-    s = artist_enable(obj, OPT.get("particles"))
-    tuned(s, OPT)
-    first_panels(obj, H, settings(s))
-    shot.play("default")
-    if "scrub" in OPT:
-        scrub(obj, shot)
-    if "bake" in OPT:
-        bake_check(obj, H, OUT, (1, 12, 24, 36, 44, 60, 72, FRAMES))
-    if "looks" in OPT:
-        for look in ("Subtle", "Fleshy", "Floppy"):
-            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
-            shot.play(look)
-    if "save" in OPT:
-        rig_parts.save(obj, OUT)
+    rig_parts.artist_session(Shot(obj, twin, parts, follow, H), H, OPT, OUT, (1, 12, 24, 36, 44, 60, 72, FRAMES))
 
 
 rig_parts.reopen(OPT["open"], ZIP, KIND, "Chub") if "open" in OPT else main()

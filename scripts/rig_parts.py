@@ -1,8 +1,9 @@
 """Pieces shared by the outside-view rig scripts (scripts/outside_rigs.py, outside_bird.py, outside_fish.py,
-outside_knight.py, outside_bear.py, outside_pig.py): the arguments, objects linked into the scene, parented to an
+outside_knight.py, outside_bear.py, outside_pig.py, outside_chubby.py, outside_blob.py): the arguments, objects linked into the scene, parented to an
 armature with automatic weights, painted groups, mesh shells, world positions, the base mesh and the armature-only
 twin; the add-on installed from a zip, its settings tuned and printed, the panels after the group picked, a bake
 against playback; a saved file reopened."""
+import json
 import os
 import sys
 import time
@@ -260,6 +261,103 @@ class Shot:
     def look(self):
         """The look the settings hold (presets.current_look), "Custom" for none."""
         return sys.modules[self.H.ADDON + ".blender.presets"].current_look(self.obj.opdeform)
+
+
+class PartsShot(Shot):
+    """A shot with named loose parts, played frames 1..frames with a dead stop at frame `stop` (fps frames a
+    second): per part its largest distance from the armature-only twin while moving, 1 s after the stop, and when
+    it last was 2 mm off; the core, the stretch (with its worst edge), the floor, the base mesh, errors, CPU."""
+
+    def __init__(self, obj, twin, parts, follow, H, frames, stop, fps):
+        super().__init__(obj, twin, parts, follow >= 0.999, H)
+        self.size = np.ptp(world(twin)[:, 2])
+        self.follow = follow
+        self.frames, self.stop, self.fps = frames, stop, fps
+
+    def frame(self, f):
+        cpu = self.timed(f)
+        a, b, d, st = self.against_twin()
+        return cpu, dict(core=d[self.core].max(), stretch=st.max(), stretch999=np.percentile(st, 99.9),
+                         over=int((st > 1.5).sum()), stretch_edge=int(np.argmax(st)), low=a[:, 2].min(),
+                         low_twin=b[:, 2].min(), nan=bool(np.isnan(a).any()),
+                         **{k: d[ix].max() for k, ix in self.parts.items()})
+
+    def part_of(self, i):
+        """The named part vertex i lies in, else "body"."""
+        part = [k for k, ix in self.parts.items() if i in ix]
+        return part[0] if part else "body"
+
+    def where(self, e):
+        """The worst edge's vertices: rest length, position, Follow, and which part (or body)."""
+        i, j = int(self.edges[0, e]), int(self.edges[1, e])
+        v = self.obj.data.vertices
+        return dict(rest_len_mm=round(1e3 * (v[i].co - v[j].co).length, 2), co=[round(c, 3) for c in v[i].co],
+                    follow=float(self.follow[i]), part=self.part_of(i))
+
+    def play(self, label):
+        col, errors, cpu = self.played(self.frames)
+        s, fr = self.obj.opdeform, np.arange(1, self.frames + 1)
+        moving, after = fr <= self.stop, fr >= self.stop + self.fps
+        settle = {}
+        for k in self.parts:
+            late = np.where((fr > self.stop) & (col[k] >= 2e-3))[0]
+            settle[k] = round((fr[late[-1]] - self.stop) / self.fps, 2) if len(late) else 0.0
+        worst = np.argmax(col["stretch"])
+        row = dict(label=label, host=bpy.app.version_string, particles=s.particles, look=self.look(),
+                   size_m=round(self.size, 3), core_mm=round(1e3 * col["core"].max(), 3),
+                   moving_pct={k: round(100 * col[k][moving].max() / self.size, 2) for k in self.parts},
+                   moving_mm={k: round(1e3 * col[k][moving].max(), 1) for k in self.parts},
+                   after_1s_mm={k: round(1e3 * col[k][after].max(), 3) for k in self.parts},
+                   settle_s_2mm=settle, stretch=round(col["stretch"].max(), 3),
+                   stretch_p99_9=round(col["stretch999"].max(), 3),
+                   edges_over_1_5x_worst_frame=int(col["over"].max()), edges=self.edges.shape[1],
+                   stretch_frame=int(fr[worst]), stretch_at=self.where(col["stretch_edge"][worst]),
+                   floor_pen_mm=round(-1e3 * min(col["low"].min(), 0.0), 2),
+                   lowest_twin_mm=round(1e3 * col["low_twin"].min(), 2), nan=bool(col["nan"].any()),
+                   base_kept=bool(np.array_equal(base(self.obj), self.before)), errors=errors[:3],
+                   cpu_ms_frame=round(1e3 * cpu / self.frames, 2))
+        print("ROW " + json.dumps(row, default=float), flush=True)
+        print("PANEL", reports(self.H.draw_panels()))
+        return row
+
+
+def scrub(obj, shot):
+    """The artist scrubs: frame 30 and 60 shown after a straight play, then 96 -> 30, 10 -> 60 (a jump ahead),
+    1 -> 60 again: each against the straight play (mm) and the armature-only twin (mm)."""
+    sc, ref = bpy.context.scene, {}
+    for f in range(1, 61):
+        sc.frame_set(f)
+        if f in (30, 60):
+            ref[f] = world(obj)
+    for a, b in ((96, 30), (10, 60), (1, 60)):
+        sc.frame_set(a)
+        sc.frame_set(b)
+        print(f"SCRUB {a}->{b} vs straight play mm", round(1e3 * np.abs(world(obj) - ref[b]).max(), 3),
+              "vs armature-only mm", round(1e3 * np.abs(world(obj) - world(shot.twin)).max(), 3),
+              "error", repr(obj.opdeform.error))
+
+
+def artist_session(shot, H, opt, out, bake_frames, between=None):
+    """The artist's session on a shot built and its add-on installed: Enable (Particles from opt), the opt's
+    settings, the panels, a play; then between(shot) if given, and as opt asks: scrub, bake, the three looks, save."""
+    obj = shot.obj
+    bpy.context.scene.frame_set(1)
+    s = artist_enable(obj, opt.get("particles"))
+    tuned(s, opt)
+    first_panels(obj, H, settings(s))
+    shot.play("default")
+    if between:
+        between(shot)
+    if "scrub" in opt:
+        scrub(obj, shot)
+    if "bake" in opt:
+        bake_check(obj, H, out, bake_frames)
+    if "looks" in opt:
+        for look in ("Subtle", "Fleshy", "Floppy"):
+            print("LOOK ->", look, bpy.ops.opdeform.apply_preset(preset=look), settings(s))
+            shot.play(look)
+    if "save" in opt:
+        save(obj, out)
 
 
 def skin_body(name, nodes, edges, levels):
