@@ -60,6 +60,7 @@ STRETCH_LIMIT = 1.2
 # Cards (the fish's fins) swing far below their particles' frequency already, and short ones (the bear's ears)
 # stretched 2.1-3.1x softened (under 1.1x left alone).
 LONG_SHELL = 1.5
+ROOT_LINKS = 3  # the core's OD_ROOT_LINKS: a card is linked to its host from this many particles, its root
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -274,19 +275,28 @@ def shell_frequency(od, graph, stiffness, density, label):
 
 
 def swinging_shells(graph, piece, body, open_pieces):
-    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: not of
-    ``open_pieces``, ``checks.open_pieces``; linked to the body in the graph; long: LONG_SHELL, of three particles
-    or more, as two are always "long"), else 0."""
+    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes, else 0: linked to
+    the body in the graph, closed (not of ``open_pieces``, ``checks.open_pieces``) or open and linked to it all
+    along (from more than ROOT_LINKS of its particles: a cape the core takes for a patch on the body, not a card
+    linked at its root); long: LONG_SHELL, of three particles or more, as two are always "long")."""
     _, linked = graph.pieces()
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
         mine = piece == p
         c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
-        if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
+        held = p not in open_pieces or _linked_particles(graph, mine, piece == body) > ROOT_LINKS
+        if held and np.isin(linked[mine], linked[piece == body]).any() and \
                 np.count_nonzero(mine) >= 3 and spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
+
+
+def _linked_particles(graph, mine, body):
+    """How many particles of ``mine`` (a mask) have a link to one of ``body`` (a mask)."""
+    i, j = np.asarray(graph.edges, dtype=np.int64).reshape(-1, 2).T
+    ends = np.concatenate([i[mine[i] & body[j]], j[mine[j] & body[i]]])
+    return len(np.unique(ends))
 
 
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
