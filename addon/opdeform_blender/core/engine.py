@@ -55,10 +55,11 @@ PATCH_SHARE_POWER = 1.5
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
 # bound (stop 48)").
 STRETCH_LIMIT = 1.2
-# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only a closed one linked to the body and
-# long (its particles spread this much more along one axis than the next, as the core's od_BeamShell): a ponytail.
-# Cards (the fish's fins) swing far below their particles' frequency already, and short ones (the bear's ears)
-# stretched 2.1-3.1x softened (under 1.1x left alone).
+# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
+# open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
+# much more along one axis than the next, as the core's od_BeamShell): a ponytail. Cards (the fish's fins) swing far
+# below their particles' frequency already, and short ones (the bear's ears) stretched 2.1-3.1x softened (under 1.1x
+# left alone).
 LONG_SHELL = 1.5
 ROOT_LINKS = 3  # the core's OD_ROOT_LINKS: a card is linked to its host from this many particles, its root
 SMALL_PIECE_PARTICLES = 4  # the core's OD_SMALL_PIECE_PARTICLES: a small piece of that many it moves rigidly
@@ -732,10 +733,10 @@ class Engine:
 
     def _jiggle_links(self, jiggle_hz):
         """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
-        most, by each one's Follow and patch frequency; on a long closed shell linked to the body, one softness by
-        its own frequency (``_shells_jiggle``); other shells keep 1 (a slender card swings far below the elastic
-        frequency of its particles: softened by it the outside fish's tail fin stretched 2.5x; docs/goals.md,
-        "Jiggle", "Shells (stop 48)")."""
+        most, by each one's Follow and patch frequency; on a long shell linked to the body (closed, or open and linked
+        all along: ``swinging_shells``), one softness by its own frequency (``_shells_jiggle``); other shells keep 1
+        (a slender card swings far below the elastic frequency of its particles: softened by it the outside fish's
+        tail fin stretched 2.5x; docs/goals.md, "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
             return None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
