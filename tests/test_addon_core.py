@@ -639,6 +639,33 @@ def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
     assert list(np.unique(piece[label > 0])) == list(taken)
 
 
+def test_the_jiggle_rule_softens_an_open_cape_linked_to_the_body_all_along():
+    """An open cape over a body, inside the body's bounding box, is a patch on it to the core: linked to the body
+    from each of its particles, it moved with it (the outside chubby humanoid's cape painted 1 -> 0.15: 0.6 / 0.3 mm
+    at 100 / 400 particles). engine.swinging_shells takes it as a closed shell: its links, to the body's too, are
+    softened as one by its least painted Follow; painted 1 it keeps them."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    body = meshes.capsule(radius=0.2, length=0.6)
+    sv, st = meshes.sheet((0.36, 0.9), (8, 12))
+    cape = np.column_stack([sv[:, 1], sv[:, 0], np.full(len(sv), 0.23)])  # 0.9 x 0.36 m, 3 cm over the body
+    v, t = np.vstack([body[0], cape]), np.vstack([body[1], st + len(body[0])])
+    e = _tailed_engine(100, mesh=(v, t))[0]  # the add-on's defaults
+    _, piece, body_piece = e.pieces()
+    on_cape = piece != body_piece
+    assert np.count_nonzero(on_cape) > engine.SMALL_PIECE_PARTICLES, np.count_nonzero(on_cape)
+    label = engine.swinging_shells(e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
+    np.testing.assert_array_equal(label > 0, on_cape)
+    follow = np.where(np.arange(len(v)) < len(body[0]), 1.0, 1.0 - 0.85 * (cape[:, 0].max() - v[:, 0]) / 0.9)
+    e.set_goal(0.0, follow, shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    r = e.sim.link_softness
+    assert r[on_cape].max() < 0.5 and np.ptp(r[on_cape]) == 0.0, r[on_cape]
+    e.set_goal(0.0, np.ones(len(v)), shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    assert e.sim.link_softness is None or np.all(e.sim.link_softness[on_cape] == 1.0)
+
+
 def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
     """engine.region_frequency on a capsule: a soft patch among held particles rings at its particles' own
     frequency scaled by l / d (its reach from them); the capsule's free half, held at one end only (the worm of

@@ -55,11 +55,14 @@ PATCH_SHARE_POWER = 1.5
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
 # bound (stop 48)").
 STRETCH_LIMIT = 1.2
-# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only a closed one linked to the body and
-# long (its particles spread this much more along one axis than the next, as the core's od_BeamShell): a ponytail.
-# Cards (the fish's fins) swing far below their particles' frequency already, and short ones (the bear's ears)
-# stretched 2.1-3.1x softened (under 1.1x left alone).
+# the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
+# open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
+# much more along one axis than the next, as the core's od_BeamShell): a ponytail. Cards (the fish's fins) swing far
+# below their particles' frequency already, and short ones (the bear's ears) stretched 2.1-3.1x softened (under 1.1x
+# left alone).
 LONG_SHELL = 1.5
+ROOT_LINKS = 3  # the core's OD_ROOT_LINKS: a card is linked to its host from this many particles, its root
+SMALL_PIECE_PARTICLES = 4  # the core's OD_SMALL_PIECE_PARTICLES: a small piece of that many it moves rigidly
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -274,19 +277,32 @@ def shell_frequency(od, graph, stiffness, density, label):
 
 
 def swinging_shells(graph, piece, body, open_pieces):
-    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes (closed: not of
-    ``open_pieces``, ``checks.open_pieces``; linked to the body in the graph; long: LONG_SHELL, of three particles
-    or more, as two are always "long"), else 0."""
+    """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes, else 0: linked to
+    the body in the graph; closed (not of ``open_pieces``, ``checks.open_pieces``), or open with more particles than
+    the core moves rigidly (SMALL_PIECE_PARTICLES) and linked to the body all along (from more than ROOT_LINKS of
+    them: a cape behind a wide body, inside its bounding box, which the core takes for a patch on it, not a card
+    linked at its root); long: LONG_SHELL, of three particles or more, as two are always "long")."""
     _, linked = graph.pieces()
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
         mine = piece == p
         c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
-        if p not in open_pieces and np.isin(linked[mine], linked[piece == body]).any() and \
+        taken = p not in open_pieces or _linked_all_along(graph, mine, piece == body)
+        if taken and np.isin(linked[mine], linked[piece == body]).any() and \
                 np.count_nonzero(mine) >= 3 and spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
+
+
+def _linked_all_along(graph, mine, body):
+    """Whether an open shell ``mine`` (a mask) is linked to the body (a mask) all along, as the core links a patch on
+    it: more than SMALL_PIECE_PARTICLES particles, more than ROOT_LINKS of them linked to the body. Left alone by
+    the jiggle rule, the outside chubby humanoid's open cape, so linked, moved 0.6 / 0.3 mm at 100 / 400 particles
+    (unlinked at 50, held by its goal alone, 100.8 mm)."""
+    i, j = np.asarray(graph.edges, dtype=np.int64).reshape(-1, 2).T
+    ends = np.unique(np.concatenate([i[mine[i] & body[j]], j[mine[j] & body[i]]]))
+    return np.count_nonzero(mine) > SMALL_PIECE_PARTICLES and len(ends) > ROOT_LINKS
 
 
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
@@ -717,10 +733,10 @@ class Engine:
 
     def _jiggle_links(self, jiggle_hz):
         """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
-        most, by each one's Follow and patch frequency; on a long closed shell linked to the body, one softness by
-        its own frequency (``_shells_jiggle``); other shells keep 1 (a slender card swings far below the elastic
-        frequency of its particles: softened by it the outside fish's tail fin stretched 2.5x; docs/goals.md,
-        "Jiggle", "Shells (stop 48)")."""
+        most, by each one's Follow and patch frequency; on a long shell linked to the body (closed, or open and linked
+        all along: ``swinging_shells``), one softness by its own frequency (``_shells_jiggle``); other shells keep 1
+        (a slender card swings far below the elastic frequency of its particles: softened by it the outside fish's
+        tail fin stretched 2.5x; docs/goals.md, "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
             return None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
