@@ -40,11 +40,9 @@ GRAPH_MODES = ("auto", "volume", "surface", "chain")
 LOCK_RAMP = 10.0
 LINK_SOFTNESS_MIN = 1e-6  # jiggle_softness's floor: a link softness is > 0
 HELD_FOLLOW = 0.9  # the jiggle rule: a particle this held by its goal (a 200 Hz spring) holds the flesh around it
-# the jiggle rule: a soft patch of the mesh is enclosed by held flesh (a belly) when its farthest reach from it is at
-# most this share of its extent (its box's diagonal and an edge each side): a spot 0.42, the belly of
-# tests/test_addon_core.py's _belly_hops (a 0.5 m spot wrapping a 0.4 m body's side) 0.74, the outside pig's tail
-# with the rump's end painted with it 0.62; one held at one end (a worm's top) 0.92
-ENCLOSED_REACH = 0.8
+# the jiggle rule: a soft patch is enclosed by held flesh (a belly) when its farthest reach from it is at most this
+# share of its extent (its box's diagonal and a link each side); one held at one end (a worm's top) reaches ~0.9
+ENCLOSED_REACH = 0.65
 # the jiggle rule: a soft patch with more particles than the held flesh has rings higher than the look's frequency,
 # by (its particles / the held ones) to this power: a body painted soft nearly all over (Blender's Suzanne with
 # Follow 1 -> 0.1 from the chin up, 96 of 100 particles soft, 4 held) keeps its shape (stretched 3.2x at Fleshy;
@@ -192,45 +190,33 @@ def soft_patches(graph, held):
     return _relaxed(np.where(held, n, np.arange(n)), i, j, 0, ~held[i] & ~held[j])
 
 
-def enclosed_vertices(rest, ends, follow):
-    """Per vertex, whether it lies in a soft patch of the mesh (its vertices of ``follow`` under HELD_FOLLOW linked by
-    the mesh's edges ``ends``, two (E,) arrays) enclosed by held flesh: its farthest reach along the edges from a
-    held vertex at most ENCLOSED_REACH of its extent (its box's diagonal and a mean edge each side). On the mesh, not
-    the particles, so that the answer is the same at any particle count: a particle's Follow is its softest
-    vertex's, so the particles can link a tail held at its root into a belly's patch, enclosed as one."""
-    a, b = ends
-    length = np.linalg.norm(rest[a] - rest[b], axis=1)
-    held = follow >= HELD_FOLLOW
-    far = _relaxed(np.where(held, 0.0, np.inf), a, b, length)
-    patch = _relaxed(np.where(held, len(rest), np.arange(len(rest))), a, b, 0, ~held[a] & ~held[b])
-    soft = ~held & np.isfinite(far)
-    reach = np.zeros(len(rest) + 1)
-    np.maximum.at(reach, patch[soft], far[soft])
-    box = [np.full((len(rest) + 1, 3), bound) for bound in (np.inf, -np.inf)]
-    np.minimum.at(box[0], patch[soft], rest[soft])
-    np.maximum.at(box[1], patch[soft], rest[soft])
-    extent = np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1) + 2.0 * length.mean()
-    return soft & (reach <= ENCLOSED_REACH * extent)[patch]
-
-
-def region_frequency(graph, elastic_hz, held, enclosed, counted=None):
+def region_frequency(graph, elastic_hz, held, counted=None):
     """Each particle's elastic frequency as a part of the soft patch it lies in, held where ``held`` (a mask):
     its own (``elastic_frequency``) times l / max(d, l), l its mean link length, d its distance along the links
     to the nearest held particle: a patch rings lower the farther it reaches from what holds it (as 1 / d, alike
-    at any particle count, the elastic frequency growing as 1 / l). 0 where not ``enclosed`` (a mask: the engine's
-    from ``enclosed_vertices``; a part held at one end swings as a beam, far below this) and where nothing holds
-    it. With it, each particle's patch's share: its particles over the held ones (0 where held), the patch's
-    counted only where ``counted`` (None: everywhere; the engine counts the body's: a detached shell's soft
-    particles linked into the patch, a larger part of the graph at fewer particles, gave the outside bear's belly a
-    share of 1.69 / 1.37 / 0.79 at 50 / 100 / 400 particles, its body's 0.59 / 0.78 / 0.65 of its held ones)."""
+    at any particle count, the elastic frequency growing as 1 / l). 0 on a patch that is not enclosed (its
+    farthest reach over ENCLOSED_REACH of its extent: a part held at one end, which swings as a beam, far below
+    this) and where nothing holds it. With it, each particle's patch's share: its particles over the held ones
+    (0 where held), the patch's counted only where ``counted`` (None: everywhere; the engine counts the body's: a
+    detached shell's soft particles linked into the patch, a larger part of the graph at fewer particles, gave
+    the outside bear's belly a share of 1.69 / 1.37 / 0.79 at 50 / 100 / 400 particles, its body's 0.59 / 0.78 /
+    0.65 of its held ones)."""
     i, j, length, mean = _link_lengths(graph)
+    c = graph.centers
     far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
     patch = soft_patches(graph, held)
     soft = ~held & np.isfinite(far)
-    counted = np.ones(len(held), bool) if counted is None else counted
-    size = np.bincount(patch[soft & counted], minlength=len(held) + 1)
+    reach = np.zeros(len(c) + 1)
+    np.maximum.at(reach, patch[soft], far[soft])
+    box = [np.full((len(c) + 1, 3), bound) for bound in (np.inf, -np.inf)]
+    np.minimum.at(box[0], patch[soft], c[soft])
+    np.maximum.at(box[1], patch[soft], c[soft])
+    extent = np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1) + 2.0 * length.mean()
+    enclosed = soft & (reach <= ENCLOSED_REACH * extent)[patch]
+    counted = np.ones(len(c), bool) if counted is None else counted
+    size = np.bincount(patch[soft & counted], minlength=len(c) + 1)
     share = np.where(soft, size[patch] / max(np.count_nonzero(held), 1), 0.0)
-    return np.where(soft & enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
+    return np.where(enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
 
 
 def _static_loads(od, graph, stiffness, density, held, softness):
@@ -748,20 +734,13 @@ class Engine:
             follow = self.goal_strength
             hz, share = region_frequency(self.graph, elastic_frequency(self.graph, given["stiffness"],
                                                                         given["density"]), follow >= HELD_FOLLOW,
-                                         self._enclosed(), piece == body)
+                                         piece == body)
             self._jiggle_key = (follow, given, jiggle_hz, self._painted)  # a shell's Follow as painted too
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
             softness = np.where(piece == body, jiggle_softness(hz, follow, target),
                                 self._shells_jiggle(given, piece, body, jiggle_hz))
             self._jiggle = self._patches_jiggle(given, np.where(piece == body, hz, 0.0), softness)
         return self._jiggle
-
-    def _enclosed(self):
-        """Per particle, whether the vertex that gives it its Follow (its goal-fit vertex painted least) lies in an
-        enclosed soft patch of the mesh (``enclosed_vertices``)."""
-        follow = self.follow[self.fit.indices]
-        least = self.fit.indices[np.arange(len(follow)), np.argmin(follow, axis=1)]
-        return enclosed_vertices(self.rest, self.mesh_stretch.ends, self.follow)[least]
 
     def _patches_jiggle(self, given, hz, softness):
         """``softness`` with each soft patch of the body (its particles of patch frequency ``hz`` > 0 linked
