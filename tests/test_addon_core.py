@@ -733,6 +733,21 @@ def test_the_jiggle_rule_sags_a_painted_spot_alike_at_50_and_400_particles():
     assert max(sags) < 1.15 * min(sags) and 2.0 < min(sags) < 5.0, sags
 
 
+def test_a_patch_whose_sag_no_vertex_shows_keeps_the_rules_softness():
+    """A patch whose particles skin no vertex (inside the body) shows no sag: its frequency is 0, not the
+    1.6e149 Hz a floored sag gave, which scaled its softness to the floor (a reviewer's finding)."""
+    from opdeform import meshes
+    from opdeform_blender.core import engine
+    e = _tailed_engine(400, mesh=meshes.capsule(radius=0.25, length=1.1))[0]
+    e.set_goal(1.0)
+    hidden = np.setdiff1d(np.arange(e.graph.n_particles), e.skin.indices[e.skin.weights > 0.0])
+    label = np.zeros(e.graph.n_particles, dtype=np.int64)
+    label[hidden[:1]] = 1
+    hz = engine.patch_sag_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label,
+                                    None, e.skin)
+    assert len(hidden) > 0 and np.all(hz == 0.0)
+
+
 def test_to_world_of_an_unturned_object_is_the_product():
     local = np.random.default_rng(5).normal(size=(50, 3)).astype(np.float32)
     local[0] = (-0.0, 0.0, 2.0)

@@ -119,3 +119,17 @@ def test_bad_input_raises_naming_it():
     with pytest.raises(ValueError, match=r"skin gradient\[2\] = -1"):
         sim.set_stretch_limit(1.2, one_particle(links, 2, -1.0))
     assert sim.stretch_limit == 0.0
+
+
+def test_a_refused_limit_keeps_the_bound_in_a_pickled_copy():
+    """Bad values are refused before the core changes anything, so the bound set before stays, in the core and in
+    what a pickle carries (a reviewer's finding: the pickle forgot it, and a copy ran without the bound)."""
+    sim = soft_bar(1.05)
+    with pytest.raises(ValueError, match="stretch limit"):
+        sim.set_stretch_limit(0.5)
+    sim.step(8)
+    copy = pickle.loads(pickle.dumps(sim))
+    assert sim.stretch_limit == copy.stretch_limit == 1.05
+    sim.step(6)
+    copy.step(6)
+    assert np.array_equal(copy.positions, sim.positions)

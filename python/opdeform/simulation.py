@@ -284,8 +284,11 @@ class Simulation(CoreObject, ForceFields):
         set. The limit and gradient already set again change nothing (nothing refactored)."""
         links = len(self.graph.edges)
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
-        self._stretch_bound = (0.0, None)  # the core turns the bound off first, also when it then fails
-        self._core.set_stretch_limit(float(limit), gradient)
+        try:
+            self._core.set_stretch_limit(float(limit), gradient)
+        finally:  # refused (bad values) the core keeps its bound; failing after (memory) it is off
+            if self._core.stretch_limit() == 0.0:
+                self._stretch_bound = (0.0, None)
         self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
 
     @property

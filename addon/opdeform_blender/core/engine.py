@@ -235,15 +235,18 @@ def _static_loads(od, graph, stiffness, density, held, softness):
 def patch_sag_frequency(od, graph, stiffness, density, label, softness, skin):
     """The frequency (Hz) of each patch ``label`` numbers (per particle, 1 ..; 0: held still) as its mesh sags:
     sqrt(a / s) / 2π, s the largest static sag along a uniform acceleration a (each axis) of the vertices its
-    particles skin, links softened by ``softness``; 0 where held. The mesh's, not the particles': one soft particle
-    among held ones carries a spot its held neighbours' skin shares, fifteen carry it alone."""
+    particles skin, links softened by ``softness``; 0 where held and where no vertex shows the patch's sag (its
+    particles skin none, or only vertices a patch numbered higher skins too). The mesh's, not the particles': one
+    soft particle among held ones carries a spot its held neighbours' skin shares, fifteen carry it alone."""
     vertex_label = np.where(skin.weights > 0.0, label[np.maximum(skin.indices, 0)], 0).max(axis=1)
     rest = skin.deform(graph.centers, np.tile(np.eye(3), (len(label), 1, 1)))
     sag = np.zeros(label.max() + 1)
     for axis, sim in _static_loads(od, graph, stiffness, density, label == 0, softness):
         np.maximum.at(sag, vertex_label, (skin.deform_sim(sim, push_out=False) - rest) @ axis)
-    hz = np.sqrt(SHELL_LOAD / np.maximum(sag, 1e-300)) / (2.0 * np.pi)
-    hz[0] = 0.0
+    sag[0] = 0.0
+    shown = sag > 0.0
+    hz = np.zeros(len(sag))
+    hz[shown] = np.sqrt(SHELL_LOAD / sag[shown]) / (2.0 * np.pi)
     return hz[label]
 
 
@@ -735,11 +738,12 @@ class Engine:
             hz, share = region_frequency(self.graph, elastic_frequency(self.graph, given["stiffness"],
                                                                         given["density"]), follow >= HELD_FOLLOW,
                                          piece == body)
-            self._jiggle_key = (follow, given, jiggle_hz, self._painted)  # a shell's Follow as painted too
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
             softness = np.where(piece == body, jiggle_softness(hz, follow, target),
                                 self._shells_jiggle(given, piece, body, jiggle_hz))
             self._jiggle = self._patches_jiggle(given, np.where(piece == body, hz, 0.0), softness)
+            # keyed once found (a failed solve finds it again), a shell's Follow as painted too
+            self._jiggle_key = (follow, given, jiggle_hz, self._painted)
         return self._jiggle
 
     def _patches_jiggle(self, given, hz, softness):
@@ -761,8 +765,9 @@ class Engine:
         np.minimum.at(meant, label[taken], np.sqrt(softness[taken]) * hz[taken])
         rings = patch_sag_frequency(self.od, self.graph, given["stiffness"], given["density"], label, softness,
                                     self.skin)
-        scale = (meant[label] / np.where(taken, rings, 1.0)) ** 2
-        return np.where(taken, np.clip(softness * scale, LINK_SOFTNESS_MIN, 1.0), softness)
+        scaled = taken & (rings > 0.0)  # a patch whose sag no vertex shows keeps the rule's softness
+        scale = (meant[label] / np.where(scaled, rings, 1.0)) ** 2
+        return np.where(scaled, np.clip(softness * scale, LINK_SOFTNESS_MIN, 1.0), softness)
 
     def _skin_gradient(self):
         """``skin_gradient`` of the skin and the mesh's edges, found once."""
