@@ -286,9 +286,10 @@ class Simulation(CoreObject, ForceFields):
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
         try:
             self._core.set_stretch_limit(float(limit), gradient)
-        finally:  # refused (bad values) the core keeps its bound; failing after (memory) it is off
+        except BaseException:  # refused (bad values) the core keeps its bound; failing after (memory) it is off
             if self._core.stretch_limit() == 0.0:
                 self._stretch_bound = (0.0, None)
+            raise
         self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
 
     @property
