@@ -299,7 +299,7 @@ def static_case(ratio=1e12, reference=1e9, iterations=10000):
 def step_size_case(steps_per_second):
     def run(quick):
         return energy_band(lambda: scenes.fig1_bar(dt=1.0 / steps_per_second), 2 * steps_per_second)
-    return Case(f"step h=1/{steps_per_second}", f"bar, k = 1e6 rho, 10 it, 2 s", run)
+    return Case(f"step h=1/{steps_per_second}", "bar, k = 1e6 rho, 10 it, 2 s", run)
 
 
 def ellipsoid_points(centers, rotations, graph):

@@ -19,6 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "addon"))
 from opdeform_blender.core import checks, frame_report, frames, handles, loader, tumbling  # noqa: E402
 from opdeform_blender.core.engine import (Engine, EngineError, check_matrix, original_input, to_world,  # noqa: E402
                                           triangle_edges)
+from opdeform_blender.core.settings import SHELL_FOLLOW_MIN  # noqa: E402
 
 
 def test_pc2_round_trip_and_partial_file(tmp_path):
@@ -432,14 +433,14 @@ def test_a_detached_shells_follow_is_mapped_above_the_shell_minimum():
     painted = np.where(is_tail, 0.0, 0.2)
     e.set_goal(0.0, painted)
     as_painted = e.goal_strength.copy()
-    e.set_goal(0.0, painted, shell_min=engine.SHELL_FOLLOW_MIN)
+    e.set_goal(0.0, painted, shell_min=SHELL_FOLLOW_MIN)
     count, piece = opdeform.mesh.mesh_pieces(e.graph)
     tail = piece != np.argmax(np.bincount(piece))
     assert count == 2 and 0 < tail.sum() < len(tail) / 2
     held = e.goal_strength[tail]  # painted 0; a particle at the root also takes the body's skinned 0.2 in part
-    assert held.min() >= engine.SHELL_FOLLOW_MIN - 1e-12 and np.median(held) == pytest.approx(engine.SHELL_FOLLOW_MIN)
+    assert held.min() >= SHELL_FOLLOW_MIN - 1e-12 and np.median(held) == pytest.approx(SHELL_FOLLOW_MIN)
     assert np.median(as_painted[tail]) == pytest.approx(0.0)
-    np.testing.assert_allclose(held, engine.SHELL_FOLLOW_MIN + (1.0 - engine.SHELL_FOLLOW_MIN) * as_painted[tail])
+    np.testing.assert_allclose(held, SHELL_FOLLOW_MIN + (1.0 - SHELL_FOLLOW_MIN) * as_painted[tail])
     body = e.goal_strength[~tail]  # painted 0.2, kept (near the tail less: it takes the tail's 0 in part)
     assert body.max() <= 0.2 + 1e-12 and np.median(body) == pytest.approx(0.2)
     np.testing.assert_array_equal(body, as_painted[~tail])
@@ -599,7 +600,7 @@ def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
     e.set_regions(jiggle_hz=1.75)
     r = e.sim.link_softness
     assert r[tail].max() < 0.5 and np.ptp(r[tail]) == 0.0, r[tail]
-    label = engine.swinging_shells(e.graph, piece, body, checks.open_pieces(e.rest, e.triangles))
+    label = engine.swinging_shells(opdeform, e.graph, piece, body, checks.open_pieces(e.rest, e.triangles))
     np.testing.assert_array_equal(label > 0, tail)
     hz = engine.shell_frequency(opdeform, e.graph, e._given["stiffness"], e._given["density"], label)
     assert np.all(hz[~tail] == 0.0) and np.ptp(hz[tail]) == 0.0 and 1.75 < hz[tail][0] < 100.0, hz[tail]
@@ -630,12 +631,12 @@ def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
     e = Engine(opdeform, v, t, particles=100, small_pieces="own")
     _, piece, body_piece = e.pieces()
     vertex_piece = checks.vertex_pieces(e.rest, e.triangles)[0]
-    label = engine.swinging_shells(e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
+    label = engine.swinging_shells(opdeform, e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
     taken = np.unique(piece[label > 0])
     assert list(taken) == [vertex_piece[start[1]]], (taken, vertex_piece[start])
     split = e.rest[e.triangles].reshape(-1, 3)  # every triangle its own vertices, as an export split at its seams
     seams = checks.open_pieces(split, np.arange(len(split)).reshape(-1, 3))
-    label = engine.swinging_shells(e.graph, piece, body_piece, seams)
+    label = engine.swinging_shells(opdeform, e.graph, piece, body_piece, seams)
     assert list(np.unique(piece[label > 0])) == list(taken)
 
 
@@ -653,8 +654,8 @@ def test_the_jiggle_rule_softens_an_open_cape_linked_to_the_body_all_along():
     e = _tailed_engine(100, mesh=(v, t))[0]  # the add-on's defaults
     _, piece, body_piece = e.pieces()
     on_cape = piece != body_piece
-    assert np.count_nonzero(on_cape) > engine.SMALL_PIECE_PARTICLES, np.count_nonzero(on_cape)
-    label = engine.swinging_shells(e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
+    assert np.count_nonzero(on_cape) > opdeform.mesh.SMALL_PIECE_PARTICLES, np.count_nonzero(on_cape)
+    label = engine.swinging_shells(opdeform, e.graph, piece, body_piece, checks.open_pieces(e.rest, e.triangles))
     np.testing.assert_array_equal(label > 0, on_cape)
     follow = np.where(np.arange(len(v)) < len(body[0]), 1.0, 1.0 - 0.85 * (cape[:, 0].max() - v[:, 0]) / 0.9)
     e.set_goal(0.0, follow, shell_min=0.3)

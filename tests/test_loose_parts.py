@@ -95,8 +95,8 @@ def test_suzanne_dropped_keeps_its_edges_and_eyes(suzanne, particles, small_piec
     assert offset < DropCheck.EYE, f"an eye left its socket by {offset:.3f} of the head's size"
 
 
-SHELL_PARTICLES = 16  # OD_SHELL_PARTICLES
-COMPACT_PARTICLES = 4  # OD_SMALL_PIECE_PARTICLES
+SHELL_PARTICLES = mesh.SHELL_PARTICLES
+COMPACT_PARTICLES = mesh.SMALL_PIECE_PARTICLES
 
 
 def kitbash():
@@ -207,7 +207,7 @@ def test_bad_small_pieces():
     assert mesh.mesh_pieces(opdeform.Graph([[0.0, 0.0, 0.0]], [[1.0, 1.0, 1.0]], np.zeros((0, 2)))) == (0, None)
 
 
-ROOT_LINKS = 3  # OD_ROOT_LINKS
+ROOT_LINKS = mesh.ROOT_LINKS
 
 
 def with_shell(shell):
@@ -462,7 +462,7 @@ def test_a_card_leaves_its_host_a_body(particles):
     outside bird's crest, docs/goals.md) leaves the head's k / E within 1.25x of the head's alone (3.9-10.3), and
     the card takes its own, stiffer. Before, the head with an open card in its part of the mesh was calibrated
     as a hanging sheet (materials._sheets_floored): 2.8-4.6x softer, the card with it."""
-    body, head = meshes.capsule(radius=0.3, length=1.0), meshes.capsule(radius=0.22, length=0.2)
+    head = meshes.capsule(radius=0.22, length=0.2)
     head = (head[0] + [1.3, 0.0, 0.0], head[1])
     cv, ct = card()
     alone = with_shell(head)

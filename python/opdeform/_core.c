@@ -48,7 +48,8 @@ static int Module_exec(PyObject* module)
 		Module_AddType(module, &Sim_Spec, &st->simType) < 0 ||
 		Module_AddType(module, &Group_Spec, &st->groupType) < 0 || Module_AddType(module, &Skin_Spec, &st->skinType) < 0 ||
 		Module_AddType(module, &GoalFit_Spec, &st->goalFitType) < 0 ||
-		Module_AddType(module, &Mpm_Spec, &st->mpmType) < 0 || PyModule_AddFunctions(module, Mesh_Functions) < 0)
+		Module_AddType(module, &Mpm_Spec, &st->mpmType) < 0 || PyModule_AddFunctions(module, Mesh_Functions) < 0 ||
+		Mesh_AddConstants(module) < 0)
 	{
 		return -1;
 	}

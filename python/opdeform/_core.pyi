@@ -14,6 +14,9 @@ import numpy as np
 from typing_extensions import Buffer as _AnyBuffer
 
 __version__: str
+SMALL_PIECE_PARTICLES: int
+SHELL_PARTICLES: int
+ROOT_LINKS: int
 
 # numpy arrays, or any other object with the buffer protocol (numpy's stubs give ndarray __buffer__ from Python
 # 3.12 on only)

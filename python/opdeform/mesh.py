@@ -18,7 +18,14 @@ from .simulation import Simulation
 # an output buffer of deform: float32 (Blender's foreach_set) or float64
 Buffer = npt.NDArray[np.floating[Any]]
 
-__all__ = ["MODES", "SMALL_PIECES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
+# The core's numbers for a mesh's small pieces (opdeform/mesh.h, docs/mesh.md): a compact or open small piece with
+# particles of its own has SMALL_PIECE_PARTICLES, a closed long or flat one up to SHELL_PARTICLES, and a card or a
+# beam is linked to its host from its ROOT_LINKS particles nearest it.
+SMALL_PIECE_PARTICLES: int = _core.SMALL_PIECE_PARTICLES
+SHELL_PARTICLES: int = _core.SHELL_PARTICLES
+ROOT_LINKS: int = _core.ROOT_LINKS
+
+__all__ = ["MODES", "ROOT_LINKS", "SHELL_PARTICLES", "SMALL_PIECES", "SMALL_PIECE_PARTICLES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
 
 
 def graph_from_mesh(vertices: ArrayLike, triangles: ArrayLike, particles: int = 100, mode: str = "auto",

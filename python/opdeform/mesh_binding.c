@@ -454,3 +454,14 @@ PyMethodDef Mesh_Functions[] = {
 	{ "format_mesh", Mesh_format_mesh, METH_VARARGS, "format_mesh('obj' | 'ply', vertices, triangles) -> bytes" },
 	{ NULL, NULL, 0, NULL },
 };
+
+int Mesh_AddConstants(PyObject* module)
+{
+	if (PyModule_AddIntConstant(module, "SMALL_PIECE_PARTICLES", OD_SMALL_PIECE_PARTICLES) < 0 ||
+		PyModule_AddIntConstant(module, "SHELL_PARTICLES", OD_SHELL_PARTICLES) < 0 ||
+		PyModule_AddIntConstant(module, "ROOT_LINKS", OD_ROOT_LINKS) < 0)
+	{
+		return -1;
+	}
+	return 0;
+}

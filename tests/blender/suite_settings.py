@@ -161,7 +161,7 @@ def test_version_3_file_keeps_its_shells_painted_follow():
         assert s.shell_follow_min == (0.0 if shell_min is None else shell_min), (name, s.shell_follow_min)
         assert (round(s.goal_min, 6), round(s.goal_max, 6), round(s.sag, 6)) == (0.2, 0.9, 0.25), name
     s = _tail("New").opdeform
-    assert s.settings_version == _version() and abs(s.shell_follow_min - _module("core.engine").SHELL_FOLLOW_MIN) < 1e-6
+    assert s.settings_version == _version() and abs(s.shell_follow_min - _module("core.settings").SHELL_FOLLOW_MIN) < 1e-6
 
 
 def test_goal_looks_the_same_at_any_size_and_older_files_keep_their_scaling():

@@ -5,7 +5,8 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
-from ..core import checks, engine, tumbling
+from ..core import checks, tumbling
+from ..core.settings import SHELL_FOLLOW_MIN
 from . import presets
 from .compiled import AddonError, mpm
 from .discovery import mark_discovery
@@ -174,7 +175,7 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
                             description="Follow at a group weight of 0")
     goal_max: FloatProperty(name="Max", default=1.0, min=0.0, max=1.0, subtype='FACTOR',
                             description="Follow at a group weight of 1")
-    shell_follow_min: FloatProperty(name="Shell Min", default=engine.SHELL_FOLLOW_MIN, min=0.0, max=1.0,
+    shell_follow_min: FloatProperty(name="Shell Min", default=SHELL_FOLLOW_MIN, min=0.0, max=1.0,
                                     subtype='FACTOR',
                                     description="Follow of a detached shell (a separate ear, tail or trunk) where "
                                                 "its group weight gives 0: its Follow is mapped into Shell Min..1, "

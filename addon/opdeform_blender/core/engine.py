@@ -31,7 +31,6 @@ from .cache import StateCache
 from .colliders import NOTHING, SceneColliders, blend as blend_surroundings
 from .fields import SceneFields
 from .frame_report import FrameReports, Stretch, report
-from .settings import SHELL_FOLLOW_MIN
 
 GRAPH_MODES = ("auto", "volume", "surface", "chain")
 # A vertex shows min(1, LOCK_RAMP (1 - follow)) of its simulated offset: follow 1 is the animation exactly (a
@@ -59,8 +58,6 @@ STRETCH_LIMIT = 1.2
 # below their particles' frequency already, and short ones (the bear's ears) stretched 2.1-3.1x softened (under 1.1x
 # left alone).
 LONG_SHELL = 1.5
-ROOT_LINKS = 3  # the core's OD_ROOT_LINKS: a card is linked to its host from this many particles, its root
-SMALL_PIECE_PARTICLES = 4  # the core's OD_SMALL_PIECE_PARTICLES: a small piece of that many it moves rigidly
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -265,33 +262,34 @@ def shell_frequency(od, graph, stiffness, density, label):
     return np.sqrt(np.maximum(least, 0.0))[label] / (2.0 * np.pi)
 
 
-def swinging_shells(graph, piece, body, open_pieces):
+def swinging_shells(od, graph, piece, body, open_pieces):
     """Per particle, 1 + its mesh piece where that piece is a detached shell the jiggle rule takes, else 0: linked to
-    the body in the graph; closed (not of ``open_pieces``, ``checks.open_pieces``), or open with more particles than
-    the core moves rigidly (SMALL_PIECE_PARTICLES) and linked to the body all along (from more than ROOT_LINKS of
-    them: a cape behind a wide body, inside its bounding box, which the core takes for a patch on it, not a card
-    linked at its root); long: LONG_SHELL, of three particles or more, as two are always "long")."""
+    the body in the graph; closed (not of ``open_pieces``, ``checks.open_pieces``), or open and linked to the body
+    all along (``_linked_all_along``: a cape behind a wide body, inside its bounding box, which the core takes for
+    a patch on it, not a card linked at its root); long: LONG_SHELL, of three particles or more, as two are always
+    "long"). ``od``: the opdeform module (its ``mesh`` constants)."""
     _, linked = graph.pieces()
     label = np.zeros(len(piece), dtype=np.int64)
     for p in np.unique(piece[(piece != body) & (piece >= 0)]):
         mine = piece == p
         c = graph.centers[mine] - graph.centers[mine].mean(axis=0)
         spread = np.sqrt(np.maximum(np.linalg.eigvalsh(c.T @ c), 0.0))
-        taken = p not in open_pieces or _linked_all_along(graph, mine, piece == body)
+        taken = p not in open_pieces or _linked_all_along(od, graph, mine, piece == body)
         if taken and np.isin(linked[mine], linked[piece == body]).any() and \
                 np.count_nonzero(mine) >= 3 and spread[2] > LONG_SHELL * spread[1]:
             label[mine] = p + 1
     return label
 
 
-def _linked_all_along(graph, mine, body):
+def _linked_all_along(od, graph, mine, body):
     """Whether an open shell ``mine`` (a mask) is linked to the body (a mask) all along, as the core links a patch on
-    it: more than SMALL_PIECE_PARTICLES particles, more than ROOT_LINKS of them linked to the body. Left alone by
+    it: more particles than the core moves rigidly (``od.mesh.SMALL_PIECE_PARTICLES``), more of them linked to the
+    body than a card linked at its root (``od.mesh.ROOT_LINKS``). Left alone by
     the jiggle rule, the outside chubby humanoid's open cape, so linked, moved 0.6 / 0.3 mm at 100 / 400 particles
     (unlinked at 50, held by its goal alone, 100.8 mm)."""
     i, j = np.asarray(graph.edges, dtype=np.int64).reshape(-1, 2).T
     ends = np.unique(np.concatenate([i[mine[i] & body[j]], j[mine[j] & body[i]]]))
-    return np.count_nonzero(mine) > SMALL_PIECE_PARTICLES and len(ends) > ROOT_LINKS
+    return np.count_nonzero(mine) > od.mesh.SMALL_PIECE_PARTICLES and len(ends) > od.mesh.ROOT_LINKS
 
 
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
@@ -783,7 +781,7 @@ class Engine:
         1 keeps its links."""
         if self._open_pieces is None:  # the mesh's, found once: it never changes
             self._open_pieces = checks.open_pieces(self.rest, self.triangles)
-        label = swinging_shells(self.graph, piece, body, self._open_pieces)
+        label = swinging_shells(self.od, self.graph, piece, body, self._open_pieces)
         if not label.any():
             return 1.0
         hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)
