@@ -133,3 +133,70 @@ def test_a_refused_limit_keeps_the_bound_in_a_pickled_copy():
     sim.step(6)
     copy.step(6)
     assert np.array_equal(copy.positions, sim.positions)
+
+
+STEEP = 1e3  # a gradient so steep that any gap of a millimetre is far past the limit
+
+
+def bar_turned_with_a_gap(gradient, along):
+    """The soft bar turned a quarter about z (its rest x axis along world y), particle SOFT moved 1 cm along the
+    bar (``along``) or across it in world x, at rest, the bound at 1.2 with ``gradient`` and, beside it, the same
+    with the bound off: both stepped once."""
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    sims = [soft_bar(0.0), soft_bar(0.0)]
+    sims[0].set_stretch_limit(1.2, gradient)
+    n = sims[0].graph.n_particles
+    positions = sims[0].graph.centers @ turn.T
+    positions[SOFT] += [0.0, 0.01, 0.0] if along else [0.01, 0.0, 0.0]
+    for sim in sims:
+        sim.set_state(positions, np.repeat(turn[None], n, axis=0))
+        sim.step(1)
+    return sims
+
+
+def along_the_bar(links):
+    """One gradient vector per link along the bar's rest axis (x), each end's skin traded at STEEP a metre."""
+    out = np.zeros((links, 1, 3))
+    out[:, 0, 0] = STEEP
+    return out
+
+
+def test_gradient_vectors_raise_a_link_for_a_gap_along_its_steep_edges_not_across():
+    """A link's stretch of the skin with gradient vectors is the gap's part along each (in its end's frame): a
+    gap across the steep edges shears them and raises nothing (the same bits as off), a gap along them raises;
+    one value per link (the gap taken along the steepest edge) raises both."""
+    links = len(soft_bar(0.0).graph.edges)
+    across, off = bar_turned_with_a_gap(along_the_bar(links), along=False)
+    assert np.array_equal(across.positions, off.positions)
+    along, off = bar_turned_with_a_gap(along_the_bar(links), along=True)
+    assert not np.array_equal(along.positions, off.positions)
+    scalar, off = bar_turned_with_a_gap(np.full(links, STEEP), along=False)
+    assert not np.array_equal(scalar.positions, off.positions)
+
+
+def test_gradient_vectors_keep_through_a_pickle():
+    sim = soft_bar(0.0)
+    gradient = along_the_bar(len(sim.graph.edges))
+    sim.set_stretch_limit(1.05, gradient)
+    sim.step(8)
+    copy = pickle.loads(pickle.dumps(sim))
+    sim.step(6)
+    copy.step(6)
+    assert np.array_equal(copy.positions, sim.positions) and np.array_equal(copy.rotations, sim.rotations)
+    assert sim.counters["factorizations"] > 1
+
+
+def test_bad_gradient_vectors_raise_naming_them():
+    """Gradient vectors: (L, K, 3) with K in 1..16 and finite values (negative ones are directions); else refused,
+    and the bound set before is kept."""
+    sim = soft_bar(1.05)
+    links = len(sim.graph.edges)
+    for shape in [(links, 2), (links, 0, 3), (links, 17, 3), (links, 2, 2), (links + 1, 2, 3)]:
+        with pytest.raises(ValueError, match="gradient must have shape"):
+            sim.set_stretch_limit(1.2, np.ones(shape))
+    bad = -np.ones((links, 2, 3))
+    sim.set_stretch_limit(1.2, bad)  # negative components: accepted
+    bad[3, 1, 2] = np.nan
+    with pytest.raises(ValueError, match=r"skin gradient\[23\] = nan must be finite"):
+        sim.set_stretch_limit(1.3, bad)
+    assert sim.stretch_limit == 1.2
