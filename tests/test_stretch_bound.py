@@ -135,7 +135,7 @@ def test_a_refused_limit_keeps_the_bound_in_a_pickled_copy():
     assert np.array_equal(copy.positions, sim.positions)
 
 
-STEEP = 1e3  # a gradient so steep that any gap of a millimetre is far past the limit
+STEEP = 50.0  # a gradient per metre: a 1 cm gap along the edges stretches them 1.5x, across them sqrt(1.25)x
 
 
 def bar_turned_with_a_gap(gradient, along):
@@ -162,9 +162,10 @@ def along_the_bar(links):
 
 
 def test_gradient_vectors_raise_a_link_for_a_gap_along_its_steep_edges_not_across():
-    """A link's stretch of the skin with gradient vectors is the gap's part along each (in its end's frame): a
-    gap across the steep edges shears them and raises nothing (the same bits as off), a gap along them raises;
-    one value per link (the gap taken along the steepest edge) raises both."""
+    """A link's stretch of the skin with gradient vectors depends on the gap's direction (in its end's frame): a
+    gap across the steep edges shears them (1.12x) and raises nothing at a limit of 1.2 (the same bits as off), one
+    along them stretches them 1.5x and raises; one value per link (the gap taken along the steepest edge) raises
+    both."""
     links = len(soft_bar(0.0).graph.edges)
     across, off = bar_turned_with_a_gap(along_the_bar(links), along=False)
     assert np.array_equal(across.positions, off.positions)

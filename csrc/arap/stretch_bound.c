@@ -56,11 +56,12 @@ static void od_Ahead(const od_Sim* sim, double ahead, double* x, double* R)
 	}
 }
 
-// The stretch a gap (world space) at the middle of link e = (i, j) makes in the skin, i's frame at the call's end
-// ri: with gradient vectors (the skin weight gradients of the link's steepest mesh edges, i's rest frame: an edge
-// along ê_k stretches by about δ·ê_k times how fast half the difference of the ends' weights changes along it) the
-// most |(ri^T δ)·g_k|; with one value per link, |δ| times it (δ taken along the steepest edge); without a gradient,
-// |δ| over the link's length.
+// The stretch a gap δ (world space) at the middle of link e = (i, j) makes in the skin, ri i's rotation at the call's
+// end. With gradient vectors (i's rest frame; g = ê s / l of a mesh edge of rest length l along ê, s the change of
+// half the difference of the link's ends' skin weights along it): the gap parts the edge's ends by s δ, stretching it
+// to |l ê + s δ| / l = sqrt(1 + 2 |g·δ| + |g|² |δ|²) at most (δ turned into i's rest frame): along the edge
+// about |g| |δ|, across it only sqrt(1 + |g|² |δ|²), a shear; the most over the link's vectors. With one value per
+// link, |δ| times it (δ taken along the steepest edge); without a gradient, |δ| over the link's length.
 static double od_SkinStretch(const od_Sim* sim, const od_Mat3* ri, od_Vec3 gap, double length, int e)
 {
 	const double* g = sim->skinGradient;
@@ -74,12 +75,13 @@ static double od_SkinStretch(const od_Sim* sim, const od_Mat3* ri, od_Vec3 gap, 
 		return od_Length(gap) * g[e];
 	}
 	od_Vec3 local = od_M3MulTV(ri, gap);
-	double most = 0.0;
+	double most = 0.0, gap2 = od_Dot(gap, gap);
 	for (const double* v = g + 3 * (size_t)k * (size_t)e; v < g + 3 * (size_t)k * (size_t)(e + 1); v += 3)
 	{
-		most = fmax(most, fabs(od_Dot(local, od_V3Load(v))));
+		od_Vec3 slope = od_V3Load(v);
+		most = fmax(most, 2.0 * fabs(od_Dot(local, slope)) + od_Dot(slope, slope) * gap2);
 	}
-	return most;
+	return sqrt(1.0 + most) - 1.0;
 }
 
 // The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead's x, R): the gap at its
