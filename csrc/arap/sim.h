@@ -343,7 +343,6 @@ struct od_Sim
 	double stretchLimit;
 	double* linkRaised;   // OD_STRETCH_SCRATCH n: the raised softness, then the bound's scratch
 	double* skinGradient; // per link (graph->edges order): its skin gradient (stretch_bound.c; NULL: none)
-	int gradientVectors;  // 0: skinGradient holds one value per link; else this many 3-vectors per link
 	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 
 	// Per directed edge (CSR order of graph->adj), scaled by k, the scale and the link weight; rebuilt when one

@@ -440,66 +440,45 @@ static void od_StretchBoundOff(od_Sim* sim)
 	od_Free(sim->linkRaised);
 	od_Free(sim->skinGradient);
 	sim->linkRaised = sim->skinGradient = NULL;
-	sim->gradientVectors = 0;
 	sim->stretchLimit = 0.0;
 }
 
-// How many values a gradient of `vectors` 3-vectors per link (0: one value per link) holds.
-static size_t od_GradientValues(const od_Sim* sim, int vectors)
-{
-	return (size_t)sim->graph->edgeCount * (vectors ? 3 * (size_t)vectors : 1);
-}
-
 // Whether limit and gradient are the bound's as set (the same bits).
-static bool od_SameStretchBound(const od_Sim* sim, double limit, const double* gradient, int vectors)
+static bool od_SameStretchBound(const od_Sim* sim, double limit, const double* gradient)
 {
-	if (limit != sim->stretchLimit || !gradient != !sim->skinGradient || vectors != sim->gradientVectors)
+	if (limit != sim->stretchLimit || !gradient != !sim->skinGradient)
 	{
 		return false;
 	}
-	return !gradient || !memcmp(gradient, sim->skinGradient, sizeof(double) * od_GradientValues(sim, vectors));
+	return !gradient || !memcmp(gradient, sim->skinGradient, sizeof(double) * (size_t)sim->graph->edgeCount);
 }
 
-// OD_OK when limit and gradient are a bound od_Sim_SetStretchLimit takes, else why not.
-static od_Status od_CheckStretchBound(const od_Sim* sim, double limit, const double* gradient, int vectors)
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient)
 {
+	int n = sim->graph->n;
 	if (!(limit == 0.0 || (limit > 1.0 && isfinite(limit))))
 	{
 		return od_Fail(OD_ERROR_ARGUMENT, "stretch limit = %g must be 0 (off) or finite and > 1", limit);
 	}
-	if (vectors < 0 || vectors > OD_GRADIENT_VECTORS_MAX)
+	for (int e = 0; gradient && e < sim->graph->edgeCount; ++e)
 	{
-		return od_Fail(OD_ERROR_ARGUMENT, "gradient vectors = %d must be 0 (one value per link) to %d", vectors,
-					   OD_GRADIENT_VECTORS_MAX);
-	}
-	size_t values = gradient ? od_GradientValues(sim, vectors) : 0;
-	for (size_t v = 0; v < values; ++v)
-	{
-		if (!isfinite(gradient[v]) || (vectors == 0 && !(gradient[v] >= 0.0)))
+		if (!(gradient[e] >= 0.0) || !isfinite(gradient[e]))
 		{
-			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%zu] = %g must be finite%s", v, gradient[v],
-						   vectors ? "" : " and >= 0");
+			return od_Fail(OD_ERROR_ARGUMENT, "skin gradient[%d] = %g must be finite and >= 0", e, gradient[e]);
 		}
 	}
-	return OD_OK;
-}
-
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient, int vectors)
-{
-	int n = sim->graph->n;
-	od_Status status = od_CheckStretchBound(sim, limit, gradient, vectors);
-	if (status != OD_OK || od_SameStretchBound(sim, limit, gradient, vectors)) // the same: nothing refactored
+	if (od_SameStretchBound(sim, limit, gradient)) // the raise kept: setting it again refactors nothing
 	{
-		return status;
+		return OD_OK;
 	}
 	od_StretchBoundOff(sim);
 	if (limit == 0.0)
 	{
 		return OD_OK;
 	}
-	size_t bytes = sizeof(double) * (size_t)n, values = sizeof(double) * od_GradientValues(sim, vectors);
+	size_t bytes = sizeof(double) * (size_t)n, links = sizeof(double) * (size_t)sim->graph->edgeCount;
 	sim->linkRaised = od_Alloc(OD_STRETCH_SCRATCH * bytes); // and the bound's scratch (stretch_bound.c)
-	sim->skinGradient = gradient ? od_Alloc(values) : NULL;
+	sim->skinGradient = gradient ? od_Alloc(links) : NULL;
 	if (!sim->linkRaised || (gradient && !sim->skinGradient))
 	{
 		od_StretchBoundOff(sim);
@@ -511,9 +490,8 @@ od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradie
 	}
 	if (gradient)
 	{
-		memcpy(sim->skinGradient, gradient, values);
+		memcpy(sim->skinGradient, gradient, links);
 	}
-	sim->gradientVectors = gradient ? vectors : 0;
 	sim->stretchLimit = limit;
 	return OD_OK;
 }

@@ -56,38 +56,12 @@ static void od_Ahead(const od_Sim* sim, double ahead, double* x, double* R)
 	}
 }
 
-// The stretch a gap δ (world space) at the middle of link e = (i, j) makes in the skin, ri i's rotation at the call's
-// end. With gradient vectors (i's rest frame; g = ê s / l of a mesh edge of rest length l along ê, s the change of
-// half the difference of the link's ends' skin weights along it): the gap parts the edge's ends by s δ, stretching it
-// to |l ê + s δ| / l = sqrt(1 + 2 |g·δ| + |g|² |δ|²) at most (δ turned into i's rest frame): along the edge
-// about |g| |δ|, across it only sqrt(1 + |g|² |δ|²), a shear; the most over the link's vectors. With one value per
-// link, |δ| times it (δ taken along the steepest edge); without a gradient, |δ| over the link's length.
-static double od_SkinStretch(const od_Sim* sim, const od_Mat3* ri, od_Vec3 gap, double length, int e)
-{
-	const double* g = sim->skinGradient;
-	int k = sim->gradientVectors;
-	if (!g)
-	{
-		return length > 0.0 ? od_Length(gap) / length : 0.0; // 0 where goal centres coincide
-	}
-	if (k == 0)
-	{
-		return od_Length(gap) * g[e];
-	}
-	od_Vec3 local = od_M3MulTV(ri, gap);
-	double most = 0.0, gap2 = od_Dot(gap, gap);
-	for (const double* v = g + 3 * (size_t)k * (size_t)e; v < g + 3 * (size_t)k * (size_t)(e + 1); v += 3)
-	{
-		od_Vec3 slope = od_V3Load(v);
-		most = fmax(most, 2.0 * fabs(od_Dot(local, slope)) + od_Dot(slope, slope) * gap2);
-	}
-	return sqrt(1.0 + most) - 1.0;
-}
-
 // The stretch link e = (i, j) adds to the skin between its ends at the call's end (od_Ahead's x, R): the gap at its
 // middle between the skin its ends carry, δ = x_j - x_i - (R_i d_ij - R_j d_ji) / 2 (their stretch, and their
-// disagreement on their turn where it parts the skin), made a stretch by od_SkinStretch. Past the limit, over
-// OD_STRETCH_RAMP, in [0, 1].
+// disagreement on their turn where it parts the skin), times the link's skin gradient (the most half the
+// difference of its ends' skin weights changes per metre along a mesh edge: a gap δ stretches such an edge by
+// about |δ| g), or over the link's length |d_ij| without a gradient. Past the limit, over OD_STRETCH_RAMP, in
+// [0, 1].
 static double od_Over(const od_Sim* sim, const double* x, const double* R, int e)
 {
 	int i = sim->graph->edges[2 * e], j = sim->graph->edges[2 * e + 1];
@@ -95,7 +69,10 @@ static double od_Over(const od_Sim* sim, const double* x, const double* R, int e
 	od_Vec3 xi = od_V3Load(x + 3 * i), xj = od_V3Load(x + 3 * j);
 	od_Vec3 dij = od_RestVector(sim, i, j), dji = od_RestVector(sim, j, i);
 	od_Vec3 carried = od_Scale(0.5, od_Sub(od_M3MulV(&ri, dij), od_M3MulV(&rj, dji)));
-	double stretch = od_SkinStretch(sim, &ri, od_Sub(od_Sub(xj, xi), carried), od_Length(dij), e);
+	double gap = od_Length(od_Sub(od_Sub(xj, xi), carried));
+	const double* g = sim->skinGradient;
+	double length = od_Length(dij); // 0 where goal centres coincide: nothing to measure the stretch against
+	double stretch = g ? gap * g[e] : (length > 0.0 ? gap / length : 0.0);
 	return fmin(fmax(stretch - (sim->stretchLimit - 1.0), 0.0) / OD_STRETCH_RAMP, 1.0);
 }
 

@@ -220,25 +220,22 @@ static PyObject* Sim_set_link_softness(PyObject* obj, PyObject* args)
 	return Sim_SetPerParticle(obj, args, "softness", od_Sim_SetLinkSoftness);
 }
 
-// set_stretch_limit(limit, gradient or None, vectors=0): limit 0 off, else > 1; per link one gradient >= 0
-// (vectors 0) or `vectors` gradient 3-vectors
+// set_stretch_limit(limit, gradient or None): limit 0 off, else > 1; one gradient >= 0 per link
 static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
 {
 	od_Sim* sim = Sim_Enter(obj);
 	double limit;
-	int vectors = 0;
 	PyObject* arg;
 	Py_buffer view;
-	if (!sim || !PyArg_ParseTuple(args, "dO|i", &limit, &arg, &vectors))
+	if (!sim || !PyArg_ParseTuple(args, "dO", &limit, &arg))
 	{
 		return NULL;
 	}
-	Py_ssize_t values = ((SimObject*)obj)->links * (vectors > 0 ? 3 * (Py_ssize_t)vectors : 1);
-	if (GetOptionalArray(arg, "gradient", 'd', values, &view) < 0)
+	if (GetOptionalArray(arg, "gradient", 'd', ((SimObject*)obj)->links, &view) < 0)
 	{
 		return NULL;
 	}
-	od_Status status = od_Sim_SetStretchLimit(sim, limit, ArrayData(&view), vectors);
+	od_Status status = od_Sim_SetStretchLimit(sim, limit, ArrayData(&view));
 	ReleaseArray(&view);
 	return Binding_Done(obj, status);
 }
@@ -850,7 +847,7 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_goals", Sim_set_goals, METH_VARARGS, "set_goals(positions, rotations or None)" },
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
-	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None, vectors=0): limit 0 off, else > 1" },
+	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None): limit 0 off, else > 1" },
 	{ "stretch_limit", Sim_stretch_limit, METH_NOARGS, "stretch_limit() -> the stretch bound's limit (0: off)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },

@@ -23,7 +23,6 @@ __all__ = ["Simulation"]
 # copy: a vertex then never dips into a plane (without them Suzanne's skin went 0.12 mm into the floor).
 CONTACT_WEIGHT = 0.05
 MAX_WEIGHT_RATIO = 1e12  # a constraint's weight is at most this many default weights (Simulation._weight)
-GRADIENT_VECTORS_MAX = 16  # the most gradient vectors per link a stretch bound takes (the core's)
 
 
 class CoreObject:
@@ -276,37 +275,22 @@ class Simulation(CoreObject, ForceFields):
         link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
         there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
         function of the call's start (and duration), so a frame simulated again from a restored state gets the same. A
-        link's stretch of the skin, from the gap δ at its middle between the skin its ends carry: with a skin
-        ``gradient`` of shape (L,) (one value >= 0 per link of ``graph.edges``: the most half the difference of its
-        ends' skin weights changes per metre along a mesh edge) |δ| times it; of shape (L, K, 3), K in 1..16 (per
-        link K gradient vectors g_k: a mesh edge's rest direction times how fast that difference changes along it,
-        in the rest frame of the link's first end i) the most |δ·R_i g_k|, R_i its rotation (a gap across the
-        steep edges shears them, it does not stretch them); None: |δ| over the link's length. Its length and its
-        ends' frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
+        link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
+        ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
+        weights changes per metre along a mesh edge), or over the link's length (None). Its length and its ends'
+        frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
         default); else > 1. With no link past the limit: the same bits as off. The raise depends on the call's
         duration too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as
         set. The limit and gradient already set again change nothing (nothing refactored)."""
-        gradient, vectors = self._stretch_gradient(gradient)
+        links = len(self.graph.edges)
+        gradient = None if gradient is None else as_array("gradient", gradient, (links,))
         try:
-            self._core.set_stretch_limit(float(limit), gradient, vectors)
+            self._core.set_stretch_limit(float(limit), gradient)
         except BaseException:  # refused (bad values) the core keeps its bound; failing after (memory) it is off
             if self._core.stretch_limit() == 0.0:
                 self._stretch_bound = (0.0, None)
             raise
         self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
-
-    def _stretch_gradient(self, gradient: ArrayLike | None) -> tuple[Floats | None, int]:
-        """A stretch bound's gradient checked for shape (L,) or (L, K, 3), and its K (0 for (L,))."""
-        links = len(self.graph.edges)
-        if gradient is None:
-            return None, 0
-        if np.ndim(gradient) != 3:
-            return as_array("gradient", gradient, (links,)), 0
-        vectors = as_array("gradient", gradient, (links, None, 3))
-        if not 1 <= vectors.shape[1] <= GRADIENT_VECTORS_MAX:
-            raise ValueError(f"gradient must have shape ({links},) or ({links}, K, 3) with K in 1.."
-                             f"{GRADIENT_VECTORS_MAX}, got {vectors.shape}")
-        return vectors, vectors.shape[1]
 
     @property
     def stretch_limit(self) -> float:

@@ -53,8 +53,6 @@ PATCH_SHARE_POWER = 1.5
 # mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
 # bound (stop 48)").
 STRETCH_LIMIT = 1.2
-# the skin gradient vectors per link the stretch bound estimates a link's stretch of the mesh with (skin_gradient)
-GRADIENT_VECTORS = 3
 # the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
 # open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
 # much more along one axis than the next, as the core's od_BeamShell): a ponytail. Cards (the fish's fins) swing far
@@ -305,60 +303,30 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
-def skin_gradient(indices, weights, edges, rest, links, vectors=GRADIENT_VECTORS):
-    """Per link (i, j) of ``links`` (L, 2), ``vectors`` skin gradient vectors (L, vectors, 3): a mesh edge's rest
-    direction times how fast half the difference of the link's ends' skin weights, (w_j - w_i) / 2, changes per
-    metre along it (``edges``: its two (E,) end arrays, edges of nonzero length at ``rest``; ``indices``,
-    ``weights``: the skin's (V, m)), of the edges ``steepest_spread`` picks; zero where fewer edges name the link.
-    A gap δ at the link's middle between the skin its ends carry stretches such an edge by about δ·g
-    (Simulation.set_stretch_limit)."""
-    link, slope = _skin_slopes(indices, weights, edges, rest, links)
-    return steepest_spread(link, slope, len(links), vectors)
-
-
-def _skin_slopes(indices, weights, edges, rest, links):
-    """Every (link, mesh edge) pair whose edge's two ends' skins name both of the link's particles: the link's
-    index (N,) and the edge's gradient vector (N, 3) (skin_gradient)."""
+def skin_gradient(indices, weights, edges, rest, links):
+    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
+    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``: its two (E,) end arrays, edges of nonzero
+    length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
+    skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
     a, b = edges
+    out = np.zeros(len(links))
     if len(links) == 0 or len(a) == 0:
-        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
-    step = rest[a] - rest[b]
-    length = np.linalg.norm(step, axis=1)
+        return out
+    length = np.linalg.norm(rest[a] - rest[b], axis=1)
     near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
 
     def weight(rows, c):
         return np.where(indices[rows] == near[:, c, None], weights[rows], 0.0).sum(axis=1)
 
-    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length ** 2
+    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
     n = int(max(indices.max(), links.max())) + 1
     key = np.sort(links, axis=1) @ [n, 1]
     order = np.argsort(key)
-    found, slopes = [], []
     for c, d in zip(*np.triu_indices(near.shape[1], 1)):
         lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
         at = np.minimum(np.searchsorted(key, lo * n + hi, sorter=order), len(key) - 1)
         linked = (key[order[at]] == lo * n + hi) & (lo != hi)
-        found.append(order[at[linked]])
-        slopes.append((0.5 * (change[d] - change[c]))[linked, None] * step[linked])
-    return np.concatenate(found), np.concatenate(slopes)
-
-
-def steepest_spread(link, slope, links, count):
-    """Per link, ``count`` of its vectors ``slope`` (N, 3) (``link``: each one's link, in range(links)) so that the
-    most |u·v| over the picked v comes near the most over all for any direction u: first the longest, then each
-    time the one that most exceeds its estimate from those picked (|v| - the most |v̂·p|), so a steep edge across
-    the picked ones is taken before a steeper one along them. (links, count, 3), zero where a link has fewer."""
-    out = np.zeros((links, count, 3))
-    size = np.linalg.norm(slope, axis=1)
-    unit = slope / np.where(size > 0.0, size, 1.0)[:, None]
-    covered = np.zeros(len(size))
-    for k in range(count):
-        miss = size - covered
-        order = np.lexsort((-miss, link))
-        first = order[np.unique(link[order], return_index=True)[1]]
-        first = first[miss[first] > 1e-12 * size[first]]
-        out[link[first], k] = slope[first]
-        covered = np.maximum(covered, np.abs(np.einsum("na,na->n", unit, out[link, k])))
+        np.maximum.at(out, order[at[linked]], 0.5 * np.abs(change[d] - change[c])[linked])
     return out
 
 

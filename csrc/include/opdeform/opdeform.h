@@ -54,17 +54,13 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // A stretch bound on the softened links (flesh stiffens as it stretches): at each dynamic call's start, a link
 // that would stretch the skin past `limit` at the call's end (its ends' velocities carrying them there) by t
 // (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a function of the call's
-// start and its duration (a static solve uses the softness as set). A link's stretch of the skin: from the gap δ at
-// its middle between the skin its ends carry, with `vectors` 0 |δ| times its `gradient` (one value >= 0 per link of
-// the graph's edges: the most half the difference of its ends' skin weights changes per metre along a mesh edge),
-// with `vectors` K in 1..OD_GRADIENT_VECTORS_MAX the most |δ·R_i g_k| over its K gradient vectors g_k (3K finite
-// values per link: a mesh edge's direction times how fast that difference changes along it, in the rest frame of
-// the link's first end i, R_i its rotation), or over the link's length (gradient NULL). The link's length and
+// start and its duration (a static solve uses the softness as set). A link's stretch of the skin: the gap at its middle between the skin its ends carry, times its
+// `gradient` (one value >= 0 per link of the graph's edges: the most half the difference of its ends' skin
+// weights changes per metre along a mesh edge), or over the link's length (gradient NULL). The link's length and
 // its ends' frames: the goals' when they carry the rest, else the rest's. limit 0: off (the default); else > 1.
 // With no link past the limit: the same bits as off. The limit and gradient already set again: nothing changes
 // (the raise kept, nothing refactored).
-#define OD_GRADIENT_VECTORS_MAX 16
-od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient, int vectors);
+od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
