@@ -34,8 +34,8 @@ for x, y in LEGS.values():
     k = len(NODES)
     NODES += [((x, y, 0.62), 0.08), ((x, y, 0.32), 0.05), ((x, y, 0.04), 0.045)]
     EDGES += [(1 if y > 0 else 3, k), (k, k + 1), (k + 1, k + 2)]
-EAR_ROOT, EYE = (0.05, -0.68, 1.34), (0.075, -0.80, 1.28)
-TAIL = [((0, 0.55, 0.86), 0.05), ((0, 0.72, 0.76), 0.045), ((0, 0.84, 0.58), 0.035), ((0, 0.88, 0.38), 0.02)]
+EAR_ROOT, EYE = (0.05, -0.68, 1.27), (0.08, -0.80, 1.22)  # 3 cm into the head's top; half out of its side
+TAIL = [((0, 0.50, 0.88), 0.05), ((0, 0.72, 0.76), 0.045), ((0, 0.84, 0.58), 0.035), ((0, 0.88, 0.38), 0.02)]
 
 BONES = [("root", (0, 0, 0), (0, -0.3, 0), None, False),
          ("hips", (0, 0.45, 0.80), (0, 0.0, 0.82), "root", True),
@@ -51,7 +51,7 @@ def body_mesh():
 
     def push(v):
         belly = gauss(v, (0, 0, 0.62), (0.16, 0.26, 0.10)) * (np.abs(v[:, 1]) < 0.3) * (v[:, 2] < 0.78)
-        jowl = sum(gauss(v, (sx * 0.06, -0.76, 1.18), (0.045, 0.06, 0.05)) for sx in (1, -1))
+        jowl = sum(gauss(v, (sx * 0.06, -0.77, 1.14), (0.06, 0.08, 0.06)) for sx in (1, -1))
         v[:, 2] -= 0.08 * belly + 0.03 * jowl
         v[:, 0] += 0.025 * jowl * np.sign(v[:, 0])
         return belly, jowl
@@ -67,7 +67,7 @@ def loose_parts(obj):
     parts, param = {}, {}
     for side, sx in (("L", 1), ("R", -1)):
         root = (sx * EAR_ROOT[0], EAR_ROOT[1], EAR_ROOT[2])
-        tip = (sx * 0.09, -0.66, 1.52)
+        tip = (sx * 0.09, -0.66, 1.45)
         parts[f"ear.{side}"] = joined(obj, tube(f"Ear.{side}", [(root, 0.035), (tip, 0.01)]))
     parts["tail"] = joined(obj, tube("Tail", TAIL))
     for side, sx in (("L", 1), ("R", -1)):
