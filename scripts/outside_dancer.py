@@ -87,6 +87,7 @@ def animate(arm):
     pb = arm.pose.bones
     for b in pb:
         b.rotation_mode = 'XYZ'
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'  # the keys linear: a dead stop
     for f in range(1, STOP + 1):
         t = (f - JUMP[0]) / (JUMP[1] - JUMP[0])
         arm.location = (0, 0, 0.4 * math.sin(math.pi * t) if 0 <= t <= 1 else 0.0)
@@ -98,9 +99,6 @@ def animate(arm):
         arm.keyframe_insert("rotation_euler", frame=f)
         for b in pb:
             b.keyframe_insert("rotation_euler", frame=f)
-    for fc in arm.animation_data.action.fcurves:
-        for key in fc.keyframe_points:
-            key.interpolation = 'LINEAR'
 
 
 def build_scene():

@@ -96,6 +96,7 @@ def animate(arm):
     pb = arm.pose.bones
     for b in pb:
         b.rotation_mode = 'XYZ'
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'  # the keys linear: a dead stop
     for f in range(1, STOP + 1):
         forward, bob, ph = gallop(f)
         arm.location = (0, -forward, bob)
@@ -108,9 +109,6 @@ def animate(arm):
             pb[name].rotation_euler = (0.6 * math.sin(ph + lag + 0.3 * name.endswith("R")), 0, 0)
         for b in pb:
             b.keyframe_insert("rotation_euler", frame=f)
-    for fc in arm.animation_data.action.fcurves:
-        for k in fc.keyframe_points:
-            k.interpolation = 'LINEAR'
 
 
 def weight_leftovers(obj, parts):
