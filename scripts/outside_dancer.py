@@ -2,8 +2,9 @@
 object: a slim Skin-modifier body (pelvis, waist, chest, neck, head, arms, legs with feet; Subdivision 2 applied),
 then joined in as separate OPEN single-sided shells: a skirt of 12 planar cards (each 3 x 10 quads, 0.16 m wide,
 0.6 m long) hanging from the waist and flaring out, and 10 flat hair ribbons (each 2 x 12 quads, 4 cm wide, 0.6 m
-long) from the back of the head down the back. A 12-bone armature (root + 11 deform) with automatic weights; any
-vertex they miss weighted 1 to the hips (skirt) or the head (hair). A jump (frames 4-24, 0.4 m), then a full turn
+long) from the back of the head down the back. A 12-bone armature (root + 11 deform) with automatic weights; the
+cards and ribbons, which they weight badly (a card swung up with an arm, the ribbons missed), repainted 1 to the
+hips (skirt) or the head (hair). A jump (frames 4-24, 0.4 m), then a full turn
 on the spot at constant speed (frames 24-36, 720 deg/s) with the arms out, linear keys, a dead stop at 36, still
 until 96. Follow: 1 on the body, each card 1 at its top row -> 0.15 at its hem, each ribbon 1 at the head -> 0.1
 at its tip. Floor with Collision.
@@ -112,11 +113,12 @@ def build_scene():
     arm = armature("DancerRig", BONES, lambda b, p: not b.startswith(("upperarm", "thigh")))
     parent_auto(obj, arm)
     missed = {}
-    for group, pieces in (("hips", cards), ("head", hair)):
-        ix = np.concatenate(list(pieces.values()))
-        left = [int(i) for i in ix if not any(g.weight > 0 for g in obj.data.vertices[i].groups)]
-        obj.vertex_groups[group].add(left, 1.0, 'REPLACE')
-        missed[group] = len(left)
+    for group, pieces in (("hips", cards), ("head", hair)):  # the cards and ribbons repainted 1 to one bone
+        ix = [int(i) for i in np.concatenate(list(pieces.values()))]
+        missed[group] = sum(not any(g.weight > 0 for g in obj.data.vertices[i].groups) for i in ix)
+        for g in obj.vertex_groups:
+            g.remove(ix)
+        obj.vertex_groups[group].add(ix, 1.0, 'REPLACE')
     body_missed = [x.index for x in obj.data.vertices[:nb] if not any(g.weight > 0 for g in x.groups)]
     obj.vertex_groups["spine"].add(body_missed, 1.0, 'REPLACE')
     animate(arm)
@@ -131,7 +133,7 @@ def build_scene():
     skirt, locks = np.concatenate(list(cards.values())), np.concatenate(list(hair.values()))
     parts = dict(skirt=skirt[param[skirt] >= 0.5], hair=locks[param[locks] >= 0.5])
     print(f"DANCER {len(v)} vertices, {len(obj.data.polygons)} faces, {len(np.unique(rig_parts.shells(obj)))} "
-          f"shells, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, weights added by hand "
+          f"shells, box {v.min(0).round(3).tolist()} {v.max(0).round(3).tolist()}, automatic weights missed "
           f"{missed} body {len(body_missed)}", {k: len(i) for k, i in parts.items()},
           "core", int((follow >= 0.999).sum()), "follow min", {k: float(follow[i].min()) for k, i in parts.items()})
     return obj, twin, parts, follow
@@ -139,7 +141,7 @@ def build_scene():
 
 def stills(shot):
     f = int(OPT["render"])
-    view = dict(frame=f, eye=(2.2, -3.0, 1.6), target=(0, 0, 1.0))
+    view = dict(frame=f, eye=(2.8, -3.8, 1.5), target=(0, 0, 1.0))
     still(os.path.join(OUT, f"dancer_{f}.png"), hidden=(shot.twin,), **view)
     still(os.path.join(OUT, f"dancer_{f}_armature.png"), hidden=(shot.obj,), **view)
 
