@@ -6,7 +6,7 @@ whose root sinks into the rump) and two UV-sphere eyeballs half inside the head.
 deform) with automatic weights; any vertex they miss weighted 1 to the head (ears, eyes) or the tail, as an
 artist would. A gallop of 2.4 m/s reached over 8 frames (12-frame strides: bob, pitch, nod, legs in pairs, tail swinging) over frames
 1-40, linear keys, a dead stop at 40, still until 96. Follow: 1 on the core and the eyes, 1 -> 0.15 over the
-belly, 0.2 on the jowls, 1 -> 0.15 out to the ear tips, 1 -> 0.1 out to the tail's tip. Floor with Collision.
+belly, 1 -> 0.2 over the jowls, 1 -> 0.15 out to the ear tips, 1 -> 0.1 out to the tail's tip. Floor with Collision.
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_pony.py -- - dev OUT [opts]
     bpy-python scripts/outside_pony.py - dev OUT [opts]    (or ZIP legacy / ZIP extension as scripts/outside_pig.py)
 opts: particles=N look=NAME +NAME=VALUE looks bake save scrub open=OUT (as scripts/outside_blob.py); ease=E (frames
@@ -136,7 +136,7 @@ def build_scene():
     missed = weight_leftovers(obj, loose)
     animate(arm)
     w = np.ones(len(obj.data.vertices))
-    w[:nb] = 1 - np.maximum(0.85 * np.clip(belly, 0, 1), 0.8 * np.clip(jowl, 0, 1))
+    w[:nb] = 1 - np.maximum(0.85 * np.clip(belly, 0, 1), 0.8 * jowl / jowl.max())
     p = np.zeros(len(w))
     for name, t in param.items():
         p[loose[name]] = t
