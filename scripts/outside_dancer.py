@@ -20,34 +20,36 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, collision_floor, install, joined, link, paint, parent_auto, reshaped,  # noqa: E402
+from rig_parts import (armature, collision_floor, joined, link, paint, parent_auto, reshaped,  # noqa: E402
                        skin_body, still, taper, twin_of)
 
-ZIP, KIND, OUT, OPT = rig_parts.options()
+OUT, OPT = rig_parts.options()[2:]
 FPS, FRAMES, JUMP, STOP = 24, 96, (4, 24), 36
 
+# the trunk (pelvis 0, waist, chest 2, neck, head) and per side, mirrored in x, the limbs: (the trunk node they
+# start from, [(position, radius)]) and their bones (name, head, tail, parent: a trunk bone or the limb's own)
 NODES = [((0, 0, 0.98), 0.15), ((0, 0, 1.12), 0.12), ((0, 0, 1.35), 0.16), ((0, 0, 1.55), 0.06),
          ((0, 0, 1.70), 0.10), ((0, 0, 1.86), 0.09)]
 EDGES = [(k, k + 1) for k in range(5)]
-for sx in (1, -1):
-    k = len(NODES)
-    NODES += [((sx * 0.22, 0, 1.45), 0.06), ((sx * 0.48, 0, 1.30), 0.045), ((sx * 0.70, 0, 1.15), 0.04)]
-    EDGES += [(2, k), (k, k + 1), (k + 1, k + 2)]
-    k = len(NODES)
-    NODES += [((sx * 0.10, 0, 0.85), 0.08), ((sx * 0.11, 0, 0.47), 0.06), ((sx * 0.11, 0, 0.08), 0.05),
-              ((sx * 0.11, -0.14, 0.04), 0.04)]
-    EDGES += [(0, k), (k, k + 1), (k + 1, k + 2), (k + 2, k + 3)]
+LIMBS = [(2, [((0.22, 0, 1.45), 0.06), ((0.48, 0, 1.30), 0.045), ((0.70, 0, 1.15), 0.04)]),
+         (0, [((0.10, 0, 0.85), 0.08), ((0.11, 0, 0.47), 0.06), ((0.11, 0, 0.08), 0.05), ((0.11, -0.14, 0.04), 0.04)])]
+LIMB_BONES = [("upperarm", (0.20, 0, 1.46), (0.48, 0, 1.30), "spine"), ("forearm", (0.48, 0, 1.30), (0.72, 0, 1.13),
+              "upperarm"), ("thigh", (0.10, 0, 0.85), (0.11, 0, 0.47), "hips"), ("shin", (0.11, 0, 0.47),
+              (0.11, 0, 0.06), "thigh")]
+BONES = [("root", (0, 0, 0), (0, -0.3, 0), None, False), ("hips", (0, 0, 0.85), (0, 0, 1.15), "root", True),
+         ("spine", (0, 0, 1.15), (0, 0, 1.55), "hips", True), ("head", (0, 0, 1.55), (0, 0, 1.98), "spine", True)]
 
-BONES = [("root", (0, 0, 0), (0, -0.3, 0), None, False),
-         ("hips", (0, 0, 0.85), (0, 0, 1.15), "root", True),
-         ("spine", (0, 0, 1.15), (0, 0, 1.55), "hips", True),
-         ("head", (0, 0, 1.55), (0, 0, 1.98), "spine", True)]
+
+def mirrored(p, sx):
+    return (sx * p[0], p[1], p[2])
+
+
 for side, sx in (("L", 1), ("R", -1)):
-    BONES += [(f"upperarm.{side}", (sx * 0.20, 0, 1.46), (sx * 0.48, 0, 1.30), "spine", True),
-              (f"forearm.{side}", (sx * 0.48, 0, 1.30), (sx * 0.72, 0, 1.13), f"upperarm.{side}", True),
-              (f"thigh.{side}", (sx * 0.10, 0, 0.85), (sx * 0.11, 0, 0.47), "hips", True),
-              (f"shin.{side}", (sx * 0.11, 0, 0.47), (sx * 0.11, 0, 0.06), f"thigh.{side}", True)]
-
+    for start, chain in LIMBS:
+        EDGES += [(start, len(NODES))] + [(len(NODES) + i, len(NODES) + i + 1) for i in range(len(chain) - 1)]
+        NODES += [(mirrored(p, sx), r) for p, r in chain]
+    BONES += [(f"{b}.{side}", mirrored(h, sx), mirrored(t, sx), p if p in ("spine", "hips") else f"{p}.{side}", True)
+              for b, h, t, p in LIMB_BONES]
 
 def card(name, columns, rows, point):
     """A single-sided grid of columns x rows quads at point(u, v) (u across 0..1, v down 0..1), linked; with
@@ -146,14 +148,8 @@ def stills(shot):
     still(os.path.join(OUT, f"dancer_{f}_armature.png"), hidden=(shot.obj,), **view)
 
 
-def main():
-    name = install(ZIP, KIND)
-    import helpers as H
-    H.ADDON = name
-    obj, twin, parts, follow = build_scene()
-    shot = rig_parts.PartsShot(obj, twin, parts, follow, H, FRAMES, STOP, FPS)
-    rig_parts.artist_session(shot, H, OPT, OUT, (1, 12, 24, 30, 36, 48, 60, FRAMES),
-                             stills if "render" in OPT else None)
+def shot_of(H):
+    return rig_parts.PartsShot(*build_scene(), H, FRAMES, STOP, FPS)
 
 
-rig_parts.reopen(OPT["open"], ZIP, KIND, "Dancer") if "open" in OPT else main()
+rig_parts.run_shot("Dancer", shot_of, (1, 12, 24, 30, 36, 48, 60, FRAMES), stills if "render" in OPT else None)

@@ -4,9 +4,10 @@ add-on has not seen, galloping and stopping dead. ONE object of several LOOSE PA
 jaw, then joined in as separate shells: two ears (Skin tubes whose roots sink into the head), a tail (a Skin tube
 whose root sinks into the rump) and two UV-sphere eyeballs half inside the head. A 10-bone armature (root + 9
 deform) with automatic weights; any vertex they miss weighted 1 to the head (ears, eyes) or the tail, as an
-artist would. A gallop of 2.4 m/s reached over 8 frames (12-frame strides: bob, pitch, nod, legs in pairs, tail swinging) over frames
-1-40, linear keys, a dead stop at 40, still until 96. Follow: 1 on the core and the eyes, 1 -> 0.15 over the
-belly, 1 -> 0.2 over the jowls, 1 -> 0.15 out to the ear tips, 1 -> 0.1 out to the tail's tip. Floor with Collision.
+artist would. A gallop of 2.4 m/s reached over 8 frames (12-frame strides: bob, pitch, nod, legs in pairs, tail
+swinging) over frames 1-40, linear keys, a dead stop at 40, still until 96. Follow: 1 on the core and the eyes,
+1 -> 0.15 over the belly, 1 -> 0.2 over the jowls, 1 -> 0.15 out to the ear tips, 1 -> 0.1 out to the tail's tip.
+Floor with Collision.
     blender -b --factory-startup --python-exit-code 1 -P scripts/outside_pony.py -- - dev OUT [opts]
     bpy-python scripts/outside_pony.py - dev OUT [opts]    (or ZIP legacy / ZIP extension as scripts/outside_pig.py)
 opts: particles=N look=NAME +NAME=VALUE looks bake save scrub open=OUT (as scripts/outside_blob.py); ease=E (frames
@@ -19,10 +20,10 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import rig_parts  # noqa: E402
-from rig_parts import (armature, collision_floor, gauss, install, joined, paint, parent_auto, reshaped,  # noqa: E402
+from rig_parts import (armature, collision_floor, gauss, joined, paint, parent_auto, reshaped,  # noqa: E402
                        skin_body, still, taper, twin_of)
 
-ZIP, KIND, OUT, OPT = rig_parts.options()
+OUT, OPT = rig_parts.options()[2:]
 FPS, FRAMES, STOP, STRIDE, SPEED = 24, 96, 40, 12, 2.4
 
 NODES = [((0, 0.45, 0.80), 0.17), ((0, 0.15, 0.82), 0.20), ((0, -0.15, 0.82), 0.20), ((0, -0.40, 0.85), 0.19),
@@ -165,14 +166,8 @@ def stills(shot):
     still(os.path.join(OUT, f"pony_{f}_armature.png"), hidden=(shot.obj,), **view)
 
 
-def main():
-    name = install(ZIP, KIND)
-    import helpers as H
-    H.ADDON = name
-    obj, twin, parts, follow = build_scene()
-    shot = rig_parts.PartsShot(obj, twin, parts, follow, H, FRAMES, STOP, FPS)
-    rig_parts.artist_session(shot, H, OPT, OUT, (1, 12, 24, 36, 44, 60, 72, FRAMES),
-                             stills if "render" in OPT else None)
+def shot_of(H):
+    return rig_parts.PartsShot(*build_scene(), H, FRAMES, STOP, FPS)
 
 
-rig_parts.reopen(OPT["open"], ZIP, KIND, "Pony") if "open" in OPT else main()
+rig_parts.run_shot("Pony", shot_of, (1, 12, 24, 36, 44, 60, 72, FRAMES), stills if "render" in OPT else None)

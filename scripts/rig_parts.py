@@ -424,3 +424,16 @@ def still(path, frame, eye, target, hidden=()):
         o.hide_render = False
     bpy.data.objects.remove(cam)
     print("RENDER", path)
+
+
+def run_shot(name, shot_of, bake_frames, between=None):
+    """A script's run on its arguments: with open=OUT, OUT's saved file reopened (the object name); else the add-on
+    installed, the shot shot_of(helpers) built and the artist's session played on it (bake_frames, between as
+    artist_session's)."""
+    zip_path, kind, out, opt = options()
+    if "open" in opt:
+        return reopen(opt["open"], zip_path, kind, name)
+    addon = install(zip_path, kind)
+    import helpers as H
+    H.ADDON = addon
+    artist_session(shot_of(H), H, opt, out, bake_frames, between)
