@@ -87,10 +87,7 @@ def ribbon(k):
 
 
 def animate(arm):
-    pb = arm.pose.bones
-    for b in pb:
-        b.rotation_mode = 'XYZ'
-    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'  # the keys linear: a dead stop
+    pb = rig_parts.linear_pose(arm)
     for f in range(1, STOP + 1):
         t = (f - JUMP[0]) / (JUMP[1] - JUMP[0])
         arm.location = (0, 0, 0.4 * math.sin(math.pi * t) if 0 <= t <= 1 else 0.0)

@@ -94,10 +94,7 @@ def gallop(f):
 
 
 def animate(arm):
-    pb = arm.pose.bones
-    for b in pb:
-        b.rotation_mode = 'XYZ'
-    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'  # the keys linear: a dead stop
+    pb = rig_parts.linear_pose(arm)
     for f in range(1, STOP + 1):
         forward, bob, ph = gallop(f)
         arm.location = (0, -forward, bob)

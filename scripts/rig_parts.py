@@ -437,3 +437,11 @@ def run_shot(name, shot_of, bake_frames, between=None):
     import helpers as H
     H.ADDON = addon
     artist_session(shot_of(H), H, opt, out, bake_frames, between)
+
+
+def linear_pose(arm):
+    """arm's pose bones, rotated in XYZ Euler, every key inserted from now on linear (a dead stop stays dead)."""
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'
+    for b in arm.pose.bones:
+        b.rotation_mode = 'XYZ'
+    return arm.pose.bones
