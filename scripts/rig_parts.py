@@ -394,3 +394,54 @@ def collision_floor():
     bpy.ops.mesh.primitive_plane_add(size=20.0)
     bpy.context.active_object.name = "Floor"
     bpy.context.active_object.modifiers.new("Collision", 'COLLISION')
+
+
+def joined(obj, part):
+    """part (a mesh object) joined into obj as a separate shell; the new vertices' indices in obj."""
+    n = len(obj.data.vertices)
+    for x in bpy.context.scene.objects:
+        x.select_set(x in (obj, part))
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.join()
+    return np.arange(n, len(obj.data.vertices))
+
+
+def still(path, frame, eye, target, hidden=()):
+    """A Workbench still of frame into path (PNG), a camera at eye looking at target, the objects hidden left
+    out of it."""
+    sc = bpy.context.scene
+    sc.frame_set(frame)
+    sc.render.engine = 'BLENDER_WORKBENCH'
+    sc.render.resolution_x, sc.render.resolution_y, sc.render.resolution_percentage = 640, 480, 100
+    cam = link(bpy.data.objects.new("Still", bpy.data.cameras.new("Still")))
+    cam.location = Vector(eye)
+    cam.rotation_euler = (Vector(target) - cam.location).to_track_quat('-Z', 'Y').to_euler()
+    sc.camera, sc.render.filepath = cam, path
+    for o in hidden:
+        o.hide_render = True
+    bpy.ops.render.render(write_still=True)
+    for o in hidden:
+        o.hide_render = False
+    bpy.data.objects.remove(cam)
+    print("RENDER", path)
+
+
+def run_shot(name, shot_of, bake_frames, between=None):
+    """A script's run on its arguments: with open=OUT, OUT's saved file reopened (the object name); else the add-on
+    installed, the shot shot_of(helpers) built and the artist's session played on it (bake_frames, between as
+    artist_session's)."""
+    zip_path, kind, out, opt = options()
+    if "open" in opt:
+        return reopen(opt["open"], zip_path, kind, name)
+    addon = install(zip_path, kind)
+    import helpers as H
+    H.ADDON = addon
+    artist_session(shot_of(H), H, opt, out, bake_frames, between)
+
+
+def linear_pose(arm):
+    """arm's pose bones, rotated in XYZ Euler, every key inserted from now on linear (a dead stop stays dead)."""
+    bpy.context.preferences.edit.keyframe_new_interpolation_type = 'LINEAR'
+    for b in arm.pose.bones:
+        b.rotation_mode = 'XYZ'
+    return arm.pose.bones
