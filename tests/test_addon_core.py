@@ -656,6 +656,28 @@ def test_a_long_limb_settles_within_a_second_of_a_dead_stop():
     assert np.all(damping[held] == e._given["damping"]) and damping[~held].max() > 1.2 * e._given["damping"]
 
 
+def test_the_settle_damping_takes_a_limb_not_a_belly():
+    """engine.settle_rate damps a soft patch held at one end (the tailed body's tail, painted 1 -> 0.1 from its root),
+    as 2 ln(reach / (SETTLE_SHARE size)) / SETTLE_S, and leaves a belly held all around (its front painted 0.15
+    falling to 1) with the look's damping: its rim spans it."""
+    from opdeform_blender.core import engine
+    e, v, is_tail, _, follow = _tailed_engine(100)
+    front = v[~is_tail][np.argmin(v[~is_tail][:, 1])]
+    belly = np.clip(0.15 + 1.7 * np.linalg.norm(v - front, axis=1), 0.0, 1.0)
+    for painted, limb in ((follow, True), (np.where(is_tail, 1.0, belly), False)):
+        e.set_goal(0.0, painted)
+        e.set_regions(jiggle_hz=1.75)
+        soft = e.goal_strength < engine.HELD_FOLLOW
+        rate = -np.log1p(-e.sim.particle_damping) / e._given["dt"]
+        assert soft.any() and np.allclose(rate[~soft], 9.0), rate[~soft]
+        if limb:
+            _, _, _, reach = engine.patch_reach(e.graph, ~soft)
+            meant = 2.0 * np.log(reach.max() / (engine.SETTLE_SHARE * opdeform.materials.body_size(e.graph)))
+            np.testing.assert_allclose(rate[soft], meant / engine.SETTLE_S)
+        else:
+            np.testing.assert_allclose(rate[soft], 9.0)
+
+
 def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
     """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open, checks.open_pieces:
     the fish's fins swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor

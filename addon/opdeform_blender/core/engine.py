@@ -209,10 +209,7 @@ def region_frequency(graph, elastic_hz, held, counted=None):
     _, _, length, mean = _link_lengths(graph)
     c = graph.centers
     far, patch, soft, reach = patch_reach(graph, held)
-    box = [np.full((len(c) + 1, 3), bound) for bound in (np.inf, -np.inf)]
-    np.minimum.at(box[0], patch[soft], c[soft])
-    np.maximum.at(box[1], patch[soft], c[soft])
-    extent = np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1) + 2.0 * length.mean()
+    extent = _box_diagonal(patch[soft], c[soft], len(c) + 1) + 2.0 * length.mean()
     enclosed = soft & (reach <= ENCLOSED_REACH * extent)[patch]
     counted = np.ones(len(c), bool) if counted is None else counted
     size = np.bincount(patch[soft & counted], minlength=len(c) + 1)
@@ -233,17 +230,22 @@ def patch_reach(graph, held):
     return far, patch, soft, reach
 
 
+def _box_diagonal(groups, points, count):
+    """The diagonal of the box of the ``points`` of each group (``groups``: each point's, 0 .. count - 1; 0 for a
+    group without a point)."""
+    box = [np.full((count, 3), bound) for bound in (np.inf, -np.inf)]
+    np.minimum.at(box[0], groups, points)
+    np.maximum.at(box[1], groups, points)
+    return np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1)
+
+
 def rim_width(graph, held, patch, soft):
     """Per patch (``soft_patches``' number) the diagonal of the box of the held particles linked to it: a belly's rim
     spans the patch, a limb's is its root."""
     i, j = np.asarray(graph.edges).T
-    c, n = graph.centers, len(graph.volumes)
-    box = [np.full((n + 1, 3), bound) for bound in (np.inf, -np.inf)]
-    for a, b in ((i, j), (j, i)):
-        rim = held[a] & soft[b]
-        np.minimum.at(box[0], patch[b[rim]], c[a[rim]])
-        np.maximum.at(box[1], patch[b[rim]], c[a[rim]])
-    return np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1)
+    rim = [(a[held[a] & soft[b]], b[held[a] & soft[b]]) for a, b in ((i, j), (j, i))]
+    return _box_diagonal(np.concatenate([patch[b] for _, b in rim]),
+                         np.concatenate([graph.centers[a] for a, _ in rim]), len(held) + 1)
 
 
 def settle_rate(graph, held, size):
