@@ -5,7 +5,8 @@ quarter turn on the spot at constant speed (32-40) and a dead stop at 40, still 
 1 -> 0.15 along each tentacle and antenna (by distance from the body's surface). Floor with Collision.
     blender -b --factory-startup --python-exit-code 1 -P outside_blob.py -- - dev OUT [opts]   (as outside_chubby.py)
 opts: repaint (Follow set to 1 everywhere after the first play, no Build, replayed), particles=N look=NAME
-+NAME=VALUE looks bake save scrub open=OUT res=R (metaball resolution, 0.035)
++NAME=VALUE looks bake save scrub open=OUT res=R (metaball resolution, 0.035) trace (each part's distance per frame
+from the stop on)
 """
 import math, os, sys
 import bpy

@@ -273,6 +273,7 @@ class PartsShot(Shot):
         self.size = np.ptp(world(twin)[:, 2])
         self.follow = follow
         self.frames, self.stop, self.fps = frames, stop, fps
+        self.trace = False  # artist_session's opt "trace": each part's distance per frame after the stop printed
 
     def frame(self, f):
         cpu = self.timed(f)
@@ -317,6 +318,8 @@ class PartsShot(Shot):
                    base_kept=bool(np.array_equal(base(self.obj), self.before)), errors=errors[:3],
                    cpu_ms_frame=round(1e3 * cpu / self.frames, 2))
         print("ROW " + json.dumps(row, default=float), flush=True)
+        if self.trace:  # each part's distance per frame from the stop on: its ringing and decay
+            print("TRACE", json.dumps({k: [round(1e3 * x, 2) for x in col[k][self.stop - 1:]] for k in self.parts}))
         print("PANEL", reports(self.H.draw_panels()))
         return row
 
@@ -340,7 +343,7 @@ def scrub(obj, shot):
 def artist_session(shot, H, opt, out, bake_frames, between=None):
     """The artist's session on a shot built and its add-on installed: Enable (Particles from opt), the opt's
     settings, the panels, a play; then between(shot) if given, and as opt asks: scrub, bake, the three looks, save."""
-    obj = shot.obj
+    obj, shot.trace = shot.obj, "trace" in opt
     bpy.context.scene.frame_set(1)
     s = artist_enable(obj, opt.get("particles"))
     tuned(s, opt)

@@ -612,6 +612,73 @@ def test_the_jiggle_rule_softens_a_long_shell_painted_soft_as_one():
     np.testing.assert_array_equal(e.sim.link_softness[tail], 1.0)
 
 
+def _limbed_body():
+    """A 1 m ball of a body with a 1 m limb fused to its side, tapering 9 -> 5 cm and rising (one shell, as the
+    outside blob's tentacles): vertices, triangles, Follow 1 on the body falling to 0.15 at the limb's tip, and
+    the limb's outer half."""
+    from opdeform import meshes
+    parts = [((0.0, 0.0, 0.45), (0.0, 0.0, 0.55), 0.45, 0.45), ((0.35, 0.0, 0.6), (1.35, 0.0, 1.0), 0.09, 0.05)]
+    v, t = meshes._closed_surface(lambda p: meshes._capsules_distance(p, parts), np.array([-0.5, -0.5, -0.05]),
+                                  np.array([1.45, 0.5, 1.5]), 0.04)
+    r = np.linalg.norm(v - (0.0, 0.0, 0.5), axis=1)
+    out = np.clip((r - 0.5) / (r.max() - 0.5), 0.0, 1.0)
+    return v, t, 1.0 - 0.85 * out, out > 0.5
+
+
+def _limb_after_a_dead_stop():
+    """The limbed body at the add-on's defaults (Fleshy and its jiggle rule, 100 particles) turning a quarter turn
+    about the vertical in 1/3 s from standing, then a dead stop, as the outside blob: the limb's largest distance
+    from the animation per frame from the stop on (m), the body's size and the engine."""
+    from opdeform_blender.core import settings
+    v, t, follow, limb = _limbed_body()
+    e, *_ = _tailed_engine(100, mesh=(v, t), scaling="goal")
+    e.set_goal(0.0, follow)
+    e.set_regions(jiggle_hz=settings.LOOKS["Fleshy"]["jiggle_hz"])
+    offsets = []
+    for f in range(1, 42):
+        animated = (v @ _turn_z(0.5 * math.pi * min(max(f - 8, 0), 8) / 8).T).astype(np.float32)
+        offsets.append(float(np.linalg.norm(e.goto(f, None, animated) - animated, axis=1)[limb].max()))
+    return np.array(offsets[15:]), opdeform.materials.body_size(e.graph), e
+
+
+def test_a_long_limb_settles_within_a_second_of_a_dead_stop():
+    """Issue 24: loose parts within 2 mm of the rig 1 s after the motion stops, swinging at least 2 % of the body's
+    size. A limb held at one end swings about as far as it reaches and the look's damping (9/s on the velocity)
+    takes its envelope down as exp(-4.5 t) at any frequency: the outside blob's antennae, 0.37 m off at the stop,
+    were 3.7 mm off 1 s after it, and this limb 3.7 mm. The jiggle rule's damping (engine.settle_rate) brings a
+    swing as far as the limb's reach within 0.1 % of the size in 1 s on the limb alone: the held body keeps the
+    look's damping."""
+    from opdeform_blender.core import engine
+    after, size, e = _limb_after_a_dead_stop()
+    assert after[:3].max() > 0.1 * size, after[:3]  # it swings, well past 2 % of the size
+    assert after[24:].max() < 1e-3, after[24:].max()
+    held = e.goal_strength >= engine.HELD_FOLLOW
+    damping = e.sim.particle_damping
+    assert np.all(damping[held] == e._given["damping"]) and damping[~held].max() > 1.2 * e._given["damping"]
+
+
+def test_the_settle_damping_takes_a_limb_not_a_belly():
+    """engine.settle_rate damps a soft patch held at one end (the tailed body's tail, painted 1 -> 0.1 from its root),
+    as 2 ln(reach / (SETTLE_SHARE size)) / SETTLE_S, and leaves a belly held all around (its front painted 0.15
+    falling to 1) with the look's damping: its rim spans it."""
+    from opdeform_blender.core import engine
+    e, v, is_tail, _, follow = _tailed_engine(100)
+    front = v[~is_tail][np.argmin(v[~is_tail][:, 1])]
+    belly = np.clip(0.15 + 1.7 * np.linalg.norm(v - front, axis=1), 0.0, 1.0)
+    for painted, limb in ((follow, True), (np.where(is_tail, 1.0, belly), False)):
+        e.set_goal(0.0, painted)
+        e.set_regions(jiggle_hz=1.75)
+        soft = e.goal_strength < engine.HELD_FOLLOW
+        rate = -np.log1p(-e.sim.particle_damping) / e._given["dt"]
+        assert soft.any() and np.allclose(rate[~soft], 9.0), rate[~soft]
+        if limb:
+            _, _, _, reach = engine.patch_reach(e.graph, ~soft)
+            meant = 2.0 * np.log(reach.max() / (engine.SETTLE_SHARE * opdeform.materials.body_size(e.graph)))
+            np.testing.assert_allclose(rate[soft], meant / engine.SETTLE_S)
+        else:
+            np.testing.assert_allclose(rate[soft], 9.0)
+
+
 def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
     """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open, checks.open_pieces:
     the fish's fins swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor

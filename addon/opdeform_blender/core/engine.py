@@ -60,6 +60,11 @@ STRETCH_LIMIT = 1.2
 LONG_SHELL = 1.5
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
+# the jiggle rule's damping of a limb (settle_rate): a swing as far as its reach comes within this share of the body's
+# size (2 mm on a 2 m body, the issue's aim) by SETTLE_S seconds; a limb swings less than its reach, so the outside
+# blob's come within 2 mm by 0.79 s (docs/goals.md, "Loose parts settle within a second (stop 50)")
+SETTLE_SHARE = 1e-3
+SETTLE_S = 1.0
 IDENTITY = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 SAMPLE_STRIDE = 64  # _same_points: rows compared before the whole arrays
 
@@ -198,22 +203,67 @@ def region_frequency(graph, elastic_hz, held, counted=None):
     detached shell's soft particles linked into the patch, a larger part of the graph at fewer particles, gave
     the outside bear's belly a share of 1.69 / 1.37 / 0.79 at 50 / 100 / 400 particles, its body's 0.59 / 0.78 /
     0.65 of its held ones)."""
-    i, j, length, mean = _link_lengths(graph)
+    _, _, length, mean = _link_lengths(graph)
     c = graph.centers
-    far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
-    patch = soft_patches(graph, held)
-    soft = ~held & np.isfinite(far)
-    reach = np.zeros(len(c) + 1)
-    np.maximum.at(reach, patch[soft], far[soft])
-    box = [np.full((len(c) + 1, 3), bound) for bound in (np.inf, -np.inf)]
-    np.minimum.at(box[0], patch[soft], c[soft])
-    np.maximum.at(box[1], patch[soft], c[soft])
-    extent = np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1) + 2.0 * length.mean()
+    far, patch, soft, reach = patch_reach(graph, held)
+    extent = _box_diagonal(patch[soft], c[soft], len(c) + 1) + 2.0 * length.mean()
     enclosed = soft & (reach <= ENCLOSED_REACH * extent)[patch]
     counted = np.ones(len(c), bool) if counted is None else counted
     size = np.bincount(patch[soft & counted], minlength=len(c) + 1)
     share = np.where(soft, size[patch] / max(np.count_nonzero(held), 1), 0.0)
     return np.where(enclosed, elastic_hz * mean / np.maximum(np.where(soft, far, 0.0), mean), 0.0), share
+
+
+def patch_reach(graph, held):
+    """Per particle its distance along the links to the nearest held particle (``held`` a mask; inf where nothing
+    holds it), its soft patch (``soft_patches``) and whether it is soft (not held, held by something); per patch
+    (indexed by ``soft_patches``' number) the farthest distance of its soft particles."""
+    i, j, length, _ = _link_lengths(graph)
+    far = _relaxed(np.where(held, 0.0, np.inf), i, j, length)
+    patch = soft_patches(graph, held)
+    soft = ~held & np.isfinite(far)
+    reach = np.zeros(len(far) + 1)
+    np.maximum.at(reach, patch[soft], far[soft])
+    return far, patch, soft, reach
+
+
+def _box_diagonal(groups, points, count):
+    """The diagonal of the box of the ``points`` of each group (``groups``: each point's, 0 .. count - 1; 0 for a
+    group without a point)."""
+    box = [np.full((count, 3), bound) for bound in (np.inf, -np.inf)]
+    np.minimum.at(box[0], groups, points)
+    np.maximum.at(box[1], groups, points)
+    return np.linalg.norm(np.maximum(box[1] - box[0], 0.0), axis=1)
+
+
+def rim_width(graph, held, patch, soft):
+    """Per patch (``soft_patches``' number) the diagonal of the box of the held particles linked to it: a belly's rim
+    spans the patch, a limb's is its root."""
+    i, j = np.asarray(graph.edges).T
+    rim = [(a[held[a] & soft[b]], b[held[a] & soft[b]]) for a, b in ((i, j), (j, i))]
+    return _box_diagonal(np.concatenate([patch[b] for _, b in rim]),
+                         np.concatenate([graph.centers[a] for a, _ in rim]), len(held) + 1)
+
+
+def settle_rate(graph, held, size):
+    """Per particle the velocity damping rate (per second) under which its soft patch, when held at one end (a limb:
+    the held particles linked to it span less than its reach, ``rim_width``), swinging as far as its reach
+    (``patch_reach``), comes within SETTLE_SHARE of ``size`` by SETTLE_S: damping the velocity at a rate g makes a
+    swing's envelope decay as exp(-g t / 2) at any frequency, so a long limb, which swings farther, needs more than
+    a short one (docs/goals.md, "Loose parts settle within a second (stop 50)"); 0 elsewhere (held, nothing holds
+    it, or held all around: a belly swings a small share of its reach)."""
+    _, patch, soft, reach = patch_reach(graph, held)
+    limb = reach > rim_width(graph, held, patch, soft)
+    rate = 2.0 * np.log(np.maximum(reach / (SETTLE_SHARE * size), 1.0)) / SETTLE_S
+    return np.where(soft & limb[patch], rate[patch], 0.0)
+
+
+def settle_damping(painted, rate, params):
+    """Each particle's damping per step: ``painted``'s (None: the body's, ``params``' damping), at least a step's
+    share of ``rate`` (per second and particle, ``settle_rate``; None: none) at ``params``' dt."""
+    if rate is None:
+        return painted
+    return np.maximum(params["damping"] if painted is None else painted, -np.expm1(-rate * params["dt"]))
 
 
 def _static_loads(od, graph, stiffness, density, held, softness):
@@ -692,15 +742,17 @@ class Engine:
         """Per-vertex maps (a painted softness and damping; None: uniform) as per-particle values: the stiffness
         of each particle times ``stiffness_scale`` (> 0), and its damping per step in [0, 1] in place of the
         body's (relative to the goals' motion while a goal is on). ``jiggle_hz`` (None: off; needs a goal): each
-        particle's links softened by its Follow toward that frequency (``jiggle_softness``). Call after
+        particle's links softened by its Follow toward that frequency (``jiggle_softness``) and its damping raised
+        so that its soft patch settles (``settle_rate``). Call after
         ``configure`` and ``set_goal``. A change outdates the cache; a new softness refactors once."""
         if all(x is None for x in (stiffness_scale, damping, jiggle_hz, self._softness, self._damping, self._links)):
             return False
         if self.fit is None:
             self.fit = self.od.GoalFit(self.graph, self.rest)
         softness = None if stiffness_scale is None else self._particle_values(stiffness_scale, lowest=True)
-        per_particle = None if damping is None else np.clip(self._particle_values(damping), 0.0, 1.0)
-        links = self._jiggle_links(jiggle_hz)
+        painted = None if damping is None else np.clip(self._particle_values(damping), 0.0, 1.0)
+        links, rate = self._jiggle_links(jiggle_hz)
+        per_particle = settle_damping(painted, rate, self._given)
         if _same(softness, self._softness) and _same(per_particle, self._damping) and _same(links, self._links):
             return False
         if softness is not None and not np.all(np.isfinite(softness) & (softness > 0.0)):
@@ -719,13 +771,14 @@ class Engine:
         return True
 
     def _jiggle_links(self, jiggle_hz):
-        """The jiggle rule's link softness (None: off, or no goal): on the body's particles, the mesh piece with
-        most, by each one's Follow and patch frequency; on a long shell linked to the body (closed, or open and linked
-        all along: ``swinging_shells``), one softness by its own frequency (``_shells_jiggle``); other shells keep 1
+        """The jiggle rule's link softness and damping rate (``settle_rate``; (None, None): off, or no goal). The
+        softness: on the body's particles, the mesh piece with most, by each one's Follow and patch frequency; on a
+        long shell linked to the body (closed, or open and linked all along: ``swinging_shells``), one softness by
+        its own frequency (``_shells_jiggle``); other shells keep 1
         (a slender card swings far below the elastic frequency of its particles: softened by it the outside fish's
         tail fin stretched 2.5x; docs/goals.md, "Jiggle", "Shells (stop 48)")."""
         if jiggle_hz is None or self.goal_strength is None:
-            return None
+            return None, None
         if not (np.isfinite(jiggle_hz) and jiggle_hz > 0.0):
             raise EngineError(f"the jiggle frequency must be > 0 Hz, got {jiggle_hz}")
         kept = self._jiggle_key
@@ -739,7 +792,8 @@ class Engine:
             target = jiggle_hz * np.maximum(share, 1.0) ** PATCH_SHARE_POWER
             softness = np.where(piece == body, jiggle_softness(hz, follow, target),
                                 self._shells_jiggle(given, piece, body, jiggle_hz))
-            self._jiggle = self._patches_jiggle(given, np.where(piece == body, hz, 0.0), softness)
+            self._jiggle = (self._patches_jiggle(given, np.where(piece == body, hz, 0.0), softness),
+                            settle_rate(self.graph, follow >= HELD_FOLLOW, self.od.materials.body_size(self.graph)))
             # keyed once found (a failed solve finds it again), a shell's Follow as painted too
             self._jiggle_key = (follow, given, jiggle_hz, self._painted)
         return self._jiggle
