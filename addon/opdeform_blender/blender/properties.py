@@ -88,6 +88,9 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     enabled: BoolProperty(name="Oriented Particles", default=False, update=_enabled,
                           description="Simulate this mesh with oriented particles")
     built: BoolProperty(name="Built", default=False, description="A particle graph was built")
+    # the object's transform at Build, column-major (all 0: none kept, a file from before): a runtime rebuilt after
+    # a file load or undo is built in it again (runtime.build_transform)
+    build_matrix: FloatVectorProperty(name="Build Matrix", size=16, default=(0.0,) * 16)
     error: StringProperty(name="Error", default="", description="The last error; the simulation is paused "
                                                                 "until Reset")
     # graph

@@ -135,15 +135,16 @@ def set_maps(rt, obj, scene):
         raise AddonError(f"{obj.name}: {exc}") from None
 
 
-def build(obj, scene, depsgraph=None):
-    """Builds (or rebuilds) the graph, the skin and the simulation of obj. Raises AddonError and changes
-    nothing on bad input."""
+def build(obj, scene, depsgraph=None, kept=False):
+    """Builds (or rebuilds) the graph, the skin and the simulation of obj; ``kept``: rebuilt after a file load or
+    undo, in the transform and with the handles' bindings the last Build kept (build_transform). Raises
+    AddonError and changes nothing on bad input."""
     check_object(obj)
     od = module()
     s = obj.opdeform
     rest = vertex_positions(obj.data)
     pins = read_vertex_group(obj, s.pin_group, "pin")
-    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    matrix = build_transform(obj, depsgraph, kept)
     for h in active_handles(s):  # validate before changing anything
         try:
             handle_math.check_matrix(h.target.name, handle_matrix(h, depsgraph))
@@ -160,7 +161,7 @@ def build(obj, scene, depsgraph=None):
         piece, count = checks.vertex_pieces(engine.rest, engine.triangles)
         rt.pieces = piece if count > 1 else None
         find_unrigged(rt, obj)
-    for h in active_handles(s):
+    for h in active_handles(s) if not kept else ():
         bind_handle(h, engine.rest, depsgraph)
     try:
         configure(rt, obj, scene, depsgraph)
@@ -171,10 +172,23 @@ def build(obj, scene, depsgraph=None):
     feed_maps(rt, obj, picked_groups(s))
     put(obj, rt)
     s.built = True
+    if not np.array_equal(s.build_matrix, matrix.T.ravel()):
+        s.build_matrix = matrix.T.ravel()
     if s.error:
         s.error = ""
     show_rest(obj, rt)
     return rt
+
+
+def build_transform(obj, depsgraph, kept):
+    """The transform the simulation is built in (its graph in world space, a free body's world): the object's in
+    this evaluation, or the one the last Build kept (``build_matrix``, column-major; none in a file from before)
+    when ``kept``. Blender 3.4's first frame handler after a file load still sees the transform of the frame
+    saved: the galloping pony, built 2.5 m ahead of its start, reopened 26 mm off the pose saved at frame 30."""
+    stored = np.array(obj.opdeform.build_matrix, dtype=np.float64).reshape(4, 4).T
+    if kept and stored.any():
+        return stored
+    return np.array((obj if depsgraph is None else obj.evaluated_get(depsgraph)).matrix_world, dtype=np.float64)
 
 
 def small_pieces(obj):
@@ -189,8 +203,9 @@ def ensure(obj, scene, depsgraph=None):
     """The object's runtime; rebuilt from the stored settings after a file load or undo, and when the mesh
     changed since Build (Edit Mode edits reach the rest shape)."""
     rt = get(obj)
-    if rt is None and obj.opdeform.built or rt is not None and not np.array_equal(
-            vertex_positions(obj.data), rt.engine.rest_local):
+    if rt is None and obj.opdeform.built:
+        return build(obj, scene, depsgraph, kept=True)
+    if rt is not None and not np.array_equal(vertex_positions(obj.data), rt.engine.rest_local):
         rt = build(obj, scene, depsgraph)
     return rt
 
