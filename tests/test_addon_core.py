@@ -878,6 +878,30 @@ def test_attached_pieces_are_found_and_named():
     assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None
 
 
+def test_shells_left_out_are_named_with_the_particles_that_give_them_their_own():
+    """With particles of their own, small shells take 4 each from at most half the count, and the count leaves the
+    rest without (the outside dancer's 10 hair ribbons at 100, told "whatever the particle count"): the panel
+    names the Particles from which each gets its own (checks.shells_enough, rounded up to 50): 30 balls beside a
+    body, 250 (240 to take); at 200 some are still left out. With none left out, or attached by design
+    (small_pieces="attach"), no count is named."""
+    from opdeform import meshes
+    body, ball = meshes.capsule(radius=0.3, length=1.0), meshes.capsule(radius=0.05, length=0.0)
+    at = np.column_stack([np.linspace(-0.6, 0.6, 30), np.full(30, 0.5), np.zeros(30)])
+    v = np.vstack([body[0], *(ball[0] + a for a in at)])
+    t = np.vstack([body[1], *(ball[1] + len(body[0]) + i * len(ball[0]) for i in range(30))])
+    graph = opdeform.Graph.from_mesh(v, t, particles=100, small_pieces="own")
+    enough = checks.shells_enough(opdeform, graph, v, t)
+    assert enough == 250 and checks.attached_pieces(opdeform, graph, v, t), enough
+    text = checks.attached_text(checks.attached_pieces(opdeform, graph, v, t), enough)
+    assert "at Particles 250 or more each gets particles of its own" in text and "whatever" not in text, text
+    below = opdeform.Graph.from_mesh(v, t, particles=enough - 50, small_pieces="own")
+    assert checks.attached_pieces(opdeform, below, v, t)
+    given = opdeform.Graph.from_mesh(v, t, particles=enough, small_pieces="own")
+    assert checks.attached_pieces(opdeform, given, v, t) == () and checks.shells_enough(opdeform, given, v, t) is None
+    attached = opdeform.Graph.from_mesh(v, t, particles=100)
+    assert "whatever the particle count" in checks.attached_text(checks.attached_pieces(opdeform, attached, v, t))
+
+
 def test_a_goal_with_too_little_damping_to_settle_is_warned():
     """Goal on and under 4/s of damping (the object's, or the Damping group's where one is picked): a swing falls
     only to e^(-c/2) in a second; the looks' 9-12/s, or no Goal: nothing."""
@@ -972,9 +996,13 @@ def test_the_thin_part_warning_names_a_count_that_clears_it():
 def test_thin_part_advice_past_the_slider_says_what_it_would_take():
     """A 6 cm tail on a 1.8 m pig (an outside tester's) was told "raise Particles to about 15350", past the
     slider's 2,000: past checks.PARTICLES_OFFERED the warning says the count it would take and what the part does
-    instead of asking for it; at or under it, the count to raise to, as before."""
-    far = checks.thin_part_text((0.06, 0.2, True), 100)
-    assert "raise Particles" not in far and "would take about 39450 particles, past the 2000" in far, far
+    instead of asking for it; at or under it, the count to raise to, as before; past PARTICLES_NAMED times it (an
+    outside tester's dancer: "about 1079050 particles") no count, but what would do."""
+    far = checks.thin_part_text((0.06, 0.1, True), 100)
+    assert "raise Particles" not in far and "would take about 4950 particles, past the 2000" in far, far
+    farther = checks.thin_part_text((0.06, 0.2, True), 100)
+    assert "far more particles than the 2000 offered" in farther and "Solidify" in farther, farther
+    assert "about" not in farther, farther
     near = checks.thin_part_text((0.06, 0.05, True), 100)
     assert near.endswith("raise Particles to about 650"), near
     text = checks.appendages_text([((0.0, 0.0, 0.0), 0.3, 1)], 1000)
