@@ -211,9 +211,9 @@ def shells_enough(od, graph, vertices, triangles):
     """The Particles (rounded up to 50) from which the core gives every detached shell of its own particles (its
     small_pieces="own") that it left without (attached_pieces), None when none was left out: the small ones that
     take SMALL_PIECE_PARTICLES each (not the long shells given theirs beyond the count: those have SHELL_PARTICLES or
-    more) take them from at most SMALL_PIECE_SHARE of the count, largest first, and the count leaves them all out
-    or none (the outside dancer's 12 skirt cards and 10 hair ribbons: 88 from 100 asked, 10 left out; all given
-    from 176, named 200)."""
+    more) take them from at most SMALL_PIECE_SHARE of the count, largest first, the rest left out: all of them
+    given from SMALL_PIECE_PARTICLES x their number / SMALL_PIECE_SHARE (the outside dancer's 12 skirt cards and 10
+    hair ribbons: 88 to give, 10 left out at 100, 4 at 150, none from 176, named 200)."""
     without = _pieces_without_particles(od, graph, vertices, triangles)
     if without is None:
         return None
