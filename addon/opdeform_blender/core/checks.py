@@ -16,6 +16,7 @@ THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; l
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 SMALL_PIECE_RATIO = 0.1  # a detached shell under this share of the largest piece is small (opdeform.graph)
 SMALL_PIECE_SHARE = 0.5  # ... and its own particles, taken from at most this share of the count (opdeform.graph)
+SMALL_PIECE_EXTRA = 0.5  # ... and those past it added beyond the count, at most this share of it (the same)
 ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
 # A rig turning faster than this (turns a second) stretches what follows it loosely: the outside bird's 360-degree
 # spin of the root at 24 fps (docs/goals.md, "A rig turning fast") over 2 / 3 / 4 / 6 frames (12 / 8 / 6 / 4 turns
@@ -211,9 +212,10 @@ def shells_enough(od, graph, vertices, triangles):
     """The Particles (rounded up to 50) from which the core gives every detached shell of its own particles (its
     small_pieces="own") that it left without (attached_pieces), None when none was left out: the small ones that
     take SMALL_PIECE_PARTICLES each (not the long shells given theirs beyond the count: those have SHELL_PARTICLES or
-    more) take them from at most SMALL_PIECE_SHARE of the count, largest first, the rest left out: all of them
-    given from SMALL_PIECE_PARTICLES x their number / SMALL_PIECE_SHARE (the outside dancer's 12 skirt cards and 10
-    hair ribbons: 88 to give, 10 left out at 100, 4 at 150, none from 176, named 200)."""
+    more) take them from at most SMALL_PIECE_SHARE of the count, largest first, the next ones theirs beyond the
+    count up to SMALL_PIECE_EXTRA of it, the rest left out: all of them given from SMALL_PIECE_PARTICLES x their
+    number / (SMALL_PIECE_SHARE + SMALL_PIECE_EXTRA) (the outside dancer's 12 skirt cards and 10 hair ribbons: 88
+    to give, the 10 ribbons left out at 50, none from 88, named 100)."""
     without = _pieces_without_particles(od, graph, vertices, triangles)
     if without is None:
         return None
@@ -222,7 +224,8 @@ def shells_enough(od, graph, vertices, triangles):
     volume = np.bincount(of_particle, weights=graph.volumes, minlength=count)
     floored = (per_piece > 0) & (per_piece < od.mesh.SHELL_PARTICLES) & (volume < SMALL_PIECE_RATIO * volume.max())
     taking = len(without[1]) + int(np.count_nonzero(floored))
-    return _round_up(int(np.ceil(od.mesh.SMALL_PIECE_PARTICLES * taking / SMALL_PIECE_SHARE)))
+    share = SMALL_PIECE_SHARE + SMALL_PIECE_EXTRA
+    return _round_up(int(np.ceil(od.mesh.SMALL_PIECE_PARTICLES * taking / share)))
 
 
 def _pieces_without_particles(od, graph, vertices, triangles):
@@ -308,7 +311,7 @@ def attached_text(pieces, enough=None):
                  f"{join}"
     else:
         advice = (f"each moves rigidly with the nearest large piece; at Particles {enough} or more each gets particles "
-                  f"of its own (detached shells take at most half of them), or {join}")
+                  f"of its own, or {join}")
     return _shells_text(pieces, "without particles", advice)
 
 
