@@ -879,11 +879,11 @@ def test_attached_pieces_are_found_and_named():
 
 
 def test_shells_left_out_are_named_with_the_particles_that_give_them_their_own():
-    """With particles of their own, small shells take 4 each from at most half the count, and the count leaves the
-    rest without (the outside dancer's 10 hair ribbons at 100, told "whatever the particle count"): the panel
-    names the Particles from which each gets its own (checks.shells_enough, rounded up to 50): 30 balls beside a
-    body, 250 (240 to take); at 200 some are still left out. With none left out, or attached by design
-    (small_pieces="attach"), no count is named."""
+    """With particles of their own, small shells take 4 each from at most half the count and half of it again added
+    beyond it, and the count leaves the rest without (the outside dancer's 10 hair ribbons at 50, before told
+    "whatever the particle count"): the panel names the Particles from which each gets its own
+    (checks.shells_enough, rounded up to 50): 30 balls beside a body, 150 (120 to take); at 100 some are still left
+    out. With none left out, or attached by design (small_pieces="attach"), no count is named."""
     from opdeform import meshes
     body, ball = meshes.capsule(radius=0.3, length=1.0), meshes.capsule(radius=0.05, length=0.0)
     at = np.column_stack([np.linspace(-0.6, 0.6, 30), np.full(30, 0.5), np.zeros(30)])
@@ -891,9 +891,9 @@ def test_shells_left_out_are_named_with_the_particles_that_give_them_their_own()
     t = np.vstack([body[1], *(ball[1] + len(body[0]) + i * len(ball[0]) for i in range(30))])
     graph = opdeform.Graph.from_mesh(v, t, particles=100, small_pieces="own")
     enough = checks.shells_enough(opdeform, graph, v, t)
-    assert enough == 250 and checks.attached_pieces(opdeform, graph, v, t), enough
+    assert enough == 150 and checks.attached_pieces(opdeform, graph, v, t), enough
     text = checks.attached_text(checks.attached_pieces(opdeform, graph, v, t), enough)
-    assert "at Particles 250 or more each gets particles of its own" in text and "whatever" not in text, text
+    assert "at Particles 150 or more each gets particles of its own" in text and "whatever" not in text, text
     below = opdeform.Graph.from_mesh(v, t, particles=enough - 50, small_pieces="own")
     assert checks.attached_pieces(opdeform, below, v, t)
     given = opdeform.Graph.from_mesh(v, t, particles=enough, small_pieces="own")
