@@ -301,6 +301,11 @@ def _turn_y(angle):
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
+def _turn_z(angle):
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def _tailed_body():
     """A 1 m capsule lying on z = 0 and a detached 0.46 m tail rising 40 degrees from its back (vertices, triangles,
     the tail's vertices, its root), Follow 1 on the body falling smoothly to 0.1 along the tail."""
@@ -680,14 +685,16 @@ def test_the_settle_damping_takes_a_limb_not_a_belly():
 
 
 def test_the_jiggle_rule_leaves_open_short_and_unlinked_shells_alone():
-    """engine.swinging_shells takes a closed shell linked to the body and long, not a card (open, checks.open_pieces:
-    the fish's fins swing far below their particles' frequency already, softened its tail fin stretched 2.2x), nor
-    a short one (the bear's ears, 2.1-3.1x)."""
+    """engine.swinging_shells takes a closed shell linked to the body and long, not a card reaching out of the body
+    (open, checks.open_pieces, linked at its root: the fish's fins swing far below their particles' frequency
+    already, softened its tail fin stretched 2.2x), nor a short one (the bear's ears, 2.1-3.1x). (A card inside the
+    body's bounding box is a patch on it to the core, linked all along, and taken since stop 50:
+    test_the_jiggle_rule_swings_open_cards_the_core_takes_for_patches.)"""
     from opdeform import meshes
     from opdeform_blender.core import engine
     body, tail, ball = (meshes.capsule(radius=0.2, length=0.6), meshes.capsule(radius=0.03, length=0.4),
                         meshes.capsule(radius=0.06, length=0.0))
-    card_v = np.array([[x, y, 0.45] for x in (0.0, 0.2, 0.4, 0.6) for y in (-0.1, 0.0, 0.1)])  # 0.6 x 0.2 m
+    card_v = np.array([[x, y, 0.45] for x in (0.3, 0.5, 0.7, 0.9) for y in (-0.1, 0.0, 0.1)])  # 0.6 x 0.2 m
     cells = (0, 1, 3, 4, 6, 7)
     card_t = np.array([[i, i + 3, i + 1] for i in cells] + [[i + 1, i + 3, i + 4] for i in cells])  # one-sided
     parts = [(body[0] + (0.0, 0.0, 0.2), body[1]), (tail[0] + (0.0, 0.0, 0.45), tail[1]),
@@ -732,6 +739,61 @@ def test_the_jiggle_rule_softens_an_open_cape_linked_to_the_body_all_along():
     e.set_goal(0.0, np.ones(len(v)), shell_min=0.3)
     e.set_regions(jiggle_hz=1.75)
     assert e.sim.link_softness is None or np.all(e.sim.link_softness[on_cape] == 1.0)
+
+
+def _skirted(cards=8, columns=3, rows=10):
+    """A 1.3 m upright capsule (radius 0.15) with a skirt of open single-sided cards (the outside dancer's: each
+    ``columns`` x ``rows`` quads, 0.16 m wide, 0.6 m long, flaring from 0.165 to 0.325 m out), inside the body's
+    bounding box as the core measures it (a patch on the body to it); (vertices, triangles, Follow painted 1 on
+    the body and each card's top, 0.15 at its hem, each card's hem vertices)."""
+    from opdeform import meshes
+    bv, bt = meshes.capsule(radius=0.15, length=1.0)
+    parts, follow, hems = [(bv[:, [1, 2, 0]], bt)], [np.ones(len(bv))], []
+    u, w = np.meshgrid(np.linspace(-0.5, 0.5, columns + 1), np.linspace(0.0, 1.0, rows + 1))
+    p = (np.arange(rows)[:, None] * (columns + 1) + np.arange(columns)).ravel()
+    quads = np.column_stack([p, p + 1, p + columns + 2, p + columns + 1])
+    for k in range(cards):
+        a, r = 2 * np.pi * k / cards + u.ravel() * 0.8, 0.165 + 0.16 * w.ravel()
+        start = sum(len(x[0]) for x in parts)
+        parts.append((np.column_stack([r * np.cos(a), r * np.sin(a), 0.1 - 0.6 * w.ravel()]),
+                      np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])))
+        follow.append(1.0 - 0.85 * w.ravel())
+        hems.append(start + np.flatnonzero(w.ravel() == 1.0))
+    start = np.cumsum([0] + [len(x[0]) for x in parts])
+    return (np.vstack([x[0] for x in parts]), np.vstack([x[1] + s for x, s in zip(parts, start)]),
+            np.concatenate(follow), np.concatenate(hems))
+
+
+def _spun_skirt(particles):
+    """_skirted's body and cards at the add-on's defaults (Fleshy's jiggle rule, Shell Min 0.3), turned about its
+    axis a full turn in half a second (12 frames at 24 fps, eased in and out as Blender's default keys: 1,080
+    degrees a second at the middle), then still: the hems' largest distance from the animation and the largest
+    mesh edge stretch over 1 s after the start."""
+    v, t, follow, hems = _skirted()
+    e = _tailed_engine(particles, mesh=(v, t))[0]
+    e.set_goal(0.0, follow, shell_min=0.3)
+    e.set_regions(jiggle_hz=1.75)
+    swing, stretch = 0.0, 1.0
+    for f in range(1, 25):
+        x = min(f / 12.0, 1.0)
+        turned = v @ _turn_z(2.0 * np.pi * x * x * (3.0 - 2.0 * x)).T
+        out = e.goto(f, None, turned.astype(np.float32))
+        swing = max(swing, float(np.linalg.norm(out[hems] - turned[hems], axis=1).max()))
+        stretch = max(stretch, e.mesh_stretch(out))
+    return swing, stretch
+
+
+@pytest.mark.parametrize("particles", [50, 100, 400])
+def test_the_jiggle_rule_swings_open_cards_the_core_takes_for_patches(particles):
+    """Open cards inside the body's bounding box are patches on it to the core: linked to it from every particle,
+    4 each (SMALL_PIECE_PARTICLES) at 50 and 100 particles. Left at link softness 1 they turned with the body
+    (the outside dancer's skirt: 0.2 mm at 100 particles); taken by the jiggle rule as an open cape is (linked all
+    along), their links at least engine.RIGID_SHELL_SOFTNESS where the core moves them rigidly, the hems swing
+    behind the turn without stretching past 1.5x (on main 6.3 / 4.7 mm at 50 / 100 particles; at 400 the cards have
+    9-11 particles and were taken already)."""
+    swing, stretch = _spun_skirt(particles)
+    assert swing > 0.037, f"the hems swung {1e3 * swing:.1f} mm"
+    assert stretch < 1.5, stretch
 
 
 def test_the_jiggle_rule_softens_an_enclosed_patch_not_a_part_held_at_one_end():
@@ -883,6 +945,30 @@ def test_attached_pieces_are_found_and_named():
     assert checks.attached_pieces(opdeform, alone, bar, bt) == () and checks.attached_text(()) is None
 
 
+def test_shells_left_out_are_named_with_the_particles_that_give_them_their_own():
+    """With particles of their own, small shells take 4 each from at most half the count and half of it again added
+    beyond it, and the count leaves the rest without (the outside dancer's 10 hair ribbons at 50, before told
+    "whatever the particle count"): the panel names the Particles from which each gets its own
+    (checks.shells_enough, rounded up to 50): 30 balls beside a body, 150 (120 to take); at 100 some are still left
+    out. With none left out, or attached by design (small_pieces="attach"), no count is named."""
+    from opdeform import meshes
+    body, ball = meshes.capsule(radius=0.3, length=1.0), meshes.capsule(radius=0.05, length=0.0)
+    at = np.column_stack([np.linspace(-0.6, 0.6, 30), np.full(30, 0.5), np.zeros(30)])
+    v = np.vstack([body[0], *(ball[0] + a for a in at)])
+    t = np.vstack([body[1], *(ball[1] + len(body[0]) + i * len(ball[0]) for i in range(30))])
+    graph = opdeform.Graph.from_mesh(v, t, particles=100, small_pieces="own")
+    enough = checks.shells_enough(opdeform, graph, v, t)
+    assert enough == 150 and checks.attached_pieces(opdeform, graph, v, t), enough
+    text = checks.attached_text(checks.attached_pieces(opdeform, graph, v, t), enough)
+    assert "at Particles 150 or more each gets particles of its own" in text and "whatever" not in text, text
+    below = opdeform.Graph.from_mesh(v, t, particles=enough - 50, small_pieces="own")
+    assert checks.attached_pieces(opdeform, below, v, t)
+    given = opdeform.Graph.from_mesh(v, t, particles=enough, small_pieces="own")
+    assert checks.attached_pieces(opdeform, given, v, t) == () and checks.shells_enough(opdeform, given, v, t) is None
+    attached = opdeform.Graph.from_mesh(v, t, particles=100)
+    assert "whatever the particle count" in checks.attached_text(checks.attached_pieces(opdeform, attached, v, t))
+
+
 def test_a_goal_with_too_little_damping_to_settle_is_warned():
     """Goal on and under 4/s of damping (the object's, or the Damping group's where one is picked): a swing falls
     only to e^(-c/2) in a second; the looks' 9-12/s, or no Goal: nothing."""
@@ -977,9 +1063,13 @@ def test_the_thin_part_warning_names_a_count_that_clears_it():
 def test_thin_part_advice_past_the_slider_says_what_it_would_take():
     """A 6 cm tail on a 1.8 m pig (an outside tester's) was told "raise Particles to about 15350", past the
     slider's 2,000: past checks.PARTICLES_OFFERED the warning says the count it would take and what the part does
-    instead of asking for it; at or under it, the count to raise to, as before."""
-    far = checks.thin_part_text((0.06, 0.2, True), 100)
-    assert "raise Particles" not in far and "would take about 39450 particles, past the 2000" in far, far
+    instead of asking for it; at or under it, the count to raise to, as before; past PARTICLES_NAMED times it (an
+    outside tester's dancer: "about 1079050 particles") no count, but what would do."""
+    far = checks.thin_part_text((0.06, 0.1, True), 100)
+    assert "raise Particles" not in far and "would take about 4950 particles, past the 2000" in far, far
+    farther = checks.thin_part_text((0.06, 0.2, True), 100)
+    assert "far more particles than the 2000 offered" in farther and "Solidify" in farther, farther
+    assert "about" not in farther, farther
     near = checks.thin_part_text((0.06, 0.05, True), 100)
     assert near.endswith("raise Particles to about 650"), near
     text = checks.appendages_text([((0.0, 0.0, 0.0), 0.3, 1)], 1000)

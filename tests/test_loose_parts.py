@@ -147,8 +147,10 @@ def studded(studs=300):
 def test_many_small_shells_of_their_own_leave_the_body_half_the_budget(particles):
     """Compact small shells of their own take COMPACT_PARTICLES each from the budget before the body gets a
     second: 300 studs left the body 1 particle of 100, and the studs past the budget were skinned by other studs'
-    particles up to 1 m away. Now the studs' particles take at most half the budget (largest first) and the
-    studs left out ride the body rigidly, as attached ones do."""
+    particles up to 1 m away. Now the studs' particles take at most half the budget (largest first), the next
+    studs' are added beyond it up to half of it again (the outside dancer's hair ribbons past its skirt cards,
+    docs/goals.md "Cards and ribbons (stop 50)"), and the studs left out ride the body rigidly, as attached ones
+    do."""
     v, t = studded()
     piece = mesh_pieces_of_vertices(len(v), t)
     body = np.argmax(np.bincount(piece))
@@ -157,7 +159,8 @@ def test_many_small_shells_of_their_own_leave_the_body_half_the_budget(particles
     per_piece = np.bincount(of_particle, minlength=count)
     assert count == 301 and per_piece[body] >= particles // 2, per_piece[body]
     studs = np.delete(per_piece, body)
-    assert 0 < studs.sum() <= particles // 2 and studs.max() <= COMPACT_PARTICLES  # (fewer: a stud's voxels)
+    assert particles // 2 < studs.sum() <= particles and studs.max() <= COMPACT_PARTICLES  # (fewer: a stud's voxels)
+    assert len(of_particle) <= particles + particles // 2, len(of_particle)
     skinned_by = of_particle[opdeform.Skin(g, v).indices]
     own = per_piece[piece] > 0
     assert np.all(skinned_by[own] == piece[own][:, None])  # with particles: its own

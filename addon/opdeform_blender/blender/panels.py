@@ -80,7 +80,7 @@ def warnings(rt, frame, current=True):
     unrigged = checks.unrigged_text(rt.unrigged)
     if unrigged:
         out.append(unrigged)
-    attached = checks.attached_text(rt.attached)
+    attached = checks.attached_text(rt.attached, rt.attached_enough)
     if attached:
         out.append(attached)
     overlaps = checks.overlap_text(rt.overlaps)

@@ -158,6 +158,7 @@ def build(obj, scene, depsgraph=None, kept=False):
     rt = Runtime(engine, graph_key(s), pins)
     rt.attached = checks.attached_pieces(od, engine.graph, engine.rest, engine.triangles, engine.rest_local)
     if small_pieces(obj) == "own":
+        rt.attached_enough = checks.shells_enough(od, engine.graph, engine.rest, engine.triangles)
         piece, count = checks.vertex_pieces(engine.rest, engine.triangles)
         rt.pieces = piece if count > 1 else None
         find_unrigged(rt, obj)

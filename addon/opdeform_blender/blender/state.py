@@ -25,6 +25,7 @@ class Runtime:
         self.graph_key = graph_key  # settings the graph was built with (particles, mode, ...)
         self.pins = pins  # (indices, weights) read from the pin group at Build
         self.attached = ()  # the mesh's pieces without particles, found at Build (core/checks.attached_pieces)
+        self.attached_enough = None  # the Particles that gives them particles of their own (checks.shells_enough)
         self.pieces = None  # each vertex's mesh piece where detached shells have particles of their own, else None
         self.unrigged = ()  # the mesh's pieces that no bone moves, found at Build (core/checks.unrigged_pieces)
         self.overlaps = ()  # the objects stepping with it that overlap it at rest without a Goal on both

@@ -11,9 +11,12 @@ import numpy as np
 
 THIN_PART_SPARE = 1.1  # thin_part_text's count asks a tenth more than two across
 PARTICLES_OFFERED = 2000  # the Particles slider's soft maximum (blender/properties.py): advice past it reads apart
+PARTICLES_NAMED = 10  # ... and past this many times it, names no count (a dancer's ribbon: "about 1079050")
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
 SMALL_PIECE_RATIO = 0.1  # a detached shell under this share of the largest piece is small (opdeform.graph)
+SMALL_PIECE_SHARE = 0.5  # ... and its own particles, taken from at most this share of the count (opdeform.graph)
+SMALL_PIECE_EXTRA = 0.5  # ... and those past it added beyond the count, at most this share of it (the same)
 ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
 # A rig turning faster than this (turns a second) stretches what follows it loosely: the outside bird's 360-degree
 # spin of the root at 24 fps (docs/goals.md, "A rig turning fast") over 2 / 3 / 4 / 6 frames (12 / 8 / 6 / 4 turns
@@ -108,9 +111,14 @@ def appendages_text(parts, particles, length=None, shown=3, along=3):
 def _raise_to(enough, what):
     """The advice of a thin-part warning: the count to raise Particles to, or, past the slider's PARTICLES_OFFERED
     (an outside tester's pig, a 6 cm tail on a 1.8 m body, was told "raise Particles to about 15350"), what it
-    would take and what the part does meanwhile."""
+    would take and what the part does meanwhile; past PARTICLES_NAMED times it (an outside tester's dancer read
+    "about 1079050 particles"), that no count offered will, and what would."""
     if enough <= PARTICLES_OFFERED:
         return f"raise Particles to about {enough:.0f}"
+    if enough > PARTICLES_NAMED * PARTICLES_OFFERED:
+        return (f"{what} would take far more particles than the {PARTICLES_OFFERED} offered: it moves with the "
+                f"particles around it; to make it bend on its own, thicken it (Solidify) or give it an OPDeform "
+                f"object of its own")
     return (f"{what} would take about {enough:.0f} particles, past the {PARTICLES_OFFERED} offered: it moves "
             f"with the particles around it")
 
@@ -200,6 +208,26 @@ def attached_pieces(od, graph, vertices, triangles, shown=None):
     return tuple(sorted(out, key=lambda x: -x[0]))
 
 
+def shells_enough(od, graph, vertices, triangles):
+    """The Particles (rounded up to 50) from which the core gives every detached shell of its own particles (its
+    small_pieces="own") that it left without (attached_pieces), None when none was left out: the small ones that
+    take SMALL_PIECE_PARTICLES each (not the long shells given theirs beyond the count: those have SHELL_PARTICLES or
+    more) take them from at most SMALL_PIECE_SHARE of the count, largest first, the next ones theirs beyond the
+    count up to SMALL_PIECE_EXTRA of it, the rest left out: all of them given from SMALL_PIECE_PARTICLES x their
+    number / (SMALL_PIECE_SHARE + SMALL_PIECE_EXTRA) (the outside dancer's 12 skirt cards and 10 hair ribbons: 88
+    to give, the 10 ribbons left out at 50, none from 88, named 100)."""
+    without = _pieces_without_particles(od, graph, vertices, triangles)
+    if without is None:
+        return None
+    count, of_particle = od.mesh.mesh_pieces(graph)
+    per_piece = np.bincount(of_particle, minlength=count)
+    volume = np.bincount(of_particle, weights=graph.volumes, minlength=count)
+    floored = (per_piece > 0) & (per_piece < od.mesh.SHELL_PARTICLES) & (volume < SMALL_PIECE_RATIO * volume.max())
+    taking = len(without[1]) + int(np.count_nonzero(floored))
+    share = SMALL_PIECE_SHARE + SMALL_PIECE_EXTRA
+    return _round_up(int(np.ceil(od.mesh.SMALL_PIECE_PARTICLES * taking / share)))
+
+
 def _pieces_without_particles(od, graph, vertices, triangles):
     """(each vertex's piece, the pieces with no particle of their own), or None when every piece has particles
     or the core counts its pieces otherwise."""
@@ -274,11 +302,17 @@ def unrigged_text(pieces):
                         "(Weight Paint, or Assign to the group of the bone it hangs from)")
 
 
-def attached_text(pieces):
-    """The panel's warning for attached_pieces (None when there are none)."""
-    return _shells_text(pieces, "without particles", "each moves rigidly with the nearest large piece, whatever "
-                        "the particle count; to make one jiggle, join it to the body (Merge by Distance, Bridge) "
-                        "or give it an OPDeform object of its own")
+def attached_text(pieces, enough=None):
+    """The panel's warning for attached_pieces (None when there are none); ``enough``: the Particles that gives
+    them particles of their own (shells_enough; None: no count does, small_pieces="attach"), named when offered."""
+    join = "join it to the body (Merge by Distance, Bridge) or give it an OPDeform object of its own"
+    if enough is None or enough > PARTICLES_OFFERED:
+        advice = f"each moves rigidly with the nearest large piece, whatever the particle count; to make one jiggle, " \
+                 f"{join}"
+    else:
+        advice = (f"each moves rigidly with the nearest large piece; at Particles {enough} or more each gets particles "
+                  f"of its own, or {join}")
+    return _shells_text(pieces, "without particles", advice)
 
 
 def particles_text(n_particles, n_edges, pieces):

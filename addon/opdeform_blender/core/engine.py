@@ -58,6 +58,11 @@ STRETCH_LIMIT = 1.2
 # below their particles' frequency already, and short ones (the bear's ears) stretched 2.1-3.1x softened (under 1.1x
 # left alone).
 LONG_SHELL = 1.5
+# the jiggle rule on a shell the core moves rigidly (its SMALL_PIECE_PARTICLES: one set of skin weights over them) at
+# least this link softness: it cannot bend, and its particles turned apart shear it. The outside dancer's skirt
+# cards (4 particles each at 100) stretched 1.51x at the rule's 0.006, 1.39x at 0.01 swinging 85 mm, 1.13x at 0.03
+# swinging 27 mm (docs/goals.md, "Cards and ribbons (stop 50)").
+RIGID_SHELL_SOFTNESS = 0.01
 SHELL_LOAD = 1.0  # shell_frequency: the acceleration (m/s^2) a shell's static deflection is found under
 SHELL_ITERATIONS = 100  # shell_frequency: the static solve's iterations (its frequency within 0.1 % of 800's)
 # the jiggle rule's damping of a limb (settle_rate): a swing as far as its reach comes within this share of the body's
@@ -333,13 +338,15 @@ def swinging_shells(od, graph, piece, body, open_pieces):
 
 def _linked_all_along(od, graph, mine, body):
     """Whether an open shell ``mine`` (a mask) is linked to the body (a mask) all along, as the core links a patch on
-    it: more particles than the core moves rigidly (``od.mesh.SMALL_PIECE_PARTICLES``), more of them linked to the
-    body than a card linked at its root (``od.mesh.ROOT_LINKS``). Left alone by
-    the jiggle rule, the outside chubby humanoid's open cape, so linked, moved 0.6 / 0.3 mm at 100 / 400 particles
-    (unlinked at 50, held by its goal alone, 100.8 mm)."""
+    it: more of its particles linked to the body than a card linked at its root (``od.mesh.ROOT_LINKS``). Left
+    alone by the jiggle rule, the outside chubby humanoid's open cape, so linked, moved 0.6 / 0.3 mm at 100 / 400
+    particles (unlinked at 50, held by its goal alone, 100.8 mm); the outside dancer's skirt cards and hair ribbons,
+    inside the bounding box of a body with its arms out and so patches to the core, 4 particles each
+    (``od.mesh.SMALL_PIECE_PARTICLES``, taken since stop 50), 0.2 mm at 100 particles and 0.0 at 400
+    (docs/goals.md, "Cards and ribbons (stop 50)")."""
     i, j = np.asarray(graph.edges, dtype=np.int64).reshape(-1, 2).T
     ends = np.unique(np.concatenate([i[mine[i] & body[j]], j[mine[j] & body[i]]]))
-    return np.count_nonzero(mine) > od.mesh.SMALL_PIECE_PARTICLES and len(ends) > od.mesh.ROOT_LINKS
+    return len(ends) > od.mesh.ROOT_LINKS
 
 
 def jiggle_softness(elastic_hz, follow, jiggle_hz):
@@ -841,7 +848,9 @@ class Engine:
         hz = shell_frequency(self.od, self.graph, given["stiffness"], given["density"], label)
         least = np.ones(label.max() + 1)
         np.minimum.at(least, label, self._painted)
-        return jiggle_softness(hz, least[label], jiggle_hz)
+        rigid = (label > 0) & (np.bincount(label)[label] <= self.od.mesh.SMALL_PIECE_PARTICLES)
+        softness = jiggle_softness(hz, least[label], jiggle_hz)
+        return np.where(rigid, np.maximum(softness, RIGID_SHELL_SOFTNESS), softness)
 
     def goal_frames(self, incoming, matrix):
         """The goal frames fitted to this frame's input (object-space vertices placed by matrix). An input placed

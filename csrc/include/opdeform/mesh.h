@@ -49,12 +49,14 @@ typedef enum od_SmallPieces
 	                 // from the budget when compact or open (a shell with a boundary); when closed and long or
 	                 // flat, its share of the budget and particles added beyond it up to OD_SHELL_PARTICLES
 	                 // where fewer (never more than its voxels); the compact and open ones' particles from the
-	                 // budget together at most OD_SMALL_PIECE_SHARE of it, largest first, the others attached
+	                 // budget together at most OD_SMALL_PIECE_SHARE of it, largest first, the next ones theirs
+	                 // added beyond the budget, at most OD_SMALL_PIECE_EXTRA of it, the others attached
 } od_SmallPieces;
 
 #define OD_SMALL_PIECE_RATIO 0.1
 #define OD_SMALL_PIECE_PARTICLES 4
 #define OD_SMALL_PIECE_SHARE 0.5 // of the budget, at most, to small pieces' OD_SMALL_PIECE_PARTICLES each
+#define OD_SMALL_PIECE_EXTRA 0.5 // ... and at most this share of it again added beyond it for those past that
 #define OD_SHELL_PARTICLES 16
 #define OD_LONG_SHELL 0.4 // longest side^2 / area (an open piece's counted twice) above which a small piece is long or
                           // flat (a sphere: 1/pi)
