@@ -301,11 +301,6 @@ def _turn_y(angle):
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
 
 
-def _turn_z(angle):
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
 def _tailed_body():
     """A 1 m capsule lying on z = 0 and a detached 0.46 m tail rising 40 degrees from its back (vertices, triangles,
     the tail's vertices, its root), Follow 1 on the body falling smoothly to 0.1 along the tail."""
