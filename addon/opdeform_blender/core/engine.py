@@ -709,7 +709,7 @@ class Engine:
             self.sim.set_particle_damping(per_particle)
             self.sim.set_link_softness(links)
             self.sim.set_stretch_limit(0.0, None) if links is None else \
-                self.sim.set_stretch_limit(STRETCH_LIMIT, self._skin_gradient())
+                self.sim.set_stretch_limit(STRETCH_LIMIT, skin=self.skin, edges=np.stack(self.mesh_stretch.ends, 1))
         except ValueError as exc:
             raise EngineError(f"the damping map or the jiggle rule: {exc}") from None
         self._softness, self._damping, self._links = softness, per_particle, links

@@ -62,6 +62,16 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // (the raise kept, nothing refactored).
 od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
+// The mesh whose edges the stretch bound measures in place of each link's estimate: at each dynamic call's start
+// its vertices are skinned by linear blending (v = sum_k w_k (x_k + R_k (rest - c_k)) over the vertex's
+// `neighbors` particles `indices` (-1 with weight 0: none) and `weights` >= 0) from the particles' frames at the
+// call's end (their velocities carrying them there) and from the goals' frames while the goals carry the rest;
+// an edge of `edges` (edgeCount pairs of vertex indices) whose length ahead over its goal-skinned length (else
+// its rest length) is past the limit by t (reaching 1 at 0.2 further) raises the link softness of every particle
+// that skins its ends to r^(1 - t). vertexCount 0: none (the links' estimate again). Copied; edges of rest length
+// 0 are never measured.
+od_Status od_Sim_SetStretchEdges(od_Sim* sim, int vertexCount, int neighbors, const int* indices,
+								 const double* weights, const double* rest, int edgeCount, const int* edges);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
 od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
