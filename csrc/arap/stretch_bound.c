@@ -78,7 +78,8 @@ static double od_Over(const od_Sim* sim, const double* x, const double* R, int e
 }
 
 // The stretch bound's mesh (od_Sim_SetStretchEdges): its rest (3V), rest lengths (E), skin ahead and reference
-// skin (3V each), in that order after the weights.
+// skin (3V each), in that order after the weights; its edges' ends (2E) and each vertex's mark (V) after the
+// indices.
 static double* od_MeshRest(const od_Sim* sim)
 {
 	return sim->stretchMesh.weights + (size_t)sim->stretchMesh.vertexCount * (size_t)sim->stretchMesh.neighbors;
@@ -94,15 +95,58 @@ static double* od_MeshAhead(const od_Sim* sim)
 	return od_MeshRestLength(sim) + sim->stretchMesh.edgeCount;
 }
 
-// The mesh's vertices skinned by linear blending from the frames x (3n), R (9n) into out (3V).
+static int* od_MeshEnds(const od_Sim* sim)
+{
+	return sim->stretchMesh.indices + (size_t)sim->stretchMesh.vertexCount * (size_t)sim->stretchMesh.neighbors;
+}
+
+static int* od_MeshMarks(const od_Sim* sim)
+{
+	return od_MeshEnds(sim) + 2 * (size_t)sim->stretchMesh.edgeCount;
+}
+
+// A vertex's marks: a particle of link softness < 1 skins it (its edges are measured: a raise could change it),
+// and a measured edge ends at it (its skin is needed).
+enum
+{
+	OD_SOFT_VERTEX = 1,
+	OD_SKINNED_VERTEX = 2
+};
+
+// Each vertex marked for this call (od_MeshMarks): with a soft particle, then skinned where a measured edge ends.
+static void od_MarkMesh(const od_Sim* sim)
+{
+	const int m = sim->stretchMesh.neighbors, *index = sim->stretchMesh.indices, *ends = od_MeshEnds(sim);
+	const double *w = sim->stretchMesh.weights, *r = sim->linkSoftness;
+	int* mark = od_MeshMarks(sim);
+	for (int v = 0; v < sim->stretchMesh.vertexCount; ++v)
+	{
+		mark[v] = 0;
+		for (int k = m * v; k < m * (v + 1); ++k)
+		{
+			mark[v] |= w[k] > 0.0 && r[index[k]] < 1.0 ? OD_SOFT_VERTEX : 0;
+		}
+	}
+	for (int e = 0; e < sim->stretchMesh.edgeCount; ++e)
+	{
+		int a = ends[2 * e], b = ends[2 * e + 1];
+		if ((mark[a] | mark[b]) & OD_SOFT_VERTEX)
+		{
+			mark[a] |= OD_SKINNED_VERTEX;
+			mark[b] |= OD_SKINNED_VERTEX;
+		}
+	}
+}
+
+// The marked vertices skinned by linear blending from the frames x (3n), R (9n) into out (3V).
 static void od_MeshSkin(const od_Sim* sim, const double* x, const double* R, double* out)
 {
-	const int m = sim->stretchMesh.neighbors, *index = sim->stretchMesh.indices;
+	const int m = sim->stretchMesh.neighbors, *index = sim->stretchMesh.indices, *mark = od_MeshMarks(sim);
 	const double *w = sim->stretchMesh.weights, *rest = od_MeshRest(sim), *c = sim->graph->centers;
 	for (int v = 0; v < sim->stretchMesh.vertexCount; ++v)
 	{
 		od_Vec3 sum = { 0.0, 0.0, 0.0 }, p = od_V3Load(rest + 3 * v);
-		for (int k = m * v; k < m * (v + 1); ++k)
+		for (int k = m * v; (mark[v] & OD_SKINNED_VERTEX) && k < m * (v + 1); ++k)
 		{
 			if (w[k] > 0.0)
 			{
@@ -120,7 +164,7 @@ static double od_Distance(const double* p, int a, int b)
 	return od_Length(od_Sub(od_V3Load(p + 3 * b), od_V3Load(p + 3 * a)));
 }
 
-// The skin of vertex v's particles raised to at least t (most, n).
+// The particles that skin vertex v raised to at least t (most, n).
 static void od_RaiseVertex(const od_Sim* sim, int v, double t, double* most)
 {
 	const int m = sim->stretchMesh.neighbors;
@@ -136,13 +180,15 @@ static void od_RaiseVertex(const od_Sim* sim, int v, double t, double* most)
 
 // Each mesh edge's stretch at the call's end (the skin of od_Ahead's x, R) over its reference length (the goal
 // skin's while the goals carry the rest, else the rest's), past the limit over OD_STRETCH_RAMP, raises the
-// particles that skin its ends (most, n).
+// particles that skin its ends (most, n). Only edges with a soft end are measured (a raise of the others changes
+// nothing).
 static void od_MeshOver(od_Sim* sim, const double* x, const double* R, double* most)
 {
 	double *ahead = od_MeshAhead(sim), *reference = ahead + 3 * (size_t)sim->stretchMesh.vertexCount;
 	const double* restLength = od_MeshRestLength(sim);
-	const int* ends = sim->stretchMesh.indices + (size_t)sim->stretchMesh.vertexCount * (size_t)sim->stretchMesh.neighbors;
+	const int *ends = od_MeshEnds(sim), *mark = od_MeshMarks(sim);
 	bool goals = od_Goals_CarryRest(sim);
+	od_MarkMesh(sim);
 	od_MeshSkin(sim, x, R, ahead);
 	if (goals)
 	{
@@ -152,7 +198,7 @@ static void od_MeshOver(od_Sim* sim, const double* x, const double* R, double* m
 	{
 		int a = ends[2 * e], b = ends[2 * e + 1];
 		double length = goals ? od_Distance(reference, a, b) : restLength[e];
-		double stretch = length > 0.0 ? od_Distance(ahead, a, b) / length : 0.0;
+		double stretch = length > 0.0 && ((mark[a] | mark[b]) & OD_SOFT_VERTEX) ? od_Distance(ahead, a, b) / length : 0.0;
 		double t = fmin(fmax(stretch - sim->stretchLimit, 0.0) / OD_STRETCH_RAMP, 1.0);
 		if (t > 0.0)
 		{
@@ -289,7 +335,7 @@ od_Status od_Sim_SetStretchEdges(od_Sim* sim, int vertexCount, int neighbors, co
 		return OD_OK;
 	}
 	size_t links = (size_t)vertexCount * (size_t)neighbors, values = links + 9 * (size_t)vertexCount + (size_t)edgeCount;
-	sim->stretchMesh.indices = od_Alloc(sizeof(int) * (links + 2 * (size_t)edgeCount));
+	sim->stretchMesh.indices = od_Alloc(sizeof(int) * (links + 2 * (size_t)edgeCount + (size_t)vertexCount));
 	sim->stretchMesh.weights = od_Alloc(sizeof(double) * values);
 	if (!sim->stretchMesh.indices || !sim->stretchMesh.weights)
 	{
