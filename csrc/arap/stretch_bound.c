@@ -16,7 +16,7 @@
 #include <string.h>
 
 // The stretch over the limit at which a link's ends are raised all the way to 1.
-#define OD_STRETCH_RAMP 0.2
+#define OD_STRETCH_RAMP 0.1
 
 void od_MakeLinkWeights(od_Sim* sim, const double* r)
 {

@@ -276,7 +276,7 @@ class Simulation(CoreObject, ForceFields):
                           edges: ArrayLike | None = None) -> None:
         """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
         link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
-        there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
+        there) by t (reaching 1 at 0.1 further) raises its ends' link softness r to r^(1 - t); the raise is a
         function of the call's start (and duration), so a frame simulated again from a restored state gets the same. A
         link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
         ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
