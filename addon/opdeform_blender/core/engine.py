@@ -52,7 +52,7 @@ PATCH_SHARE_POWER = 1.5
 # edges): a mesh edge the particles' velocities would stretch past this (over its animated length) by a frame's end
 # stiffens the particles that skin it for that frame (docs/goals.md, "Stretch bound (stop 48)", "The stretch bound
 # on the mesh's edges (stop 50)").
-STRETCH_LIMIT = 1.2
+STRETCH_LIMIT = 1.3
 # the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
 # open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
 # much more along one axis than the next, as the core's od_BeamShell): a ponytail. Cards (the fish's fins) swing far
