@@ -5,7 +5,9 @@
 // and are a function of the call's start and its duration: a call from a restored state makes the same (a frame
 // split into several calls looks ahead less far), a static solve uses the softness as set, and with no link
 // past L the weights, the factor and the bits are those of the softness as set (docs/goals.md, "Stretch bound
-// (stop 48)").
+// (stop 48)"). With a mesh set (od_Sim_SetStretchEdges) its edges are measured instead of each link's estimate:
+// skinned from the particles ahead over their length in the goals' skin (od_MeshOver; docs/goals.md, "The stretch
+// bound on the mesh's edges (stop 50)").
 #include "stretch_bound.h"
 #include "core.h"
 #include "energy.h"

@@ -49,9 +49,9 @@ ENCLOSED_REACH = 0.65
 # and cheeks, 0.78 of its held counted on its body (region_frequency's ``counted``), too (1.37 with its shells').
 PATCH_SHARE_POWER = 1.5
 # The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit on the skin and the mesh's
-# edges): a mesh edge the particles' velocities would stretch past this (over its animated length) by a frame's end
-# stiffens the particles that skin it for that frame (docs/goals.md, "Stretch bound (stop 48)", "The stretch bound
-# on the mesh's edges (stop 50)").
+# edges): a mesh edge the particles' velocities would stretch past this (over its length in the goals' skin) by a
+# frame's end stiffens the particles that skin it for that frame (docs/goals.md, "Stretch bound (stop 48)", "The
+# stretch bound on the mesh's edges (stop 50)").
 STRETCH_LIMIT = 1.3
 # the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
 # open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
