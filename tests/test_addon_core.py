@@ -526,6 +526,23 @@ def test_the_jiggle_rule_keeps_a_body_painted_soft_nearly_all_over():
     assert softest[1] > 30 * softest[0], softest
 
 
+def test_the_skin_gradient_is_how_fast_a_links_ends_trade_the_skin_per_metre():
+    """engine.skin_gradient on a strip of three vertices 1 m apart, skinned to particle 0, half and half, then
+    particle 1: (w_1 - w_0) / 2 goes -0.5, 0, 0.5, so the link's gradient is 0.5 a metre; halving the edges
+    doubles it; a link no mesh edge's skin names gets 0, and no links or edges give an empty or zero result."""
+    from opdeform_blender.core import engine
+    indices = np.array([[0, 1], [0, 1], [1, 0], [2, 0]])
+    weights = np.array([[1.0, 0.0], [0.5, 0.5], [1.0, 0.0], [1.0, 0.0]])
+    edges = (np.array([0, 1]), np.array([1, 2]))
+    rest = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    links = np.array([[0, 1], [1, 2]])
+    np.testing.assert_allclose(engine.skin_gradient(indices, weights, edges, rest, links), [0.5, 0.0])
+    np.testing.assert_allclose(engine.skin_gradient(indices, weights, edges, 0.5 * rest, links), [1.0, 0.0])
+    assert engine.skin_gradient(indices, weights, edges, rest, np.zeros((0, 2), int)).shape == (0,)
+    empty = (np.array([], int), np.array([], int))
+    np.testing.assert_array_equal(engine.skin_gradient(indices, weights, empty, rest, links), 0.0)
+
+
 def _hop(v, f):
     """The tailed body's vertices ``v`` at frame f of two 0.2 m hops in 1 s, then still (float32)."""
     animated = v.copy()

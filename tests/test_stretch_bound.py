@@ -8,7 +8,7 @@ import pickle
 import numpy as np
 import pytest
 
-from opdeform import Skin, scenes
+from opdeform import scenes
 from test_core import assert_descends
 from test_link_softness import one_particle
 
@@ -133,76 +133,3 @@ def test_a_refused_limit_keeps_the_bound_in_a_pickled_copy():
     sim.step(6)
     copy.step(6)
     assert np.array_equal(copy.positions, sim.positions)
-
-
-def particle_mesh(sim, across):
-    """A skin of the bar's particles with two vertices on each (one weight 1 each: neighbors=1) and its edges:
-    ``across`` the links (between the first vertices of each link's ends), else only between each particle's own
-    two vertices, which no gap between particles stretches."""
-    g = sim.graph
-    vertices = np.concatenate([g.centers, g.centers + 0.01 * g.radii.min(axis=1, keepdims=True)])
-    skin = Skin(g, vertices, neighbors=1)
-    n = g.n_particles
-    return skin, np.asarray(g.edges) if across else np.stack([np.arange(n), np.arange(n) + n], axis=1)
-
-
-def mesh_bar(across, limit=1.05):
-    """soft_bar under the bound measuring particle_mesh's edges."""
-    sim = soft_bar(0.0)
-    skin, edges = particle_mesh(sim, across)
-    sim.set_stretch_limit(limit, skin=skin, edges=edges)
-    return sim
-
-
-def test_the_mesh_bound_raises_an_edge_it_overstretches_and_leaves_a_link_no_edge_feels():
-    """Measuring the mesh's edges: an edge across the soft links is stretched past 5 % and the bound holds it (the
-    particles that skin it raised); a mesh whose edges stay on one particle each is the same bits as off, though
-    the links' own estimate (no mesh) raises them."""
-    off, across, within, links = soft_bar(0.0), mesh_bar(True), mesh_bar(False), soft_bar(1.05)
-    for sim in (off, across, within, links):
-        for _ in range(40):  # one step a call: each looks ahead from a moving state
-            sim.step()
-    assert np.array_equal(within.positions, off.positions) and np.array_equal(within.rotations, off.rotations)
-    assert within.counters["factorizations"] == 1
-    assert not np.array_equal(links.positions, off.positions)
-    skin, edges = particle_mesh(off, True)
-    stretch = [edge_stretch(s, skin, edges) for s in (off, across)]
-    assert stretch[0] > 1.2 and stretch[1] < stretch[0] - 0.1, stretch
-
-
-def edge_stretch(sim, skin, edges):
-    """The largest length over rest length of the skin's ``edges`` at the state."""
-    now, rest = (skin.deform(*frames) for frames in ((sim.positions, sim.rotations),
-                                                      (sim.graph.centers, np.tile(np.eye(3), (len(edges) + 1, 1, 1)))))
-    a, b = edges.T
-    return float((np.linalg.norm(now[a] - now[b], axis=1) / np.linalg.norm(rest[a] - rest[b], axis=1)).max())
-
-
-def test_a_pickled_or_restored_mesh_bound_makes_the_same_bits():
-    sim = mesh_bar(True)
-    sim.step(8)
-    copy = pickle.loads(pickle.dumps(sim))
-    state = (sim.positions, sim.rotations, sim.velocities, sim.angular_velocities)
-    sim.step(6)
-    copy.step(6)
-    assert np.array_equal(copy.positions, sim.positions) and np.array_equal(copy.rotations, sim.rotations)
-    sim._core.restore_state(*state)  # as the add-on's cache restores a frame
-    sim.step(6)
-    assert np.array_equal(copy.positions, sim.positions)
-
-
-def test_a_bad_mesh_is_refused_keeping_the_bound():
-    sim = mesh_bar(True)
-    skin, edges = particle_mesh(sim, True)
-    for bad, message in ((edges + 100, r"edges\[0\]"), (edges[:, :1], "edges"), (edges.astype(float) + 0.5, "edges")):
-        with pytest.raises(ValueError, match=message):
-            sim.set_stretch_limit(1.2, skin=skin, edges=bad)
-    with pytest.raises(ValueError, match="both or neither"):
-        sim.set_stretch_limit(1.2, skin=skin)
-    with pytest.raises(ValueError, match="graph"):
-        sim.set_stretch_limit(1.2, skin=Skin(scenes.fig1_bar().graph, skin.deform(sim.graph.centers, np.tile(
-            np.eye(3), (sim.graph.n_particles, 1, 1)))), edges=edges)
-    with pytest.raises(ValueError, match="stretch limit"):
-        sim.set_stretch_limit(0.5, skin=skin, edges=edges[:1])
-    copy = pickle.loads(pickle.dumps(sim))
-    assert copy.stretch_limit == 1.05 and len(copy._stretch_bound[2][3]) == len(edges)

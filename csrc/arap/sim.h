@@ -343,15 +343,6 @@ struct od_Sim
 	double stretchLimit;
 	double* linkRaised;   // OD_STRETCH_SCRATCH n: the raised softness, then the bound's scratch
 	double* skinGradient; // per link (graph->edges order): its skin gradient (stretch_bound.c; NULL: none)
-	// The mesh whose edges the bound measures (od_Sim_SetStretchEdges; vertexCount 0: none, each link's estimate):
-	// each vertex's m particles and weights and its rest position, the edges' ends and rest lengths, and the
-	// scratch of its skin ahead and its reference skin (3V each).
-	struct
-	{
-		int vertexCount, neighbors, edgeCount;
-		int* indices;    // V m, then the edges' ends (2E)
-		double* weights; // V m, then the rest (3V), the rest lengths (E), the skin ahead and the reference (3V each)
-	} stretchMesh;
 	unsigned stiffnessVersion; // advances with every change of the scale or the softness (both enter the matrix)
 
 	// Per directed edge (CSR order of graph->adj), scaled by k, the scale and the link weight; rebuilt when one

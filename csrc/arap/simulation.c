@@ -303,8 +303,6 @@ void od_Sim_Destroy(od_Sim* sim)
 	od_Free(sim->linkWeight);
 	od_Free(sim->linkRaised);
 	od_Free(sim->skinGradient);
-	od_Free(sim->stretchMesh.indices);
-	od_Free(sim->stretchMesh.weights);
 	od_Free(sim->trace);
 	od_Constraints_Destroy(&sim->constraints);
 	od_Colliders_Destroy(&sim->colliders);

@@ -240,36 +240,6 @@ static PyObject* Sim_set_stretch_limit(PyObject* obj, PyObject* args)
 	return Binding_Done(obj, status);
 }
 
-// set_stretch_edges(neighbors, indices, weights, rest, edges): the mesh the stretch bound measures (V m int32 and
-// float64, 3V float64, 2E int32; no rest: none)
-static PyObject* Sim_set_stretch_edges(PyObject* obj, PyObject* args)
-{
-	od_Sim* sim = Sim_Enter(obj);
-	PyObject* arrays[4];
-	int m;
-	if (!sim || !PyArg_ParseTuple(args, "iOOOO", &m, &arrays[0], &arrays[1], &arrays[2], &arrays[3]))
-	{
-		return NULL;
-	}
-	Py_ssize_t v = ItemCount(arrays[2], "rest", 24), e = ItemCount(arrays[3], "edges", 8);
-	if (v < 0 || e < 0 || m < 1 || v > INT_MAX / (4 * m) || e > INT_MAX / 2)
-	{
-		return v < 0 || e < 0 ? NULL : PyErr_Format(PyExc_ValueError, "stretch edges: too many or no neighbors");
-	}
-	const ArraySpec specs[4] = {
-		{ "indices", 'i', v * m, 0 }, { "weights", 'd', v * m, 0 }, { "rest", 'd', 3 * v, 0 }, { "edges", 'i', 2 * e, 0 }
-	};
-	Py_buffer views[4];
-	if (GetArrays(arrays, specs, 4, views) < 0)
-	{
-		return NULL;
-	}
-	od_Status status = od_Sim_SetStretchEdges(sim, (int)v, m, views[0].buf, views[1].buf, views[2].buf, (int)e,
-											  views[3].buf);
-	ReleaseArrays(views, 4);
-	return Binding_Done(obj, status);
-}
-
 static PyObject* Sim_stretch_limit(PyObject* obj, PyObject* unused)
 {
 	(void)unused;
@@ -878,7 +848,6 @@ static PyMethodDef Sim_methods[] = {
 	{ "set_stiffness_scale", Sim_set_stiffness_scale, METH_VARARGS, "set_stiffness_scale(scale or None)" },
 	{ "set_link_softness", Sim_set_link_softness, METH_VARARGS, "set_link_softness(softness or None)" },
 	{ "set_stretch_limit", Sim_set_stretch_limit, METH_VARARGS, "set_stretch_limit(limit, gradient or None): limit 0 off, else > 1" },
-	{ "set_stretch_edges", Sim_set_stretch_edges, METH_VARARGS, NULL },
 	{ "stretch_limit", Sim_stretch_limit, METH_NOARGS, "stretch_limit() -> the stretch bound's limit (0: off)" },
 	{ "set_goal_rest", Sim_set_goal_rest, METH_VARARGS, "set_goal_rest(enabled): the goals carry the rest shape" },
 	{ "goal_rest", Sim_goal_rest, METH_NOARGS, "goal_rest() -> whether the goals carry the rest shape" },

@@ -22,7 +22,6 @@ __all__ = ["Simulation"]
 # and kept it bouncing after the stop (docs/contact.md, "A floor out of reach (stop 48)"). Free bodies keep every
 # copy: a vertex then never dips into a plane (without them Suzanne's skin went 0.12 mm into the floor).
 CONTACT_WEIGHT = 0.05
-StretchMesh = tuple[Floats, Ints, Floats, Ints]  # set_stretch_limit's mesh: rest (V,3), indices, weights (V,m), edges
 MAX_WEIGHT_RATIO = 1e12  # a constraint's weight is at most this many default weights (Simulation._weight)
 
 
@@ -167,8 +166,7 @@ class Simulation(CoreObject, ForceFields):
         self._constraints: dict[int, list[Any]] = {}
         self._history: list[int] = []
         self._ids_before = 0
-        # set_stretch_limit's arguments: the limit, the gradient and the mesh (rest, indices, weights, edges)
-        self._stretch_bound: tuple[float, Floats | None, StretchMesh | None] = (0.0, None, None)
+        self._stretch_bound: tuple[float, Floats | None] = (0.0, None)  # set_stretch_limit's arguments
         self._floor: tuple[float, float] | None = None
         self._goal_hz: Floats | None = None
         self._goal_frames: tuple[Floats, Floats | None] | None = None
@@ -272,50 +270,27 @@ class Simulation(CoreObject, ForceFields):
         out = np.empty(self.graph.n_particles)
         return out if self._core.read("link_softness", out) else None
 
-    def set_stretch_limit(self, limit: float, gradient: ArrayLike | None = None, *, skin: Any = None,
-                          edges: ArrayLike | None = None) -> None:
+    def set_stretch_limit(self, limit: float, gradient: ArrayLike | None = None) -> None:
         """A stretch bound on the softened links (flesh stiffens as it stretches): at each step call's start a
         link that would stretch the skin past ``limit`` at the call's end (its ends' velocities carrying them
-        there) by t (reaching 1 at 0.1 further) raises its ends' link softness r to r^(1 - t); the raise is a
+        there) by t (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a
         function of the call's start (and duration), so a frame simulated again from a restored state gets the same. A
         link's stretch of the skin: the gap at its middle between the skin its ends carry, times its skin
         ``gradient`` (one value >= 0 per link of ``graph.edges``: the most half the difference of its ends' skin
         weights changes per metre along a mesh edge), or over the link's length (None). Its length and its ends'
-        frames are the goals' while they carry the rest. With ``skin`` (an ``opdeform.Skin`` of this graph) and
-        ``edges`` (E,2) of its vertices, the bound measures the mesh's own edges instead: each edge's length in
-        the skin of the particles' frames at the call's end over its length in the goals' skin (while the goals
-        carry the rest; else at rest), past ``limit``, raises every particle that skins its ends. A raise
-        refactors the global matrix. 0: off (the default); else > 1. With no link past the limit: the same bits
-        as off. The raise depends on the call's duration too (a frame stepped in several calls looks ahead less
-        far); solve_static uses the softness as set. The limit and gradient already set again change nothing
-        (nothing refactored)."""
-        if (skin is None) != (edges is None):
-            raise ValueError("skin and edges: give both or neither")
-        self._set_stretch_bound(limit, gradient, None if skin is None else self._stretch_mesh(skin, edges))
-
-    def _stretch_mesh(self, skin: Any, edges: ArrayLike) -> StretchMesh:
-        """The skin's rest vertices, indices and weights and the edges, as set_stretch_limit's mesh."""
-        if getattr(skin, "graph", None) is not self.graph:
-            raise ValueError("skin: an opdeform.Skin bound to this simulation's graph expected")
-        rest = skin.deform(self.graph.centers, np.tile(np.eye(3), (self.graph.n_particles, 1, 1)))
-        return rest, skin.indices, skin.weights, as_array("edges", edges, (None, 2), np.int32)
-
-    def _set_stretch_bound(self, limit: float, gradient: ArrayLike | None = None,
-                           mesh: StretchMesh | None = None) -> None:
-        """set_stretch_limit from its kept arguments (pickling): on a refused one the core keeps its bound."""
+        frames are the goals' while they carry the rest. A raise refactors the global matrix. 0: off (the
+        default); else > 1. With no link past the limit: the same bits as off. The raise depends on the call's
+        duration too (a frame stepped in several calls looks ahead less far); solve_static uses the softness as
+        set. The limit and gradient already set again change nothing (nothing refactored)."""
         links = len(self.graph.edges)
         gradient = None if gradient is None else as_array("gradient", gradient, (links,))
-        mesh = None if mesh is None else _stretch_arrays(*mesh)
-        self._core.set_stretch_edges(*_core_stretch_mesh(mesh))
         try:
             self._core.set_stretch_limit(float(limit), gradient)
         except BaseException:  # refused (bad values) the core keeps its bound; failing after (memory) it is off
-            self._core.set_stretch_edges(*_core_stretch_mesh(self._stretch_bound[2]))
             if self._core.stretch_limit() == 0.0:
-                self._stretch_bound = (0.0, None, self._stretch_bound[2])
+                self._stretch_bound = (0.0, None)
             raise
-        self._stretch_bound = (float(limit), None if gradient is None else gradient.copy(),
-                               None if mesh is None else tuple(a.copy() for a in mesh))
+        self._stretch_bound = (float(limit), None if gradient is None else gradient.copy())
 
     @property
     def stretch_limit(self) -> float:
@@ -623,7 +598,7 @@ class Simulation(CoreObject, ForceFields):
         if saved["stiffness_scale"] is not None:
             self.set_stiffness_scale(saved["stiffness_scale"])
         self.set_link_softness(saved.get("link_softness"))
-        self._set_stretch_bound(*saved.get("stretch_bound", (0.0, None)))
+        self.set_stretch_limit(*saved.get("stretch_bound", (0.0, None)))
         if saved["goal_hz"] is not None:
             self.set_goal_frequencies(saved["goal_hz"])
         self.set_goals_carry_rest(saved.get("goal_rest", False))
@@ -792,20 +767,3 @@ def core_params(stiffness: float, density: float, dt: float, iterations: int, gr
     return (number("stiffness", stiffness), number("density", density), number("dt", dt),
             integer("iterations", iterations), vector("gravity", gravity), number("damping", damping),
             integer("skin_neighbors", skin_neighbors))
-
-
-
-def _stretch_arrays(rest: ArrayLike, indices: ArrayLike, weights: ArrayLike, edges: ArrayLike) -> StretchMesh:
-    """set_stretch_limit's mesh checked: rest (V,3), indices and weights (V,m), edges (E,2)."""
-    rest = as_array("stretch rest", rest, (None, 3))
-    indices = as_array("stretch indices", indices, (len(rest), None), np.int32)
-    return (rest, indices, as_array("stretch weights", weights, indices.shape),
-            as_array("edges", edges, (None, 2), np.int32))
-
-
-def _core_stretch_mesh(mesh: StretchMesh | None) -> tuple[Any, ...]:
-    """The core's set_stretch_edges arguments for a mesh (None: none)."""
-    if mesh is None:
-        return 1, np.empty(0, np.int32), np.empty(0), np.empty((0, 3)), np.empty((0, 2), np.int32)
-    rest, indices, weights, edges = mesh
-    return indices.shape[1], indices, weights, rest, edges

@@ -48,11 +48,10 @@ ENCLOSED_REACH = 0.65
 # 1.22x at power 1). The knight's belly (13 particles, 0.12 of its held) keeps the look's; the outside bear's belly
 # and cheeks, 0.78 of its held counted on its body (region_frequency's ``counted``), too (1.37 with its shells').
 PATCH_SHARE_POWER = 1.5
-# The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit on the skin and the mesh's
-# edges): a mesh edge the particles' velocities would stretch past this (over its length in the goals' skin) by a
-# frame's end stiffens the particles that skin it for that frame (docs/goals.md, "Stretch bound (stop 48)", "The
-# stretch bound on the mesh's edges (stop 50)").
-STRETCH_LIMIT = 1.3
+# The stretch bound while the jiggle rule softens links (Simulation.set_stretch_limit): a link that would stretch the
+# mesh edges between its ends past this by a frame's end stiffens its ends for that frame (docs/goals.md, "Stretch
+# bound (stop 48)").
+STRETCH_LIMIT = 1.2
 # the jiggle rule on a detached shell (docs/goals.md, "Shells (stop 48)"): only one linked to the body, closed or an
 # open one linked all along (a cape, "An open cape linked all along (stop 49)"), and long (its particles spread this
 # much more along one axis than the next, as the core's od_BeamShell): a ponytail. Cards (the fish's fins) swing far
@@ -359,6 +358,33 @@ def jiggle_softness(elastic_hz, follow, jiggle_hz):
     return np.maximum(ratio ** (2.0 * (1.0 - np.asarray(follow))), LINK_SOFTNESS_MIN)
 
 
+def skin_gradient(indices, weights, edges, rest, links):
+    """Per link (i, j) of ``links`` (L, 2), the most half the difference of its ends' skin weights,
+    (w_j - w_i) / 2, changes per metre along a mesh edge (``edges``: its two (E,) end arrays, edges of nonzero
+    length at ``rest``; ``indices``, ``weights``: the skin's (V, m)): a gap δ at the link's middle between the
+    skin its ends carry stretches such an edge by about |δ| times it (Simulation.set_stretch_limit)."""
+    a, b = edges
+    out = np.zeros(len(links))
+    if len(links) == 0 or len(a) == 0:
+        return out
+    length = np.linalg.norm(rest[a] - rest[b], axis=1)
+    near = np.concatenate([indices[a], indices[b]], axis=1)  # the particles either end's skin names
+
+    def weight(rows, c):
+        return np.where(indices[rows] == near[:, c, None], weights[rows], 0.0).sum(axis=1)
+
+    change = np.array([weight(a, c) - weight(b, c) for c in range(near.shape[1])]) / length
+    n = int(max(indices.max(), links.max())) + 1
+    key = np.sort(links, axis=1) @ [n, 1]
+    order = np.argsort(key)
+    for c, d in zip(*np.triu_indices(near.shape[1], 1)):
+        lo, hi = np.minimum(near[:, c], near[:, d]), np.maximum(near[:, c], near[:, d])
+        at = np.minimum(np.searchsorted(key, lo * n + hi, sorter=order), len(key) - 1)
+        linked = (key[order[at]] == lo * n + hi) & (lo != hi)
+        np.maximum.at(out, order[at[linked]], 0.5 * np.abs(change[d] - change[c])[linked])
+    return out
+
+
 def _same_params(a, b):
     """Whether two Simulation parameter dicts are equal (a stiffness may be one per particle)."""
     return b is not None and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
@@ -486,6 +512,7 @@ class Engine:
         # the mesh's (edges: the mesh's own, (E, 2); None: its triangles'), added to the report of the frame shown
         # when asked (report)
         self.mesh_stretch = Stretch(triangle_edges(triangles) if edges is None else edges, self.rest_local)
+        self._gradient = None  # the stretch bound's skin gradient (_skin_gradient)
         self.shown_frame = None  # the cached frame whose output ``out`` holds (None: the rest, a pose, none yet)
         self.behind = 0  # frames a time-budgeted goto still has to simulate to reach the frame asked for
         self.thin_part = checks.thin_part(od, self.graph, self.rest, triangles)
@@ -741,7 +768,7 @@ class Engine:
             self.sim.set_particle_damping(per_particle)
             self.sim.set_link_softness(links)
             self.sim.set_stretch_limit(0.0, None) if links is None else \
-                self.sim.set_stretch_limit(STRETCH_LIMIT, skin=self.skin, edges=np.stack(self.mesh_stretch.ends, 1))
+                self.sim.set_stretch_limit(STRETCH_LIMIT, self._skin_gradient())
         except ValueError as exc:
             raise EngineError(f"the damping map or the jiggle rule: {exc}") from None
         self._softness, self._damping, self._links = softness, per_particle, links
@@ -800,6 +827,13 @@ class Engine:
         scaled = taken & (rings > 0.0)  # a patch whose sag no vertex shows keeps the rule's softness
         scale = (meant[label] / np.where(scaled, rings, 1.0)) ** 2
         return np.where(scaled, np.clip(softness * scale, LINK_SOFTNESS_MIN, 1.0), softness)
+
+    def _skin_gradient(self):
+        """``skin_gradient`` of the skin and the mesh's edges, found once."""
+        if self._gradient is None:
+            self._gradient = skin_gradient(self.skin.indices, self.skin.weights, self.mesh_stretch.ends, self.rest,
+                                           np.asarray(self.graph.edges))
+        return self._gradient
 
     def _shells_jiggle(self, given, piece, body, jiggle_hz):
         """The jiggle rule's link softness on the shells ``swinging_shells`` takes (1 elsewhere): each shell's links

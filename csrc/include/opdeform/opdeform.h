@@ -53,7 +53,7 @@ od_Status od_Sim_SetLinkSoftness(od_Sim* sim, const double* softness);
 const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // A stretch bound on the softened links (flesh stiffens as it stretches): at each dynamic call's start, a link
 // that would stretch the skin past `limit` at the call's end (its ends' velocities carrying them there) by t
-// (reaching 1 at 0.1 further) raises its ends' link softness r to r^(1 - t); the raise is a function of the call's
+// (reaching 1 at 0.2 further) raises its ends' link softness r to r^(1 - t); the raise is a function of the call's
 // start and its duration (a static solve uses the softness as set). A link's stretch of the skin: the gap at its middle between the skin its ends carry, times its
 // `gradient` (one value >= 0 per link of the graph's edges: the most half the difference of its ends' skin
 // weights changes per metre along a mesh edge), or over the link's length (gradient NULL). The link's length and
@@ -62,16 +62,6 @@ const double* od_Sim_GetLinkSoftness(const od_Sim* sim);
 // (the raise kept, nothing refactored).
 od_Status od_Sim_SetStretchLimit(od_Sim* sim, double limit, const double* gradient);
 double od_Sim_GetStretchLimit(const od_Sim* sim);
-// The mesh whose edges the stretch bound measures in place of each link's estimate: at each dynamic call's start
-// its vertices are skinned by linear blending (v = sum_k w_k (x_k + R_k (rest - c_k)) over the vertex's
-// `neighbors` particles `indices` (-1 with weight 0: none) and `weights` >= 0) from the particles' frames at the
-// call's end (their velocities carrying them there) and from the goals' frames while the goals carry the rest;
-// an edge of `edges` (edgeCount pairs of vertex indices) whose length ahead over its goal-skinned length (else
-// its rest length) is past the limit by t (reaching 1 at 0.1 further) raises the link softness of every particle
-// that skins its ends to r^(1 - t). vertexCount 0: none (the links' estimate again). Copied; edges of rest length
-// 0 are never measured.
-od_Status od_Sim_SetStretchEdges(od_Sim* sim, int vertexCount, int neighbors, const int* indices,
-								 const double* weights, const double* rest, int edgeCount, const int* edges);
 
 // Constraints on rest-space points. target == NULL means the point's current position (direction).
 od_Status od_Sim_AddPositionConstraint(od_Sim* sim, const double point[3], const double* target, double weight,
