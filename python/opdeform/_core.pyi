@@ -17,6 +17,9 @@ __version__: str
 SMALL_PIECE_PARTICLES: int
 SHELL_PARTICLES: int
 ROOT_LINKS: int
+SMALL_PIECE_RATIO: float
+SMALL_PIECE_SHARE: float
+SMALL_PIECE_EXTRA: float
 
 # numpy arrays, or any other object with the buffer protocol (numpy's stubs give ndarray __buffer__ from Python
 # 3.12 on only)

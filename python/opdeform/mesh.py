@@ -18,14 +18,21 @@ from .simulation import Simulation
 # an output buffer of deform: float32 (Blender's foreach_set) or float64
 Buffer = npt.NDArray[np.floating[Any]]
 
-# The core's numbers for a mesh's small pieces (opdeform/mesh.h, docs/mesh.md): a compact or open small piece with
-# particles of its own has SMALL_PIECE_PARTICLES, a closed long or flat one up to SHELL_PARTICLES, and a card or a
-# beam is linked to its host from its ROOT_LINKS particles nearest it.
+# The core's numbers for a mesh's small pieces (opdeform/mesh.h, docs/mesh.md): a piece under SMALL_PIECE_RATIO of
+# the largest one's voxels is small; a compact or open one with particles of its own has SMALL_PIECE_PARTICLES (all
+# of those from at most SMALL_PIECE_SHARE of the count, the next ones' added beyond it up to SMALL_PIECE_EXTRA of
+# it), a closed long or flat one up to SHELL_PARTICLES; a card or a beam is linked to its host from its ROOT_LINKS
+# particles nearest it.
+SMALL_PIECE_RATIO: float = _core.SMALL_PIECE_RATIO
+SMALL_PIECE_SHARE: float = _core.SMALL_PIECE_SHARE
+SMALL_PIECE_EXTRA: float = _core.SMALL_PIECE_EXTRA
 SMALL_PIECE_PARTICLES: int = _core.SMALL_PIECE_PARTICLES
 SHELL_PARTICLES: int = _core.SHELL_PARTICLES
 ROOT_LINKS: int = _core.ROOT_LINKS
 
-__all__ = ["MODES", "ROOT_LINKS", "SHELL_PARTICLES", "SMALL_PIECES", "SMALL_PIECE_PARTICLES", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces", "pin_vertices"]
+__all__ = ["MODES", "ROOT_LINKS", "SHELL_PARTICLES", "SMALL_PIECES", "SMALL_PIECE_EXTRA", "SMALL_PIECE_PARTICLES",
+           "SMALL_PIECE_RATIO", "SMALL_PIECE_SHARE", "Skin", "add_vertex_direction", "graph_from_mesh", "mesh_pieces",
+           "pin_vertices"]
 
 
 def graph_from_mesh(vertices: ArrayLike, triangles: ArrayLike, particles: int = 100, mode: str = "auto",

@@ -455,11 +455,22 @@ PyMethodDef Mesh_Functions[] = {
 	{ NULL, NULL, 0, NULL },
 };
 
+static int Mesh_AddDouble(PyObject* module, const char* name, double value)
+{
+	PyObject* number = PyFloat_FromDouble(value);
+	int status = number ? PyModule_AddObjectRef(module, name, number) : -1;
+	Py_XDECREF(number);
+	return status;
+}
+
 int Mesh_AddConstants(PyObject* module)
 {
 	if (PyModule_AddIntConstant(module, "SMALL_PIECE_PARTICLES", OD_SMALL_PIECE_PARTICLES) < 0 ||
 		PyModule_AddIntConstant(module, "SHELL_PARTICLES", OD_SHELL_PARTICLES) < 0 ||
-		PyModule_AddIntConstant(module, "ROOT_LINKS", OD_ROOT_LINKS) < 0)
+		PyModule_AddIntConstant(module, "ROOT_LINKS", OD_ROOT_LINKS) < 0 ||
+		Mesh_AddDouble(module, "SMALL_PIECE_RATIO", OD_SMALL_PIECE_RATIO) < 0 ||
+		Mesh_AddDouble(module, "SMALL_PIECE_SHARE", OD_SMALL_PIECE_SHARE) < 0 ||
+		Mesh_AddDouble(module, "SMALL_PIECE_EXTRA", OD_SMALL_PIECE_EXTRA) < 0)
 	{
 		return -1;
 	}

@@ -720,6 +720,37 @@ def test_a_reopened_file_shows_the_pose_saved():
         (np.abs(shown - saved).max(), np.abs(H.positions(obj) - saved).max())
 
 
+def test_a_copy_or_an_applied_scale_is_built_where_it_stands():
+    """The transform Build kept (runtime.build_transform) is used again only by the object it was kept for and
+    with the mesh it was built from (runtime.build_key): a copy of a Built bar moved 3 m up, and the bar after
+    Apply Scale saved and reopened, are built where they stand. Before, the copy was laid out in the original's
+    place (its runtime at z 1, the copy at 4) and the reopened bar counted its scale twice (8 m for a 4 m bar)."""
+    obj = H.bar_object()
+    obj.location.z, obj.scale = 1.0, (2.0, 2.0, 2.0)
+    bpy.context.view_layer.update()
+    bpy.ops.opdeform.enable(object=obj.name)
+    copy = obj.copy()
+    copy.data = obj.data.copy()
+    bpy.context.scene.collection.objects.link(copy)
+    copy.location.z = 4.0
+    bpy.context.view_layer.update()  # the depsgraph update that finds a new enabled object
+    with watched():
+        _frames((1, 2))
+        assert abs(H.runtime().get(copy).engine.matrix_world[2][3] - 4.0) < 1e-6
+        for o in bpy.context.view_layer.objects:
+            o.select_set(o == obj)
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
+        path = os.path.join(H.tmpdir(), "applied.blend")
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+        bpy.ops.wm.open_mainfile(filepath=path)
+        _frames((1, 2))
+        obj = bpy.data.objects["Bar"]
+        rest = H.runtime().get(obj).engine.rest
+    assert not obj.opdeform.error, obj.opdeform.error
+    assert abs(np.ptp(rest[:, 0]) - 4.0) < 1e-4, np.ptp(rest[:, 0])
+
+
 def test_rigged_shells_painted_loose_all_over_are_named():
     """The small shells of a rigged mesh painted 0.1 all over hold to the body only by their particles' links to
     the nearest body particle: the panel names them and says to paint Follow 1 where they meet the body; painted 1

@@ -1,6 +1,7 @@
 """Which objects of a scene have oriented particles enabled: the handlers walk this list on every frame
 instead of every object of the scene. It is refreshed only when marked dirty: Enable's update (properties.py),
-a file load, undo, an object renamed during a bake."""
+a file load, undo, an object renamed during a bake, and when the scene's count of objects changed (a copy of an
+enabled object, Shift+D, is enabled too)."""
 
 _discovery = {"dirty": True, "names": {}}
 
@@ -15,11 +16,11 @@ def enabled_objects(scene):
     if _discovery["dirty"]:
         names.clear()
         _discovery["dirty"] = False
-    key = scene.name
-    if key not in names:
-        names[key] = [o.name for o in scene.objects if o.type == 'MESH' and o.opdeform.enabled]
+    key, count = scene.name, len(scene.objects)
+    if names.get(key, (None,))[0] != count:
+        names[key] = (count, [o.name for o in scene.objects if o.type == 'MESH' and o.opdeform.enabled])
     out = []
-    for name in names[key]:
+    for name in names[key][1]:
         obj = scene.objects.get(name)
         if obj is None or not obj.opdeform.enabled:
             mark_discovery()

@@ -6,6 +6,7 @@ simulation pauses until Reset. They only touch enabled objects and never re-eval
 """
 
 import bpy
+import numpy as np
 from bpy.app.handlers import persistent
 
 from . import colliders, modal_bake, modifier, playback, state, tumbling_runtime, versioning
@@ -86,9 +87,9 @@ def on_undo_post(*args):
         if rt is None:
             continue
         s = obj.opdeform
-        if (obj.type == 'MESH' and s.enabled and s.built
-                and len(obj.data.vertices) == rt.engine.n_vertices):
-            valid.add(state.key(obj))
+        if (obj.type == 'MESH' and s.enabled and s.built and len(obj.data.vertices) == rt.engine.n_vertices
+                and np.array_equal(np.reshape(s.build_matrix, (4, 4)).T, rt.engine.matrix_world)):
+            valid.add(state.key(obj))  # an undone re-Build: the transform kept is not the runtime's
     state.prune(valid)
     mark_discovery()
 

@@ -88,9 +88,10 @@ class OPDEFORM_ObjectSettings(bpy.types.PropertyGroup):
     enabled: BoolProperty(name="Oriented Particles", default=False, update=_enabled,
                           description="Simulate this mesh with oriented particles")
     built: BoolProperty(name="Built", default=False, description="A particle graph was built")
-    # the object's transform at Build, column-major (all 0: none kept, a file from before): a runtime rebuilt after
-    # a file load or undo is built in it again (runtime.build_transform)
+    # the object's transform at Build, column-major: a runtime rebuilt after a file load or undo is built in it again
+    # (runtime.build_transform) while build_key, what it belongs to, is the object's (runtime.build_key)
     build_matrix: FloatVectorProperty(name="Build Matrix", size=16, default=(0.0,) * 16)
+    build_key: StringProperty(name="Build Key", default="")
     error: StringProperty(name="Error", default="", description="The last error; the simulation is paused "
                                                                 "until Reset")
     # graph

@@ -8,6 +8,7 @@ Nothing here keeps a bpy pointer across calls (state.py keys runtimes by session
 
 import os
 import time
+import zlib
 
 import bpy
 import numpy as np
@@ -144,6 +145,7 @@ def build(obj, scene, depsgraph=None, kept=False):
     s = obj.opdeform
     rest = vertex_positions(obj.data)
     pins = read_vertex_group(obj, s.pin_group, "pin")
+    kept = kept and s.build_key == build_key(obj, rest)
     matrix = build_transform(obj, depsgraph, kept)
     for h in active_handles(s):  # validate before changing anything
         try:
@@ -175,6 +177,8 @@ def build(obj, scene, depsgraph=None, kept=False):
     s.built = True
     if not np.array_equal(s.build_matrix, matrix.T.ravel()):
         s.build_matrix = matrix.T.ravel()
+    if s.build_key != build_key(obj, rest):
+        s.build_key = build_key(obj, rest)
     if s.error:
         s.error = ""
     show_rest(obj, rt)
@@ -183,13 +187,19 @@ def build(obj, scene, depsgraph=None, kept=False):
 
 def build_transform(obj, depsgraph, kept):
     """The transform the simulation is built in (its graph in world space, a free body's world): the object's in
-    this evaluation, or the one the last Build kept (``build_matrix``, column-major; none in a file from before)
-    when ``kept``. Blender 3.4's first frame handler after a file load still sees the transform of the frame
-    saved: the galloping pony, built 2.5 m ahead of its start, reopened 26 mm off the pose saved at frame 30."""
-    stored = np.array(obj.opdeform.build_matrix, dtype=np.float64).reshape(4, 4).T
-    if kept and stored.any():
-        return stored
+    this evaluation, or the one the last Build kept (``build_matrix``, column-major) when ``kept``. Blender 3.4's
+    first frame handler after a file load still sees the transform of the frame saved: the galloping pony, built
+    2.5 m ahead of its start, reopened 26 mm off the pose saved at frame 30."""
+    if kept:
+        return np.array(obj.opdeform.build_matrix, dtype=np.float64).reshape(4, 4).T
     return np.array((obj if depsgraph is None else obj.evaluated_get(depsgraph)).matrix_world, dtype=np.float64)
+
+
+def build_key(obj, rest):
+    """What the last Build's transform and handle bindings belong to: the object's name and its rest vertices. A
+    copy of the object (another name), a file from before (no key) or a mesh changed since (Apply Transform, Set
+    Origin) is built afresh, in its own transform."""
+    return f"{obj.name_full}:{zlib.crc32(np.ascontiguousarray(rest).tobytes()):08x}"
 
 
 def small_pieces(obj):

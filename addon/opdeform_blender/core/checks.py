@@ -14,9 +14,6 @@ PARTICLES_OFFERED = 2000  # the Particles slider's soft maximum (blender/propert
 PARTICLES_NAMED = 10  # ... and past this many times it, names no count (a dancer's ribbon: "about 1079050")
 THIN_PART_BUDGET = 2e7  # vertices x triangles: about 2 s of rays on one core; larger meshes are not checked
 WELD = 1e-8  # vertices closer than this share of the bounding box are one, as the core welds them
-SMALL_PIECE_RATIO = 0.1  # a detached shell under this share of the largest piece is small (opdeform.graph)
-SMALL_PIECE_SHARE = 0.5  # ... and its own particles, taken from at most this share of the count (opdeform.graph)
-SMALL_PIECE_EXTRA = 0.5  # ... and those past it added beyond the count, at most this share of it (the same)
 ANCHOR = 0.99  # a detached shell with a vertex at this Follow or more is held there by its goal
 # A rig turning faster than this (turns a second) stretches what follows it loosely: the outside bird's 360-degree
 # spin of the root at 24 fps (docs/goals.md, "A rig turning fast") over 2 / 3 / 4 / 6 frames (12 / 8 / 6 / 4 turns
@@ -135,7 +132,7 @@ def _growing(od, graph, vertices, triangles):
     if found != count:
         return triangles
     volume = np.bincount(of_particle, weights=graph.volumes, minlength=count)
-    grows = volume >= SMALL_PIECE_RATIO * volume.max()
+    grows = volume >= od.mesh.SMALL_PIECE_RATIO * volume.max()
     return triangles[grows[piece[triangles[:, 0]]]]
 
 
@@ -222,9 +219,10 @@ def shells_enough(od, graph, vertices, triangles):
     count, of_particle = od.mesh.mesh_pieces(graph)
     per_piece = np.bincount(of_particle, minlength=count)
     volume = np.bincount(of_particle, weights=graph.volumes, minlength=count)
-    floored = (per_piece > 0) & (per_piece < od.mesh.SHELL_PARTICLES) & (volume < SMALL_PIECE_RATIO * volume.max())
+    small = volume < od.mesh.SMALL_PIECE_RATIO * volume.max()
+    floored = (per_piece > 0) & (per_piece < od.mesh.SHELL_PARTICLES) & small
     taking = len(without[1]) + int(np.count_nonzero(floored))
-    share = SMALL_PIECE_SHARE + SMALL_PIECE_EXTRA
+    share = od.mesh.SMALL_PIECE_SHARE + od.mesh.SMALL_PIECE_EXTRA
     return _round_up(int(np.ceil(od.mesh.SMALL_PIECE_PARTICLES * taking / share)))
 
 
