@@ -46,8 +46,9 @@ class Graph:
         particles, and the particles of the large piece nearest to it skin it rigidly; "own" gives it particles
         of its own, joined by edges to that piece: at least 4 from ``particles`` when compact (an eye) or open
         (a shell with a boundary), those 4s at most half of ``particles`` together (largest pieces first), the
-        next pieces' 4s added beyond ``particles`` up to half of it again, the rest attached; when closed and long or flat (a trunk, an ear plate) its share and, where
-        that is under 16, particles added beyond ``particles`` up to 16 (``n_particles`` counts them). Deterministic. See opdeform.mesh."""
+        next pieces' 4s added beyond ``particles`` up to half of it again, the rest attached; when closed and long
+        or flat (a trunk, an ear plate) its share and, where that is under 16, particles added beyond
+        ``particles`` up to 16 (``n_particles`` counts them). Deterministic. See opdeform.mesh."""
         vertices = as_array("vertices", vertices, (None, 3))
         triangles = as_array("triangles", triangles, (None, 3), np.int32)
         graph = cls.__new__(cls)

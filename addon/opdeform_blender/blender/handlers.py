@@ -13,7 +13,7 @@ from . import colliders, modal_bake, modifier, playback, state, tumbling_runtime
 from .compiled import AddonError
 from .discovery import enabled_objects, mark_discovery
 from .handle_data import handle_signature
-from .runtime import show
+from .runtime import kept_transform, show
 
 _guard = {"busy": False}
 
@@ -88,7 +88,7 @@ def on_undo_post(*args):
             continue
         s = obj.opdeform
         if (obj.type == 'MESH' and s.enabled and s.built and len(obj.data.vertices) == rt.engine.n_vertices
-                and np.array_equal(np.reshape(s.build_matrix, (4, 4)).T, rt.engine.matrix_world)):
+                and np.array_equal(kept_transform(s), rt.engine.matrix_world)):
             valid.add(state.key(obj))  # an undone re-Build: the transform kept is not the runtime's
     state.prune(valid)
     mark_discovery()

@@ -145,7 +145,8 @@ def build(obj, scene, depsgraph=None, kept=False):
     s = obj.opdeform
     rest = vertex_positions(obj.data)
     pins = read_vertex_group(obj, s.pin_group, "pin")
-    kept = kept and s.build_key == build_key(obj, rest)
+    key = build_key(obj, rest)
+    kept = kept and s.build_key == key
     matrix = build_transform(obj, depsgraph, kept)
     for h in active_handles(s):  # validate before changing anything
         try:
@@ -175,10 +176,10 @@ def build(obj, scene, depsgraph=None, kept=False):
     feed_maps(rt, obj, picked_groups(s))
     put(obj, rt)
     s.built = True
-    if not np.array_equal(s.build_matrix, matrix.T.ravel()):
+    if not np.array_equal(kept_transform(s), matrix):
         s.build_matrix = matrix.T.ravel()
-    if s.build_key != build_key(obj, rest):
-        s.build_key = build_key(obj, rest)
+    if s.build_key != key:
+        s.build_key = key
     if s.error:
         s.error = ""
     show_rest(obj, rt)
@@ -191,8 +192,13 @@ def build_transform(obj, depsgraph, kept):
     first frame handler after a file load still sees the transform of the frame saved: the galloping pony, built
     2.5 m ahead of its start, reopened 26 mm off the pose saved at frame 30."""
     if kept:
-        return np.array(obj.opdeform.build_matrix, dtype=np.float64).reshape(4, 4).T
+        return kept_transform(obj.opdeform)
     return np.array((obj if depsgraph is None else obj.evaluated_get(depsgraph)).matrix_world, dtype=np.float64)
+
+
+def kept_transform(settings):
+    """The transform the last Build kept (``build_matrix``, column-major) as a 4 x 4 array."""
+    return np.array(settings.build_matrix, dtype=np.float64).reshape(4, 4).T
 
 
 def build_key(obj, rest):
